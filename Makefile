@@ -1,0 +1,36 @@
+# `make demo` and `make test` bootstrap everything on a fresh machine:
+# libusb-1.0 (open3d needs it), a .venv, and the package installed editable with its test extra.
+# A second run skips what is done.
+
+PYTHON ?= python3.11
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+OUT ?= out
+
+.PHONY: demo test setup clean syslibs models
+
+setup: syslibs $(STAMP)
+
+syslibs:
+	@bash scripts/ensure_syslibs.sh
+
+$(STAMP): pyproject.toml
+	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; manta_drake needs Python 3.11" >&2; exit 1; }
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@echo "installing manta_drake and its pinned dependencies into $(VENV) ..."
+	@$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test]" 2>&1 | grep -v "is ignored: it is neither" || true
+	@$(PY) -c "import pydrake, open3d, manta_drake" || { echo "error: the install into $(VENV) failed (see above)" >&2; exit 1; }
+	@touch $(STAMP)
+
+demo: setup
+	$(PY) diagrams/stand.py --out $(OUT)/stand
+
+test: setup
+	$(PY) -m pytest -q
+
+models: setup
+	$(PY) scripts/generate_models.py
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache

@@ -1,0 +1,91 @@
+"""The ``manta-drake`` command line.
+
+    manta-drake run SCENARIO.yaml --out DIR [--duration S] [--no-meshcat]
+    manta-drake list
+
+Errors are printed as one line (no traceback) and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+
+DIAGRAMS_DIR = pathlib.Path(__file__).resolve().parent.parent / "diagrams"
+
+
+def print_metrics(metrics: dict, out_dir) -> None:
+    """A short table of a run's metrics and where its outputs are."""
+    keys = [
+        "scenario", "status", "sim_time_s", "wall_time_s", "real_time_factor",
+        "mean_velocity_body", "yaw_rate_deg_s", "distance_m", "max_joint_step_rad",
+        "max_penetration_m", "final_max_joint_error_rad",
+    ]
+    print()
+    for key in keys:
+        if key in metrics:
+            value = metrics[key]
+            if isinstance(value, float):
+                value = f"{value:.4g}"
+            elif isinstance(value, list):
+                value = "[" + ", ".join(f"{v:.4g}" for v in value) + "]"
+            print(f"  {key:<28} {value}")
+    for tr in metrics.get("transitions", []):
+        print(f"  transition {tr['from']:>8} -> {tr['to']:<8} {tr['start_s']:.1f} s .. {tr['end_s']:.1f} s")
+    out_dir = pathlib.Path(out_dir)
+    print(f"\n  outputs in {out_dir}/")
+    if (out_dir / "recording.html").exists():
+        print(f"  recording: open {(out_dir / 'recording.html').resolve()} in a browser")
+
+
+def _list() -> int:
+    import yaml
+
+    for path in sorted(DIAGRAMS_DIR.glob("*.yaml")):
+        data = yaml.safe_load(path.read_text()) or {}
+        print(f"{str(path.relative_to(DIAGRAMS_DIR.parent)):<40} {data.get('description', '')}")
+    return 0
+
+
+def _run(args) -> int:
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import run
+
+    overrides = {}
+    if args.duration is not None:
+        overrides["duration"] = args.duration
+    scenario = load_scenario(args.scenario, overrides)
+    if args.no_meshcat:
+        scenario.visualization.meshcat = False
+    result = run(scenario, args.out, progress=not args.quiet)
+    print_metrics(result.metrics, result.out_dir)
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="manta-drake", description="Manta-ray robot simulator")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p_run = sub.add_parser("run", help="simulate a scenario YAML file")
+    p_run.add_argument("scenario", help="scenario YAML file (see `manta-drake list`)")
+    p_run.add_argument("--out", required=True, help="output folder")
+    p_run.add_argument("--duration", type=float, help="override the scenario's duration [s]")
+    p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
+    p_run.add_argument("--quiet", action="store_true", help="no progress bar")
+    sub.add_parser("list", help="list the shipped scenarios")
+    args = parser.parse_args(argv)
+    from manta_drake.scenario import ScenarioError
+    from manta_drake.simulate import SimulationError
+
+    try:
+        return _list() if args.command == "list" else _run(args)
+    except (ScenarioError, SimulationError, FileNotFoundError) as e:
+        print(f"manta-drake: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("manta-drake: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,95 @@
+"""The one place that wires the diagram (see the arrow picture in DESIGN.md).
+
+``build_diagram(scenario)`` returns the built Diagram and a ``DiagramHandles``
+with the plant, every system by name, the loggers, and Meshcat (if on).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, VectorLogSink
+
+from manta_drake.gaits import get_gait
+from manta_drake.plant import PlantHandles, add_plant
+from manta_drake.scenario import Scenario
+
+
+@dc.dataclass
+class DiagramHandles:
+    """Handles into a built diagram."""
+
+    plant_handles: PlantHandles
+    systems: dict = dc.field(default_factory=dict)
+    loggers: dict = dc.field(default_factory=dict)
+    meshcat: Meshcat | None = None
+    visualizer: MeshcatVisualizer | None = None
+
+    @property
+    def plant(self):
+        return self.plant_handles.plant
+
+
+def initial_joint_angles(scenario: Scenario) -> np.ndarray:
+    """The 16 initial joint angles: the stance X of ``scenario.initial_stance``, or zeros."""
+    if scenario.initial_stance == "zero":
+        return np.zeros(16)
+    return get_gait(scenario.initial_stance).X.ravel().copy()
+
+
+def _add_controller(builder, scenario: Scenario, handles: DiagramHandles) -> None:
+    """Connects a desired-state source to the plant's PD and logs the commands."""
+    plant, robot = handles.plant, handles.plant_handles.robot
+    mode = scenario.controller.mode
+    if mode == "hold":
+        X = get_gait(scenario.controller.gait).X.ravel()
+        source = builder.AddNamedSystem(
+            "hold_stance", ConstantVectorSource(np.concatenate([X, np.zeros(16)]))
+        )
+        desired_state = source.get_output_port()
+    else:
+        raise NotImplementedError(f"controller.mode '{mode}' is not available yet")
+    handles.systems["desired_state_source"] = source
+    builder.Connect(desired_state, plant.get_desired_state_input_port(robot))
+    handles.loggers["desired_state"] = LogVectorOutput(
+        desired_state, builder, scenario.log_period
+    )
+
+
+def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
+    """Builds the diagram of ``scenario``.
+
+    Returns:
+        (diagram, handles). The robot's plant state is logged as ``plant_state``
+        and the commanded desired state (32) as ``desired_state``.
+    """
+    builder = DiagramBuilder()
+    plant_handles = add_plant(
+        builder,
+        time_step=scenario.time_step,
+        discrete_contact_approximation=scenario.discrete_contact_approximation,
+    )
+    handles = DiagramHandles(plant_handles)
+    plant = plant_handles.plant
+    _add_controller(builder, scenario, handles)
+    handles.loggers["plant_state"] = LogVectorOutput(
+        plant.get_state_output_port(), builder, scenario.log_period
+    )
+    if scenario.visualization.meshcat:
+        handles.meshcat = Meshcat(MeshcatParams(host="localhost", port=None))
+        params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
+        handles.visualizer = MeshcatVisualizer.AddToBuilder(
+            builder, plant_handles.scene_graph, handles.meshcat, params
+        )
+    diagram = builder.Build()
+    diagram.set_name(f"manta_drake:{scenario.name}")
+    return diagram, handles
+
+
+def logger_data(logger: VectorLogSink, root_context) -> tuple[np.ndarray, np.ndarray]:
+    """(times, data.T) of a logger in ``root_context``."""
+    log = logger.FindLog(root_context)
+    return log.sample_times().copy(), log.data().T.copy()

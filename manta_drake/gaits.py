@@ -1,0 +1,172 @@
+"""The gait library: the CPG targets of Eqs. (6)-(8).
+
+A gait is four 4x4 matrices (rows: leg-fins fl, fr, rl, rr; columns: joints yaw,
+roll1, pitch, roll2), exactly as the paper prints them:
+
+* ``R``: oscillation amplitude of each joint [rad];
+* ``X``: bias (offset) angle of each joint [rad];
+* ``Phi``: layer 1 (SCS) phase bias from joint j to joint j+1 of the same leg-fin,
+  ``phi[j+1] - phi[j] -> Phi[k, j]`` (column 4 unused, zero in every gait);
+* ``Phi_prime``: layer 2 (FCS) phase bias between the base (yaw) oscillators of
+  leg-fins k and l, ``phi_base[l] - phi_base[k] -> Phi_prime[k, l]``.
+
+The 64-vector form (``to_vector``) is R, X, Phi, Phi_prime, each row-major; it is
+what flows on the ``cpg_params`` ports.
+
+Known inconsistency of the printed Eq. (6): Phi'_swim asks for a -pi/18 lag from
+fl to fr and from rl to rr but 0 between every front and rear fin, including the
+diagonals, so no set of phases satisfies all six pair biases (the loop
+fl -> fr -> rr -> fl sums to -pi/18). With the all-to-all FCS the oscillators lock
+at the least-squares compromise (fr and rr lag by pi/36, 0.087 rad off on four
+pairs). We keep the matrix as printed; ``phase_lock_targets`` computes the lock.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+
+PI = np.pi
+SHAPE = (4, 4)
+FIELDS = ("R", "X", "Phi", "Phi_prime")
+
+# Oscillator frequency f_i of Eq. (5), shared by all oscillators and gaits (the
+# transition system blends R, X, Phi, Phi' but not f). 0.5 Hz is the order of the
+# paper's Fig. 9/10 joint traces and inside the servos' bandwidth at these amplitudes.
+DEFAULT_FREQUENCY_HZ = 0.5
+
+
+@dc.dataclass(frozen=True)
+class GaitParams:
+    """CPG targets of one gait (Eqs. 6-8). Arrays are 4x4, float, finite."""
+
+    R: np.ndarray
+    X: np.ndarray
+    Phi: np.ndarray
+    Phi_prime: np.ndarray
+
+    def __post_init__(self):
+        for name in FIELDS:
+            value = np.array(getattr(self, name), dtype=float)
+            if value.shape != SHAPE:
+                raise ValueError(f"GaitParams.{name}: shape {value.shape}, expected {SHAPE}")
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"GaitParams.{name}: contains non-finite values")
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        if np.any(self.R < 0):
+            # Negative amplitudes are allowed: R_gait's yaw column mirrors left and right
+            # with a sign. Nothing to check beyond finiteness.
+            pass
+
+    def to_vector(self) -> np.ndarray:
+        """The 64-vector (R, X, Phi, Phi_prime, each row-major)."""
+        return np.concatenate([getattr(self, name).ravel() for name in FIELDS])
+
+    @classmethod
+    def from_vector(cls, v) -> "GaitParams":
+        """Inverse of ``to_vector``."""
+        v = np.asarray(v, dtype=float)
+        if v.shape != (64,):
+            raise ValueError(f"GaitParams.from_vector: expected 64 values, got shape {v.shape}")
+        return cls(*(v[16 * i : 16 * (i + 1)].reshape(SHAPE) for i in range(4)))
+
+
+def _rows(row) -> np.ndarray:
+    return np.tile(np.asarray(row, dtype=float), (4, 1))
+
+
+# Eq. (6)
+R_SWIM = _rows([0, PI / 4, PI / 4, PI / 4])
+X_SWIM = np.zeros(SHAPE)
+PHI_SWIM = _rows([0, -PI, 0, 0])
+PHI_PRIME_SWIM = np.array(
+    [[0, -PI / 18, 0, 0], [PI / 18, 0, 0, 0], [0, 0, 0, -PI / 18], [0, 0, PI / 18, 0]]
+)
+# Eq. (7)
+R_GAIT = np.array(
+    [
+        [PI / 9, PI / 18, PI / 12, 0],
+        [-PI / 9, PI / 18, PI / 12, 0],
+        [PI / 9, PI / 18, PI / 12, 0],
+        [-PI / 9, PI / 18, PI / 12, 0],
+    ]
+)
+X_GAIT = np.array(
+    [
+        [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
+        [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
+        [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
+        [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
+    ]
+)
+PHI_GAIT = _rows([2 * PI / 3, -PI, PI, 0])
+PHI_PRIME_GAIT = np.array([[0, PI, PI, 0], [-PI, 0, 0, -PI], [-PI, 0, 0, -PI], [0, PI, PI, 0]])
+# Eq. (8)
+PHI_PRIME_WALK = np.array(
+    [
+        [0, 3 * PI / 2, PI, PI / 2],
+        [-3 * PI / 2, 0, -PI / 2, -PI],
+        [-PI, PI / 2, 0, -PI / 2],
+        [-PI / 2, PI, PI / 2, 0],
+    ]
+)
+PHI_PRIME_TURNING = np.array(
+    [
+        [0, -3 * PI / 2, -PI / 2, -PI],
+        [3 * PI / 2, 0, PI, PI / 2],
+        [PI / 2, -PI, 0, -PI / 2],
+        [PI, -PI / 2, PI / 2, 0],
+    ]
+)
+R_CRAB = _rows([0, PI / 18, PI / 9, PI / 9])
+PHI_CRAB = np.array([[0, 0, -PI, 0], [0, 0, -PI, 0], [0, 0, PI, 0], [0, 0, PI, 0]])
+
+GAITS: dict[str, GaitParams] = {
+    "swim": GaitParams(R_SWIM, X_SWIM, PHI_SWIM, PHI_PRIME_SWIM),
+    "trot": GaitParams(R_GAIT, X_GAIT, PHI_GAIT, PHI_PRIME_GAIT),
+    "walk": GaitParams(R_GAIT, X_GAIT, PHI_GAIT, PHI_PRIME_WALK),
+    "turning": GaitParams(R_GAIT, X_GAIT, PHI_GAIT, PHI_PRIME_TURNING),
+    "crab": GaitParams(R_CRAB, X_GAIT, PHI_CRAB, PHI_PRIME_GAIT),
+}
+
+
+def get_gait(name: str) -> GaitParams:
+    """The gait called ``name``; a clear error lists the known ones."""
+    try:
+        return GAITS[name]
+    except KeyError:
+        raise KeyError(f"unknown gait '{name}'; known gaits: {', '.join(GAITS)}") from None
+
+
+def phase_lock_targets(Phi_prime) -> np.ndarray:
+    """Base-oscillator phases (relative to leg 1) that the all-to-all FCS locks to.
+
+    With equal symmetric weights and antisymmetric biases the FCS is a gradient flow
+    of ``V = sum_{k<l} (1 - cos(phi_l - phi_k - Phi_prime[k, l]))``; its lock is V's
+    global minimum, found here by multistart minimisation (independent of the CPG's
+    integration). Equal to the biases (mod 2 pi) when they are consistent, the
+    compromise when not (Phi'_swim, see the module docstring).
+
+    Returns:
+        the four phases, ``[0, phi_2, phi_3, phi_4]`` wrapped to (-pi, pi].
+    """
+    from scipy.optimize import minimize
+
+    B = np.asarray(Phi_prime, dtype=float)
+    k, l = np.triu_indices(4, 1)
+
+    def potential(x):
+        phi = np.concatenate([[0.0], x])
+        e = phi[l] - phi[k] - B[k, l]
+        grad_pairs = np.sin(e)
+        g = np.zeros(4)
+        np.add.at(g, l, grad_pairs)
+        np.add.at(g, k, -grad_pairs)
+        return np.sum(1.0 - np.cos(e)), g[1:]
+
+    starts = np.stack(np.meshgrid(*[np.linspace(-PI, PI, 5)[:-1]] * 3), -1).reshape(-1, 3)
+    best = min((minimize(potential, x0, jac=True, method="BFGS") for x0 in starts),
+               key=lambda r: r.fun)
+    return np.angle(np.exp(1j * np.concatenate([[0.0], best.x])))

@@ -1,0 +1,73 @@
+"""Metrics of a run, as plain functions of the logged time series.
+
+All inputs are numpy arrays sampled at the log period: time ``t`` (N,),
+body quaternion ``quat_wxyz`` (N, 4), body position ``xyz`` (N, 3), body
+velocity in the world ``v_world`` (N, 3), commanded joint angles (N, 16).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def rotations(quat_wxyz: np.ndarray) -> Rotation:
+    """scipy Rotations (body -> world) from Drake's (w, x, y, z) quaternions."""
+    q = np.asarray(quat_wxyz, dtype=float)
+    return Rotation.from_quat(q[:, [1, 2, 3, 0]])
+
+
+def euler_rpy(quat_wxyz: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw [rad] (extrinsic x-y-z, Drake's RollPitchYaw), (N, 3)."""
+    return rotations(quat_wxyz).as_euler("xyz")
+
+
+def velocity_in_body(quat_wxyz: np.ndarray, v_world: np.ndarray) -> np.ndarray:
+    """Body-frame translational velocity [u, v, w] (Drake body axes: x fwd, y left, z up)."""
+    return rotations(quat_wxyz).inv().apply(np.asarray(v_world, dtype=float))
+
+
+def steady_mask(t: np.ndarray, steady_after: float) -> np.ndarray:
+    """Samples after ``steady_after`` seconds (all samples if that leaves fewer than two)."""
+    mask = t >= steady_after
+    return mask if mask.sum() >= 2 else np.ones_like(t, dtype=bool)
+
+
+def mean_velocity_body(t, quat_wxyz, v_world, steady_after: float) -> list:
+    """Mean [u, v] (surge, sway; m/s) over the steady part."""
+    mask = steady_mask(t, steady_after)
+    uvw = velocity_in_body(quat_wxyz[mask], v_world[mask])
+    return [float(uvw[:, 0].mean()), float(uvw[:, 1].mean())]
+
+
+def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float) -> list:
+    """Mean [u, v] from the displacement over the steady part, in the mean-heading frame.
+
+    Robust to the oscillating velocity of a gait: (x_end - x_start) / duration,
+    rotated into the body frame at the mean yaw.
+    """
+    mask = steady_mask(t, steady_after)
+    tt, p = t[mask], xyz[mask]
+    yaw = np.unwrap(euler_rpy(quat_wxyz[mask])[:, 2])
+    d = (p[-1, :2] - p[0, :2]) / max(tt[-1] - tt[0], 1e-9)
+    c, s = np.cos(yaw.mean()), np.sin(yaw.mean())
+    return [float(c * d[0] + s * d[1]), float(-s * d[0] + c * d[1])]
+
+
+def yaw_rate_deg_s(t, quat_wxyz, steady_after: float) -> float:
+    """Mean yaw rate [deg/s] over the steady part (slope of the unwrapped yaw)."""
+    mask = steady_mask(t, steady_after)
+    yaw = np.unwrap(euler_rpy(quat_wxyz[mask])[:, 2])
+    return float(np.degrees(np.polyfit(t[mask], yaw, 1)[0]))
+
+
+def horizontal_distance(xyz: np.ndarray) -> float:
+    """Straight-line horizontal displacement from the first to the last sample [m]."""
+    return float(np.linalg.norm(xyz[-1, :2] - xyz[0, :2]))
+
+
+def max_joint_step(joint_angles: np.ndarray) -> float:
+    """Largest change of any commanded joint angle between consecutive samples [rad]."""
+    if len(joint_angles) < 2:
+        return 0.0
+    return float(np.abs(np.diff(joint_angles, axis=0)).max())

@@ -1,0 +1,236 @@
+"""Generates ``models/manta.sdf`` and ``models/pool.sdf`` from ``robot_params``.
+
+The committed SDFormat files are outputs of this module (``scripts/generate_models.py``
+writes them; a test checks they are up to date), so the DH numbers, masses and
+limits live in one place. Link poses come from ``kinematics.link_poses_at_zero``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RollPitchYaw, RotationMatrix
+
+from manta_drake.kinematics import link_poses_at_zero
+from manta_drake.robot_params import (
+    DEFAULT_POOL,
+    DEFAULT_ROBOT,
+    JOINTS,
+    PoolParams,
+    RobotParams,
+)
+
+BODY_RGBA = "0.32 0.38 0.46 1"
+BELLY_RGBA = "0.85 0.87 0.9 1"
+FIN_RGBA = "0.20 0.27 0.36 1"
+SERVO_RGBA = "0.1 0.1 0.1 1"
+
+
+def _f(x: float) -> str:
+    # repr round-trips exactly; the FK test compares to 1e-9 m.
+    return repr(float(x))
+
+
+def _vec(v) -> str:
+    return " ".join(_f(x) for x in v)
+
+
+def _pose(X: np.ndarray, relative_to: str | None = None) -> str:
+    rpy = RollPitchYaw(RotationMatrix(X[:3, :3])).vector()
+    rel = f' relative_to="{relative_to}"' if relative_to else ""
+    return f"<pose{rel}>{_vec(X[:3, 3])} {_vec(rpy)}</pose>"
+
+
+def _xyz_pose(xyz, rpy=(0.0, 0.0, 0.0)) -> str:
+    return f"<pose>{_vec(xyz)} {_vec(rpy)}</pose>"
+
+
+def box_inertia(m: float, size) -> np.ndarray:
+    """Principal moments of a solid box of mass m and edge lengths ``size``."""
+    x, y, z = size
+    return m / 12.0 * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
+
+
+def ellipsoid_inertia(m: float, semi_axes) -> np.ndarray:
+    """Principal moments of a solid ellipsoid of mass m and semi-axes a, b, c."""
+    a, b, c = semi_axes
+    return m / 5.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+
+
+def _inertial(m: float, moments, xyz=(0.0, 0.0, 0.0)) -> str:
+    ixx, iyy, izz = moments
+    return (
+        f"<inertial>{_xyz_pose(xyz)}<mass>{_f(m)}</mass><inertia>"
+        f"<ixx>{_f(ixx)}</ixx><iyy>{_f(iyy)}</iyy><izz>{_f(izz)}</izz>"
+        "<ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>"
+    )
+
+
+def _material(rgba: str) -> str:
+    return f"<material><diffuse>{rgba}</diffuse><ambient>{rgba}</ambient></material>"
+
+
+def _contact_props(p: RobotParams) -> str:
+    return (
+        "<drake:proximity_properties>"
+        f"<drake:mu_dynamic>{_f(p.friction)}</drake:mu_dynamic>"
+        f"<drake:mu_static>{_f(p.friction)}</drake:mu_static>"
+        f"<drake:point_contact_stiffness>{_f(p.point_contact_stiffness)}</drake:point_contact_stiffness>"
+        f"<drake:hunt_crossley_dissipation>{_f(p.hunt_crossley_dissipation)}</drake:hunt_crossley_dissipation>"
+        "</drake:proximity_properties>"
+    )
+
+
+def fin_plate_geometry(p: RobotParams = DEFAULT_ROBOT) -> dict:
+    """Centres and sizes of the fin plates in their link frames.
+
+    Link 3 (after pitch): x = plate normal, y = chord, z = span (outward).
+    Link 4 (after roll2): x = plate normal, y = -span, z = chord.
+    """
+    t = p.fin_thickness
+    return {
+        "proximal": {"center": (0.0, 0.0, p.d3 / 2), "size": (t, p.proximal_chord, p.d3)},
+        "distal": {"center": (0.0, -p.dE / 2, 0.0), "size": (t, p.dE, p.distal_chord)},
+        "tip": (0.0, -p.dE, 0.0),
+    }
+
+
+def _leg_sdf(leg: str, p: RobotParams) -> str:
+    poses = link_poses_at_zero(leg, p)
+    plates = fin_plate_geometry(p)
+    m1, m2, m3, m4 = p.link_masses
+    s = p.servo_block
+    lines = []
+    parents = ["body", f"{leg}_link1", f"{leg}_link2", f"{leg}_link3"]
+    X_parent = [poses["X_Body_L1"]] + poses["X_Lprev_L"]
+    servo_visual = (
+        f"<visual name='servo'><geometry><box><size>{_vec(s)}</size></box></geometry>"
+        f"{_material(SERVO_RGBA)}</visual>"
+    )
+    prox, dist = plates["proximal"], plates["distal"]
+    link_body = {
+        1: _inertial(m1, box_inertia(m1, s)) + servo_visual,
+        2: _inertial(m2, box_inertia(m2, s)) + servo_visual,
+        3: _inertial(m3, box_inertia(m3, prox["size"]), prox["center"])
+        + f"<visual name='fin'>{_xyz_pose(prox['center'])}<geometry><box><size>"
+        f"{_vec(prox['size'])}</size></box></geometry>{_material(FIN_RGBA)}</visual>"
+        + f"<collision name='fin'>{_xyz_pose(prox['center'])}<geometry><box><size>"
+        f"{_vec(prox['size'])}</size></box></geometry>{_contact_props(p)}</collision>",
+        4: _inertial(m4, box_inertia(m4, dist["size"]), dist["center"])
+        + f"<visual name='fin'>{_xyz_pose(dist['center'])}<geometry><box><size>"
+        f"{_vec(dist['size'])}</size></box></geometry>{_material(FIN_RGBA)}</visual>"
+        + f"<collision name='fin'>{_xyz_pose(dist['center'])}<geometry><box><size>"
+        f"{_vec(dist['size'])}</size></box></geometry>{_contact_props(p)}</collision>"
+        + f"<collision name='foot'>{_xyz_pose(plates['tip'])}<geometry><sphere><radius>"
+        f"{_f(p.foot_radius)}</radius></sphere></geometry>{_contact_props(p)}</collision>",
+    }
+    for i, joint in enumerate(JOINTS, start=1):
+        link = f"{leg}_link{i}"
+        lo, hi = p.position_limits[i - 1]
+        lines.append(
+            f"<link name='{link}'>{_pose(X_parent[i - 1], parents[i - 1])}{link_body[i]}</link>"
+        )
+        lines.append(
+            f"<joint name='{leg}_{joint}' type='revolute'><parent>{parents[i - 1]}</parent>"
+            f"<child>{link}</child><axis><xyz>0 0 1</xyz>"
+            f"<limit><lower>{_f(lo)}</lower><upper>{_f(hi)}</upper>"
+            f"<effort>{_f(p.effort_limit)}</effort><velocity>{_f(p.velocity_limit)}</velocity></limit>"
+            f"<dynamics><damping>{_f(p.joint_damping)}</damping></dynamics></axis>"
+            f"<drake:controller_gains p='{_f(p.kp)}' d='{_f(p.kd)}'/></joint>"
+        )
+    lines.append(
+        f"<frame name='{leg}_tip' attached_to='{leg}_link4'>{_pose(poses['X_L4_Tip'])}</frame>"
+    )
+    return "\n    ".join(lines)
+
+
+def camera_pose(p: RobotParams = DEFAULT_ROBOT) -> np.ndarray:
+    """Pose of the camera frame in the Drake body frame (Drake camera convention:
+    +z optical axis forward, +x right, +y down), pitched down by ``camera_pitch_down``."""
+    R_level = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    R = RotationMatrix.MakeYRotation(p.camera_pitch_down).matrix() @ R_level
+    X = np.eye(4)
+    X[:3, :3] = R
+    X[:3, 3] = p.camera_position
+    return X
+
+
+def robot_sdf(p: RobotParams = DEFAULT_ROBOT) -> str:
+    """SDFormat text of the manta-ray robot (17 bodies, 16 revolute joints)."""
+    a, b, c = p.body_semi_axes
+    body = (
+        f"<link name='body'>{_inertial(p.body_mass, ellipsoid_inertia(p.body_mass, (a, b, c)))}"
+        f"<visual name='hull'><geometry><ellipsoid><radii>{_vec((a, b, c))}</radii></ellipsoid>"
+        f"</geometry>{_material(BODY_RGBA)}</visual>"
+        f"<visual name='belly'>{_xyz_pose((0.0, 0.0, -0.3 * c))}<geometry><ellipsoid><radii>"
+        f"{_vec((0.97 * a, 0.97 * b, 0.72 * c))}</radii></ellipsoid></geometry>"
+        f"{_material(BELLY_RGBA)}</visual>"
+        f"<collision name='hull'><geometry><ellipsoid><radii>{_vec((a, b, c))}</radii>"
+        f"</ellipsoid></geometry>{_contact_props(p)}</collision></link>"
+    )
+    legs = "\n    ".join(_leg_sdf(leg.name, p) for leg in p.mounts)
+    members = "".join(
+        f"<drake:member>{name}</drake:member>"
+        for name in ["body"] + [f"{m.name}_link{i}" for m in p.mounts for i in range(1, 5)]
+    )
+    return f"""<?xml version="1.0"?>
+<!-- GENERATED by scripts/generate_models.py from manta_drake/robot_params.py. Do not edit. -->
+<sdf version="1.9" xmlns:drake="http://drake.mit.edu">
+  <model name="manta">
+    {body}
+    {legs}
+    <frame name="camera" attached_to="body">{_pose(camera_pose(p))}</frame>
+    <drake:collision_filter_group name="robot_self">{members}
+      <drake:ignored_collision_filter_group>robot_self</drake:ignored_collision_filter_group>
+    </drake:collision_filter_group>
+  </model>
+</sdf>
+"""
+
+
+def pool_sdf(pool: PoolParams = DEFAULT_POOL) -> str:
+    """SDFormat text of the pool: floor, four walls, and a visual-only water surface at z = 0."""
+    L, W, D = pool.length, pool.width, pool.depth
+    t, tf = pool.wall_thickness, pool.floor_thickness
+    h = D + pool.wall_height_above_water
+    zc = -D + h / 2
+    props = (
+        "<drake:proximity_properties>"
+        f"<drake:mu_dynamic>{_f(pool.friction)}</drake:mu_dynamic>"
+        f"<drake:mu_static>{_f(pool.friction)}</drake:mu_static>"
+        "<drake:point_contact_stiffness>1.0e6</drake:point_contact_stiffness>"
+        "<drake:hunt_crossley_dissipation>5.0</drake:hunt_crossley_dissipation>"
+        "</drake:proximity_properties>"
+    )
+    boxes = {
+        "floor": ((0.0, 0.0, -D - tf / 2), (L + 2 * t, W + 2 * t, tf), "0.55 0.62 0.66 1"),
+        "wall_east": ((L / 2 + t / 2, 0.0, zc), (t, W + 2 * t, h), "0.70 0.74 0.78 1"),
+        "wall_west": ((-L / 2 - t / 2, 0.0, zc), (t, W + 2 * t, h), "0.70 0.74 0.78 1"),
+        "wall_north": ((0.0, W / 2 + t / 2, zc), (L, t, h), "0.70 0.74 0.78 1"),
+        "wall_south": ((0.0, -W / 2 - t / 2, zc), (L, t, h), "0.70 0.74 0.78 1"),
+    }
+    parts = []
+    for name, (xyz, size, rgba) in boxes.items():
+        geom = f"<geometry><box><size>{_vec(size)}</size></box></geometry>"
+        parts.append(
+            f"<visual name='{name}'>{_xyz_pose(xyz)}{geom}{_material(rgba)}</visual>"
+            f"<collision name='{name}'>{_xyz_pose(xyz)}{geom}{props}</collision>"
+        )
+    # Water surface: illustration only, so it neither collides nor shows up in the
+    # camera's depth image (the camera sees the pool, as the paper's does underwater).
+    parts.append(
+        f"<visual name='water_surface'>{_xyz_pose((0.0, 0.0, -0.0005))}<geometry><box><size>"
+        f"{_vec((L, W, 0.001))}</size></box></geometry>{_material('0.2 0.5 0.9 0.25')}"
+        "<drake:accepting_renderer>__no_renderer__</drake:accepting_renderer></visual>"
+    )
+    body = "\n      ".join(parts)
+    return f"""<?xml version="1.0"?>
+<!-- GENERATED by scripts/generate_models.py from manta_drake/robot_params.py. Do not edit. -->
+<sdf version="1.9" xmlns:drake="http://drake.mit.edu">
+  <model name="pool">
+    <static>true</static>
+    <link name="pool">
+      {body}
+    </link>
+  </model>
+</sdf>
+"""

@@ -1,0 +1,139 @@
+"""The robot's numbers: one source of truth for the SDFormat model and the kinematics.
+
+Table 2 of the paper gives the DH chain of a leg-fin but leaves a_0, d_3, d_E,
+theta_init and theta_offset without numbers. They are chosen here so that
+Table 1 holds (8.4 kg; 0.38 m x 0.85 m x 0.14 m at the zero pose):
+
+* The leg-fin bases sit on the body's sides, 0.10 m ahead of / behind the centre of
+  gravity (CG) and 0.10 m to each side, in the CG's horizontal plane (Table 2 has
+  d_0 = 0). Hence a_0 = |(0.10, 0.10)| = 0.1414 m and theta_init = +-45 deg, +-135 deg.
+* theta_offset = +-90 deg - theta_init turns each leg-fin to point straight sideways at
+  theta_1 = 0, so that at the zero pose the roll axes are parallel to the body's x axis
+  (roll1/roll2 flap the fin up and down) and the pitch axis runs along the span.
+* d_3 + d_E = 0.425 m - 0.10 m = 0.325 m puts the fin tips 0.85 m apart (Table 1's
+  width). d_3 = 0.12 m (proximal plate, roll1 -> roll2) and d_E = 0.205 m (distal
+  plate, roll2 -> tip): a short proximal link keeps the roll1 moment arm in the gait
+  stance of Eq. (7) small enough for servo-class torques.
+
+Frames: the paper's body frame is NED (x forward, y starboard, z down). Drake's world
+is z-up, so the robot's Drake body frame is x forward, y port (left), z up; the two
+differ by a rotation of pi about x, applied once, in `X_BodyDrake_BodyNed`.
+
+Leg order (rows of R, X, Phi, Phi' in Eqs. 6-8): 1 = front-left, 2 = front-right,
+3 = rear-left, 4 = rear-right. Joint order within a leg-fin (columns): yaw, roll1,
+pitch, roll2. The plant's joint (and actuator) order is leg-major in that order,
+so a 4x4 matrix flattened row-major is in the plant's order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+LEGS = ("fl", "fr", "rl", "rr")
+JOINTS = ("yaw", "roll1", "pitch", "roll2")
+JOINT_NAMES = tuple(f"{leg}_{joint}" for leg in LEGS for joint in JOINTS)
+NUM_JOINTS = len(JOINT_NAMES)  # 16
+
+
+@dataclass(frozen=True)
+class LegMount:
+    """Where a leg-fin's base sits in the body frame (paper NED: x fwd, y right, z down)."""
+
+    name: str
+    x: float
+    y: float
+
+    @property
+    def a0(self) -> float:
+        """Table 2, link 0: distance CG -> leg base [m]."""
+        return math.hypot(self.x, self.y)
+
+    @property
+    def theta_init(self) -> float:
+        """Table 2, link 0: direction of the leg base seen from the CG [rad]."""
+        return math.atan2(self.y, self.x)
+
+    @property
+    def theta_offset(self) -> float:
+        """Table 2, link 1: yaw-servo zero, chosen so theta_1 = 0 points the fin sideways."""
+        lateral = math.copysign(math.pi / 2, self.y)
+        return lateral - self.theta_init
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """All numbers of the robot model. Lengths in m, masses in kg, angles in rad."""
+
+    # Leg-fin bases (NED body frame). Left is y < 0 in NED.
+    mounts: tuple = (
+        LegMount("fl", 0.10, -0.10),
+        LegMount("fr", 0.10, 0.10),
+        LegMount("rl", -0.10, -0.10),
+        LegMount("rr", -0.10, 0.10),
+    )
+    d3: float = 0.12  # Table 2, link 3: roll1/pitch axes -> roll2 axis, along the span
+    dE: float = 0.205  # Table 2, link E: roll2 axis -> fin tip, along the span
+
+    # Body: a flat ellipsoid (NACA0022-like section), semi-axes along x, y, z.
+    body_semi_axes: tuple = (0.19, 0.12, 0.07)
+    body_mass: float = 5.2  # hull, electronics, two LiPo packs, BVBS pump and balloon
+    # Per leg-fin link masses: yaw-servo bracket, roll1-servo bracket, proximal
+    # plate (carries the pitch and roll2 servos), distal plate.
+    link_masses: tuple = (0.20, 0.20, 0.25, 0.15)
+    servo_block: tuple = (0.04, 0.04, 0.04)  # visual size of the servo brackets
+    proximal_chord: float = 0.14
+    distal_chord: float = 0.10
+    fin_thickness: float = 0.012  # NACA0012 at ~0.1 m chord
+    foot_radius: float = 0.012  # collision sphere at each fin tip
+
+    # Joint limits [rad] per joint type (yaw, roll1, pitch, roll2) and servo class.
+    position_limits: tuple = (
+        (-math.radians(60), math.radians(60)),
+        (-math.radians(90), math.radians(90)),
+        (-math.radians(90), math.radians(90)),
+        (-math.radians(100), math.radians(100)),
+    )
+    effort_limit: float = 6.0  # N m; waterproof servo class (stall ~10 N m)
+    velocity_limit: float = 8.0  # rad/s
+    kp: float = 60.0  # N m / rad, implicit PD (drake:controller_gains)
+    kd: float = 0.6  # N m s / rad
+    joint_damping: float = 0.02  # N m s / rad, gear-train viscous friction
+
+    # Camera on the head (Drake body frame: x fwd, y left, z up).
+    camera_position: tuple = (0.19, 0.0, 0.03)
+    camera_pitch_down: float = math.radians(10.0)
+
+    # Contact (wet, point contact with SAP).
+    friction: float = 0.6
+    point_contact_stiffness: float = 2.0e5  # N/m
+    hunt_crossley_dissipation: float = 5.0  # s/m
+
+    @property
+    def total_mass(self) -> float:
+        return self.body_mass + len(self.mounts) * sum(self.link_masses)
+
+    def mount(self, leg: str) -> LegMount:
+        for m in self.mounts:
+            if m.name == leg:
+                return m
+        raise KeyError(f"unknown leg '{leg}', expected one of {LEGS}")
+
+
+DEFAULT_ROBOT = RobotParams()
+
+
+@dataclass(frozen=True)
+class PoolParams:
+    """The paper's outdoor pool (section 4.1): 15 m x 2 m, 0.5 m deep; water surface at z = 0."""
+
+    length: float = 15.0
+    width: float = 2.0
+    depth: float = 0.5
+    wall_height_above_water: float = 0.2
+    wall_thickness: float = 0.1
+    floor_thickness: float = 0.1
+    friction: float = 0.6
+
+
+DEFAULT_POOL = PoolParams()

@@ -1,0 +1,244 @@
+"""Typed scenarios: the dataclasses a scenario YAML file is loaded into.
+
+A scenario says everything one run needs: how long, the plant's time step, the
+robot's initial pose, the random seed, the controller, and the simulator
+settings. ``load_scenario(path)`` loads it with Drake's ``yaml_load_typed``
+after checking every key against the schema (a misspelt key fails at load time,
+naming its full path and the allowed keys), then ``Scenario.validate()`` checks
+every value's range (naming the field and the allowed range).
+
+Example (``diagrams/stand.yaml``)::
+
+    name: stand
+    duration: 5.0
+    initial_pose: {xyz: [0, 0, -0.22], rpy_deg: [0, 0, 0]}
+    controller: {mode: hold, gait: trot}
+"""
+
+
+import dataclasses as dc
+import math
+import pathlib
+import typing
+
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.systems.analysis import SimulatorConfig
+
+
+class ScenarioError(ValueError):
+    """A scenario file or value is invalid; the message names the field."""
+
+
+def _default_simulator_config() -> SimulatorConfig:
+    # The CPG's continuous state beside a 1 ms discrete plant: fixed-step RK2 at
+    # the plant period costs two derivative evaluations a step; error-controlled
+    # RK3 costs three and gains nothing (the plant's step bounds the accuracy).
+    return SimulatorConfig(
+        integration_scheme="runge_kutta2",
+        max_step_size=1e-3,
+        use_error_control=False,
+        target_realtime_rate=0.0,
+        publish_every_time_step=False,
+    )
+
+
+@dc.dataclass
+class InitialPose:
+    """Initial pose of the robot's body in the world (z up, water surface at z = 0)."""
+
+    xyz: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, -0.22])
+    rpy_deg: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class ControllerConfig:
+    """What drives the joints' desired state.
+
+    mode:
+      ``hold``  the joints hold the stance (X) of ``gait``; no oscillation.
+      ``gait``  the CPG runs ``gait`` for the whole run.
+      ``transition``  the multifunctional controller chooses (later issues).
+    """
+
+    mode: str = "hold"
+    gait: str = "trot"
+
+
+@dc.dataclass
+class VisualizationConfig:
+    """Meshcat recording and logging."""
+
+    meshcat: bool = True
+    recording_fps: float = 32.0  # frames per second kept in recording.html
+
+
+@dc.dataclass
+class Scenario:
+    """One run of the simulator."""
+
+    name: str = "unnamed"
+    description: str = ""
+    duration: float = 5.0  # s
+    time_step: float = 1e-3  # s, the discrete MultibodyPlant's period
+    discrete_contact_approximation: str = "sap"
+    random_seed: int = 0
+    initial_pose: InitialPose = dc.field(default_factory=InitialPose)
+    # Initial joint angles: the stance (X) of this gait, or "zero".
+    initial_stance: str = "trot"
+    controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
+    simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
+    visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
+    log_period: float = 1e-3  # s, sample period of log.npz
+    # Metrics average over t >= steady_after (capped at half the run).
+    steady_after: float = 2.0
+
+    def validate(self) -> "Scenario":
+        """Checks every value's range; raises ScenarioError naming the field."""
+        from manta_drake.gaits import GAITS  # late import: gaits imports nothing of ours
+
+        _positive("duration", self.duration)
+        _in_range("time_step", self.time_step, 0.0, 0.01, "(0, 0.01] s", open_low=True)
+        _one_of(
+            "discrete_contact_approximation",
+            self.discrete_contact_approximation,
+            ("sap", "lagged", "similar", "tamsi"),
+        )
+        if not 0 <= self.random_seed < 2**32:
+            raise ScenarioError(f"random_seed: {self.random_seed} is outside [0, 2^32)")
+        _vector("initial_pose.xyz", self.initial_pose.xyz, 3)
+        _vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3)
+        _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(GAITS))
+        _one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
+        _one_of("controller.gait", self.controller.gait, tuple(GAITS))
+        _one_of(
+            "simulator.integration_scheme",
+            self.simulator.integration_scheme,
+            ("explicit_euler", "runge_kutta2", "runge_kutta3", "semi_explicit_euler"),
+        )
+        _positive("simulator.max_step_size", self.simulator.max_step_size)
+        _positive("visualization.recording_fps", self.visualization.recording_fps)
+        _in_range("log_period", self.log_period, self.time_step, 1.0,
+                  f"[time_step = {self.time_step}, 1] s")
+        if not (math.isfinite(self.steady_after) and self.steady_after >= 0):
+            raise ScenarioError(f"steady_after: {self.steady_after!r} must be a finite number >= 0")
+        return self
+
+
+def _positive(field: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise ScenarioError(f"{field}: {value!r} is not allowed; it must be a finite number > 0")
+
+
+def _in_range(field, value, lo, hi, text, open_low=False) -> None:
+    ok = math.isfinite(value) and (value > lo if open_low else value >= lo) and value <= hi
+    if not ok:
+        raise ScenarioError(f"{field}: {value!r} is outside the allowed range {text}")
+
+
+def _one_of(field: str, value, allowed) -> None:
+    if value not in allowed:
+        raise ScenarioError(f"{field}: {value!r} is not one of {', '.join(map(str, allowed))}")
+
+
+def _vector(field: str, value, n: int) -> None:
+    if len(value) != n or not all(math.isfinite(v) for v in value):
+        raise ScenarioError(f"{field}: expected {n} finite numbers, got {value!r}")
+
+
+def _schema_fields(schema) -> dict | None:
+    """Field name -> type of a dataclass or a pydrake config struct, else None."""
+    if dc.is_dataclass(schema):
+        hints = typing.get_type_hints(schema)
+        return {f.name: hints[f.name] for f in dc.fields(schema)}
+    if hasattr(schema, "__fields__"):  # pydrake-bound C++ structs (SimulatorConfig, ...)
+        return {f.name: f.type for f in schema.__fields__}
+    return None
+
+
+def _type_name(tp) -> str:
+    return getattr(tp, "__name__", str(tp))
+
+
+def _check_scalar(value, tp, path: str) -> None:
+    """Checks a YAML scalar against a float/int/str/bool field type."""
+    ok = {
+        float: lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
+        int: lambda v: isinstance(v, int) and not isinstance(v, bool),
+        str: lambda v: isinstance(v, str),
+        bool: lambda v: isinstance(v, bool),
+    }.get(tp)
+    if ok is not None and not ok(value):
+        raise ScenarioError(f"{path}: expected a {_type_name(tp)}, got {value!r}")
+
+
+def check_keys(data, schema, path: str = "scenario") -> None:
+    """Walks ``data`` against the schema; raises ScenarioError naming the first bad key.
+
+    Unknown keys (typos) and values of the wrong type are reported with their full
+    path, e.g. ``scenario.initial_pose.xyzz``.
+    """
+    origin = typing.get_origin(schema)
+    if origin is list:
+        (item_type,) = typing.get_args(schema) or (None,)
+        if not isinstance(data, list):
+            raise ScenarioError(f"{path}: expected a list, got {data!r}")
+        for i, item in enumerate(data):
+            check_keys(item, item_type, f"{path}[{i}]")
+        return
+    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
+        args = [a for a in typing.get_args(schema) if a is not type(None)]
+        if data is None or len(args) != 1:
+            return
+        schema = args[0]
+    fields = _schema_fields(schema)
+    if fields is None:
+        if data is not None:
+            _check_scalar(data, schema, path)
+        return
+    if data is None:
+        return
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{path}: expected a mapping with keys {sorted(fields)}, got {data!r}")
+    for key, value in data.items():
+        if key not in fields:
+            raise ScenarioError(
+                f"{path}.{key}: unknown key (a typo?); allowed keys: {', '.join(sorted(fields))}"
+            )
+        check_keys(value, fields[key], f"{path}.{key}")
+
+
+def load_scenario(path, overrides: dict | None = None) -> Scenario:
+    """Loads and validates a scenario YAML file.
+
+    Args:
+        path: the YAML file.
+        overrides: top-level values to replace after loading (e.g. ``{"duration": 2}``).
+
+    Raises:
+        ScenarioError: the file is missing, has an unknown key, a value of the wrong
+            type, or a value out of range. The message names the field.
+    """
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise ScenarioError(f"scenario file not found: {path}")
+    text = path.read_text()
+    try:
+        data = yaml.safe_load(text) or {}
+    except yaml.YAMLError as e:
+        raise ScenarioError(f"{path}: not valid YAML: {e}") from None
+    check_keys(data, Scenario)
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=text) if data else Scenario()
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise ScenarioError(f"{path}: {e}") from None
+    for key, value in (overrides or {}).items():
+        if key not in _schema_fields(Scenario):
+            raise ScenarioError(f"override {key}: unknown scenario field")
+        setattr(scenario, key, value)
+    if scenario.name == "unnamed":
+        scenario.name = path.stem
+    try:
+        return scenario.validate()
+    except ScenarioError as e:
+        raise ScenarioError(f"{path}: {e}") from None

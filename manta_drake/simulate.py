@@ -1,0 +1,212 @@
+"""The one place that runs a Simulator.
+
+``run(scenario, out_dir)`` builds the diagram, simulates with a progress bar,
+and writes into ``out_dir``:
+
+* ``recording.html``: self-contained Meshcat recording (if visualisation is on);
+* ``log.npz``: time series (see ``LOG_KEYS``);
+* ``metrics.json``: the run's metrics (see DESIGN.md);
+* ``joints.png``, ``states.png``, ``trajectory.png``.
+
+If the simulation fails part-way, the log up to the failure and a
+``metrics.json`` with ``status: failed``, the time and the reason are still
+written, and the exception is re-raised as ``SimulationError``.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import json
+import math
+import pathlib
+import sys
+import time
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+
+from manta_drake import metrics as M
+from manta_drake import plots
+from manta_drake.diagram import DiagramHandles, build_diagram, initial_joint_angles, logger_data
+from manta_drake.plant import body_pose, set_initial_state
+from manta_drake.scenario import Scenario
+
+LOG_KEYS = (
+    "t", "joint_angles", "joint_velocities", "commanded_joint_angles",
+    "body_xyz", "body_quat_wxyz", "body_rpy", "body_v_world", "body_w_world",
+)
+
+
+class SimulationError(RuntimeError):
+    """The simulation failed; ``out_dir`` still holds the log up to the failure."""
+
+
+@dc.dataclass
+class RunResult:
+    """What ``run`` returns."""
+
+    metrics: dict
+    out_dir: pathlib.Path
+    log: dict
+    handles: DiagramHandles | None = None
+
+
+def _progress(total: float, enabled: bool):
+    if not enabled:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=round(total, 3), unit="sim s", desc="simulating", file=sys.stderr,
+                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+
+
+def extract_log(handles: DiagramHandles, root_context) -> dict:
+    """Turns the loggers' records into named numpy arrays (see ``LOG_KEYS``)."""
+    plant, body = handles.plant, handles.plant_handles.body
+    t, x = logger_data(handles.loggers["plant_state"], root_context)
+    nq = plant.num_positions()
+    joints = [plant.GetJointByName(n, handles.plant_handles.robot)
+              for n in handles.plant_handles.joint_names]
+    qi = np.array([j.position_start() for j in joints])
+    vi = np.array([nq + j.velocity_start() for j in joints])
+    log = {"t": t, "joint_angles": x[:, qi], "joint_velocities": x[:, vi]}
+    if body.is_floating_base_body():
+        q0 = body.floating_positions_start()
+        v0 = nq + body.floating_velocities_start_in_v()
+        log["body_quat_wxyz"] = x[:, q0 : q0 + 4]
+        log["body_xyz"] = x[:, q0 + 4 : q0 + 7]
+        log["body_w_world"] = x[:, v0 : v0 + 3]
+        log["body_v_world"] = x[:, v0 + 3 : v0 + 6]
+        log["body_rpy"] = M.euler_rpy(log["body_quat_wxyz"]) if len(t) else np.zeros((0, 3))
+    tc, xc = logger_data(handles.loggers["desired_state"], root_context)
+    log["t_command"] = tc
+    log["commanded_joint_angles"] = xc[:, :16]
+    for name in handles.loggers:
+        if name not in ("plant_state", "desired_state"):
+            ts, xs = logger_data(handles.loggers[name], root_context)
+            log[f"t_{name}"], log[name] = ts, xs
+    return log
+
+
+def max_penetration(handles: DiagramHandles, diagram, root_context, period: float = 0.01) -> float:
+    """Deepest contact penetration [m] over the logged run, sampled every ``period`` s."""
+    plant = handles.plant
+    plant_context = plant.GetMyMutableContextFromRoot(diagram.CreateDefaultContext())
+    log = handles.loggers["plant_state"].FindLog(root_context)
+    t, data = log.sample_times(), log.data().T
+    if len(t) == 0:
+        return 0.0
+    stride = max(1, int(round(period / (t[1] - t[0])))) if len(t) > 1 else 1
+    deepest = 0.0
+    for row in data[::stride]:
+        plant.SetPositionsAndVelocities(plant_context, row)
+        query = plant.get_geometry_query_input_port().Eval(plant_context)
+        for pair in query.ComputePointPairPenetration():
+            deepest = max(deepest, pair.depth)
+    return float(deepest)
+
+
+def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
+    """The metrics of DESIGN.md from a log."""
+    t = log["t"]
+    sim_time = float(log.get("sim_time", t[-1] if len(t) else 0.0))
+    m = {
+        "scenario": scenario.name,
+        "sim_time_s": sim_time,
+        "wall_time_s": wall_time,
+        "real_time_factor": sim_time / wall_time if wall_time > 0 else math.nan,
+    }
+    if len(t) >= 2 and "body_xyz" in log:
+        steady = min(scenario.steady_after, 0.5 * sim_time)
+        q, xyz = log["body_quat_wxyz"], log["body_xyz"]
+        m["mean_velocity_body"] = M.mean_velocity_from_displacement(t, q, xyz, steady)
+        m["yaw_rate_deg_s"] = M.yaw_rate_deg_s(t, q, steady)
+        m["distance_m"] = M.horizontal_distance(xyz)
+        m["final_body_xyz"] = xyz[-1].tolist()
+        m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
+    if len(log.get("commanded_joint_angles", [])) >= 2:
+        m["max_joint_step_rad"] = M.max_joint_step(log["commanded_joint_angles"])
+        n = min(len(log["joint_angles"]), len(log["commanded_joint_angles"]))
+        err = log["joint_angles"][:n] - log["commanded_joint_angles"][:n]
+        m["final_max_joint_error_rad"] = float(np.abs(err[-1]).max())
+    return m
+
+
+def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True) -> RunResult:
+    """Simulates ``scenario`` and writes its outputs into ``out_dir``.
+
+    Args:
+        scenario: a validated Scenario.
+        out_dir: output folder (created).
+        progress: show a progress bar on stderr.
+        write_outputs: write files (tests may skip the plots and HTML).
+
+    Returns:
+        RunResult with ``.metrics``, ``.log`` and ``.handles``.
+
+    Raises:
+        SimulationError: the simulation failed; the partial log and a metrics.json
+            saying where and why are written first.
+    """
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    diagram, handles = build_diagram(scenario)
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator, simulator)
+    root_context = simulator.get_mutable_context()
+    plant_context = handles.plant.GetMyMutableContextFromRoot(root_context)
+    set_initial_state(
+        handles.plant_handles,
+        plant_context,
+        body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
+        initial_joint_angles(scenario),
+    )
+    if handles.visualizer is not None:
+        handles.visualizer.StartRecording(set_transforms_while_recording=False)
+
+    failure = None
+    bar = _progress(scenario.duration, progress)
+    wall_start = time.perf_counter()
+    try:
+        simulator.Initialize()
+        chunk = max(scenario.duration / 200.0, 0.05)
+        while root_context.get_time() < scenario.duration - 1e-12:
+            t_next = min(root_context.get_time() + chunk, scenario.duration)
+            simulator.AdvanceTo(t_next)
+            if bar is not None:
+                bar.update(round(t_next - bar.n, 3))
+    except Exception as e:  # keep the log of what happened up to the failure
+        failure = {"time_s": float(root_context.get_time()), "reason": f"{type(e).__name__}: {e}"}
+    finally:
+        if bar is not None:
+            bar.close()
+    wall_time = time.perf_counter() - wall_start
+
+    log = extract_log(handles, root_context)
+    log["sim_time"] = np.array(root_context.get_time())
+    metrics = compute_metrics(scenario, log, wall_time)
+    if failure is None and "body_xyz" in log and not np.all(np.isfinite(log["body_xyz"])):
+        failure = {"time_s": float(log["t"][np.argmax(~np.isfinite(log["body_xyz"]).any(1))]),
+                   "reason": "non-finite body state"}
+    metrics["status"] = "failed" if failure else "ok"
+    if failure:
+        metrics["failure"] = failure
+    else:
+        metrics["max_penetration_m"] = max_penetration(handles, diagram, root_context)
+
+    np.savez_compressed(out_dir / "log.npz", **log)
+    (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    if write_outputs:
+        plots.write_run_plots(log, out_dir, title=scenario.name)
+        if handles.visualizer is not None:
+            handles.visualizer.StopRecording()
+            handles.visualizer.PublishRecording()
+            (out_dir / "recording.html").write_text(handles.meshcat.StaticHtml())
+    if failure:
+        raise SimulationError(
+            f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "
+            f"{failure['reason']} (partial log in {out_dir})"
+        )
+    return RunResult(metrics, out_dir, log, handles)

@@ -1,0 +1,71 @@
+"""Scenario loading: typos and out-of-range values fail at load time, naming the field."""
+
+import pathlib
+
+import pytest
+
+from manta_drake.scenario import Scenario, ScenarioError, load_scenario
+
+DIAGRAMS = pathlib.Path(__file__).resolve().parent.parent / "diagrams"
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "s.yaml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("path", sorted(DIAGRAMS.glob("*.yaml")), ids=lambda p: p.name)
+def test_shipped_scenarios_load(path):
+    scenario = load_scenario(path)
+    assert scenario.duration > 0
+    assert scenario.name == path.stem
+
+
+def test_values_are_typed(tmp_path):
+    s = load_scenario(_write(tmp_path, "duration: 3\ninitial_pose: {xyz: [1, 0, -0.2]}\n"
+                                        "simulator: {integration_scheme: explicit_euler}\n"))
+    assert s.duration == 3.0 and isinstance(s.duration, float)
+    assert s.initial_pose.xyz == [1.0, 0.0, -0.2]
+    assert s.simulator.integration_scheme == "explicit_euler"
+    assert s.simulator.max_step_size == pytest.approx(1e-3)  # default kept
+
+
+@pytest.mark.parametrize("text, needle", [
+    ("duraton: 3\n", "scenario.duraton"),
+    ("initial_pose: {xyzz: [0, 0, 0]}\n", "scenario.initial_pose.xyzz"),
+    ("controller: {mdoe: gait}\n", "scenario.controller.mdoe"),
+    ("simulator: {max_stepsize: 0.001}\n", "scenario.simulator.max_stepsize"),
+])
+def test_misspelt_key_fails_naming_the_key(tmp_path, text, needle):
+    with pytest.raises(ScenarioError, match=needle.replace(".", r"\.")) as info:
+        load_scenario(_write(tmp_path, text))
+    assert "allowed keys" in str(info.value)
+
+
+@pytest.mark.parametrize("text, field, allowed", [
+    ("duration: -1\n", "duration", "> 0"),
+    ("duration: 0\n", "duration", "> 0"),
+    ("time_step: 0\n", "time_step", "(0, 0.01]"),
+    ("time_step: -0.001\n", "time_step", "(0, 0.01]"),
+    ("controller: {mode: dance}\n", "controller.mode", "hold, gait, transition"),
+    ("controller: {gait: gallop}\n", "controller.gait", "swim, trot, walk, turning, crab"),
+    ("initial_pose: {xyz: [0, 0]}\n", "initial_pose.xyz", "3 finite numbers"),
+    ("random_seed: -4\n", "random_seed", "[0, 2^32)"),
+])
+def test_out_of_range_value_fails_naming_field_and_range(tmp_path, text, field, allowed):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(_write(tmp_path, text))
+    message = str(info.value)
+    assert f"{field}:" in message and allowed in message
+
+
+def test_wrong_type_and_missing_file(tmp_path):
+    with pytest.raises(ScenarioError, match="duration"):
+        load_scenario(_write(tmp_path, "duration: soon\n"))
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "nope.yaml")
+
+
+def test_defaults_validate():
+    assert Scenario().validate().time_step == pytest.approx(1e-3)

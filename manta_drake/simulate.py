@@ -163,7 +163,11 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
         initial_joint_angles(scenario),
     )
-    if handles.visualizer is not None:
+    if handles.meshcat is not None:
+        # Look at the robot from inside the pool (the walls hide it from outside).
+        p0 = np.asarray(scenario.initial_pose.xyz, dtype=float)
+        handles.meshcat.SetCameraPose(camera_in_world=p0 + [-0.8, -0.75, 0.45], target_in_world=p0)
+        handles.meshcat.SetProperty("/Grid", "visible", False)
         handles.visualizer.StartRecording(set_transforms_while_recording=False)
 
     failure = None

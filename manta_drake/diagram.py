@@ -13,6 +13,7 @@ from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatV
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, VectorLogSink
 
+from manta_drake.cpg import CpgOscillators, locked_phases
 from manta_drake.gaits import get_gait
 from manta_drake.plant import PlantHandles, add_plant
 from manta_drake.scenario import Scenario
@@ -50,9 +51,21 @@ def _add_controller(builder, scenario: Scenario, handles: DiagramHandles) -> Non
             "hold_stance", ConstantVectorSource(np.concatenate([X, np.zeros(16)]))
         )
         desired_state = source.get_output_port()
+    elif mode == "gait":
+        params = builder.AddNamedSystem(
+            "gait_params", ConstantVectorSource(get_gait(scenario.controller.gait).to_vector())
+        )
+        c = scenario.cpg
+        cpg = builder.AddNamedSystem("cpg", CpgOscillators(
+            frequency_hz=c.frequency_hz, chain_weight=c.chain_weight, fcs_weight=c.fcs_weight,
+            a=c.a, b=c.b))
+        builder.Connect(params.get_output_port(), cpg.GetInputPort("cpg_params"))
+        handles.systems["cpg"] = cpg
+        handles.loggers["cpg_params"] = LogVectorOutput(
+            params.get_output_port(), builder, max(scenario.log_period, 0.01))
+        desired_state = cpg.GetOutputPort("desired_state")
     else:
         raise NotImplementedError(f"controller.mode '{mode}' is not available yet")
-    handles.systems["desired_state_source"] = source
     builder.Connect(desired_state, plant.get_desired_state_input_port(robot))
     handles.loggers["desired_state"] = LogVectorOutput(
         desired_state, builder, scenario.log_period
@@ -87,6 +100,21 @@ def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
     diagram = builder.Build()
     diagram.set_name(f"manta_drake:{scenario.name}")
     return diagram, handles
+
+
+def initialize_context(scenario: Scenario, handles: DiagramHandles, root_context) -> None:
+    """Initial conditions of the stateful systems other than the plant.
+
+    The CPG starts from rest (r = 0) with its biases chi at the robot's initial
+    joint angles, so nothing jumps at t = 0, and its phases at the lock of the
+    commanded gait (the exact in-phase start is an unstable equilibrium of
+    couplings with bias pi).
+    """
+    cpg = handles.systems.get("cpg")
+    if cpg is not None:
+        params = get_gait(scenario.controller.gait).to_vector()
+        cpg.set_state(cpg.GetMyMutableContextFromRoot(root_context), phi=locked_phases(params),
+                      r=0.0, dr=0.0, chi=initial_joint_angles(scenario), dchi=0.0)
 
 
 def logger_data(logger: VectorLogSink, root_context) -> tuple[np.ndarray, np.ndarray]:

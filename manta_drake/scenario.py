@@ -66,6 +66,17 @@ class ControllerConfig:
 
 
 @dc.dataclass
+class CpgConfig:
+    """Parameters of the CPG (Eq. 5); see ``manta_drake.cpg`` for why these defaults."""
+
+    frequency_hz: float = 0.5
+    chain_weight: float = 4.0
+    fcs_weight: float = 4.0
+    a: float = 20.0
+    b: float = 20.0
+
+
+@dc.dataclass
 class VisualizationConfig:
     """Meshcat recording and logging."""
 
@@ -87,6 +98,7 @@ class Scenario:
     # Initial joint angles: the stance (X) of this gait, or "zero".
     initial_stance: str = "trot"
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
+    cpg: CpgConfig = dc.field(default_factory=CpgConfig)
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     log_period: float = 1e-3  # s, sample period of log.npz
@@ -111,6 +123,12 @@ class Scenario:
         _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(GAITS))
         _one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
         _one_of("controller.gait", self.controller.gait, tuple(GAITS))
+        _in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True)
+        for name in ("chain_weight", "fcs_weight"):
+            _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 100.0, "[0, 100] rad/s")
+        for name in ("a", "b"):
+            _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
+                      open_low=True)
         _one_of(
             "simulator.integration_scheme",
             self.simulator.integration_scheme,

@@ -27,7 +27,13 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from manta_drake import metrics as M
 from manta_drake import plots
-from manta_drake.diagram import DiagramHandles, build_diagram, initial_joint_angles, logger_data
+from manta_drake.diagram import (
+    DiagramHandles,
+    build_diagram,
+    initial_joint_angles,
+    initialize_context,
+    logger_data,
+)
 from manta_drake.plant import body_pose, set_initial_state
 from manta_drake.scenario import Scenario
 
@@ -163,6 +169,7 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
         initial_joint_angles(scenario),
     )
+    initialize_context(scenario, handles, root_context)
     if handles.meshcat is not None:
         # Look at the robot from inside the pool (the walls hide it from outside).
         p0 = np.asarray(scenario.initial_pose.xyz, dtype=float)

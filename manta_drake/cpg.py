@@ -1,0 +1,175 @@
+"""The two-layer CPG of section 3.1: 16 coupled oscillators (Eq. 5).
+
+Oscillator i = 4k + j drives joint j (yaw, roll1, pitch, roll2) of leg-fin k
+(fl, fr, rl, rr), the plant's joint order. Each has continuous states phase phi,
+amplitude r and its rate, bias chi and its rate::
+
+    dphi_i/dt  = 2 pi f + sum_j w_ij sin(phi_j - phi_i - dphi_ij)
+    d2r_i/dt2  = a (a/4 (R_i - r_i) - dr_i/dt)
+    d2chi_i/dt2 = b (b/4 (X_i - chi_i) - dchi_i/dt)
+    theta_i    = chi_i + r_i sin(phi_i)
+
+Coupling (Fig. 1b):
+
+* layer 1, SCS: a chain inside each leg-fin, joint j <-> joint j+1, with
+  ``phi_{j+1} - phi_j -> Phi[k, j]`` (so dphi_{i,i+1} = Phi[k, j] and
+  dphi_{i+1,i} = -Phi[k, j]); weight ``chain_weight``;
+* layer 2, FCS: all-to-all among the four base (yaw) oscillators 4k, with
+  ``phi_{4l} - phi_{4k} -> Phi'[k, l]``; weight ``fcs_weight``.
+
+Defaults and why:
+
+* f = 0.5 Hz (``gaits.DEFAULT_FREQUENCY_HZ``), shared by every gait;
+* a = b = 20 1/s: the amplitude and bias equations are critically damped with
+  double pole a/2 = 10 1/s, so a step settles to 2 % in 5.83 / 10 = 0.58 s
+  without overshoot (the paper's "about 0.5 s");
+* chain_weight = fcs_weight = 4 rad/s: the slowest phase-locking mode of the
+  coupled graph decays at ~1.5 1/s (lock within ~3 s from any start) while a
+  swing of the biases by the transition system (a few seconds) is followed
+  closely; the fastest mode (~16 1/s) stays far inside the stability region of
+  explicit Euler / RK2 at 1 ms.
+"""
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+NUM_OSC = 16
+NUM_PARAMS = 64
+
+# Index sets of the coupled directed pairs (i <- j): dphi_i gets w sin(phi_j - phi_i - b_ij).
+_chain_i = np.array([4 * k + j for k in range(4) for j in range(3)])
+_chain_j = _chain_i + 1
+_fcs_k, _fcs_l = np.array([(k, l) for k in range(4) for l in range(4) if k != l]).T
+PAIR_I = np.concatenate([_chain_i, _chain_j, 4 * _fcs_k])  # receiving oscillator
+PAIR_J = np.concatenate([_chain_j, _chain_i, 4 * _fcs_l])  # sending oscillator
+_CHAIN_PHI_INDEX = np.array([4 * k + j for k in range(4) for j in range(3)])  # into Phi.ravel()
+_FCS_INDEX = 4 * _fcs_k + _fcs_l  # into Phi_prime.ravel()
+
+
+def pair_biases(params: np.ndarray) -> np.ndarray:
+    """Phase biases dphi_ij of the coupled pairs (PAIR_I, PAIR_J) from the 64 CPG params."""
+    Phi = params[32:48]
+    Phi_prime = params[48:64]
+    chain = Phi[_CHAIN_PHI_INDEX]
+    return np.concatenate([chain, -chain, Phi_prime[_FCS_INDEX]])
+
+
+def pair_weights(chain_weight: float, fcs_weight: float) -> np.ndarray:
+    """Weights w_ij of the coupled pairs, in PAIR_I/PAIR_J order."""
+    n_chain = 2 * len(_chain_i)
+    return np.concatenate([np.full(n_chain, chain_weight), np.full(len(_fcs_k), fcs_weight)])
+
+
+def phase_rates(phi, params, frequency_hz, weights) -> np.ndarray:
+    """dphi/dt of Eq. (5) for all 16 oscillators."""
+    coupling = weights * np.sin(phi[PAIR_J] - phi[PAIR_I] - pair_biases(params))
+    return 2.0 * np.pi * frequency_hz + np.bincount(PAIR_I, weights=coupling, minlength=NUM_OSC)
+
+
+def cpg_derivatives(x, params, frequency_hz, weights, a, b) -> np.ndarray:
+    """Time derivative of the CPG state x = [phi, r, dr, chi, dchi] (80) under Eq. (5)."""
+    phi, r, dr, chi, dchi = np.split(np.asarray(x, dtype=float), 5)
+    R, X = params[0:16], params[16:32]
+    return np.concatenate([
+        phase_rates(phi, params, frequency_hz, weights),
+        dr,
+        a * (a / 4.0 * (R - r) - dr),
+        dchi,
+        b * (b / 4.0 * (X - chi) - dchi),
+    ])
+
+
+def joint_angles(x) -> np.ndarray:
+    """theta = chi + r sin(phi)."""
+    phi, r, _, chi, _ = np.split(np.asarray(x, dtype=float), 5)
+    return chi + r * np.sin(phi)
+
+
+def joint_rates(x, phi_dot) -> np.ndarray:
+    """d theta / dt = dchi + dr sin(phi) + r cos(phi) dphi/dt (exact, from the state)."""
+    phi, r, dr, _, dchi = np.split(np.asarray(x, dtype=float), 5)
+    return dchi + dr * np.sin(phi) + r * np.cos(phi) * phi_dot
+
+
+def locked_phases(params) -> np.ndarray:
+    """Phases with every chain at its bias and the bases at the FCS lock (leg 1 base = 0)."""
+    from manta_drake.gaits import phase_lock_targets
+
+    params = np.asarray(params, dtype=float)
+    base = phase_lock_targets(params[48:64].reshape(4, 4))
+    Phi = params[32:48].reshape(4, 4)
+    offsets = np.concatenate([np.zeros((4, 1)), np.cumsum(Phi[:, :3], axis=1)], axis=1)
+    return (base[:, None] + offsets).ravel()
+
+
+class CpgOscillators(LeafSystem):
+    """The two-layer CPG (Eq. 5) with continuous states.
+
+    .. pydrake_system::
+
+        name: CpgOscillators
+        input_ports:
+        - cpg_params
+        output_ports:
+        - joint_angles
+        - desired_state
+
+    * ``cpg_params`` (64): R, X, Phi, Phi' (each 4x4 row-major), see ``gaits``.
+    * ``joint_angles`` (16): theta_i = chi_i + r_i sin(phi_i), in the plant's joint
+      order; depends on the state only.
+    * ``desired_state`` (32): [theta, dtheta/dt] for the plant's PD; the rate is the
+      exact derivative of theta (it uses dphi/dt, hence also the input's biases).
+
+    Continuous state (80): [phi (16), r (16), dr/dt (16), chi (16), dchi/dt (16)].
+    """
+
+    def __init__(self, frequency_hz: float | None = None, chain_weight: float = 4.0,
+                 fcs_weight: float = 4.0, a: float = 20.0, b: float = 20.0):
+        super().__init__()
+        from manta_drake.gaits import DEFAULT_FREQUENCY_HZ
+
+        self.frequency_hz = DEFAULT_FREQUENCY_HZ if frequency_hz is None else float(frequency_hz)
+        for name, value in (("frequency_hz", self.frequency_hz), ("a", a), ("b", b)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"CpgOscillators.{name}: {value} must be a finite number > 0")
+        for name, value in (("chain_weight", chain_weight), ("fcs_weight", fcs_weight)):
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"CpgOscillators.{name}: {value} must be a finite number >= 0")
+        self.a, self.b = float(a), float(b)
+        self.weights = pair_weights(chain_weight, fcs_weight)
+        self.DeclareContinuousState(5 * NUM_OSC)
+        self._params_port = self.DeclareVectorInputPort("cpg_params", NUM_PARAMS)
+        self.DeclareVectorOutputPort("joint_angles", NUM_OSC, self._calc_joint_angles,
+                                     prerequisites_of_calc={self.xc_ticket()})
+        self.DeclareVectorOutputPort(
+            "desired_state", 2 * NUM_OSC, self._calc_desired_state,
+            prerequisites_of_calc={self.xc_ticket(),
+                                   self.input_port_ticket(self._params_port.get_index())})
+
+    def _params(self, context) -> np.ndarray:
+        return self._params_port.Eval(context)
+
+    def DoCalcTimeDerivatives(self, context, derivatives):
+        x = context.get_continuous_state_vector().CopyToVector()
+        xdot = cpg_derivatives(x, self._params(context), self.frequency_hz, self.weights,
+                               self.a, self.b)
+        derivatives.get_mutable_vector().SetFromVector(xdot)
+
+    def _calc_joint_angles(self, context, output: BasicVector):
+        output.SetFromVector(joint_angles(context.get_continuous_state_vector().CopyToVector()))
+
+    def _calc_desired_state(self, context, output: BasicVector):
+        x = context.get_continuous_state_vector().CopyToVector()
+        phi_dot = phase_rates(x[:NUM_OSC], self._params(context), self.frequency_hz, self.weights)
+        output.SetFromVector(np.concatenate([joint_angles(x), joint_rates(x, phi_dot)]))
+
+    def set_state(self, context, phi=None, r=None, dr=None, chi=None, dchi=None) -> None:
+        """Sets (part of) the oscillator state in this system's context; the rest is kept."""
+        x = context.get_continuous_state_vector().CopyToVector().reshape(5, NUM_OSC)
+        for row, value in enumerate((phi, r, dr, chi, dchi)):
+            if value is not None:
+                value = np.broadcast_to(np.asarray(value, dtype=float), (NUM_OSC,))
+                if not np.all(np.isfinite(value)):
+                    raise ValueError("CpgOscillators.set_state: non-finite value")
+                x[row] = value
+        context.get_mutable_continuous_state_vector().SetFromVector(x.ravel())

@@ -1,0 +1,95 @@
+"""The gait library against Eqs. (6)-(8), typed here again in degrees."""
+
+import numpy as np
+import pytest
+
+from manta_drake.gaits import GAITS, GaitParams, get_gait, phase_lock_targets
+
+D = np.radians
+
+
+def rows(*r):
+    return D(np.tile(r, (4, 1)))
+
+
+EQ6_SWIM = dict(
+    R=rows(0, 45, 45, 45), X=np.zeros((4, 4)), Phi=rows(0, -180, 0, 0),
+    Phi_prime=D([[0, -10, 0, 0], [10, 0, 0, 0], [0, 0, 0, -10], [0, 0, 10, 0]]))
+R_GAIT = D([[20, 10, 15, 0], [-20, 10, 15, 0], [20, 10, 15, 0], [-20, 10, 15, 0]])
+X_GAIT = D([[20, -30, -30, -50], [20, -30, 30, -50], [20, -30, -30, -50], [20, -30, 30, -50]])
+PHI_GAIT = rows(120, -180, 180, 0)
+PHIP_GAIT = D([[0, 180, 180, 0], [-180, 0, 0, -180], [-180, 0, 0, -180], [0, 180, 180, 0]])
+PHIP_WALK = D([[0, 270, 180, 90], [-270, 0, -90, -180], [-180, 90, 0, -90], [-90, 180, 90, 0]])
+PHIP_TURN = D([[0, -270, -90, -180], [270, 0, 180, 90], [90, -180, 0, -90], [180, -90, 90, 0]])
+EXPECTED = {
+    "swim": EQ6_SWIM,
+    "trot": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_GAIT),
+    "walk": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_WALK),
+    "turning": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_TURN),
+    "crab": dict(R=rows(0, 10, 20, 20), X=X_GAIT,
+                 Phi=D([[0, 0, -180, 0], [0, 0, -180, 0], [0, 0, 180, 0], [0, 0, 180, 0]]),
+                 Phi_prime=PHIP_GAIT),
+}
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_gait_matrices_equal_the_paper(name):
+    gait = GAITS[name]
+    for field, expected in EXPECTED[name].items():
+        np.testing.assert_allclose(getattr(gait, field), expected, atol=1e-12, err_msg=field)
+
+
+def test_library_has_exactly_the_contract_gaits():
+    assert set(GAITS) == {"swim", "trot", "walk", "turning", "crab"}
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_vector_round_trip_and_layout(name):
+    gait = GAITS[name]
+    v = gait.to_vector()
+    assert v.shape == (64,)
+    np.testing.assert_array_equal(v[16:32].reshape(4, 4), gait.X)  # R, X, Phi, Phi' row-major
+    back = GaitParams.from_vector(v)
+    for field in ("R", "X", "Phi", "Phi_prime"):
+        np.testing.assert_array_equal(getattr(back, field), getattr(gait, field))
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_fcs_biases_are_antisymmetric(name):
+    P = GAITS[name].Phi_prime
+    np.testing.assert_allclose(P, -P.T, atol=1e-12)
+
+
+def test_invalid_gaits_are_rejected_with_the_field_named():
+    good = GAITS["trot"]
+    with pytest.raises(ValueError, match="GaitParams.R: shape"):
+        GaitParams(np.zeros((3, 4)), good.X, good.Phi, good.Phi_prime)
+    bad = good.X.copy()
+    bad[1, 2] = np.nan
+    with pytest.raises(ValueError, match="GaitParams.X: contains non-finite"):
+        GaitParams(good.R, bad, good.Phi, good.Phi_prime)
+    with pytest.raises(ValueError, match="expected 64"):
+        GaitParams.from_vector(np.zeros(60))
+    with pytest.raises(KeyError, match="known gaits: swim"):
+        get_gait("gallop")
+
+
+def test_gait_arrays_are_read_only():
+    with pytest.raises(ValueError):
+        GAITS["trot"].R[0, 0] = 1.0
+
+
+@pytest.mark.parametrize("name", ["trot", "walk", "turning", "crab"])
+def test_consistent_fcs_lock_equals_the_biases(name):
+    phi = phase_lock_targets(GAITS[name].Phi_prime)
+    P = GAITS[name].Phi_prime
+    for k in range(4):
+        for l in range(4):
+            err = np.angle(np.exp(1j * (phi[l] - phi[k] - P[k, l])))
+            assert abs(err) < 1e-6
+
+
+def test_swim_fcs_is_inconsistent_and_locks_at_the_compromise():
+    # Eq. (6): fl->fr and rl->rr lag pi/18, every front-rear pair 0: no exact solution.
+    phi = phase_lock_targets(GAITS["swim"].Phi_prime)
+    np.testing.assert_allclose(phi, [0, -np.pi / 36, 0, -np.pi / 36], atol=1e-6)

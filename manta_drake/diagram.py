@@ -13,10 +13,16 @@ from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatV
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, VectorLogSink
 
+from pydrake.trajectories import PiecewisePolynomial
+from pydrake.systems.primitives import TrajectorySource
+
+from manta_drake.buoyancy import BalloonBuoyancy
+from manta_drake.coefficients import load_coefficients
 from manta_drake.cpg import CpgOscillators, locked_phases
+from manta_drake.hydro import HydrodynamicForces
 from manta_drake.gaits import get_gait
 from manta_drake.plant import PlantHandles, add_plant
-from manta_drake.scenario import Scenario
+from manta_drake.scenario import Scenario, resolve_path
 
 
 @dc.dataclass
@@ -72,6 +78,50 @@ def _add_controller(builder, scenario: Scenario, handles: DiagramHandles) -> Non
     )
 
 
+def balloon_schedule(scenario: Scenario, max_volume: float) -> TrajectorySource:
+    """A piecewise-constant source of the balloon's volume command [m^3]."""
+    times = [0.0] + [c.time for c in scenario.balloon.schedule]
+    fills = [scenario.balloon.initial_fill] + [c.fill for c in scenario.balloon.schedule]
+    # Zero-order hold needs increasing breaks: keep the last command given at a time.
+    breaks, values = [], []
+    for t, fill in zip(times, fills):
+        if breaks and t <= breaks[-1] + 1e-9:
+            values[-1] = fill
+        else:
+            breaks.append(t)
+            values.append(fill)
+    end = max(breaks[-1], scenario.duration) + 1.0
+    breaks.append(end)
+    values.append(values[-1])
+    traj = PiecewisePolynomial.ZeroOrderHold(
+        np.array(breaks), np.array(values)[None, :] * max_volume)
+    return TrajectorySource(traj)
+
+
+def _add_water(builder, scenario: Scenario, handles: DiagramHandles, coeffs) -> None:
+    """Balloon, its command schedule, and the hydrodynamic forces on the plant."""
+    plant, robot = handles.plant, handles.plant_handles.robot
+    b = coeffs.balloon
+    balloon = builder.AddNamedSystem("balloon", BalloonBuoyancy(
+        b.max_volume.value, b.pump_rate.value, scenario.time_step,
+        scenario.balloon.initial_fill * b.max_volume.value))
+    command = builder.AddNamedSystem("balloon_schedule",
+                                     balloon_schedule(scenario, b.max_volume.value))
+    builder.Connect(command.get_output_port(), balloon.GetInputPort("volume_command"))
+    hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
+        plant, robot, coeffs, scenario.time_step, current=scenario.water.current,
+        added_mass_iso=handles.plant_handles.added_mass_iso))
+    builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+    builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                    hydro.GetInputPort("body_spatial_velocities"))
+    builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
+    builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                    plant.get_applied_spatial_force_input_port())
+    handles.systems.update(balloon=balloon, hydro=hydro, balloon_schedule=command)
+    handles.loggers["balloon_volume"] = LogVectorOutput(
+        balloon.GetOutputPort("balloon_volume"), builder, max(scenario.log_period, 0.01))
+
+
 def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
     """Builds the diagram of ``scenario``.
 
@@ -80,13 +130,18 @@ def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
         and the commanded desired state (32) as ``desired_state``.
     """
     builder = DiagramBuilder()
+    coeffs = load_coefficients(resolve_path(scenario.water.coefficients)) \
+        if scenario.water.enabled else None
     plant_handles = add_plant(
         builder,
         time_step=scenario.time_step,
         discrete_contact_approximation=scenario.discrete_contact_approximation,
+        hydro=coeffs,
     )
     handles = DiagramHandles(plant_handles)
     plant = plant_handles.plant
+    if coeffs is not None:
+        _add_water(builder, scenario, handles, coeffs)
     _add_controller(builder, scenario, handles)
     handles.loggers["plant_state"] = LogVectorOutput(
         plant.get_state_output_port(), builder, scenario.log_period

@@ -15,6 +15,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake.robot_params import JOINT_NAMES
@@ -34,6 +35,7 @@ class PlantHandles:
     pool: object
     body: object  # the robot's main body (RigidBody)
     joint_names: tuple = JOINT_NAMES
+    added_mass_iso: float = 0.0  # kg of isotropic hull added mass in the mass matrix
 
 
 def make_parser(plant: MultibodyPlant) -> Parser:
@@ -49,6 +51,7 @@ def add_plant(
     discrete_contact_approximation: str = "sap",
     with_pool: bool = True,
     weld_body: RigidTransform | None = None,
+    hydro=None,
 ) -> PlantHandles:
     """Adds the robot (and pool) to ``builder`` and finalizes the plant.
 
@@ -59,6 +62,12 @@ def add_plant(
         with_pool: add the pool (floor, walls) as well.
         weld_body: if given, weld the robot's body to the world at this pose
             (for tests that hold the robot in the air).
+        hydro: HydroCoefficients. If given (the robot is in water), the added mass
+            that belongs in the mass matrix is put there: the isotropic part of the
+            hull's added mass and its added rotational inertia as a body welded to the
+            hull at its centre of mass (model instance ``manta_added_mass``, so the
+            robot's own mass stays 8.4 kg; HydrodynamicForces cancels its weight), and
+            each fin's added inertia about its hinge as the actuator's rotor inertia.
     """
     if not time_step > 0:
         raise ValueError(f"time_step: {time_step} must be > 0 (the plant is discrete)")
@@ -66,6 +75,10 @@ def add_plant(
         time_step=time_step,
         discrete_contact_approximation=discrete_contact_approximation,
         contact_model="point",
+        # Live (not sampled) output ports: HydrodynamicForces differences the hull's
+        # velocity between steps, and a sampled port would already show the next step's
+        # value during the update event.
+        use_sampled_output_ports=False,
     )
     plant, scene_graph = AddMultibodyPlant(config, builder)
     parser = make_parser(plant)
@@ -74,13 +87,34 @@ def add_plant(
     body = plant.GetBodyByName("body", robot)
     if weld_body is not None:
         plant.WeldFrames(plant.world_frame(), body.body_frame(), weld_body)
+    iso = _add_hydro_inertia(plant, robot, body, hydro) if hydro is not None else 0.0
     plant.Finalize()
     actuated = tuple(
         plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(robot)
     )
     if actuated != JOINT_NAMES:  # the CPG's 16-vector relies on this order
         raise RuntimeError(f"actuator order {actuated} differs from {JOINT_NAMES}")
-    return PlantHandles(plant, scene_graph, robot, pool, body)
+    return PlantHandles(plant, scene_graph, robot, pool, body, added_mass_iso=iso)
+
+
+def _add_hydro_inertia(plant, robot, body, hydro) -> float:
+    """Puts the implicit part of the added mass into the plant (before Finalize)."""
+    from manta_drake.hydro import split_added_inertia, split_added_mass
+
+    iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
+    Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value)[0]
+    instance = plant.AddModelInstance("manta_added_mass")
+    added = plant.AddRigidBody(
+        "added_mass", instance,
+        SpatialInertia.MakeFromCentralInertia(iso, np.zeros(3), RotationalInertia(Ixx, Iyy, Izz)))
+    p_BoBcm = body.default_com()
+    plant.WeldFrames(body.body_frame(), added.body_frame(), RigidTransform(p_BoBcm))
+    hinge = hydro.fins.hinge_added_inertia.value  # (yaw, roll1, pitch, roll2)
+    for i, index in enumerate(plant.GetJointActuatorIndices(robot)):
+        actuator = plant.get_mutable_joint_actuator(index)
+        actuator.set_default_gear_ratio(1.0)
+        actuator.set_default_rotor_inertia(hinge[i % 4])
+    return iso
 
 
 def body_pose(xyz, rpy_deg) -> RigidTransform:

@@ -77,6 +77,31 @@ class CpgConfig:
 
 
 @dc.dataclass
+class WaterConfig:
+    """The pool's water. ``coefficients`` is relative to the repository root (or absolute)."""
+
+    enabled: bool = True
+    coefficients: str = "models/hydrodynamics.yaml"
+    current: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])  # m/s, world
+
+
+@dc.dataclass
+class BalloonCommand:
+    """From ``time`` [s] on, command the balloon to ``fill`` (0 = empty, 1 = max_volume)."""
+
+    time: float = 0.0
+    fill: float = 0.0
+
+
+@dc.dataclass
+class BalloonConfig:
+    """The BVBS: initial fill and a schedule of fill commands (piecewise constant)."""
+
+    initial_fill: float = 0.0
+    schedule: list[BalloonCommand] = dc.field(default_factory=list)
+
+
+@dc.dataclass
 class VisualizationConfig:
     """Meshcat recording and logging."""
 
@@ -99,6 +124,8 @@ class Scenario:
     initial_stance: str = "trot"
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
     cpg: CpgConfig = dc.field(default_factory=CpgConfig)
+    water: WaterConfig = dc.field(default_factory=WaterConfig)
+    balloon: BalloonConfig = dc.field(default_factory=BalloonConfig)
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     log_period: float = 1e-3  # s, sample period of log.npz
@@ -129,6 +156,18 @@ class Scenario:
         for name in ("a", "b"):
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
                       open_low=True)
+        _vector("water.current", self.water.current, 3)
+        if self.water.enabled and not resolve_path(self.water.coefficients).is_file():
+            raise ScenarioError(f"water.coefficients: file not found: {self.water.coefficients}")
+        _in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")
+        last = -math.inf
+        for i, cmd in enumerate(self.balloon.schedule):
+            _in_range(f"balloon.schedule[{i}].fill", cmd.fill, 0.0, 1.0, "[0, 1]")
+            _in_range(f"balloon.schedule[{i}].time", cmd.time, 0.0, math.inf, "[0, inf) s")
+            if cmd.time < last:
+                raise ScenarioError(f"balloon.schedule[{i}].time: {cmd.time} is before the "
+                                    f"previous command's time {last}; times must not decrease")
+            last = cmd.time
         _one_of(
             "simulator.integration_scheme",
             self.simulator.integration_scheme,
@@ -141,6 +180,15 @@ class Scenario:
         if not (math.isfinite(self.steady_after) and self.steady_after >= 0):
             raise ScenarioError(f"steady_after: {self.steady_after!r} must be a finite number >= 0")
         return self
+
+
+REPO_ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def resolve_path(path: str) -> pathlib.Path:
+    """A scenario path: absolute, or relative to the repository root."""
+    p = pathlib.Path(path)
+    return p if p.is_absolute() else REPO_ROOT / p
 
 
 def _positive(field: str, value: float) -> None:

@@ -1,0 +1,224 @@
+"""Hydrodynamic coefficients: the formulas, and ``models/hydrodynamics.yaml``.
+
+Sign convention: the YAML and this module store *magnitudes* (added mass
+m_a >= 0, damping d >= 0). In Fossen's notation X_udot = -m_a and
+X_u = -d_lin, X_u|u| = -d_quad, so the damping force on axis i is
+``-(d_lin_i + d_quad_i |nu_i|) nu_i``.
+
+Axes are the robot's Drake body frame (x forward, y left, z up), in the order
+(surge, sway, heave, roll, pitch, yaw).
+
+Formulas:
+
+* Body added mass by strip theory (Newman, Marine Hydrodynamics, 2018, ch. 4):
+  the hull is an ellipsoid with semi-axes (a, b, c); every transverse section is
+  an ellipse with half-width b(x) = b sqrt(1 - x^2/a^2) and half-height
+  c(x) = c sqrt(1 - x^2/a^2), whose 2-D added mass for motion along one axis is
+  rho pi (half-length of the *other* axis)^2. Heave and sway integrate transverse
+  sections along x; surge and roll integrate longitudinal sections along y
+  (half-length a(y), half-height c(y)), as the paper does ("both a longitudinal
+  and transverse section").
+* Fin added mass as flat plates (Lewis, Principles of Naval Architecture,
+  SNAME 1989): a plate strip of chord c moving normal to itself has 2-D added
+  mass rho pi c^2 / 4 per unit span; rotating about its mid-chord line,
+  rho pi c^4 / 128 per unit span.
+* Damping by the least-squares fit of Eq. (4): F = d_lin u + d_quad u|u|.
+"""
+
+import dataclasses as dc
+import pathlib
+
+import numpy as np
+from pydrake.common.yaml import yaml_load_typed
+
+from manta_drake.robot_params import DEFAULT_ROBOT, RobotParams
+
+MODELS_DIR = pathlib.Path(__file__).resolve().parent.parent / "models"
+DEFAULT_COEFFICIENTS_FILE = MODELS_DIR / "hydrodynamics.yaml"
+AXES = ("surge", "sway", "heave", "roll", "pitch", "yaw")
+
+
+# --- formulas ----------------------------------------------------------------------------
+
+def body_added_mass_strip_theory(semi_axes, rho: float) -> dict:
+    """Added mass [kg] and added inertia [kg m^2] of an ellipsoidal hull by strip theory.
+
+    Args:
+        semi_axes: (a, b, c) along x (length), y (width), z (height) [m].
+        rho: water density [kg/m^3].
+
+    Returns:
+        dict with ``mass`` (surge, sway, heave) and ``inertia`` (roll, pitch, yaw).
+    """
+    a, b, c = semi_axes
+    # int_{-a}^{a} (1 - x^2/a^2) dx = 4a/3;  int x^2 (1 - x^2/a^2) dx = 4a^3/15.
+    surge = rho * np.pi * c**2 * 4 * b / 3  # longitudinal sections along y
+    sway = rho * np.pi * c**2 * 4 * a / 3
+    heave = rho * np.pi * b**2 * 4 * a / 3
+    roll = rho * np.pi * a**2 * 4 * b**3 / 15  # heave of longitudinal sections, lever y
+    pitch = rho * np.pi * b**2 * 4 * a**3 / 15  # heave of transverse sections, lever x
+    yaw = rho * np.pi * c**2 * 4 * a**3 / 15  # sway of transverse sections, lever x
+    return {"mass": np.array([surge, sway, heave]), "inertia": np.array([roll, pitch, yaw])}
+
+
+def plate_added_mass_per_span(chord: float, rho: float) -> float:
+    """Lewis: 2-D added mass of a flat plate strip moving normal to itself [kg/m]."""
+    return rho * np.pi * chord**2 / 4.0
+
+
+def plate_added_inertia_per_span(chord: float, rho: float) -> float:
+    """Lewis: 2-D added inertia of a flat plate strip rotating about mid-chord [kg m^2/m]."""
+    return rho * np.pi * chord**4 / 128.0
+
+
+def fin_hinge_added_inertia(params: RobotParams, rho: float) -> np.ndarray:
+    """Added inertia of the fin plates about each hinge at the zero pose [kg m^2].
+
+    Order (yaw, roll1, pitch, roll2). roll1 swings both plates (proximal on
+    [0, d3], distal on [d3, d3 + dE] along the span); roll2 swings the distal
+    plate on [0, dE]; pitch turns both plates about their span line; yaw moves
+    them edgewise (no added inertia from a thin plate).
+    """
+    cp, cd, d3, dE = params.proximal_chord, params.distal_chord, params.d3, params.dE
+    mp, md = plate_added_mass_per_span(cp, rho), plate_added_mass_per_span(cd, rho)
+    roll1 = mp * d3**3 / 3 + md * ((d3 + dE) ** 3 - d3**3) / 3
+    roll2 = md * dE**3 / 3
+    pitch = plate_added_inertia_per_span(cp, rho) * d3 + plate_added_inertia_per_span(cd, rho) * dE
+    return np.array([0.0, roll1, pitch, roll2])
+
+
+def fit_damping(velocity, force) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares fit of Eq. (4): force = d_lin * u + d_quad * u|u|.
+
+    Args:
+        velocity: samples u (n,).
+        force: resisting force magnitudes X (n,), same sign as u.
+
+    Returns:
+        (h, residuals): h = [d_lin, d_quad] = (A^T A)^-1 A^T b, residuals = A h - b.
+    """
+    u = np.asarray(velocity, dtype=float)
+    b = np.asarray(force, dtype=float)
+    if u.shape != b.shape or u.ndim != 1 or len(u) < 2:
+        raise ValueError("fit_damping: need two equally long 1-D arrays of at least 2 samples")
+    A = np.column_stack([u, u * np.abs(u)])
+    h, *_ = np.linalg.lstsq(A, b, rcond=None)
+    return h, A @ h - b
+
+
+def damping_force(nu, d_lin, d_quad) -> np.ndarray:
+    """Eq. (2)'s D(nu) nu with magnitudes: -(d_lin + d_quad |nu|) nu, elementwise."""
+    nu = np.asarray(nu, dtype=float)
+    return -(d_lin + d_quad * np.abs(nu)) * nu
+
+
+# --- the YAML ------------------------------------------------------------------------------
+
+@dc.dataclass
+class Scalar:
+    """A coefficient and where it comes from."""
+
+    value: float = 0.0
+    source: str = ""
+
+
+@dc.dataclass
+class Vector:
+    """A coefficient vector and where it comes from."""
+
+    value: list[float] = dc.field(default_factory=list)
+    source: str = ""
+
+
+@dc.dataclass
+class BodyHydro:
+    sealed_volume: Scalar = dc.field(default_factory=Scalar)  # m^3, displaced when submerged
+    sealed_semi_axes: Vector = dc.field(default_factory=Vector)  # m
+    center_of_buoyancy: Vector = dc.field(default_factory=Vector)  # m, in the body frame
+    added_mass: Vector = dc.field(default_factory=Vector)  # kg (surge, sway, heave)
+    added_inertia: Vector = dc.field(default_factory=Vector)  # kg m^2 (roll, pitch, yaw)
+    linear_damping: Vector = dc.field(default_factory=Vector)  # 6, N s/m | N m s
+    quadratic_damping: Vector = dc.field(default_factory=Vector)  # 6, N s^2/m^2 | N m s^2
+
+
+@dc.dataclass
+class LinkHydro:
+    servo_volume: Scalar = dc.field(default_factory=Scalar)  # m^3 per servo bracket
+    linear_damping: Vector = dc.field(default_factory=Vector)  # 6, per link
+    quadratic_damping: Vector = dc.field(default_factory=Vector)  # 6, per link
+
+
+@dc.dataclass
+class FinHydro:
+    normal_force_coefficient: Scalar = dc.field(default_factory=Scalar)
+    skin_friction_coefficient: Scalar = dc.field(default_factory=Scalar)
+    strips_per_plate: Scalar = dc.field(default_factory=Scalar)
+    passive_pitch_max_deg: Scalar = dc.field(default_factory=Scalar)
+    passive_pitch_reference_pressure: Scalar = dc.field(default_factory=Scalar)  # Pa
+    hinge_added_inertia: Vector = dc.field(default_factory=Vector)  # (yaw, roll1, pitch, roll2)
+
+
+@dc.dataclass
+class BalloonHydro:
+    max_volume: Scalar = dc.field(default_factory=Scalar)  # m^3
+    mount_point: Vector = dc.field(default_factory=Vector)  # m, body frame
+    pump_rate: Scalar = dc.field(default_factory=Scalar)  # m^3/s
+
+
+@dc.dataclass
+class HydroCoefficients:
+    """Contents of ``models/hydrodynamics.yaml``: every number with its source."""
+
+    water_density: Scalar = dc.field(default_factory=Scalar)
+    gravity: Scalar = dc.field(default_factory=Scalar)
+    body: BodyHydro = dc.field(default_factory=BodyHydro)
+    links: LinkHydro = dc.field(default_factory=LinkHydro)
+    fins: FinHydro = dc.field(default_factory=FinHydro)
+    balloon: BalloonHydro = dc.field(default_factory=BalloonHydro)
+
+    def entries(self) -> list:
+        """(dotted name, Scalar|Vector) for every coefficient."""
+        return list(_walk(self, ""))
+
+
+def _walk(node, prefix):
+    for f in dc.fields(node):
+        value = getattr(node, f.name)
+        name = f"{prefix}{f.name}"
+        if isinstance(value, (Scalar, Vector)):
+            yield name, value
+        else:
+            yield from _walk(value, name + ".")
+
+
+def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE) -> HydroCoefficients:
+    """Loads and checks ``hydrodynamics.yaml`` (unknown keys, sizes, signs, sources)."""
+    from manta_drake.scenario import ScenarioError, check_keys
+    import yaml
+
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise ScenarioError(f"hydrodynamic coefficients file not found: {path}")
+    check_keys(yaml.safe_load(path.read_text()), HydroCoefficients, path.name)
+    coeffs = yaml_load_typed(schema=HydroCoefficients, filename=str(path))
+    sizes = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
+             "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
+             "links.linear_damping": 6, "links.quadratic_damping": 6,
+             "fins.hinge_added_inertia": 4, "balloon.mount_point": 3}
+    for name, entry in _walk(coeffs, ""):
+        if not entry.source.strip():
+            raise ScenarioError(f"{path.name}: {name} has no source")
+        values = np.atleast_1d(np.asarray(entry.value, dtype=float))
+        if name in sizes and len(values) != sizes[name]:
+            raise ScenarioError(f"{path.name}: {name} needs {sizes[name]} values, got {len(values)}")
+        if not np.all(np.isfinite(values)):
+            raise ScenarioError(f"{path.name}: {name} has non-finite values")
+        signed = name in ("body.center_of_buoyancy", "balloon.mount_point")
+        if not signed and np.any(values < 0):
+            raise ScenarioError(f"{path.name}: {name} must be >= 0 (magnitudes), got {values}")
+    return coeffs
+
+
+def default_body_added_mass(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0) -> dict:
+    """Strip-theory added mass of this robot's hull (the fairing ellipsoid)."""
+    return body_added_mass_strip_theory(params.body_semi_axes, rho)

@@ -68,7 +68,7 @@ def phase_rates(phi, params, frequency_hz, weights) -> np.ndarray:
 
 def cpg_derivatives(x, params, frequency_hz, weights, a, b) -> np.ndarray:
     """Time derivative of the CPG state x = [phi, r, dr, chi, dchi] (80) under Eq. (5)."""
-    phi, r, dr, chi, dchi = np.split(np.asarray(x, dtype=float), 5)
+    phi, r, dr, chi, dchi = np.asarray(x, dtype=float).reshape(5, NUM_OSC)
     R, X = params[0:16], params[16:32]
     return np.concatenate([
         phase_rates(phi, params, frequency_hz, weights),
@@ -81,13 +81,13 @@ def cpg_derivatives(x, params, frequency_hz, weights, a, b) -> np.ndarray:
 
 def joint_angles(x) -> np.ndarray:
     """theta = chi + r sin(phi)."""
-    phi, r, _, chi, _ = np.split(np.asarray(x, dtype=float), 5)
+    phi, r, _, chi, _ = np.asarray(x, dtype=float).reshape(5, NUM_OSC)
     return chi + r * np.sin(phi)
 
 
 def joint_rates(x, phi_dot) -> np.ndarray:
     """d theta / dt = dchi + dr sin(phi) + r cos(phi) dphi/dt (exact, from the state)."""
-    phi, r, dr, _, dchi = np.split(np.asarray(x, dtype=float), 5)
+    phi, r, dr, _, dchi = np.asarray(x, dtype=float).reshape(5, NUM_OSC)
     return dchi + dr * np.sin(phi) + r * np.cos(phi) * phi_dot
 
 

@@ -110,7 +110,8 @@ def _add_water(builder, scenario: Scenario, handles: DiagramHandles, coeffs) -> 
     builder.Connect(command.get_output_port(), balloon.GetInputPort("volume_command"))
     hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
         plant, robot, coeffs, scenario.time_step, current=scenario.water.current,
-        added_mass_iso=handles.plant_handles.added_mass_iso))
+        added_mass_iso=handles.plant_handles.added_mass_iso,
+        update_period=scenario.water.update_period))
     builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
     builder.Connect(plant.get_body_spatial_velocities_output_port(),
                     hydro.GetInputPort("body_spatial_velocities"))

@@ -46,6 +46,18 @@ BOX_TO_ELLIPSOID = (6.0 / np.pi) ** (1.0 / 3.0)
 
 # --- pure maths ------------------------------------------------------------------------------
 
+def cross(a, b):
+    """Row-wise cross product of (N, 3) arrays (np.cross is slow on small arrays)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+
+def _rotate(R, x):
+    """(N, 3, 3) @ (N, 3) -> (N, 3)."""
+    return np.matmul(R, x[:, :, None])[:, :, 0]
+
+
 def ellipsoid_submersion(p_WE, R_WE, semi_axes):
     """Submerged fraction and submerged centroid of ellipsoids under the plane z = 0.
 
@@ -69,7 +81,7 @@ def ellipsoid_submersion(p_WE, R_WE, semi_axes):
     # Centroid of the cap {u_n < s}: u_n = -3 (2 - h)^2 / (4 (3 - h)) along m/|m|.
     u_n = -3.0 * (2.0 - h) ** 2 / (4.0 * (3.0 - h))
     u = (u_n / norm)[:, None] * m
-    centroid = p_WE + np.einsum("nij,nj->ni", R_WE, A * u)
+    centroid = p_WE + _rotate(R_WE, A * u)
     return fraction, centroid
 
 
@@ -91,7 +103,7 @@ def passive_pitch(v_rel, normal, chord, rho, c_normal, pitch_max, reference_pres
     """
     if pitch_max <= 0.0:
         return normal
-    v_n = np.einsum("ni,ni->n", v_rel, normal)
+    v_n = (v_rel * normal).sum(axis=1)
     beta = pitch_max * np.tanh(0.5 * rho * c_normal * v_n * v_n / reference_pressure)
     return np.cos(beta)[:, None] * normal - (np.sign(v_n) * np.sin(beta))[:, None] * chord
 
@@ -108,7 +120,7 @@ def plate_forces(v_rel, normal, area, rho, c_normal, c_friction):
         (N, 3) forces: normal pressure -1/2 rho C_N A |v_n| v_n n plus skin friction
         -1/2 rho C_f A |v_t| v_t.
     """
-    v_n = np.einsum("ni,ni->n", v_rel, normal)
+    v_n = (v_rel * normal).sum(axis=1)
     v_t = v_rel - v_n[:, None] * normal
     half_rho_area = 0.5 * rho * np.asarray(area)
     f_normal = -(half_rho_area * c_normal * np.abs(v_n) * v_n)[:, None] * normal
@@ -270,13 +282,16 @@ class HydrodynamicForces(LeafSystem):
     * ``spatial_forces``: a list of ExternallyAppliedSpatialForce, one per robot body,
       for the plant's ``applied_spatial_force`` input.
 
-    Discrete state: the hull's world velocity at the previous step (for the residual
-    added-mass force), updated every ``time_step``.
+    Discrete state: the hull's world velocity at the last two steps (for the residual
+    added-mass force), updated every ``time_step``. With ``update_period`` > 0 the forces
+    are instead computed in a periodic update every ``update_period`` seconds and held
+    (a zero-order hold: cheaper, one period late); with 0 (default) they are computed
+    from the current poses and velocities whenever the plant asks.
     """
 
     def __init__(self, plant, robot, coeffs: HydroCoefficients, time_step: float,
                  params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
-                 added_mass_iso: float | None = None):
+                 added_mass_iso: float | None = None, update_period: float = 0.0):
         super().__init__()
         self.rho = coeffs.water_density.value
         self.g = coeffs.gravity.value
@@ -310,6 +325,10 @@ class HydrodynamicForces(LeafSystem):
                                   ("roll", "pitch", "yaw"), "kg m^2")
         # Per-body volume (for the submerged fraction that scales the damping).
         self.body_volume = np.bincount(self.el["body"], weights=self.el["volume"], minlength=nb)
+        # Sums of element rows into body rows as matrix products (faster than np.add.at).
+        self._elem_to_body = np.eye(nb)[:, self.el["body"]]
+        self._strip_to_body = np.eye(nb)[:, self.el["strip_body"]]
+        self._lift_per_frac = self.rho * self.g * self.el["volume"]
         self._forces = [ExternallyAppliedSpatialForce() for _ in names]
         for force, index in zip(self._forces, body_index):
             force.body_index = index
@@ -321,10 +340,20 @@ class HydrodynamicForces(LeafSystem):
         self._velocities = self.DeclareAbstractInputPort(
             "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate())
         self._balloon = self.DeclareVectorInputPort("balloon_volume", 1)
-        self.DeclareAbstractOutputPort(
-            "spatial_forces", lambda: AbstractValue.Make(list(self._forces)),
-            self._calc_forces)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.time_step, 0.0, self._store_velocity)
+        if not (np.isfinite(update_period) and update_period >= 0):
+            raise ValueError(f"HydrodynamicForces.update_period: {update_period} must be >= 0")
+        self.update_period = float(update_period)
+        if self.update_period == 0.0:
+            self.DeclareAbstractOutputPort(
+                "spatial_forces", lambda: AbstractValue.Make(list(self._forces)),
+                self._calc_forces)
+            self.DeclarePeriodicDiscreteUpdateEvent(self.time_step, 0.0, self._store_velocity)
+        else:
+            self._held = self.DeclareDiscreteState(6 * nb)  # held [tau_W, f_W] per body
+            self.DeclareAbstractOutputPort(
+                "spatial_forces", lambda: AbstractValue.Make(list(self._forces)),
+                self._output_held, prerequisites_of_calc={self.xd_ticket()})
+            self.DeclarePeriodicDiscreteUpdateEvent(self.update_period, 0.0, self._update_held)
 
     # -- evaluation ---------------------------------------------------------------------------
 
@@ -347,19 +376,16 @@ class HydrodynamicForces(LeafSystem):
                 estimates for the residual added mass and inertia (None: not yet known).
         """
         el = self.el
-        nb = len(R)
         rb = R[el["body"]]
-        p_WE = p[el["body"]] + np.einsum("nij,nj->ni", rb, el["p"])
+        p_WE = p[el["body"]] + _rotate(rb, el["p"])
         frac, cob = ellipsoid_submersion(p_WE, rb, el["axes"])
-        lift = self.rho * self.g * el["volume"] * frac
-        f = np.zeros((nb, 3))
-        tau = np.zeros((nb, 3))
-        np.add.at(f[:, 2], el["body"], lift)
+        lift = self._lift_per_frac * frac
         r = cob - p[el["body"]]
-        np.add.at(tau, el["body"], np.stack([r[:, 1] * lift, -r[:, 0] * lift,
-                                             np.zeros_like(lift)], axis=1))
-        submerged = np.bincount(el["body"], weights=el["volume"] * frac, minlength=nb)
-        body_frac = submerged / self.body_volume
+        # Buoyancy lift * e_z at the centre of buoyancy: torque r x (0, 0, lift).
+        elem = np.stack([r[:, 1] * lift, -r[:, 0] * lift, np.zeros_like(lift), np.zeros_like(lift),
+                         np.zeros_like(lift), lift], axis=1)
+        F = self._elem_to_body @ elem  # (nb, 6): tau, f
+        body_frac = (self._elem_to_body @ (el["volume"] * frac)) / self.body_volume
 
         # Balloon: a sphere at its mount on the hull.
         if balloon_volume > 1e-9:
@@ -367,40 +393,41 @@ class HydrodynamicForces(LeafSystem):
             centre = p[0] + R[0] @ self.balloon_mount
             bf, bc = ellipsoid_submersion(centre[None], R[:1], np.full((1, 3), radius))
             fb = self.rho * self.g * balloon_volume * bf[0]
-            f[0, 2] += fb
-            tau[0] += np.cross(bc[0] - p[0], [0.0, 0.0, fb])
+            rb0 = bc[0] - p[0]
+            F[0, :2] += (rb0[1] * fb, -rb0[0] * fb)
+            F[0, 5] += fb
 
-        # Damping per body axis, relative to the water.
-        v_rel = v - self.current
-        nu_lin = np.einsum("nji,nj->ni", R, v_rel)
-        nu_ang = np.einsum("nji,nj->ni", R, w)
+        # Damping per body axis, relative to the water (body frame, then back to world).
+        Rt = np.swapaxes(R, 1, 2)
+        nu_lin = _rotate(Rt, v - self.current)
+        nu_ang = _rotate(Rt, w)
         nu = np.concatenate([nu_lin, nu_ang], axis=1)
         d = -(self.d_lin + self.d_quad * np.abs(nu)) * nu * body_frac[:, None]
-        f += np.einsum("nij,nj->ni", R, d[:, :3])
-        tau += np.einsum("nij,nj->ni", R, d[:, 3:])
+        F[:, 3:] += _rotate(R, d[:, :3])
+        F[:, :3] += _rotate(R, d[:, 3:])
 
         # Blade elements on the fin strips.
         sb = el["strip_body"]
-        r_s = np.einsum("nij,nj->ni", R[sb], el["strip_p"])
-        v_s = v[sb] + np.cross(w[sb], r_s) - self.current
-        n_s = np.einsum("nij,nj->ni", R[sb], el["strip_n"])
-        c_s = np.einsum("nij,nj->ni", R[sb], el["strip_c"])
+        Rs = R[sb]
+        r_s = _rotate(Rs, el["strip_p"])
+        v_s = v[sb] + cross(w[sb], r_s) - self.current
+        n_s = _rotate(Rs, el["strip_n"])
+        c_s = _rotate(Rs, el["strip_c"])
         n_s = passive_pitch(v_s, n_s, c_s, self.rho, self.c_normal, self.pitch_max,
                             self.pitch_pressure)
         fs = plate_forces(v_s, n_s, el["strip_area"], self.rho, self.c_normal, self.c_friction)
         fs *= frac[el["strip_element"]][:, None]
-        np.add.at(f, sb, fs)
-        np.add.at(tau, sb, np.cross(r_s, fs))
+        F += self._strip_to_body @ np.concatenate([cross(r_s, fs), fs], axis=1)
 
         # Added mass: cancel the weight of the isotropic part (it is in the mass matrix),
         # and apply the residual explicitly from the previous step's acceleration.
-        f[0, 2] += self.added_mass_iso * self.g
+        F[0, 5] += self.added_mass_iso * self.g
         if hull_accel_W is not None:
             a_B = R[0].T @ hull_accel_W
-            f[0] += R[0] @ (-self.residual_added_mass * a_B * body_frac[0])
+            F[0, 3:] += R[0] @ (-self.residual_added_mass * a_B * body_frac[0])
             alpha_B = R[0].T @ hull_alpha_W
-            tau[0] += R[0] @ (-self.residual_added_inertia * alpha_B * body_frac[0])
-        return np.concatenate([tau, f], axis=1)
+            F[0, :3] += R[0] @ (-self.residual_added_inertia * alpha_B * body_frac[0])
+        return F
 
     def _hull_accel(self, context, v_hull, w_hull):
         """Finite-difference hull accelerations against the newest sample taken strictly
@@ -412,7 +439,7 @@ class HydrodynamicForces(LeafSystem):
                 return (v_hull - sample[:3]) / dt, (w_hull - sample[3:6]) / dt
         return None, None
 
-    def _calc_forces(self, context, output):
+    def _forces_now(self, context) -> np.ndarray:
         R, p, w, v = self._kinematics(context)
         balloon = self._balloon.Eval(context)[0]
         if not np.isfinite(balloon):
@@ -422,9 +449,23 @@ class HydrodynamicForces(LeafSystem):
             raise RuntimeError(
                 f"HydrodynamicForces: non-finite force at t = {context.get_time():.4f} s "
                 "(the body state is no longer finite)")
+        return F
+
+    def _write(self, F, output):
         for force, row in zip(self._forces, F):
             force.F_Bq_W = SpatialForce(row[:3], row[3:])
         output.set_value(self._forces)
+
+    def _calc_forces(self, context, output):
+        self._write(self._forces_now(context), output)
+
+    def _output_held(self, context, output):
+        self._write(context.get_discrete_state(self._held).get_value().reshape(-1, 6), output)
+
+    def _update_held(self, context, discrete_state):
+        F = self._forces_now(context)
+        discrete_state.get_mutable_vector(self._held).SetFromVector(F.ravel())
+        self._store_velocity(context, discrete_state)
 
     def _store_velocity(self, context, discrete_state):
         velocities = self._velocities.Eval(context)

@@ -83,6 +83,9 @@ class WaterConfig:
     enabled: bool = True
     coefficients: str = "models/hydrodynamics.yaml"
     current: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])  # m/s, world
+    # 0: forces from the current state at every plant step (exact, no delay). > 0: computed
+    # every update_period seconds and held (faster; one period of delay).
+    update_period: float = 0.0
 
 
 @dc.dataclass
@@ -157,6 +160,7 @@ class Scenario:
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
                       open_low=True)
         _vector("water.current", self.water.current, 3)
+        _in_range("water.update_period", self.water.update_period, 0.0, 0.02, "[0, 0.02] s")
         if self.water.enabled and not resolve_path(self.water.coefficients).is_file():
             raise ScenarioError(f"water.coefficients: file not found: {self.water.coefficients}")
         _in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")

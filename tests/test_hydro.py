@@ -293,3 +293,18 @@ def test_swim_flapping_at_the_surface_moves_forward_stably(dt):
     assert result.metrics["mean_velocity_body"][0] > 0.01  # forward, m/s
     assert log["body_xyz"][-1, 0] - log["body_xyz"][0, 0] > 0.05
     assert np.abs(log["body_xyz"][:, 2]).max() < 0.15  # stays at the surface
+
+
+def test_held_forces_agree_with_exact_forces():
+    """water.update_period trades a small delay for speed; the swim speed barely moves."""
+    speeds = []
+    for period in (0.0, 0.004):
+        s = _water_scenario(duration=6.0, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
+                            balloon=BalloonConfig(initial_fill=1.0),
+                            controller=ControllerConfig(mode="gait", gait="swim"),
+                            initial_stance="swim", steady_after=2.0)
+        s.water.update_period = period
+        result = run(s, f"/tmp/manta_test_held_{period}", progress=False, write_outputs=False)
+        speeds.append(result.metrics["mean_velocity_body"][0])
+    assert speeds[0] > 0.01
+    assert speeds[1] == pytest.approx(speeds[0], rel=0.05)

@@ -9,7 +9,14 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams
+from pydrake.geometry import (
+    DepthRenderCamera,
+    Meshcat,
+    MeshcatParams,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+)
+from pydrake.math import RigidTransform
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, VectorLogSink
 
@@ -19,7 +26,11 @@ from pydrake.systems.primitives import TrajectorySource
 from manta_drake.buoyancy import BalloonBuoyancy
 from manta_drake.coefficients import load_coefficients
 from manta_drake.cpg import CpgOscillators, locked_phases
+from manta_drake.depth import FuzzyDepthEstimator
+from manta_drake.depth_image_noise import DepthImageNoise
 from manta_drake.hydro import HydrodynamicForces
+from manta_drake.pressure import PressureSensor
+from manta_drake.vision import WallDetector
 from manta_drake.gaits import get_gait
 from manta_drake.plant import PlantHandles, add_plant
 from manta_drake.scenario import Scenario, resolve_path
@@ -123,6 +134,62 @@ def _add_water(builder, scenario: Scenario, handles: DiagramHandles, coeffs) -> 
         balloon.GetOutputPort("balloon_volume"), builder, max(scenario.log_period, 0.01))
 
 
+def _add_depth_sensing(builder, scenario: Scenario, handles: DiagramHandles) -> None:
+    """Pressure sensor on the head -> fuzzy depth estimator (Eq. 9)."""
+    plant = handles.plant
+    ps = scenario.pressure_sensor
+    period = 1.0 / ps.rate_hz
+    sensor = builder.AddNamedSystem("pressure_sensor", PressureSensor(
+        plant, handles.plant_handles.body, ps.position, period, ps.noise_std, ps.dropout_rate,
+        seed=scenario.random_seed))
+    builder.Connect(plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
+    estimator = builder.AddNamedSystem("depth_estimator", FuzzyDepthEstimator(
+        scenario.depth_estimator.floor_distance, period,
+        initial_depth=max(0.0, -scenario.initial_pose.xyz[2])))
+    builder.Connect(sensor.GetOutputPort("depth"), estimator.GetInputPort("depth"))
+    handles.systems.update(pressure_sensor=sensor, depth_estimator=estimator)
+    for name, port in (("depth", sensor.GetOutputPort("depth")),
+                       ("z_hat", estimator.GetOutputPort("z_hat"))):
+        handles.loggers[name] = LogVectorOutput(port, builder, period)
+
+
+def _add_camera(builder, scenario: Scenario, handles: DiagramHandles) -> None:
+    """RGB-D camera on the head (VTK) -> noise -> point cloud -> wall detector (Eq. 10)."""
+    from pydrake.geometry import (ClippingRange, DepthRange, MakeRenderEngineVtk,
+                                  RenderCameraCore, RenderEngineVtkParams)
+    from pydrake.perception import BaseField, DepthImageToPointCloud
+    from pydrake.systems.sensors import CameraInfo, PixelType, RgbdSensor
+
+    plant, ph = handles.plant, handles.plant_handles
+    cam = scenario.camera
+    scene_graph = ph.scene_graph
+    if not scene_graph.HasRenderer("vtk"):
+        scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
+    info = CameraInfo(cam.width, cam.height, np.radians(cam.fov_y_deg))
+    core = RenderCameraCore("vtk", info, ClippingRange(0.5 * cam.min_range, 2.0 * cam.max_range),
+                            RigidTransform())
+    X_BC = plant.GetFrameByName("camera", ph.robot).GetFixedPoseInBodyFrame()
+    sensor = builder.AddNamedSystem("camera", RgbdSensor(
+        plant.GetBodyFrameIdOrThrow(ph.body.index()), X_BC,
+        DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range)), False))
+    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    noise = builder.AddNamedSystem("depth_noise", DepthImageNoise(
+        cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout, seed=scenario.random_seed))
+    builder.Connect(sensor.depth_image_32F_output_port(), noise.GetInputPort("depth_image"))
+    to_cloud = builder.AddNamedSystem("depth_to_cloud", DepthImageToPointCloud(
+        info, PixelType.kDepth32F, 1.0, BaseField.kXYZs))
+    builder.Connect(noise.GetOutputPort("noisy_depth_image"), to_cloud.depth_image_input_port())
+    builder.Connect(sensor.body_pose_in_world_output_port(), to_cloud.camera_pose_input_port())
+    detector = builder.AddNamedSystem("wall_detector", WallDetector(
+        1.0 / cam.rate_hz, scenario.wall_detector, meshcat=handles.meshcat))
+    builder.Connect(to_cloud.point_cloud_output_port(), detector.GetInputPort("point_cloud"))
+    builder.Connect(sensor.body_pose_in_world_output_port(), detector.GetInputPort("camera_pose"))
+    handles.systems.update(camera=sensor, depth_noise=noise, depth_to_cloud=to_cloud,
+                           wall_detector=detector)
+    handles.loggers["s_hat"] = LogVectorOutput(detector.GetOutputPort("s_hat"), builder,
+                                               1.0 / cam.rate_hz)
+
+
 def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
     """Builds the diagram of ``scenario``.
 
@@ -141,14 +208,18 @@ def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
     )
     handles = DiagramHandles(plant_handles)
     plant = plant_handles.plant
+    if scenario.visualization.meshcat:
+        handles.meshcat = Meshcat(MeshcatParams(host="localhost", port=None))
     if coeffs is not None:
         _add_water(builder, scenario, handles, coeffs)
+        _add_depth_sensing(builder, scenario, handles)
+    if scenario.camera.enabled:
+        _add_camera(builder, scenario, handles)
     _add_controller(builder, scenario, handles)
     handles.loggers["plant_state"] = LogVectorOutput(
         plant.get_state_output_port(), builder, scenario.log_period
     )
-    if scenario.visualization.meshcat:
-        handles.meshcat = Meshcat(MeshcatParams(host="localhost", port=None))
+    if handles.meshcat is not None:
         params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
         handles.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, plant_handles.scene_graph, handles.meshcat, params

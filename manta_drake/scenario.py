@@ -25,6 +25,8 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
+from manta_drake.vision import WallDetectorParams
+
 
 class ScenarioError(ValueError):
     """A scenario file or value is invalid; the message names the field."""
@@ -105,6 +107,39 @@ class BalloonConfig:
 
 
 @dc.dataclass
+class PressureSensorConfig:
+    """Depth sensor on the head: sample rate, noise, dropout (NaN readings), position."""
+
+    rate_hz: float = 50.0
+    noise_std: float = 0.002  # m
+    dropout_rate: float = 0.0  # probability that a reading is NaN
+    position: list[float] = dc.field(default_factory=lambda: [0.19, 0.0, 0.03])  # body frame
+
+
+@dc.dataclass
+class DepthEstimatorConfig:
+    """Eq. (9). floor_distance is D: the pressure sensor's depth when the robot stands on
+    the floor in the gait stance (0.5 m pool - 0.25 m height of the head)."""
+
+    floor_distance: float = 0.25
+
+
+@dc.dataclass
+class CameraConfig:
+    """The RGB-D camera on the head (rendered with VTK) and its depth noise."""
+
+    enabled: bool = False
+    width: int = 160
+    height: int = 120
+    fov_y_deg: float = 58.0  # a RealSense D435's vertical field of view
+    min_range: float = 0.1  # m
+    max_range: float = 3.0  # m: underwater visibility of a depth camera
+    rate_hz: float = 5.0
+    depth_noise_std: float = 0.005  # m
+    pixel_dropout: float = 0.01
+
+
+@dc.dataclass
 class VisualizationConfig:
     """Meshcat recording and logging."""
 
@@ -129,6 +164,10 @@ class Scenario:
     cpg: CpgConfig = dc.field(default_factory=CpgConfig)
     water: WaterConfig = dc.field(default_factory=WaterConfig)
     balloon: BalloonConfig = dc.field(default_factory=BalloonConfig)
+    pressure_sensor: PressureSensorConfig = dc.field(default_factory=PressureSensorConfig)
+    depth_estimator: DepthEstimatorConfig = dc.field(default_factory=DepthEstimatorConfig)
+    camera: CameraConfig = dc.field(default_factory=CameraConfig)
+    wall_detector: WallDetectorParams = dc.field(default_factory=WallDetectorParams)
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     log_period: float = 1e-3  # s, sample period of log.npz
@@ -172,6 +211,27 @@ class Scenario:
                 raise ScenarioError(f"balloon.schedule[{i}].time: {cmd.time} is before the "
                                     f"previous command's time {last}; times must not decrease")
             last = cmd.time
+        ps = self.pressure_sensor
+        _in_range("pressure_sensor.rate_hz", ps.rate_hz, 0.0, 1000.0, "(0, 1000] Hz", open_low=True)
+        _in_range("pressure_sensor.noise_std", ps.noise_std, 0.0, 1.0, "[0, 1] m")
+        _in_range("pressure_sensor.dropout_rate", ps.dropout_rate, 0.0, 1.0, "[0, 1]")
+        _vector("pressure_sensor.position", ps.position, 3)
+        _in_range("depth_estimator.floor_distance", self.depth_estimator.floor_distance, 0.0,
+                  10.0, "(0, 10] m", open_low=True)
+        cam = self.camera
+        for name, lo, hi in (("width", 8, 4096), ("height", 8, 4096)):
+            _in_range(f"camera.{name}", getattr(cam, name), lo, hi, f"[{lo}, {hi}] pixels")
+        _in_range("camera.fov_y_deg", cam.fov_y_deg, 0.0, 170.0, "(0, 170) deg", open_low=True)
+        _in_range("camera.min_range", cam.min_range, 0.0, cam.max_range,
+                  f"(0, max_range = {cam.max_range}) m", open_low=True)
+        _in_range("camera.max_range", cam.max_range, 0.0, 100.0, "(0, 100] m", open_low=True)
+        _in_range("camera.rate_hz", cam.rate_hz, 0.0, 60.0, "(0, 60] Hz", open_low=True)
+        _in_range("camera.depth_noise_std", cam.depth_noise_std, 0.0, 1.0, "[0, 1] m")
+        _in_range("camera.pixel_dropout", cam.pixel_dropout, 0.0, 1.0, "[0, 1]")
+        try:
+            self.wall_detector.validate()
+        except ValueError as e:
+            raise ScenarioError(f"wall_detector: {e}") from None
         _one_of(
             "simulator.integration_scheme",
             self.simulator.integration_scheme,

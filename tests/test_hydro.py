@@ -308,3 +308,42 @@ def test_held_forces_agree_with_exact_forces():
         speeds.append(result.metrics["mean_velocity_body"][0])
     assert speeds[0] > 0.01
     assert speeds[1] == pytest.approx(speeds[0], rel=0.05)
+
+
+def test_spinning_plate_gets_torque_and_no_net_force():
+    """Strips see their own point velocities: a plate spinning about its centre line."""
+    import copy
+
+    from pydrake.systems.framework import DiagramBuilder
+
+    from manta_drake.hydro import HydrodynamicForces, hydro_body_names
+    from manta_drake.plant import add_plant
+
+    coeffs = copy.deepcopy(COEFFS)
+    coeffs.links.linear_damping.value = [0.0] * 6  # isolate the blade elements
+    coeffs.links.quadratic_damping.value = [0.0] * 6
+    coeffs.fins.passive_pitch_max_deg.value = 0.0  # rigid plates for the closed form
+    h = add_plant(DiagramBuilder(), hydro=coeffs)
+    hydro = HydrodynamicForces(h.plant, h.robot, coeffs, 1e-3)
+    nb = len(hydro_body_names())
+    R = np.tile(np.eye(3), (nb, 1, 1))
+    p = np.tile([0.0, 0.0, -1.0], (nb, 1))  # deep under water
+    w, v = np.zeros((nb, 3)), np.zeros((nb, 3))
+    rest = hydro.compute(R, p, w, v, 0.0)
+    link = hydro_body_names().index("fl_link4")
+    omega = 3.0
+    centre = np.array([0.0, -P.dE / 2, 0.0])  # distal plate centre in its link frame
+    w[link] = [0.0, 0.0, omega]  # spin about the plate's chord axis through its centre
+    v[link] = np.cross(w[link], -centre)  # so the centre itself is at rest
+    spin = hydro.compute(R, p, w, v, 0.0) - rest
+    np.testing.assert_allclose(spin[link, 3:], 0.0, atol=1e-12)  # no net force
+    n = int(coeffs.fins.strips_per_plate.value)
+    ds = P.dE / n
+    y = (np.arange(n) + 0.5) * ds - P.dE / 2  # strip offsets from the centre
+    area = P.distal_chord * ds
+    c_n = coeffs.fins.normal_force_coefficient.value
+    expected = -np.sum(0.5 * RHO * c_n * area * omega**2 * y**2 * np.abs(y))
+    assert spin[link, 2] == pytest.approx(expected, rel=1e-9)  # torque opposes the spin
+    assert expected < 0
+    others = np.delete(np.arange(nb), link)
+    np.testing.assert_allclose(spin[others], 0.0, atol=1e-12)

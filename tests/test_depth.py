@@ -1,0 +1,77 @@
+"""FuzzyDepthEstimator and its membership functions (Eq. 9)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+from manta_drake.depth import FuzzyDepthEstimator, fuzzy_depth, layer_centres, memberships
+
+D = 0.25
+
+
+def test_membership_shapes():
+    mu = memberships([0.0, D / 6, D / 3, D / 2, 2 * D / 3, 5 * D / 6, D], D)
+    np.testing.assert_allclose(mu[:, 0], [1, 1, 0.5, 0, 0, 0, 0])  # trapezoid (surface)
+    np.testing.assert_allclose(mu[:, 1], [0, 0, 0.5, 1, 0.5, 0, 0])  # triangle (mid)
+    np.testing.assert_allclose(mu[:, 2], [0, 0, 0, 0, 0.5, 1, 1])  # trapezoid (deep)
+    # the layers are evenly divided: each membership peaks in its own third
+    h = np.linspace(0, D, 3001)
+    peaks = [h[np.argmax(memberships(h, D)[:, i] - 1e-9 * np.abs(h - c))]
+             for i, c in enumerate((D / 6, D / 2, 5 * D / 6))]
+    assert D / 6 <= peaks[0] + 1e-9 and abs(peaks[1] - D / 2) < 1e-3 and peaks[2] >= 5 * D / 6 - 1e-9
+
+
+def test_partition_of_unity_where_layers_overlap():
+    h = np.linspace(0, D, 1001)
+    np.testing.assert_allclose(memberships(h, D).sum(axis=1), 1.0, atol=1e-12)
+
+
+def test_centroid_equals_independent_computation(rng):
+    for h in rng.uniform(0, D, 200):
+        mu = memberships(h, D)
+        expected = sum(m * c for m, c in zip(mu, (0.0, D / 2, D))) / sum(mu)
+        h_hat, z_hat = fuzzy_depth(h, D)
+        assert h_hat == pytest.approx(expected, abs=1e-12)
+        assert z_hat == pytest.approx(expected / D, abs=1e-12)
+    np.testing.assert_array_equal(layer_centres(D), [0, D / 2, D])
+
+
+def test_z_hat_spans_0_to_1_continuous_and_monotone():
+    h = np.linspace(-0.1, D + 0.1, 20001)
+    _, z = fuzzy_depth(h, D)
+    assert z[0] == 0.0 and z[-1] == 1.0  # and out of range clamps
+    assert fuzzy_depth(0.0, D)[1] == 0.0 and fuzzy_depth(D, D)[1] == 1.0
+    assert np.all(np.diff(z) >= 0)  # monotone
+    assert np.abs(np.diff(z)).max() < 1e-3  # continuous on a fine grid
+    assert fuzzy_depth(D / 2, D)[1] == pytest.approx(0.5)
+
+
+@given(st.floats(0.01, 10.0), st.floats(-5.0, 15.0))
+def test_estimate_stays_in_range_for_any_depth(D_, h):
+    h_hat, z_hat = fuzzy_depth(h, D_)
+    assert 0.0 <= z_hat <= 1.0 and 0.0 <= h_hat <= D_ + 1e-12
+
+
+def _step(system, context, depth):
+    system.GetInputPort("depth").FixValue(context, [depth])
+    context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
+    return (system.GetOutputPort("h_hat").Eval(context)[0],
+            system.GetOutputPort("z_hat").Eval(context)[0])
+
+
+def test_system_holds_last_valid_estimate_on_nan_and_clamps():
+    system = FuzzyDepthEstimator(D, period=0.02)
+    context = system.CreateDefaultContext()
+    h_hat, z_hat = _step(system, context, 0.15)
+    assert z_hat == pytest.approx(fuzzy_depth(0.15, D)[1])
+    assert _step(system, context, np.nan) == (h_hat, z_hat)  # held
+    assert _step(system, context, np.inf) == (h_hat, z_hat)
+    assert _step(system, context, 3.0)[1] == 1.0  # below the floor: clamps
+    assert _step(system, context, -0.3)[1] == 0.0  # above the surface: clamps
+
+
+def test_floor_distance_must_be_positive():
+    with pytest.raises(ValueError, match="floor_distance"):
+        FuzzyDepthEstimator(0.0, 0.02)
+    with pytest.raises(ValueError, match="floor_distance"):
+        FuzzyDepthEstimator(-1.0, 0.02)

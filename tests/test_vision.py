@@ -1,0 +1,148 @@
+"""WallDetector: synthetic clouds made here, and the rendered pool."""
+
+import numpy as np
+import pytest
+from pydrake.perception import PointCloud
+
+from manta_drake.scenario import ControllerConfig, InitialPose, Scenario, VisualizationConfig
+from manta_drake.vision import (
+    WallDetector,
+    WallDetectorParams,
+    detect,
+    downsample_with_normals,
+    finite_points,
+    normal_dbscan,
+    wall_score,
+)
+
+P = WallDetectorParams()
+CAMERA = np.array([0.0, 0.0, -0.25])
+
+
+def plane(origin, u, v, nu, nv, rng, noise=0.004):
+    """Points on a rectangle origin + s u + t v, with Gaussian noise."""
+    s, t = np.meshgrid(np.linspace(0, 1, nu), np.linspace(0, 1, nv))
+    pts = origin + s.ravel()[:, None] * u + t.ravel()[:, None] * v
+    return pts + rng.normal(0, noise, pts.shape)
+
+
+def corner_scene(rng):
+    floor = plane(np.array([0.0, -0.5, -0.5]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
+                  40, 40, rng)
+    wall = plane(np.array([1.0, -0.5, -0.5]), np.array([0, 0, 0.5]), np.array([0, 1.0, 0]),
+                 25, 40, rng)
+    return floor, wall
+
+
+def test_wall_meeting_floor_is_two_clusters_but_plain_dbscan_merges(rng):
+    floor, wall = corner_scene(rng)
+    cloud = np.vstack([floor, wall])
+    det = detect(cloud, P, CAMERA)
+    planes = [c for c in det.clusters if c.label != "object"]
+    assert sorted(c.label for c in planes) == ["floor", "wall"]
+    assert sum(c.size for c in planes) > 0.85 * det.num_points
+    # What is left is the curved band along the corner line, labelled an object.
+    for c in det.clusters:
+        if c.label == "object":
+            assert c.size < 0.2 * min(p.size for p in planes)
+            assert c.centroid[0] == pytest.approx(1.0, abs=0.08)
+            assert c.centroid[2] == pytest.approx(-0.5, abs=0.08)
+    wall_cluster = next(c for c in planes if c.label == "wall")
+    assert abs(wall_cluster.normal[0]) > 0.95 and wall_cluster.centroid[0] == pytest.approx(1.0, abs=0.02)
+    # The same cloud, the same eps and min_points, without the normal test: one cluster.
+    down, normals, _ = downsample_with_normals(cloud, P)
+    plain = normal_dbscan(down, None, P.eps, P.min_points, None)
+    assert len(set(plain[plain >= 0])) == 1
+    assert (plain >= 0).mean() > 0.95
+
+
+def test_floor_wall_ceiling_and_small_object_labels(rng):
+    floor, wall = corner_scene(rng)
+    ceiling = plane(np.array([0.0, -0.5, 0.0]), np.array([0.8, 0, 0]), np.array([0, 1.0, 0]),
+                    30, 35, rng)
+    ball = np.array([0.5, 0.0, -0.35]) + 0.05 * rng.normal(size=(300, 3)) / np.sqrt(3)
+    outliers = rng.uniform(-1, 1, (15, 3))
+    nans = np.full((50, 3), np.nan)
+    det = detect(np.vstack([floor, wall, ceiling, ball, outliers, nans]), P, CAMERA)
+    labels = {c.label for c in det.clusters if c.size >= P.min_cluster_size}
+    assert {"floor", "wall", "ceiling"} <= labels
+    near_ball = [c for c in det.clusters if np.linalg.norm(c.centroid - [0.5, 0, -0.35]) < 0.05]
+    assert near_ball and all(c.label == "object" for c in near_ball)
+    ceiling_cluster = next(c for c in det.clusters if c.label == "ceiling")
+    assert ceiling_cluster.centroid[2] == pytest.approx(0.0, abs=0.02)
+
+
+@pytest.mark.parametrize("cloud", [np.zeros((0, 3)), np.full((500, 3), np.nan),
+                                   np.array([[0.0, 0.0, 0.0]])])
+def test_empty_or_nan_cloud_gives_zero_without_error(cloud):
+    det = detect(cloud, P, CAMERA)
+    assert det.s_hat == 0.0 and det.wall_size == 0
+
+
+def test_finite_points_accepts_drake_layout():
+    xyz = np.array([[0, 1, np.nan, 3], [0, 1, 2, 3], [0, 1, 2, 3]], dtype=float)  # (3, N)
+    np.testing.assert_array_equal(finite_points(xyz), [[0, 0, 0], [1, 1, 1], [3, 3, 3]])
+
+
+def test_only_walls_ahead_count(rng):
+    floor, wall = corner_scene(rng)  # the wall's normal is along x
+    cloud = np.vstack([floor, wall])
+    ahead = detect(cloud, P, CAMERA, view_direction=[1.0, 0.0, -0.2])
+    side = detect(cloud, P, CAMERA, view_direction=[0.0, 1.0, -0.2])
+    assert ahead.s_hat > 0.9 and ahead.wall_size > P.c_max
+    assert side.s_hat == 0.0  # the same wall seen side-on is a side wall
+
+
+def test_wall_score_is_eq10_sigmoid():
+    c_mid = (P.c_min + P.c_max) / 2
+    k = 10 / (P.c_max - P.c_min)
+    for c in (5, 20, 70, 120, 300):
+        assert wall_score(c, P) == pytest.approx(1 / (1 + np.exp(-k * (c - c_mid))))
+    assert wall_score(c_mid, P) == pytest.approx(0.5)
+    assert wall_score(0, P) == 0.0
+
+
+def test_system_holds_output_between_frames_and_survives_empty_input(rng):
+    from pydrake.systems.analysis import Simulator
+
+    floor, wall = corner_scene(rng)
+    system = WallDetector(period=0.2)
+    simulator = Simulator(system)
+    context = simulator.get_mutable_context()
+    cloud = PointCloud(len(floor) + len(wall))
+    cloud.mutable_xyzs()[:] = np.vstack([floor, wall]).T
+    port = system.GetInputPort("point_cloud")
+    port.FixValue(context, cloud)
+    s_hat = system.GetOutputPort("s_hat")
+    assert s_hat.Eval(context)[0] == 0.0  # nothing seen before the first frame
+    simulator.AdvanceTo(0.1)  # the frame at t = 0 has run
+    first = s_hat.Eval(context)[0]
+    assert first > 0.9
+    port.FixValue(context, PointCloud(0))  # the camera goes blind
+    simulator.AdvanceTo(0.19)
+    assert s_hat.Eval(context)[0] == first  # held between frames
+    simulator.AdvanceTo(0.25)  # the frame at t = 0.2 saw nothing
+    assert s_hat.Eval(context)[0] == 0.0
+    detection = system.GetOutputPort("clusters").Eval(context)
+    assert detection.clusters == [] and detection.time == pytest.approx(0.2)
+    assert system.failed_frames == 0
+
+
+def _rendered_s_hat(x_body: float) -> float:
+    from manta_drake.simulate import run
+
+    s = Scenario(name="camera", duration=0.45, initial_stance="trot",
+                 controller=ControllerConfig(mode="hold", gait="trot"),
+                 initial_pose=InitialPose(xyz=[x_body, 0.0, -0.237]),
+                 visualization=VisualizationConfig(meshcat=False))
+    s.camera.enabled = True
+    result = run(s.validate(), f"/tmp/manta_test_camera_{x_body}", progress=False,
+                 write_outputs=False)
+    assert result.handles.systems["wall_detector"].failed_frames == 0
+    return float(result.log["s_hat"][-1, 0])
+
+
+def test_rendered_pool_wall_near_and_far():
+    camera_x = 0.19  # the camera frame's offset ahead of the body origin
+    assert _rendered_s_hat(7.5 - 0.5 - camera_x) > 0.9
+    assert _rendered_s_hat(7.5 - 5.0 - camera_x) < 0.1

@@ -7,13 +7,17 @@ Table 1 holds (8.4 kg; 0.38 m x 0.85 m x 0.14 m at the zero pose):
 * The leg-fin bases sit on the body's sides, 0.10 m ahead of / behind the centre of
   gravity (CG) and 0.10 m to each side, in the CG's horizontal plane (Table 2 has
   d_0 = 0). Hence a_0 = |(0.10, 0.10)| = 0.1414 m and theta_init = +-45 deg, +-135 deg.
-* theta_offset = +-90 deg - theta_init turns each leg-fin to point straight sideways at
-  theta_1 = 0, so that at the zero pose the roll axes are parallel to the body's x axis
-  (roll1/roll2 flap the fin up and down) and the pitch axis runs along the span.
-* d_3 + d_E = 0.425 m - 0.10 m = 0.325 m puts the fin tips 0.85 m apart (Table 1's
-  width). d_3 = 0.12 m (proximal plate, roll1 -> roll2) and d_E = 0.205 m (distal
-  plate, roll2 -> tip): a short proximal link keeps the roll1 moment arm in the gait
-  stance of Eq. (7) small enough for servo-class torques.
+* theta_offset = +-(90 + 10) deg - theta_init turns each leg-fin sideways and swept
+  back by 10 deg at theta_1 = 0 (a manta's pectoral fins sweep back), so the roll axes
+  are nearly parallel to the body's x axis (roll1/roll2 flap the fin up and down) and
+  the pitch axis runs along the span. Why the sweep: X_gait's pitch column bends every
+  distal link forward (by ~0.38 d_E) and its yaw column turns all four fins the same
+  way (a pinwheel, since one DH chain serves every leg); without a sweep both trot
+  support diagonals pass 7-9 cm ahead of the CG and the robot tips over in the trot.
+* d_3 = 0.20 m (proximal plate, roll1 -> roll2) and d_E = 0.125 m (distal plate,
+  roll2 -> tip): a short distal link keeps that forward bend small. With the sweep
+  both trot diagonals pass within 1.5 cm of the CG. d_3 + d_E = 0.325 m puts the tips
+  0.84 m apart at the zero pose (Table 1: 0.85 m).
 
 Frames: the paper's body frame is NED (x forward, y starboard, z down). Drake's world
 is z-up, so the robot's Drake body frame is x forward, y port (left), z up; the two
@@ -43,6 +47,7 @@ class LegMount:
     name: str
     x: float
     y: float
+    sweep: float = math.radians(10.0)  # fin swept back by this at theta_1 = 0
 
     @property
     def a0(self) -> float:
@@ -56,9 +61,10 @@ class LegMount:
 
     @property
     def theta_offset(self) -> float:
-        """Table 2, link 1: yaw-servo zero, chosen so theta_1 = 0 points the fin sideways."""
+        """Table 2, link 1: yaw-servo zero: at theta_1 = 0 the fin points sideways, swept
+        back by ``sweep`` (NED yaw: left fins rotate negative, right fins positive)."""
         lateral = math.copysign(math.pi / 2, self.y)
-        return lateral - self.theta_init
+        return lateral + math.copysign(self.sweep, self.y) - self.theta_init
 
 
 @dataclass(frozen=True)
@@ -72,8 +78,8 @@ class RobotParams:
         LegMount("rl", -0.10, -0.10),
         LegMount("rr", -0.10, 0.10),
     )
-    d3: float = 0.12  # Table 2, link 3: roll1/pitch axes -> roll2 axis, along the span
-    dE: float = 0.205  # Table 2, link E: roll2 axis -> fin tip, along the span
+    d3: float = 0.20  # Table 2, link 3: roll1/pitch axes -> roll2 axis, along the span
+    dE: float = 0.125  # Table 2, link E: roll2 axis -> fin tip, along the span
 
     # Body: a flat ellipsoid (NACA0022-like section), semi-axes along x, y, z.
     body_semi_axes: tuple = (0.19, 0.12, 0.07)

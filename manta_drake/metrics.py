@@ -71,3 +71,33 @@ def max_joint_step(joint_angles: np.ndarray) -> float:
     if len(joint_angles) < 2:
         return 0.0
     return float(np.abs(np.diff(joint_angles, axis=0)).max())
+
+
+def behaviour_at(params: np.ndarray, behaviours: dict, tolerance: float) -> list:
+    """Per sample, the behaviour whose parameters are all within ``tolerance`` (angles on
+    the torus, wrapped), or None while between behaviours."""
+    params = np.atleast_2d(params)
+    labels = [None] * len(params)
+    for name, target in behaviours.items():
+        err = np.abs(np.angle(np.exp(1j * (params - np.asarray(target))))).max(axis=1)
+        for i in np.flatnonzero(err < tolerance):
+            labels[i] = name
+    return labels
+
+
+def behaviour_transitions(t, params, behaviours: dict, tolerance: float = 0.05) -> list:
+    """Transitions between behaviours as ``{from, to, start_s, end_s}``.
+
+    A transition starts when the parameters last were at one behaviour and ends when they
+    first reach another one (within ``tolerance`` rad on every parameter).
+    """
+    labels = behaviour_at(params, behaviours, tolerance)
+    out, current, last_time = [], None, None
+    for time, label in zip(np.asarray(t, dtype=float), labels):
+        if label is None:
+            continue
+        if current is not None and label != current:
+            out.append({"from": current, "to": label, "start_s": float(last_time),
+                        "end_s": float(time)})
+        current, last_time = label, time
+    return out

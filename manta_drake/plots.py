@@ -100,3 +100,139 @@ def write_run_plots(log: dict, out_dir, title="", shade=None) -> None:
     if "body_xyz" in log:
         plot_states(log, out_dir / "states.png", title)
         plot_trajectory(log, out_dir / "trajectory.png", title)
+
+
+# --- the paper's figures ----------------------------------------------------------------------
+
+def behaviour_spans(log: dict, transitions: list, end: float) -> list:
+    """(start, end, label) spans for shading: each behaviour held, and each transition."""
+    spans, t0 = [], 0.0
+    current = transitions[0]["from"] if transitions else None
+    for tr in transitions:
+        spans.append((t0, tr["start_s"], tr["from"]))
+        spans.append((tr["start_s"], tr["end_s"], f"{tr['from']}->{tr['to']}"))
+        t0, current = tr["end_s"], tr["to"]
+    if current is not None:
+        spans.append((t0, end, current))
+    return spans
+
+
+def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",)):
+    """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth, z_hat and s_hat over
+    time, with the behaviour phases shaded (grey: a behaviour held, orange: a transition)."""
+    t, tc = log["t"], log["t_command"]
+    spans = behaviour_spans(log, metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
+    rows = [("joint outputs [deg]", "joints"), ("Euler angles [deg]", "euler"),
+            ("depth [m]", "depth"), ("z_hat, s_hat", "sensing")]
+    fig, axes = plt.subplots(len(rows), 1, figsize=(11, 10), sharex=True)
+    for ax, (ylabel, kind) in zip(axes, rows):
+        for start, end, label in spans:
+            transition = "->" in label
+            ax.axvspan(start, end, color="tab:orange" if transition else "gray",
+                       alpha=0.18 if transition else 0.07)
+            if kind == "joints":
+                ax.text((start + end) / 2, 1.01, label, transform=ax.get_xaxis_transform(),
+                        ha="center", va="bottom", fontsize=8)
+        if kind == "joints":
+            for leg in joints:
+                k = LEGS.index(leg)
+                for j, joint in enumerate(JOINTS):
+                    ax.plot(tc, np.degrees(log["commanded_joint_angles"][:, 4 * k + j]),
+                            lw=1.0, label=f"{LEG_TITLES[leg]} {joint}")
+            ax.legend(ncol=4, fontsize=7, loc="lower left")
+        elif kind == "euler":
+            for i, name in enumerate(("roll", "pitch", "yaw")):
+                ax.plot(t, np.degrees(np.unwrap(log["body_rpy"][:, i])), label=name)
+            ax.legend(ncol=3, fontsize=8)
+        elif kind == "depth":
+            ax.plot(t, -log["body_xyz"][:, 2], label="hull centre")
+            if "depth" in log:
+                ax.plot(log["t_depth"], log["depth"][:, 0], lw=0.8, label="pressure sensor (head)")
+            ax.invert_yaxis()
+            ax.legend(fontsize=8)
+        else:
+            if "z_hat" in log:
+                ax.plot(log["t_z_hat"], log["z_hat"][:, 0], label="z_hat (depth)")
+            if "s_hat" in log:
+                ax.step(log["t_s_hat"], log["s_hat"][:, 0], where="post", label="s_hat (wall)")
+            ax.set_ylim(-0.05, 1.05)
+            ax.legend(fontsize=8)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def fig_velocities(speeds: dict, path):
+    """Fig. 7 style: mean body velocity (surge and sway) and yaw rate per gait."""
+    names = list(speeds)
+    u = [speeds[n]["mean_velocity_body"][0] for n in names]
+    v = [speeds[n]["mean_velocity_body"][1] for n in names]
+    yaw = [speeds[n]["yaw_rate_deg_s"] for n in names]
+    x = np.arange(len(names))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    ax1.bar(x - 0.2, u, 0.4, label="surge u (forward)")
+    ax1.bar(x + 0.2, v, 0.4, label="sway v (left)")
+    ax1.set_xticks(x, names)
+    ax1.set_ylabel("mean body velocity [m/s]")
+    ax1.axhline(0, color="k", lw=0.8)
+    ax1.legend(fontsize=8)
+    ax1.grid(alpha=0.3, axis="y")
+    ax2.bar(x, yaw, 0.5, color="tab:green")
+    ax2.set_xticks(x, names)
+    ax2.set_ylabel("mean yaw rate [deg/s]")
+    ax2.axhline(0, color="k", lw=0.8)
+    ax2.grid(alpha=0.3, axis="y")
+    fig.suptitle("Locomotion velocity per gait (cf. paper Fig. 7)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def fig_left_front_joints(logs: dict, path, window: float = 6.0):
+    """Fig. 9 style: left-front joint angles (measured) per gait over the last ``window`` s."""
+    fig, axes = plt.subplots(len(logs), 1, figsize=(9, 2.3 * len(logs) + 0.5), sharex=False)
+    axes = np.atleast_1d(axes)
+    for ax, (name, log) in zip(axes, logs.items()):
+        t = log["t"]
+        m = t >= t[-1] - window
+        for j, joint in enumerate(JOINTS):
+            ax.plot(t[m] - t[m][0], np.degrees(log["joint_angles"][m, j]), label=joint)
+        ax.set_ylabel(f"{name}\n[deg]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(ncol=4, fontsize=8, loc="upper right")
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle("Left-front leg-fin joint angles per gait (cf. paper Fig. 9)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def fig_point_cloud(detection, path, title="Labelled point cloud (cf. paper Fig. 12)"):
+    """Top and side views of the wall detector's labelled clusters."""
+    from manta_drake.vision import LABEL_COLORS
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    for c in detection.clusters if detection is not None else []:
+        color = LABEL_COLORS[c.label]
+        ax1.scatter(c.points[:, 0], c.points[:, 1], s=4, color=color)
+        ax2.scatter(c.points[:, 0], c.points[:, 2], s=4, color=color)
+    for label, color in LABEL_COLORS.items():
+        ax1.scatter([], [], color=color, label=label)
+    ax1.set_xlabel("x [m]")
+    ax1.set_ylabel("y [m]")
+    ax1.set_aspect("equal")
+    ax1.legend(fontsize=8)
+    ax1.set_title("top view")
+    ax2.set_xlabel("x [m]")
+    ax2.set_ylabel("z [m]")
+    ax2.set_aspect("equal")
+    ax2.set_title("side view")
+    s = f", s_hat = {detection.s_hat:.2f} at t = {detection.time:.1f} s" if detection else ""
+    fig.suptitle(title + s)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -79,6 +79,20 @@ class CpgConfig:
 
 
 @dc.dataclass
+class TransitionConfig:
+    """PotentialTransition (Eqs. 11-15); see ``manta_drake.transition`` for the defaults."""
+
+    period: float = 0.02  # s
+    g: float = 0.125
+    T: float = 0.5
+    alpha: float = 0.95
+    z_t: float = 1.0
+    blend: str = "potential"  # Eq. (12); "linear" is Eq. (11)
+    # A behaviour counts as reached when every parameter is within this of it [rad].
+    arrival_tolerance: float = 0.05
+
+
+@dc.dataclass
 class WaterConfig:
     """The pool's water. ``coefficients`` is relative to the repository root (or absolute)."""
 
@@ -119,9 +133,11 @@ class PressureSensorConfig:
 @dc.dataclass
 class DepthEstimatorConfig:
     """Eq. (9). floor_distance is D: the pressure sensor's depth when the robot stands on
-    the floor in the gait stance (0.5 m pool - 0.25 m height of the head)."""
+    the floor in the gait stance (0.21 m in the 0.5 m pool). Hovering just above the
+    floor then already reads z_hat ~ 0.9, so the target is mostly the gait and the
+    robot settles on the floor instead of being held up by swim-like flapping."""
 
-    floor_distance: float = 0.25
+    floor_distance: float = 0.20
 
 
 @dc.dataclass
@@ -133,7 +149,9 @@ class CameraConfig:
     height: int = 120
     fov_y_deg: float = 58.0  # a RealSense D435's vertical field of view
     min_range: float = 0.1  # m
-    max_range: float = 3.0  # m: underwater visibility of a depth camera
+    # Underwater a depth camera's 850 nm infrared is absorbed within ~1 m (about 4 /m), so its
+    # range is far shorter than in air: the wall is "seen" once it is within max_range.
+    max_range: float = 0.8  # m
     rate_hz: float = 5.0
     depth_noise_std: float = 0.005  # m
     pixel_dropout: float = 0.01
@@ -162,6 +180,7 @@ class Scenario:
     initial_stance: str = "trot"
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
     cpg: CpgConfig = dc.field(default_factory=CpgConfig)
+    transition: TransitionConfig = dc.field(default_factory=TransitionConfig)
     water: WaterConfig = dc.field(default_factory=WaterConfig)
     balloon: BalloonConfig = dc.field(default_factory=BalloonConfig)
     pressure_sensor: PressureSensorConfig = dc.field(default_factory=PressureSensorConfig)
@@ -198,6 +217,17 @@ class Scenario:
         for name in ("a", "b"):
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
                       open_low=True)
+        tr = self.transition
+        for name in ("period", "g", "T", "alpha", "arrival_tolerance"):
+            _positive(f"transition.{name}", getattr(tr, name))
+        _in_range("transition.z_t", tr.z_t, 0.0, 1.0, "(0, 1]", open_low=True)
+        _one_of("transition.blend", tr.blend, ("potential", "linear"))
+        if tr.alpha * tr.g * tr.T > 1:
+            raise ScenarioError(f"transition: alpha * g * T = {tr.alpha * tr.g * tr.T:.3g} must be "
+                                "<= 1 (larger steps overshoot the target)")
+        if self.controller.mode == "transition" and not self.water.enabled:
+            raise ScenarioError("controller.mode: 'transition' needs water.enabled: true "
+                                "(z_hat comes from the pressure sensor)")
         _vector("water.current", self.water.current, 3)
         _in_range("water.update_period", self.water.update_period, 0.0, 0.02, "[0, 0.02] s")
         if self.water.enabled and not resolve_path(self.water.coefficients).is_file():

@@ -132,6 +132,13 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["distance_m"] = M.horizontal_distance(xyz)
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
+    if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
+        from manta_drake.gaits import GAITS
+
+        behaviours = {name: GAITS[name].to_vector() for name in ("swim", "trot", "turning")}
+        m["transitions"] = M.behaviour_transitions(
+            log["t_cpg_params"], log["cpg_params"], behaviours,
+            scenario.transition.arrival_tolerance)
     if len(log.get("commanded_joint_angles", [])) >= 2:
         m["max_joint_step_rad"] = M.max_joint_step(log["commanded_joint_angles"])
         n = min(len(log["joint_angles"]), len(log["commanded_joint_angles"]))

@@ -291,6 +291,7 @@ class WallDetector(LeafSystem):
         self.meshcat = meshcat
         self.failed_frames = 0
         self.history: list = []  # (time, s_hat, wall size) per frame, for plots
+        self.best_detection: Detection | None = None  # the frame with the largest wall
         self._cloud = self.DeclareAbstractInputPort("point_cloud", AbstractValue.Make(PointCloud()))
         self._camera = self.DeclareAbstractInputPort("camera_pose",
                                                      AbstractValue.Make(RigidTransform()))
@@ -315,6 +316,8 @@ class WallDetector(LeafSystem):
         state.get_mutable_discrete_state(self._s_hat).SetAtIndex(0, detection.s_hat)
         state.get_mutable_abstract_state(self._detection).set_value(detection)
         self.history.append((detection.time, detection.s_hat, detection.wall_size))
+        if self.best_detection is None or detection.wall_size > self.best_detection.wall_size:
+            self.best_detection = detection
         if self.meshcat is not None:
             publish_clusters(self.meshcat, detection)
 

@@ -8,7 +8,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: demo test setup clean syslibs models
+.PHONY: demo test setup clean syslibs models experiments benchmark
 
 setup: syslibs $(STAMP)
 
@@ -24,10 +24,21 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: setup
-	$(PY) diagrams/stand.py --out $(OUT)/stand
+	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors
 
 test: setup
 	$(PY) -m pytest -q
+
+experiments: setup
+	$(PY) diagrams/locomotion.py --out $(OUT)/locomotion
+	$(PY) diagrams/two_behaviors.py --out $(OUT)/two_behaviors
+	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors
+	$(PY) diagrams/float_sink.py --out $(OUT)/float_sink
+
+benchmark: setup
+	$(PY) scripts/benchmark.py
+	$(PY) scripts/benchmark_hydro.py
+	$(PY) scripts/benchmark_vision.py
 
 models: setup
 	$(PY) scripts/generate_models.py

@@ -64,7 +64,7 @@ def _progress(total: float, enabled: bool):
         from tqdm import tqdm
     except ImportError:
         return None
-    return tqdm(total=round(total, 3), unit="sim s", desc="simulating", file=sys.stderr,
+    return tqdm(total=total, unit="sim s", desc="simulating", file=sys.stderr,
                 bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
 
 
@@ -189,12 +189,13 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     wall_start = time.perf_counter()
     try:
         simulator.Initialize()
-        chunk = max(scenario.duration / 200.0, 0.05)
-        while root_context.get_time() < scenario.duration - 1e-12:
-            t_next = min(root_context.get_time() + chunk, scenario.duration)
+        # Chunk ends from the index, so the last one is exactly the duration.
+        n_chunks = max(1, min(200, int(np.ceil(scenario.duration / 0.05))))
+        for k in range(1, n_chunks + 1):
+            t_next = scenario.duration * k / n_chunks
             simulator.AdvanceTo(t_next)
             if bar is not None:
-                bar.update(round(t_next - bar.n, 3))
+                bar.update(t_next - bar.n)
     except Exception as e:  # keep the log of what happened up to the failure
         failure = {"time_s": float(root_context.get_time()), "reason": f"{type(e).__name__}: {e}"}
     finally:

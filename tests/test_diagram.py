@@ -1,0 +1,95 @@
+"""Whole diagrams, short runs: locomotion, the two transition experiments, failure logs."""
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from manta_drake.gaits import GAITS
+from manta_drake.scenario import load_scenario
+from manta_drake.simulate import SimulationError, run
+from manta_drake.transition import wrap
+
+DIAGRAMS = pathlib.Path(__file__).resolve().parent.parent / "diagrams"
+
+
+def _scenario(name, **overrides):
+    s = load_scenario(DIAGRAMS / f"{name}.yaml")
+    s.visualization.meshcat = False
+    for key, value in overrides.items():
+        setattr(s, key, value)
+    return s.validate()
+
+
+def test_trot_on_the_floor_moves_forward(tmp_path):
+    s = _scenario("locomotion_trot", duration=10.0, steady_after=4.0)
+    result = run(s, tmp_path, progress=False, write_outputs=False)
+    u, v = result.metrics["mean_velocity_body"]
+    assert u > 0.02  # forward, m/s
+    assert abs(np.degrees(result.log["body_rpy"][:, 0])).max() < 30  # upright on its fins
+    assert result.log["body_xyz"][-1, 2] < -0.2  # on the floor
+
+
+def test_two_behaviours_swim_to_trot_by_depth(tmp_path):
+    s = _scenario("two_behaviors", duration=20.0)
+    s.balloon.schedule[0].time = 1.0  # deflate early to keep the test short
+    result = run(s, tmp_path, progress=False, write_outputs=False)
+    log, m = result.log, result.metrics
+    assert log["z_hat"][:10, 0].max() < 0.3  # swimming at the surface
+    assert log["z_hat"][-50:, 0].min() > 0.9  # on the floor after deflating
+    # the commanded joints settle on the trot pattern: CPG params at trot ...
+    assert np.abs(wrap(log["cpg_params"][-1] - GAITS["trot"].to_vector())).max() < 0.05
+    # ... and the joints oscillate with trot's offsets X and amplitudes |R| (last CPG period)
+    tc = log["t_command"]
+    last = tc >= tc[-1] - 2.0
+    q = log["commanded_joint_angles"][last]
+    np.testing.assert_allclose(0.5 * (q.max(0) + q.min(0)), GAITS["trot"].X.ravel(), atol=0.05)
+    np.testing.assert_allclose(0.5 * (q.max(0) - q.min(0)), np.abs(GAITS["trot"].R.ravel()),
+                               atol=0.05)
+    assert [(tr["from"], tr["to"]) for tr in m["transitions"]] == [("swim", "trot")]
+    assert m["max_joint_step_rad"] < 0.01  # no jump in any commanded joint angle
+
+
+def test_three_behaviours_wall_seen_then_turning(tmp_path):
+    """On the floor in trot, facing the end wall just beyond the camera's range."""
+    s = _scenario("three_behaviors", duration=14.0)
+    s.initial_pose.xyz = [7.5 - 0.19 - 1.0, 0.0, -0.25]  # camera 1.0 m from the wall
+    s.initial_stance = "trot"
+    s.controller.gait = "trot"
+    s.balloon.initial_fill = 0.0
+    s.balloon.schedule = []
+    result = run(s, tmp_path, progress=False, write_outputs=False)
+    log, m = result.log, result.metrics
+    assert log["s_hat"][0, 0] < 0.1  # the wall is out of range at first
+    assert log["s_hat"][:, 0].max() > 0.9  # seen once the robot trots closer
+    pairs = [(tr["from"], tr["to"]) for tr in m["transitions"]]
+    assert ("trot", "turning") in pairs
+    t_seen = log["t_s_hat"][np.argmax(log["s_hat"][:, 0] > 0.9)]
+    after = log["t"] > t_seen + 4.0
+    yaw = np.unwrap(log["body_rpy"][after, 2])
+    rate = np.degrees(np.polyfit(log["t"][after], yaw, 1)[0])
+    assert abs(rate) > 3.0  # deg/s: clearly turning
+    assert m["max_joint_step_rad"] < 0.01
+
+
+def test_failed_run_still_writes_its_log_and_why(tmp_path, monkeypatch):
+    import manta_drake.hydro as hydro
+
+    original = hydro.HydrodynamicForces._forces_now
+
+    def broken(self, context):
+        if context.get_time() > 0.5:
+            raise RuntimeError("injected fault")
+        return original(self, context)
+
+    monkeypatch.setattr(hydro.HydrodynamicForces, "_forces_now", broken)
+    s = _scenario("locomotion_swim", duration=2.0)
+    with pytest.raises(SimulationError, match="t = 0.5"):
+        run(s, tmp_path, progress=False, write_outputs=False)
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["status"] == "failed"
+    assert "injected fault" in metrics["failure"]["reason"]
+    assert metrics["failure"]["time_s"] == pytest.approx(0.5, abs=0.01)
+    log = np.load(tmp_path / "log.npz")
+    assert 0.45 < log["t"][-1] <= 0.51  # the log up to the failure

@@ -4,7 +4,6 @@
 Usage: python diagrams/float_sink.py [--scenario diagrams/float_sink.yaml] [--out out/float_sink]
 """
 
-import argparse
 import pathlib
 import sys
 
@@ -13,9 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from manta_drake.cli import print_metrics  # noqa: E402
-from manta_drake.scenario import load_scenario  # noqa: E402
-from manta_drake.simulate import run  # noqa: E402
+from manta_drake.cli import run_experiment  # noqa: E402
 
 HERE = pathlib.Path(__file__).resolve().parent
 
@@ -42,18 +39,11 @@ def plot(log, scenario, path):
     plt.close(fig)
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", default=HERE / "float_sink.yaml")
-    parser.add_argument("--out", default="out/float_sink")
-    args = parser.parse_args()
-    scenario = load_scenario(args.scenario)
-    result = run(scenario, args.out)
-    plot(result.log, scenario, result.out_dir / "float_sink.png")
-    print_metrics(result.metrics, result.out_dir)
-    print(f"  float_sink.png: depth and balloon volume over time")
-    return 0
+def figures(result, scenario):
+    path = result.out_dir / "float_sink.png"
+    plot(result.log, scenario, path)
+    return [path]
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_experiment(__doc__, HERE / "float_sink.yaml", "out/float_sink", figures))

@@ -39,6 +39,38 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  recording: open {(out_dir / 'recording.html').resolve()} in a browser")
 
 
+def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) -> int:
+    """The body of a diagram script: parse ``--scenario --out --duration --no-meshcat``,
+    run, call ``after_run(result, scenario)`` (figures), print the metrics.
+
+    Returns:
+        the process exit status (2 with a one-line message on a bad scenario or a failed run).
+    """
+    from manta_drake.scenario import ScenarioError, load_scenario
+    from manta_drake.simulate import SimulationError, run
+
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--scenario", default=scenario_path)
+    parser.add_argument("--out", default=default_out)
+    parser.add_argument("--duration", type=float, help="override the scenario's duration [s]")
+    parser.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
+    args = parser.parse_args()
+    try:
+        scenario = load_scenario(args.scenario,
+                                 {"duration": args.duration} if args.duration else {})
+        if args.no_meshcat:
+            scenario.visualization.meshcat = False
+        result = run(scenario, args.out)
+    except (ScenarioError, SimulationError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    figures = after_run(result, scenario) if after_run else []
+    print_metrics(result.metrics, result.out_dir)
+    for path in figures or []:
+        print(f"  figure: {path}")
+    return 0
+
+
 def _list() -> int:
     import yaml
 

@@ -32,7 +32,7 @@ so a 4x4 matrix flattened row-major is in the plant's order.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 LEGS = ("fl", "fr", "rl", "rr")
 JOINTS = ("yaw", "roll1", "pitch", "roll2")

@@ -1,6 +1,5 @@
 """HydrodynamicForces and its maths: closed forms and independent computations."""
 
-import dataclasses as dc
 
 import numpy as np
 import pytest
@@ -201,13 +200,13 @@ def _water_scenario(**kw) -> Scenario:
     return s.validate()
 
 
-def test_inflated_robot_floats_at_the_hydrostatic_draft():
+def test_inflated_robot_floats_at_the_hydrostatic_draft(tmp_path):
     full = COEFFS.balloon.max_volume.value
     mass = P.total_mass
     z_eq = brentq(lambda z: RHO * robot_displacement(z, full) - mass, -0.2, 0.1)
     s = _water_scenario(duration=10.0, initial_pose=InitialPose(xyz=[0, 0, z_eq + 0.005]),
                         balloon=BalloonConfig(initial_fill=1.0))
-    result = run(s, "/tmp/manta_test_float", progress=False, write_outputs=False)
+    result = run(s, tmp_path, progress=False, write_outputs=False)
     z = result.log["body_xyz"][:, 2]
     t = result.log["t"]
     assert np.ptp(z[t > 8.0]) < 0.002  # at rest
@@ -225,11 +224,11 @@ def test_inflated_robot_floats_at_the_hydrostatic_draft():
     assert hydro.added_mass_iso > 0
 
 
-def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor():
+def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
     s = _water_scenario(duration=7.0, initial_pose=InitialPose(xyz=[0, 0, -0.12]),
                         balloon=BalloonConfig(initial_fill=0.0))
-    result = run(s, "/tmp/manta_test_sink", progress=False, write_outputs=False)
-    t, z, w = result.log["t"], result.log["body_xyz"][:, 2], result.log["body_v_world"][:, 2]
+    result = run(s, tmp_path, progress=False, write_outputs=False)
+    z, w = result.log["body_xyz"][:, 2], result.log["body_v_world"][:, 2]
     # Closed form: net weight = (sum of heave drag laws) at terminal velocity, fully submerged.
     fins_area = 4 * (P.proximal_chord * P.d3 + P.distal_chord * P.dE)
     b, links, fins = COEFFS.body, COEFFS.links, COEFFS.fins
@@ -250,7 +249,6 @@ def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor():
 
 def test_surge_step_force_accelerates_with_added_mass():
     from pydrake.systems.analysis import Simulator
-    from pydrake.systems.primitives import ConstantVectorSource
 
     from manta_drake.diagram import build_diagram, initialize_context
     from manta_drake.plant import body_pose, set_initial_state
@@ -280,13 +278,13 @@ def test_surge_step_force_accelerates_with_added_mass():
 
 
 @pytest.mark.parametrize("dt", [0.5e-3, 1e-3, 2e-3])
-def test_swim_flapping_at_the_surface_moves_forward_stably(dt):
+def test_swim_flapping_at_the_surface_moves_forward_stably(dt, tmp_path):
     s = _water_scenario(duration=6.0, time_step=dt, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
                         balloon=BalloonConfig(initial_fill=1.0),
                         controller=ControllerConfig(mode="gait", gait="swim"),
                         initial_stance="swim", log_period=dt, steady_after=2.0)
     s.simulator.max_step_size = dt
-    result = run(s, f"/tmp/manta_test_swim_{dt}", progress=False, write_outputs=False)
+    result = run(s, tmp_path, progress=False, write_outputs=False)
     log = result.log
     assert result.metrics["status"] == "ok"
     assert np.all(np.isfinite(log["body_xyz"])) and np.all(np.isfinite(log["joint_angles"]))
@@ -295,7 +293,7 @@ def test_swim_flapping_at_the_surface_moves_forward_stably(dt):
     assert np.abs(log["body_xyz"][:, 2]).max() < 0.15  # stays at the surface
 
 
-def test_held_forces_agree_with_exact_forces():
+def test_held_forces_agree_with_exact_forces(tmp_path):
     """water.update_period trades a small delay for speed; the swim speed barely moves."""
     speeds = []
     for period in (0.0, 0.004):
@@ -304,7 +302,7 @@ def test_held_forces_agree_with_exact_forces():
                             controller=ControllerConfig(mode="gait", gait="swim"),
                             initial_stance="swim", steady_after=2.0)
         s.water.update_period = period
-        result = run(s, f"/tmp/manta_test_held_{period}", progress=False, write_outputs=False)
+        result = run(s, tmp_path / str(period), progress=False, write_outputs=False)
         speeds.append(result.metrics["mean_velocity_body"][0])
     assert speeds[0] > 0.01
     assert speeds[1] == pytest.approx(speeds[0], rel=0.05)

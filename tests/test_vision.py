@@ -128,7 +128,7 @@ def test_system_holds_output_between_frames_and_survives_empty_input(rng):
     assert system.failed_frames == 0
 
 
-def _rendered_s_hat(x_body: float) -> float:
+def _rendered_s_hat(x_body: float, tmp_path) -> float:
     from manta_drake.simulate import run
 
     s = Scenario(name="camera", duration=0.45, initial_stance="trot",
@@ -136,13 +136,13 @@ def _rendered_s_hat(x_body: float) -> float:
                  initial_pose=InitialPose(xyz=[x_body, 0.0, -0.237]),
                  visualization=VisualizationConfig(meshcat=False))
     s.camera.enabled = True
-    result = run(s.validate(), f"/tmp/manta_test_camera_{x_body}", progress=False,
+    result = run(s.validate(), tmp_path, progress=False,
                  write_outputs=False)
     assert result.handles.systems["wall_detector"].failed_frames == 0
     return float(result.log["s_hat"][-1, 0])
 
 
-def test_rendered_pool_wall_near_and_far():
+def test_rendered_pool_wall_near_and_far(tmp_path):
     camera_x = 0.19  # the camera frame's offset ahead of the body origin
-    assert _rendered_s_hat(7.5 - 0.5 - camera_x) > 0.9
-    assert _rendered_s_hat(7.5 - 5.0 - camera_x) < 0.1
+    assert _rendered_s_hat(7.5 - 0.5 - camera_x, tmp_path / "near") > 0.9
+    assert _rendered_s_hat(7.5 - 5.0 - camera_x, tmp_path / "far") < 0.1

@@ -145,8 +145,9 @@ def _add_water(builder, scenario: Scenario, handles: DiagramHandles, coeffs) -> 
     """Balloon, its command schedule, and the hydrodynamic forces on the plant."""
     plant, robot = handles.plant, handles.plant_handles.robot
     b = coeffs.balloon
+    # The pump moves ~3 mL per 10 ms: a 10 ms update is exact enough and 10x cheaper.
     balloon = builder.AddNamedSystem("balloon", BalloonBuoyancy(
-        b.max_volume.value, b.pump_rate.value, scenario.time_step,
+        b.max_volume.value, b.pump_rate.value, max(scenario.time_step, 0.01),
         scenario.balloon.initial_fill * b.max_volume.value))
     command = builder.AddNamedSystem("balloon_schedule",
                                      balloon_schedule(scenario, b.max_volume.value))

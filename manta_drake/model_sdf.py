@@ -215,12 +215,11 @@ def pool_sdf(pool: PoolParams = DEFAULT_POOL) -> str:
             f"<visual name='{name}'>{_xyz_pose(xyz)}{geom}{_material(rgba)}</visual>"
             f"<collision name='{name}'>{_xyz_pose(xyz)}{geom}{props}</collision>"
         )
-    # Water surface: illustration only, so it neither collides nor shows up in the
-    # camera's depth image (the camera sees the pool, as the paper's does underwater).
+    # Water surface: a visual only (no collision). The depth camera sees it from below as
+    # the paper's "ceiling", and it hides the walls above the waterline, as real water does.
     parts.append(
         f"<visual name='water_surface'>{_xyz_pose((0.0, 0.0, -0.0005))}<geometry><box><size>"
-        f"{_vec((L, W, 0.001))}</size></box></geometry>{_material('0.2 0.5 0.9 0.25')}"
-        "<drake:accepting_renderer>__no_renderer__</drake:accepting_renderer></visual>"
+        f"{_vec((L, W, 0.001))}</size></box></geometry>{_material('0.2 0.5 0.9 0.25')}</visual>"
     )
     body = "\n      ".join(parts)
     return f"""<?xml version="1.0"?>

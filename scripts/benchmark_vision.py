@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints the wall detector's time per frame at several camera resolutions.
 
-For each resolution the robot stands 1 m from the end wall of the pool; the script
+For each resolution the robot stands with its camera 0.6 m from the end wall of the pool; the script
 renders depth images (VTK), converts them to point clouds, and times the detector
 (WallDetector's pipeline: NaN removal, voxel downsampling, normals, normal-angle DBSCAN,
 PCA labels, s_hat), the rendering and the conversion separately, over --frames frames
@@ -33,7 +33,7 @@ def main() -> int:
         width, height = (int(x) for x in res.split("x"))
         s = Scenario(name="bench", initial_stance="trot",
                      controller=ControllerConfig(mode="hold", gait="trot"),
-                     initial_pose=InitialPose(xyz=[6.31, 0.0, -0.237]),
+                     initial_pose=InitialPose(xyz=[7.5 - 0.6 - 0.19, 0.0, -0.25]),
                      visualization=VisualizationConfig(meshcat=False))
         s.camera.enabled, s.camera.width, s.camera.height = True, width, height
         diagram, h = build_diagram(s.validate())

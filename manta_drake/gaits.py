@@ -55,10 +55,7 @@ class GaitParams:
                 raise ValueError(f"GaitParams.{name}: contains non-finite values")
             value.flags.writeable = False
             object.__setattr__(self, name, value)
-        if np.any(self.R < 0):
-            # Negative amplitudes are allowed: R_gait's yaw column mirrors left and right
-            # with a sign. Nothing to check beyond finiteness.
-            pass
+        # Negative amplitudes are legal: R_gait's yaw column mirrors left and right by sign.
 
     def to_vector(self) -> np.ndarray:
         """The 64-vector (R, X, Phi, Phi_prime, each row-major)."""

@@ -19,6 +19,7 @@ Example (``diagrams/stand.yaml``)::
 import dataclasses as dc
 import math
 import pathlib
+import types
 import typing
 
 import yaml
@@ -346,7 +347,7 @@ def check_keys(data, schema, path: str = "scenario") -> None:
         for i, item in enumerate(data):
             check_keys(item, item_type, f"{path}[{i}]")
         return
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
+    if origin in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(schema) if a is not type(None)]
         if data is None or len(args) != 1:
             return

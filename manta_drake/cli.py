@@ -104,19 +104,20 @@ def main(argv=None) -> int:
     p_run.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     sub.add_parser("list", help="list the shipped scenarios")
     args = parser.parse_args(argv)
-    from manta_drake.scenario import ScenarioError
-    from manta_drake.simulate import SimulationError
-
     try:
         return _list() if args.command == "list" else _run(args)
-    except (ScenarioError, SimulationError, FileNotFoundError) as e:
-        print(f"manta-drake: error: {e}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("manta-drake: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:  # one clear line; --debug for the traceback
+        if args.debug:
+            raise
+        message = " ".join(str(e).split())
+        print(f"manta-drake: error: {message} (--debug shows the traceback)", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -38,3 +38,19 @@ def test_run_writes_outputs(tmp_path):
     assert metrics["sim_time_s"] == 0.5 and metrics["status"] == "ok"
     assert not (out / "recording.html").exists()  # --no-meshcat
     assert (out / "joints.png").exists() and (out / "log.npz").exists()
+
+
+def test_error_while_building_is_one_line_too(tmp_path):
+    """A coefficients file that breaks the model fails with one line, not a traceback."""
+    import shutil
+
+    coeffs = tmp_path / "h.yaml"
+    shutil.copy(ROOT / "models" / "hydrodynamics.yaml", coeffs)
+    coeffs.write_text(coeffs.read_text().replace("sealed_volume:\n    value: 0.0051",
+                                                 "sealed_volume:\n    value: -1.0"))
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(f"duration: 0.1\nwater: {{coefficients: {coeffs}}}\n")
+    result = cli("run", str(scenario), "--out", str(tmp_path / "o"), "--no-meshcat")
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "sealed_volume" in lines[0] and "Traceback" not in result.stderr

@@ -18,24 +18,26 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, VectorLogSink
-
+from pydrake.systems.primitives import (
+    ConstantVectorSource,
+    LogVectorOutput,
+    TrajectorySource,
+    VectorLogSink,
+)
 from pydrake.trajectories import PiecewisePolynomial
-from pydrake.systems.primitives import TrajectorySource
 
 from manta_drake.buoyancy import BalloonBuoyancy
 from manta_drake.coefficients import load_coefficients
 from manta_drake.cpg import CpgOscillators, locked_phases
-from manta_drake.depth import FuzzyDepthEstimator
+from manta_drake.depth import FuzzyDepthEstimator, fuzzy_depth
 from manta_drake.depth_image_noise import DepthImageNoise
+from manta_drake.gaits import get_gait
 from manta_drake.hydro import HydrodynamicForces
-from manta_drake.depth import fuzzy_depth
+from manta_drake.plant import PlantHandles, add_plant
 from manta_drake.pressure import PressureSensor
+from manta_drake.scenario import Scenario, resolve_path
 from manta_drake.transition import PotentialTransition
 from manta_drake.vision import WallDetector
-from manta_drake.gaits import get_gait
-from manta_drake.plant import PlantHandles, add_plant
-from manta_drake.scenario import Scenario, resolve_path
 
 
 @dc.dataclass
@@ -76,13 +78,17 @@ def _add_transition(builder, scenario: Scenario, handles: DiagramHandles):
     return transition
 
 
+def initial_sensor_depth(scenario: Scenario) -> float:
+    """Depth of the pressure sensor at t = 0, taking the start as level [m, >= 0]."""
+    return max(0.0, -(scenario.initial_pose.xyz[2] + scenario.pressure_sensor.position[2]))
+
+
 def initial_cpg_params(scenario: Scenario, handles: DiagramHandles) -> np.ndarray:
     """The CPG parameters at t = 0: the fixed gait, or the transition's target for the
     initial depth (no wall seen)."""
     if scenario.controller.mode == "transition":
-        sensor = scenario.pressure_sensor.position
-        depth = -(scenario.initial_pose.xyz[2] + sensor[2])  # level start: head depth
-        z0 = float(fuzzy_depth(depth, scenario.depth_estimator.floor_distance)[1])
+        D = scenario.depth_estimator.floor_distance
+        z0 = float(fuzzy_depth(initial_sensor_depth(scenario), D)[1])
         return handles.systems["transition"].target(z0, 0.0)
     return get_gait(scenario.controller.gait).to_vector()
 
@@ -178,7 +184,7 @@ def _add_depth_sensing(builder, scenario: Scenario, handles: DiagramHandles) -> 
     builder.Connect(plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
     estimator = builder.AddNamedSystem("depth_estimator", FuzzyDepthEstimator(
         scenario.depth_estimator.floor_distance, period,
-        initial_depth=max(0.0, -scenario.initial_pose.xyz[2])))
+        initial_depth=initial_sensor_depth(scenario)))
     builder.Connect(sensor.GetOutputPort("depth"), estimator.GetInputPort("depth"))
     handles.systems.update(pressure_sensor=sensor, depth_estimator=estimator)
     for name, port in (("depth", sensor.GetOutputPort("depth")),
@@ -270,16 +276,15 @@ def initialize_context(scenario: Scenario, handles: DiagramHandles, root_context
     commanded gait (the exact in-phase start is an unstable equilibrium of
     couplings with bias pi).
     """
-    params = None
+    cpg = handles.systems.get("cpg")
+    if cpg is None:
+        return
+    params = initial_cpg_params(scenario, handles)
     transition = handles.systems.get("transition")
     if transition is not None:
-        params = initial_cpg_params(scenario, handles)
         transition.set_params(transition.GetMyMutableContextFromRoot(root_context), params)
-    cpg = handles.systems.get("cpg")
-    if cpg is not None:
-        params = initial_cpg_params(scenario, handles) if params is None else params
-        cpg.set_state(cpg.GetMyMutableContextFromRoot(root_context), phi=locked_phases(params),
-                      r=0.0, dr=0.0, chi=initial_joint_angles(scenario), dchi=0.0)
+    cpg.set_state(cpg.GetMyMutableContextFromRoot(root_context), phi=locked_phases(params),
+                  r=0.0, dr=0.0, chi=initial_joint_angles(scenario), dchi=0.0)
 
 
 def logger_data(logger: VectorLogSink, root_context) -> tuple[np.ndarray, np.ndarray]:

@@ -93,3 +93,14 @@ def test_failed_run_still_writes_its_log_and_why(tmp_path, monkeypatch):
     assert metrics["failure"]["time_s"] == pytest.approx(0.5, abs=0.01)
     log = np.load(tmp_path / "log.npz")
     assert 0.45 < log["t"][-1] <= 0.51  # the log up to the failure
+
+
+def test_meshcat_recording_does_not_change_the_simulation(tmp_path):
+    """The visualizer's publish period lies on the step grid: same run with or without it."""
+    logs = []
+    for meshcat in (True, False):
+        s = _scenario("locomotion_swim", duration=1.5)
+        s.visualization.meshcat = meshcat
+        logs.append(run(s, tmp_path / str(meshcat), progress=False, write_outputs=False).log)
+    np.testing.assert_allclose(logs[0]["body_xyz"], logs[1]["body_xyz"], atol=1e-9)
+    np.testing.assert_allclose(logs[0]["joint_angles"], logs[1]["joint_angles"], atol=1e-9)

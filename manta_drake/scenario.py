@@ -221,13 +221,13 @@ class Scenario:
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
                       open_low=True)
         tr = self.transition
-        for name in ("period", "g", "T", "alpha", "arrival_tolerance"):
-            _positive(f"transition.{name}", getattr(tr, name))
-        _in_range("transition.z_t", tr.z_t, 0.0, 1.0, "(0, 1]", open_low=True)
-        _one_of("transition.blend", tr.blend, ("potential", "linear"))
-        if tr.alpha * tr.g * tr.T > 1:
-            raise ScenarioError(f"transition: alpha * g * T = {tr.alpha * tr.g * tr.T:.3g} must be "
-                                "<= 1 (larger steps overshoot the target)")
+        from manta_drake.transition import check_parameters  # late import, like gaits
+
+        try:
+            check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend)
+        except ValueError as e:
+            raise ScenarioError(f"transition.{e}") from None
+        _positive("transition.arrival_tolerance", tr.arrival_tolerance)
         if self.controller.mode == "transition" and not self.water.enabled:
             raise ScenarioError("controller.mode: 'transition' needs water.enabled: true "
                                 "(z_hat comes from the pressure sensor)")

@@ -134,8 +134,9 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
     if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
         from manta_drake.gaits import GAITS
+        from manta_drake.transition import BEHAVIOURS
 
-        behaviours = {name: GAITS[name].to_vector() for name in ("swim", "trot", "turning")}
+        behaviours = {name: GAITS[name].to_vector() for name in BEHAVIOURS}
         m["transitions"] = M.behaviour_transitions(
             log["t_cpg_params"], log["cpg_params"], behaviours,
             scenario.transition.arrival_tolerance)

@@ -44,6 +44,25 @@ from pydrake.systems.framework import LeafSystem
 from manta_drake.gaits import GAITS
 
 
+# The behaviours Eq. (12) blends: swim (surface), and in the gait trot or turning (vision).
+BEHAVIOURS = ("swim", "trot", "turning")
+
+
+def check_parameters(period: float, g: float, T: float, alpha: float, z_t: float,
+                     blend: str) -> None:
+    """Raises ValueError naming the first invalid parameter and its allowed range."""
+    for name, value in (("period", period), ("g", g), ("T", T), ("alpha", alpha)):
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{name}: {value} must be a finite number > 0")
+    if not 0 < z_t <= 1:
+        raise ValueError(f"z_t: {z_t} is outside (0, 1]")
+    if blend not in ("potential", "linear"):
+        raise ValueError(f"blend: {blend!r} is not 'potential' or 'linear'")
+    if alpha * g * T > 1.0:
+        raise ValueError(f"alpha * g * T = {alpha * g * T:.3g} > 1 would overshoot the target; "
+                         "reduce g, T or alpha")
+
+
 def wrap(x):
     """Angles wrapped to (-pi, pi]."""
     return np.pi - np.mod(np.pi - np.asarray(x, dtype=float), 2.0 * np.pi)
@@ -100,19 +119,12 @@ class PotentialTransition(LeafSystem):
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
                  alpha: float = 0.95, z_t: float = 1.0, blend: str = "potential",
-                 initial_params=None, behaviours=("swim", "trot", "turning")):
+                 initial_params=None, behaviours=BEHAVIOURS):
         super().__init__()
-        for name, value in (("period", period), ("g", g), ("T", T), ("alpha", alpha)):
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"PotentialTransition.{name}: {value} must be a finite number > 0")
-        if not 0 < z_t <= 1:
-            raise ValueError(f"PotentialTransition.z_t: {z_t} is outside (0, 1]")
-        if blend not in ("potential", "linear"):
-            raise ValueError(f"PotentialTransition.blend: {blend!r} is not 'potential' or 'linear'")
-        if alpha * g * T > 1.0:
-            raise ValueError(
-                f"PotentialTransition: alpha g T = {alpha * g * T:.3g} > 1 would overshoot the "
-                "target; reduce g, T or alpha")
+        try:
+            check_parameters(period, g, T, alpha, z_t, blend)
+        except ValueError as e:
+            raise ValueError(f"PotentialTransition.{e}") from None
         self.period, self.g, self.T, self.alpha, self.z_t, self.blend = period, g, T, alpha, z_t, blend
         self.max_step = alpha * g * T
         self.swim, self.trot, self.turning = (GAITS[b].to_vector() for b in behaviours)

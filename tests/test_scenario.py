@@ -69,3 +69,10 @@ def test_wrong_type_and_missing_file(tmp_path):
 
 def test_defaults_validate():
     assert Scenario().validate().time_step == pytest.approx(1e-3)
+
+
+def test_transition_parameters_checked_at_load_time(tmp_path):
+    with pytest.raises(ScenarioError, match=r"transition\.alpha \* g \* T = 4.75 > 1 would overshoot"):
+        load_scenario(_write(tmp_path, "transition: {g: 5.0, T: 1.0}\n"))
+    with pytest.raises(ScenarioError, match=r"transition\.z_t: 1.5 is outside \(0, 1\]"):
+        load_scenario(_write(tmp_path, "transition: {z_t: 1.5}\n"))

@@ -311,7 +311,8 @@ class HydrodynamicForces(LeafSystem):
         self.pitch_max = np.radians(coeffs.fins.passive_pitch_max_deg.value)
         self.pitch_pressure = coeffs.fins.passive_pitch_reference_pressure.value
         self.balloon_mount = np.asarray(coeffs.balloon.mount_point.value, dtype=float)
-        hull_mass = plant.GetBodyByName("body", robot).default_mass()
+        hull = plant.GetBodyByName("body", robot)
+        hull_mass = hull.default_mass()
         if added_mass_iso is None:
             added_mass_iso, self.residual_added_mass = split_added_mass(
                 b.added_mass.value, hull_mass)
@@ -319,9 +320,9 @@ class HydrodynamicForces(LeafSystem):
             self.residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
             check_explicit_added_mass(self.residual_added_mass, hull_mass + added_mass_iso)
         self.added_mass_iso = added_mass_iso
-        hull_inertia = plant.GetBodyByName("body", robot).default_rotational_inertia()
         _, self.residual_added_inertia = split_added_inertia(b.added_inertia.value)
-        check_explicit_added_mass(self.residual_added_inertia, hull_inertia.CalcPrincipalMomentsOfInertia().min(),
+        hull_inertia = hull.default_rotational_inertia().CalcPrincipalMomentsOfInertia().min()
+        check_explicit_added_mass(self.residual_added_inertia, hull_inertia,
                                   ("roll", "pitch", "yaw"), "kg m^2")
         # Per-body volume (for the submerged fraction that scales the damping).
         self.body_volume = np.bincount(self.el["body"], weights=self.el["volume"], minlength=nb)
@@ -354,6 +355,8 @@ class HydrodynamicForces(LeafSystem):
                 "spatial_forces", lambda: AbstractValue.Make(list(self._forces)),
                 self._output_held, prerequisites_of_calc={self.xd_ticket()})
             self.DeclarePeriodicDiscreteUpdateEvent(self.update_period, 0.0, self._update_held)
+            # Held forces start from the initial state, not from zero.
+            self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
 
     # -- evaluation ---------------------------------------------------------------------------
 

@@ -345,3 +345,29 @@ def test_spinning_plate_gets_torque_and_no_net_force():
     assert expected < 0
     others = np.delete(np.arange(nb), link)
     np.testing.assert_allclose(spin[others], 0.0, atol=1e-12)
+
+
+def test_held_forces_start_from_the_initial_state():
+    """With update_period > 0 the first held forces are those of the initial state."""
+    from pydrake.systems.analysis import Simulator
+
+    from manta_drake.diagram import build_diagram, initialize_context
+    from manta_drake.plant import body_pose, set_initial_state
+
+    s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
+                        balloon=BalloonConfig(initial_fill=1.0))
+    s.water.update_period = 0.004
+    diagram, h = build_diagram(s)
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    set_initial_state(h.plant_handles, h.plant.GetMyMutableContextFromRoot(context),
+                      body_pose([0, 0, -0.04], [0, 0, 0]), np.zeros(16))
+    initialize_context(s, h, context)
+    simulator.Initialize()
+    hydro = h.systems["hydro"]
+    hydro_context = hydro.GetMyContextFromRoot(context)
+    held = hydro.GetOutputPort("spatial_forces").Eval(hydro_context)
+    exact = hydro._forces_now(hydro_context)
+    lift = sum(f.F_Bq_W.translational()[2] for f in held)
+    assert lift == pytest.approx(exact[:, 5].sum(), rel=1e-9)
+    assert lift > 0.9 * P.total_mass * G  # buoyancy from the first step on

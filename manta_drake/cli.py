@@ -39,32 +39,42 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  recording: open {(out_dir / 'recording.html').resolve()} in a browser")
 
 
+def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True):
+    """Loads a scenario (with the command line's overrides) and runs it."""
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import run
+
+    scenario = load_scenario(scenario_path, {"duration": duration} if duration else {})
+    if no_meshcat:
+        scenario.visualization.meshcat = False
+    return run(scenario, out, progress=progress), scenario
+
+
+def _error(e: Exception) -> int:
+    """Prints an error as one line and returns the exit status 2."""
+    message = " ".join(str(e).split())
+    print(f"manta-drake: error: {message} (--debug shows the traceback)", file=sys.stderr)
+    return 2
+
+
 def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) -> int:
-    """The body of a diagram script: parse ``--scenario --out --duration --no-meshcat``,
-    run, call ``after_run(result, scenario)`` (figures), print the metrics.
-
-    Returns:
-        the process exit status (2 with a one-line message on a bad scenario or a failed run).
-    """
-    from manta_drake.scenario import ScenarioError, load_scenario
-    from manta_drake.simulate import SimulationError, run
-
+    """The body of a diagram script: parse ``--scenario --out --duration --no-meshcat
+    --debug``, run, call ``after_run(result, scenario)`` (it returns figure paths), print
+    the metrics. Errors are one line with exit status 2, as in ``manta-drake run``."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--scenario", default=scenario_path)
     parser.add_argument("--out", default=default_out)
     parser.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     parser.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
+    parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     args = parser.parse_args()
     try:
-        scenario = load_scenario(args.scenario,
-                                 {"duration": args.duration} if args.duration else {})
-        if args.no_meshcat:
-            scenario.visualization.meshcat = False
-        result = run(scenario, args.out)
-    except (ScenarioError, SimulationError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    figures = after_run(result, scenario) if after_run else []
+        result, scenario = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat)
+        figures = after_run(result, scenario) if after_run else []
+    except Exception as e:  # one clear line; --debug for the traceback
+        if args.debug:
+            raise
+        return _error(e)
     print_metrics(result.metrics, result.out_dir)
     for path in figures or []:
         print(f"  figure: {path}")
@@ -81,16 +91,8 @@ def _list() -> int:
 
 
 def _run(args) -> int:
-    from manta_drake.scenario import load_scenario
-    from manta_drake.simulate import run
-
-    overrides = {}
-    if args.duration is not None:
-        overrides["duration"] = args.duration
-    scenario = load_scenario(args.scenario, overrides)
-    if args.no_meshcat:
-        scenario.visualization.meshcat = False
-    result = run(scenario, args.out, progress=not args.quiet)
+    result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
+                              progress=not args.quiet)
     print_metrics(result.metrics, result.out_dir)
     return 0
 
@@ -115,9 +117,7 @@ def main(argv=None) -> int:
     except Exception as e:  # one clear line; --debug for the traceback
         if args.debug:
             raise
-        message = " ".join(str(e).split())
-        print(f"manta-drake: error: {message} (--debug shows the traceback)", file=sys.stderr)
-        return 2
+        return _error(e)
 
 
 if __name__ == "__main__":

@@ -31,7 +31,7 @@ import pathlib
 import numpy as np
 from pydrake.common.yaml import yaml_load_typed
 
-from manta_drake.robot_params import DEFAULT_ROBOT, RobotParams
+from manta_drake.robot_params import RobotParams
 
 MODELS_DIR = pathlib.Path(__file__).resolve().parent.parent / "models"
 DEFAULT_COEFFICIENTS_FILE = MODELS_DIR / "hydrodynamics.yaml"
@@ -105,14 +105,6 @@ def fit_damping(velocity, force) -> tuple[np.ndarray, np.ndarray]:
     h, *_ = np.linalg.lstsq(A, b, rcond=None)
     return h, A @ h - b
 
-
-def damping_force(nu, d_lin, d_quad) -> np.ndarray:
-    """Eq. (2)'s D(nu) nu with magnitudes: -(d_lin + d_quad |nu|) nu, elementwise."""
-    nu = np.asarray(nu, dtype=float)
-    return -(d_lin + d_quad * np.abs(nu)) * nu
-
-
-# --- the YAML ------------------------------------------------------------------------------
 
 @dc.dataclass
 class Scalar:
@@ -217,8 +209,3 @@ def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE) -> HydroCoefficients:
         if not signed and np.any(values < 0):
             raise ScenarioError(f"{path.name}: {name} must be >= 0 (magnitudes), got {values}")
     return coeffs
-
-
-def default_body_added_mass(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0) -> dict:
-    """Strip-theory added mass of this robot's hull (the fairing ellipsoid)."""
-    return body_added_mass_strip_theory(params.body_semi_axes, rho)

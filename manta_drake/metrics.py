@@ -33,13 +33,6 @@ def steady_mask(t: np.ndarray, steady_after: float) -> np.ndarray:
     return mask if mask.sum() >= 2 else np.ones_like(t, dtype=bool)
 
 
-def mean_velocity_body(t, quat_wxyz, v_world, steady_after: float) -> list:
-    """Mean [u, v] (surge, sway; m/s) over the steady part."""
-    mask = steady_mask(t, steady_after)
-    uvw = velocity_in_body(quat_wxyz[mask], v_world[mask])
-    return [float(uvw[:, 0].mean()), float(uvw[:, 1].mean())]
-
-
 def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float) -> list:
     """Mean [u, v] from the displacement over the steady part, in the mean-heading frame.
 

@@ -104,7 +104,7 @@ def write_run_plots(log: dict, out_dir, title="", shade=None) -> None:
 
 # --- the paper's figures ----------------------------------------------------------------------
 
-def behaviour_spans(log: dict, transitions: list, end: float) -> list:
+def behaviour_spans(transitions: list, end: float) -> list:
     """(start, end, label) spans for shading: each behaviour held, and each transition."""
     spans, t0 = [], 0.0
     current = transitions[0]["from"] if transitions else None
@@ -121,7 +121,7 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
     """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth, z_hat and s_hat over
     time, with the behaviour phases shaded (grey: a behaviour held, orange: a transition)."""
     t, tc = log["t"], log["t_command"]
-    spans = behaviour_spans(log, metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
+    spans = behaviour_spans(metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
     rows = [("joint outputs [deg]", "joints"), ("Euler angles [deg]", "euler"),
             ("depth [m]", "depth"), ("z_hat, s_hat", "sensing")]
     fig, axes = plt.subplots(len(rows), 1, figsize=(11, 10), sharex=True)

@@ -54,3 +54,14 @@ def test_error_while_building_is_one_line_too(tmp_path):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "sealed_volume" in lines[0] and "Traceback" not in result.stderr
+
+
+def test_diagram_script_errors_are_one_line_too(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("duration: 1\nballoon: {initial_fill: 2.0}\n")
+    result = subprocess.run([sys.executable, "diagrams/two_behaviors.py", "--scenario", str(bad),
+                             "--out", str(tmp_path / "o")], cwd=ROOT, capture_output=True,
+                            text=True, timeout=600)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "balloon.initial_fill" in lines[0] and "[0, 1]" in lines[0]

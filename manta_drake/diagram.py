@@ -66,7 +66,8 @@ def _add_transition(builder, scenario: Scenario, handles: DiagramHandles):
     """PotentialTransition fed by z_hat and s_hat (0 when there is no camera)."""
     tr = scenario.transition
     transition = builder.AddNamedSystem("transition", PotentialTransition(
-        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend))
+        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
+        s_hat_time_constant=tr.s_hat_time_constant))
     builder.Connect(handles.systems["depth_estimator"].GetOutputPort("z_hat"),
                     transition.GetInputPort("z_hat"))
     if "wall_detector" in handles.systems:

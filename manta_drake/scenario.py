@@ -89,6 +89,7 @@ class TransitionConfig:
     alpha: float = 0.95
     z_t: float = 1.0
     blend: str = "potential"  # Eq. (12); "linear" is Eq. (11)
+    s_hat_time_constant: float = 1.0  # s, low-pass of the camera's step signal (0: none)
     # A behaviour counts as reached when every parameter is within this of it [rad].
     arrival_tolerance: float = 0.05
 
@@ -224,7 +225,8 @@ class Scenario:
         from manta_drake.transition import check_parameters  # late import, like gaits
 
         try:
-            check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend)
+            check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
+                             tr.s_hat_time_constant)
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
         _positive("transition.arrival_tolerance", tr.arrival_tolerance)

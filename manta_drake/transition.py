@@ -49,11 +49,14 @@ BEHAVIOURS = ("swim", "trot", "turning")
 
 
 def check_parameters(period: float, g: float, T: float, alpha: float, z_t: float,
-                     blend: str) -> None:
+                     blend: str, s_hat_time_constant: float = 0.0) -> None:
     """Raises ValueError naming the first invalid parameter and its allowed range."""
     for name, value in (("period", period), ("g", g), ("T", T), ("alpha", alpha)):
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: {value} must be a finite number > 0")
+    if not (np.isfinite(s_hat_time_constant) and s_hat_time_constant >= 0):
+        raise ValueError(f"s_hat_time_constant: {s_hat_time_constant} must be a finite number "
+                         ">= 0 (0: no filter)")
     if not 0 < z_t <= 1:
         raise ValueError(f"z_t: {z_t} is outside (0, 1]")
     if blend not in ("potential", "linear"):
@@ -114,22 +117,33 @@ class PotentialTransition(LeafSystem):
     * ``cpg_params`` (64): psi, the current CPG parameters (R, X, Phi, Phi'), a discrete
       state moved toward psi_d every ``period`` seconds by descent on Eq. (14)'s well.
 
+    s_hat passes a first-order low-pass filter (``s_hat_time_constant``, a second discrete
+    state) before it enters Eq. (12). The camera's s_hat is a step signal at its frame rate.
+    A step of w(s) from 1 to 0 (or back) would put several Phi' parameters exactly opposite
+    their new target (turning Phi'[0, 3] = -pi against trot's 0), where Eq. (14)'s well is
+    flat, and they would never move. Filtered, psi_d sweeps continuously and psi follows.
+    z_hat comes from a continuous depth and is used as it is.
+
     Non-finite inputs are treated as z_hat = 0 / s_hat = 0 for that update.
     """
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
                  alpha: float = 0.95, z_t: float = 1.0, blend: str = "potential",
-                 initial_params=None, behaviours=BEHAVIOURS):
+                 initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0):
         super().__init__()
         try:
-            check_parameters(period, g, T, alpha, z_t, blend)
+            check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant)
         except ValueError as e:
             raise ValueError(f"PotentialTransition.{e}") from None
+        # Exact discretisation of ds/dt = (s_hat - s) / tau over one period (1: no filter).
+        self.s_hat_gain = (1.0 - np.exp(-period / s_hat_time_constant)
+                           if s_hat_time_constant > 0 else 1.0)
         self.period, self.g, self.T, self.alpha, self.z_t, self.blend = period, g, T, alpha, z_t, blend
         self.max_step = alpha * g * T
         self.swim, self.trot, self.turning = (GAITS[b].to_vector() for b in behaviours)
         initial = self.swim if initial_params is None else np.asarray(initial_params, dtype=float)
         self._psi = self.DeclareDiscreteState(initial)
+        self._s_filtered = self.DeclareDiscreteState([0.0])  # no wall seen at the start
         self._z_hat = self.DeclareVectorInputPort("z_hat", 1)
         self._s_hat = self.DeclareVectorInputPort("s_hat", 1)
         self.DeclareStateOutputPort("cpg_params", self._psi)
@@ -143,9 +157,13 @@ class PotentialTransition(LeafSystem):
 
     def _update(self, context, discrete_state):
         psi = context.get_discrete_state(self._psi).get_value()
-        psi_d = self.target(self._z_hat.Eval(context)[0], self._s_hat.Eval(context)[0])
+        s = context.get_discrete_state(self._s_filtered).GetAtIndex(0)
+        s_hat = self._s_hat.Eval(context)[0]
+        s += self.s_hat_gain * ((s_hat if np.isfinite(s_hat) else 0.0) - s)
+        psi_d = self.target(self._z_hat.Eval(context)[0], s)
         discrete_state.get_mutable_vector(self._psi).SetFromVector(
             descent_step(psi, psi_d, self.g, self.T, self.alpha))
+        discrete_state.get_mutable_vector(self._s_filtered).SetAtIndex(0, s)
 
     def set_params(self, context, psi) -> None:
         """Sets psi (64) in this system's context."""

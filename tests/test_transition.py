@@ -46,18 +46,17 @@ def test_vision_weight_follows_the_text_not_the_printed_sign():
 def _run(system, context, z_hat, s_hat, steps):
     system.GetInputPort("z_hat").FixValue(context, [z_hat])
     system.GetInputPort("s_hat").FixValue(context, [s_hat])
-    out = [context.get_discrete_state_vector().CopyToVector()]
+    out = [context.get_discrete_state(0).CopyToVector()]
     for _ in range(steps):
-        context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context).get_vector()
-                                 .CopyToVector())
-        out.append(context.get_discrete_state_vector().CopyToVector())
+        context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+        out.append(context.get_discrete_state(0).CopyToVector())
     return np.array(out)
 
 
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 2**31 - 1), st.floats(0, 1), st.floats(0, 1))
 def test_converges_monotonically_without_overshoot_from_any_start(seed, z_hat, s_hat):
-    system = PotentialTransition()
+    system = PotentialTransition(s_hat_time_constant=0.0)  # a fixed target: pure descent
     context = system.CreateDefaultContext()
     start = np.random.default_rng(seed).uniform(-np.pi, np.pi, 64)  # anywhere on the torus
     system.set_params(context, start)
@@ -111,6 +110,30 @@ def test_exact_antipode_is_the_one_equilibrium_besides_the_target():
     np.testing.assert_allclose(psi[-1], TROT + np.pi, atol=1e-9)
 
 
+@pytest.mark.parametrize("start, s_step, goal", [(TURN, 0.0, TROT), (TROT, 1.0, TURN)])
+def test_camera_step_does_not_strand_parameters_on_the_antipode(start, s_step, goal):
+    """psi exactly at one gait, s_hat steps: unfiltered, Phi' entries sit opposite their new
+    target and never move; with the s_hat filter psi reaches the new gait in seconds."""
+    for tau, arrives in ((0.0, False), (1.0, True)):
+        system = PotentialTransition(s_hat_time_constant=tau)
+        context = system.CreateDefaultContext()
+        system.set_params(context, start)
+        context.get_mutable_discrete_state(1).SetAtIndex(0, 1.0 - s_step)  # settled before
+        psi = _run(system, context, 1.0, s_step, 1500)  # 30 s
+        err = np.abs(wrap(psi[-1] - goal)).max()
+        assert (err < 0.05) == arrives, (tau, err)
+
+
+def test_s_hat_filter_is_first_order():
+    system = PotentialTransition(s_hat_time_constant=1.0)
+    context = system.CreateDefaultContext()
+    system.GetInputPort("z_hat").FixValue(context, [1.0])
+    system.GetInputPort("s_hat").FixValue(context, [1.0])
+    for _ in range(50):  # 1 s
+        context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+    assert context.get_discrete_state(1).GetAtIndex(0) == pytest.approx(1 - np.exp(-1.0))
+
+
 def test_bad_parameters_are_rejected():
     with pytest.raises(ValueError, match="overshoot"):
         PotentialTransition(g=5.0, T=1.0, alpha=0.95)
@@ -118,3 +141,5 @@ def test_bad_parameters_are_rejected():
         PotentialTransition(z_t=1.5)
     with pytest.raises(ValueError, match="blend"):
         PotentialTransition(blend="cubic")
+    with pytest.raises(ValueError, match="s_hat_time_constant"):
+        PotentialTransition(s_hat_time_constant=-1.0)

@@ -46,4 +46,4 @@ def figures(result, scenario):
 
 
 if __name__ == "__main__":
-    sys.exit(run_experiment(__doc__, HERE / "float_sink.yaml", "out/float_sink", figures))
+    sys.exit(run_experiment(__doc__, "float_sink", "out/float_sink", figures))

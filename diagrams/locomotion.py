@@ -33,7 +33,7 @@ def main() -> int:
     speeds, logs = {}, {}
     for gait in args.gaits:
         overrides = {"duration": args.duration} if args.duration else {}
-        scenario = load_scenario(HERE / f"locomotion_{gait}.yaml", overrides)
+        scenario = load_scenario(f"locomotion_{gait}", overrides)
         if args.no_meshcat:
             scenario.visualization.meshcat = False
         print(f"--- {gait}", file=sys.stderr)

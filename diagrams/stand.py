@@ -13,4 +13,4 @@ from manta_drake.cli import run_experiment
 HERE = pathlib.Path(__file__).resolve().parent
 
 if __name__ == "__main__":
-    sys.exit(run_experiment(__doc__, HERE / "stand.yaml", "out/stand"))
+    sys.exit(run_experiment(__doc__, "stand", "out/stand"))

@@ -23,11 +23,15 @@ def figures(result, scenario):
                              "Three behaviours: swim, trot, turning by depth and vision "
                              "(cf. paper Fig. 11)")
     fig12 = result.out_dir / "fig12_point_cloud.png"
-    detector = result.handles.systems.get("wall_detector")
-    plots.fig_point_cloud(detector.best_detection if detector else None, fig12)
+    controller = result.handles.controller
+    best = None
+    if controller.HasOutputPort("best_clusters"):
+        best = controller.GetOutputPort("best_clusters").Eval(
+            controller.GetMyContextFromRoot(result.context))
+    plots.fig_point_cloud(best, fig12)
     return [fig11, fig12]
 
 
 if __name__ == "__main__":
-    sys.exit(run_experiment(__doc__, HERE / "three_behaviors.yaml", "out/three_behaviors",
+    sys.exit(run_experiment(__doc__, "three_behaviors", "out/three_behaviors",
                             figures))

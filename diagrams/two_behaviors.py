@@ -24,4 +24,4 @@ def figures(result, scenario):
 
 
 if __name__ == "__main__":
-    sys.exit(run_experiment(__doc__, HERE / "two_behaviors.yaml", "out/two_behaviors", figures))
+    sys.exit(run_experiment(__doc__, "two_behaviors", "out/two_behaviors", figures))

@@ -12,8 +12,6 @@ import argparse
 import pathlib
 import sys
 
-DIAGRAMS_DIR = pathlib.Path(__file__).resolve().parent.parent / "diagrams"
-
 
 def print_metrics(metrics: dict, out_dir) -> None:
     """A short table of a run's metrics and where its outputs are."""
@@ -84,9 +82,13 @@ def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) ->
 def _list() -> int:
     import yaml
 
-    for path in sorted(DIAGRAMS_DIR.glob("*.yaml")):
+    from manta_drake.scenario import shipped_scenarios
+
+    for path in shipped_scenarios():
         data = yaml.safe_load(path.read_text()) or {}
-        print(f"{str(path.relative_to(DIAGRAMS_DIR.parent)):<40} {data.get('description', '')}")
+        print(f"{path.stem:<22} {data.get('description', '')}")
+    print("\n(run one with `manta-drake run NAME --out DIR`; the files are in "
+          f"{shipped_scenarios()[0].parent})")
     return 0
 
 
@@ -101,7 +103,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="manta-drake", description="Manta-ray robot simulator")
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="simulate a scenario YAML file")
-    p_run.add_argument("scenario", help="scenario YAML file (see `manta-drake list`)")
+    p_run.add_argument("scenario", help="scenario YAML file, or a shipped scenario's name "
+                       "(see `manta-drake list`)")
     p_run.add_argument("--out", required=True, help="output folder")
     p_run.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")

@@ -7,7 +7,10 @@ after checking every key against the schema (a misspelt key fails at load time,
 naming its full path and the allowed keys), then ``Scenario.validate()`` checks
 every value's range (naming the field and the allowed range).
 
-Example (``diagrams/stand.yaml``)::
+The shipped scenarios are package data in ``manta_drake/scenarios/`` (``manta-drake
+list``); ``find_scenario`` accepts a path or a shipped scenario's name.
+
+Example (``manta_drake/scenarios/stand.yaml``)::
 
     name: stand
     duration: 5.0
@@ -26,7 +29,7 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
-from manta_drake.vision import WallDetectorParams
+from manta_drake.control.vision import WallDetectorParams
 
 
 class ScenarioError(ValueError):
@@ -70,7 +73,7 @@ class ControllerConfig:
 
 @dc.dataclass
 class CpgConfig:
-    """Parameters of the CPG (Eq. 5); see ``manta_drake.cpg`` for why these defaults."""
+    """Parameters of the CPG (Eq. 5); see ``manta_drake.control.cpg`` for why these defaults."""
 
     frequency_hz: float = 0.5
     chain_weight: float = 4.0
@@ -81,7 +84,7 @@ class CpgConfig:
 
 @dc.dataclass
 class TransitionConfig:
-    """PotentialTransition (Eqs. 11-15); see ``manta_drake.transition`` for the defaults."""
+    """PotentialTransition (Eqs. 11-15); see ``manta_drake.control.transition`` for the defaults."""
 
     period: float = 0.02  # s
     g: float = 0.125
@@ -96,10 +99,11 @@ class TransitionConfig:
 
 @dc.dataclass
 class WaterConfig:
-    """The pool's water. ``coefficients`` is relative to the repository root (or absolute)."""
+    """The pool's water. ``coefficients``: ``package://manta_drake/<file>`` (the package's
+    model folder), an absolute path, or a path relative to the working directory."""
 
     enabled: bool = True
-    coefficients: str = "models/hydrodynamics.yaml"
+    coefficients: str = "package://manta_drake/hydrodynamics.yaml"
     current: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])  # m/s, world
     # 0: forces from the current state at every plant step (exact, no delay). > 0: computed
     # every update_period seconds and held (faster; one period of delay).
@@ -199,7 +203,9 @@ class Scenario:
 
     def validate(self) -> "Scenario":
         """Checks every value's range; raises ScenarioError naming the field."""
-        from manta_drake.gaits import GAITS  # late import: gaits imports nothing of ours
+        from manta_drake.control.gaits import (
+            GAITS,  # late import: gaits imports nothing of ours
+        )
 
         _positive("duration", self.duration)
         _in_range("time_step", self.time_step, 0.0, 0.01, "(0, 0.01] s", open_low=True)
@@ -222,7 +228,9 @@ class Scenario:
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
                       open_low=True)
         tr = self.transition
-        from manta_drake.transition import check_parameters  # late import, like gaits
+        from manta_drake.control.transition import (
+            check_parameters,  # late import, like gaits
+        )
 
         try:
             check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
@@ -281,13 +289,35 @@ class Scenario:
         return self
 
 
-REPO_ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCENARIOS_DIR = pathlib.Path(__file__).resolve().parent / "scenarios"
+PACKAGE_URL = "package://manta_drake/"
 
 
 def resolve_path(path: str) -> pathlib.Path:
-    """A scenario path: absolute, or relative to the repository root."""
-    p = pathlib.Path(path)
-    return p if p.is_absolute() else REPO_ROOT / p
+    """A file named in a scenario: ``package://manta_drake/<file>`` is in the package's
+    model folder; other paths are absolute or relative to the working directory."""
+    from manta_drake.model import MODELS_DIR
+
+    if path.startswith(PACKAGE_URL):
+        return MODELS_DIR / path[len(PACKAGE_URL):]
+    return pathlib.Path(path)
+
+
+def shipped_scenarios() -> list[pathlib.Path]:
+    """The scenario files shipped with the package, sorted by name."""
+    return sorted(SCENARIOS_DIR.glob("*.yaml"))
+
+
+def find_scenario(name_or_path) -> pathlib.Path:
+    """A scenario file: an existing path, or the name of a shipped scenario (``stand``)."""
+    path = pathlib.Path(name_or_path)
+    if path.is_file():
+        return path
+    shipped = SCENARIOS_DIR / f"{path.stem}.yaml"
+    if path.suffix in ("", ".yaml") and len(path.parts) == 1 and shipped.is_file():
+        return shipped
+    names = ", ".join(p.stem for p in shipped_scenarios())
+    raise ScenarioError(f"scenario file not found: {name_or_path} (shipped scenarios: {names})")
 
 
 def _positive(field: str, value: float) -> None:
@@ -384,9 +414,7 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
         ScenarioError: the file is missing, has an unknown key, a value of the wrong
             type, or a value out of range. The message names the field.
     """
-    path = pathlib.Path(path)
-    if not path.is_file():
-        raise ScenarioError(f"scenario file not found: {path}")
+    path = find_scenario(path)
     text = path.read_text()
     try:
         data = yaml.safe_load(text) or {}

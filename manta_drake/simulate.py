@@ -5,7 +5,7 @@ and writes into ``out_dir``:
 
 * ``recording.html``: self-contained Meshcat recording (if visualisation is on);
 * ``log.npz``: time series (see ``LOG_KEYS``);
-* ``metrics.json``: the run's metrics (see DESIGN.md);
+* ``metrics.json``: the run's metrics (see ``compute_metrics`` and docs/design.md);
 * ``joints.png``, ``states.png``, ``trajectory.png``.
 
 If the simulation fails part-way, the log up to the failure and a
@@ -23,18 +23,13 @@ import sys
 import time
 
 import numpy as np
+from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from manta_drake import metrics as M
 from manta_drake import plots
-from manta_drake.diagram import (
-    DiagramHandles,
-    build_diagram,
-    initial_joint_angles,
-    initialize_context,
-    logger_data,
-)
-from manta_drake.plant import body_pose, set_initial_state
+from manta_drake.diagram import DiagramHandles, build_diagram, logger_data
+from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.scenario import Scenario
 
 LOG_KEYS = (
@@ -55,6 +50,7 @@ class RunResult:
     out_dir: pathlib.Path
     log: dict
     handles: DiagramHandles | None = None
+    context: object = None  # the root context at the end of the run
 
 
 def _progress(total: float, enabled: bool):
@@ -88,7 +84,7 @@ def extract_log(handles: DiagramHandles, root_context) -> dict:
         log["body_rpy"] = M.euler_rpy(log["body_quat_wxyz"]) if len(t) else np.zeros((0, 3))
     tc, xc = logger_data(handles.loggers["desired_state"], root_context)
     log["t_command"] = tc
-    log["commanded_joint_angles"] = xc[:, :16]
+    log["commanded_joint_angles"] = xc[:, :NUM_JOINTS]
     for name in handles.loggers:
         if name not in ("plant_state", "desired_state"):
             ts, xs = logger_data(handles.loggers[name], root_context)
@@ -115,7 +111,7 @@ def max_penetration(handles: DiagramHandles, diagram, root_context, period: floa
 
 
 def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
-    """The metrics of DESIGN.md from a log."""
+    """The run's metrics (docs/design.md lists them) from a log."""
     t = log["t"]
     sim_time = float(log.get("sim_time", t[-1] if len(t) else 0.0))
     m = {
@@ -133,8 +129,8 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
     if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
-        from manta_drake.gaits import GAITS
-        from manta_drake.transition import BEHAVIOURS
+        from manta_drake.control.gaits import GAITS
+        from manta_drake.control.transition import BEHAVIOURS
 
         behaviours = {name: GAITS[name].to_vector() for name in BEHAVIOURS}
         m["transitions"] = M.behaviour_transitions(
@@ -146,6 +142,22 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         err = log["joint_angles"][:n] - log["commanded_joint_angles"][:n]
         m["final_max_joint_error_rad"] = float(np.abs(err[-1]).max())
     return m
+
+
+def seed_context(diagram, context, seed: int) -> None:
+    """The scenario's start with its noise: the default context (the scenario's initial
+    condition, see ``build_diagram``) with every random source (Drake ``RandomSource``
+    systems in the station) drawn from ``RandomGenerator(seed)``. Same seed, same run."""
+    diagram.SetRandomContext(context, RandomGenerator(int(seed)))
+
+
+def make_simulator(diagram, scenario: Scenario, context=None) -> Simulator:
+    """A Simulator of ``diagram`` with the scenario's integrator settings, its context
+    (a new one, or ``context``) seeded from ``scenario.random_seed``."""
+    simulator = Simulator(diagram) if context is None else Simulator(diagram, context)
+    ApplySimulatorConfig(scenario.simulator, simulator)
+    seed_context(diagram, simulator.get_mutable_context(), scenario.random_seed)
+    return simulator
 
 
 def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True) -> RunResult:
@@ -167,17 +179,8 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     diagram, handles = build_diagram(scenario)
-    simulator = Simulator(diagram)
-    ApplySimulatorConfig(scenario.simulator, simulator)
+    simulator = make_simulator(diagram, scenario)
     root_context = simulator.get_mutable_context()
-    plant_context = handles.plant.GetMyMutableContextFromRoot(root_context)
-    set_initial_state(
-        handles.plant_handles,
-        plant_context,
-        body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
-        initial_joint_angles(scenario),
-    )
-    initialize_context(scenario, handles, root_context)
     if handles.meshcat is not None:
         # Look at the robot from inside the pool (the walls hide it from outside).
         p0 = np.asarray(scenario.initial_pose.xyz, dtype=float)
@@ -229,4 +232,4 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
             f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "
             f"{failure['reason']} (partial log in {out_dir})"
         )
-    return RunResult(metrics, out_dir, log, handles)
+    return RunResult(metrics, out_dir, log, handles, root_context)

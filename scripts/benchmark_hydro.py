@@ -16,10 +16,10 @@ import time
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 
-from manta_drake.coefficients import load_coefficients
-from manta_drake.gaits import GAITS
-from manta_drake.hydro import HydrodynamicForces
-from manta_drake.plant import add_plant, body_pose, set_initial_state
+from manta_drake.control.gaits import GAITS
+from manta_drake.model.coefficients import load_coefficients
+from manta_drake.model.plant import add_plant, body_pose, set_initial_state
+from manta_drake.station.hydro import HydrodynamicForces
 
 
 def main() -> int:

@@ -16,10 +16,15 @@ import time
 
 import numpy as np
 
+from manta_drake.control.vision import detect
 from manta_drake.diagram import build_diagram, initialize_context
-from manta_drake.plant import body_pose, set_initial_state
-from manta_drake.scenario import ControllerConfig, InitialPose, Scenario, VisualizationConfig
-from manta_drake.vision import detect
+from manta_drake.model.plant import body_pose, set_initial_state
+from manta_drake.scenario import (
+    ControllerConfig,
+    InitialPose,
+    Scenario,
+    VisualizationConfig,
+)
 
 
 def main() -> int:

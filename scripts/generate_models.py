@@ -1,17 +1,15 @@
 #!/usr/bin/env python3
-"""Writes models/manta.sdf and models/pool.sdf from manta_drake/robot_params.py.
+"""Writes manta_drake/model/models/manta.sdf and manta_drake/model/models/pool.sdf from manta_drake/model/robot_params.py.
 
 Usage: python scripts/generate_models.py [--check]
   --check  exit 1 if the committed files differ from what the parameters give.
 """
 
 import argparse
-import pathlib
 import sys
 
-from manta_drake.model_sdf import pool_sdf, robot_sdf
-
-MODELS = pathlib.Path(__file__).resolve().parent.parent / "models"
+from manta_drake.model import MODELS_DIR as MODELS
+from manta_drake.model.model_sdf import pool_sdf, robot_sdf
 
 
 def main() -> int:

@@ -6,8 +6,8 @@ roll, pitch, yaw), fits force = d_lin * u + d_quad * u|u| per axis, prints the
 coefficients and their residuals, and (with --write) writes them into the body's
 linear_damping / quadratic_damping entries of the hydrodynamics YAML.
 
-Usage: python scripts/identify_damping.py [--csv models/damping_samples.csv]
-                                          [--yaml models/hydrodynamics.yaml] [--write]
+Usage: python scripts/identify_damping.py [--csv manta_drake/model/models/damping_samples.csv]
+                                          [--yaml manta_drake/model/models/hydrodynamics.yaml] [--write]
 """
 
 import argparse
@@ -17,9 +17,8 @@ import sys
 import numpy as np
 import yaml
 
-from manta_drake.coefficients import AXES, fit_damping
-
-MODELS = pathlib.Path(__file__).resolve().parent.parent / "models"
+from manta_drake.model import MODELS_DIR as MODELS
+from manta_drake.model.coefficients import AXES, fit_damping
 
 
 def read_samples(path) -> dict:

@@ -24,9 +24,9 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator  # noqa: E4
 from pydrake.systems.framework import DiagramBuilder  # noqa: E402
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput  # noqa: E402
 
-from manta_drake.cpg import CpgOscillators  # noqa: E402
-from manta_drake.gaits import GAITS  # noqa: E402
-from manta_drake.robot_params import JOINTS  # noqa: E402
+from manta_drake.control.cpg import CpgOscillators  # noqa: E402
+from manta_drake.control.gaits import GAITS  # noqa: E402
+from manta_drake.model.robot_params import JOINTS  # noqa: E402
 from manta_drake.scenario import Scenario  # noqa: E402
 
 LEGS = ("front-left", "front-right", "rear-left", "rear-right")

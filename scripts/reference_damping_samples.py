@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes models/damping_samples.csv: a velocity-force table for scripts/identify_damping.py.
+"""Writes manta_drake/model/models/damping_samples.csv: a velocity-force table for scripts/identify_damping.py.
 
 The paper identifies its damping from Autodesk CFD runs (0.4-1.2 m/s, +-30 deg) that are
 not published. This table stands in for them: forces from textbook drag coefficients
@@ -7,7 +7,7 @@ not published. This table stands in for them: forces from textbook drag coeffici
 the rotations, plus a small linear (skin-friction) part, with 3 % seeded noise. Replace
 the CSV with your own CFD or tow-tank table and re-run identify_damping.py.
 
-Usage: python scripts/reference_damping_samples.py [--out models/damping_samples.csv]
+Usage: python scripts/reference_damping_samples.py [--out manta_drake/model/models/damping_samples.csv]
 """
 
 import argparse
@@ -16,7 +16,8 @@ import sys
 
 import numpy as np
 
-from manta_drake.robot_params import DEFAULT_ROBOT
+from manta_drake.model import MODELS_DIR
+from manta_drake.model.robot_params import DEFAULT_ROBOT
 
 RHO = 1000.0
 a, b, c = DEFAULT_ROBOT.body_semi_axes
@@ -35,8 +36,8 @@ REFERENCE = {
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=pathlib.Path(__file__).resolve().parent.parent
-                        / "models" / "damping_samples.csv")
+    parser.add_argument("--out", default=MODELS_DIR
+                        / "damping_samples.csv")
     parser.add_argument("--seed", type=int, default=4)
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
-from manta_drake.plant import add_plant
+from manta_drake.model.plant import add_plant
 
 
 @pytest.fixture(scope="session")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from manta_drake.buoyancy import BalloonBuoyancy, pump_step
+from manta_drake.station.buoyancy import BalloonBuoyancy, pump_step
 
 
 def test_volume_ramps_at_the_pump_rate_and_stops_at_the_command():

@@ -7,9 +7,9 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from manta_drake.cpg import CpgOscillators, locked_phases
-from manta_drake.gaits import GAITS, phase_lock_targets
-from manta_drake.plant import add_plant
+from manta_drake.control.cpg import CpgOscillators, locked_phases
+from manta_drake.control.gaits import GAITS, phase_lock_targets
+from manta_drake.model.plant import add_plant
 
 RK2 = SimulatorConfig(integration_scheme="runge_kutta2", max_step_size=1e-3,
                       use_error_control=False)

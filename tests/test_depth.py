@@ -2,9 +2,15 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
-from manta_drake.depth import FuzzyDepthEstimator, fuzzy_depth, layer_centres, memberships
+from manta_drake.control.depth import (
+    FuzzyDepthEstimator,
+    fuzzy_depth,
+    layer_centres,
+    memberships,
+)
 
 D = 0.25
 
@@ -26,13 +32,17 @@ def test_partition_of_unity_where_layers_overlap():
     np.testing.assert_allclose(memberships(h, D).sum(axis=1), 1.0, atol=1e-12)
 
 
-def test_centroid_equals_independent_computation(rng):
-    for h in rng.uniform(0, D, 200):
-        mu = memberships(h, D)
-        expected = sum(m * c for m, c in zip(mu, (0.0, D / 2, D))) / sum(mu)
-        h_hat, z_hat = fuzzy_depth(h, D)
-        assert h_hat == pytest.approx(expected, abs=1e-12)
-        assert z_hat == pytest.approx(expected / D, abs=1e-12)
+def test_centroid_equals_the_closed_form(rng):
+    """Worked by hand from the membership shapes (not through ``memberships``): with
+    x = h / D, on [1/6, 1/2] only surface = 3 (1/2 - x) and mid = 1 - surface are non-zero
+    and the centroid is mid * D/2; on [1/2, 5/6] mid = 1 - 3 (x - 1/2), deep = 3 (x - 1/2)
+    and the centroid is mid D/2 + deep D. Both give z_hat = 1.5 x - 0.25, so
+    z_hat = clip(1.5 x - 0.25, 0, 1) on all of [0, D]."""
+    h = np.concatenate([rng.uniform(0, D, 200), [0, D / 6, D / 3, D / 2, 2 * D / 3, 5 * D / 6, D]])
+    h_hat, z_hat = fuzzy_depth(h, D)
+    expected = np.clip(1.5 * h / D - 0.25, 0.0, 1.0)
+    np.testing.assert_allclose(z_hat, expected, atol=1e-12)
+    np.testing.assert_allclose(h_hat, expected * D, atol=1e-12)
     np.testing.assert_array_equal(layer_centres(D), [0, D / 2, D])
 
 

@@ -1,21 +1,18 @@
 """Whole diagrams, short runs: locomotion, the two transition experiments, failure logs."""
 
 import json
-import pathlib
 
 import numpy as np
 import pytest
 
-from manta_drake.gaits import GAITS
+from manta_drake.control.gaits import GAITS
+from manta_drake.control.transition import wrap
 from manta_drake.scenario import load_scenario
 from manta_drake.simulate import SimulationError, run
-from manta_drake.transition import wrap
-
-DIAGRAMS = pathlib.Path(__file__).resolve().parent.parent / "diagrams"
 
 
 def _scenario(name, **overrides):
-    s = load_scenario(DIAGRAMS / f"{name}.yaml")
+    s = load_scenario(name)
     s.visualization.meshcat = False
     for key, value in overrides.items():
         setattr(s, key, value)
@@ -74,7 +71,7 @@ def test_three_behaviours_wall_seen_then_turning(tmp_path):
 
 
 def test_failed_run_still_writes_its_log_and_why(tmp_path, monkeypatch):
-    import manta_drake.hydro as hydro
+    import manta_drake.station.hydro as hydro
 
     original = hydro.HydrodynamicForces._forces_now
 

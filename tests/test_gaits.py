@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from manta_drake.gaits import GAITS, GaitParams, get_gait, phase_lock_targets
+from manta_drake.control.gaits import GAITS, GaitParams, get_gait, phase_lock_targets
 
 D = np.radians
 

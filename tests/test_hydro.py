@@ -1,4 +1,5 @@
-"""HydrodynamicForces and its maths: closed forms and independent computations."""
+"""The water: each term's pure function against closed forms (no plant), and
+HydrodynamicForces in the plant against hydrostatics and drag laws by hand."""
 
 
 import numpy as np
@@ -6,20 +7,30 @@ import pytest
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
-from manta_drake.coefficients import load_coefficients
-from manta_drake.hydro import (
+from manta_drake.model import MODELS_DIR
+from manta_drake.model.coefficients import load_coefficients
+from manta_drake.model.robot_params import DEFAULT_ROBOT as P
+from manta_drake.scenario import (
+    BalloonConfig,
+    ControllerConfig,
+    InitialPose,
+    Scenario,
+    VisualizationConfig,
+)
+from manta_drake.simulate import run
+from manta_drake.station.water import (
     BOX_TO_ELLIPSOID,
+    balloon_wrench,
+    buoyancy_wrenches,
     check_explicit_added_mass,
+    damping_wrenches,
     ellipsoid_submersion,
     passive_pitch,
     plate_forces,
+    residual_added_mass_wrench,
     split_added_inertia,
     split_added_mass,
 )
-from manta_drake.robot_params import DEFAULT_ROBOT as P
-from manta_drake.scenario import BalloonConfig, ControllerConfig, InitialPose, Scenario, \
-    VisualizationConfig
-from manta_drake.simulate import run
 
 COEFFS = load_coefficients()
 RHO, G = COEFFS.water_density.value, COEFFS.gravity.value
@@ -84,7 +95,7 @@ def test_passive_pitch_makes_thrust_on_both_strokes():
 def test_strip_theory_added_mass_equals_numerical_integration():
     from scipy.integrate import quad
 
-    from manta_drake.coefficients import body_added_mass_strip_theory
+    from manta_drake.model.coefficients import body_added_mass_strip_theory
 
     a, b, c = P.body_semi_axes
     am = body_added_mass_strip_theory((a, b, c), RHO)
@@ -114,9 +125,10 @@ def test_added_mass_split_and_build_time_check():
         check_explicit_added_mass([0.1, 0.2, 9.0], 5.0)
     # The midpoint split always passes (|residual| = (max - min)/2 < rigid + (max + min)/2);
     # an explicit split is checked when the system is built:
-    from manta_drake.plant import add_plant
     from pydrake.systems.framework import DiagramBuilder
-    from manta_drake.hydro import HydrodynamicForces
+
+    from manta_drake.model.plant import add_plant
+    from manta_drake.station.hydro import HydrodynamicForces
 
     h = add_plant(DiagramBuilder(), hydro=COEFFS)
     with pytest.raises(ValueError, match="heave axis .* not below the rigid kg"):
@@ -127,7 +139,7 @@ def test_added_mass_split_and_build_time_check():
 
 
 def test_identification_recovers_known_coefficients(rng):
-    from manta_drake.coefficients import fit_damping
+    from manta_drake.model.coefficients import fit_damping
 
     for lin, quad_, (lo, hi) in ((1.7, 4.4, (0.4, 1.2)), (4.7, 37.0, (0.1, 0.6)),
                                  (0.05, 0.013, (0.5, 6.0))):
@@ -143,6 +155,7 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
     import shutil
     import subprocess
     import sys
+
     import yaml
 
     root = __import__("pathlib").Path(__file__).resolve().parent.parent
@@ -152,7 +165,7 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
                           for u in (-1.0, -0.5, 0.5, 1.0, 1.5)]
     csv.write_text("\n".join(lines) + "\n")
     target = tmp_path / "h.yaml"
-    shutil.copy(root / "models" / "hydrodynamics.yaml", target)
+    shutil.copy(MODELS_DIR / "hydrodynamics.yaml", target)
     out = subprocess.run([sys.executable, "scripts/identify_damping.py", "--csv", str(csv),
                           "--yaml", str(target), "--write"], cwd=root, capture_output=True,
                          text=True)
@@ -163,6 +176,76 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
     np.testing.assert_allclose(data["body"]["quadratic_damping"]["value"],
                                [2, 4, 6, 8, 10, 12], atol=1e-6)
     assert "surge" in out.stdout and "rms" in out.stdout
+
+
+def _one_element(p_B, axes, body=0):
+    """The arrays of build_elements for a single ellipsoid volume element."""
+    axes = np.asarray([axes], dtype=float)
+    return {"body": np.array([body]), "p": np.asarray([p_B], dtype=float), "axes": axes,
+            "volume": 4.0 / 3.0 * np.pi * np.prod(axes, axis=1)}
+
+
+def test_buoyancy_wrench_of_a_submerged_and_a_floating_ellipsoid():
+    a, b, c = 0.2, 0.1, 0.05
+    V = 4 / 3 * np.pi * a * b * c
+    el = _one_element([0.1, 0.0, 0.0], (a, b, c))  # element 0.1 m ahead of the body origin
+    R, p = np.eye(3)[None], np.array([[0.0, 0.0, -1.0]])
+    F, frac, body_frac = buoyancy_wrenches(R, p, el, RHO, G)
+    lift = RHO * G * V
+    # Archimedes at the centroid: f = (0, 0, rho g V), torque = r x f = (0, -0.1 lift, 0).
+    np.testing.assert_allclose(F[0], [0, -0.1 * lift, 0, 0, 0, lift], rtol=1e-12, atol=1e-12)
+    assert frac[0] == 1.0 and body_frac[0] == 1.0
+    # Level, centre at depth d < c: the cap below z = 0 of height h = c + d has volume
+    # pi a b h^2 (3c - h) / (3 c^2) (closed form of the ellipsoid cap).
+    d = 0.02
+    F, frac, _ = buoyancy_wrenches(R, np.array([[0.0, 0.0, -d]]), el, RHO, G)
+    h = c + d
+    assert F[0, 5] == pytest.approx(RHO * G * np.pi * a * b * h * h * (3 * c - h) / (3 * c * c),
+                                    rel=1e-12)
+    assert frac[0] == pytest.approx(F[0, 5] / lift)
+
+
+def test_balloon_wrench_is_its_sphere_buoyancy_at_the_mount():
+    R, p = np.eye(3), np.array([0.0, 0.0, -1.0])
+    V, mount = 2.5e-3, np.array([-0.05, 0.0, 0.07])
+    F = balloon_wrench(R, p, mount, V, RHO, G)
+    lift = RHO * G * V
+    np.testing.assert_allclose(F, [0, 0.05 * lift, 0, 0, 0, lift], rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(balloon_wrench(R, p, mount, 0.0, RHO, G), np.zeros(6))
+    # Out of the water: nothing. Half out (centre on the surface): half.
+    assert balloon_wrench(R, np.array([0, 0, 1.0]), mount, V, RHO, G)[5] == 0.0
+    half = balloon_wrench(R, np.array([0, 0, -0.07]), mount, V, RHO, G)[5]
+    assert half == pytest.approx(0.5 * lift, rel=1e-12)
+
+
+def test_damping_wrench_is_the_per_axis_drag_law_in_the_body_frame():
+    yaw = np.radians(30)
+    R = np.array([[[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]]])
+    u = 0.4  # surge speed along the body's x axis
+    v = (R[0] @ [u, 0, 0])[None]
+    w = np.array([[0.0, 0.0, 0.5]])  # yaw rate
+    d_lin = np.array([[1.0, 2, 3, 4, 5, 6]])
+    d_quad = np.array([[10.0, 20, 30, 40, 50, 60]])
+    F = damping_wrenches(R, w, v, np.zeros(3), d_lin, d_quad, np.array([0.5]))
+    surge = -0.5 * (1.0 + 10.0 * u) * u
+    yaw_torque = -0.5 * (6.0 + 60.0 * 0.5) * 0.5
+    np.testing.assert_allclose(F[0, 3:], R[0] @ [surge, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(F[0, :3], [0, 0, yaw_torque], atol=1e-15)
+    # moving with a current: no relative velocity, no force
+    F = damping_wrenches(R, np.zeros((1, 3)), v, v[0], d_lin, d_quad, np.array([1.0]))
+    np.testing.assert_allclose(F, 0.0, atol=1e-15)
+
+
+def test_residual_added_mass_opposes_the_acceleration_per_body_axis():
+    R = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # yaw by -90 deg
+    a_W, alpha_W = np.array([0.2, -0.1, 0.3]), np.array([0.0, 1.0, 0.0])
+    m_res, i_res = np.array([-4.5, -3.0, 4.5]), np.array([0.0, 0.0027, 0.0])
+    F = residual_added_mass_wrench(R, a_W, alpha_W, m_res, i_res, 0.5)
+    np.testing.assert_allclose(F[3:], 0.5 * R @ (-m_res * (R.T @ a_W)), atol=1e-15)
+    np.testing.assert_allclose(F[:3], 0.5 * R @ (-i_res * (R.T @ alpha_W)), atol=1e-15)
+    # along a body axis it is exactly -m a on that axis
+    F = residual_added_mass_wrench(np.eye(3), np.array([0, 0, 2.0]), np.zeros(3), m_res, i_res, 1)
+    np.testing.assert_allclose(F[3:], [0, 0, -4.5 * 2.0])
 
 
 # --- hydrostatics by hand ----------------------------------------------------------------------
@@ -213,15 +296,16 @@ def test_inflated_robot_floats_at_the_hydrostatic_draft(tmp_path):
     assert z[-1] == pytest.approx(z_eq, abs=0.003)
     # Back out of the water: the hull's top is above the surface.
     assert z[-1] + P.body_semi_axes[2] > 0.01
-    # Total buoyancy (hydro forces on the robot minus the added-mass weight compensation)
-    # equals the weight.
-    hydro = result.handles.systems["hydro"]
-    # recompute at the final state with the system's own maths
     R = Rotation.from_quat(result.log["body_quat_wxyz"][-1][[1, 2, 3, 0]]).as_matrix()
     assert np.degrees(np.arccos(R[2, 2])) < 1.0  # level
-    lift = RHO * G * robot_displacement(z[-1], full)
-    assert lift == pytest.approx(mass * G, rel=0.02)
+    # The system's own output at rest: the vertical hydro force on the robot, less the
+    # cancellation of the added-mass body's weight (that body is in the plant, not in
+    # the robot's 8.4 kg), carries the robot's weight.
+    hydro = result.handles.systems["hydro"]
+    forces = hydro.GetOutputPort("spatial_forces").Eval(hydro.GetMyContextFromRoot(result.context))
+    lift = sum(f.F_Bq_W.translational()[2] for f in forces) - hydro.added_mass_iso * G
     assert hydro.added_mass_iso > 0
+    assert lift == pytest.approx(mass * G, rel=0.01)
 
 
 def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
@@ -248,21 +332,16 @@ def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
 
 
 def test_surge_step_force_accelerates_with_added_mass():
-    from pydrake.systems.analysis import Simulator
-
-    from manta_drake.diagram import build_diagram, initialize_context
-    from manta_drake.plant import body_pose, set_initial_state
+    from manta_drake.diagram import build_diagram
+    from manta_drake.simulate import make_simulator
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.25]),
                         balloon=BalloonConfig(initial_fill=0.25))
     diagram, h = build_diagram(s)
     plant = h.plant
-    simulator = Simulator(diagram)
+    simulator = make_simulator(diagram, s)  # the default context is the scenario's start
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
-    set_initial_state(h.plant_handles, plant_context, body_pose([0, 0, -0.25], [0, 0, 0]),
-                      np.zeros(16))
-    initialize_context(s, h, context)
     F = 10.0
     tau = np.zeros(plant.num_velocities())
     tau[h.plant_handles.body.floating_velocities_start_in_v() + 3] = F  # world x (= surge)
@@ -314,8 +393,9 @@ def test_spinning_plate_gets_torque_and_no_net_force():
 
     from pydrake.systems.framework import DiagramBuilder
 
-    from manta_drake.hydro import HydrodynamicForces, hydro_body_names
-    from manta_drake.plant import add_plant
+    from manta_drake.model.plant import add_plant
+    from manta_drake.station.hydro import HydrodynamicForces
+    from manta_drake.station.water import hydro_body_names
 
     coeffs = copy.deepcopy(COEFFS)
     coeffs.links.linear_damping.value = [0.0] * 6  # isolate the blade elements
@@ -349,20 +429,15 @@ def test_spinning_plate_gets_torque_and_no_net_force():
 
 def test_held_forces_start_from_the_initial_state():
     """With update_period > 0 the first held forces are those of the initial state."""
-    from pydrake.systems.analysis import Simulator
-
-    from manta_drake.diagram import build_diagram, initialize_context
-    from manta_drake.plant import body_pose, set_initial_state
+    from manta_drake.diagram import build_diagram
+    from manta_drake.simulate import make_simulator
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
                         balloon=BalloonConfig(initial_fill=1.0))
     s.water.update_period = 0.004
     diagram, h = build_diagram(s)
-    simulator = Simulator(diagram)
+    simulator = make_simulator(diagram, s)
     context = simulator.get_mutable_context()
-    set_initial_state(h.plant_handles, h.plant.GetMyMutableContextFromRoot(context),
-                      body_pose([0, 0, -0.04], [0, 0, 0]), np.zeros(16))
-    initialize_context(s, h, context)
     simulator.Initialize()
     hydro = h.systems["hydro"]
     hydro_context = hydro.GetMyContextFromRoot(context)

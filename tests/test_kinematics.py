@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from manta_drake.kinematics import X_BODYDRAKE_BODYNED, dh_transform, fin_tip_pose
-from manta_drake.robot_params import DEFAULT_ROBOT, LEGS
+from manta_drake.model.kinematics import X_BODYDRAKE_BODYNED, dh_transform, fin_tip_pose
+from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
 
 
 def _elementary(theta, d, a, alpha):

@@ -1,5 +1,6 @@
 """The SDFormat robot and pool: Table 1, joint set-up, strict parsing, generated files."""
 
+import pathlib
 import subprocess
 import sys
 
@@ -9,9 +10,9 @@ from pydrake.geometry import Role, Shape
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RevoluteJoint
 
-from manta_drake.model_sdf import pool_sdf, robot_sdf
-from manta_drake.plant import MODELS_DIR, make_parser
-from manta_drake.robot_params import DEFAULT_ROBOT, JOINT_NAMES
+from manta_drake.model.model_sdf import pool_sdf, robot_sdf
+from manta_drake.model.plant import MODELS_DIR, make_parser
+from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES
 
 
 def test_generated_models_are_up_to_date():
@@ -129,5 +130,6 @@ def test_pool_geometry(robot_plant):
 
 def test_generate_models_check_mode():
     result = subprocess.run([sys.executable, "scripts/generate_models.py", "--check"],
-                            cwd=MODELS_DIR.parent, capture_output=True, text=True)
+                            cwd=pathlib.Path(__file__).resolve().parent.parent,
+                            capture_output=True, text=True)
     assert result.returncode == 0, result.stderr

@@ -1,12 +1,14 @@
 """Scenario loading: typos and out-of-range values fail at load time, naming the field."""
 
-import pathlib
 
 import pytest
 
-from manta_drake.scenario import Scenario, ScenarioError, load_scenario
-
-DIAGRAMS = pathlib.Path(__file__).resolve().parent.parent / "diagrams"
+from manta_drake.scenario import (
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    shipped_scenarios,
+)
 
 
 def _write(tmp_path, text):
@@ -15,7 +17,7 @@ def _write(tmp_path, text):
     return path
 
 
-@pytest.mark.parametrize("path", sorted(DIAGRAMS.glob("*.yaml")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", shipped_scenarios(), ids=lambda p: p.name)
 def test_shipped_scenarios_load(path):
     scenario = load_scenario(path)
     assert scenario.duration > 0

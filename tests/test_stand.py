@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from manta_drake.gaits import GAITS
+from manta_drake.control.gaits import GAITS
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 

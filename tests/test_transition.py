@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from manta_drake.gaits import GAITS
-from manta_drake.transition import (
+from manta_drake.control.gaits import GAITS
+from manta_drake.control.transition import (
     PotentialTransition,
     descent_step,
     potential,

@@ -4,15 +4,22 @@ import numpy as np
 import pytest
 from pydrake.perception import PointCloud
 
-from manta_drake.scenario import ControllerConfig, InitialPose, Scenario, VisualizationConfig
-from manta_drake.vision import (
+from manta_drake.control.vision import (
+    STATUS_FIELDS,
     WallDetector,
     WallDetectorParams,
     detect,
     downsample_with_normals,
     finite_points,
+    is_expected_frame_failure,
     normal_dbscan,
     wall_score,
+)
+from manta_drake.scenario import (
+    ControllerConfig,
+    InitialPose,
+    Scenario,
+    VisualizationConfig,
 )
 
 P = WallDetectorParams()
@@ -125,7 +132,37 @@ def test_system_holds_output_between_frames_and_survives_empty_input(rng):
     assert s_hat.Eval(context)[0] == 0.0
     detection = system.GetOutputPort("clusters").Eval(context)
     assert detection.clusters == [] and detection.time == pytest.approx(0.2)
-    assert system.failed_frames == 0
+    status = dict(zip(STATUS_FIELDS, system.GetOutputPort("detector_status").Eval(context)))
+    assert status["frames"] == 2 and status["failed_frames"] == 0
+    # the best frame so far is the first one, with its wall
+    best = system.GetOutputPort("best_clusters").Eval(context)
+    assert best.time == 0.0 and best.wall_size > 0
+
+
+def test_a_bug_in_a_frame_fails_the_run_with_its_reason(rng, monkeypatch):
+    """Only expected per-frame failures are counted; anything else is raised."""
+    from pydrake.systems.analysis import Simulator
+
+    import manta_drake.control.vision as vision
+
+    def buggy(*args, **kwargs):
+        return None + 1  # a TypeError, as a wrong-typed parameter would give
+
+    monkeypatch.setattr(vision, "detect", buggy)
+    system = WallDetector(period=0.2)
+    simulator = Simulator(system)
+    cloud = PointCloud(100)
+    cloud.mutable_xyzs()[:] = rng.normal(size=(3, 100))
+    system.GetInputPort("point_cloud").FixValue(simulator.get_mutable_context(), cloud)
+    with pytest.raises(RuntimeError, match="WallDetector: frame at t = 0.000 s failed: TypeError"):
+        simulator.AdvanceTo(0.1)
+
+
+def test_expected_frame_failures():
+    assert is_expected_frame_failure(np.linalg.LinAlgError("SVD did not converge"))
+    assert is_expected_frame_failure(RuntimeError("[Open3D ERROR] bad cloud"))
+    assert not is_expected_frame_failure(TypeError("unsupported operand"))
+    assert not is_expected_frame_failure(RuntimeError("something else"))
 
 
 def _rendered_s_hat(x_body: float, tmp_path) -> float:
@@ -138,7 +175,8 @@ def _rendered_s_hat(x_body: float, tmp_path) -> float:
     s.camera.enabled = True
     result = run(s.validate(), tmp_path, progress=False,
                  write_outputs=False)
-    assert result.handles.systems["wall_detector"].failed_frames == 0
+    status = dict(zip(STATUS_FIELDS, result.log["detector_status"][-1]))
+    assert status["frames"] == 2 and status["failed_frames"] == 0  # logged before t = 0.4's frame
     return float(result.log["s_hat"][-1, 0])
 
 

@@ -41,8 +41,7 @@ the sinking).
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.gaits import GAITS
-
+from manta_drake.control.gaits import GAITS
 
 # The behaviours Eq. (12) blends: swim (surface), and in the gait trot or turning (vision).
 BEHAVIOURS = ("swim", "trot", "turning")

@@ -37,7 +37,11 @@ from dataclasses import dataclass
 LEGS = ("fl", "fr", "rl", "rr")
 JOINTS = ("yaw", "roll1", "pitch", "roll2")
 JOINT_NAMES = tuple(f"{leg}_{joint}" for leg in LEGS for joint in JOINTS)
-NUM_JOINTS = len(JOINT_NAMES)  # 16
+NUM_LEGS = len(LEGS)  # 4
+JOINTS_PER_LEG = len(JOINTS)  # 4
+NUM_JOINTS = len(JOINT_NAMES)  # 16 = legs x joints, the plant's actuated joints
+GAIT_SHAPE = (NUM_LEGS, JOINTS_PER_LEG)  # rows: leg-fins, columns: joints (Eqs. 6-8)
+NUM_CPG_PARAMS = 4 * NUM_JOINTS  # R, X, Phi, Phi' (each legs x joints), 64
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from manta_drake.robot_params import DEFAULT_ROBOT, JOINTS, RobotParams
+from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS, RobotParams
 
 # Rotation by pi about x: the paper's NED body axes (x fwd, y right, z down)
 # expressed in Drake's z-up body axes (x fwd, y left, z up).

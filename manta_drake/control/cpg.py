@@ -33,23 +33,36 @@ Defaults and why:
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-NUM_OSC = 16
-NUM_PARAMS = 64
+from manta_drake.model.robot_params import (
+    GAIT_SHAPE,
+    JOINTS_PER_LEG,
+    NUM_CPG_PARAMS,
+    NUM_JOINTS,
+    NUM_LEGS,
+)
+
+NUM_OSC = NUM_JOINTS  # one oscillator per joint
+NUM_PARAMS = NUM_CPG_PARAMS
+NUM_STATES = 5 * NUM_OSC  # phi, r, dr, chi, dchi
 
 # Index sets of the coupled directed pairs (i <- j): dphi_i gets w sin(phi_j - phi_i - b_ij).
-_chain_i = np.array([4 * k + j for k in range(4) for j in range(3)])
+_chain_i = np.array([JOINTS_PER_LEG * k + j for k in range(NUM_LEGS)
+                     for j in range(JOINTS_PER_LEG - 1)])
 _chain_j = _chain_i + 1
-_fcs_k, _fcs_l = np.array([(k, l) for k in range(4) for l in range(4) if k != l]).T
-PAIR_I = np.concatenate([_chain_i, _chain_j, 4 * _fcs_k])  # receiving oscillator
-PAIR_J = np.concatenate([_chain_j, _chain_i, 4 * _fcs_l])  # sending oscillator
-_CHAIN_PHI_INDEX = np.array([4 * k + j for k in range(4) for j in range(3)])  # into Phi.ravel()
-_FCS_INDEX = 4 * _fcs_k + _fcs_l  # into Phi_prime.ravel()
+_fcs_k, _fcs_l = np.array([(k, l) for k in range(NUM_LEGS) for l in range(NUM_LEGS)
+                           if k != l]).T
+PAIR_I = np.concatenate([_chain_i, _chain_j, JOINTS_PER_LEG * _fcs_k])  # receiving oscillator
+PAIR_J = np.concatenate([_chain_j, _chain_i, JOINTS_PER_LEG * _fcs_l])  # sending oscillator
+_CHAIN_PHI_INDEX = _chain_i  # into Phi.ravel(): Phi[k, j] biases joint j -> j + 1
+_FCS_INDEX = NUM_LEGS * _fcs_k + _fcs_l  # into Phi_prime.ravel()
+# Slices of the parameter vector [R, X, Phi, Phi'].
+_R, _X, _PHI, _PHI_PRIME = (slice(i * NUM_OSC, (i + 1) * NUM_OSC) for i in range(4))
 
 
 def pair_biases(params: np.ndarray) -> np.ndarray:
-    """Phase biases dphi_ij of the coupled pairs (PAIR_I, PAIR_J) from the 64 CPG params."""
-    Phi = params[32:48]
-    Phi_prime = params[48:64]
+    """Phase biases dphi_ij of the coupled pairs (PAIR_I, PAIR_J) from the CPG params."""
+    Phi = params[_PHI]
+    Phi_prime = params[_PHI_PRIME]
     chain = Phi[_CHAIN_PHI_INDEX]
     return np.concatenate([chain, -chain, Phi_prime[_FCS_INDEX]])
 
@@ -69,7 +82,7 @@ def phase_rates(phi, params, frequency_hz, weights) -> np.ndarray:
 def cpg_derivatives(x, params, frequency_hz, weights, a, b) -> np.ndarray:
     """Time derivative of the CPG state x = [phi, r, dr, chi, dchi] (80) under Eq. (5)."""
     phi, r, dr, chi, dchi = np.asarray(x, dtype=float).reshape(5, NUM_OSC)
-    R, X = params[0:16], params[16:32]
+    R, X = params[_R], params[_X]
     return np.concatenate([
         phase_rates(phi, params, frequency_hz, weights),
         dr,
@@ -93,13 +106,23 @@ def joint_rates(x, phi_dot) -> np.ndarray:
 
 def locked_phases(params) -> np.ndarray:
     """Phases with every chain at its bias and the bases at the FCS lock (leg 1 base = 0)."""
-    from manta_drake.gaits import phase_lock_targets
+    from manta_drake.control.gaits import phase_lock_targets
 
     params = np.asarray(params, dtype=float)
-    base = phase_lock_targets(params[48:64].reshape(4, 4))
-    Phi = params[32:48].reshape(4, 4)
-    offsets = np.concatenate([np.zeros((4, 1)), np.cumsum(Phi[:, :3], axis=1)], axis=1)
+    base = phase_lock_targets(params[_PHI_PRIME].reshape(GAIT_SHAPE))
+    Phi = params[_PHI].reshape(GAIT_SHAPE)
+    offsets = np.concatenate([np.zeros((NUM_LEGS, 1)), np.cumsum(Phi[:, :-1], axis=1)], axis=1)
     return (base[:, None] + offsets).ravel()
+
+
+def initial_state(params, joint_angles) -> np.ndarray:
+    """The CPG state that starts ``params`` from rest without a jump: phases at the lock of
+    the gait (the exact in-phase start is an unstable equilibrium of couplings with bias
+    pi), amplitudes r = 0, biases chi at the robot's initial ``joint_angles``."""
+    x = np.zeros((5, NUM_OSC))
+    x[0] = locked_phases(params)
+    x[3] = np.asarray(joint_angles, dtype=float).reshape(NUM_OSC)
+    return x.ravel()
 
 
 class CpgOscillators(LeafSystem):
@@ -120,13 +143,16 @@ class CpgOscillators(LeafSystem):
     * ``desired_state`` (32): [theta, dtheta/dt] for the plant's PD; the rate is the
       exact derivative of theta (it uses dphi/dt, hence also the input's biases).
 
-    Continuous state (80): [phi (16), r (16), dr/dt (16), chi (16), dchi/dt (16)].
+    Continuous state (80): [phi (16), r (16), dr/dt (16), chi (16), dchi/dt (16)];
+    ``initial_state`` (default zeros) is the default context's value, e.g. from
+    ``initial_state(params, joint_angles)``.
     """
 
     def __init__(self, frequency_hz: float | None = None, chain_weight: float = 4.0,
-                 fcs_weight: float = 4.0, a: float = 20.0, b: float = 20.0):
+                 fcs_weight: float = 4.0, a: float = 20.0, b: float = 20.0,
+                 initial_state=None):
         super().__init__()
-        from manta_drake.gaits import DEFAULT_FREQUENCY_HZ
+        from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ
 
         self.frequency_hz = DEFAULT_FREQUENCY_HZ if frequency_hz is None else float(frequency_hz)
         for name, value in (("frequency_hz", self.frequency_hz), ("a", a), ("b", b)):
@@ -137,7 +163,13 @@ class CpgOscillators(LeafSystem):
                 raise ValueError(f"CpgOscillators.{name}: {value} must be a finite number >= 0")
         self.a, self.b = float(a), float(b)
         self.weights = pair_weights(chain_weight, fcs_weight)
-        self.DeclareContinuousState(5 * NUM_OSC)
+        x0 = np.zeros(NUM_STATES) if initial_state is None else np.asarray(
+            initial_state, dtype=float)
+        if x0.shape != (NUM_STATES,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"CpgOscillators.initial_state: expected {NUM_STATES} finite "
+                             f"values [phi, r, dr, chi, dchi], got shape {x0.shape}")
+        # The default context starts here (see ``initial_state``).
+        self.DeclareContinuousState(BasicVector(x0))
         self._params_port = self.DeclareVectorInputPort("cpg_params", NUM_PARAMS)
         self.DeclareVectorOutputPort("joint_angles", NUM_OSC, self._calc_joint_angles,
                                      prerequisites_of_calc={self.xc_ticket()})

@@ -4,6 +4,15 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 
+def pressure_depth_sample(true_depth: float, noise_std: float, dropout_rate: float,
+                          normal_sample: float, uniform_sample: float) -> float:
+    """One reading: ``true_depth + noise_std * normal_sample``, or NaN (a dropped reading)
+    when ``uniform_sample < dropout_rate``."""
+    if uniform_sample < dropout_rate:
+        return np.nan
+    return true_depth + noise_std * normal_sample
+
+
 class PressureSensor(LeafSystem):
     """Depth of a point on the robot below the water surface, sampled with noise.
 
@@ -12,21 +21,22 @@ class PressureSensor(LeafSystem):
         name: PressureSensor
         input_ports:
         - body_poses
+        - noise (optional)
         output_ports:
         - depth
 
     * ``body_poses``: the plant's body poses.
+    * ``noise`` (2, optional): [standard normal sample, uniform [0, 1) sample], from
+      Drake ``RandomSource`` systems (so the noise lives in the Context and
+      ``SetRandomContext`` draws it anew). Unconnected: a noiseless sensor.
     * ``depth`` (1): h = -z of the sensor point in the world [m] (positive below the
-      surface z = 0) plus Gaussian noise, or NaN for a dropped reading; a discrete
-      state sampled every ``period`` seconds and held in between.
-
-    The noise and dropout of sample k come from ``numpy.random.default_rng([seed, k])``
-    (k is part of the discrete state), so a run is reproducible from its scenario and
-    the system holds no mutable random state of its own.
+      surface z = 0) plus ``noise_std`` times the normal sample, or NaN for a dropped
+      reading (uniform sample < ``dropout_rate``); a discrete state sampled every
+      ``period`` seconds and held in between. It starts at the true depth.
     """
 
     def __init__(self, plant, body, p_BS, period: float, noise_std: float = 0.0,
-                 dropout_rate: float = 0.0, seed: int = 0):
+                 dropout_rate: float = 0.0):
         super().__init__()
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"PressureSensor.period: {period} must be > 0")
@@ -37,13 +47,11 @@ class PressureSensor(LeafSystem):
         self.body_index = int(body.index())
         self.p_BS = np.asarray(p_BS, dtype=float).reshape(3)
         self.noise_std, self.dropout_rate = float(noise_std), float(dropout_rate)
-        self._seed = int(seed)
         self._poses = self.DeclareAbstractInputPort(
             "body_poses", plant.get_body_poses_output_port().Allocate())
-        self._state = self.DeclareDiscreteState([np.nan, 0.0])  # depth, sample index k
-        self.DeclareVectorOutputPort(
-            "depth", 1, lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._state)[0]),
-            prerequisites_of_calc={self.xd_ticket()})
+        self._noise = self.DeclareVectorInputPort("noise", 2)
+        self._state = self.DeclareDiscreteState([np.nan])
+        self.DeclareStateOutputPort("depth", self._state)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._sample)
         self.DeclareInitializationDiscreteUpdateEvent(self._reset)
 
@@ -53,13 +61,9 @@ class PressureSensor(LeafSystem):
         return -float((X_WB @ self.p_BS)[2])
 
     def _reset(self, context, discrete_state):
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            [self.true_depth(context), 0.0])
+        discrete_state.get_mutable_vector(self._state).SetAtIndex(0, self.true_depth(context))
 
     def _sample(self, context, discrete_state):
-        k = int(context.get_discrete_state(self._state)[1])
-        rng = np.random.default_rng([self._seed, k])
-        noise = rng.normal(0.0, self.noise_std)
-        dropped = rng.uniform() < self.dropout_rate
-        h = np.nan if dropped else self.true_depth(context) + noise
-        discrete_state.get_mutable_vector(self._state).SetFromVector([h, k + 1.0])
+        n, u = self._noise.Eval(context) if self._noise.HasValue(context) else (0.0, 1.0)
+        discrete_state.get_mutable_vector(self._state).SetAtIndex(0, pressure_depth_sample(
+            self.true_depth(context), self.noise_std, self.dropout_rate, n, u))

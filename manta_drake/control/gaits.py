@@ -27,8 +27,15 @@ import dataclasses as dc
 
 import numpy as np
 
+from manta_drake.model.robot_params import (
+    GAIT_SHAPE,
+    NUM_CPG_PARAMS,
+    NUM_JOINTS,
+    NUM_LEGS,
+)
+
 PI = np.pi
-SHAPE = (4, 4)
+SHAPE = GAIT_SHAPE  # (legs, joints per leg)
 FIELDS = ("R", "X", "Phi", "Phi_prime")
 
 # Oscillator frequency f_i of Eq. (5), shared by all oscillators and gaits (the
@@ -65,13 +72,15 @@ class GaitParams:
     def from_vector(cls, v) -> "GaitParams":
         """Inverse of ``to_vector``."""
         v = np.asarray(v, dtype=float)
-        if v.shape != (64,):
-            raise ValueError(f"GaitParams.from_vector: expected 64 values, got shape {v.shape}")
-        return cls(*(v[16 * i : 16 * (i + 1)].reshape(SHAPE) for i in range(4)))
+        if v.shape != (NUM_CPG_PARAMS,):
+            raise ValueError(f"GaitParams.from_vector: expected {NUM_CPG_PARAMS} values, "
+                             f"got shape {v.shape}")
+        n = NUM_JOINTS
+        return cls(*(v[n * i : n * (i + 1)].reshape(SHAPE) for i in range(len(FIELDS))))
 
 
 def _rows(row) -> np.ndarray:
-    return np.tile(np.asarray(row, dtype=float), (4, 1))
+    return np.tile(np.asarray(row, dtype=float), (NUM_LEGS, 1))
 
 
 # Eq. (6)
@@ -152,18 +161,19 @@ def phase_lock_targets(Phi_prime) -> np.ndarray:
     from scipy.optimize import minimize
 
     B = np.asarray(Phi_prime, dtype=float)
-    k, l = np.triu_indices(4, 1)
+    n = len(B)
+    k, l = np.triu_indices(n, 1)
 
     def potential(x):
         phi = np.concatenate([[0.0], x])
         e = phi[l] - phi[k] - B[k, l]
         grad_pairs = np.sin(e)
-        g = np.zeros(4)
+        g = np.zeros(n)
         np.add.at(g, l, grad_pairs)
         np.add.at(g, k, -grad_pairs)
         return np.sum(1.0 - np.cos(e)), g[1:]
 
-    starts = np.stack(np.meshgrid(*[np.linspace(-PI, PI, 5)[:-1]] * 3), -1).reshape(-1, 3)
+    starts = np.stack(np.meshgrid(*[np.linspace(-PI, PI, 5)[:-1]] * (n - 1)), -1).reshape(-1, n - 1)
     best = min((minimize(potential, x0, jac=True, method="BFGS") for x0 in starts),
                key=lambda r: r.fun)
     return np.angle(np.exp(1j * np.concatenate([[0.0], best.x])))

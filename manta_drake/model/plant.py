@@ -9,18 +9,21 @@ plant's desired-state input port.
 from __future__ import annotations
 
 import dataclasses as dc
-import pathlib
 
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.plant import (
+    AddMultibodyPlant,
+    MultibodyPlant,
+    MultibodyPlantConfig,
+)
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
-from manta_drake.robot_params import JOINT_NAMES
+from manta_drake.model import MODELS_DIR
+from manta_drake.model.robot_params import JOINT_NAMES
 
-MODELS_DIR = pathlib.Path(__file__).resolve().parent.parent / "models"
 ROBOT_URL = "package://manta_drake/manta.sdf"
 POOL_URL = "package://manta_drake/pool.sdf"
 
@@ -99,7 +102,7 @@ def add_plant(
 
 def _add_hydro_inertia(plant, robot, body, hydro) -> float:
     """Puts the implicit part of the added mass into the plant (before Finalize)."""
-    from manta_drake.hydro import split_added_inertia, split_added_mass
+    from manta_drake.station.hydro import split_added_inertia, split_added_mass
 
     iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
     Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value)[0]

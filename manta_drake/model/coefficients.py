@@ -31,9 +31,9 @@ import pathlib
 import numpy as np
 from pydrake.common.yaml import yaml_load_typed
 
-from manta_drake.robot_params import RobotParams
+from manta_drake.model import MODELS_DIR
+from manta_drake.model.robot_params import RobotParams
 
-MODELS_DIR = pathlib.Path(__file__).resolve().parent.parent / "models"
 DEFAULT_COEFFICIENTS_FILE = MODELS_DIR / "hydrodynamics.yaml"
 AXES = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 
@@ -185,8 +185,9 @@ def _walk(node, prefix):
 
 def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE) -> HydroCoefficients:
     """Loads and checks ``hydrodynamics.yaml`` (unknown keys, sizes, signs, sources)."""
-    from manta_drake.scenario import ScenarioError, check_keys
     import yaml
+
+    from manta_drake.scenario import ScenarioError, check_keys
 
     path = pathlib.Path(path)
     if not path.is_file():

@@ -258,6 +258,19 @@ def detect(xyz, p: WallDetectorParams, viewpoint=(0.0, 0.0, 0.0), time: float = 
 
 # --- the system ------------------------------------------------------------------------------
 
+# Per-frame counters, a discrete state (logged like any other signal).
+STATUS_FIELDS = ("s_hat", "wall_size", "num_points", "frames", "failed_frames")
+
+
+def is_expected_frame_failure(error: Exception) -> bool:
+    """Failures a frame may have without the run being wrong: a degenerate covariance in
+    the linear algebra, or an error reported by open3d (``[Open3D ERROR] ...``). Anything
+    else is a bug and must fail the run."""
+    if isinstance(error, np.linalg.LinAlgError):
+        return True
+    return isinstance(error, RuntimeError) and "open3d" in str(error).lower()
+
+
 class WallDetector(LeafSystem):
     """Point-cloud wall detector (Eq. 10), run as a periodic update at the camera rate.
 
@@ -270,17 +283,25 @@ class WallDetector(LeafSystem):
         output_ports:
         - s_hat
         - clusters
+        - best_clusters
+        - detector_status
 
     * ``point_cloud``: a Drake PointCloud in the world frame (from DepthImageToPointCloud).
     * ``camera_pose`` (optional): the camera's RigidTransform in the world; its height
       tells floor from ceiling and its optical axis which walls are ahead.
       Unconnected, the viewpoint is the world origin and every wall counts.
     * ``s_hat`` (1): wall detection rate in [0, 1], held between frames.
-    * ``clusters``: the last ``Detection`` (labelled clusters), held between frames.
+    * ``clusters``: the last frame's ``Detection`` (labelled clusters), held.
+    * ``best_clusters``: the ``Detection`` of the frame with the largest wall so far.
+    * ``detector_status`` (5): ``STATUS_FIELDS`` = s_hat, wall size of the last frame,
+      its number of points after downsampling, frames processed, frames failed.
 
-    A frame that cannot be processed (e.g. an exception in the library code) keeps
-    the previous output and is counted in ``failed_frames`` rather than stopping
-    the simulation.
+    All of it is state in the Context (one discrete vector, two abstract values), so
+    one diagram can be simulated from many contexts. A frame that fails in an expected
+    way (``is_expected_frame_failure``) keeps the previous output and is counted in
+    ``failed_frames``; any other exception propagates and fails the run with its
+    reason. With ``meshcat``, a publish event at the camera rate draws the last frame's
+    labelled clusters (drawing never changes the state).
     """
 
     def __init__(self, period: float, params: WallDetectorParams | None = None, meshcat=None):
@@ -288,18 +309,22 @@ class WallDetector(LeafSystem):
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"WallDetector.period: {period} must be > 0")
         self.params = (params or WallDetectorParams()).validate()
-        self.meshcat = meshcat
-        self.failed_frames = 0
-        self.history: list = []  # (time, s_hat, wall size) per frame, for plots
-        self.best_detection: Detection | None = None  # the frame with the largest wall
+        self._meshcat = meshcat
         self._cloud = self.DeclareAbstractInputPort("point_cloud", AbstractValue.Make(PointCloud()))
         self._camera = self.DeclareAbstractInputPort("camera_pose",
                                                      AbstractValue.Make(RigidTransform()))
-        self._s_hat = self.DeclareDiscreteState([0.0])
+        self._status = self.DeclareDiscreteState(np.zeros(len(STATUS_FIELDS)))
         self._detection = self.DeclareAbstractState(AbstractValue.Make(Detection()))
-        self.DeclareStateOutputPort("s_hat", self._s_hat)
+        self._best = self.DeclareAbstractState(AbstractValue.Make(Detection()))
+        self.DeclareVectorOutputPort(
+            "s_hat", 1, lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._status)[0]),
+            prerequisites_of_calc={self.xd_ticket()})
         self.DeclareStateOutputPort("clusters", self._detection)
+        self.DeclareStateOutputPort("best_clusters", self._best)
+        self.DeclareStateOutputPort("detector_status", self._status)
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
+        if meshcat is not None:
+            self.DeclarePeriodicPublishEvent(period, 0.0, self._publish)
 
     def _update(self, context, state):
         if self._camera.HasValue(context):
@@ -307,19 +332,27 @@ class WallDetector(LeafSystem):
             viewpoint, view = X_WC.translation(), X_WC.rotation().matrix()[:, 2]
         else:
             viewpoint, view = np.zeros(3), None
+        status = context.get_discrete_state(self._status).get_value().copy()
+        status[3] += 1
         try:
             xyz = self._cloud.Eval(context).xyzs()
             detection = detect(xyz, self.params, viewpoint, context.get_time(), view)
-        except Exception:  # a bad frame must not stop the run; hold the last output
-            self.failed_frames += 1
+        except Exception as e:
+            if not is_expected_frame_failure(e):
+                raise RuntimeError(f"WallDetector: frame at t = {context.get_time():.3f} s "
+                                   f"failed: {type(e).__name__}: {e}") from e
+            status[4] += 1  # hold the last output
+            state.get_mutable_discrete_state(self._status).SetFromVector(status)
             return
-        state.get_mutable_discrete_state(self._s_hat).SetAtIndex(0, detection.s_hat)
+        status[:3] = detection.s_hat, detection.wall_size, detection.num_points
+        state.get_mutable_discrete_state(self._status).SetFromVector(status)
         state.get_mutable_abstract_state(self._detection).set_value(detection)
-        self.history.append((detection.time, detection.s_hat, detection.wall_size))
-        if self.best_detection is None or detection.wall_size > self.best_detection.wall_size:
-            self.best_detection = detection
-        if self.meshcat is not None:
-            publish_clusters(self.meshcat, detection)
+        best = context.get_abstract_state(self._best).get_value()
+        if detection.wall_size > best.wall_size or best.num_points == 0:
+            state.get_mutable_abstract_state(self._best).set_value(detection)
+
+    def _publish(self, context):
+        publish_clusters(self._meshcat, context.get_abstract_state(self._detection).get_value())
 
 
 def publish_clusters(meshcat, detection: Detection, prefix: str = "/wall_detector") -> None:

@@ -1,0 +1,202 @@
+"""The controller: what runs on the robot, as one Diagram with the station's port names.
+
+``build_controller(scenario)`` returns a Diagram that consumes only what the real
+robot's sensors give (the station's ``depth``, ``depth_image`` and ``camera_pose``)
+and commands the joints and the balloon.
+
+.. pydrake_system::
+
+    name: controller
+    input_ports:
+    - depth (water on)
+    - depth_image (camera on)
+    - camera_pose (camera on)
+    output_ports:
+    - desired_state
+    - balloon_command
+    - cpg_params (gait, transition)
+    - joint_angles (gait, transition)
+    - h_hat (water on)
+    - z_hat (water on)
+    - s_hat (camera on or transition)
+    - detector_status (camera on)
+    - clusters (camera on)
+    - best_clusters (camera on)
+
+By ``scenario.controller.mode``:
+
+* ``hold``: the joints hold the stance X of ``controller.gait`` (no oscillation).
+* ``gait``: the CPG (Eq. 5) runs ``controller.gait`` for the whole run.
+* ``transition``: the multifunctional controller of section 3: the pressure depth goes
+  through ``FuzzyDepthEstimator`` (Eq. 9) to z_hat; the depth image through
+  ``DepthImageToPointCloud`` and ``WallDetector`` (Eq. 10) to s_hat (0 without a
+  camera); ``PotentialTransition`` (Eqs. 11-15) turns both into the CPG's parameters.
+
+In every mode the balloon follows the scenario's schedule (``balloon_command``, fill
+in [0, 1]); with water on, the depth estimator runs (and is logged) in every mode.
+
+The scenario's start is the default context: the CPG starts from rest at the lock of
+its initial gait with its biases at the initial stance, the transition at the target
+for the initial depth, the estimator at the initial depth.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.perception import BaseField, DepthImageToPointCloud
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
+from pydrake.systems.sensors import PixelType
+from pydrake.trajectories import PiecewisePolynomial
+
+from manta_drake.control.cpg import CpgOscillators, initial_state
+from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
+from manta_drake.control.gaits import GAITS, get_gait
+from manta_drake.control.transition import (
+    BEHAVIOURS,
+    PotentialTransition,
+    target_params,
+)
+from manta_drake.control.vision import WallDetector
+from manta_drake.model.robot_params import NUM_JOINTS
+from manta_drake.scenario import Scenario
+from manta_drake.station.station import camera_info, initial_joint_angles
+
+
+@dc.dataclass
+class ControllerHandles:
+    """Every system of a built controller by name."""
+
+    systems: dict = dc.field(default_factory=dict)
+
+
+def initial_sensor_depth(scenario: Scenario) -> float:
+    """Depth of the pressure sensor at t = 0, taking the start as level [m, >= 0]."""
+    return max(0.0, -(scenario.initial_pose.xyz[2] + scenario.pressure_sensor.position[2]))
+
+
+def initial_cpg_params(scenario: Scenario) -> np.ndarray:
+    """The CPG parameters at t = 0: the fixed gait, or the transition's target for the
+    initial depth (no wall seen)."""
+    if scenario.controller.mode == "transition":
+        z0 = float(fuzzy_depth(initial_sensor_depth(scenario),
+                               scenario.depth_estimator.floor_distance)[1])
+        behaviours = (GAITS[name].to_vector() for name in BEHAVIOURS)
+        return target_params(z0, 0.0, *behaviours, scenario.transition.z_t,
+                             scenario.transition.blend)
+    return get_gait(scenario.controller.gait).to_vector()
+
+
+def balloon_schedule(scenario: Scenario) -> TrajectorySource:
+    """A piecewise-constant source of the balloon's fill command in [0, 1]."""
+    times = [0.0] + [c.time for c in scenario.balloon.schedule]
+    fills = [scenario.balloon.initial_fill] + [c.fill for c in scenario.balloon.schedule]
+    # Zero-order hold needs increasing breaks: keep the last command given at a time.
+    breaks, values = [], []
+    for t, fill in zip(times, fills):
+        if breaks and t <= breaks[-1] + 1e-9:
+            values[-1] = fill
+        else:
+            breaks.append(t)
+            values.append(fill)
+    breaks.append(max(breaks[-1], scenario.duration) + 1.0)
+    values.append(values[-1])
+    return TrajectorySource(PiecewisePolynomial.ZeroOrderHold(np.array(breaks),
+                                                              np.array(values)[None, :]))
+
+
+def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> None:
+    """depth -> FuzzyDepthEstimator (Eq. 9)."""
+    ps = scenario.pressure_sensor
+    estimator = builder.AddNamedSystem("depth_estimator", FuzzyDepthEstimator(
+        scenario.depth_estimator.floor_distance, period=1.0 / ps.rate_hz,
+        initial_depth=initial_sensor_depth(scenario)))
+    builder.ExportInput(estimator.GetInputPort("depth"), "depth")
+    for name in ("h_hat", "z_hat"):
+        builder.ExportOutput(estimator.GetOutputPort(name), name)
+    handles.systems["depth_estimator"] = estimator
+
+
+def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, meshcat):
+    """depth_image (+ camera_pose) -> point cloud -> WallDetector (Eq. 10)."""
+    cam = scenario.camera
+    to_cloud = builder.AddNamedSystem("depth_to_cloud", DepthImageToPointCloud(
+        camera_info(cam), PixelType.kDepth32F, 1.0, BaseField.kXYZs))
+    detector = builder.AddNamedSystem("wall_detector", WallDetector(
+        period=1.0 / cam.rate_hz, params=scenario.wall_detector, meshcat=meshcat))
+    builder.ExportInput(to_cloud.depth_image_input_port(), "depth_image")
+    builder.ConnectInput(builder.ExportInput(to_cloud.camera_pose_input_port(), "camera_pose"),
+                         detector.GetInputPort("camera_pose"))
+    builder.Connect(to_cloud.point_cloud_output_port(), detector.GetInputPort("point_cloud"))
+    for name in ("s_hat", "detector_status", "clusters", "best_clusters"):
+        builder.ExportOutput(detector.GetOutputPort(name), name)
+    handles.systems.update(depth_to_cloud=to_cloud, wall_detector=detector)
+    return detector.GetOutputPort("s_hat")
+
+
+def _add_transition(builder, scenario: Scenario, handles: ControllerHandles, s_hat):
+    tr = scenario.transition
+    transition = builder.AddNamedSystem("transition", PotentialTransition(
+        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
+        initial_params=initial_cpg_params(scenario),
+        s_hat_time_constant=tr.s_hat_time_constant))
+    builder.Connect(handles.systems["depth_estimator"].GetOutputPort("z_hat"),
+                    transition.GetInputPort("z_hat"))
+    if s_hat is None:  # no camera: no wall is ever seen
+        s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
+        builder.ExportOutput(s_hat, "s_hat")
+    builder.Connect(s_hat, transition.GetInputPort("s_hat"))
+    handles.systems["transition"] = transition
+    return transition.GetOutputPort("cpg_params")
+
+
+def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, ControllerHandles]:
+    """Builds the controller of ``scenario`` (see the module docstring for its ports).
+
+    Args:
+        scenario: a validated Scenario (``controller``, ``cpg``, ``transition``,
+            ``depth_estimator``, ``camera``, ``wall_detector``, ``balloon``).
+        meshcat: if given, the wall detector draws its labelled clusters there.
+
+    Returns:
+        (controller diagram, ControllerHandles).
+    """
+    builder = DiagramBuilder()
+    handles = ControllerHandles()
+    mode = scenario.controller.mode
+    if scenario.water.enabled:
+        _add_sensing(builder, scenario, handles)
+    s_hat = None
+    if scenario.camera.enabled:
+        s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
+    if mode == "hold":
+        X = get_gait(scenario.controller.gait).X.ravel()
+        source = builder.AddNamedSystem(
+            "hold_stance", ConstantVectorSource(np.concatenate([X, np.zeros(NUM_JOINTS)])))
+        builder.ExportOutput(source.get_output_port(), "desired_state")
+    elif mode in ("gait", "transition"):
+        if mode == "gait":
+            params = builder.AddNamedSystem("gait_params", ConstantVectorSource(
+                get_gait(scenario.controller.gait).to_vector())).get_output_port()
+        else:
+            params = _add_transition(builder, scenario, handles, s_hat)
+        c = scenario.cpg
+        cpg = builder.AddNamedSystem("cpg", CpgOscillators(
+            frequency_hz=c.frequency_hz, chain_weight=c.chain_weight, fcs_weight=c.fcs_weight,
+            a=c.a, b=c.b,
+            initial_state=initial_state(initial_cpg_params(scenario),
+                                        initial_joint_angles(scenario))))
+        builder.Connect(params, cpg.GetInputPort("cpg_params"))
+        builder.ExportOutput(params, "cpg_params")
+        builder.ExportOutput(cpg.GetOutputPort("joint_angles"), "joint_angles")
+        builder.ExportOutput(cpg.GetOutputPort("desired_state"), "desired_state")
+        handles.systems["cpg"] = cpg
+    else:
+        raise ValueError(f"controller.mode: {mode!r} is not one of hold, gait, transition")
+    schedule = builder.AddNamedSystem("balloon_schedule", balloon_schedule(scenario))
+    builder.ExportOutput(schedule.get_output_port(), "balloon_command")
+    controller = builder.Build()
+    controller.set_name("controller")
+    return controller, handles

@@ -1,0 +1,241 @@
+"""The station: the simulated robot and its world, as one Diagram with hardware ports.
+
+As the manipulation course's ``MakeHardwareStation``, ``build_station(scenario)``
+returns a Diagram whose exported ports are exactly what the real robot's hardware
+takes and gives, so a controller written against them can drive this simulation, a
+station in another process (over LCM) or the robot itself.
+
+.. pydrake_system::
+
+    name: station
+    input_ports:
+    - desired_state
+    - balloon_command (water on)
+    output_ports:
+    - depth (water on)
+    - depth_image (camera on)
+    - camera_pose (camera on)
+    - measured_joint_state
+    - balloon_volume (water on)
+    - plant_state
+    - query_object
+
+Inputs:
+
+* ``desired_state`` (32): joint angles and rates for the servos' PD (the plant's
+  implicit PD, ``<drake:controller_gains>``), in the plant's joint order.
+* ``balloon_command`` (1): wanted balloon fill in [0, 1] (0 empty, 1 ``max_volume``).
+
+Outputs, what the robot's sensors give:
+
+* ``depth`` (1): the head's pressure sensor [m below the surface], noisy, may be NaN.
+* ``depth_image``: the head's RGB-D camera's depth image (ImageDepth32F, with range
+  noise and pixel dropout), rendered by VTK.
+* ``camera_pose``: the camera's pose in the world (RigidTransform). On the robot this
+  is the IMU attitude and the pressure depth; the detector uses only its height and
+  its horizontal viewing direction.
+* ``measured_joint_state`` (32): the servos' angles and rates.
+
+and, for logging and visualisation only (a controller must not read them):
+
+* ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
+  ``query_object`` (SceneGraph's, for visualisers).
+
+Inside: MultibodyPlant + SceneGraph (robot and pool), ``HydrodynamicForces``,
+``BalloonBuoyancy``, ``PressureSensor``, ``RgbdSensor``, ``DepthImageNoise`` and the
+Drake ``RandomSource`` systems that feed the noise (their state is in the Context, so
+``SetRandomContext`` draws new noise; ``simulate`` seeds it from the scenario).
+The scenario's initial pose and stance are the plant's defaults, so the station's
+default context is the scenario's start.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.common import RandomDistribution
+from pydrake.geometry import (
+    ClippingRange,
+    DepthRange,
+    DepthRenderCamera,
+    MakeRenderEngineVtk,
+    RenderCameraCore,
+    RenderEngineVtkParams,
+)
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource
+from pydrake.systems.sensors import CameraInfo, RgbdSensor
+
+from manta_drake.model.coefficients import HydroCoefficients, load_coefficients
+from manta_drake.model.plant import PlantHandles, add_plant, body_pose
+from manta_drake.model.robot_params import NUM_JOINTS
+from manta_drake.scenario import CameraConfig, Scenario, resolve_path
+from manta_drake.station.buoyancy import BalloonBuoyancy
+from manta_drake.station.depth_image_noise import DepthImageNoise
+from manta_drake.station.hydro import HydrodynamicForces
+from manta_drake.station.pressure import PressureSensor
+
+
+@dc.dataclass
+class StationHandles:
+    """Handles into a built station: the plant and every system by name."""
+
+    plant_handles: PlantHandles
+    systems: dict = dc.field(default_factory=dict)
+    coefficients: HydroCoefficients | None = None
+
+    @property
+    def plant(self):
+        return self.plant_handles.plant
+
+
+def initial_joint_angles(scenario: Scenario) -> np.ndarray:
+    """The initial joint angles: the stance X of ``scenario.initial_stance``, or zeros."""
+    from manta_drake.control.gaits import get_gait
+
+    if scenario.initial_stance == "zero":
+        return np.zeros(NUM_JOINTS)
+    return get_gait(scenario.initial_stance).X.ravel().copy()
+
+
+def camera_info(cam: CameraConfig) -> CameraInfo:
+    """The depth camera's intrinsics (shared by the renderer and the point-cloud maker)."""
+    return CameraInfo(cam.width, cam.height, np.radians(cam.fov_y_deg))
+
+
+def joint_state_selector(handles: PlantHandles) -> np.ndarray:
+    """(32, nx) matrix that picks the joints' [q, v] out of the plant's state vector."""
+    plant = handles.plant
+    nq = plant.num_positions()
+    joints = [plant.GetJointByName(n, handles.robot) for n in handles.joint_names]
+    rows = [j.position_start() for j in joints] + [nq + j.velocity_start() for j in joints]
+    S = np.zeros((len(rows), plant.num_multibody_states()))
+    S[np.arange(len(rows)), rows] = 1.0
+    return S
+
+
+def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
+    """The scenario's initial pose and stance as the plant's defaults."""
+    plant = handles.plant
+    if handles.body.is_floating_base_body():
+        plant.SetDefaultFloatingBaseBodyPose(handles.body, body_pose(scenario.initial_pose.xyz,
+                                                             scenario.initial_pose.rpy_deg))
+    for name, q in zip(handles.joint_names, initial_joint_angles(scenario)):
+        plant.GetJointByName(name, handles.robot).set_default_angle(q)
+
+
+def _random_source(builder, name: str, distribution, size: int, period: float):
+    return builder.AddNamedSystem(name, RandomSource(distribution, size, period))
+
+
+def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
+    """Balloon, hydrodynamic forces and the pressure sensor with its noise sources."""
+    plant, ph, coeffs = handles.plant, handles.plant_handles, handles.coefficients
+    b = coeffs.balloon
+    # The pump moves ~3 mL per 10 ms: a 10 ms update is exact enough and 10x cheaper.
+    balloon = builder.AddNamedSystem("balloon", BalloonBuoyancy(
+        b.max_volume.value, b.pump_rate.value, max(scenario.time_step, 0.01),
+        scenario.balloon.initial_fill * b.max_volume.value))
+    fill_to_volume = builder.AddNamedSystem("balloon_fill_to_volume",
+                                            Gain(b.max_volume.value, 1))
+    builder.Connect(fill_to_volume.get_output_port(), balloon.GetInputPort("volume_command"))
+    builder.ExportInput(fill_to_volume.get_input_port(), "balloon_command")
+    builder.ExportOutput(balloon.GetOutputPort("balloon_volume"), "balloon_volume")
+    hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
+        plant, ph.robot, coeffs, scenario.time_step, current=scenario.water.current,
+        added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period))
+    builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+    builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                    hydro.GetInputPort("body_spatial_velocities"))
+    builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
+    builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                    plant.get_applied_spatial_force_input_port())
+
+    ps = scenario.pressure_sensor
+    period = 1.0 / ps.rate_hz
+    sensor = builder.AddNamedSystem("pressure_sensor", PressureSensor(
+        plant, ph.body, ps.position, period, ps.noise_std, ps.dropout_rate))
+    builder.Connect(plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
+    normal = _random_source(builder, "pressure_noise_normal", RandomDistribution.kGaussian, 1,
+                            period)
+    uniform = _random_source(builder, "pressure_noise_uniform", RandomDistribution.kUniform, 1,
+                             period)
+    mux = builder.AddNamedSystem("pressure_noise", Multiplexer([1, 1]))
+    builder.Connect(normal.get_output_port(), mux.get_input_port(0))
+    builder.Connect(uniform.get_output_port(), mux.get_input_port(1))
+    builder.Connect(mux.get_output_port(), sensor.GetInputPort("noise"))
+    builder.ExportOutput(sensor.GetOutputPort("depth"), "depth")
+    handles.systems.update(balloon=balloon, hydro=hydro, pressure_sensor=sensor)
+
+
+def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
+    """RGB-D camera on the head (VTK), its depth noise and the noise sources."""
+    plant, ph = handles.plant, handles.plant_handles
+    cam = scenario.camera
+    if not ph.scene_graph.HasRenderer("vtk"):
+        ph.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
+    core = RenderCameraCore("vtk", camera_info(cam),
+                            ClippingRange(0.5 * cam.min_range, 2.0 * cam.max_range),
+                            RigidTransform())
+    X_BC = plant.GetFrameByName("camera", ph.robot).GetFixedPoseInBodyFrame()
+    camera = builder.AddNamedSystem("camera", RgbdSensor(
+        plant.GetBodyFrameIdOrThrow(ph.body.index()), X_BC,
+        DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range)), False))
+    builder.Connect(ph.scene_graph.get_query_output_port(), camera.query_object_input_port())
+    noise = builder.AddNamedSystem("depth_noise", DepthImageNoise(
+        cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout))
+    builder.Connect(camera.depth_image_32F_output_port(), noise.GetInputPort("depth_image"))
+    n_pixels, period = cam.width * cam.height, 1.0 / cam.rate_hz
+    for port, distribution in (("range_noise", RandomDistribution.kGaussian),
+                               ("dropout_sample", RandomDistribution.kUniform)):
+        source = _random_source(builder, f"depth_{port}", distribution, n_pixels, period)
+        builder.Connect(source.get_output_port(), noise.GetInputPort(port))
+    builder.ExportOutput(noise.GetOutputPort("noisy_depth_image"), "depth_image")
+    builder.ExportOutput(camera.body_pose_in_world_output_port(), "camera_pose")
+    handles.systems.update(camera=camera, depth_noise=noise)
+
+
+def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHandles]:
+    """Builds the station of ``scenario`` (see the module docstring for its ports).
+
+    Args:
+        scenario: a validated Scenario (``time_step``, ``water``, ``balloon``,
+            ``pressure_sensor``, ``camera``, ``initial_pose``, ``initial_stance``).
+        meshcat: if given, a MeshcatVisualizer inside the station draws the plant
+            (as in ``MakeHardwareStation``).
+
+    Returns:
+        (station diagram, StationHandles).
+    """
+    builder = DiagramBuilder()
+    coeffs = load_coefficients(resolve_path(scenario.water.coefficients)) \
+        if scenario.water.enabled else None
+    plant_handles = add_plant(builder, time_step=scenario.time_step,
+                              discrete_contact_approximation=scenario.discrete_contact_approximation,
+                              hydro=coeffs)
+    handles = StationHandles(plant_handles, coefficients=coeffs)
+    plant = plant_handles.plant
+    _set_default_start(plant_handles, scenario)
+    builder.ExportInput(plant.get_desired_state_input_port(plant_handles.robot), "desired_state")
+    selector = builder.AddNamedSystem("joint_state_selector",
+                                      MatrixGain(joint_state_selector(plant_handles)))
+    builder.Connect(plant.get_state_output_port(), selector.get_input_port())
+    builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
+    builder.ExportOutput(plant.get_state_output_port(), "plant_state")
+    builder.ExportOutput(plant_handles.scene_graph.get_query_output_port(), "query_object")
+    if coeffs is not None:
+        _add_water(builder, scenario, handles)
+    if scenario.camera.enabled:
+        _add_camera(builder, scenario, handles)
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+
+        params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
+        handles.systems["visualizer"] = MeshcatVisualizer.AddToBuilder(
+            builder, plant_handles.scene_graph, meshcat, params)
+    station = builder.Build()
+    station.set_name("station")
+    handles.systems.update(plant=plant, scene_graph=plant_handles.scene_graph)
+    return station, handles

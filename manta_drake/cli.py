@@ -2,6 +2,13 @@
 
     manta-drake run SCENARIO.yaml --out DIR [--duration S] [--no-meshcat]
     manta-drake list
+    manta-drake station SCENARIO.yaml --lcm URL      (manta_drake.lcm_seam)
+    manta-drake controller SCENARIO.yaml --lcm URL   (manta_drake.lcm_seam)
+    manta-drake sweep SWEEP.yaml --out DIR           (manta_drake.sweep)
+    manta-drake calibrate CALIBRATION.yaml --out DIR (manta_drake.calibrate)
+
+Each of the last four lives in its own module, which provides ``add_<command>_parser(sub)``
+(adds its subparser) and ``<command>_main(args) -> int``; see ``EXTENSIONS``.
 
 Errors are printed as one line (no traceback) and exit with status 2.
 """
@@ -99,6 +106,26 @@ def _run(args) -> int:
     return 0
 
 
+# command -> module with add_<command>_parser(subparsers) and <command>_main(args).
+EXTENSIONS = {
+    "station": "manta_drake.lcm_seam",
+    "controller": "manta_drake.lcm_seam",
+    "sweep": "manta_drake.sweep",
+    "calibrate": "manta_drake.calibrate",
+}
+
+
+def _extension(command: str):
+    import importlib
+
+    try:
+        return importlib.import_module(EXTENSIONS[command])
+    except ModuleNotFoundError as e:
+        if e.name != EXTENSIONS[command]:
+            raise
+        return None
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="manta-drake", description="Manta-ray robot simulator")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -111,8 +138,14 @@ def main(argv=None) -> int:
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     sub.add_parser("list", help="list the shipped scenarios")
+    for command in EXTENSIONS:
+        module = _extension(command)
+        if module is not None:
+            getattr(module, f"add_{command}_parser")(sub)
     args = parser.parse_args(argv)
     try:
+        if args.command in EXTENSIONS:
+            return getattr(_extension(args.command), f"{args.command}_main")(args)
         return _list() if args.command == "list" else _run(args)
     except KeyboardInterrupt:
         print("manta-drake: interrupted", file=sys.stderr)

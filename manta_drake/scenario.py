@@ -108,6 +108,18 @@ class WaterConfig:
     # 0: forces from the current state at every plant step (exact, no delay). > 0: computed
     # every update_period seconds and held (faster; one period of delay).
     update_period: float = 0.0
+    # Multipliers of named coefficients of the file, e.g. {body.linear_damping: 1.3}
+    # (sweeps and calibration; see manta_drake.model.coefficients.scale_coefficients).
+    coefficient_scales: dict[str, float] = dc.field(default_factory=dict)
+
+
+@dc.dataclass
+class ContactConfig:
+    """Contact between the robot and the pool (point contact, SAP)."""
+
+    # Coulomb friction of the foot-floor pair (static = dynamic). 0.8: rubber-tipped fins on
+    # the rough painted concrete of an outdoor pool, the top of the wet range 0.5-0.8.
+    friction: float = 0.8
 
 
 @dc.dataclass
@@ -182,6 +194,7 @@ class Scenario:
     duration: float = 5.0  # s
     time_step: float = 1e-3  # s, the discrete MultibodyPlant's period
     discrete_contact_approximation: str = "sap"
+    contact: ContactConfig = dc.field(default_factory=ContactConfig)
     random_seed: int = 0
     initial_pose: InitialPose = dc.field(default_factory=InitialPose)
     # Initial joint angles: the stance (X) of this gait, or "zero".
@@ -241,10 +254,19 @@ class Scenario:
         if self.controller.mode == "transition" and not self.water.enabled:
             raise ScenarioError("controller.mode: 'transition' needs water.enabled: true "
                                 "(z_hat comes from the pressure sensor)")
+        _in_range("contact.friction", self.contact.friction, 0.0, 2.0, "(0, 2]", open_low=True)
         _vector("water.current", self.water.current, 3)
         _in_range("water.update_period", self.water.update_period, 0.0, 0.02, "[0, 0.02] s")
         if self.water.enabled and not resolve_path(self.water.coefficients).is_file():
             raise ScenarioError(f"water.coefficients: file not found: {self.water.coefficients}")
+        if self.water.enabled and self.water.coefficient_scales:
+            from manta_drake.model.coefficients import load_coefficients, scale_coefficients
+
+            try:
+                scale_coefficients(load_coefficients(resolve_path(self.water.coefficients)),
+                                   self.water.coefficient_scales)
+            except ValueError as e:
+                raise ScenarioError(f"water.{e}") from None
         _in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")
         last = -math.inf
         for i, cmd in enumerate(self.balloon.schedule):
@@ -374,6 +396,14 @@ def check_keys(data, schema, path: str = "scenario") -> None:
     path, e.g. ``scenario.initial_pose.xyzz``.
     """
     origin = typing.get_origin(schema)
+    if origin is dict:
+        key_type, value_type = typing.get_args(schema)
+        if not isinstance(data, dict):
+            raise ScenarioError(f"{path}: expected a mapping, got {data!r}")
+        for key, value in data.items():
+            check_keys(key, key_type, f"{path} key")
+            check_keys(value, value_type, f"{path}.{key}")
+        return
     if origin is list:
         (item_type,) = typing.get_args(schema) or (None,)
         if not isinstance(data, list):

@@ -183,6 +183,30 @@ def _walk(node, prefix):
             yield from _walk(value, name + ".")
 
 
+def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoefficients:
+    """A copy of ``coeffs`` with named entries multiplied, e.g. ``{"body.linear_damping":
+    1.3}``; each scaled entry's ``source`` says so. Unknown names and non-finite or
+    negative factors raise ValueError naming the entry."""
+    import copy
+
+    result = copy.deepcopy(coeffs)
+    entries = dict(result.entries())
+    for name, factor in (scales or {}).items():
+        if name not in entries:
+            raise ValueError(f"coefficient_scales.{name}: unknown coefficient; allowed: "
+                             f"{', '.join(sorted(entries))}")
+        if not (isinstance(factor, (int, float)) and np.isfinite(factor) and factor >= 0):
+            raise ValueError(f"coefficient_scales.{name}: {factor!r} must be a finite "
+                             "number >= 0")
+        entry = entries[name]
+        if isinstance(entry.value, list):
+            entry.value = [float(v) * factor for v in entry.value]
+        else:
+            entry.value = float(entry.value) * factor
+        entry.source = f"x{factor:g} of: {entry.source}"
+    return result
+
+
 def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE) -> HydroCoefficients:
     """Loads and checks ``hydrodynamics.yaml`` (unknown keys, sizes, signs, sources)."""
     import yaml

@@ -92,6 +92,8 @@ def add_plant(
         plant.WeldFrames(plant.world_frame(), body.body_frame(), weld_body)
     iso = _add_hydro_inertia(plant, robot, body, hydro) if hydro is not None else 0.0
     plant.Finalize()
+    if hydro is not None:
+        _set_hinge_added_inertia(plant, robot, hydro.fins.hinge_added_inertia.value)
     actuated = tuple(
         plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(robot)
     )
@@ -112,12 +114,54 @@ def _add_hydro_inertia(plant, robot, body, hydro) -> float:
         SpatialInertia.MakeFromCentralInertia(iso, np.zeros(3), RotationalInertia(Ixx, Iyy, Izz)))
     p_BoBcm = body.default_com()
     plant.WeldFrames(body.body_frame(), added.body_frame(), RigidTransform(p_BoBcm))
-    hinge = hydro.fins.hinge_added_inertia.value  # (yaw, roll1, pitch, roll2)
-    for i, index in enumerate(plant.GetJointActuatorIndices(robot)):
+    return iso
+
+
+def _set_hinge_added_inertia(plant, robot, hinge) -> None:
+    """Each fin's added inertia about its hinge as its actuator's reflected inertia
+    (gear ratio 1, rotor inertia = added inertia), in the plant's default parameters.
+
+    After Finalize: before it, ``GetJointActuatorIndices`` is still empty, which once
+    left the hinge inertia silently unapplied. The values are read back from a
+    default context, so a setting that did not take effect fails loudly.
+    """
+    from manta_drake.model.robot_params import JOINTS_PER_LEG
+
+    indices = plant.GetJointActuatorIndices(robot)
+    expected = [hinge[i % JOINTS_PER_LEG] for i in range(len(indices))]
+    for index, value in zip(indices, expected):
         actuator = plant.get_mutable_joint_actuator(index)
         actuator.set_default_gear_ratio(1.0)
-        actuator.set_default_rotor_inertia(hinge[i % 4])
-    return iso
+        actuator.set_default_rotor_inertia(value)
+    context = plant.CreateDefaultContext()
+    applied = [plant.get_joint_actuator(i).calc_reflected_inertia(context) for i in indices]
+    if len(indices) == 0 or not np.allclose(applied, expected, rtol=0, atol=1e-15):
+        raise RuntimeError(f"hinge added inertia did not take effect: {applied} != {expected}")
+
+
+def set_contact_friction(handles: PlantHandles, mu: float) -> None:
+    """Sets the Coulomb friction (static = dynamic = ``mu``) of every collision geometry
+    of the robot and the pool, so the foot-floor pair has exactly ``mu`` (Drake combines
+    two materials' coefficients as 2 mu1 mu2 / (mu1 + mu2)). Read back from the model."""
+    from pydrake.geometry import RoleAssign
+    from pydrake.multibody.plant import CoulombFriction
+
+    if not (np.isfinite(mu) and 0.0 < mu <= 2.0):
+        raise ValueError(f"contact friction: {mu!r} is outside the allowed range (0, 2]")
+    plant, scene_graph = handles.plant, handles.scene_graph
+    inspector = scene_graph.model_inspector()
+    instances = [handles.robot] + ([handles.pool] if handles.pool is not None else [])
+    geometries = [g for instance in instances for index in plant.GetBodyIndices(instance)
+                  for g in plant.GetCollisionGeometriesForBody(plant.get_body(index))]
+    for geometry in geometries:
+        props = inspector.GetProximityProperties(geometry)
+        props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
+        scene_graph.AssignRole(plant.get_source_id(), geometry, props, RoleAssign.kReplace)
+    for geometry in geometries:
+        friction = inspector.GetProximityProperties(geometry).GetProperty(
+            "material", "coulomb_friction")
+        if friction.dynamic_friction() != mu or friction.static_friction() != mu:
+            raise RuntimeError(f"contact friction {mu} did not take effect on {geometry}")
 
 
 def body_pose(xyz, rpy_deg) -> RigidTransform:

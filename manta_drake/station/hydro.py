@@ -30,6 +30,21 @@ from manta_drake.station.water import (
 )
 
 
+def effective_inertia(plant, robot) -> tuple[float, np.ndarray]:
+    """Mass [kg] and the diagonal of the rotational inertia about the centre of mass, in
+    the hull's axes [kg m^2], of the robot moving as one rigid body at its default pose,
+    with the implicit added mass (model instance ``manta_added_mass``) included: what
+    the hull's explicit added-mass residual acts against, axis by axis."""
+    context = plant.CreateDefaultContext()
+    bodies = list(plant.GetBodyIndices(robot))
+    if plant.HasModelInstanceNamed("manta_added_mass"):
+        bodies += plant.GetBodyIndices(plant.GetModelInstanceByName("manta_added_mass"))
+    hull = plant.GetBodyByName("body", robot)
+    M = plant.CalcSpatialInertia(context, hull.body_frame(), bodies)
+    I = M.Shift(M.get_com()).CalcRotationalInertia().CopyToFullMatrix3()
+    return float(M.get_mass()), np.diag(I).copy()
+
+
 class HydrodynamicForces(LeafSystem):
     """Hydrostatic, damping, blade-element and residual added-mass forces (Eqs. 2-3).
 
@@ -77,18 +92,19 @@ class HydrodynamicForces(LeafSystem):
         self.pitch_max = np.radians(coeffs.fins.passive_pitch_max_deg.value)
         self.pitch_pressure = coeffs.fins.passive_pitch_reference_pressure.value
         self.balloon_mount = np.asarray(coeffs.balloon.mount_point.value, dtype=float)
-        hull = plant.GetBodyByName("body", robot)
-        hull_mass = hull.default_mass()
         if added_mass_iso is None:
             added_mass_iso, self.residual_added_mass = split_added_mass(
-                b.added_mass.value, hull_mass)
+                b.added_mass.value, plant.GetBodyByName("body", robot).default_mass())
         else:
             self.residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
-            check_explicit_added_mass(self.residual_added_mass, hull_mass + added_mass_iso)
         self.added_mass_iso = added_mass_iso
         _, self.residual_added_inertia = split_added_inertia(b.added_inertia.value)
-        hull_inertia = hull.default_rotational_inertia().CalcPrincipalMomentsOfInertia().min()
-        check_explicit_added_mass(self.residual_added_inertia, hull_inertia,
+        # The explicit residual acts on the hull's acceleration, which every body held by
+        # the servos shares: compare it, axis by axis, with the whole robot's effective
+        # mass and inertia (implicit added mass included) along that axis.
+        self.effective_mass, self.effective_inertia = effective_inertia(plant, robot)
+        check_explicit_added_mass(self.residual_added_mass, self.effective_mass)
+        check_explicit_added_mass(self.residual_added_inertia, self.effective_inertia,
                                   ("roll", "pitch", "yaw"), "kg m^2")
         # Sums of element rows into body rows as matrix products (faster than np.add.at).
         self.el["elem_to_body"] = np.eye(nb)[:, self.el["body"]]

@@ -68,8 +68,12 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource
 from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
-from manta_drake.model.coefficients import HydroCoefficients, load_coefficients
-from manta_drake.model.plant import PlantHandles, add_plant, body_pose
+from manta_drake.model.coefficients import (
+    HydroCoefficients,
+    load_coefficients,
+    scale_coefficients,
+)
+from manta_drake.model.plant import PlantHandles, add_plant, body_pose, set_contact_friction
 from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.scenario import CameraConfig, Scenario, resolve_path
 from manta_drake.station.buoyancy import BalloonBuoyancy
@@ -210,11 +214,14 @@ def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHan
         (station diagram, StationHandles).
     """
     builder = DiagramBuilder()
-    coeffs = load_coefficients(resolve_path(scenario.water.coefficients)) \
-        if scenario.water.enabled else None
+    coeffs = None
+    if scenario.water.enabled:
+        coeffs = scale_coefficients(load_coefficients(resolve_path(scenario.water.coefficients)),
+                                    scenario.water.coefficient_scales)
     plant_handles = add_plant(builder, time_step=scenario.time_step,
                               discrete_contact_approximation=scenario.discrete_contact_approximation,
                               hydro=coeffs)
+    set_contact_friction(plant_handles, scenario.contact.friction)
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant
     _set_default_start(plant_handles, scenario)

@@ -40,7 +40,7 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  transition {tr['from']:>8} -> {tr['to']:<8} {tr['start_s']:.1f} s .. {tr['end_s']:.1f} s")
     out_dir = pathlib.Path(out_dir)
     print(f"\n  outputs in {out_dir}/")
-    if (out_dir / "recording.html").exists():
+    if (out_dir / "recording.html").exists():  # a run removes its old one before it writes
         print(f"  recording: open {(out_dir / 'recording.html').resolve()} in a browser")
 
 
@@ -49,7 +49,7 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import run
 
-    scenario = load_scenario(scenario_path, {"duration": duration} if duration else {})
+    scenario = load_scenario(scenario_path, {} if duration is None else {"duration": duration})
     if no_meshcat:
         scenario.visualization.meshcat = False
     return run(scenario, out, progress=progress), scenario

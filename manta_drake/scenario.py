@@ -215,23 +215,28 @@ class Scenario:
     steady_after: float = 2.0
 
     def validate(self) -> "Scenario":
-        """Checks every value's range; raises ScenarioError naming the field."""
-        from manta_drake.control.gaits import (
-            GAITS,  # late import: gaits imports nothing of ours
-        )
+        """Checks every value (type, finite, range, integer where it must be); raises
+        ScenarioError naming the field, the value and the allowed range."""
+        from manta_drake.control.gaits import GAITS  # late imports: they import scenario
+        from manta_drake.control.transition import check_parameters
 
-        _positive("duration", self.duration)
-        _in_range("time_step", self.time_step, 0.0, 0.01, "(0, 0.01] s", open_low=True)
-        _one_of(
-            "discrete_contact_approximation",
-            self.discrete_contact_approximation,
-            ("sap", "lagged", "similar", "tamsi"),
-        )
-        if not 0 <= self.random_seed < 2**32:
-            raise ScenarioError(f"random_seed: {self.random_seed} is outside [0, 2^32)")
+        _text("name", self.name)
+        _text("description", self.description, allow_empty=True)
+        _in_range("duration", self.duration, 0.0, 3600.0, "(0, 3600] s", open_low=True)
+        # Below 0.1 ms a run takes hours (1e-7 s is an effective hang); above 10 ms the
+        # contact and the CPG's RK2 lose accuracy.
+        _in_range("time_step", self.time_step, 1e-4, 0.01, "[0.0001, 0.01] s")
+        _one_of("discrete_contact_approximation", self.discrete_contact_approximation,
+                ("sap", "lagged", "similar", "tamsi"))
+        _in_range("contact.friction", self.contact.friction, 0.0, 2.0, "(0, 2]", open_low=True)
+        _integer("random_seed", self.random_seed, 0, 2**32 - 1)
         _vector("initial_pose.xyz", self.initial_pose.xyz, 3)
-        _vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3)
+        _vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3, bound=360.0)
         _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(GAITS))
+        problem = initial_pose_problem(self.initial_pose.xyz, self.initial_pose.rpy_deg,
+                                       self.initial_stance)
+        if problem:
+            raise ScenarioError(f"initial_pose: {problem}")
         _one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
         _one_of("controller.gait", self.controller.gait, tuple(GAITS))
         _in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True)
@@ -241,74 +246,148 @@ class Scenario:
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
                       open_low=True)
         tr = self.transition
-        from manta_drake.control.transition import (
-            check_parameters,  # late import, like gaits
-        )
-
+        for name in ("period", "g", "T", "alpha", "z_t", "s_hat_time_constant"):
+            _number(f"transition.{name}", getattr(tr, name))
+        _text("transition.blend", tr.blend)
         try:
             check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
                              tr.s_hat_time_constant)
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
-        _positive("transition.arrival_tolerance", tr.arrival_tolerance)
-        if self.controller.mode == "transition" and not self.water.enabled:
+        _in_range("transition.period", tr.period, self.time_step, 1.0,
+                  f"[time_step = {self.time_step}, 1] s")
+        _in_range("transition.arrival_tolerance", tr.arrival_tolerance, 0.0, math.pi,
+                  "(0, pi] rad", open_low=True)
+        w = self.water
+        _boolean("water.enabled", w.enabled)
+        if self.controller.mode == "transition" and not w.enabled:
             raise ScenarioError("controller.mode: 'transition' needs water.enabled: true "
                                 "(z_hat comes from the pressure sensor)")
-        _in_range("contact.friction", self.contact.friction, 0.0, 2.0, "(0, 2]", open_low=True)
-        _vector("water.current", self.water.current, 3)
-        _in_range("water.update_period", self.water.update_period, 0.0, 0.02, "[0, 0.02] s")
-        if self.water.enabled and not resolve_path(self.water.coefficients).is_file():
-            raise ScenarioError(f"water.coefficients: file not found: {self.water.coefficients}")
-        if self.water.enabled and self.water.coefficient_scales:
+        # A pool's current; beyond ~1 m/s the robot's 0.1 m/s swim means nothing and the
+        # quadratic damping's stiffness needs a smaller step.
+        _vector("water.current", w.current, 3, bound=1.0, unit=" m/s")
+        _in_range("water.update_period", w.update_period, 0.0, 0.02, "[0, 0.02] s")
+        _text("water.coefficients", w.coefficients)
+        if not isinstance(w.coefficient_scales, dict):
+            raise ScenarioError(f"water.coefficient_scales: expected a mapping, got "
+                                f"{w.coefficient_scales!r}")
+        if w.enabled:
             from manta_drake.model.coefficients import load_coefficients, scale_coefficients
 
+            coeffs = load_coefficients(resolve_path(w.coefficients), "water.coefficients")
             try:
-                scale_coefficients(load_coefficients(resolve_path(self.water.coefficients)),
-                                   self.water.coefficient_scales)
+                scale_coefficients(coeffs, w.coefficient_scales)
             except ValueError as e:
                 raise ScenarioError(f"water.{e}") from None
         _in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")
         last = -math.inf
         for i, cmd in enumerate(self.balloon.schedule):
             _in_range(f"balloon.schedule[{i}].fill", cmd.fill, 0.0, 1.0, "[0, 1]")
-            _in_range(f"balloon.schedule[{i}].time", cmd.time, 0.0, math.inf, "[0, inf) s")
+            _in_range(f"balloon.schedule[{i}].time", cmd.time, 0.0, 3600.0, "[0, 3600] s")
             if cmd.time < last:
                 raise ScenarioError(f"balloon.schedule[{i}].time: {cmd.time} is before the "
                                     f"previous command's time {last}; times must not decrease")
             last = cmd.time
         ps = self.pressure_sensor
-        _in_range("pressure_sensor.rate_hz", ps.rate_hz, 0.0, 1000.0, "(0, 1000] Hz", open_low=True)
-        _in_range("pressure_sensor.noise_std", ps.noise_std, 0.0, 1.0, "[0, 1] m")
+        _in_range("pressure_sensor.rate_hz", ps.rate_hz, 0.0, 1.0 / self.time_step,
+                  f"(0, 1/time_step = {1.0 / self.time_step:g}] Hz", open_low=True)
+        _in_range("pressure_sensor.noise_std", ps.noise_std, 0.0, 0.1, "[0, 0.1] m")
         _in_range("pressure_sensor.dropout_rate", ps.dropout_rate, 0.0, 1.0, "[0, 1]")
-        _vector("pressure_sensor.position", ps.position, 3)
+        _vector("pressure_sensor.position", ps.position, 3, bound=0.5, unit=" m")
         _in_range("depth_estimator.floor_distance", self.depth_estimator.floor_distance, 0.0,
                   10.0, "(0, 10] m", open_low=True)
         cam = self.camera
-        for name, lo, hi in (("width", 8, 4096), ("height", 8, 4096)):
-            _in_range(f"camera.{name}", getattr(cam, name), lo, hi, f"[{lo}, {hi}] pixels")
-        _in_range("camera.fov_y_deg", cam.fov_y_deg, 0.0, 170.0, "(0, 170) deg", open_low=True)
+        _boolean("camera.enabled", cam.enabled)
+        for name in ("width", "height"):
+            _integer(f"camera.{name}", getattr(cam, name), 8, 1024)
+        _in_range("camera.fov_y_deg", cam.fov_y_deg, 0.0, 170.0, "(0, 170] deg", open_low=True)
+        _in_range("camera.max_range", cam.max_range, 0.0, 10.0, "(0, 10] m", open_low=True)
         _in_range("camera.min_range", cam.min_range, 0.0, cam.max_range,
                   f"(0, max_range = {cam.max_range}) m", open_low=True)
-        _in_range("camera.max_range", cam.max_range, 0.0, 100.0, "(0, 100] m", open_low=True)
+        if cam.min_range >= cam.max_range:
+            raise ScenarioError(f"camera.min_range: {cam.min_range!r} must be below max_range "
+                                f"= {cam.max_range}")
         _in_range("camera.rate_hz", cam.rate_hz, 0.0, 60.0, "(0, 60] Hz", open_low=True)
-        _in_range("camera.depth_noise_std", cam.depth_noise_std, 0.0, 1.0, "[0, 1] m")
-        _in_range("camera.pixel_dropout", cam.pixel_dropout, 0.0, 1.0, "[0, 1]")
+        _in_range("camera.depth_noise_std", cam.depth_noise_std, 0.0, MAX_DEPTH_NOISE,
+                  f"[0, {MAX_DEPTH_NOISE}] m (the depth-camera model: a RealSense-class "
+                  "sensor's range noise within its 0.8 m underwater range)")
+        _in_range("camera.pixel_dropout", cam.pixel_dropout, 0.0, 0.5, "[0, 0.5]")
         try:
             self.wall_detector.validate()
         except ValueError as e:
-            raise ScenarioError(f"wall_detector: {e}") from None
-        _one_of(
-            "simulator.integration_scheme",
-            self.simulator.integration_scheme,
-            ("explicit_euler", "runge_kutta2", "runge_kutta3", "semi_explicit_euler"),
-        )
-        _positive("simulator.max_step_size", self.simulator.max_step_size)
-        _positive("visualization.recording_fps", self.visualization.recording_fps)
+            raise ScenarioError(f"wall_detector.{e}") from None
+        sim = self.simulator
+        _one_of("simulator.integration_scheme", sim.integration_scheme,
+                ("explicit_euler", "runge_kutta2", "runge_kutta3", "semi_explicit_euler"))
+        _in_range("simulator.max_step_size", sim.max_step_size, 1e-5, 0.01, "[1e-05, 0.01] s")
+        _in_range("simulator.accuracy", sim.accuracy, 0.0, 1.0, "(0, 1]", open_low=True)
+        _boolean("simulator.use_error_control", sim.use_error_control)
+        _in_range("simulator.start_time", sim.start_time, 0.0, 0.0,
+                  "[0, 0] s (schedules and metrics count from t = 0)")
+        _in_range("simulator.target_realtime_rate", sim.target_realtime_rate, 0.0, 100.0,
+                  "[0, 100] (0: as fast as possible)")
+        _boolean("simulator.publish_every_time_step", sim.publish_every_time_step)
+        vis = self.visualization
+        _boolean("visualization.meshcat", vis.meshcat)
+        _in_range("visualization.recording_fps", vis.recording_fps, 0.0, 120.0, "(0, 120] fps",
+                  open_low=True)
+        steps = 1.0 / vis.recording_fps / self.time_step
+        if vis.meshcat and abs(steps - round(steps)) > 1e-6:
+            raise ScenarioError(
+                f"visualization.recording_fps: {vis.recording_fps!r} gives a publish period "
+                f"of {1e3 / vis.recording_fps:.4g} ms, not a multiple of time_step = "
+                f"{self.time_step} s; recording would add integrator steps and change the run "
+                "(40 fps = 25 ms is on a 1 ms grid)")
         _in_range("log_period", self.log_period, self.time_step, 1.0,
                   f"[time_step = {self.time_step}, 1] s")
-        if not (math.isfinite(self.steady_after) and self.steady_after >= 0):
-            raise ScenarioError(f"steady_after: {self.steady_after!r} must be a finite number >= 0")
+        _in_range("steady_after", self.steady_after, 0.0, 3600.0, "[0, 3600] s")
         return self
+
+
+# Largest depth-image range noise the sensor model supports [m]: beyond ~30 mm at the 0.8 m
+# underwater range the point cloud no longer resolves the 4 cm voxels the detector works on.
+MAX_DEPTH_NOISE = 0.03
+
+
+def initial_pose_problem(xyz, rpy_deg, stance: str) -> str | None:
+    """Why a start pose is not inside the pool's water clear of its floor and walls, or None.
+
+    Checked with the robot's kinematics (Eq. 1) at the start's stance: the hull (an
+    ellipsoid) and the four fin tips (with their foot spheres) must lie inside the walls and
+    above the floor (a resting contact within 2 mm is allowed), and the hull's centre in the
+    water (below the surface, above the floor).
+    """
+    import numpy as np
+    from pydrake.math import RollPitchYaw
+
+    from manta_drake.control.gaits import GAITS
+    from manta_drake.model.kinematics import fin_tip_pose
+    from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, LEGS
+
+    pool, robot = DEFAULT_POOL, DEFAULT_ROBOT
+    p = np.asarray(xyz, dtype=float)
+    R = RollPitchYaw(np.radians(rpy_deg)).ToRotationMatrix().matrix()
+    floor, half_x, half_y = -pool.depth, pool.length / 2, pool.width / 2
+    if not (floor < p[2] <= 0.0 and abs(p[0]) < half_x and abs(p[1]) < half_y):
+        return (f"the body at {list(map(float, p))} m is not in the pool's water "
+                f"(x in (-{half_x}, {half_x}), y in (-{half_y}, {half_y}), z in ({floor}, 0])")
+    q = np.zeros((len(LEGS), 4)) if stance == "zero" else GAITS[stance].X
+    # Hull: an ellipsoid's extent along world axis k is sqrt(sum_i (R[k, i] a_i)^2).
+    extent = np.sqrt(((R * np.asarray(robot.body_semi_axes)) ** 2).sum(axis=1))
+    points = [("hull", p - extent, p + extent)]
+    for leg, q_leg in zip(LEGS, q):
+        tip = p + R @ fin_tip_pose(leg, q_leg)[:3, 3]
+        r = robot.foot_radius
+        points.append((f"{leg} fin tip", tip - r, tip + r))
+    for name, low, high in points:
+        if low[2] < floor - 0.002:
+            return (f"the {name} reaches z = {low[2]:.3f} m, below the floor at {floor} m "
+                    f"(body z = {p[2]} m with the '{stance}' stance)")
+        if max(abs(low[0]), abs(high[0])) > half_x or max(abs(low[1]), abs(high[1])) > half_y:
+            return (f"the {name} at x, y = {0.5 * (low[0] + high[0]):.3f}, "
+                    f"{0.5 * (low[1] + high[1]):.3f} m is inside or beyond a wall (the walls "
+                    f"are at x = +-{half_x}, y = +-{half_y} m)")
+    return None
 
 
 SCENARIOS_DIR = pathlib.Path(__file__).resolve().parent / "scenarios"
@@ -342,25 +421,49 @@ def find_scenario(name_or_path) -> pathlib.Path:
     raise ScenarioError(f"scenario file not found: {name_or_path} (shipped scenarios: {names})")
 
 
-def _positive(field: str, value: float) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise ScenarioError(f"{field}: {value!r} is not allowed; it must be a finite number > 0")
+def _number(field: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(f"{field}: {value!r} is not a number")
+    if not math.isfinite(value):
+        raise ScenarioError(f"{field}: {value!r} is not finite")
 
 
 def _in_range(field, value, lo, hi, text, open_low=False) -> None:
-    ok = math.isfinite(value) and (value > lo if open_low else value >= lo) and value <= hi
-    if not ok:
+    _number(field, value)
+    if not ((value > lo if open_low else value >= lo) and value <= hi):
         raise ScenarioError(f"{field}: {value!r} is outside the allowed range {text}")
 
 
+def _integer(field: str, value, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ScenarioError(f"{field}: {value!r} is not an integer (allowed: {lo} to {hi})")
+    if not lo <= value <= hi:
+        raise ScenarioError(f"{field}: {value!r} is outside the allowed range [{lo}, {hi}]")
+
+
+def _boolean(field: str, value) -> None:
+    if not isinstance(value, bool):
+        raise ScenarioError(f"{field}: {value!r} is not true or false")
+
+
+def _text(field: str, value, allow_empty: bool = False) -> None:
+    if not isinstance(value, str) or (not allow_empty and not value.strip()):
+        raise ScenarioError(f"{field}: {value!r} is not a {'' if allow_empty else 'non-empty '}"
+                            "string")
+
+
 def _one_of(field: str, value, allowed) -> None:
-    if value not in allowed:
+    if not isinstance(value, str) or value not in allowed:
         raise ScenarioError(f"{field}: {value!r} is not one of {', '.join(map(str, allowed))}")
 
 
-def _vector(field: str, value, n: int) -> None:
-    if len(value) != n or not all(math.isfinite(v) for v in value):
+def _vector(field: str, value, n: int, bound: float = math.inf, unit: str = "") -> None:
+    if not isinstance(value, (list, tuple)) or len(value) != n:
         raise ScenarioError(f"{field}: expected {n} finite numbers, got {value!r}")
+    for i, v in enumerate(value):
+        _number(f"{field}[{i}]", v)
+    if math.isfinite(bound) and math.sqrt(sum(v * v for v in value)) > bound:
+        raise ScenarioError(f"{field}: {value!r} has magnitude above the allowed {bound}{unit}")
 
 
 def _schema_fields(schema) -> dict | None:
@@ -433,6 +536,34 @@ def check_keys(data, schema, path: str = "scenario") -> None:
         check_keys(value, fields[key], f"{path}.{key}")
 
 
+class UniqueKeyLoader(yaml.SafeLoader):
+    """A safe YAML loader that refuses a key given twice in one mapping (plain YAML keeps
+    the last silently)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r}", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
+def read_text_file(path) -> str:
+    """The text of a UTF-8 file; one-line ScenarioErrors naming the file otherwise."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise ScenarioError(f"{path}: file not found")
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{path}: not a UTF-8 text (YAML) file") from None
+    except OSError as e:
+        raise ScenarioError(f"{path}: cannot be read: {e.strerror}") from None
+
+
 def load_scenario(path, overrides: dict | None = None) -> Scenario:
     """Loads and validates a scenario YAML file.
 
@@ -445,11 +576,14 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
             type, or a value out of range. The message names the field.
     """
     path = find_scenario(path)
-    text = path.read_text()
+    text = read_text_file(path)
     try:
-        data = yaml.safe_load(text) or {}
+        data = yaml.load(text, Loader=UniqueKeyLoader) or {}
     except yaml.YAMLError as e:
-        raise ScenarioError(f"{path}: not valid YAML: {e}") from None
+        raise ScenarioError(f"{path}: not valid YAML: {' '.join(str(e).split())}") from None
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{path}: the YAML root must be a mapping of scenario fields, "
+                            f"got {type(data).__name__}")
     check_keys(data, Scenario)
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text) if data else Scenario()

@@ -19,7 +19,9 @@ import dataclasses as dc
 import json
 import math
 import pathlib
+import shutil
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -151,35 +153,77 @@ def seed_context(diagram, context, seed: int) -> None:
     diagram.SetRandomContext(context, RandomGenerator(int(seed)))
 
 
-def make_simulator(diagram, scenario: Scenario, context=None) -> Simulator:
-    """A Simulator of ``diagram`` with the scenario's integrator settings, its context
-    (a new one, or ``context``) seeded from ``scenario.random_seed``."""
+def make_simulator(diagram, scenario: Scenario, context=None, seed: int | None = None):
+    """A Simulator of ``diagram`` with the scenario's integrator settings and its context
+    (a new one, or ``context``) seeded from ``seed`` (default ``scenario.random_seed``)."""
     simulator = Simulator(diagram) if context is None else Simulator(diagram, context)
     ApplySimulatorConfig(scenario.simulator, simulator)
-    seed_context(diagram, simulator.get_mutable_context(), scenario.random_seed)
+    seed_context(diagram, simulator.get_mutable_context(),
+                 scenario.random_seed if seed is None else seed)
     return simulator
+
+
+# The files a run writes (and the only ones it removes from an old output folder).
+OUTPUT_FILES = ("recording.html", "log.npz", "metrics.json", "joints.png", "states.png",
+                "trajectory.png")
+
+
+def _publish(staging: pathlib.Path, out_dir: pathlib.Path) -> None:
+    """Moves a run's files from its staging folder into ``out_dir``, first removing our own
+    outputs of an earlier run there (so no stale metrics.json or recording.html stays)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name in OUTPUT_FILES:
+        (out_dir / name).unlink(missing_ok=True)
+    for path in staging.iterdir():
+        target = out_dir / path.name
+        if target.is_dir():
+            shutil.rmtree(target)
+        shutil.move(str(path), str(target))
+    staging.rmdir()
+
+
+def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseException) -> None:
+    staging = pathlib.Path(tempfile.mkdtemp(prefix=".run-", dir=out_dir.parent))
+    metrics = {"scenario": scenario.name, "status": "failed",
+               "failure": {"stage": "build", "time_s": 0.0,
+                           "reason": f"{type(error).__name__}: {error}"}}
+    (staging / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    _publish(staging, out_dir)
 
 
 def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True) -> RunResult:
     """Simulates ``scenario`` and writes its outputs into ``out_dir``.
 
+    The outputs are written into a fresh staging folder beside ``out_dir`` and moved into
+    place at the end, replacing this function's own files of an earlier run there: a
+    folder never mixes two runs. Whatever happens, ``out_dir`` ends with a metrics.json
+    that says so: a build failure (``status: failed``, ``stage: build``), a failure part-way
+    (the log up to it, the time and the reason), Ctrl-C (``reason: interrupted``, then
+    KeyboardInterrupt is re-raised).
+
     Args:
         scenario: a validated Scenario.
         out_dir: output folder (created).
-        progress: show a progress bar on stderr.
-        write_outputs: write files (tests may skip the plots and HTML).
+        progress: show a progress bar on stderr (only when stderr is a terminal).
+        write_outputs: write plots and the recording (tests may skip them).
 
     Returns:
-        RunResult with ``.metrics``, ``.log`` and ``.handles``.
+        RunResult with ``.metrics``, ``.log``, ``.handles`` and the final ``.context``.
 
     Raises:
-        SimulationError: the simulation failed; the partial log and a metrics.json
-            saying where and why are written first.
+        SimulationError: the build or the simulation failed; the outputs above are written
+            first.
+        KeyboardInterrupt: interrupted; the partial log and metrics.json are written first.
     """
     out_dir = pathlib.Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    diagram, handles = build_diagram(scenario)
-    simulator = make_simulator(diagram, scenario)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        diagram, handles = build_diagram(scenario)
+        simulator = make_simulator(diagram, scenario)
+    except Exception as e:
+        _write_failed_build(scenario, out_dir, e)
+        raise SimulationError(f"{scenario.name}: building the diagram failed: "
+                              f"{type(e).__name__}: {e} (metrics.json in {out_dir})") from e
     root_context = simulator.get_mutable_context()
     if handles.meshcat is not None:
         # Look at the robot from inside the pool (the walls hide it from outside).
@@ -188,8 +232,8 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         handles.meshcat.SetProperty("/Grid", "visible", False)
         handles.visualizer.StartRecording(set_transforms_while_recording=False)
 
-    failure = None
-    bar = _progress(scenario.duration, progress)
+    failure, interrupted = None, False
+    bar = _progress(scenario.duration, progress and sys.stderr.isatty())
     wall_start = time.perf_counter()
     try:
         simulator.Initialize()
@@ -200,7 +244,12 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
             simulator.AdvanceTo(t_next)
             if bar is not None:
                 bar.update(t_next - bar.n)
-    except Exception as e:  # keep the log of what happened up to the failure
+    except KeyboardInterrupt:
+        interrupted = True
+        failure = {"time_s": float(root_context.get_time()), "reason": "interrupted (Ctrl-C)"}
+    except (Exception, SystemExit) as e:  # keep the log of what happened up to the failure
+        # SystemExit: a Drake abort surfacing in Python; it must not end the process
+        # without the log.
         failure = {"time_s": float(root_context.get_time()), "reason": f"{type(e).__name__}: {e}"}
     finally:
         if bar is not None:
@@ -215,18 +264,24 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
                    "reason": "non-finite body state"}
     metrics["status"] = "failed" if failure else "ok"
     if failure:
-        metrics["failure"] = failure
-    else:
+        metrics["failure"] = {"stage": "simulation", **failure}
+    elif not interrupted:
         metrics["max_penetration_m"] = max_penetration(handles, diagram, root_context)
 
-    np.savez_compressed(out_dir / "log.npz", **log)
-    (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    if write_outputs:
-        plots.write_run_plots(log, out_dir, title=scenario.name)
-        if handles.visualizer is not None:
-            handles.visualizer.StopRecording()
-            handles.visualizer.PublishRecording()
-            (out_dir / "recording.html").write_text(handles.meshcat.StaticHtml())
+    staging = pathlib.Path(tempfile.mkdtemp(prefix=".run-", dir=out_dir.parent))
+    try:
+        np.savez_compressed(staging / "log.npz", **log)
+        (staging / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+        if write_outputs and not interrupted:
+            plots.write_run_plots(log, staging, title=scenario.name)
+            if handles.visualizer is not None:
+                handles.visualizer.StopRecording()
+                handles.visualizer.PublishRecording()
+                (staging / "recording.html").write_text(handles.meshcat.StaticHtml())
+    finally:
+        _publish(staging, out_dir)
+    if interrupted:
+        raise KeyboardInterrupt
     if failure:
         raise SimulationError(
             f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "

@@ -29,7 +29,8 @@ By ``scenario.controller.mode``:
 * ``gait``: the CPG (Eq. 5) runs ``controller.gait`` for the whole run.
 * ``transition``: the multifunctional controller of section 3: the pressure depth goes
   through ``FuzzyDepthEstimator`` (Eq. 9) to z_hat; the depth image through
-  ``DepthImageToPointCloud`` and ``WallDetector`` (Eq. 10) to s_hat (0 without a
+  ``DepthImageFilter`` (a median filter), ``DepthImageToPointCloud`` and
+  ``WallDetector`` (Eq. 10) to s_hat (0 without a
   camera); ``PotentialTransition`` (Eqs. 11-15) turns both into the CPG's parameters.
 
 In every mode the balloon follows the scenario's schedule (``balloon_command``, fill
@@ -53,6 +54,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from manta_drake.control.cpg import CpgOscillators, initial_state
 from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
+from manta_drake.control.depth_image_filter import DepthImageFilter
 from manta_drake.control.gaits import GAITS, get_gait
 from manta_drake.control.transition import (
     BEHAVIOURS,
@@ -107,6 +109,23 @@ def balloon_schedule(scenario: Scenario) -> TrajectorySource:
                                                               np.array(values)[None, :]))
 
 
+# The hold mode's move from the initial stance to the held one: well inside the servos'
+# 8 rad/s, so the command never steps.
+HOLD_RAMP_SPEED = 2.0  # rad/s, largest joint speed of the ramp
+
+
+def stance_ramp(q_start, q_end, max_speed: float = HOLD_RAMP_SPEED) -> TrajectorySource:
+    """desired_state (angles and rates) moving from ``q_start`` to ``q_end`` along a cubic
+    with zero end rates, no joint faster than ``max_speed``, then holding ``q_end``."""
+    q_start, q_end = (np.asarray(q, dtype=float).reshape(-1, 1) for q in (q_start, q_end))
+    # A cubic with zero end rates peaks at 1.5 x the mean rate.
+    T = max(1.5 * float(np.abs(q_end - q_start).max()) / max_speed, 1e-3)
+    zero = np.zeros_like(q_start)
+    traj = PiecewisePolynomial.CubicHermite(np.array([0.0, T]), np.hstack([q_start, q_end]),
+                                            np.hstack([zero, zero]))
+    return TrajectorySource(traj, output_derivative_order=1, zero_derivatives_beyond_limits=True)
+
+
 def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> None:
     """depth -> FuzzyDepthEstimator (Eq. 9)."""
     ps = scenario.pressure_sensor
@@ -120,13 +139,16 @@ def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> Non
 
 
 def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, meshcat):
-    """depth_image (+ camera_pose) -> point cloud -> WallDetector (Eq. 10)."""
+    """depth_image -> median filter -> point cloud (+ camera_pose) -> WallDetector (Eq. 10)."""
     cam = scenario.camera
+    denoise = builder.AddNamedSystem("depth_filter", DepthImageFilter(
+        cam.width, cam.height, scenario.wall_detector.depth_median_filter_px))
     to_cloud = builder.AddNamedSystem("depth_to_cloud", DepthImageToPointCloud(
         camera_info(cam), PixelType.kDepth32F, 1.0, BaseField.kXYZs))
     detector = builder.AddNamedSystem("wall_detector", WallDetector(
         period=1.0 / cam.rate_hz, params=scenario.wall_detector, meshcat=meshcat))
-    builder.ExportInput(to_cloud.depth_image_input_port(), "depth_image")
+    builder.ExportInput(denoise.GetInputPort("depth_image"), "depth_image")
+    builder.Connect(denoise.GetOutputPort("filtered_depth_image"), to_cloud.depth_image_input_port())
     builder.ConnectInput(builder.ExportInput(to_cloud.camera_pose_input_port(), "camera_pose"),
                          detector.GetInputPort("camera_pose"))
     builder.Connect(to_cloud.point_cloud_output_port(), detector.GetInputPort("point_cloud"))
@@ -172,9 +194,8 @@ def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, Control
     if scenario.camera.enabled:
         s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
     if mode == "hold":
-        X = get_gait(scenario.controller.gait).X.ravel()
-        source = builder.AddNamedSystem(
-            "hold_stance", ConstantVectorSource(np.concatenate([X, np.zeros(NUM_JOINTS)])))
+        source = builder.AddNamedSystem("hold_stance", stance_ramp(
+            initial_joint_angles(scenario), get_gait(scenario.controller.gait).X.ravel()))
         builder.ExportOutput(source.get_output_port(), "desired_state")
     elif mode in ("gait", "transition"):
         if mode == "gait":

@@ -207,30 +207,64 @@ def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoeffici
     return result
 
 
-def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE) -> HydroCoefficients:
-    """Loads and checks ``hydrodynamics.yaml`` (unknown keys, sizes, signs, sources)."""
-    import yaml
+# Entries that must be > 0 (a zero volume or density divides by zero at t = 0), and
+# entries that must be whole numbers.
+POSITIVE = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
+            "links.servo_volume", "fins.strips_per_plate", "fins.normal_force_coefficient",
+            "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate")
+INTEGER = ("fins.strips_per_plate",)
+SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
+         "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
+         "links.linear_damping": 6, "links.quadratic_damping": 6,
+         "fins.hinge_added_inertia": 4, "balloon.mount_point": 3}
 
-    from manta_drake.scenario import ScenarioError, check_keys
 
-    path = pathlib.Path(path)
-    if not path.is_file():
-        raise ScenarioError(f"hydrodynamic coefficients file not found: {path}")
-    check_keys(yaml.safe_load(path.read_text()), HydroCoefficients, path.name)
-    coeffs = yaml_load_typed(schema=HydroCoefficients, filename=str(path))
-    sizes = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
-             "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
-             "links.linear_damping": 6, "links.quadratic_damping": 6,
-             "fins.hinge_added_inertia": 4, "balloon.mount_point": 3}
+def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -> None:
+    """Raises ScenarioError naming the first entry with a missing source, a wrong size, a
+    non-finite, negative (or zero where it must be positive) or non-integer value."""
+    from manta_drake.scenario import ScenarioError
+
     for name, entry in _walk(coeffs, ""):
         if not entry.source.strip():
-            raise ScenarioError(f"{path.name}: {name} has no source")
+            raise ScenarioError(f"{where}: {name} has no source")
         values = np.atleast_1d(np.asarray(entry.value, dtype=float))
-        if name in sizes and len(values) != sizes[name]:
-            raise ScenarioError(f"{path.name}: {name} needs {sizes[name]} values, got {len(values)}")
+        if name in SIZES and len(values) != SIZES[name]:
+            raise ScenarioError(f"{where}: {name} needs {SIZES[name]} values, got {len(values)}")
         if not np.all(np.isfinite(values)):
-            raise ScenarioError(f"{path.name}: {name} has non-finite values")
+            raise ScenarioError(f"{where}: {name} = {entry.value!r} has non-finite values")
         signed = name in ("body.center_of_buoyancy", "balloon.mount_point")
         if not signed and np.any(values < 0):
-            raise ScenarioError(f"{path.name}: {name} must be >= 0 (magnitudes), got {values}")
+            raise ScenarioError(f"{where}: {name} = {entry.value!r} must be >= 0 (magnitudes)")
+        if name in POSITIVE and np.any(values <= 0):
+            raise ScenarioError(f"{where}: {name} = {entry.value!r} must be > 0")
+        if name in INTEGER and np.any(values != np.round(values)):
+            raise ScenarioError(f"{where}: {name} = {entry.value!r} must be a whole number")
+
+
+def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None) -> HydroCoefficients:
+    """Loads and checks ``hydrodynamics.yaml`` (unknown and duplicate keys, sizes, signs,
+    sources); errors are one line naming the file (and ``field``, the scenario field that
+    named it)."""
+    import yaml
+
+    from manta_drake.scenario import ScenarioError, UniqueKeyLoader, check_keys, read_text_file
+
+    path = pathlib.Path(path)
+    where = f"{field} = {path}" if field else str(path)
+    try:
+        text = read_text_file(path)
+        try:
+            data = yaml.load(text, Loader=UniqueKeyLoader)
+        except yaml.YAMLError as e:
+            raise ScenarioError(f"not valid YAML: {' '.join(str(e).split())}") from None
+        if not isinstance(data, dict):
+            raise ScenarioError("must be a mapping of coefficient sections (water_density, "
+                                f"gravity, body, links, fins, balloon), got {type(data).__name__}")
+        check_keys(data, HydroCoefficients, path.name)
+        coeffs = yaml_load_typed(schema=HydroCoefficients, data=text)
+        check_coefficients(coeffs, path.name)
+    except ScenarioError as e:
+        message = str(e)
+        prefix = f"{path}: "
+        raise ScenarioError(f"{where}: {message[len(prefix):] if message.startswith(prefix) else message}") from None
     return coeffs

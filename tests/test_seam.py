@@ -1,0 +1,168 @@
+"""The station/controller seam: defaults are the scenario's start, every state is in the
+Context (two contexts of one diagram do not share anything), Drake randomness."""
+
+import numpy as np
+import pytest
+from pydrake.common import RandomGenerator
+from pydrake.systems.analysis import MonteCarloSimulation, Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from manta_drake import build_controller, build_diagram, build_station, load_scenario
+from manta_drake.control.cpg import locked_phases
+from manta_drake.control.gaits import GAITS
+from manta_drake.diagram import connect_by_name
+from manta_drake.model.plant import body_pose
+from manta_drake.simulate import make_simulator
+
+
+def _scenario(name, **changes):
+    s = load_scenario(name)
+    s.visualization.meshcat = False
+    for key, value in changes.items():
+        setattr(s, key, value)
+    return s.validate()
+
+
+def _camera_scenario(duration=0.7):
+    """Transition controller on the floor in trot, the end wall in the camera's view."""
+    s = _scenario("three_behaviors", duration=duration)
+    s.initial_pose.xyz = [7.5 - 0.19 - 0.55, 0.0, -0.25]
+    s.initial_stance = "trot"
+    s.balloon.initial_fill = 0.0
+    s.balloon.schedule = []
+    return s.validate()
+
+
+def test_default_context_is_the_scenario_start():
+    s = _scenario("three_behaviors")
+    diagram, h = build_diagram(s)
+    context = diagram.CreateDefaultContext()
+    plant = h.plant
+    pc = plant.GetMyContextFromRoot(context)
+    X_WB = plant.EvalBodyPoseInWorld(pc, h.plant_handles.body)
+    expected = body_pose(s.initial_pose.xyz, s.initial_pose.rpy_deg)
+    np.testing.assert_allclose(X_WB.GetAsMatrix34(), expected.GetAsMatrix34(), atol=1e-12)
+    q = np.array([plant.GetJointByName(n, h.plant_handles.robot).get_angle(pc)
+                  for n in h.plant_handles.joint_names])
+    np.testing.assert_allclose(q, GAITS["swim"].X.ravel())  # initial_stance: swim
+    # The CPG starts at the lock of its initial gait (not at the unstable phi = 0), from
+    # rest (r = 0), with its biases at the stance; the transition at the swim target.
+    cpg = h.systems["cpg"]
+    x = cpg.GetMyContextFromRoot(context).get_continuous_state_vector().CopyToVector()
+    phi, r, _, chi, _ = x.reshape(5, 16)
+    transition = h.systems["transition"]
+    psi = transition.GetOutputPort("cpg_params").Eval(transition.GetMyContextFromRoot(context))
+    np.testing.assert_allclose(psi, GAITS["swim"].to_vector(), atol=1e-12)
+    np.testing.assert_allclose(phi, locked_phases(psi), atol=1e-12)
+    assert np.any(np.abs(phi) > 1.0)
+    np.testing.assert_array_equal(r, 0.0)
+    np.testing.assert_allclose(chi, q)
+    # and the balloon is full, the depth estimate at the initial head depth
+    station = h.station
+    sc = station.GetMyContextFromRoot(context)
+    full = h.station_handles.coefficients.balloon.max_volume.value
+    assert station.GetOutputPort("balloon_volume").Eval(sc)[0] == pytest.approx(full)
+
+
+def test_station_and_controller_alone_make_the_closed_loop():
+    """What the README shows: the two builders and a by-name connection, nothing else."""
+    s = _scenario("locomotion_swim", duration=0.3)
+    builder = DiagramBuilder()
+    station = builder.AddSystem(build_station(s)[0])
+    controller = builder.AddSystem(build_controller(s)[0])
+    assert sorted(connect_by_name(builder, station, controller)) == ["depth"]
+    assert sorted(connect_by_name(builder, controller, station)) == ["balloon_command",
+                                                                     "desired_state"]
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(0.3)
+    joints = station.GetOutputPort("measured_joint_state").Eval(
+        station.GetMyContextFromRoot(simulator.get_context()))[:16]
+    command = controller.GetOutputPort("desired_state").Eval(
+        controller.GetMyContextFromRoot(simulator.get_context()))[:16]
+    assert np.abs(joints - command).max() < 0.1  # the servos follow the CPG
+    assert np.abs(command - GAITS["swim"].X.ravel()).max() > 0.05  # and it flaps
+
+
+def _snapshot(diagram, h, context):
+    """Everything that should be identical between equal runs."""
+    plant_state = h.plant.GetPositionsAndVelocities(h.plant.GetMyContextFromRoot(context))
+    ctrl = h.controller.GetMyContextFromRoot(context)
+    status = h.controller.GetOutputPort("detector_status").Eval(ctrl)
+    s_hat = h.controller.GetOutputPort("s_hat").Eval(ctrl)
+    depth = h.station.GetOutputPort("depth").Eval(h.station.GetMyContextFromRoot(context))
+    return np.concatenate([plant_state, status, s_hat, depth])
+
+
+@pytest.mark.slow
+def test_two_contexts_interleaved_equal_two_runs_one_after_the_other():
+    """One diagram (with the camera and the wall detector), two contexts with different
+    seeds, advanced alternately in small steps, end exactly where the same two runs end
+    when simulated one after the other: no state is shared through the Systems."""
+    s = _camera_scenario(duration=0.7)
+    diagram, h = build_diagram(s)
+    seeds = (3, 11)
+
+    def new_simulator(seed):
+        return make_simulator(diagram, s, diagram.CreateDefaultContext(), seed)
+
+    times = np.arange(0.05, s.duration + 1e-9, 0.05)  # the same chunks in both: bit-exact
+    sequential = []
+    for seed in seeds:
+        simulator = new_simulator(seed)
+        for t in times:
+            simulator.AdvanceTo(t)
+        sequential.append(_snapshot(diagram, h, simulator.get_context()))
+    a, b = (new_simulator(seed) for seed in seeds)
+    for t in times:
+        a.AdvanceTo(t)
+        b.AdvanceTo(t)
+    interleaved = [_snapshot(diagram, h, sim.get_context()) for sim in (a, b)]
+    for x, y in zip(sequential, interleaved):
+        np.testing.assert_array_equal(x, y)
+    # the detector ran (4 frames at 5 Hz) and saw the wall, and the seeds differ
+    status = sequential[0][-7:-2]  # detector_status (s_hat, wall_size, points, frames, failed)
+    assert status[3] == 4 and status[1] > 0
+    assert not np.array_equal(sequential[0], sequential[1])
+
+
+def test_monte_carlo_seeds_differ_and_repeat():
+    """Drake's MonteCarloSimulation: the noise is drawn from the Context, so samples differ
+    from one another and the same generator seed repeats them bit for bit."""
+    s = _scenario("float_sink", duration=0.2)
+    s.pressure_sensor.noise_std = 0.01
+    diagram, h = build_diagram(s)
+    station = h.station
+
+    def make_simulator_(generator):
+        return make_simulator(diagram, s)
+
+    def output(system, context):
+        # the last noisy pressure reading; the sensor's truth is smooth, so the sum of a
+        # few readings differs between noise draws
+        return float(station.GetOutputPort("depth").Eval(station.GetMyContextFromRoot(context))[0])
+
+    def samples(seed):
+        results = MonteCarloSimulation(make_simulator=make_simulator_, output=output,
+                                       final_time=0.2, num_samples=3,
+                                       generator=RandomGenerator(seed))
+        return np.array([r.output for r in results])
+
+    first, again, other = samples(1), samples(1), samples(2)
+    np.testing.assert_array_equal(first, again)
+    assert len(np.unique(first)) == 3  # three different noise draws
+    assert not np.any(np.isin(first, other))
+    assert np.all(np.abs(first - first.mean()) < 0.05)  # noise, not a broken sensor
+
+
+def test_scenario_seed_gives_bit_identical_logs(tmp_path):
+    from manta_drake.simulate import run
+
+    logs = []
+    for seed in (5, 5, 6):
+        s = _scenario("float_sink", duration=0.5, random_seed=seed)
+        s.pressure_sensor.noise_std = 0.01
+        logs.append(run(s, tmp_path / str(len(logs)), progress=False, write_outputs=False).log)
+    np.testing.assert_array_equal(logs[0]["depth"], logs[1]["depth"])
+    np.testing.assert_array_equal(logs[0]["body_xyz"], logs[1]["body_xyz"])
+    assert not np.array_equal(logs[0]["depth"], logs[2]["depth"])

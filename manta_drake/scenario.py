@@ -584,7 +584,10 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: the YAML root must be a mapping of scenario fields, "
                             f"got {type(data).__name__}")
-    check_keys(data, Scenario)
+    try:
+        check_keys(data, Scenario)
+    except ScenarioError as e:
+        raise ScenarioError(f"{path}: {e}") from None
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text) if data else Scenario()
     except (RuntimeError, ValueError, TypeError) as e:

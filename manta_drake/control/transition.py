@@ -141,6 +141,9 @@ class PotentialTransition(LeafSystem):
         self.max_step = alpha * g * T
         self.swim, self.trot, self.turning = (GAITS[b].to_vector() for b in behaviours)
         initial = self.swim if initial_params is None else np.asarray(initial_params, dtype=float)
+        if initial.shape != self.swim.shape or not np.all(np.isfinite(initial)):
+            raise ValueError(f"PotentialTransition.initial_params: expected {self.swim.size} "
+                             f"finite values (R, X, Phi, Phi'), got shape {initial.shape}")
         self._psi = self.DeclareDiscreteState(initial)
         self._s_filtered = self.DeclareDiscreteState([0.0])  # no wall seen at the start
         self._z_hat = self.DeclareVectorInputPort("z_hat", 1)

@@ -11,7 +11,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RevoluteJoint
 
 from manta_drake.model.model_sdf import pool_sdf, robot_sdf
-from manta_drake.model.plant import MODELS_DIR, make_parser
+from manta_drake.model.plant import MODELS_DIR, add_plant, make_parser
 from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES
 
 
@@ -133,3 +133,47 @@ def test_generate_models_check_mode():
                             cwd=pathlib.Path(__file__).resolve().parent.parent,
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_hinge_added_inertia_slows_the_joint_as_i_link_plus_i_added():
+    """A torque step on a fin's roll1 joint (body welded, no gravity): the first step's
+    joint velocity is tau dt / (I_link + I_added + dt kd + dt^2 kp + dt d_joint), with
+    I_link the outboard bodies' inertia about the joint axis computed independently from
+    their spatial inertias, I_added the YAML's hinge added inertia (the implicit PD and the
+    joint damping enter a discrete step implicitly)."""
+    from pydrake.math import RigidTransform
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from manta_drake.model.coefficients import load_coefficients
+    from manta_drake.model.robot_params import DEFAULT_ROBOT as P
+
+    coeffs = load_coefficients()
+    dt, tau = 1e-3, 0.5
+    builder = DiagramBuilder()
+    h = add_plant(builder, time_step=dt, with_pool=False, weld_body=RigidTransform(), hydro=coeffs)
+    plant = h.plant
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
+    diagram = builder.Build()
+    joint = plant.GetJointByName("fl_roll1", h.robot)
+    context = diagram.CreateDefaultContext()
+    pc = plant.GetMyMutableContextFromRoot(context)
+    plant.get_desired_state_input_port(h.robot).FixValue(pc, np.zeros(32))
+    u = np.zeros(16)
+    u[1] = tau  # fl_roll1 (actuator order = joint order)
+    plant.get_actuation_input_port(h.robot).FixValue(pc, u)
+    # I_link: the bodies outboard of the joint, about its axis through its origin.
+    outboard = [plant.GetBodyByName(f"fl_link{i}", h.robot).index() for i in (2, 3, 4)]
+    frame = joint.frame_on_child()
+    M = plant.CalcSpatialInertia(pc, frame, outboard)
+    axis = joint.revolute_axis()
+    I_link = float(axis @ M.CalcRotationalInertia().CopyToFullMatrix3() @ axis)
+    I_added = coeffs.fins.hinge_added_inertia.value[1]
+    assert I_added > 2 * I_link  # the fin's water is most of what the servo moves
+    simulator = Simulator(diagram, context)
+    simulator.AdvanceTo(dt)
+    v1 = joint.get_angular_rate(plant.GetMyContextFromRoot(simulator.get_context()))
+    expected = tau * dt / (I_link + I_added + dt * P.kd + dt * dt * P.kp + dt * P.joint_damping)
+    assert v1 == pytest.approx(expected, rel=0.02)
+    without = tau * dt / (I_link + dt * P.kd + dt * dt * P.kp + dt * P.joint_damping)
+    assert abs(v1 - without) > 0.5 * without  # what the unapplied inertia gave

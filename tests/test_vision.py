@@ -165,7 +165,7 @@ def test_expected_frame_failures():
     assert not is_expected_frame_failure(RuntimeError("something else"))
 
 
-def _rendered_s_hat(x_body: float, tmp_path) -> float:
+def _rendered_s_hat(x_body: float, tmp_path, depth_noise_std: float = 0.005) -> float:
     from manta_drake.simulate import run
 
     s = Scenario(name="camera", duration=0.45, initial_stance="trot",
@@ -173,6 +173,7 @@ def _rendered_s_hat(x_body: float, tmp_path) -> float:
                  initial_pose=InitialPose(xyz=[x_body, 0.0, -0.237]),
                  visualization=VisualizationConfig(meshcat=False))
     s.camera.enabled = True
+    s.camera.depth_noise_std = depth_noise_std
     result = run(s.validate(), tmp_path, progress=False,
                  write_outputs=False)
     status = dict(zip(STATUS_FIELDS, result.log["detector_status"][-1]))
@@ -184,3 +185,16 @@ def test_rendered_pool_wall_near_and_far(tmp_path):
     camera_x = 0.19  # the camera frame's offset ahead of the body origin
     assert _rendered_s_hat(7.5 - 0.5 - camera_x, tmp_path / "near") > 0.9
     assert _rendered_s_hat(7.5 - 5.0 - camera_x, tmp_path / "far") < 0.1
+
+
+def test_rendered_wall_is_kept_at_the_largest_supported_noise(tmp_path):
+    """At 12 mm of range noise and more the old detector lost the wall at 0.4-0.6 m (the
+    voxelised wall became a double sheet that failed the curvature guard); the depth median
+    filter and PCA-labelled leftovers keep it to the loader's bound (30 mm), and out of
+    range the noise does not make a wall up."""
+    from manta_drake.scenario import MAX_DEPTH_NOISE
+
+    camera_x = 0.19
+    assert MAX_DEPTH_NOISE == 0.03
+    assert _rendered_s_hat(7.5 - 0.5 - camera_x, tmp_path / "near", 0.03) > 0.9
+    assert _rendered_s_hat(7.5 - 1.0 - camera_x, tmp_path / "far", 0.03) < 0.1

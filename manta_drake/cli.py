@@ -24,7 +24,8 @@ def print_metrics(metrics: dict, out_dir) -> None:
     """A short table of a run's metrics and where its outputs are."""
     keys = [
         "scenario", "status", "sim_time_s", "wall_time_s", "real_time_factor",
-        "mean_velocity_body", "yaw_rate_deg_s", "distance_m", "max_joint_step_rad",
+        "mean_velocity_body", "yaw_rate_deg_s", "steady_window_s", "near_wall_at_s",
+        "distance_m", "max_joint_step_rad",
         "max_penetration_m", "final_max_joint_error_rad",
     ]
     print()
@@ -35,6 +36,8 @@ def print_metrics(metrics: dict, out_dir) -> None:
                 value = f"{value:.4g}"
             elif isinstance(value, list):
                 value = "[" + ", ".join(f"{v:.4g}" for v in value) + "]"
+            elif value is None:
+                value = "-"
             print(f"  {key:<28} {value}")
     for tr in metrics.get("transitions", []):
         print(f"  transition {tr['from']:>8} -> {tr['to']:<8} {tr['start_s']:.1f} s .. {tr['end_s']:.1f} s")

@@ -27,19 +27,39 @@ def velocity_in_body(quat_wxyz: np.ndarray, v_world: np.ndarray) -> np.ndarray:
     return rotations(quat_wxyz).inv().apply(np.asarray(v_world, dtype=float))
 
 
-def steady_mask(t: np.ndarray, steady_after: float) -> np.ndarray:
-    """Samples after ``steady_after`` seconds (all samples if that leaves fewer than two)."""
-    mask = t >= steady_after
+def steady_mask(t: np.ndarray, steady_after: float, until: float = np.inf) -> np.ndarray:
+    """Samples in [steady_after, until] (all samples if that leaves fewer than two)."""
+    mask = (t >= steady_after) & (t <= until)
     return mask if mask.sum() >= 2 else np.ones_like(t, dtype=bool)
 
 
-def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float) -> list:
-    """Mean [u, v] from the displacement over the steady part, in the mean-heading frame.
+def wall_clearance(xyz, quat_wxyz, semi_axes, half_length: float, half_width: float):
+    """Per sample, the distance [m] from the hull (an ellipsoid with ``semi_axes`` in the
+    body frame) to the nearest of the pool's four walls (x = +-half_length,
+    y = +-half_width); negative inside a wall."""
+    R = rotations(quat_wxyz).as_matrix()  # (N, 3, 3)
+    # An ellipsoid's half-extent along world axis k: sqrt(sum_i (R[k, i] a_i)^2).
+    extent = np.sqrt(((R * np.asarray(semi_axes, dtype=float)) ** 2).sum(axis=2))
+    p = np.asarray(xyz, dtype=float)
+    return np.minimum(half_length - np.abs(p[:, 0]) - extent[:, 0],
+                      half_width - np.abs(p[:, 1]) - extent[:, 1])
+
+
+def free_water_end(t, clearance, margin: float) -> float | None:
+    """The first time the clearance drops below ``margin``, or None if it never does."""
+    near = np.flatnonzero(np.asarray(clearance) < margin)
+    return float(t[near[0]]) if len(near) else None
+
+
+def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float,
+                                    until: float = np.inf) -> list:
+    """Mean [u, v] from the displacement over [steady_after, until], in the mean-heading
+    frame.
 
     Robust to the oscillating velocity of a gait: (x_end - x_start) / duration,
     rotated into the body frame at the mean yaw.
     """
-    mask = steady_mask(t, steady_after)
+    mask = steady_mask(t, steady_after, until)
     tt, p = t[mask], xyz[mask]
     yaw = np.unwrap(euler_rpy(quat_wxyz[mask])[:, 2])
     d = (p[-1, :2] - p[0, :2]) / max(tt[-1] - tt[0], 1e-9)
@@ -47,9 +67,9 @@ def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float) -> l
     return [float(c * d[0] + s * d[1]), float(-s * d[0] + c * d[1])]
 
 
-def yaw_rate_deg_s(t, quat_wxyz, steady_after: float) -> float:
-    """Mean yaw rate [deg/s] over the steady part (slope of the unwrapped yaw)."""
-    mask = steady_mask(t, steady_after)
+def yaw_rate_deg_s(t, quat_wxyz, steady_after: float, until: float = np.inf) -> float:
+    """Mean yaw rate [deg/s] over [steady_after, until] (slope of the unwrapped yaw)."""
+    mask = steady_mask(t, steady_after, until)
     yaw = np.unwrap(euler_rpy(quat_wxyz[mask])[:, 2])
     return float(np.degrees(np.polyfit(t[mask], yaw, 1)[0]))
 

@@ -169,9 +169,11 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
 def fig_velocities(speeds: dict, path):
     """Fig. 7 style: mean body velocity (surge and sway) and yaw rate per gait."""
     names = list(speeds)
-    u = [speeds[n]["mean_velocity_body"][0] for n in names]
-    v = [speeds[n]["mean_velocity_body"][1] for n in names]
-    yaw = [speeds[n]["yaw_rate_deg_s"] for n in names]
+    # None (no free-water steady window) plots as a gap.
+    vel = [speeds[n]["mean_velocity_body"] or [np.nan, np.nan] for n in names]
+    u, v = [x[0] for x in vel], [x[1] for x in vel]
+    yaw = [np.nan if speeds[n]["yaw_rate_deg_s"] is None else speeds[n]["yaw_rate_deg_s"]
+           for n in names]
     x = np.arange(len(names))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
     ax1.bar(x - 0.2, u, 0.4, label="surge u (forward)")

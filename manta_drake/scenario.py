@@ -211,8 +211,10 @@ class Scenario:
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     log_period: float = 1e-3  # s, sample period of log.npz
-    # Metrics average over t >= steady_after (capped at half the run).
+    # Metrics average over t >= steady_after (capped at half the run) ...
     steady_after: float = 2.0
+    # ... until the hull first comes within this distance of a wall [m] (free water only).
+    free_water_margin: float = 0.3
 
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises
@@ -341,6 +343,7 @@ class Scenario:
         _in_range("log_period", self.log_period, self.time_step, 1.0,
                   f"[time_step = {self.time_step}, 1] s")
         _in_range("steady_after", self.steady_after, 0.0, 3600.0, "[0, 3600] s")
+        _in_range("free_water_margin", self.free_water_margin, 0.0, 1.0, "[0, 1] m")
         return self
 
 

@@ -40,6 +40,10 @@ LOG_KEYS = (
 )
 
 
+# Shortest steady window [s] over which a mean velocity is reported.
+MIN_STEADY_WINDOW = 1.0
+
+
 class SimulationError(RuntimeError):
     """The simulation failed; ``out_dir`` still holds the log up to the failure."""
 
@@ -123,10 +127,30 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         "real_time_factor": sim_time / wall_time if wall_time > 0 else math.nan,
     }
     if len(t) >= 2 and "body_xyz" in log:
-        steady = min(scenario.steady_after, 0.5 * sim_time)
+        from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT
+
         q, xyz = log["body_quat_wxyz"], log["body_xyz"]
-        m["mean_velocity_body"] = M.mean_velocity_from_displacement(t, q, xyz, steady)
-        m["yaw_rate_deg_s"] = M.yaw_rate_deg_s(t, q, steady)
+        # The steady window: from steady_after (at most half the run) until the hull first
+        # comes within free_water_margin of a wall, so no speed is averaged over a robot
+        # pressed against a wall.
+        clearance = M.wall_clearance(xyz, q, DEFAULT_ROBOT.body_semi_axes,
+                                     DEFAULT_POOL.length / 2, DEFAULT_POOL.width / 2)
+        near = M.free_water_end(t, clearance, scenario.free_water_margin)
+        start = min(scenario.steady_after, 0.5 * sim_time)
+        end = sim_time if near is None else near
+        m["steady_window_s"] = [float(start), float(end)]
+        m["min_wall_clearance_m"] = float(clearance.min())
+        m["near_wall_at_s"] = near
+        m["touched_wall"] = bool(clearance.min() <= 0.01)
+        if end - start >= MIN_STEADY_WINDOW:
+            m["mean_velocity_body"] = M.mean_velocity_from_displacement(t, q, xyz, start, end)
+            m["yaw_rate_deg_s"] = M.yaw_rate_deg_s(t, q, start, end)
+        else:
+            m["mean_velocity_body"] = None
+            m["yaw_rate_deg_s"] = None
+            m["note"] = (f"steady window {start:.1f}-{end:.1f} s is shorter than "
+                         f"{MIN_STEADY_WINDOW} s (the hull came within "
+                         f"{scenario.free_water_margin} m of a wall): no mean velocity")
         m["distance_m"] = M.horizontal_distance(xyz)
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()

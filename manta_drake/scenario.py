@@ -91,7 +91,8 @@ class TransitionConfig:
     T: float = 0.5
     alpha: float = 0.95
     z_t: float = 1.0
-    blend: str = "potential"  # Eq. (12); "linear" is Eq. (11)
+    blend: str = "potential"  # Eq. (12); "linear" is Eq. (11); "switch" an abrupt baseline
+    follow: str = "descent"  # Eqs. (14)-(15); "direct": psi = psi_d at once (baselines)
     s_hat_time_constant: float = 1.0  # s, low-pass of the camera's step signal (0: none)
     # A behaviour counts as reached when every parameter is within this of it [rad].
     arrival_tolerance: float = 0.05
@@ -251,9 +252,10 @@ class Scenario:
         for name in ("period", "g", "T", "alpha", "z_t", "s_hat_time_constant"):
             _number(f"transition.{name}", getattr(tr, name))
         _text("transition.blend", tr.blend)
+        _text("transition.follow", tr.follow)
         try:
             check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
-                             tr.s_hat_time_constant)
+                             tr.s_hat_time_constant, tr.follow)
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
         _in_range("transition.period", tr.period, self.time_step, 1.0,

@@ -144,3 +144,21 @@ def test_bad_parameters_are_rejected():
         PotentialTransition(blend="cubic")
     with pytest.raises(ValueError, match="s_hat_time_constant"):
         PotentialTransition(s_hat_time_constant=-1.0)
+
+
+def test_switch_baseline_is_abrupt_and_direct_follow_takes_the_target_at_once():
+    from manta_drake.control.transition import target_params
+
+    swim, trot, turning = (GAITS[n].to_vector() for n in ("swim", "trot", "turning"))
+    np.testing.assert_array_equal(target_params(0.49, 0.0, swim, trot, turning, blend="switch"), swim)
+    np.testing.assert_array_equal(target_params(0.51, 0.0, swim, trot, turning, blend="switch"), trot)
+    np.testing.assert_array_equal(target_params(0.9, 0.6, swim, trot, turning, blend="switch"),
+                                  turning)
+    system = PotentialTransition(blend="switch", follow="direct")
+    context = system.CreateDefaultContext()
+    system.GetInputPort("z_hat").FixValue(context, [1.0])
+    system.GetInputPort("s_hat").FixValue(context, [0.0])
+    context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+    np.testing.assert_array_equal(system.GetOutputPort("cpg_params").Eval(context), trot)
+    with pytest.raises(ValueError, match="follow: 'jump' is not one of descent, direct"):
+        PotentialTransition(follow="jump")

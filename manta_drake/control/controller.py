@@ -161,7 +161,7 @@ def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, 
 def _add_transition(builder, scenario: Scenario, handles: ControllerHandles, s_hat):
     tr = scenario.transition
     transition = builder.AddNamedSystem("transition", PotentialTransition(
-        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
+        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend, follow=tr.follow,
         initial_params=initial_cpg_params(scenario),
         s_hat_time_constant=tr.s_hat_time_constant))
     builder.Connect(handles.systems["depth_estimator"].GetOutputPort("z_hat"),

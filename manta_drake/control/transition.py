@@ -45,10 +45,16 @@ from manta_drake.control.gaits import GAITS
 
 # The behaviours Eq. (12) blends: swim (surface), and in the gait trot or turning (vision).
 BEHAVIOURS = ("swim", "trot", "turning")
+# Targets: Eq. (12) ("potential"), Eq. (11) ("linear"), or an abrupt switch at half depth
+# and half wall rate ("switch", a baseline). How psi follows its target: Eqs. (14)-(15)
+# ("descent") or at once ("direct", the baselines).
+BLENDS = ("potential", "linear", "switch")
+FOLLOWS = ("descent", "direct")
 
 
 def check_parameters(period: float, g: float, T: float, alpha: float, z_t: float,
-                     blend: str, s_hat_time_constant: float = 0.0) -> None:
+                     blend: str, s_hat_time_constant: float = 0.0,
+                     follow: str = "descent") -> None:
     """Raises ValueError naming the first invalid parameter and its allowed range."""
     for name, value in (("period", period), ("g", g), ("T", T), ("alpha", alpha)):
         if not (np.isfinite(value) and value > 0):
@@ -58,8 +64,10 @@ def check_parameters(period: float, g: float, T: float, alpha: float, z_t: float
                          ">= 0 (0: no filter)")
     if not 0 < z_t <= 1:
         raise ValueError(f"z_t: {z_t} is outside (0, 1]")
-    if blend not in ("potential", "linear"):
-        raise ValueError(f"blend: {blend!r} is not 'potential' or 'linear'")
+    if blend not in BLENDS:
+        raise ValueError(f"blend: {blend!r} is not one of {', '.join(BLENDS)}")
+    if follow not in FOLLOWS:
+        raise ValueError(f"follow: {follow!r} is not one of {', '.join(FOLLOWS)}")
     if alpha * g * T > 1.0:
         raise ValueError(f"alpha * g * T = {alpha * g * T:.3g} > 1 would overshoot the target; "
                          "reduce g, T or alpha")
@@ -78,10 +86,15 @@ def vision_weight(s_hat) -> float:
 
 def target_params(z_hat, s_hat, swim, trot, turning, z_t: float = 1.0,
                   blend: str = "potential") -> np.ndarray:
-    """psi_d of Eq. (12) (``blend="potential"``) or Eq. (11) (``"linear"``); 64-vectors in."""
+    """psi_d of Eq. (12) (``blend="potential"``), Eq. (11) (``"linear"``) or an abrupt switch
+    (``"switch"``: the gait from z_hat >= z_t / 2, turning from w(s_hat) >= 1/2);
+    64-vectors in."""
     w = vision_weight(s_hat)
-    gait = w * np.asarray(turning) + (1.0 - w) * np.asarray(trot)
     z = float(np.clip(z_hat, 0.0, 1.0)) if np.isfinite(z_hat) else 0.0
+    if blend == "switch":
+        gait = np.asarray(turning if w >= 0.5 else trot)
+        return np.array(gait if z >= 0.5 * z_t else swim, dtype=float)
+    gait = w * np.asarray(turning) + (1.0 - w) * np.asarray(trot)
     if blend == "linear":
         return (gait - swim) * z + swim
     a = 0.5 * np.pi * (min(z / z_t, 1.0) - 1.0)
@@ -128,16 +141,18 @@ class PotentialTransition(LeafSystem):
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
                  alpha: float = 0.95, z_t: float = 1.0, blend: str = "potential",
+                 follow: str = "descent",
                  initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0):
         super().__init__()
         try:
-            check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant)
+            check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant, follow)
         except ValueError as e:
             raise ValueError(f"PotentialTransition.{e}") from None
         # Exact discretisation of ds/dt = (s_hat - s) / tau over one period (1: no filter).
         self.s_hat_gain = (1.0 - np.exp(-period / s_hat_time_constant)
                            if s_hat_time_constant > 0 else 1.0)
         self.period, self.g, self.T, self.alpha, self.z_t, self.blend = period, g, T, alpha, z_t, blend
+        self.follow = follow
         self.max_step = alpha * g * T
         self.swim, self.trot, self.turning = (GAITS[b].to_vector() for b in behaviours)
         initial = self.swim if initial_params is None else np.asarray(initial_params, dtype=float)
@@ -163,8 +178,11 @@ class PotentialTransition(LeafSystem):
         s_hat = self._s_hat.Eval(context)[0]
         s += self.s_hat_gain * ((s_hat if np.isfinite(s_hat) else 0.0) - s)
         psi_d = self.target(self._z_hat.Eval(context)[0], s)
-        discrete_state.get_mutable_vector(self._psi).SetFromVector(
-            descent_step(psi, psi_d, self.g, self.T, self.alpha))
+        if self.follow == "direct":  # the baselines: the target at once
+            psi_next = psi_d
+        else:
+            psi_next = descent_step(psi, psi_d, self.g, self.T, self.alpha)
+        discrete_state.get_mutable_vector(self._psi).SetFromVector(psi_next)
         discrete_state.get_mutable_vector(self._s_filtered).SetAtIndex(0, s)
 
     def set_params(self, context, psi) -> None:

@@ -261,10 +261,14 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     wall_start = time.perf_counter()
     try:
         simulator.Initialize()
-        # Chunk ends from the index, so the last one is exactly the duration.
+        # Chunk ends on the plant's step grid (an end between two steps would add a tiny
+        # integrator step and change the run at round-off level); the last one is exactly
+        # the duration.
+        n_steps = max(1, int(round(scenario.duration / scenario.time_step)))
         n_chunks = max(1, min(200, int(np.ceil(scenario.duration / 0.05))))
         for k in range(1, n_chunks + 1):
-            t_next = scenario.duration * k / n_chunks
+            t_next = (scenario.duration if k == n_chunks
+                      else round(k * n_steps / n_chunks) * scenario.time_step)
             simulator.AdvanceTo(t_next)
             if bar is not None:
                 bar.update(t_next - bar.n)

@@ -1,19 +1,31 @@
 #!/usr/bin/env python3
-"""Prints the cost of one HydrodynamicForces evaluation (microseconds per call).
+"""Prints what one HydrodynamicForces evaluation costs (microseconds per call), piece by piece.
 
-Two figures: the force maths alone (``HydrodynamicForces.compute`` on numpy arrays), and the
-full output-port evaluation as the plant sees it (reading the pose and velocity ports,
-the maths, and filling the ExternallyAppliedSpatialForce list). The robot is in the swim
-stance at the surface with a random velocity, so every term is active.
+The robot is in the swim stance at the surface with a random velocity, so every term is
+active. Rows, each the median of --rounds interleaved rounds of --calls calls:
 
-Usage: python scripts/benchmark_hydro.py [--calls 3000]
+* the force maths on numpy arrays: ``compute_reference`` (the numpy functions of
+  ``manta_drake.station.water``) and ``compute`` (the numba kernel);
+* reading the kinematics: the plant's per-body ``body_poses`` / ``body_spatial_velocities``
+  ports into arrays (the contract's inputs), the plant's per-body Eval functions, and the
+  kernel's forward kinematics from the
+  ``state`` vector (pydrake does not bind ``CalcAllBodyPosesInWorld``; the per-body
+  ``EvalBodyPoseInWorld`` / ``EvalBodySpatialVelocityInWorld`` stand in for it);
+* the outputs: writing the list of 17 ExternallyAppliedSpatialForce, and J^T F (kernel);
+* whole port evaluations as the plant sees them (a new state each call): the contract path
+  (per-body ports, numpy maths, force list) and the compiled path (state vector, kernels,
+  generalized forces).
+
+Usage: python scripts/benchmark_hydro.py [--calls 2000] [--rounds 5]
 """
 
 import argparse
+import statistics
 import sys
 import time
 
 import numpy as np
+from pydrake.multibody.tree import BodyIndex
 from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake.control.gaits import GAITS
@@ -22,49 +34,102 @@ from manta_drake.model.plant import add_plant, body_pose, set_initial_state
 from manta_drake.station.hydro import HydrodynamicForces
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--calls", type=int, default=3000)
-    args = parser.parse_args()
+def make(plant_state: bool):
     coeffs = load_coefficients()
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=coeffs)
     hydro = builder.AddSystem(HydrodynamicForces(h.plant, h.robot, coeffs, 1e-3,
-                                                 added_mass_iso=h.added_mass_iso))
-    builder.Connect(h.plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-    builder.Connect(h.plant.get_body_spatial_velocities_output_port(),
-                    hydro.GetInputPort("body_spatial_velocities"))
+                                                 added_mass_iso=h.added_mass_iso,
+                                                 plant_state=plant_state))
+    if plant_state:
+        builder.Connect(h.plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    else:
+        builder.Connect(h.plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+        builder.Connect(h.plant.get_body_spatial_velocities_output_port(),
+                        hydro.GetInputPort("body_spatial_velocities"))
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant_context = h.plant.GetMyMutableContextFromRoot(context)
     set_initial_state(h, plant_context, body_pose([0, 0, -0.04], [3, 2, 10]),
                       GAITS["swim"].R.ravel() * 0.7)
-    rng = np.random.default_rng(0)
-    v0 = rng.normal(scale=0.3, size=h.plant.num_velocities())
+    v0 = np.random.default_rng(0).normal(scale=0.3, size=h.plant.num_velocities())
     h.plant.SetVelocities(plant_context, v0)
     hydro_context = hydro.GetMyMutableContextFromRoot(context)
     hydro.GetInputPort("balloon_volume").FixValue(hydro_context, [1.5e-3])
-    port = hydro.GetOutputPort("spatial_forces")
+    return h, hydro, plant_context, hydro_context, v0
 
-    R, p, w, v = hydro._kinematics(hydro_context)
-    start = time.perf_counter()
-    for _ in range(args.calls):
-        hydro.compute(R, p, w, v, 1.5e-3, np.zeros(3), np.zeros(3))
-    maths = (time.perf_counter() - start) / args.calls
 
-    start = time.perf_counter()
-    for i in range(args.calls):
-        v0[0] = 1e-6 * i  # a new state each call, so the port is really re-evaluated
-        h.plant.SetVelocities(plant_context, v0)
-        port.Eval(hydro_context)
-    full = (time.perf_counter() - start) / args.calls
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--calls", type=int, default=2000)
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    h, fast, plant_context, fast_context, v0 = make(True)
+    h2, slow, plant_context2, slow_context, v2 = make(False)
+    plant = h.plant
+    R, p, w, v = fast._kinematics(fast_context)
+    a, alpha = np.zeros(3), np.zeros(3)
+    F = fast.compute(R, p, w, v, 1.5e-3, a, alpha)
+    x = plant.get_state_output_port().Eval(plant_context)
+    out = fast.GetOutputPort("spatial_forces").Allocate()
+    counter = [0]
 
-    n_el, n_strips = len(hydro.el["body"]), len(hydro.el["strip_body"])
-    print(f"HydrodynamicForces: {len(hydro.body_indices)} bodies, {n_el} volume elements, "
-          f"{n_strips} blade-element strips")
-    print(f"  force maths (compute):          {maths * 1e6:7.1f} us per call")
-    print(f"  output port (ports+maths+list): {full * 1e6:7.1f} us per call")
-    print(f"  at a 1 ms plant step that is {full * 1e3 * 100:.0f} % of real time")
+    def new_state(h_, pc, v_):  # a new state each call, so ports are really re-evaluated
+        counter[0] += 1
+        v_[0] = 1e-6 * counter[0]
+        h_.plant.SetVelocities(pc, v_)
+
+    bodies = [plant.get_body(BodyIndex(i)) for i in fast.body_indices]
+
+    def all_poses():  # pydrake binds no CalcAllBodyPosesInWorld: the per-body Eval calls
+        X = np.array([plant.EvalBodyPoseInWorld(plant_context, b).GetAsMatrix34()
+                      for b in bodies])
+        V = np.array([plant.EvalBodySpatialVelocityInWorld(plant_context, b).get_coeffs()
+                      for b in bodies])
+        return X, V
+
+    gen_port = fast.GetOutputPort("generalized_forces")
+    list_port = slow.GetOutputPort("spatial_forces")
+    rows = {
+        "maths, numpy reference (compute_reference)":
+            lambda: fast.compute_reference(R, p, w, v, 1.5e-3, a, alpha),
+        "maths, numba kernel (compute)": lambda: fast.compute(R, p, w, v, 1.5e-3, a, alpha),
+        "kinematics: per-body ports -> arrays": lambda: slow._kinematics(slow_context),
+        "kinematics: EvalBodyPose/SpatialVelocityInWorld": all_poses,
+        "kinematics: state port + kernel FK": lambda: fast._kinematics(fast_context),
+        "state -> forces, one kernel (forces_from_state)": lambda: fast._forces_now(fast_context),
+        "output: 17 ExternallyAppliedSpatialForce": lambda: fast._write(F, out),
+        "output: J^T F kernel at the current state": lambda: fast.generalized_forces(x, F),
+        "set a new plant state (subtracted below)": lambda: new_state(h, plant_context, v0),
+        "port eval, contract path (numpy, lists)":
+            lambda: (new_state(h2, plant_context2, v2), list_port.Eval(slow_context)),
+        "port eval, compiled path (state, kernels, J^T F)":
+            lambda: (new_state(h, plant_context, v0), gen_port.Eval(fast_context)),
+    }
+    # The contract path with the numpy maths, as before the kernels.
+    slow.compute = slow.compute_reference
+    times = {k: [] for k in rows}
+    for _ in range(args.rounds):
+        for name, fn in rows.items():
+            fn()
+            start = time.perf_counter()
+            for _ in range(args.calls):
+                fn()
+            times[name].append((time.perf_counter() - start) / args.calls)
+    med = {k: statistics.median(v) * 1e6 for k, v in times.items()}
+    n_el, n_strips = len(fast.el["body"]), len(fast.el["strip_body"])
+    print(f"HydrodynamicForces: {len(fast.body_indices)} bodies, {n_el} volume elements, "
+          f"{n_strips} blade-element strips; medians of {args.rounds} rounds x {args.calls} calls")
+    set_state = med["set a new plant state (subtracted below)"]
+    for name, value in med.items():
+        offset = set_state if name.startswith("port eval") else 0.0
+        value -= offset
+        spread = (f"[{min(times[name]) * 1e6 - offset:7.1f}, "
+                  f"{max(times[name]) * 1e6 - offset:7.1f}]")
+        print(f"  {name:52s} {value:8.1f} us   {spread}")
+    speedup = (med["maths, numpy reference (compute_reference)"]
+               / med["maths, numba kernel (compute)"])
+    print(f"  kernel vs reference maths: {speedup:.0f}x faster")
     return 0
 
 

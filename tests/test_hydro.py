@@ -352,9 +352,16 @@ def test_surge_step_force_accelerates_with_added_mass():
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
     F = 10.0
-    tau = np.zeros(plant.num_velocities())
-    tau[h.plant_handles.body.floating_velocities_start_in_v() + 3] = F  # world x (= surge)
-    plant.get_applied_generalized_force_input_port().FixValue(plant_context, tau)
+    # The push enters through the plant's spatial-force input (the water's forces take its
+    # generalized-force input): F along world x (= surge) at the hull's origin.
+    from pydrake.multibody.math import SpatialForce
+    from pydrake.multibody.plant import ExternallyAppliedSpatialForce
+
+    push = ExternallyAppliedSpatialForce()
+    push.body_index = h.plant_handles.body.index()
+    push.p_BoBq_B = np.zeros(3)
+    push.F_Bq_W = SpatialForce(np.zeros(3), np.array([F, 0.0, 0.0]))
+    plant.get_applied_spatial_force_input_port().FixValue(plant_context, [push])
     times = np.arange(0.0, 0.06, 0.002)
     vx = []
     for t in times:

@@ -30,9 +30,12 @@ Defaults and why:
   explicit Euler / RK2 at 1 ms.
 """
 
+import math
+
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from manta_drake.control import cpg_kernels as K
 from manta_drake.model.robot_params import (
     GAIT_SHAPE,
     JOINTS_PER_LEG,
@@ -57,6 +60,13 @@ _CHAIN_PHI_INDEX = _chain_i  # into Phi.ravel(): Phi[k, j] biases joint j -> j +
 _FCS_INDEX = NUM_LEGS * _fcs_k + _fcs_l  # into Phi_prime.ravel()
 # Slices of the parameter vector [R, X, Phi, Phi'].
 _R, _X, _PHI, _PHI_PRIME = (slice(i * NUM_OSC, (i + 1) * NUM_OSC) for i in range(4))
+# The pairs for the compiled kernels: each pair's bias as (index into params, sign), in
+# the order of ``pair_biases``: chain biases, their negatives, then the FCS biases.
+PAIRS = K.pack_pairs(
+    PAIR_I, PAIR_J,
+    np.concatenate([_PHI.start + _CHAIN_PHI_INDEX, _PHI.start + _CHAIN_PHI_INDEX,
+                    _PHI_PRIME.start + _FCS_INDEX]),
+    np.concatenate([np.ones(len(_chain_i)), -np.ones(len(_chain_i)), np.ones(len(_fcs_k))]))
 
 
 def pair_biases(params: np.ndarray) -> np.ndarray:
@@ -146,7 +156,24 @@ class CpgOscillators(LeafSystem):
     Continuous state (80): [phi (16), r (16), dr/dt (16), chi (16), dchi/dt (16)];
     ``initial_state`` (default zeros) is the default context's value, e.g. from
     ``initial_state(params, joint_angles)``.
+
+    The derivatives and outputs are computed by the compiled kernels of
+    ``manta_drake.control.cpg_kernels`` (equal to this module's numpy functions to
+    1e-12); the Simulator integrates the state as before.
+
+    Args:
+        frequency_hz: f [Hz], finite and > 0 (None: ``gaits.DEFAULT_FREQUENCY_HZ``).
+        chain_weight, fcs_weight: coupling weights [rad/s], finite and >= 0.
+        a, b: amplitude and bias gains [1/s], finite and > 0.
+        initial_state: 80 finite values [phi, r, dr, chi, dchi] (None: zeros).
+
+    Raises:
+        ValueError: naming the argument and its allowed range.
     """
+
+    # False selects the numpy reference maths (set before constructing; for the tests and
+    # scripts/benchmark.py's reference path).
+    COMPILED = True
 
     def __init__(self, frequency_hz: float | None = None, chain_weight: float = 4.0,
                  fcs_weight: float = 4.0, a: float = 20.0, b: float = 20.0,
@@ -154,43 +181,88 @@ class CpgOscillators(LeafSystem):
         super().__init__()
         from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ
 
-        self.frequency_hz = DEFAULT_FREQUENCY_HZ if frequency_hz is None else float(frequency_hz)
-        for name, value in (("frequency_hz", self.frequency_hz), ("a", a), ("b", b)):
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"CpgOscillators.{name}: {value} must be a finite number > 0")
+        if frequency_hz is None:
+            frequency_hz = DEFAULT_FREQUENCY_HZ
+        for name, value in (("frequency_hz", frequency_hz), ("a", a), ("b", b)):
+            if not (_is_real(value) and math.isfinite(value) and value > 0):
+                raise ValueError(f"CpgOscillators.{name}: {value!r} must be a finite number > 0")
         for name, value in (("chain_weight", chain_weight), ("fcs_weight", fcs_weight)):
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"CpgOscillators.{name}: {value} must be a finite number >= 0")
+            if not (_is_real(value) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"CpgOscillators.{name}: {value!r} must be a finite number >= 0")
+        self.frequency_hz = float(frequency_hz)
         self.a, self.b = float(a), float(b)
         self.weights = pair_weights(chain_weight, fcs_weight)
-        x0 = np.zeros(NUM_STATES) if initial_state is None else np.asarray(
-            initial_state, dtype=float)
-        if x0.shape != (NUM_STATES,) or not np.all(np.isfinite(x0)):
+        self._omega = 2.0 * np.pi * self.frequency_hz
+        if initial_state is None:
+            x0 = np.zeros(NUM_STATES)
+        else:
+            try:
+                x0 = np.asarray(initial_state, dtype=float)
+            except (TypeError, ValueError):
+                x0 = None
+        if x0 is None or x0.shape != (NUM_STATES,) or not np.all(np.isfinite(x0)):
+            shape = "not numbers" if x0 is None else f"shape {x0.shape}" + (
+                "" if x0.shape != (NUM_STATES,) else " with non-finite values")
             raise ValueError(f"CpgOscillators.initial_state: expected {NUM_STATES} finite "
-                             f"values [phi, r, dr, chi, dchi], got shape {x0.shape}")
+                             f"values [phi, r, dr, chi, dchi], got {shape}")
         # The default context starts here (see ``initial_state``).
         self.DeclareContinuousState(BasicVector(x0))
         self._params_port = self.DeclareVectorInputPort("cpg_params", NUM_PARAMS)
-        self.DeclareVectorOutputPort("joint_angles", NUM_OSC, self._calc_joint_angles,
-                                     prerequisites_of_calc={self.xc_ticket()})
+        compiled = type(self).COMPILED
+        # The kernels' output buffers (SetFromVector copies out of them).
+        self._xdot, self._angles = np.empty(NUM_STATES), np.empty(NUM_OSC)
+        self._desired = np.empty(2 * NUM_OSC)
+        if not compiled:
+            # pybind looks the override up on the instance, so this replaces the kernel
+            # version for this system only (and the kernel path has no extra call).
+            self.DoCalcTimeDerivatives = self._derivatives_numpy
         self.DeclareVectorOutputPort(
-            "desired_state", 2 * NUM_OSC, self._calc_desired_state,
+            "joint_angles", NUM_OSC,
+            self._calc_joint_angles if compiled else self._calc_joint_angles_numpy,
+            prerequisites_of_calc={self.xc_ticket()})
+        self.DeclareVectorOutputPort(
+            "desired_state", 2 * NUM_OSC,
+            self._calc_desired_state if compiled else self._calc_desired_state_numpy,
             prerequisites_of_calc={self.xc_ticket(),
                                    self.input_port_ticket(self._params_port.get_index())})
 
     def _params(self, context) -> np.ndarray:
         return self._params_port.Eval(context)
 
+    # The callbacks run two (derivatives) or one (desired state) times per 1 ms step: each
+    # is one kernel call between reading the state and writing the result.
+
+    # (context.get_continuous_state() and ContinuousState.SetFromVector: the shortest
+    # pybind paths to the 80 numbers, measured ~1 us cheaper per call than via the vector.)
+
     def DoCalcTimeDerivatives(self, context, derivatives):
+        K.derivatives(context.get_continuous_state().CopyToVector(),
+                      self._params_port.Eval(context), self._omega, PAIRS, self.weights,
+                      self.a, self.b, NUM_OSC, self._xdot)
+        derivatives.SetFromVector(self._xdot)
+
+    def _calc_joint_angles(self, context, output: BasicVector):
+        K.angles(context.get_continuous_state().CopyToVector(), NUM_OSC, self._angles)
+        output.SetFromVector(self._angles)
+
+    def _calc_desired_state(self, context, output: BasicVector):
+        K.desired_state(context.get_continuous_state().CopyToVector(),
+                        self._params_port.Eval(context), self._omega, PAIRS, self.weights,
+                        NUM_OSC, self._desired)
+        output.SetFromVector(self._desired)
+
+    # The numpy reference (COMPILED = False).
+
+    def _derivatives_numpy(self, context, derivatives):
         x = context.get_continuous_state_vector().CopyToVector()
         xdot = cpg_derivatives(x, self._params(context), self.frequency_hz, self.weights,
                                self.a, self.b)
         derivatives.get_mutable_vector().SetFromVector(xdot)
 
-    def _calc_joint_angles(self, context, output: BasicVector):
+    def _calc_joint_angles_numpy(self, context, output: BasicVector):
         output.SetFromVector(joint_angles(context.get_continuous_state_vector().CopyToVector()))
 
-    def _calc_desired_state(self, context, output: BasicVector):
+    def _calc_desired_state_numpy(self, context, output: BasicVector):
         x = context.get_continuous_state_vector().CopyToVector()
         phi_dot = phase_rates(x[:NUM_OSC], self._params(context), self.frequency_hz, self.weights)
         output.SetFromVector(np.concatenate([joint_angles(x), joint_rates(x, phi_dot)]))
@@ -205,3 +277,9 @@ class CpgOscillators(LeafSystem):
                     raise ValueError("CpgOscillators.set_state: non-finite value")
                 x[row] = value
         context.get_mutable_continuous_state_vector().SetFromVector(x.ravel())
+
+
+def _is_real(value) -> bool:
+    """A real number (not a bool, string or array)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_))

@@ -41,8 +41,11 @@ and, for logging and visualisation only (a controller must not read them):
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
 
-Inside: MultibodyPlant + SceneGraph (robot and pool), ``HydrodynamicForces``,
-``BalloonBuoyancy``, ``PressureSensor``, ``RgbdSensor``, ``DepthImageNoise`` and the
+Inside: MultibodyPlant + SceneGraph (robot and pool), ``HydrodynamicForces`` (its
+compiled path: the plant's state vector in; held spatial forces or, computed at every
+step, generalized forces out),
+``BalloonBuoyancy``, ``PressureSensor``, ``RgbdSensor`` (rendering from a SceneGraph of
+its own, ``add_camera_scene``), ``DepthImageNoise`` and the
 Drake ``RandomSource`` systems that feed the noise (their state is in the Context, so
 ``SetRandomContext`` draws new noise; ``simulate`` seeds it from the scenario).
 The scenario's initial pose and stance are the plant's defaults, so the station's
@@ -55,16 +58,24 @@ import dataclasses as dc
 
 import numpy as np
 from pydrake.common import RandomDistribution
+from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     ClippingRange,
     DepthRange,
     DepthRenderCamera,
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
     MakeRenderEngineVtk,
+    PerceptionProperties,
     RenderCameraCore,
     RenderEngineVtkParams,
+    Role,
+    SceneGraph,
 )
 from pydrake.math import RigidTransform
-from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.multibody.tree import BodyIndex
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource
 from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
@@ -80,6 +91,19 @@ from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
 from manta_drake.station.hydro import HydrodynamicForces
 from manta_drake.station.pressure import PressureSensor
+
+
+# HydrodynamicForces' port set: True (the default) feeds it the plant's state vector (the
+# per-body pose and velocity objects of the design's port contract cost more than the
+# maths; docs/performance.md) and applies its generalized forces (forces at every step) or
+# its held spatial forces (update_period > 0); False wires the contract's ports
+# (body_poses, body_spatial_velocities -> spatial_forces). The forces are the same to
+# 1e-12; tests and scripts/benchmark.py set False for the reference path.
+HYDRO_PLANT_STATE = True
+# Where the camera renders: True (the default) in a SceneGraph of its own
+# (``add_camera_scene``); False in the plant's SceneGraph, as before (a VTK pose update
+# at every plant step); scripts/benchmark.py sets False to measure the difference.
+CAMERA_OWN_SCENE = True
 
 
 @dc.dataclass
@@ -149,13 +173,29 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
     builder.ExportOutput(balloon.GetOutputPort("balloon_volume"), "balloon_volume")
     hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
         plant, ph.robot, coeffs, scenario.time_step, current=scenario.water.current,
-        added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period))
-    builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-    builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                    hydro.GetInputPort("body_spatial_velocities"))
+        added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period,
+        plant_state=HYDRO_PLANT_STATE))
+    if hydro.plant_state:
+        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+        if hydro.update_period > 0:
+            # Held forces: the list changes only at the hydro's updates, so Drake's cache
+            # keeps it between them and the plant maps it to joint torques in C++ at each
+            # step (no Python per step). A held generalized-force vector needs a Python
+            # call per step (J^T F at the current configuration): measured slower, 0.65
+            # against 0.69 of (a)'s speed (median of 5 interleaved rounds).
+            builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                            plant.get_applied_spatial_force_input_port())
+        else:
+            # Forces at every step: one vector out per step instead of 17 force objects.
+            builder.Connect(hydro.GetOutputPort("generalized_forces"),
+                            plant.get_applied_generalized_force_input_port())
+    else:
+        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+        builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                        hydro.GetInputPort("body_spatial_velocities"))
+        builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                        plant.get_applied_spatial_force_input_port())
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
-    builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                    plant.get_applied_spatial_force_input_port())
 
     ps = scenario.pressure_sensor
     period = 1.0 / ps.rate_hz
@@ -174,20 +214,117 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
     handles.systems.update(balloon=balloon, hydro=hydro, pressure_sensor=sensor)
 
 
+class RenderPoses(LeafSystem):
+    """The poses of the camera scene's frames (one per plant body with perception
+    geometry), read from the plant's body poses when the camera renders.
+
+    .. pydrake_system::
+
+        name: RenderPoses
+        input_ports:
+        - body_poses
+        output_ports:
+        - geometry_pose
+
+    * ``body_poses``: the plant's output of that name.
+    * ``geometry_pose``: a FramePoseVector for the camera SceneGraph's source.
+
+    Nothing but the camera asks for ``geometry_pose``, so it is evaluated only when a
+    frame is rendered (at the camera's rate), not at every plant step.
+    """
+
+    def __init__(self, plant, frames):
+        """``frames``: (FrameId in the camera scene, BodyIndex in the plant) pairs."""
+        super().__init__()
+        self._frames = [(frame_id, int(index)) for frame_id, index in frames]
+        self._poses = self.DeclareAbstractInputPort(
+            "body_poses", plant.get_body_poses_output_port().Allocate())
+        # It depends on the body poses only (not on time), so a plant step that does not
+        # move the robot leaves the rendered frame valid in the cache.
+        self.DeclareAbstractOutputPort(
+            "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()), self._calc,
+            prerequisites_of_calc={self.input_port_ticket(self._poses.get_index())})
+
+    def _calc(self, context, output):
+        poses = self._poses.Eval(context)
+        vector = output.get_mutable_value()
+        for frame_id, index in self._frames:
+            vector.set_value(frame_id, poses[index])
+
+
+def add_camera_scene(builder, handles: PlantHandles):
+    """A SceneGraph of its own for the camera, with a VTK renderer and a copy of every
+    geometry of the plant that has the perception role (the robot and the pool), posed
+    from the plant's body poses through ``RenderPoses``.
+
+    Why not render from the plant's own SceneGraph: a SceneGraph moves every render
+    engine's geometry whenever its poses are updated, and the plant's are updated at every
+    step (contact queries), so a renderer there costs a VTK pose update per plant step
+    (~80 us) for a camera that takes 5 frames a second. Here the poses are computed and
+    pushed to VTK only when a frame is rendered. The images are the same: same geometry,
+    same properties, same poses at the frame's time.
+
+    Returns:
+        (camera SceneGraph, RenderPoses system, {plant body index (int): FrameId in the
+        camera scene}); the robot's main body always has a frame (the camera's mount).
+    """
+    plant, plant_scene = handles.plant, handles.scene_graph
+    inspector = plant_scene.model_inspector()
+    scene = builder.AddNamedSystem("camera_scene_graph", SceneGraph())
+    scene.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
+    source = scene.RegisterSource("camera_scene")
+    world, mount = int(plant.world_body().index()), int(handles.body.index())
+    frames = {}
+    for index in range(plant.num_bodies()):
+        body = plant.get_body(BodyIndex(index))
+        geometries = inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body.index()),
+                                             Role.kPerception)
+        if not geometries and index != mount:
+            continue
+        if index == world:
+            frame = scene.world_frame_id()
+        else:
+            frame = scene.RegisterFrame(source, GeometryFrame(body.scoped_name().get_full()))
+            frames[index] = frame
+        for geometry in geometries:
+            instance = GeometryInstance(inspector.GetPoseInFrame(geometry),
+                                        inspector.GetShape(geometry),
+                                        inspector.GetName(geometry))
+            instance.set_perception_properties(
+                PerceptionProperties(inspector.GetPerceptionProperties(geometry)))
+            if frame == scene.world_frame_id():
+                scene.RegisterAnchoredGeometry(source, instance)
+            else:
+                scene.RegisterGeometry(source, frame, instance)
+    poses = builder.AddNamedSystem("camera_render_poses", RenderPoses(
+        plant, [(frame, index) for index, frame in frames.items()]))
+    builder.Connect(plant.get_body_poses_output_port(), poses.GetInputPort("body_poses"))
+    builder.Connect(poses.GetOutputPort("geometry_pose"), scene.get_source_pose_port(source))
+    return scene, poses, frames
+
+
 def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
-    """RGB-D camera on the head (VTK), its depth noise and the noise sources."""
+    """RGB-D camera on the head (VTK, in its own SceneGraph), its depth noise and the
+    noise sources."""
     plant, ph = handles.plant, handles.plant_handles
     cam = scenario.camera
-    if not ph.scene_graph.HasRenderer("vtk"):
-        ph.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
+    if CAMERA_OWN_SCENE:
+        scene, poses, frames = add_camera_scene(builder, ph)
+        camera_frame = frames[int(ph.body.index())]
+        handles.systems.update(camera_scene_graph=scene, camera_render_poses=poses)
+    else:
+        scene = ph.scene_graph
+        if not scene.HasRenderer("vtk"):
+            scene.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
+        camera_frame = plant.GetBodyFrameIdOrThrow(ph.body.index())
     core = RenderCameraCore("vtk", camera_info(cam),
                             ClippingRange(0.5 * cam.min_range, 2.0 * cam.max_range),
                             RigidTransform())
     X_BC = plant.GetFrameByName("camera", ph.robot).GetFixedPoseInBodyFrame()
     camera = builder.AddNamedSystem("camera", RgbdSensor(
-        plant.GetBodyFrameIdOrThrow(ph.body.index()), X_BC,
+        camera_frame, X_BC,
         DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range)), False))
-    builder.Connect(ph.scene_graph.get_query_output_port(), camera.query_object_input_port())
+    builder.Connect(scene.get_query_output_port(), camera.query_object_input_port())
     noise = builder.AddNamedSystem("depth_noise", DepthImageNoise(
         cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout))
     builder.Connect(camera.depth_image_32F_output_port(), noise.GetInputPort("depth_image"))

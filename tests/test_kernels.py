@@ -1,0 +1,433 @@
+"""The compiled kernels against the numpy reference, the compiled paths of the systems
+against the reference paths, constructor checks, and the camera's own scene."""
+
+import numpy as np
+import pytest
+from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
+from pydrake.systems.framework import DiagramBuilder
+from scipy.spatial.transform import Rotation
+
+from manta_drake.control import cpg as C
+from manta_drake.control import cpg_kernels as CK
+from manta_drake.model.coefficients import load_coefficients
+from manta_drake.model.plant import add_plant, body_pose, set_initial_state
+from manta_drake.station import water_kernels as WK
+from manta_drake.station.hydro import HydrodynamicForces
+from manta_drake.station.water import hydro_body_names
+
+COEFFS = load_coefficients()
+NB = len(hydro_body_names())
+
+
+@pytest.fixture(scope="module")
+def water_plant():
+    """(diagram, PlantHandles, HydrodynamicForces with the state ports) in one diagram."""
+    builder = DiagramBuilder()
+    h = add_plant(builder, hydro=COEFFS)
+    hydro = builder.AddSystem(HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3,
+                                                 added_mass_iso=h.added_mass_iso,
+                                                 current=(0.1, -0.05, 0.02), plant_state=True))
+    builder.Connect(h.plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    return builder.Build(), h, hydro
+
+
+def random_kinematics(rng, nb=NB):
+    """Attitudes anywhere, origins straddling the surface (partial submersion), fast motion."""
+    R = Rotation.random(nb, random_state=int(rng.integers(1 << 30))).as_matrix()
+    p = np.column_stack([rng.uniform(-1, 1, nb), rng.uniform(-1, 1, nb),
+                         rng.uniform(-0.25, 0.25, nb)])
+    return R, p, rng.normal(scale=2.0, size=(nb, 3)), rng.normal(scale=0.5, size=(nb, 3))
+
+
+def random_state(h, context, rng):
+    plant = h.plant
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    set_initial_state(h, plant_context,
+                      body_pose([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-0.2, 0.1)],
+                                rng.uniform(-180, 180, 3)),
+                      rng.uniform(-1.5, 1.5, 16))
+    plant.SetVelocities(plant_context, rng.normal(scale=0.7, size=plant.num_velocities()))
+    return plant_context
+
+
+# --- water: kernels vs the numpy reference ------------------------------------------------------
+
+def test_water_kernel_equals_the_numpy_reference_on_random_states(water_plant, rng):
+    _, _, hydro = water_plant
+    for k in range(40):
+        R, p, w, v = random_kinematics(rng)
+        balloon = (0.0, 1e-10, 1.5e-3, 2.6e-3)[k % 4]  # empty (skipped), tiny, half, full
+        accel = (rng.normal(size=3), rng.normal(size=3)) if k % 3 else (None, None)
+        got = hydro.compute(R, p, w, v, balloon, *accel)
+        expected = hydro.compute_reference(R, p, w, v, balloon, *accel)
+        assert np.abs(expected).max() > 1.0  # the terms are active
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+
+
+def test_water_kernel_with_rigid_plates_and_changed_parameters(water_plant, rng):
+    """Attributes set after construction reach the kernel (the packed arrays are rebuilt)."""
+    _, h, _ = water_plant
+    hydro = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso)
+    R, p, w, v = random_kinematics(rng)
+    a, alpha = rng.normal(size=3), rng.normal(size=3)
+    before = hydro.compute(R, p, w, v, 1e-3, a, alpha)
+    hydro.pitch_max = 0.0  # rigid plates: the other branch of passive pitching
+    hydro.residual_added_inertia = np.array([0.0, 0.01, 0.0])
+    hydro.current = np.array([0.3, 0.0, 0.0])
+    got = hydro.compute(R, p, w, v, 1e-3, a, alpha)
+    assert np.abs(got - before).max() > 1e-3
+    np.testing.assert_allclose(got, hydro.compute_reference(R, p, w, v, 1e-3, a, alpha),
+                               rtol=1e-12, atol=1e-12)
+
+
+def test_kinematics_kernel_equals_the_plant(water_plant, rng):
+    diagram, h, hydro = water_plant
+    context = diagram.CreateDefaultContext()
+    for _ in range(10):
+        plant_context = random_state(h, context, rng)
+        R, p, w, v = hydro._kinematics(hydro.GetMyContextFromRoot(context))
+        poses = h.plant.get_body_poses_output_port().Eval(plant_context)
+        velocities = h.plant.get_body_spatial_velocities_output_port().Eval(plant_context)
+        X = np.array([poses[i].GetAsMatrix34() for i in hydro.body_indices])
+        V = np.array([velocities[i].get_coeffs() for i in hydro.body_indices])
+        np.testing.assert_allclose(R, X[:, :, :3], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(p, X[:, :, 3], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(w, V[:, :3], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(v, V[:, 3:], rtol=0, atol=1e-12)
+
+
+def test_generalized_forces_are_the_plant_jacobians_transposed(water_plant, rng):
+    diagram, h, hydro = water_plant
+    plant = h.plant
+    context = diagram.CreateDefaultContext()
+    for _ in range(5):
+        plant_context = random_state(h, context, rng)
+        F = rng.normal(scale=20.0, size=(NB, 6))
+        expected = np.zeros(plant.num_velocities())
+        for row, index in zip(F, hydro.body_indices):
+            frame = plant.get_body(BodyIndex(index)).body_frame()
+            J = plant.CalcJacobianSpatialVelocity(plant_context, JacobianWrtVariable.kV, frame,
+                                                  np.zeros(3), plant.world_frame(),
+                                                  plant.world_frame())
+            expected += J.T @ row
+        got = hydro.generalized_forces(plant.get_state_output_port().Eval(plant_context), F)
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+
+
+def _hydro_diagram(plant_state: bool, update_period: float):
+    builder = DiagramBuilder()
+    h = add_plant(builder, hydro=COEFFS)
+    hydro = builder.AddSystem(HydrodynamicForces(
+        h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
+        update_period=update_period, plant_state=plant_state))
+    plant = h.plant
+    if plant_state:
+        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+        builder.Connect(hydro.GetOutputPort("generalized_forces"),
+                        plant.get_applied_generalized_force_input_port())
+    else:
+        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+        builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                        hydro.GetInputPort("body_spatial_velocities"))
+        builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                        plant.get_applied_spatial_force_input_port())
+    return builder.Build(), h, hydro
+
+
+@pytest.mark.parametrize("update_period", [0.0, 0.004])
+def test_state_ports_move_the_plant_as_the_contract_ports(update_period, rng):
+    """Generalized forces from the plant's state vector and spatial forces from the body
+    poses and velocities give the same motion: the robot released flapping in the water."""
+    from pydrake.systems.analysis import Simulator
+
+    x0 = None
+    finals = []
+    for plant_state in (True, False):
+        diagram, h, hydro = _hydro_diagram(plant_state, update_period)
+        simulator = Simulator(diagram)
+        context = simulator.get_mutable_context()
+        plant_context = h.plant.GetMyMutableContextFromRoot(context)
+        if x0 is None:
+            random_state(h, context, np.random.default_rng(7))
+            h.plant.SetVelocities(plant_context, 0.3 * h.plant.GetVelocities(plant_context))
+            x0 = h.plant.GetPositionsAndVelocities(plant_context)
+        h.plant.SetPositionsAndVelocities(plant_context, x0)
+        hydro.GetInputPort("balloon_volume").FixValue(hydro.GetMyContextFromRoot(context),
+                                                      [1.0e-3])
+        simulator.Initialize()
+        simulator.AdvanceTo(0.1)
+        finals.append(h.plant.GetPositionsAndVelocities(plant_context))
+    assert np.abs(finals[0] - x0).max() > 1e-3  # it moved
+    np.testing.assert_allclose(finals[0], finals[1], rtol=0, atol=1e-10)
+
+
+# --- CPG: kernels vs the numpy reference --------------------------------------------------------
+
+def test_cpg_kernels_equal_the_numpy_reference(rng):
+    weights = C.pair_weights(3.0, 5.0)
+    omega = 2.0 * np.pi * 0.7
+    xdot, desired, angles = np.empty(80), np.empty(32), np.empty(16)
+    for _ in range(50):
+        x, params = rng.uniform(-3, 3, 80), rng.uniform(-3, 3, 64)
+        CK.derivatives(x, params, omega, C.PAIRS, weights, 17.0, 23.0, 16, xdot)
+        np.testing.assert_allclose(xdot, C.cpg_derivatives(x, params, 0.7, weights, 17.0, 23.0),
+                                   rtol=1e-12, atol=1e-12)
+        phi_dot = C.phase_rates(x[:16], params, 0.7, weights)
+        CK.desired_state(x, params, omega, C.PAIRS, weights, 16, desired)
+        np.testing.assert_allclose(desired,
+                                   np.concatenate([C.joint_angles(x), C.joint_rates(x, phi_dot)]),
+                                   rtol=1e-12, atol=1e-12)
+        CK.angles(x, 16, angles)
+        np.testing.assert_allclose(angles, C.joint_angles(x), rtol=1e-12, atol=1e-12)
+
+
+def test_cpg_system_compiled_equals_reference(rng, monkeypatch):
+    kw = dict(frequency_hz=0.7, chain_weight=3.0, fcs_weight=5.0, a=17.0, b=23.0)
+    systems = [C.CpgOscillators(**kw)]
+    monkeypatch.setattr(C.CpgOscillators, "COMPILED", False)
+    systems.append(C.CpgOscillators(**kw))
+    calls = []  # the reference system really runs the numpy functions
+
+    def counted(*args, _reference=C.cpg_derivatives):
+        calls.append(1)
+        return _reference(*args)
+
+    monkeypatch.setattr(C, "cpg_derivatives", counted)
+    x, params = rng.uniform(-3, 3, 80), rng.uniform(-3, 3, 64)
+    results = []
+    for cpg in systems:
+        context = cpg.CreateDefaultContext()
+        context.SetContinuousState(x)
+        cpg.GetInputPort("cpg_params").FixValue(context, params)
+        results.append(np.concatenate([cpg.EvalTimeDerivatives(context).CopyToVector(),
+                                       cpg.GetOutputPort("desired_state").Eval(context),
+                                       cpg.GetOutputPort("joint_angles").Eval(context)]))
+    assert len(calls) == 1
+    np.testing.assert_allclose(results[0], results[1], rtol=1e-12, atol=1e-12)
+
+
+# --- constructor checks ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(time_step=0.0), "time_step: 0.0 must be a finite number > 0"),
+    (dict(time_step=-1e-3), "time_step"),
+    (dict(time_step=float("nan")), "time_step"),
+    (dict(time_step=float("inf")), "time_step"),
+    (dict(time_step="1e-3"), "time_step"),
+    (dict(update_period=-0.004), "update_period: -0.004 must be a finite number >= 0"),
+    (dict(update_period=float("nan")), "update_period"),
+    (dict(current=(0.0, float("nan"), 0.0)), "current: .* must be 3 finite numbers"),
+    (dict(current=(0.1, 0.0)), "current: .* must be 3 finite numbers"),
+    (dict(current="east"), "current: .* must be 3 finite numbers"),
+    (dict(current=(1.5, 1.5, 0.0)), r"current: .* 2.12 m/s is outside the allowed range \[0, 2"),
+])
+def test_hydro_constructor_rejects_bad_arguments(water_plant, kwargs, match):
+    _, h, _ = water_plant
+    args = dict(time_step=1e-3)
+    args.update(kwargs)
+    time_step = args.pop("time_step")
+    with pytest.raises(ValueError, match="HydrodynamicForces." + match):
+        HydrodynamicForces(h.plant, h.robot, COEFFS, time_step, **args)
+
+
+def test_hydro_constructor_accepts_the_edges(water_plant):
+    _, h, _ = water_plant
+    HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, current=(2.0, 0.0, 0.0),
+                       update_period=0.0)
+
+
+@pytest.mark.parametrize("initial_state, match", [
+    (np.zeros(79), r"expected 80 finite values .* got shape \(79,\)"),
+    (np.zeros((5, 16)), r"got shape \(5, 16\)"),
+    (np.r_[np.zeros(79), np.nan], "non-finite"),
+    (["a"] * 80, "not numbers"),
+])
+def test_cpg_constructor_rejects_a_bad_initial_state(initial_state, match):
+    with pytest.raises(ValueError, match="CpgOscillators.initial_state: .*" + match):
+        C.CpgOscillators(initial_state=initial_state)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(frequency_hz="1"), "frequency_hz"), (dict(a=0.0), "a"), (dict(b=-1.0), "b"),
+    (dict(fcs_weight=float("inf")), "fcs_weight"), (dict(chain_weight=True), "chain_weight"),
+])
+def test_cpg_constructor_names_the_bad_argument(kwargs, name):
+    with pytest.raises(ValueError, match=f"CpgOscillators.{name}: "):
+        C.CpgOscillators(**kwargs)
+
+
+# --- compile cache ---------------------------------------------------------------------------
+
+def test_kernels_are_cached_on_disk():
+    """Every kernel is compiled with cache=True and has written its index file."""
+    import pathlib
+
+    for module in (WK, CK):
+        for name in dir(module):
+            kernel = getattr(module, name)
+            if hasattr(kernel, "py_func") and not name.startswith("_"):
+                assert kernel._cache is not None and kernel.stats.cache_misses is not None
+                kernel_cache = kernel._cache._cache_file
+                assert pathlib.Path(kernel._cache._cache_path).is_dir(), name
+                assert kernel_cache._index_path.endswith(".nbi")
+
+
+# --- camera in its own scene -----------------------------------------------------------------
+
+def test_camera_scene_renders_what_the_plant_scene_renders():
+    """The same depth image from the camera's own SceneGraph as from a renderer in the
+    plant's SceneGraph, the robot standing 0.6 m from the end wall, fins posed."""
+    from pydrake.geometry import (
+        ClippingRange,
+        DepthRange,
+        DepthRenderCamera,
+        MakeRenderEngineVtk,
+        RenderCameraCore,
+        RenderEngineVtkParams,
+    )
+    from pydrake.math import RigidTransform
+    from pydrake.systems.sensors import RgbdSensor
+
+    from manta_drake.scenario import CameraConfig
+    from manta_drake.station.station import add_camera_scene, camera_info
+
+    cam = CameraConfig()
+    builder = DiagramBuilder()
+    h = add_plant(builder)
+    plant = h.plant
+    scene, _, frames = add_camera_scene(builder, h)
+    h.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
+    core = RenderCameraCore("vtk", camera_info(cam), ClippingRange(0.05, 1.6), RigidTransform())
+    depth_camera = DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range))
+    X_BC = plant.GetFrameByName("camera", h.robot).GetFixedPoseInBodyFrame()
+    own = builder.AddSystem(RgbdSensor(frames[int(h.body.index())], X_BC, depth_camera, False))
+    builder.Connect(scene.get_query_output_port(), own.query_object_input_port())
+    shared = builder.AddSystem(RgbdSensor(plant.GetBodyFrameIdOrThrow(h.body.index()), X_BC,
+                                          depth_camera, False))
+    builder.Connect(h.scene_graph.get_query_output_port(), shared.query_object_input_port())
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    set_initial_state(h, plant.GetMyMutableContextFromRoot(context),
+                      body_pose([7.5 - 0.6 - 0.19, 0.3, -0.25], [0, 8, 12]),
+                      np.tile([0.3, -0.6, 0.4, 0.8], 4))
+    images = [np.array(s.depth_image_32F_output_port().Eval(s.GetMyContextFromRoot(context)).data)
+              for s in (own, shared)]
+    finite = np.isfinite(images[1])
+    assert finite.mean() > 0.3  # the wall and the floor are in view
+    np.testing.assert_array_equal(np.isfinite(images[0]), finite)
+    np.testing.assert_allclose(images[0][finite], images[1][finite], rtol=0, atol=1e-6)
+    poses = [s.body_pose_in_world_output_port().Eval(s.GetMyContextFromRoot(context))
+             for s in (own, shared)]
+    np.testing.assert_allclose(poses[0].GetAsMatrix4(), poses[1].GetAsMatrix4(), atol=1e-12)
+
+
+# --- whole diagrams: the compiled paths against the reference paths ---------------------------
+
+def _locomotion_velocity(name, duration, tmp_path):
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import run
+
+    s = load_scenario(name)
+    s.visualization.meshcat = False
+    s.duration, s.steady_after = duration, 1.0
+    result = run(s.validate(), tmp_path, progress=False, write_outputs=False)
+    return np.array(result.metrics["mean_velocity_body"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["locomotion_swim", "locomotion_trot"])
+def test_locomotion_metrics_unchanged_by_the_compiled_paths(name, tmp_path, monkeypatch):
+    """3 s of the gait: the mean velocity with the compiled paths (state ports, kernels)
+    within 1 % of the reference paths (contract ports, numpy maths)."""
+    import manta_drake.station.station as station
+
+    fast = _locomotion_velocity(name, 3.0, tmp_path / "fast")
+    monkeypatch.setattr(station, "HYDRO_PLANT_STATE", False)
+    monkeypatch.setattr(HydrodynamicForces, "compute", HydrodynamicForces.compute_reference)
+    monkeypatch.setattr(C.CpgOscillators, "COMPILED", False)
+    reference = _locomotion_velocity(name, 3.0, tmp_path / "reference")
+    speed = np.linalg.norm(reference)
+    assert speed > 0.005
+    np.testing.assert_allclose(fast, reference, rtol=0, atol=0.01 * speed)
+
+
+@pytest.mark.slow
+def test_kernels_cache_in_the_user_cache_when_the_package_folder_is_not_used(tmp_path):
+    """A non-editable install whose package folder is not writable: numba falls back to its
+    user-wide cache (forced here with NUMBA_CACHE_LOCATOR_CLASSES, as root can write
+    anywhere). The first process compiles into $XDG_CACHE_HOME/numba, the second loads."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("from manta_drake.station import water_kernels as K; "
+            "from manta_drake.control import cpg_kernels as C; import numpy as np; "
+            "x = np.zeros(80); C.angles(x, 16, np.empty(16)); "
+            "print(C.angles.stats.cache_hits.get(C.angles.signatures[0], 0), "
+            "C.angles._cache._cache_path)")
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path),
+           "NUMBA_CACHE_LOCATOR_CLASSES": "UserWideCacheLocator"}
+    env.pop("NUMBA_CACHE_DIR", None)
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=env, check=True).stdout.split() for _ in range(2)]
+    assert runs[0][1].startswith(str(tmp_path / "numba"))
+    assert int(runs[0][0]) == 0 and int(runs[1][0]) == 1  # compiled, then loaded
+
+
+@pytest.mark.slow
+def test_closed_loop_s_hat_same_with_the_camera_in_its_own_scene(tmp_path, monkeypatch):
+    """The wall in view while trotting toward it: the logged s_hat series with the camera in
+    its own SceneGraph against the camera in the plant's SceneGraph (as before)."""
+    import manta_drake.station.station as station
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import run
+
+    def s_hat_series(own_scene: bool):
+        monkeypatch.setattr(station, "CAMERA_OWN_SCENE", own_scene)
+        s = load_scenario("three_behaviors")
+        s.visualization.meshcat = False
+        s.duration = 2.1
+        s.initial_pose.xyz = [7.5 - 0.19 - 0.7, 0.0, -0.25]  # camera 0.7 m from the wall
+        s.initial_stance = s.controller.gait = "trot"
+        s.balloon.initial_fill, s.balloon.schedule = 0.0, []
+        log = run(s.validate(), tmp_path / str(own_scene), progress=False,
+                  write_outputs=False).log
+        return log["s_hat"][:, 0]
+
+    own, shared = s_hat_series(True), s_hat_series(False)
+    assert own.max() > 0.5  # the wall is seen
+    np.testing.assert_allclose(own, shared, rtol=0, atol=0.02)
+
+
+def test_kernels_with_the_hull_welded_to_the_world(rng):
+    """The tree packing also takes a welded root (the tests' robot held in the air)."""
+    from pydrake.math import RigidTransform, RollPitchYaw
+
+    builder = DiagramBuilder()
+    X_WB = RigidTransform(RollPitchYaw(0.2, -0.1, 0.4), [0.3, -0.2, -0.05])
+    h = add_plant(builder, with_pool=False, weld_body=X_WB, hydro=COEFFS)
+    hydro = builder.AddSystem(HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3,
+                                                 added_mass_iso=h.added_mass_iso,
+                                                 plant_state=True))
+    builder.Connect(h.plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    plant_context = h.plant.GetMyMutableContextFromRoot(context)
+    h.plant.SetPositions(plant_context, rng.uniform(-1, 1, h.plant.num_positions()))
+    h.plant.SetVelocities(plant_context, rng.normal(size=h.plant.num_velocities()))
+    R, p, w, v = hydro._kinematics(hydro.GetMyContextFromRoot(context))
+    poses = h.plant.get_body_poses_output_port().Eval(plant_context)
+    velocities = h.plant.get_body_spatial_velocities_output_port().Eval(plant_context)
+    X = np.array([poses[i].GetAsMatrix34() for i in hydro.body_indices])
+    V = np.array([velocities[i].get_coeffs() for i in hydro.body_indices])
+    np.testing.assert_allclose(np.concatenate([R.ravel(), p.ravel(), w.ravel(), v.ravel()]),
+                               np.concatenate([X[:, :, :3].ravel(), X[:, :, 3].ravel(),
+                                               V[:, :3].ravel(), V[:, 3:].ravel()]),
+                               rtol=0, atol=1e-12)
+    F = rng.normal(size=(NB, 6))
+    tau = hydro.generalized_forces(h.plant.get_state_output_port().Eval(plant_context), F)
+    expected = sum(h.plant.CalcJacobianSpatialVelocity(
+        plant_context, JacobianWrtVariable.kV, h.plant.get_body(BodyIndex(i)).body_frame(),
+        np.zeros(3), h.plant.world_frame(), h.plant.world_frame()).T @ row
+        for row, i in zip(F, hydro.body_indices))
+    np.testing.assert_allclose(tau, expected, rtol=1e-12, atol=1e-12)

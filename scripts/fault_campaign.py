@@ -1,0 +1,939 @@
+#!/usr/bin/env python3
+"""Fault campaign: many seeded random scenarios with faults, each in its own process
+(issue 12, "Correct water, no crash, no silent acceptance").
+
+Every run starts from a shipped scenario chosen at random (camera runs are slower and
+kept to a small share) and draws faults from a seeded numpy Generator:
+
+* water currents up to 0.3 m/s in random 3-D directions, and a few above the 1 m/s the
+  scenario allows (they must be refused, naming ``water.current``);
+* hydrodynamic coefficient scales x0.5-1.5 on random subsets of the coefficient file's
+  entries (``water.coefficient_scales``), and a few bad ones (a negative factor, an
+  unknown name: must be refused); a scale that leaves ``fins.strips_per_plate`` a
+  fraction is also expected to be refused (the coefficient file itself refuses it);
+* pressure-sensor noise (up to 0.02 m) and dropouts (up to 0.5), depth-camera range noise
+  (up to 0.03 m; a few above it must be refused) and pixel dropouts; the camera switched
+  on in a few runs that have none;
+* starts: tilted (roll, pitch up to 45 deg, any yaw), upside down, near a wall (0.45-0.9 m
+  from it, may be refused if a fin reaches it), and starts that must be refused: inside a
+  wall, below the floor, above the water surface;
+* plant time steps 0.5-2 ms (``simulator.max_step_size`` and ``log_period`` matched), a few
+  out of range (must be refused); contact friction 0.3-1.2; water update periods 0-8 ms;
+  random balloon fills and commands; swapped gaits and stances;
+* short durations (2-4 s).
+
+Each run is one ``dask.distributed`` task on a ``LocalCluster`` of single-threaded worker
+processes. A worker that dies (segfault, abort, out of memory) is recorded as a *crash* of
+the run it was executing (the scheduler allows no retry, so the death surfaces as
+``KilledWorker`` on that future); a run that exceeds ``--run-timeout`` is killed and
+recorded as a *timeout*. Neither stops the campaign: the nanny starts a fresh worker.
+
+Outcomes per run:
+
+  ok            the run finished (``simulate.run`` returned)
+  refused       ``Scenario.validate`` raised ``ScenarioError`` (the field it names is the cause)
+  build_failed  ``simulate.run`` raised ``SimulationError`` at the build stage
+  sim_failed    ``simulate.run`` raised ``SimulationError`` part-way (the reason is the cause)
+  exception     any other exception (its type is the cause): a bug
+  crashed       the worker process died during the run: a bug
+  timeout       the run exceeded ``--run-timeout``: a hang, a bug
+
+Per run it records the drawn faults, the outcome and its cause and message, whether any
+logged state is NaN/inf, the deepest contact penetration, whether the hull's origin left
+the pool's volume (beyond a wall, below the floor, or more than 0.2 m above the surface),
+the largest joint-limit violation [rad] and joint speed [rad/s], mean and largest body
+speed, largest body angular rate, and wall time. Writes ``DIR/runs.csv`` (one row per run),
+``DIR/summary.json``, and per run ``DIR/runs/run_NNNN/scenario.yaml`` (the base scenario's
+YAML with the faults merged in: ``manta-drake run DIR/runs/run_NNNN/scenario.yaml``
+reproduces it) and its ``metrics.json`` (``log.npz`` kept only for runs that did not end
+``ok`` / ``refused`` or showed NaN, a pool exit or a limit violation).
+
+Usage:
+  python scripts/fault_campaign.py --runs 300 --seed 1 --out out/fault_campaign --workers 2
+  python scripts/fault_campaign.py --runs 20 --seed 3 --out /tmp/fc --duration 1 --check
+
+Exit status: 1 if any run crashed, timed out, produced NaN without failing, or raised an
+unexpected exception type (with ``--strict`` also: a fault that must be refused was
+accepted, or an accepted start already had a fin or the hull > 2.5 mm inside the floor or a
+wall); 0 otherwise. docs/fault_campaign.md describes the summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import copy
+import csv
+import json
+import os
+import pathlib
+import re
+import shutil
+import sys
+import time
+import traceback
+
+import numpy as np
+
+# --- what is drawn -------------------------------------------------------------------------
+
+# Base scenarios and their weights. three_behaviors has the camera (VTK rendering, point
+# clouds): ~2x slower, so its share is small.
+BASES = {
+    "locomotion_swim": 0.18,
+    "locomotion_trot": 0.13,
+    "locomotion_walk": 0.12,
+    "locomotion_crab": 0.10,
+    "locomotion_turning": 0.10,
+    "two_behaviors": 0.13,
+    "float_sink": 0.10,
+    "stand": 0.08,
+    "three_behaviors": 0.05,
+}
+CAMERA_BASES = ("three_behaviors",)
+NO_WATER_BASES = ("stand",)
+GAIT_NAMES = ("swim", "trot", "walk", "turning", "crab")
+
+# Fault probabilities (independent per run).
+P = {
+    "current": 0.45, "current_over": 0.04,
+    "coeff_scales": 0.5, "coeff_scale_bad": 0.05,
+    "pressure_noise": 0.4,
+    "depth_noise": 0.3, "depth_noise_over": 0.04, "camera_on": 0.02,
+    "time_step": 0.35, "time_step_bad": 0.02,
+    "friction": 0.15, "update_period": 0.2, "balloon": 0.15, "gait_swap": 0.1,
+}
+STARTS = {"none": 0.50, "tilted": 0.18, "upside_down": 0.08, "near_wall": 0.12,
+          "inside_wall": 0.04, "below_floor": 0.04, "above_surface": 0.04}
+
+# Pool (manta_drake.model.robot_params.DEFAULT_POOL; repeated here so drawing needs no
+# Drake import) and the "far above the surface" bound for the hull's origin.
+HALF_X, HALF_Y, FLOOR_Z = 7.5, 1.0, -0.5
+ABOVE_SURFACE_Z = 0.2  # m: the walls' height above the water
+
+# Thresholds the summary counts against.
+PENETRATION_FLAG = 0.005  # m
+# The start-pose check allows a resting contact within 2 mm; deeper at t = 0 is a start that
+# should have been refused.
+START_CONTACT_FLAG = 0.0025  # m
+JOINT_LIMIT_FLAG = 0.01  # rad
+JOINT_SPEED_LIMIT = 8.0  # rad/s (DEFAULT_ROBOT.velocity_limit)
+
+# Entries the coefficient file requires to be > 0 (manta_drake.model.coefficients.POSITIVE).
+POSITIVE_ENTRIES = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
+                    "links.servo_volume", "fins.strips_per_plate",
+                    "fins.normal_force_coefficient", "fins.passive_pitch_reference_pressure",
+                    "balloon.max_volume", "balloon.pump_rate")
+
+OUTCOMES = ("ok", "refused", "build_failed", "sim_failed", "exception", "crashed", "timeout")
+EXPECTED_EXCEPTIONS = ("ScenarioError", "SimulationError")
+
+
+def coefficient_names() -> list[str]:
+    """Every coefficient entry of the shipped hydrodynamics.yaml (dotted names)."""
+    from manta_drake.model.coefficients import load_coefficients
+
+    return [name for name, _ in load_coefficients().entries()]
+
+
+def _unit_vector(rng) -> list[float]:
+    v = rng.normal(size=3)
+    return (v / np.linalg.norm(v)).tolist()
+
+
+def _r(x, nd=6):
+    return float(round(float(x), nd))
+
+
+def draw_spec(rng, run: int, duration: float | None, coeff_names: list[str],
+              base_yaml: dict) -> dict:
+    """One run's scenario: a base scenario name, the overrides (dotted field -> value), the
+    fault tags, and the fields that must be refused (empty: the run must be accepted)."""
+    base = str(rng.choice(list(BASES), p=np.array(list(BASES.values())) / sum(BASES.values())))
+    data = base_yaml[base]
+    water = base not in NO_WATER_BASES
+    o: dict = {}
+    faults: list[str] = []
+    expect: list[str] = []
+    dur = _r(duration if duration is not None else rng.uniform(2.0, 4.0), 3)
+    o["name"] = f"fault_{run:04d}_{base}"
+    o["duration"] = dur
+    o["random_seed"] = int(rng.integers(0, 2**31 - 1))
+    o["visualization.meshcat"] = False
+
+    if water and rng.random() < P["current"]:
+        o["water.current"] = [_r(c) for c in rng.uniform(0.0, 0.3) * np.array(_unit_vector(rng))]
+        faults.append("current")
+    if rng.random() < P["current_over"]:
+        o["water.current"] = [_r(c) for c in rng.uniform(1.05, 3.0) * np.array(_unit_vector(rng))]
+        faults.append("current_over")
+        expect.append("water.current")
+
+    if water and rng.random() < P["coeff_scales"]:
+        k = int(rng.integers(1, 5))
+        names = rng.choice(coeff_names, size=k, replace=False)
+        scales = {str(n): _r(rng.uniform(0.5, 1.5), 4) for n in names}
+        o["water.coefficient_scales"] = scales
+        faults.append("coeff_scales")
+        if "fins.strips_per_plate" in scales:
+            strips = 4.0 * scales["fins.strips_per_plate"]  # the shipped file: 4 strips
+            if abs(strips - round(strips)) > 1e-9:
+                expect.append("water.coefficient_scales.fins.strips_per_plate")
+    if rng.random() < P["coeff_scale_bad"]:
+        scales = dict(o.get("water.coefficient_scales", {}))
+        kind = rng.random()
+        if kind < 1 / 3:  # a negative factor
+            name = str(rng.choice(coeff_names))
+            scales[name] = _r(-rng.uniform(0.1, 1.0), 4)
+        elif kind < 2 / 3:  # zero on an entry the coefficient file requires to be > 0
+            name = str(rng.choice(POSITIVE_ENTRIES))
+            scales[name] = 0.0
+        else:
+            name = "body.linear_dampnig"  # a typo
+            scales[name] = 1.2
+        o["water.coefficient_scales"] = scales
+        faults.append("coeff_scale_bad")
+        expect.append(f"water.coefficient_scales.{name}")
+
+    if water and rng.random() < P["pressure_noise"]:
+        o["pressure_sensor.noise_std"] = _r(rng.uniform(0.0, 0.02))
+        o["pressure_sensor.dropout_rate"] = _r(rng.uniform(0.0, 0.5), 4)
+        faults.append("pressure_noise")
+
+    camera = bool(data.get("camera", {}).get("enabled", False))
+    if water and not camera and rng.random() < P["camera_on"]:
+        o["camera.enabled"] = True
+        camera = True
+        faults.append("camera_on")
+    if rng.random() < P["depth_noise"]:
+        o["camera.depth_noise_std"] = _r(rng.uniform(0.0, 0.03))
+        o["camera.pixel_dropout"] = _r(rng.uniform(0.0, 0.3), 4)
+        faults.append("depth_noise")
+    if rng.random() < P["depth_noise_over"]:
+        o["camera.depth_noise_std"] = _r(rng.uniform(0.031, 0.1))
+        faults.append("depth_noise_over")
+        expect.append("camera.depth_noise_std")
+
+    mode = data.get("controller", {}).get("mode", "hold")
+    if mode != "transition" and rng.random() < P["gait_swap"]:
+        gait = str(rng.choice(GAIT_NAMES))
+        o["controller.gait"] = gait
+        o["initial_stance"] = str(rng.choice(GAIT_NAMES + ("zero",)))
+        faults.append("gait_swap")
+    # Start pose.
+    xyz = list(data.get("initial_pose", {}).get("xyz", [0.0, 0.0, -0.22]))
+    rpy = list(data.get("initial_pose", {}).get("rpy_deg", [0.0, 0.0, 0.0]))
+    start = str(rng.choice(list(STARTS), p=np.array(list(STARTS.values())) / sum(STARTS.values())))
+    if start == "tilted":
+        rpy = [rng.uniform(-45, 45), rng.uniform(-45, 45), rng.uniform(-180, 180)]
+        # Raised (dropped from a height) until no fin is below the floor, when possible.
+        from manta_drake.scenario import initial_pose_problem
+
+        stance = o.get("initial_stance", data.get("initial_stance", "trot"))
+        for z in np.arange(xyz[2], -0.02, 0.01):
+            if not initial_pose_problem([xyz[0], xyz[1], z], rpy, stance):
+                xyz[2] = float(z)
+                break
+    elif start == "upside_down":
+        rpy = [180.0 + rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-180, 180)]
+    elif start == "near_wall":
+        side = rng.choice([-1.0, 1.0])
+        if rng.random() < 0.5:
+            xyz[0] = side * (HALF_X - rng.uniform(0.45, 0.9))
+        else:
+            xyz[0], xyz[1] = rng.uniform(-6.5, 6.5), side * (HALF_Y - rng.uniform(0.45, 0.8))
+        rpy[2] = rng.uniform(-180, 180)
+    elif start == "inside_wall":
+        side = rng.choice([-1.0, 1.0])
+        if rng.random() < 0.5:
+            xyz[0] = side * rng.uniform(HALF_X - 0.05, HALF_X + 0.5)
+        else:
+            xyz[1] = side * rng.uniform(HALF_Y - 0.05, HALF_Y + 0.3)
+        expect.append("initial_pose")
+    elif start == "below_floor":
+        xyz[2] = rng.uniform(FLOOR_Z - 0.3, FLOOR_Z - 0.001)
+        expect.append("initial_pose")
+    elif start == "above_surface":
+        xyz[2] = rng.uniform(0.005, 0.3)
+        expect.append("initial_pose")
+    if start != "none":
+        o["initial_pose.xyz"] = [_r(v) for v in xyz]
+        o["initial_pose.rpy_deg"] = [_r(v, 3) for v in rpy]
+        faults.append(f"start_{start}")
+
+    if rng.random() < P["time_step"]:
+        h = _r(rng.uniform(0.5e-3, 2e-3), 5)
+        o["time_step"] = h
+        o["simulator.max_step_size"] = h
+        o["log_period"] = max(1e-3, h)
+        faults.append("time_step")
+    if rng.random() < P["time_step_bad"]:
+        h = float(rng.choice([5e-5, 0.02, 0.05]))
+        o["time_step"] = h
+        o["simulator.max_step_size"] = min(h, 0.01)
+        o["log_period"] = max(1e-3, h)
+        faults.append("time_step_bad")
+        expect.append("time_step")
+
+    if rng.random() < P["friction"]:
+        o["contact.friction"] = _r(rng.uniform(0.3, 1.2), 4)
+        faults.append("friction")
+    if water and rng.random() < P["update_period"]:
+        o["water.update_period"] = float(rng.choice([0.0, 0.002, 0.004, 0.008]))
+        faults.append("update_period")
+    if water and rng.random() < P["balloon"]:
+        o["balloon.initial_fill"] = _r(rng.uniform(0.0, 1.0), 4)
+        o["balloon.schedule"] = [{"time": _r(rng.uniform(0.3, dur), 3),
+                                  "fill": _r(rng.uniform(0.0, 1.0), 4)}]
+        faults.append("balloon")
+    return {"run": run, "base": base, "faults": faults, "expect_refused": expect,
+            "camera": camera, "overrides": o}
+
+
+def make_spec(run: int, base: str, overrides: dict | None = None, faults=(), expect=(),
+              duration: float = 0.3) -> dict:
+    """A hand-written spec (tests, reproducing one case): ``overrides`` are dotted fields."""
+    o = {"name": f"fault_{run:04d}_{base}", "duration": duration, "random_seed": run,
+         "visualization.meshcat": False, **(overrides or {})}
+    return {"run": run, "base": base, "faults": list(faults), "expect_refused": list(expect),
+            "camera": bool(o.get("camera.enabled", base in CAMERA_BASES)), "overrides": o}
+
+
+def draw_specs(n: int, seed: int, duration: float | None = None) -> list[dict]:
+    """``n`` run specs from ``numpy.random.default_rng(seed)`` (same seed, same specs)."""
+    import yaml
+
+    from manta_drake.scenario import find_scenario
+
+    rng = np.random.default_rng(seed)
+    names = coefficient_names()
+    base_yaml = {b: yaml.safe_load(find_scenario(b).read_text()) or {} for b in BASES}
+    return [draw_spec(rng, i, duration, names, base_yaml) for i in range(n)]
+
+
+# --- one run (executed in a worker process) --------------------------------------------------
+
+def apply_overrides(scenario, overrides: dict):
+    """Sets dotted fields (``water.current``, ``simulator.max_step_size``, ...)."""
+    from manta_drake.scenario import BalloonCommand
+
+    for path, value in overrides.items():
+        *parents, leaf = path.split(".")
+        target = scenario
+        for p in parents:
+            target = getattr(target, p)
+        if path == "balloon.schedule":
+            value = [BalloonCommand(**cmd) for cmd in value]
+        setattr(target, leaf, copy.deepcopy(value))
+    return scenario
+
+
+def scenario_yaml(spec: dict) -> str:
+    """The base scenario's YAML with the overrides merged in (loads to the same scenario)."""
+    import yaml
+
+    from manta_drake.scenario import find_scenario
+
+    data = yaml.safe_load(find_scenario(spec["base"]).read_text()) or {}
+    for path, value in spec["overrides"].items():
+        *parents, leaf = path.split(".")
+        node = data
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[leaf] = copy.deepcopy(value)
+    header = (f"# fault campaign run {spec['run']}: base {spec['base']}, faults: "
+              f"{', '.join(spec['faults']) or 'none'}\n")
+    return header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
+
+
+def cause_of(message: str) -> str:
+    """A short key for grouping failure messages: numbers replaced by #, first clause."""
+    text = re.sub(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?", "#", message.strip())
+    text = re.sub(r"\[[^\]]*\]", "[...]", text)
+    m = re.match(r"([^,(]{1,90})", text)
+    return (m.group(1) if m else text[:90]).strip()
+
+
+def refused_field(message: str) -> str:
+    """The field a ScenarioError names: the text before the first ': '."""
+    return message.split(": ", 1)[0].strip()
+
+
+STATE_KEYS = ("t", "joint_angles", "joint_velocities", "commanded_joint_angles", "body_xyz",
+              "body_quat_wxyz", "body_rpy", "body_v_world", "body_w_world", "cpg_params",
+              "z_hat", "s_hat", "balloon_volume", "h_hat")
+
+
+def log_stats(log: dict, dropout: float) -> dict:
+    """NaN, pool exits, joint limits and speeds, body speeds from a run's log."""
+    from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS_PER_LEG
+
+    out: dict = {}
+    nonfinite = []
+    for key, value in log.items():
+        arr = np.asarray(value)
+        if not np.issubdtype(arr.dtype, np.floating) or arr.size == 0:
+            continue
+        if key == "depth" and dropout > 0:  # NaN readings are the modelled dropout
+            continue
+        if not np.all(np.isfinite(arr)):
+            nonfinite.append(key)
+    out["nan_in_log"] = bool(nonfinite)
+    out["nan_keys"] = ";".join(nonfinite)
+    t = np.asarray(log.get("t", []), dtype=float)
+    out["sim_time_reached_s"] = float(t[-1]) if len(t) else 0.0
+    xyz = np.asarray(log.get("body_xyz", np.zeros((0, 3))), dtype=float)
+    fin = np.all(np.isfinite(xyz), axis=1) if len(xyz) else np.zeros(0, bool)
+    xyz = xyz[fin]
+    exits = []
+    if len(xyz):
+        if np.abs(xyz[:, 0]).max() > HALF_X:
+            exits.append(f"x={xyz[np.abs(xyz[:, 0]).argmax(), 0]:.3f}")
+        if np.abs(xyz[:, 1]).max() > HALF_Y:
+            exits.append(f"y={xyz[np.abs(xyz[:, 1]).argmax(), 1]:.3f}")
+        if xyz[:, 2].min() < FLOOR_Z:
+            exits.append(f"z={xyz[:, 2].min():.3f}")
+        if xyz[:, 2].max() > ABOVE_SURFACE_Z:
+            exits.append(f"z={xyz[:, 2].max():.3f}")
+        out["min_body_z"] = float(xyz[:, 2].min())
+        out["max_body_z"] = float(xyz[:, 2].max())
+    out["left_pool"] = bool(exits)
+    out["pool_exit"] = ";".join(exits)
+    q = np.asarray(log.get("joint_angles", np.zeros((0, 16))), dtype=float)
+    qd = np.asarray(log.get("joint_velocities", np.zeros((0, 16))), dtype=float)
+    if q.size:
+        limits = np.array([DEFAULT_ROBOT.position_limits[j % JOINTS_PER_LEG]
+                           for j in range(q.shape[1])])
+        viol = np.maximum(q - limits[:, 1], limits[:, 0] - q)
+        viol = np.where(np.isfinite(viol), viol, 0.0)
+        out["max_joint_limit_violation_rad"] = float(max(0.0, viol.max()))
+    if qd.size:
+        speed = np.where(np.isfinite(qd), np.abs(qd), 0.0)
+        out["max_joint_speed_rad_s"] = float(speed.max())
+    v = np.asarray(log.get("body_v_world", np.zeros((0, 3))), dtype=float)
+    v = v[np.all(np.isfinite(v), axis=1)] if len(v) else v
+    if len(v):
+        s = np.linalg.norm(v, axis=1)
+        out["mean_speed_m_s"] = float(s.mean())
+        out["max_speed_m_s"] = float(s.max())
+    w = np.asarray(log.get("body_w_world", np.zeros((0, 3))), dtype=float)
+    w = w[np.all(np.isfinite(w), axis=1)] if len(w) else w
+    if len(w):
+        out["max_body_rate_rad_s"] = float(np.linalg.norm(w, axis=1).max())
+    return out
+
+
+_GEOMETRY = {}
+
+
+def initial_penetration(scenario) -> tuple[float, str]:
+    """Deepest penetration [m] between the robot and the pool at the scenario's start
+    pose and stance, and the pair's geometry names (a plant of robot and pool built once
+    per process; geometry only, so the water's added-mass body does not matter)."""
+    from manta_drake.control.gaits import GAITS
+    from manta_drake.model.plant import add_plant, body_pose, set_initial_state
+
+    if "plant" not in _GEOMETRY:
+        from pydrake.systems.framework import DiagramBuilder
+
+        builder = DiagramBuilder()
+        handles = add_plant(builder, time_step=1e-3)
+        diagram = builder.Build()
+        context = diagram.CreateDefaultContext()
+        _GEOMETRY.update(plant=handles, context=handles.plant.GetMyMutableContextFromRoot(
+            context), diagram_context=context, keep=diagram)
+    h, pc = _GEOMETRY["plant"], _GEOMETRY["context"]
+    stance = scenario.initial_stance
+    q = np.zeros(16) if stance == "zero" else GAITS[stance].X.reshape(-1)
+    set_initial_state(h, pc, body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
+                      q)
+    inspector = h.scene_graph.model_inspector()
+    pairs = h.plant.get_geometry_query_input_port().Eval(pc).ComputePointPairPenetration()
+    deepest = max(pairs, key=lambda p: p.depth, default=None)
+    if deepest is None:
+        return 0.0, ""
+    return float(deepest.depth), (f"{inspector.GetName(deepest.id_A)}/"
+                                  f"{inspector.GetName(deepest.id_B)}")
+
+
+def _flags(row: dict) -> bool:
+    """Whether a finished run shows something worth keeping its log for."""
+    return bool(row.get("nan_in_log") or row.get("left_pool")
+                or (row.get("max_joint_limit_violation_rad") or 0) > JOINT_LIMIT_FLAG
+                or (row.get("max_joint_speed_rad_s") or 0) > JOINT_SPEED_LIMIT
+                or (row.get("max_penetration_m") or 0) > PENETRATION_FLAG)
+
+
+def run_one(spec: dict, out_root: str) -> dict:
+    """Runs one spec and returns its row. Never raises for a run's own failure: every
+    exception is classified into the row (so only a dying process escapes)."""
+    run_dir = pathlib.Path(out_root) / "runs" / f"run_{spec['run']:04d}"
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "scenario.yaml").write_text(scenario_yaml(spec))
+    (run_dir / "started.json").write_text(json.dumps({"pid": os.getpid(), "time": time.time()}))
+    if spec.get("inject_crash"):  # harness self-test: a segfault in this process
+        import ctypes
+
+        ctypes.string_at(0)
+    row: dict = {"outcome": None, "cause": "", "message": "", "worker_pid": os.getpid()}
+    t0 = time.perf_counter()
+    from manta_drake.scenario import ScenarioError, load_scenario
+    from manta_drake.simulate import SimulationError, run
+
+    scenario = None
+    try:
+        scenario = apply_overrides(load_scenario(spec["base"]), spec["overrides"])
+        scenario.validate()
+    except ScenarioError as e:
+        row.update(outcome="refused", cause=refused_field(str(e)), message=str(e))
+    except Exception as e:  # noqa: BLE001 - an unclear error from validation: a bug
+        row.update(outcome="exception", cause=type(e).__name__, message=str(e),
+                   traceback=traceback.format_exc())
+    log = None
+    if row["outcome"] is None:
+        try:  # a start the pose check accepted may still put a fin into the floor or a wall
+            row["initial_penetration_m"], row["initial_contact"] = initial_penetration(scenario)
+        except Exception as e:  # noqa: BLE001 - the measurement, not the run
+            row["initial_contact"] = f"not measured: {type(e).__name__}: {e}"
+        out = run_dir / "out"
+        try:
+            result = run(scenario, out, progress=False, write_outputs=False)
+            log, metrics = result.log, result.metrics
+            row["outcome"] = "ok"
+        except SimulationError as e:
+            metrics = _read_json(out / "metrics.json")
+            failure = metrics.get("failure", {})
+            stage = failure.get("stage", "?")
+            reason = failure.get("reason", str(e))
+            row.update(outcome="build_failed" if stage == "build" else "sim_failed",
+                       cause=cause_of(reason), message=reason,
+                       failure_time_s=failure.get("time_s"))
+            if (out / "log.npz").is_file():
+                with np.load(out / "log.npz") as z:
+                    log = {k: z[k] for k in z.files}
+        except Exception as e:  # noqa: BLE001 - anything but SimulationError: a bug
+            metrics = {}
+            row.update(outcome="exception", cause=type(e).__name__, message=str(e),
+                       traceback=traceback.format_exc())
+        row["status"] = metrics.get("status")
+        row["max_penetration_m"] = metrics.get("max_penetration_m")
+        mv = metrics.get("mean_velocity_body")
+        if mv:
+            row["mean_u_m_s"], row["mean_v_m_s"] = mv
+        if log is not None:
+            row.update(log_stats(log, scenario.pressure_sensor.dropout_rate))
+    row["wall_time_s"] = time.perf_counter() - t0
+    keep = row["outcome"] not in ("ok", "refused") or _flags(row)
+    if not keep and (run_dir / "out" / "log.npz").is_file():
+        (run_dir / "out" / "log.npz").unlink()
+    (run_dir / "row.json").write_text(json.dumps(row, indent=1, default=str))
+    return row
+
+
+def _read_json(path) -> dict:
+    try:
+        return json.loads(pathlib.Path(path).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+# --- the campaign ----------------------------------------------------------------------------
+
+def spec_columns(spec: dict) -> dict:
+    """The drawn faults as flat CSV columns."""
+    o = spec["overrides"]
+    cur = o.get("water.current")
+    return {
+        "run": spec["run"], "base": spec["base"], "faults": ";".join(spec["faults"]),
+        "expect_refused": ";".join(spec["expect_refused"]),
+        "duration": o.get("duration"), "random_seed": o.get("random_seed"),
+        "time_step": o.get("time_step"), "update_period": o.get("water.update_period"),
+        "current": json.dumps(cur) if cur else "",
+        "current_norm": float(np.linalg.norm(cur)) if cur else "",
+        "coefficient_scales": json.dumps(o["water.coefficient_scales"], sort_keys=True)
+        if "water.coefficient_scales" in o else "",
+        "friction": o.get("contact.friction"),
+        "pressure_noise_std": o.get("pressure_sensor.noise_std"),
+        "pressure_dropout": o.get("pressure_sensor.dropout_rate"),
+        "camera": spec["camera"],
+        "depth_noise_std": o.get("camera.depth_noise_std"),
+        "pixel_dropout": o.get("camera.pixel_dropout"),
+        "initial_xyz": json.dumps(o["initial_pose.xyz"]) if "initial_pose.xyz" in o else "",
+        "initial_rpy_deg": json.dumps(o["initial_pose.rpy_deg"])
+        if "initial_pose.rpy_deg" in o else "",
+        "gait": o.get("controller.gait"), "initial_stance": o.get("initial_stance"),
+        "balloon": json.dumps([o["balloon.initial_fill"], o["balloon.schedule"]])
+        if "balloon.initial_fill" in o else "",
+    }
+
+
+def expectation(spec: dict, row: dict) -> str:
+    """as_expected | silently_accepted | refused_other_field | unexpected_refusal |
+    unexpected_failure."""
+    expect, outcome = spec["expect_refused"], row["outcome"]
+    if expect:
+        if outcome == "refused":
+            field = row["cause"]
+            if any(field == e or field.startswith(e + ".") or e.startswith(field + ".")
+                   for e in expect):
+                return "as_expected"
+            return "refused_other_field"
+        if outcome == "build_failed":
+            return "refused_late"  # refused, but only when the diagram was built
+        return "silently_accepted" if outcome in ("ok", "sim_failed") else "unexpected_failure"
+    if outcome == "ok":
+        return "as_expected"
+    if outcome == "refused":
+        return "unexpected_refusal"
+    return "unexpected_failure"
+
+
+CSV_COLUMNS = [
+    "run", "base", "faults", "expect_refused", "outcome", "expectation", "cause", "message",
+    "nan_in_log", "nan_keys", "sim_time_reached_s", "failure_time_s", "max_penetration_m",
+    "initial_penetration_m", "initial_contact",
+    "left_pool", "pool_exit", "min_body_z", "max_body_z", "max_joint_limit_violation_rad",
+    "max_joint_speed_rad_s", "mean_speed_m_s", "max_speed_m_s", "max_body_rate_rad_s",
+    "mean_u_m_s", "mean_v_m_s", "wall_time_s", "worker_pid",
+    "duration", "random_seed", "time_step", "update_period", "current", "current_norm",
+    "coefficient_scales", "friction", "pressure_noise_std", "pressure_dropout", "camera",
+    "depth_noise_std", "pixel_dropout", "initial_xyz", "initial_rpy_deg", "gait",
+    "initial_stance", "balloon",
+]
+
+
+def finish_row(spec: dict, row: dict) -> dict:
+    full = {**spec_columns(spec), **row}
+    full["expectation"] = expectation(spec, full)
+    return full
+
+
+def _marker(out_dir: pathlib.Path, run: int) -> dict | None:
+    return _read_json(out_dir / "runs" / f"run_{run:04d}" / "started.json") or None
+
+
+def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: float = 600.0,
+                 echo=print) -> list[dict]:
+    """Runs every spec (``workers`` = 0: one after the other in this process, without crash
+    isolation) and returns the rows in run order."""
+    out_dir = pathlib.Path(out_dir)
+    for spec in specs:
+        shutil.rmtree(out_dir / "runs" / f"run_{spec['run']:04d}", ignore_errors=True)
+    rows: dict[int, dict] = {}
+    t_start = time.perf_counter()
+
+    def done(spec, row):
+        rows[spec["run"]] = finish_row(spec, row)
+        r = rows[spec["run"]]
+        echo(f"[{len(rows):4d}/{len(specs)}] run {spec['run']:4d} {spec['base']:<18} "
+             f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s  {r['cause'][:70]}")
+
+    if workers == 0:
+        for spec in specs:
+            try:
+                done(spec, run_one(spec, str(out_dir)))
+            except Exception as e:  # noqa: BLE001 - the harness itself
+                done(spec, {"outcome": "exception", "cause": type(e).__name__,
+                            "message": str(e), "wall_time_s": 0.0})
+        return [rows[s["run"]] for s in specs]
+
+    import logging
+
+    import cloudpickle
+    import dask
+    import distributed
+
+    module = sys.modules[run_one.__module__]
+    if module.__name__ != "__main__":  # imported (tests): ship the code, not a module name
+        cloudpickle.register_pickle_by_value(module)
+    # ... and let the workers import this file under its name in any case (spawned worker
+    # processes start with this process's sys.path).
+    here = str(pathlib.Path(__file__).resolve().parent)
+    if here not in sys.path:
+        sys.path.append(here)
+    # No retries of a run whose worker died (it would crash again, and its death would be
+    # blamed on nothing), and one task per worker at a time, so a worker's death is the
+    # death of exactly the run it was executing.
+    config = {"distributed.scheduler.allowed-failures": 0,
+              "distributed.scheduler.worker-saturation": 1.0,
+              "distributed.worker.daemon": False}
+    env = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+           "NUMBA_NUM_THREADS": "1"}
+    os.environ.update(env)
+    with dask.config.set(config):
+        cluster = distributed.LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.CRITICAL, memory_limit=0)
+        client = distributed.Client(cluster)
+        try:
+            by_spec = {s["run"]: s for s in specs}
+            attempts = collections.Counter()
+            killed: dict[int, str] = {}
+            pending = {}
+
+            def submit(spec):
+                attempts[spec["run"]] += 1
+                f = client.submit(run_one, spec, str(out_dir), pure=False, retries=0,
+                                  key=f"fault-run-{spec['run']}-{attempts[spec['run']]}")
+                pending[f] = spec["run"]
+
+            for spec in specs:
+                submit(spec)
+            last_progress, started = time.time(), set()
+            while pending:
+                finished = [f for f in pending if f.done()]
+                if not finished:
+                    time.sleep(0.5)
+                    now = time.time()
+                    for run in pending.values():
+                        if run not in started and _marker(out_dir, run):
+                            started.add(run)
+                            last_progress = now
+                    if now - last_progress > run_timeout + 60.0:
+                        # Nothing started or finished for that long: the harness itself
+                        # is stuck (e.g. workers that cannot take tasks). Give up on the
+                        # rest rather than hang.
+                        for f, run in list(pending.items()):
+                            done(by_spec[run], {"outcome": "timeout", "cause": "harness stall",
+                                                "message": "no run started or finished for "
+                                                f"{now - last_progress:.0f} s",
+                                                "wall_time_s": 0.0})
+                            f.cancel()
+                        pending.clear()
+                        break
+                else:
+                    last_progress = time.time()
+                for f in finished:
+                    run = pending.pop(f)
+                    spec = by_spec[run]
+                    marker = _marker(out_dir, run)
+                    try:
+                        done(spec, f.result())
+                    except distributed.KilledWorker:
+                        if run in killed:
+                            done(spec, {"outcome": "timeout", "cause": "timeout",
+                                        "message": killed[run], "wall_time_s": run_timeout})
+                        elif marker is None and attempts[run] < 3:
+                            submit(spec)  # its worker died before it started: not its fault
+                        else:
+                            wall = time.time() - marker["time"] if marker else 0.0
+                            done(spec, {"outcome": "crashed", "cause": "worker process died",
+                                        "message": "the worker process executing the run "
+                                        f"died (pid {marker and marker['pid']})",
+                                        "wall_time_s": wall,
+                                        "worker_pid": marker and marker["pid"]})
+                    except Exception as e:  # noqa: BLE001 - the task raised
+                        done(spec, {"outcome": "exception", "cause": type(e).__name__,
+                                    "message": str(e), "wall_time_s": 0.0})
+                    f.release()
+                # Watchdog: a run past the timeout gets its worker killed (recorded as a
+                # timeout when its KilledWorker arrives).
+                now = time.time()
+                for run in list(pending.values()):
+                    marker = _marker(out_dir, run)
+                    if (run not in killed and marker and now - marker["time"] > run_timeout
+                            and not (out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()):
+                        killed[run] = f"no result after {run_timeout:.0f} s; worker killed"
+                        try:
+                            os.kill(int(marker["pid"]), 9)
+                        except OSError:
+                            pass
+        finally:
+            client.close()
+            cluster.close()
+    echo(f"campaign wall time {time.perf_counter() - t_start:.0f} s")
+    return [rows[s["run"]] for s in specs]
+
+
+# --- summary ---------------------------------------------------------------------------------
+
+def _stats(values) -> dict:
+    v = np.array([x for x in values if x is not None and x != "" and np.isfinite(x)], float)
+    if not len(v):
+        return {"n": 0}
+    return {"n": len(v), "median": float(np.median(v)), "p95": float(np.percentile(v, 95)),
+            "max": float(v.max())}
+
+
+def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
+    """Counts per outcome with the most common causes, NaN, penetration, pool exits,
+    joint limits and speeds, expectation mismatches, and the bugs that fail --check."""
+    counts = collections.Counter(r["outcome"] for r in rows)
+    causes = {o: collections.Counter(r["cause"] for r in rows if r["outcome"] == o)
+              .most_common(8) for o in OUTCOMES if counts.get(o)}
+    ran = [r for r in rows if r["outcome"] in ("ok", "sim_failed", "build_failed", "exception")
+           and r.get("sim_time_reached_s") is not None]
+    ok = [r for r in rows if r["outcome"] == "ok"]
+    nan_runs = [r["run"] for r in rows if r.get("nan_in_log")]
+    nan_silent = [r["run"] for r in ok if r.get("nan_in_log")]
+    exits = [{"run": r["run"], "outcome": r["outcome"], "exit": r["pool_exit"]}
+             for r in rows if r.get("left_pool")]
+    pen = [r.get("max_penetration_m") for r in ok]
+    start_contact = [{"run": r["run"], "depth_m": r["initial_penetration_m"],
+                      "pair": r.get("initial_contact", "")} for r in rows
+                     if (r.get("initial_penetration_m") or 0) > START_CONTACT_FLAG]
+    jl = [r.get("max_joint_limit_violation_rad") for r in ran]
+    js = [r.get("max_joint_speed_rad_s") for r in ran]
+    expect = collections.Counter(r["expectation"] for r in rows)
+    unexpected_types = [r["run"] for r in rows if r["outcome"] == "exception"]
+    summary = {
+        "runs": len(rows),
+        "outcomes": {o: counts.get(o, 0) for o in OUTCOMES},
+        "causes": {o: [[c, n] for c, n in v] for o, v in causes.items()},
+        "per_base": {b: dict(collections.Counter(r["outcome"] for r in rows if r["base"] == b))
+                     for b in sorted({r["base"] for r in rows})},
+        "expectation": dict(expect),
+        "silently_accepted": [{"run": r["run"], "expected": r["expect_refused"],
+                               "outcome": r["outcome"]} for r in rows
+                              if r["expectation"] == "silently_accepted"],
+        "unexpected_refusals": collections.Counter(
+            r["cause"] for r in rows if r["expectation"] == "unexpected_refusal").most_common(),
+        "nan": {"runs_with_nan": len(nan_runs), "ok_runs_with_nan": nan_silent},
+        "penetration_m_ok_runs": {**_stats(pen), "above_flag": sum(
+            1 for p in pen if p is not None and p > PENETRATION_FLAG),
+            "flag": PENETRATION_FLAG},
+        "accepted_starts_in_contact": start_contact,
+        "start_contact_flag_m": START_CONTACT_FLAG,
+        "pool_exits": exits,
+        "joint_limit_violation_rad": {**_stats(jl), "above_flag": sum(
+            1 for x in jl if x is not None and x > JOINT_LIMIT_FLAG), "flag": JOINT_LIMIT_FLAG},
+        "joint_speed_rad_s": {**_stats(js), "above_limit": sum(
+            1 for x in js if x is not None and x > JOINT_SPEED_LIMIT), "limit": JOINT_SPEED_LIMIT},
+        "mean_speed_m_s_ok_runs": _stats([r.get("mean_speed_m_s") for r in ok]),
+        "max_speed_m_s_ok_runs": _stats([r.get("max_speed_m_s") for r in ok]),
+        "max_body_rate_rad_s_ok_runs": _stats([r.get("max_body_rate_rad_s") for r in ok]),
+        "wall_time_s": {"campaign": wall_time, "sum_of_runs": float(sum(
+            r.get("wall_time_s") or 0.0 for r in rows)),
+            "per_run": _stats([r.get("wall_time_s") for r in rows if r["outcome"] != "refused"])},
+    }
+    bugs = {"crashed": [r["run"] for r in rows if r["outcome"] == "crashed"],
+            "timeout": [r["run"] for r in rows if r["outcome"] == "timeout"],
+            "nan_without_failing": nan_silent,
+            "unexpected_exception": unexpected_types}
+    summary["check_failures"] = {k: v for k, v in bugs.items() if v}
+    return summary
+
+
+def format_summary(s: dict) -> str:
+    lines = [f"fault campaign: {s['runs']} runs", "", f"{'outcome':<14}{'runs':>6}  most common causes"]
+    for o in OUTCOMES:
+        n = s["outcomes"][o]
+        causes = s["causes"].get(o, [])
+        first = f"{causes[0][1]:>4} x {causes[0][0]}" if causes and o != "ok" else ""
+        lines.append(f"{o:<14}{n:>6}  {first}")
+        if o != "ok":
+            for c, k in causes[1:6]:
+                lines.append(f"{'':<22}{k:>4} x {c}")
+    lines.append("")
+    lines.append("expectation: " + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items())))
+    if s["silently_accepted"]:
+        lines.append("  SILENTLY ACCEPTED (must be refused): " + "; ".join(
+            f"run {x['run']} ({x['expected']} -> {x['outcome']})" for x in s["silently_accepted"]))
+    if s["unexpected_refusals"]:
+        lines.append("  refused without a must-refuse fault: " + ", ".join(
+            f"{c} x{n}" for c, n in s["unexpected_refusals"]))
+    nan = s["nan"]
+    lines.append(f"NaN/inf in the log: {nan['runs_with_nan']} runs; in runs that ended ok: "
+                 f"{len(nan['ok_runs_with_nan'])} {nan['ok_runs_with_nan'] or ''}")
+
+    def st(d, unit):
+        if not d.get("n"):
+            return "-"
+        return f"median {d['median']:.4g}, p95 {d['p95']:.4g}, max {d['max']:.4g} {unit} (n {d['n']})"
+
+    p = s["penetration_m_ok_runs"]
+    lines.append(f"penetration (ok runs): {st(p, 'm')}; > {p['flag'] * 1e3:g} mm: {p['above_flag']}")
+    sc = s["accepted_starts_in_contact"]
+    lines.append(f"accepted starts already > {s['start_contact_flag_m'] * 1e3:g} mm inside the "
+                 f"floor or a wall at t = 0: {len(sc)}" + (" " + "; ".join(
+                     f"run {x['run']} {x['depth_m'] * 1e3:.1f} mm {x['pair']}" for x in sc[:10])
+                     if sc else ""))
+    ex = s["pool_exits"]
+    lines.append(f"pool exits: {len(ex)}" + (" " + "; ".join(
+        f"run {e['run']} ({e['outcome']}) {e['exit']}" for e in ex[:10]) if ex else ""))
+    j = s["joint_limit_violation_rad"]
+    lines.append(f"joint-limit violation: {st(j, 'rad')}; > {j['flag']} rad: {j['above_flag']}")
+    js = s["joint_speed_rad_s"]
+    lines.append(f"joint speed: {st(js, 'rad/s')}; > {js['limit']:g} rad/s: {js['above_limit']}")
+    lines.append(f"body speed, mean per run (ok runs): {st(s['mean_speed_m_s_ok_runs'], 'm/s')}")
+    lines.append(f"body speed, max per run (ok runs): {st(s['max_speed_m_s_ok_runs'], 'm/s')}")
+    lines.append(f"body angular rate, max (ok runs): {st(s['max_body_rate_rad_s_ok_runs'], 'rad/s')}")
+    w = s["wall_time_s"]
+    camp = f"{w['campaign']:.0f} s" if w.get("campaign") else "-"
+    lines.append(f"wall time: campaign {camp}, sum of runs {w['sum_of_runs']:.0f} s, "
+                 f"per simulated run {st(w['per_run'], 's')}")
+    lines.append("")
+    lines.append("per base: " + "; ".join(
+        f"{b}: " + " ".join(f"{k} {v}" for k, v in sorted(c.items()))
+        for b, c in s["per_base"].items()))
+    cf = s["check_failures"]
+    lines.append("")
+    lines.append("CHECK: " + ("FAIL " + json.dumps(cf) if cf else "pass (no crash, no timeout, "
+                 "no silent NaN, no unexpected exception type)"))
+    return "\n".join(lines)
+
+
+def write_outputs(rows: list[dict], summary: dict, out_dir) -> None:
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with open(out_dir / "runs.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=CSV_COLUMNS, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in CSV_COLUMNS})
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--runs", type=int, default=300)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="out/fault_campaign")
+    ap.add_argument("--workers", type=int, default=2,
+                    help="worker processes (0: in this process, no crash isolation)")
+    ap.add_argument("--duration", type=float, default=None,
+                    help="every run's duration [s] (default: drawn in [2, 4])")
+    ap.add_argument("--run-timeout", type=float, default=600.0,
+                    help="kill a run after this many wall seconds (recorded as a timeout)")
+    ap.add_argument("--check", action="store_true",
+                    help="exit 1 on a crash, timeout, silent NaN or unexpected exception type")
+    ap.add_argument("--strict", action="store_true",
+                    help="with --check: also exit 1 if a must-refuse fault was accepted")
+    ap.add_argument("--inject-crash", type=int, action="append", default=[],
+                    help="(harness self-test) segfault the worker of this run index")
+    args = ap.parse_args(argv)
+    if args.runs < 1:
+        ap.error("--runs must be >= 1")
+    specs = draw_specs(args.runs, args.seed, args.duration)
+    for i in args.inject_crash:
+        if 0 <= i < len(specs):
+            specs[i]["inject_crash"] = True
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "specs.json").write_text(json.dumps(specs, indent=1) + "\n")
+    t0 = time.perf_counter()
+    rows = run_campaign(specs, out, workers=args.workers, run_timeout=args.run_timeout)
+    wall = time.perf_counter() - t0
+    summary = summarise(rows, wall)
+    summary["seed"], summary["workers"] = args.seed, args.workers
+    write_outputs(rows, summary, out)
+    print()
+    print(format_summary(summary))
+    print(f"\nwrote {out / 'runs.csv'}, {out / 'summary.json'}")
+    failures = dict(summary["check_failures"])
+    if args.strict and summary["silently_accepted"]:
+        failures["silently_accepted"] = [x["run"] for x in summary["silently_accepted"]]
+    if args.strict and summary["accepted_starts_in_contact"]:
+        failures["accepted_starts_in_contact"] = [
+            x["run"] for x in summary["accepted_starts_in_contact"]]
+    # The exit status is the check: nonzero on a bug even without --check (--check only
+    # adds the message).
+    if failures:
+        if args.check:
+            print(f"check failed: {json.dumps(failures)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -20,6 +20,7 @@ Example (``manta_drake/scenarios/stand.yaml``)::
 
 
 import dataclasses as dc
+import functools
 import math
 import pathlib
 import types
@@ -275,14 +276,17 @@ class Scenario:
         if not isinstance(w.coefficient_scales, dict):
             raise ScenarioError(f"water.coefficient_scales: expected a mapping, got "
                                 f"{w.coefficient_scales!r}")
-        if w.enabled:
+        if w.enabled or w.coefficient_scales:  # scales are checked even with water off
             from manta_drake.model.coefficients import load_coefficients, scale_coefficients
 
             coeffs = load_coefficients(resolve_path(w.coefficients), "water.coefficients")
             try:
                 scale_coefficients(coeffs, w.coefficient_scales)
             except ValueError as e:
-                raise ScenarioError(f"water.{e}") from None
+                message = str(e)
+                if message.startswith("coefficient_scales: "):  # a scaled value refused
+                    message = "coefficient_scales." + message[len("coefficient_scales: "):]
+                raise ScenarioError(f"water.{message}") from None
         _in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")
         last = -math.inf
         for i, cmd in enumerate(self.balloon.schedule):
@@ -349,6 +353,42 @@ class Scenario:
         return self
 
 
+@functools.lru_cache(maxsize=1)
+def _collision_model():
+    """A robot + pool plant (no water) and a context, built once, for start-pose checks."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from manta_drake.model.plant import add_plant
+
+    builder = DiagramBuilder()
+    handles = add_plant(builder)
+    diagram = builder.Build()
+    return diagram, handles, diagram.CreateDefaultContext()
+
+
+def _start_penetration(p, rpy_deg, q, tolerance: float = 0.002) -> str | None:
+    """Why the robot's collision geometry (hull, fin plates, feet) starts more than
+    ``tolerance`` inside the pool's floor or walls, or None."""
+    import numpy as np
+
+    from manta_drake.model.plant import body_pose
+
+    diagram, handles, context = _collision_model()
+    plant = handles.plant
+    pc = plant.GetMyMutableContextFromRoot(context)
+    plant.SetFreeBodyPose(pc, handles.body, body_pose(p, rpy_deg))
+    for name, angle in zip(handles.joint_names, np.asarray(q, dtype=float).ravel()):
+        plant.GetJointByName(name, handles.robot).set_angle(pc, angle)
+    query = plant.get_geometry_query_input_port().Eval(pc)
+    inspector = query.inspector()
+    deepest = max(query.ComputePointPairPenetration(), key=lambda pair: pair.depth, default=None)
+    if deepest is None or deepest.depth <= tolerance:
+        return None
+    names = sorted(inspector.GetName(g) for g in (deepest.id_A, deepest.id_B))
+    return (f"the robot starts {deepest.depth * 1e3:.1f} mm inside the pool "
+            f"({' and '.join(names)} overlap; at most {tolerance * 1e3:g} mm allowed)")
+
+
 # Largest depth-image range noise the sensor model supports [m]: beyond ~30 mm at the 0.8 m
 # underwater range the point cloud no longer resolves the 4 cm voxels the detector works on.
 MAX_DEPTH_NOISE = 0.03
@@ -357,10 +397,11 @@ MAX_DEPTH_NOISE = 0.03
 def initial_pose_problem(xyz, rpy_deg, stance: str) -> str | None:
     """Why a start pose is not inside the pool's water clear of its floor and walls, or None.
 
-    Checked with the robot's kinematics (Eq. 1) at the start's stance: the hull (an
-    ellipsoid) and the four fin tips (with their foot spheres) must lie inside the walls and
-    above the floor (a resting contact within 2 mm is allowed), and the hull's centre in the
-    water (below the surface, above the floor).
+    Checked at the start's stance: the hull's centre in the water (below the surface, above
+    the floor); the hull (an ellipsoid) and the four fin tips (with their foot spheres, from
+    the kinematics of Eq. 1) inside the walls and above the floor; and then every collision
+    geometry of the robot (fin plates included) overlapping the pool's by at most 2 mm (a
+    resting contact).
     """
     import numpy as np
     from pydrake.math import RollPitchYaw
@@ -392,7 +433,8 @@ def initial_pose_problem(xyz, rpy_deg, stance: str) -> str | None:
             return (f"the {name} at x, y = {0.5 * (low[0] + high[0]):.3f}, "
                     f"{0.5 * (low[1] + high[1]):.3f} m is inside or beyond a wall (the walls "
                     f"are at x = +-{half_x}, y = +-{half_y} m)")
-    return None
+    # The fin plates and feet as modelled (collision geometry), at the start's stance.
+    return _start_penetration(p, rpy_deg, q)
 
 
 SCENARIOS_DIR = pathlib.Path(__file__).resolve().parent / "scenarios"

@@ -198,3 +198,20 @@ def test_rendered_wall_is_kept_at_the_largest_supported_noise(tmp_path):
     assert MAX_DEPTH_NOISE == 0.03
     assert _rendered_s_hat(7.5 - 0.5 - camera_x, tmp_path / "near", 0.03) > 0.9
     assert _rendered_s_hat(7.5 - 1.0 - camera_x, tmp_path / "far", 0.03) < 0.1
+
+
+def test_median_filter_equals_scipy_and_handles_missing_pixels(rng):
+    from scipy.ndimage import median_filter
+
+    from manta_drake.control.vision import median_filter_depth
+
+    d = (0.5 + 0.01 * rng.standard_normal((30, 40))).astype(np.float32)
+    d[rng.uniform(size=d.shape) < 0.05] = np.nan
+    d[:, :3] = np.inf  # out of range
+    expected = median_filter(np.where(np.isfinite(d), d, np.inf), size=5, mode="nearest")
+    np.testing.assert_array_equal(median_filter_depth(d, 5), expected)
+    np.testing.assert_array_equal(median_filter_depth(d[:, :, None], 3)[:, :, 0],
+                                  median_filter(np.where(np.isfinite(d), d, np.inf), size=3,
+                                                mode="nearest"))
+    assert np.isfinite(median_filter_depth(d, 5)[:, 5:]).all()  # lone dropouts filled
+    assert np.isinf(median_filter_depth(d, 5)[:, 0]).all()  # no-return region stays

@@ -62,7 +62,6 @@ from manta_drake.control.transition import (
     target_params,
 )
 from manta_drake.control.vision import WallDetector
-from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.scenario import Scenario
 from manta_drake.station.station import camera_info, initial_joint_angles
 

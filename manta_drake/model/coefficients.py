@@ -204,6 +204,9 @@ def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoeffici
         else:
             entry.value = float(entry.value) * factor
         entry.source = f"x{factor:g} of: {entry.source}"
+    # The scaled set must pass the same checks as a file (a whole number of strips,
+    # positive volumes and densities): a scale is refused, never silently truncated.
+    check_coefficients(result, "coefficient_scales")
     return result
 
 

@@ -850,10 +850,11 @@ def default_workers() -> int:
 
 
 # Dask's statistical profiler samples every worker's task thread every 10 ms, taking the
-# GIL each time: measured on a 6 s swim it slowed the run by ~40 % (2.7 s against 1.9 s in
-# a worker without it, 1.7-2.0 s in-process). Runs are hours of pure Python/C++ stepping, so
-# it is off in the clusters these commands start, and stopped on the workers of a cluster
-# they connect to (the dashboard's profile page then stays empty).
+# GIL each time: it made a 6 s swim ~20 % slower (median of 9 runs alternated between fresh
+# one-worker clusters: 2.04 s with it, 1.72 s without). A simulation steps Python systems
+# thousands of times a second, so the profiler is off in the clusters these commands start
+# and stopped on the workers of a cluster they connect to (the dashboard's profile page then
+# stays empty).
 _WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 

@@ -54,11 +54,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from manta_drake.scenario import Scenario, ScenarioError, check_keys, load_scenario
+from manta_drake.scenario import Scenario, ScenarioError, load_scenario
 from manta_drake.sweep import (
     SweepError,
     add_cluster_arguments,
     apply_overrides,
+    check_config_keys,
     check_parameter_name,
     coefficient_names,
     dask_client,
@@ -163,15 +164,7 @@ def load_calibration(path, require_data: bool = True) -> CalibrationConfig:
     """
     path = pathlib.Path(path)
     data = read_yaml_mapping(path, "calibration")
-    allowed = [f.name for f in dc.fields(CalibrationConfig) if f.name != "folder"]
-    for key in data:
-        if key not in allowed:
-            raise SweepError(f"calibration.{key}: unknown key (a typo?); allowed keys: "
-                             f"{', '.join(sorted(allowed))}")
-    try:
-        check_keys(data, CalibrationConfig, "calibration")
-    except ScenarioError as e:
-        raise SweepError(str(e)) from None
+    check_config_keys(data, CalibrationConfig, "calibration")
     config = CalibrationConfig(
         name=data.get("name") or path.stem,
         description=data.get("description", ""),

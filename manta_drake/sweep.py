@@ -460,6 +460,20 @@ def _load_scenario_text(text: str) -> Scenario:
 
 # --- loading a sweep file --------------------------------------------------------------------
 
+def check_config_keys(data: dict, schema, root: str) -> None:
+    """Checks a sweep or calibration file's keys and types against its dataclass; the
+    ``folder`` field is set by the loader, never by the file. SweepError names the path."""
+    allowed = sorted(f.name for f in dc.fields(schema) if f.name != "folder")
+    for key in data:
+        if key not in allowed:
+            raise SweepError(f"{root}.{key}: unknown key (a typo?); allowed keys: "
+                             f"{', '.join(allowed)}")
+    try:
+        check_keys(data, schema, root)
+    except ScenarioError as e:
+        raise SweepError(str(e)) from None
+
+
 def read_yaml_mapping(path, what: str) -> dict:
     """A YAML file's top-level mapping; SweepError if missing or not a mapping."""
     path = pathlib.Path(path)
@@ -500,15 +514,7 @@ def load_sweep(path, extra_fixed: dict | None = None) -> SweepConfig:
     data = read_yaml_mapping(path, "sweep")
     if isinstance(data.get("base"), str):
         data["base"] = [data["base"]]
-    schema = {f.name: f for f in dc.fields(SweepConfig) if f.name != "folder"}
-    for key in data:
-        if key not in schema:
-            raise SweepError(f"sweep.{key}: unknown key (a typo?); allowed keys: "
-                             f"{', '.join(sorted(schema))}")
-    try:
-        check_keys(data, SweepConfig, "sweep")
-    except ScenarioError as e:
-        raise SweepError(str(e)) from None
+    check_config_keys(data, SweepConfig, "sweep")
     random = data.pop("random", None)
     config = SweepConfig(**data, folder=path.resolve().parent)
     if random is not None:

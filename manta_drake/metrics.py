@@ -98,19 +98,39 @@ def behaviour_at(params: np.ndarray, behaviours: dict, tolerance: float) -> list
     return labels
 
 
-def behaviour_transitions(t, params, behaviours: dict, tolerance: float = 0.05) -> list:
+def transition_progress(params: np.ndarray, start, target) -> np.ndarray:
+    """Per sample, how far the parameters are on their way from ``start`` to ``target``:
+    d_s / (d_s + d_t) with d the norm of the wrapped differences (0 at ``start``, 1 at
+    ``target``; direction-free, so it needs no choice of path round the torus)."""
+    params = np.atleast_2d(params)
+    d_s = np.linalg.norm(np.angle(np.exp(1j * (params - np.asarray(start)))), axis=1)
+    d_t = np.linalg.norm(np.angle(np.exp(1j * (params - np.asarray(target)))), axis=1)
+    return d_s / np.maximum(d_s + d_t, 1e-12)
+
+
+def behaviour_transitions(t, params, behaviours: dict, tolerance: float = 0.05,
+                          start_progress: float = 0.1) -> list:
     """Transitions between behaviours as ``{from, to, start_s, end_s}``.
 
-    A transition starts when the parameters last were at one behaviour and ends when they
-    first reach another one (within ``tolerance`` rad on every parameter).
+    A transition ends when the parameters first arrive at another behaviour (within
+    ``tolerance`` rad on every parameter); only arrivals count, so parameters that leave a
+    behaviour and come back make no transition. It starts at the last sample before that
+    arrival where they were still within ``start_progress`` of the way from the behaviour
+    they left (``transition_progress``): small excursions near the start (a depth estimate
+    that jitters at the surface) do not move the start earlier.
     """
+    t = np.asarray(t, dtype=float)
+    params = np.atleast_2d(params)
     labels = behaviour_at(params, behaviours, tolerance)
-    out, current, last_time = [], None, None
-    for time, label in zip(np.asarray(t, dtype=float), labels):
+    out, current, last_index = [], None, None
+    for i, label in enumerate(labels):
         if label is None:
             continue
         if current is not None and label != current:
-            out.append({"from": current, "to": label, "start_s": float(last_time),
-                        "end_s": float(time)})
-        current, last_time = label, time
+            progress = transition_progress(params[last_index:i + 1], behaviours[current],
+                                           behaviours[label])
+            start = last_index + int(np.flatnonzero(progress <= start_progress)[-1])
+            out.append({"from": current, "to": label, "start_s": float(t[start]),
+                        "end_s": float(t[i])})
+        current, last_index = label, i
     return out

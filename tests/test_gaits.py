@@ -21,8 +21,11 @@ PHI_GAIT = rows(120, -180, 180, 0)
 PHIP_GAIT = D([[0, 180, 180, 0], [-180, 0, 0, -180], [-180, 0, 0, -180], [0, 180, 180, 0]])
 PHIP_WALK = D([[0, 270, 180, 90], [-270, 0, -90, -180], [-180, 90, 0, -90], [-90, 180, 90, 0]])
 PHIP_TURN = D([[0, -270, -90, -180], [270, 0, 180, 90], [90, -180, 0, -90], [180, -90, 90, 0]])
+# Our reading of Eq. (6): the right fins' pitch amplitude mirrored (module docstring).
+SWIM = dict(EQ6_SWIM, R=D([[0, 45, 45, 45], [0, 45, -45, 45], [0, 45, 45, 45], [0, 45, -45, 45]]))
 EXPECTED = {
-    "swim": EQ6_SWIM,
+    "swim_printed": EQ6_SWIM,
+    "swim": SWIM,
     "trot": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_GAIT),
     "walk": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_WALK),
     "turning": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_TURN),
@@ -40,7 +43,45 @@ def test_gait_matrices_equal_the_paper(name):
 
 
 def test_library_has_exactly_the_contract_gaits():
-    assert set(GAITS) == {"swim", "trot", "walk", "turning", "crab"}
+    assert set(GAITS) == {"swim", "trot", "walk", "turning", "crab", "swim_printed"}
+
+
+def test_mirror_signs_mirror_the_leg_geometry():
+    """A right fin at MIRROR_SIGNS * q is the mirror image (y -> -y) of its left partner at
+    q: every DH frame origin of the leg-fin, for random joint angles; no other sign vector
+    does it."""
+    from itertools import product
+
+    from manta_drake.control.gaits import MIRROR_SIGNS
+    from manta_drake.model.kinematics import leg_frames_ned
+
+    reflect = np.diag([1.0, -1.0, 1.0])
+    qs = np.random.default_rng(3).uniform(-0.8, 0.8, (6, 4))
+
+    def mirror_error(signs):
+        err = 0.0
+        for q in qs:
+            for left, right in (("fl", "fr"), ("rl", "rr")):
+                for a, b in zip(leg_frames_ned(left, q), leg_frames_ned(right, signs * q)):
+                    err = max(err, np.abs(reflect @ a[:3, 3] - b[:3, 3]).max())
+        return err
+
+    assert mirror_error(MIRROR_SIGNS) < 1e-12
+    others = [np.array(s) for s in product((1.0, -1.0), repeat=4)
+              if not np.array_equal(s, MIRROR_SIGNS)]
+    assert min(mirror_error(s) for s in others) > 1e-3
+
+
+def test_swim_fins_mirror_each_other_and_the_legged_gaits_keep_the_print():
+    """swim: each right fin's R, X row is the mirror of its left partner's; the printed
+    swim is not (its pitch column is equal on both sides)."""
+    from manta_drake.control.gaits import MIRROR_SIGNS
+
+    for name, mirrored in (("swim", True), ("swim_printed", False)):
+        g = GAITS[name]
+        same = all(np.allclose(M[r], MIRROR_SIGNS * M[l]) for M in (g.R, g.X)
+                   for l, r in ((0, 1), (2, 3)))
+        assert same is mirrored, name
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))

@@ -19,6 +19,20 @@ diagonals, so no set of phases satisfies all six pair biases (the loop
 fl -> fr -> rr -> fl sums to -pi/18). With the all-to-all FCS the oscillators lock
 at the least-squares compromise (fr and rr lag by pi/36, 0.087 rad off on four
 pairs). We keep the matrix as printed; ``phase_lock_targets`` computes the lock.
+
+Our reading of the signs (docs/design.md, section 6 (c), has the measurements). The robot
+has one DH chain for every leg-fin (the modules are rotated about the vertical, not
+mirrored), so a joint command q on a right fin gives the mirror image of the left partner's
+motion only as ``MIRROR_SIGNS * q``: yaw and pitch flip, the two rolls do not (checked
+against the kinematics in tests/test_gaits.py). The printed R_swim gives every fin the same
+pitch amplitude, so the left and right fins feather in opposite senses and the printed swim
+turns (-11 deg/s). Eq. (6) describes one flapping motion of all fins, so ``swim`` mirrors
+the right fins' pitch column (``R_SWIM``); the matrix exactly as printed is the gait
+``swim_printed``. The legged gaits stay as printed: their matrices already mirror R's yaw
+and X's pitch columns, the crab needs the left-right antisymmetric pitch to walk sideways
+(a mirror-symmetric command with the trot's phases cannot make a net side force), and with
+the mirror rule applied to every column the trot and the walk of this model stop (measured:
+docs/design.md).
 """
 
 from __future__ import annotations
@@ -83,8 +97,23 @@ def _rows(row) -> np.ndarray:
     return np.tile(np.asarray(row, dtype=float), (NUM_LEGS, 1))
 
 
+# A right fin's joint command that mirrors its left partner's: yaw and pitch change sign
+# (joint order yaw, roll1, pitch, roll2; one DH chain for every leg-fin).
+MIRROR_SIGNS = np.array([-1.0, 1.0, -1.0, 1.0])
+RIGHT_LEGS = (1, 3)  # fr, rr
+
+
+def mirror_right_fins(matrix) -> np.ndarray:
+    """``matrix`` (4x4, rows fl fr rl rr) with each right fin's row replaced by the mirror of
+    its left partner's (``MIRROR_SIGNS`` times it)."""
+    out = np.array(matrix, dtype=float)
+    out[list(RIGHT_LEGS)] = MIRROR_SIGNS * out[[0, 2]]
+    return out
+
+
 # Eq. (6)
-R_SWIM = _rows([0, PI / 4, PI / 4, PI / 4])
+R_SWIM_PRINTED = _rows([0, PI / 4, PI / 4, PI / 4])
+R_SWIM = mirror_right_fins(R_SWIM_PRINTED)  # right fins' pitch amplitude -pi/4
 X_SWIM = np.zeros(SHAPE)
 PHI_SWIM = _rows([0, -PI, 0, 0])
 PHI_PRIME_SWIM = np.array(
@@ -135,6 +164,8 @@ GAITS: dict[str, GaitParams] = {
     "walk": GaitParams(R_GAIT, X_GAIT, PHI_GAIT, PHI_PRIME_WALK),
     "turning": GaitParams(R_GAIT, X_GAIT, PHI_GAIT, PHI_PRIME_TURNING),
     "crab": GaitParams(R_CRAB, X_GAIT, PHI_CRAB, PHI_PRIME_GAIT),
+    # Eq. (6) exactly as printed (its fins feather in opposite senses and it turns).
+    "swim_printed": GaitParams(R_SWIM_PRINTED, X_SWIM, PHI_SWIM, PHI_PRIME_SWIM),
 }
 
 

@@ -179,6 +179,11 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names: list[str],
             strips = 4.0 * scales["fins.strips_per_plate"]  # the shipped file: 4 strips
             if abs(strips - round(strips)) > 1e-9:
                 expect.append("water.coefficient_scales.fins.strips_per_plate")
+        # The sealed volume must stay the semi-axes' ellipsoid volume (coefficients.py):
+        # scaling one without the other's cube is refused.
+        volume, axes = scales.get("body.sealed_volume", 1.0), scales.get("body.sealed_semi_axes", 1.0)
+        if abs(volume - axes**3) > 0.01 * volume:
+            expect.append("water.coefficient_scales.body.sealed_volume")
     if rng.random() < P["coeff_scale_bad"]:
         scales = dict(o.get("water.coefficient_scales", {}))
         kind = rng.random()

@@ -105,6 +105,9 @@ def _coefficients_with(tmp_path, old, new):
      "fins.strips_per_plate = 2.5 must be a whole number"),
     (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.0051", "sealed_volume:\n    value: 0.0"),
      "body.sealed_volume = 0.0 must be > 0"),
+    # The buoyancy comes from the semi-axes: a volume edited alone would have no effect.
+    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.0051", "sealed_volume:\n    value: 0.0061"),
+     "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes (4/3 pi abc = 0.0051 m^3"),
     (lambda p: _file(p / "empty.yaml", b""), "must be a mapping"),
     (lambda p: _file(p / "bin.yaml", b"\xff\xfe\x00\x81binary"), "not a UTF-8 text"),
 ])

@@ -50,6 +50,15 @@ def test_net_weight_scales_give_the_target_in_the_water_model(target):
     assert scaled.body.sealed_volume.value == pytest.approx(4 / 3 * np.pi * a * b * c, rel=1e-5)
 
 
+def test_a_scale_of_the_sealed_volume_alone_is_refused():
+    """It would change nothing (the buoyancy integrates the semi-axes): refused by name."""
+    scenario = load_scenario("locomotion_swim")
+    scenario.water.coefficient_scales = {"body.sealed_volume": 1.2}
+    with pytest.raises(ScenarioError, match="body.sealed_volume = .* disagrees with "
+                                            "body.sealed_semi_axes"):
+        scenario.validate()
+
+
 def test_net_weight_parameter_refuses_a_conflicting_scale():
     scenario = load_scenario("locomotion_swim")
     scenario.water.coefficient_scales = {"body.sealed_semi_axes": 1.1}

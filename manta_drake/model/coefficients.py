@@ -216,6 +216,7 @@ POSITIVE = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_
             "links.servo_volume", "fins.strips_per_plate", "fins.normal_force_coefficient",
             "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate")
 INTEGER = ("fins.strips_per_plate",)
+SEALED_VOLUME_TOLERANCE = 0.01  # relative: body.sealed_volume against 4/3 pi abc
 SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
          "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
          "links.linear_damping": 6, "links.quadratic_damping": 6,
@@ -242,6 +243,18 @@ def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be > 0")
         if name in INTEGER and np.any(values != np.round(values)):
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be a whole number")
+    # The water model integrates the hull's buoyancy over body.sealed_semi_axes; the volume
+    # is its documented value. One changed without the other would change nothing (or
+    # something else than meant) without a word, so they must agree.
+    body = coeffs.body
+    implied = 4.0 / 3.0 * np.pi * float(np.prod(body.sealed_semi_axes.value))
+    volume = float(body.sealed_volume.value)
+    if abs(implied - volume) > SEALED_VOLUME_TOLERANCE * volume:
+        raise ScenarioError(
+            f"{where}: body.sealed_volume = {volume:g} m^3 disagrees with body.sealed_semi_axes "
+            f"(4/3 pi abc = {implied:g} m^3, more than {SEALED_VOLUME_TOLERANCE:.0%} apart); "
+            "the buoyancy comes from the semi-axes: change both together (a sweep's "
+            "net_weight_kg does)")
 
 
 def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None) -> HydroCoefficients:

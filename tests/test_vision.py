@@ -200,6 +200,30 @@ def test_rendered_wall_is_kept_at_the_largest_supported_noise(tmp_path):
     assert _rendered_s_hat(7.5 - 1.0 - camera_x, tmp_path / "far", 0.03) < 0.1
 
 
+def test_range_along_each_ray_against_the_pinhole_closed_form():
+    """ray_scale is |(u - cx)/fx, (v - cy)/fy, 1| per pixel; beyond_ray_range cuts where
+    depth times it exceeds the range: a plane facing the camera at depth z keeps exactly
+    the pixels inside the circle of radius sqrt((R/z)^2 - 1) (in focal units)."""
+    from manta_drake.station.depth_image_noise import beyond_ray_range, ray_scale
+
+    w, h, f, cx, cy = 160, 120, 100.0, 79.5, 59.5
+    k = ray_scale(w, h, f, f, cx, cy)
+    assert k.shape == (h, w)
+    assert k[60, 80] == pytest.approx(np.sqrt(1 + (0.5 / f) ** 2 * 2), rel=1e-6)
+    assert k[0, 0] == pytest.approx(np.hypot(1, np.hypot(79.5 / f, 59.5 / f)), rel=1e-6)
+    z, R = 0.7, 0.8
+    depth = np.full((h, w), z, dtype=np.float32)
+    depth[0, 0], depth[1, 1] = np.nan, np.inf  # dropouts and no-returns stay as they are
+    out = beyond_ray_range(depth, k, R)
+    u, v = np.meshgrid((np.arange(w) - cx) / f, (np.arange(h) - cy) / f)
+    inside = u ** 2 + v ** 2 <= (R / z) ** 2 - 1
+    kept = np.isfinite(out)
+    kept[0, 0] = True  # the NaN pixel
+    np.testing.assert_array_equal(kept[2:], inside[2:])
+    assert np.isnan(out[0, 0]) and np.isinf(out[1, 1])
+    np.testing.assert_array_equal(out[np.isfinite(out)], np.float32(z))  # depths unchanged
+
+
 def test_median_filter_equals_scipy_and_handles_missing_pixels(rng):
     from scipy.ndimage import median_filter
 
@@ -215,3 +239,75 @@ def test_median_filter_equals_scipy_and_handles_missing_pixels(rng):
                                                 mode="nearest"))
     assert np.isfinite(median_filter_depth(d, 5)[:, 5:]).all()  # lone dropouts filled
     assert np.isinf(median_filter_depth(d, 5)[:, 0]).all()  # no-return region stays
+
+
+# --- the end wall at the edge of the camera's range (three_behaviors, t = 24-40 s) ---------
+#
+# In three_behaviors the robot trotted up to 0.8-0.93 m (camera to wall) from the end wall
+# and s_hat flipped between 1 (body yawed 10-20 deg) and 0 (facing the wall squarely). The
+# detector is not the cause: the wall is beyond the camera's range there (max_range 0.8 m),
+# and the station's RgbdSensor clips the *z-depth* (distance along the optical axis) at
+# max_range, not the range along each ray. A view tilted against the wall (yaw, or the
+# 10 deg camera pitch plus the trot's pitch) has z-depth < ray range over part of the wall,
+# so a slice of the wall 0.8-1.05 m away along the rays is kept; facing it squarely, the
+# whole wall's z-depth is its distance and it is clipped away. The station's sensor model
+# (DepthImageNoise) now cuts on the range along each ray; these tests pin both halves.
+
+def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | None = None):
+    """The robot standing in the trot stance on the pool floor, its camera ``camera_to_wall``
+    m from the end wall (x = 7.5 m), body yawed by each of ``yaws_deg``: the detector's
+    Detection of one frame through the controller's real chain (station depth noise,
+    median filter, DepthImageToPointCloud), and the camera's distance to the wall."""
+    from manta_drake.diagram import build_diagram
+    from manta_drake.model.plant import body_pose, set_initial_state
+    from manta_drake.model.robot_params import RobotParams
+    from manta_drake.station.station import initial_joint_angles
+
+    s = Scenario(name="camera", duration=0.45, initial_stance="trot",
+                 controller=ControllerConfig(mode="hold", gait="trot"),
+                 visualization=VisualizationConfig(meshcat=False))
+    s.camera.enabled = True
+    if max_range is not None:
+        s.camera.max_range = max_range
+    diagram, h = build_diagram(s.validate())
+    root = diagram.CreateDefaultContext()
+    plant_context = h.plant.GetMyMutableContextFromRoot(root)
+    to_cloud = h.systems["depth_to_cloud"]
+    cloud_context = to_cloud.GetMyContextFromRoot(root)
+    camera_x = RobotParams().camera_position[0]
+    out = []
+    for yaw in yaws_deg:
+        x = 7.5 - camera_to_wall - camera_x * np.cos(np.radians(yaw))
+        set_initial_state(h.plant_handles, plant_context,
+                          body_pose([x, 0.0, -0.25], [0.0, 0.0, yaw]), initial_joint_angles(s))
+        X_WC = to_cloud.camera_pose_input_port().Eval(cloud_context)
+        xyz = to_cloud.point_cloud_output_port().Eval(cloud_context).xyzs()
+        det = detect(xyz, s.wall_detector, X_WC.translation(), 0.0, X_WC.rotation().matrix()[:, 2])
+        out.append((det, 7.5 - X_WC.translation()[0]))
+    return out
+
+
+def test_wall_ahead_is_seen_squarely_and_yawed_when_in_range():
+    """Within the camera's range the detector finds the end wall ahead whether the robot
+    faces it squarely or at +-15 deg (the trot's yaw swing); and with the range long enough
+    to reach it, also 0.9 m away (where three_behaviors lost it when facing squarely): the
+    squarely facing frame is no harder for the detector than the yawed ones."""
+    for camera_to_wall, max_range in ((0.7, None), (0.9, 1.2)):
+        dets = _standing_detections(camera_to_wall, (0.0, 15.0, -15.0), max_range)
+        for (det, d), yaw in zip(dets, (0.0, 15.0, -15.0)):
+            assert d == pytest.approx(camera_to_wall, abs=1e-3)
+            assert det.s_hat > 0.9, (camera_to_wall, yaw, det.wall_size)
+            assert det.wall_size > 3 * P.c_max, (camera_to_wall, yaw, det.wall_size)
+            wall = max((c for c in det.clusters if c.label == "wall"), key=lambda c: c.size)
+            assert abs(wall.normal[0]) > 0.98  # the end wall, not a side wall
+            assert wall.centroid[0] == pytest.approx(7.5, abs=0.02)
+
+
+def test_wall_beyond_the_cameras_range_is_not_seen_at_any_yaw():
+    """0.85 m away the end wall is beyond max_range = 0.8 m along every ray: no view may see
+    it. Facing it squarely none did; yawed by 15 deg the renderer's z-depth clip kept a
+    slice of it (rays 0.8-1.0 m long) and s_hat was 1, the flip-flop of three_behaviors,
+    until the station's sensor model cut on the range along each ray."""
+    dets = _standing_detections(0.85, (0.0, 15.0, -15.0))
+    assert dets[0][0].s_hat < 0.1  # squarely: out of range, as it should be
+    assert all(det.s_hat < 0.1 for det, _ in dets), [det.wall_size for det, _ in dets]

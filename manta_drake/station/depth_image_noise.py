@@ -1,9 +1,33 @@
-"""Noise and pixel dropout on a depth image."""
+"""The depth sensor's range along each ray, range noise and pixel dropout on a depth image."""
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.sensors import ImageDepth32F
+
+
+def ray_scale(width: int, height: int, fx: float, fy: float, cx: float, cy: float) -> np.ndarray:
+    """Per pixel, distance along the pixel's ray per unit of depth (along the optical axis):
+    sqrt(1 + ((u - cx) / fx)^2 + ((v - cy) / fy)^2), shape (height, width), float32."""
+    u = (np.arange(width) - cx) / fx
+    v = (np.arange(height) - cy) / fy
+    return np.sqrt(1.0 + u[None, :] ** 2 + v[:, None] ** 2).astype(np.float32)
+
+
+def beyond_ray_range(depth, scale, max_range: float) -> np.ndarray:
+    """``depth`` (along the optical axis) with every pixel whose distance along its own ray
+    (``depth * scale``) exceeds ``max_range`` set to +inf (out of range), float32.
+
+    The renderer's depth range cuts at a depth along the optical axis; the range of an
+    underwater depth sensor is the distance light travels (absorption), i.e. along each
+    ray. With an axis cut a wall facing the camera squarely vanishes as a whole at
+    max_range while a tilted view of the same wall at the same distance keeps a slice;
+    along the rays every view sees the same sphere.
+    """
+    out = np.array(depth, dtype=np.float32, copy=True)
+    with np.errstate(invalid="ignore"):
+        out[out * np.asarray(scale, dtype=np.float32).reshape(out.shape) > max_range] = np.inf
+    return out
 
 
 def noisy_depth(depth, noise_std: float, dropout_rate: float, normal_samples=None,
@@ -19,7 +43,8 @@ def noisy_depth(depth, noise_std: float, dropout_rate: float, normal_samples=Non
 
 
 class DepthImageNoise(LeafSystem):
-    """Adds Gaussian range noise and drops pixels (NaN) in a 32-bit depth image.
+    """The depth sensor's physics after the renderer: range limit along each ray, Gaussian
+    range noise and pixel dropout (NaN) in a 32-bit depth image.
 
     .. pydrake_system::
 
@@ -38,11 +63,29 @@ class DepthImageNoise(LeafSystem):
     Both come from Drake ``RandomSource`` systems sampled at the camera's rate, so the
     noise is state in the Context: the same seed gives the same images and
     ``SetRandomContext`` draws new ones. Unconnected, that part of the noise is off.
+
+    With ``max_range`` and the camera's intrinsics (``camera_info``), pixels farther than
+    ``max_range`` along their ray are out of range (+inf) before the noise
+    (``beyond_ray_range``); the renderer's own depth range (along the axis, never shorter
+    for those pixels) stays as it is.
     """
 
     def __init__(self, width: int, height: int, noise_std: float = 0.0,
-                 dropout_rate: float = 0.0):
+                 dropout_rate: float = 0.0, max_range: float | None = None,
+                 camera_info=None):
         super().__init__()
+        if (max_range is None) != (camera_info is None):
+            raise ValueError("DepthImageNoise: max_range and camera_info go together")
+        self.max_range = None if max_range is None else float(max_range)
+        if self.max_range is not None:
+            if not (np.isfinite(self.max_range) and self.max_range > 0):
+                raise ValueError(f"DepthImageNoise.max_range: {max_range} must be > 0")
+            if (camera_info.width(), camera_info.height()) != (width, height):
+                raise ValueError(f"DepthImageNoise.camera_info: {camera_info.width()}x"
+                                 f"{camera_info.height()} is not the image's {width}x{height}")
+            self._ray_scale = ray_scale(width, height, camera_info.focal_x(),
+                                        camera_info.focal_y(), camera_info.center_x(),
+                                        camera_info.center_y())
         if not (np.isfinite(noise_std) and noise_std >= 0):
             raise ValueError(f"DepthImageNoise.noise_std: {noise_std} must be >= 0")
         if not 0.0 <= dropout_rate <= 1.0:
@@ -56,7 +99,10 @@ class DepthImageNoise(LeafSystem):
 
     def _calc(self, context, output):
         image = self._input.Eval(context)
+        depth = image.data
+        if self.max_range is not None:
+            depth = beyond_ray_range(depth[:, :, 0], self._ray_scale, self.max_range)
         normal = self._normal.Eval(context) if self._normal.HasValue(context) else None
         uniform = self._uniform.Eval(context) if self._uniform.HasValue(context) else None
-        depth = noisy_depth(image.data, self.noise_std, self.dropout_rate, normal, uniform)
-        output.get_mutable_value().mutable_data[:] = depth
+        depth = noisy_depth(depth, self.noise_std, self.dropout_rate, normal, uniform)
+        output.get_mutable_value().mutable_data[:] = depth.reshape(image.data.shape)

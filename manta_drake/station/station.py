@@ -325,8 +325,10 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
         camera_frame, X_BC,
         DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range)), False))
     builder.Connect(scene.get_query_output_port(), camera.query_object_input_port())
+    # The range limit is the sensor's (light absorbed along each ray), applied with the noise.
     noise = builder.AddNamedSystem("depth_noise", DepthImageNoise(
-        cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout))
+        cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout,
+        max_range=cam.max_range, camera_info=camera_info(cam)))
     builder.Connect(camera.depth_image_32F_output_port(), noise.GetInputPort("depth_image"))
     n_pixels, period = cam.width * cam.height, 1.0 / cam.rate_hz
     for port, distribution in (("range_noise", RandomDistribution.kGaussian),

@@ -15,13 +15,15 @@ from manta_drake import plots
 from manta_drake.cli import run_experiment
 
 HERE = pathlib.Path(__file__).resolve().parent
+# The paper's transitions in Fig. 11 (section 4.3), marked on the figure.
+PAPER_WINDOWS = (("swim -> trot", 6.0, 14.0), ("trot -> turning", 20.0, 36.0))
 
 
 def figures(result, scenario):
     fig11 = result.out_dir / "fig11_three_behaviors.png"
     plots.fig_transition_run(result.log, result.metrics, fig11,
                              "Three behaviours: swim, trot, turning by depth and vision "
-                             "(cf. paper Fig. 11)")
+                             "(cf. paper Fig. 11)", paper_windows=PAPER_WINDOWS)
     fig12 = result.out_dir / "fig12_point_cloud.png"
     controller = result.handles.controller
     best = None

@@ -14,12 +14,15 @@ from manta_drake import plots
 from manta_drake.cli import run_experiment
 
 HERE = pathlib.Path(__file__).resolve().parent
+# The paper's transitions in Fig. 10 (section 4.2), marked on the figure.
+PAPER_WINDOWS = (("swim -> trot", 13.0, 21.0), ("trot -> swim", 50.0, 63.0))
 
 
 def figures(result, scenario):
     path = result.out_dir / "fig10_two_behaviors.png"
     plots.fig_transition_run(result.log, result.metrics, path,
-                             "Two behaviours: swim <-> trot by depth (cf. paper Fig. 10)")
+                             "Two behaviours: swim <-> trot by depth (cf. paper Fig. 10)",
+                             paper_windows=PAPER_WINDOWS)
     return [path]
 
 

@@ -117,9 +117,13 @@ def behaviour_spans(transitions: list, end: float) -> list:
     return spans
 
 
-def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",)):
+def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",),
+                       paper_windows=()):
     """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth, z_hat and s_hat over
-    time, with the behaviour phases shaded (grey: a behaviour held, orange: a transition)."""
+    time, with the behaviour phases shaded (grey: a behaviour held, orange: a transition).
+
+    ``paper_windows``: (label, start_s, end_s) of the paper's transitions, drawn as dashed
+    purple brackets on every panel so the run can be compared with the printed figure."""
     t, tc = log["t"], log["t_command"]
     spans = behaviour_spans(metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
     rows = [("joint outputs [deg]", "joints"), ("Euler angles [deg]", "euler"),
@@ -133,6 +137,16 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
             if kind == "joints":
                 ax.text((start + end) / 2, 1.01, label, transform=ax.get_xaxis_transform(),
                         ha="center", va="bottom", fontsize=8)
+        for label, start, end in paper_windows:
+            for x in (start, end):
+                ax.axvline(x, color="tab:purple", ls="--", lw=1.0, alpha=0.8)
+            if kind == "sensing":
+                ax.annotate("", xy=(end, 0.5), xytext=(start, 0.5),
+                            xycoords=ax.get_xaxis_transform(),
+                            arrowprops=dict(arrowstyle="<->", color="tab:purple"))
+                ax.text((start + end) / 2, 0.53, f"paper: {label}", color="tab:purple",
+                        transform=ax.get_xaxis_transform(), ha="center", va="bottom",
+                        fontsize=8)
         if kind == "joints":
             for leg in joints:
                 k = LEGS.index(leg)

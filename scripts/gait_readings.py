@@ -1,0 +1,153 @@
+#!/usr/bin/env python3
+"""The printed gait matrices under different readings of their signs and row order (issue 10).
+
+Eqs. (6)-(8) cannot all be read with one sign convention (docs/design.md, section 6 (c)).
+This script runs every locomotion scenario (12 s, mean over 6-12 s, free water) with the
+gait library replaced by one reading at a time, so the choice in ``gaits.py`` rests on
+numbers:
+
+* ``printed``: every matrix exactly as printed, rows fl, fr, rl, rr (``swim_printed`` for
+  the swim);
+* ``shipped``: what ``gaits.GAITS`` holds (the swim's right-fin pitch mirrored, the legged
+  gaits as printed);
+* ``mirror_left``: every gait made mirror-symmetric, each right fin's R and X rows the
+  mirror (``MIRROR_SIGNS``) of its left partner's as printed;
+* ``mirror_right``: the same from the printed right rows;
+* ``left_first``: the rows read as fl, rl, fr, rr (left side first) and the right fins
+  mirror-built (their yaw and pitch servos turn the other way), so equal rows are mirror
+  images;
+* ``swim_no_lag``: the shipped swim with Phi'_swim set to zero (no left-right lag).
+
+Usage: python scripts/gait_readings.py [--out out/gait_readings] [--duration 12]
+       [--readings printed,shipped,...] [--gaits swim,trot,...]
+Prints a markdown table (u, v, yaw rate over the window; wall clearance) and writes it to
+OUT/readings.md, with a figure of the swims' paths (OUT/swim_paths.png).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+
+import numpy as np
+
+import manta_drake.control.gaits as G
+from manta_drake.scenario import load_scenario
+from manta_drake.simulate import run
+
+GAITS = ("swim", "trot", "walk", "crab", "turning")
+SHIPPED = {name: G.GAITS[name] for name in G.GAITS}
+LEFT_FIRST = [0, 2, 1, 3]  # our row (fl, fr, rl, rr) <- printed row, when rows are fl, rl, fr, rr
+
+
+def printed(name: str) -> G.GaitParams:
+    return SHIPPED["swim_printed" if name == "swim" else name]
+
+
+def mirrored(g: G.GaitParams, from_left: bool) -> G.GaitParams:
+    R, X = g.R.copy(), g.X.copy()
+    for left, right in ((0, 1), (2, 3)):
+        src, dst = (left, right) if from_left else (right, left)
+        R[dst], X[dst] = G.MIRROR_SIGNS * R[src], G.MIRROR_SIGNS * X[src]
+    return G.GaitParams(R, X, g.Phi, g.Phi_prime)
+
+
+def left_first(g: G.GaitParams) -> G.GaitParams:
+    p = LEFT_FIRST
+    R, X = g.R[p].copy(), g.X[p].copy()
+    R[list(G.RIGHT_LEGS)] *= G.MIRROR_SIGNS
+    X[list(G.RIGHT_LEGS)] *= G.MIRROR_SIGNS
+    return G.GaitParams(R, X, g.Phi[p], g.Phi_prime[np.ix_(p, p)])
+
+
+READINGS = {
+    "printed": printed,
+    "shipped": lambda name: SHIPPED[name],
+    "mirror_left": lambda name: mirrored(printed(name), True),
+    "mirror_right": lambda name: mirrored(printed(name), False),
+    "left_first": lambda name: left_first(printed(name)),
+    "swim_no_lag": lambda name: G.GaitParams(SHIPPED["swim"].R, SHIPPED["swim"].X,
+                                             SHIPPED["swim"].Phi, np.zeros((4, 4)))
+    if name == "swim" else SHIPPED[name],
+}
+
+
+def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float) -> dict:
+    """One locomotion scenario with the gait library of ``reading``; its metrics."""
+    for name in GAITS:
+        G.GAITS[name] = READINGS[reading](name)
+    try:
+        s = load_scenario(f"locomotion_{gait}")
+        s.visualization.meshcat = False
+        s.duration = duration
+        s.steady_after = duration / 2
+        s.validate()
+        run(s, out, progress=False)
+    finally:
+        G.GAITS.update(SHIPPED)
+    return json.loads((out / "metrics.json").read_text())
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/gait_readings"))
+    parser.add_argument("--duration", type=float, default=12.0)
+    parser.add_argument("--readings", default=",".join(READINGS))
+    parser.add_argument("--gaits", default=",".join(GAITS))
+    args = parser.parse_args()
+    readings, gaits = args.readings.split(","), args.gaits.split(",")
+    for r in readings:
+        if r not in READINGS:
+            parser.error(f"--readings: {r!r} is not one of {', '.join(READINGS)}")
+    for g in gaits:
+        if g not in GAITS:
+            parser.error(f"--gaits: {g!r} is not one of {', '.join(GAITS)}")
+    rows = []
+    for reading in readings:
+        for gait in gaits:
+            if reading == "swim_no_lag" and gait != "swim":
+                continue
+            out = args.out / f"{reading}_{gait}"
+            m = run_reading(reading, gait, out, args.duration)
+            u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
+            row = (reading, gait, u, v, m["yaw_rate_deg_s"], m["min_wall_clearance_m"])
+            rows.append(row)
+            print("%-13s %-8s u %+.3f  v %+.3f m/s  yaw %+6.2f deg/s  clearance %.2f m"
+                  % row, flush=True)
+    w0, w1 = args.duration / 2, args.duration
+    table = [f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`python scripts/gait_readings.py"
+             f" --duration {w1:g}`):", "",
+             "| reading | gait | u m/s | v m/s | yaw rate deg/s | min wall clearance m |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    table += ["| %s | %s | %+.3f | %+.3f | %+.2f | %.2f |" % row for row in rows]
+    (args.out / "readings.md").write_text("\n".join(table) + "\n")
+    print("\n" + "\n".join(table))
+    swims = [r for r in readings if (args.out / f"{r}_swim" / "log.npz").exists()]
+    if swims:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(8, 4))
+        styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1))]
+        for i, r in enumerate(swims):
+            log = np.load(args.out / f"{r}_swim" / "log.npz")
+            xy = log["body_xyz"][:, :2] - log["body_xyz"][0, :2]
+            ax.plot(xy[:, 0], xy[:, 1], linestyle=styles[i % len(styles)], lw=2, label=r)
+        ax.set_xlabel("x [m] (start heading)")
+        ax.set_ylabel("y [m]")
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+        ax.set_title(f"locomotion_swim, {w1:g} s, under each reading of Eq. (6)")
+        fig.tight_layout()
+        fig.savefig(args.out / "swim_paths.png", dpi=120)
+        print(f"figure: {args.out / 'swim_paths.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

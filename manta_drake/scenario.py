@@ -158,6 +158,10 @@ class DepthEstimatorConfig:
     robot settles on the floor instead of being held up by swim-like flapping."""
 
     floor_distance: float = 0.20
+    # The sensor's depth with the robot floating at rest at the surface, balloon full: the
+    # zero of a pressure sensor zeroed at initial submersion (measured: float_sink, 1-5 s,
+    # 0.030 m; tests/test_depth.py holds it). Depths are counted from it.
+    surface_depth: float = 0.030
 
 
 @dc.dataclass
@@ -304,6 +308,13 @@ class Scenario:
         _vector("pressure_sensor.position", ps.position, 3, bound=0.5, unit=" m")
         _in_range("depth_estimator.floor_distance", self.depth_estimator.floor_distance, 0.0,
                   10.0, "(0, 10] m", open_low=True)
+        _in_range("depth_estimator.surface_depth", self.depth_estimator.surface_depth, 0.0,
+                  self.depth_estimator.floor_distance,
+                  f"[0, floor_distance = {self.depth_estimator.floor_distance}) m")
+        if self.depth_estimator.surface_depth >= self.depth_estimator.floor_distance:
+            raise ScenarioError(f"depth_estimator.surface_depth: "
+                                f"{self.depth_estimator.surface_depth!r} must be below "
+                                f"floor_distance = {self.depth_estimator.floor_distance}")
         cam = self.camera
         _boolean("camera.enabled", cam.enabled)
         for name in ("width", "height"):

@@ -34,6 +34,8 @@ BAD_SCENARIOS = [
     ("transition: {g: 1.0, T: 1.0, alpha: 2.0}\n", "transition.alpha * g * T", "overshoot"),
     ("transition: {period: 0.0001}\n", "transition.period", "[time_step"),
     ("contact: {friction: 0}\n", "contact.friction", "(0, 2]"),
+    ("depth_estimator: {surface_depth: 0.25}\n", "depth_estimator.surface_depth",
+     "[0, floor_distance = 0.2)"),
     ("water: {current: [100, 0, 0]}\n", "water.current", "1.0 m/s"),
     ("water: {current: [.nan, 0, 0]}\n", "water.current[0]", "not finite"),
     ("water: {update_period: -0.004}\n", "water.update_period", "[0, 0.02]"),

@@ -46,6 +46,38 @@ def test_centroid_equals_the_closed_form(rng):
     np.testing.assert_array_equal(layer_centres(D), [0, D / 2, D])
 
 
+def test_depth_counted_from_the_surface_float():
+    """With surface_depth h_s the closed form becomes z_hat = clip(1.5 (h - h_s) / (D - h_s)
+    - 0.25, 0, 1): 0 while floating at the surface, 1 on the floor, and h_hat an absolute
+    depth in [h_s, D]."""
+    hs = 0.03
+    h = np.linspace(-0.05, D + 0.05, 2001)
+    h_hat, z_hat = fuzzy_depth(h, D, hs)
+    expected = np.clip(1.5 * (h - hs) / (D - hs) - 0.25, 0.0, 1.0)
+    np.testing.assert_allclose(z_hat, expected, atol=1e-12)
+    np.testing.assert_allclose(h_hat, hs + expected * (D - hs), atol=1e-12)
+    # A robot bobbing 2.5 cm about its float reads the surface, without the offset it did not.
+    assert fuzzy_depth(hs + 0.025, D, hs)[1] == 0.0 and fuzzy_depth(hs + 0.025, D)[1] > 0.05
+    with pytest.raises(ValueError, match="surface_depth: 0.3 must be in"):
+        FuzzyDepthEstimator(D, 0.02, surface_depth=0.3)
+
+
+@pytest.mark.slow
+def test_default_surface_depth_is_the_sensors_depth_floating_at_rest(tmp_path):
+    """The default surface_depth is what the pressure sensor reads (noise-free mean) with the
+    robot floating at rest at the surface, balloon full (float_sink before it deflates)."""
+    from manta_drake.scenario import Scenario, load_scenario
+    from manta_drake.simulate import run
+
+    s = load_scenario("float_sink", {"duration": 4.5})
+    s.visualization.meshcat = False
+    s.pressure_sensor.noise_std = 0.0
+    log = run(s.validate(), tmp_path, progress=False, write_outputs=False).log
+    at_rest = log["t_depth"] > 1.5
+    assert np.nanmean(log["depth"][at_rest, 0]) == pytest.approx(
+        Scenario().depth_estimator.surface_depth, abs=0.002)
+
+
 def test_z_hat_spans_0_to_1_continuous_and_monotone():
     h = np.linspace(-0.1, D + 0.1, 20001)
     _, z = fuzzy_depth(h, D)

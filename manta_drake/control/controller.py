@@ -82,8 +82,9 @@ def initial_cpg_params(scenario: Scenario) -> np.ndarray:
     """The CPG parameters at t = 0: the fixed gait, or the transition's target for the
     initial depth (no wall seen)."""
     if scenario.controller.mode == "transition":
-        z0 = float(fuzzy_depth(initial_sensor_depth(scenario),
-                               scenario.depth_estimator.floor_distance)[1])
+        de = scenario.depth_estimator
+        z0 = float(fuzzy_depth(initial_sensor_depth(scenario), de.floor_distance,
+                               de.surface_depth)[1])
         behaviours = (GAITS[name].to_vector() for name in BEHAVIOURS)
         return target_params(z0, 0.0, *behaviours, scenario.transition.z_t,
                              scenario.transition.blend)
@@ -130,7 +131,8 @@ def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> Non
     ps = scenario.pressure_sensor
     estimator = builder.AddNamedSystem("depth_estimator", FuzzyDepthEstimator(
         scenario.depth_estimator.floor_distance, period=1.0 / ps.rate_hz,
-        initial_depth=initial_sensor_depth(scenario)))
+        initial_depth=initial_sensor_depth(scenario),
+        surface_depth=scenario.depth_estimator.surface_depth))
     builder.ExportInput(estimator.GetInputPort("depth"), "depth")
     for name in ("h_hat", "z_hat"):
         builder.ExportOutput(estimator.GetOutputPort(name), name)

@@ -18,6 +18,13 @@ signal. Depths outside [0, D] clamp; a NaN reading holds the last valid estimate
 D is a parameter (``floor_distance``): the pressure sensor's depth when the robot
 stands on the floor. It is not measured on line, so a scenario that starts at the
 surface still has it (the paper measures it once, at initial submersion).
+
+Depths are counted from the surface float (``surface_depth``, h_s): the sensor's depth
+with the robot floating at rest at the surface, balloon full, as a pressure sensor zeroed
+at initial submersion reads. The layers then divide [h_s, D] instead of [0, D]: a robot
+swimming at the surface reads z_hat = 0, not the 0.06 (peaks 0.27) that the head's 3-4 cm
+of draft and bobbing gave, which kept the transition ~9 % of the way toward the trot while
+swimming and made the return to swimming arrive or not by chance.
 """
 
 import numpy as np
@@ -41,11 +48,14 @@ def layer_centres(D: float) -> np.ndarray:
     return np.array([0.0, 0.5 * D, D])
 
 
-def fuzzy_depth(h, D: float) -> tuple:
-    """Eq. (9): (h_hat, z_hat) for depths ``h``."""
-    mu = memberships(h, D)
-    h_hat = (mu @ layer_centres(D)) / mu.sum(axis=-1)
-    return h_hat, h_hat / D
+def fuzzy_depth(h, D: float, surface_depth: float = 0.0) -> tuple:
+    """Eq. (9): (h_hat, z_hat) for depths ``h``, with the layers on [surface_depth, D]
+    (depth measured from the surface float): h_hat = surface_depth + centroid, z_hat =
+    centroid / (D - surface_depth)."""
+    span = D - surface_depth
+    mu = memberships(np.asarray(h, dtype=float) - surface_depth, span)
+    centroid = (mu @ layer_centres(span)) / mu.sum(axis=-1)
+    return surface_depth + centroid, centroid / span
 
 
 class FuzzyDepthEstimator(LeafSystem):
@@ -63,21 +73,26 @@ class FuzzyDepthEstimator(LeafSystem):
     * ``depth`` (1): measured depth h below the surface [m], positive down; may be NaN
       (sensor dropout).
     * ``h_hat`` (1): centroid depth estimate [m].
-    * ``z_hat`` (1): h_hat / D in [0, 1] (0: surface, 1: floor).
+    * ``z_hat`` (1): in [0, 1] (0: floating at the surface, 1: on the floor).
 
     The estimate is a discrete state updated every ``period`` seconds (the pressure
     sensor's rate); a NaN or infinite reading keeps the last valid estimate.
     """
 
-    def __init__(self, floor_distance: float, period: float, initial_depth: float = 0.0):
+    def __init__(self, floor_distance: float, period: float, initial_depth: float = 0.0,
+                 surface_depth: float = 0.0):
         super().__init__()
         if not (np.isfinite(floor_distance) and floor_distance > 0):
             raise ValueError(f"FuzzyDepthEstimator.floor_distance: {floor_distance} must be > 0 "
                              "(the distance to the floor D divides h_hat)")
+        if not (np.isfinite(surface_depth) and 0.0 <= surface_depth < floor_distance):
+            raise ValueError(f"FuzzyDepthEstimator.surface_depth: {surface_depth} must be in "
+                             f"[0, floor_distance = {floor_distance})")
+        self.surface_depth = float(surface_depth)
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"FuzzyDepthEstimator.period: {period} must be > 0")
         self.D = float(floor_distance)
-        h0, z0 = fuzzy_depth(initial_depth, self.D)
+        h0, z0 = fuzzy_depth(initial_depth, self.D, self.surface_depth)
         self._state = self.DeclareDiscreteState([float(h0), float(z0)])
         self._depth = self.DeclareVectorInputPort("depth", 1)
         self.DeclareVectorOutputPort("h_hat", 1, lambda c, o: o.SetAtIndex(
@@ -92,5 +107,5 @@ class FuzzyDepthEstimator(LeafSystem):
         h = self._depth.Eval(context)[0]
         if not np.isfinite(h):
             return  # hold the last valid estimate
-        h_hat, z_hat = fuzzy_depth(h, self.D)
+        h_hat, z_hat = fuzzy_depth(h, self.D, self.surface_depth)
         discrete_state.get_mutable_vector(self._state).SetFromVector([h_hat, z_hat])

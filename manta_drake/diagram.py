@@ -26,6 +26,7 @@ from manta_drake.station.station import StationHandles, build_station
 _LOGGED = (
     ("station", "plant_state", lambda s: s.log_period),
     ("controller", "desired_state", lambda s: s.log_period),
+    ("station", "joint_torque", lambda s: s.log_period),
     ("controller", "cpg_params", lambda s: s.transition.period
      if s.controller.mode == "transition" else max(s.log_period, 0.01)),
     ("station", "balloon_volume", lambda s: max(s.log_period, 0.01)),

@@ -16,6 +16,7 @@ station in another process (over LCM) or the robot itself.
     - depth_image (camera on)
     - camera_pose (camera on)
     - measured_joint_state
+    - joint_torque
     - balloon_volume (water on)
     - plant_state
     - query_object
@@ -38,6 +39,11 @@ Outputs, what the robot's sensors give:
 
 and, for logging and visualisation only (a controller must not read them):
 
+* ``joint_torque`` (16) [N m]: the torque each joint's actuator applies in the plant's
+  step, in the plant's joint order (that of ``measured_joint_state``): the plant's net
+  actuation, which includes the implicit PD's contribution (SAP evaluates the PD at the
+  step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next), clamped to the effort
+  limit), i.e. what the servos deliver, not the PD law at the logged state.
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
 
@@ -142,6 +148,19 @@ def joint_state_selector(handles: PlantHandles) -> np.ndarray:
     S = np.zeros((len(rows), plant.num_multibody_states()))
     S[np.arange(len(rows)), rows] = 1.0
     return S
+
+
+def joint_torque_port(handles: PlantHandles):
+    """The plant's net actuation output of the robot: the joint actuators' torques
+    (including the implicit PD's), in actuator order, which must be the joint order of
+    ``measured_joint_state`` (``handles.joint_names``); checked here."""
+    plant = handles.plant
+    names = tuple(plant.get_joint_actuator(i).joint().name()
+                  for i in plant.GetJointActuatorIndices(handles.robot))
+    if names != tuple(handles.joint_names):
+        raise RuntimeError(f"joint_torque: actuator order {names} is not the joint order "
+                           f"{handles.joint_names}")
+    return plant.get_net_actuation_output_port(handles.robot)
 
 
 def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
@@ -369,6 +388,7 @@ def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHan
                                       MatrixGain(joint_state_selector(plant_handles)))
     builder.Connect(plant.get_state_output_port(), selector.get_input_port())
     builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
+    builder.ExportOutput(joint_torque_port(plant_handles), "joint_torque")
     builder.ExportOutput(plant.get_state_output_port(), "plant_state")
     builder.ExportOutput(plant_handles.scene_graph.get_query_output_port(), "query_object")
     if coeffs is not None:

@@ -1,0 +1,136 @@
+"""The metric functions of scripts/transition_baselines.py on signals with known answers."""
+
+import importlib.util
+import pathlib
+
+import numpy as np
+import pytest
+
+SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "scripts" / "transition_baselines.py"
+
+
+@pytest.fixture(scope="module")
+def tb():
+    spec = importlib.util.spec_from_file_location("transition_baselines", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_step_is_the_largest_jump(tb):
+    t = np.arange(0.0, 2.0, 0.001)
+    x = np.column_stack([0.1 * np.sin(t), np.where(t >= 1.0, 0.3, 0.0)])
+    assert tb.max_step(x) == pytest.approx(0.3)
+    assert tb.max_rate(t, x) == pytest.approx(0.3 / 0.001)
+    assert tb.max_step(x[:1]) != tb.max_step(x[:1])  # NaN for a single sample
+
+
+def test_rate_of_a_ramp(tb):
+    t = np.linspace(0.0, 1.0, 101)
+    assert tb.max_rate(t, -2.5 * t) == pytest.approx(2.5)
+    assert tb.max_rate(t, np.column_stack([t, 3 * t])) == pytest.approx(3.0)
+
+
+def test_peak_and_excursion(tb):
+    assert tb.peak_abs(np.array([[1.0, -4.0], [2.0, 3.0]])) == 4.0
+    a = np.radians(np.array([-3.0, 10.0, 2.0]))
+    assert tb.excursion_deg(a) == pytest.approx(13.0)
+
+
+def test_outside_the_envelope_by_5_deg(tb):
+    t = np.linspace(0.0, 10.0, 1001)
+    steady = np.column_stack([0.5 * np.sin(t), 0.2 * np.cos(t) - 0.3])
+    lo, hi = tb.envelope(steady)
+    assert tb.outside(steady, lo, hi) == 0.0
+    x = steady.copy()
+    x[500, 1] = hi[1] + np.radians(5.0)
+    x[700, 0] = lo[0] - np.radians(2.0)
+    assert np.degrees(tb.outside(x, lo, hi)) == pytest.approx(5.0)
+
+
+def test_gait_envelope_is_bias_minus_plus_amplitude(tb):
+    from manta_drake.control.gaits import GAITS
+
+    gait = GAITS["trot"]
+    lo, hi = tb.gait_envelope(gait.to_vector())
+    assert np.allclose(lo, gait.X.ravel() - np.abs(gait.R.ravel()))
+    assert np.allclose(hi, gait.X.ravel() + np.abs(gait.R.ravel()))
+
+
+def test_settle_time_is_the_last_entry_into_the_band(tb):
+    t = np.arange(0.0, 10.0, 0.01)
+    x = np.exp(-t)[:, None] * np.array([1.0, -2.0])  # reaches |x| <= 0.01 at t = ln 200
+    s = tb.settle_time(t, x, [0.0, 0.0], 0.01, 0.0, 10.0, angles=False)
+    assert s == pytest.approx(np.log(200.0), abs=0.011)
+    # A later excursion moves the settling time after it.
+    x[600] = 0.5
+    assert tb.settle_time(t, x, [0.0, 0.0], 0.01, 0.0, 10.0, angles=False) == pytest.approx(6.01)
+    # Still outside at the end: None.
+    assert tb.settle_time(t, x, [0.0, 0.0], 0.01, 0.0, 3.0, angles=False) is None
+    # Angles are compared on the torus: pi and -pi are the same.
+    assert tb.settle_time(t, np.full((len(t), 1), np.pi), [-np.pi], 1e-9, 0.0, 10.0) == 0.0
+
+
+def test_running_envelope_is_a_forward_window(tb):
+    t = np.arange(0.0, 3.0, 0.01)
+    x = np.column_stack([np.sin(7 * t), 2 * np.cos(3 * t)])
+    lo, hi = tb.running_envelope(t, x, 0.5)
+    k = 50
+    ref_lo = np.array([x[i : i + k + 1].min(axis=0) for i in range(len(t) - k)])
+    ref_hi = np.array([x[i : i + k + 1].max(axis=0) for i in range(len(t) - k)])
+    assert np.array_equal(lo[: len(t) - k], ref_lo)
+    assert np.array_equal(hi[: len(t) - k], ref_hi)
+    assert np.isnan(lo[len(t) - k :]).all()
+
+
+def test_joint_settle_time_of_an_amplitude_change(tb):
+    # Amplitude 1 until t = 4.5 (the sine at its peak), then 0.5 with bias 0.2: the target
+    # range is [-0.3, 0.7]; just before 4.5 the old signal is near 1, far outside it.
+    t = np.arange(0.0, 12.0, 0.001)
+    amp = np.where(t < 4.5, 1.0, 0.5)
+    bias = np.where(t < 4.5, 0.0, 0.2)
+    q = (bias + amp * np.sin(2 * np.pi * 0.5 * t))[:, None]
+    s = tb.joint_settle_time(t, q, np.array([-0.3]), np.array([0.7]), 0.01, 2.0, 0.0, 12.0)
+    # Every window that holds a sample before the change is off: settled at t = 4.5.
+    assert s == pytest.approx(4.5, abs=0.002)
+
+
+def test_transition_event_of_a_switch_and_a_blend(tb):
+    src, dst = np.zeros(3), np.array([1.0, -2.0, np.pi])
+    t = np.arange(0.0, 10.0, 0.02)
+    # An abrupt switch at t = 5 (after a sample at the source): the event is the sample before.
+    psi = np.where((t >= 5.0)[:, None], dst, src)
+    assert tb.transition_event(t, psi, src, dst, 0.05) == pytest.approx(4.98)
+    # A blend from t = 3 to t = 7: psi leaves the 0.05 band when pi w = 0.05, at
+    # t = 3 + 0.2 / pi = 3.064, so the last sample at the source is t = 3.06.
+    w = np.clip((t - 3.0) / 4.0, 0.0, 1.0)[:, None]
+    psi = (1 - w) * src + w * dst
+    assert tb.transition_event(t, psi, src, dst, 0.05) == pytest.approx(3.06)
+    # Never reaching the target: None; arrivals before ``after`` are ignored.
+    assert tb.transition_event(t, psi * 0.5, src, dst, 0.05) is None
+    assert tb.transition_event(t, psi, src, dst, 0.05, after=9.9) == pytest.approx(3.06)
+
+
+def test_the_switch_target_series_jumps_at_half_depth(tb):
+    from manta_drake.control.gaits import GAITS
+
+    z = np.array([0.0, 0.2, 0.49, 0.51, 1.0])
+    psi_d = tb.target_series(z, "switch", 1.0)
+    swim, trot = GAITS["swim"].to_vector(), GAITS["trot"].to_vector()
+    assert np.array_equal(psi_d[:3], np.tile(swim, (3, 1)))
+    assert np.array_equal(psi_d[3:], np.tile(trot, (2, 1)))
+    linear = tb.target_series(z, "linear", 1.0)
+    assert np.allclose(linear[1], 0.8 * swim + 0.2 * trot)
+
+
+def test_markdown_table_formats_missing_values(tb):
+    rows = [{"method": "m", "transition": "swim->trot", "event_s": 1.0, "window_s": [1.0, 13.0],
+             "settle_params_s": None, "max_cmd_step_rad": float("nan")}]
+    table = tb.markdown_table(rows)
+    assert "> 12" in table and "n/a" in table and table.count("\n") == 2
+
+
+def test_gait_changes_counts_chatter(tb):
+    assert tb.gait_changes([None, "trot", "trot"], "swim") == 1
+    assert tb.gait_changes(["swim", "trot", None, "swim", "trot"], "swim") == 3
+    assert tb.gait_changes([None, None], "swim") == 0

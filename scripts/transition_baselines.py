@@ -585,11 +585,19 @@ def reading(rows: list[dict]) -> list[str]:
                 f"with z_hat = {w['z_hat']:.2f}.")
         if r.get("blend") == "potential":
             z = min(max(w["z_hat"], 0.0), 1.0)
-            text += (f" At that z_hat Eq. (12)'s weights on the two gaits, cos(pi z/2) and "
-                     f"sin(pi z/2), sum to {np.cos(np.pi * z / 2) + np.sin(np.pi * z / 2):.2f}"
-                     " (Eq. 11's always to 1): the blend is not convex, so a joint can keep "
-                     "most of the swimming amplitude while its bias already moves toward the "
-                     "trot's.")
+            weights = np.cos(np.pi * z / 2) + np.sin(np.pi * z / 2)
+            if weights > 1.01:
+                text += (f" At that z_hat Eq. (12)'s weights on the two gaits, cos(pi z/2) and "
+                         f"sin(pi z/2), sum to {weights:.2f} (Eq. 11's always to 1): the blend "
+                         "is not convex, so a joint can keep most of the swimming amplitude "
+                         "while its bias already moves toward the trot's.")
+            else:
+                text += (f" At that z_hat the target is a gait (Eq. (12)'s weights sum to "
+                         f"{weights:.2f}); psi is still on its way, off the straight line "
+                         "between the gaits: Eq. (15)'s descent moves every parameter by at "
+                         "most alpha g T per update, so the parameters with the larger changes "
+                         "(the phases, up to pi) arrive last and meanwhile amplitude and bias "
+                         "combine as in neither gait.")
         out.append(text)
     surface = [r["z_hat_steady_range"][0] for r in rows
                if r["transition"] == "swim->trot" and "z_hat_steady_range" in r]

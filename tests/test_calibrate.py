@@ -210,7 +210,12 @@ def test_calibration_recovers_a_known_hull_damping_on_a_cluster(tmp_path):
         result = C.calibrate(config, tmp_path / "out", client=client, progress=False)
     fitted = result.fitted()["hull_damping"]
     assert abs(fitted - 1.25) / 1.25 < 0.10, result
-    assert result.cost < 0.2 * result.initial_cost
+    # Residuals are standard scores of noise with the stated sigma: at the truth the cost
+    # 0.5 sum r^2 is 0.5 chi^2_n (mean n/2, sd sqrt(n/2)). The fit must reach that floor
+    # (within 3 sd) from a start well above it.
+    n = 3 * len(data["swim"]["t"])
+    assert result.cost < 0.5 * n + 3 * np.sqrt(0.5 * n), (result.cost, n)
+    assert result.initial_cost > 2 * result.cost
     assert np.isfinite(result.standard_error[0]) and result.standard_error[0] < 0.1
     written = dict(load_coefficients(result.coefficients_file).entries())
     prior = dict(load_coefficients().entries())

@@ -497,5 +497,8 @@ def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt):
             peak = np.inf
         return peak
 
-    assert peak_pitch_rate(0.9) < 2.0  # rad/s: the swim's own rocking
-    assert peak_pitch_rate(1.5) > 50.0
+    stable = peak_pitch_rate(0.9)
+    assert stable < 0.5  # rad/s: the swim's own rocking (0.14 measured at every dt)
+    # Unstable: 10-29 rad/s within 1.5 s (measured at 2, 1 and 0.5 ms), growing until the
+    # quadratic damping holds it; 70-200 times the stable swim's peak.
+    assert peak_pitch_rate(1.5) > 20 * max(stable, 0.05)

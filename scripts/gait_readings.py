@@ -47,10 +47,12 @@ def printed(name: str) -> G.GaitParams:
 
 
 def mirrored(g: G.GaitParams, from_left: bool) -> G.GaitParams:
+    """``g`` with R and X made mirror-symmetric from its printed left (or right) rows."""
+    if from_left:
+        return G.GaitParams(G.mirror_right_fins(g.R), G.mirror_right_fins(g.X), g.Phi,
+                            g.Phi_prime)
     R, X = g.R.copy(), g.X.copy()
-    for left, right in ((0, 1), (2, 3)):
-        src, dst = (left, right) if from_left else (right, left)
-        R[dst], X[dst] = G.MIRROR_SIGNS * R[src], G.MIRROR_SIGNS * X[src]
+    R[[0, 2]], X[[0, 2]] = G.MIRROR_SIGNS * R[[1, 3]], G.MIRROR_SIGNS * X[[1, 3]]
     return G.GaitParams(R, X, g.Phi, g.Phi_prime)
 
 

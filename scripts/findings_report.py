@@ -1,0 +1,781 @@
+#!/usr/bin/env python3
+"""Evaluates the five locomotion findings of the paper's section 4.1 over the uncertainty band.
+
+Reads the table of the sweep ``diagrams/sweeps/findings.yaml`` (five gaits x foot-floor friction
+0.5 / 0.65 / 0.8 x hull damping x0.7 / 1.0 / 1.3 x deflated net weight 0.6 / 0.85 / 1.1 kg) and
+decides, at every band point (one friction, damping and weight), whether each finding holds,
+fails or is undetermined:
+
+1. every gait moves forward   the forward gaits swim, trot and walk each have u > U_FORWARD;
+2. walk is the fastest gait   u_walk > u of every other gait (swim, trot, crab, turning);
+3. swimming is slower than walking   u_swim < u_walk;
+4. crab moves mostly sideways |v_crab| > SIDEWAYS_RATIO |u_crab| and |v_crab| > V_SIDEWAYS;
+5. turning turns              |yaw rate| of turning >= YAW_TURN and > |yaw rate| of every
+                              other gait.
+
+Gaits are compared at the same band point. A gait whose run has no mean velocity (steady
+window too short, run not ok, or row missing) is *undetermined*; a finding is evaluated in
+three-valued (Kleene) logic: it fails if a determined comparison already fails, is
+undetermined if it would need an undetermined value, and holds only if every comparison it
+needs is determined and true. The reported fraction is holds / band points, so an
+undetermined point never counts as holding.
+
+Variants (reported separately, labelled): walk fastest and turning turns among the gaits on
+the floor only (without the swim), and "moves forward" per gait for all five gaits.
+
+Writes a markdown block (the table, per-gait medians and ranges, per-point verdicts) into
+``--out-md``: between the markers ``<!-- findings-report:begin -->`` and
+``<!-- findings-report:end -->`` if the file has them (the hand-written text around them is
+kept), else as a new file. Writes the figure ``--out-fig``.
+
+Usage (either the table of a fresh sweep or the copy shipped in the repository):
+
+    manta-drake sweep diagrams/sweeps/findings.yaml --out out/findings
+    python scripts/findings_report.py                      # reads out/findings/results.csv
+    python scripts/findings_report.py --results diagrams/sweeps/data/findings_results.csv
+
+``--diagnose DIR`` instead runs the targeted simulations behind the explanations in
+docs/findings.md (``DIAGNOSTIC_RUNS``: contacts, slip and the water's forces of single gaits at
+single band points; one at a time, about 5 min) and writes ``DIR/diagnostics.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses as dc
+import math
+import pathlib
+import statistics
+import sys
+import textwrap
+
+# ---------------------------------------------------------------------------------------------
+# Criteria (thresholds and what they mean)
+
+# "Moves": mean speed above 0.01 m/s, i.e. 0.14 m over the full 14 s free-water window (6-20 s),
+# more than a third of the body length (0.38 m). Gaits that do not walk drift by up to ~0.015 m/s
+# (the turning gait's u in the band), so a smaller threshold would count drift as locomotion.
+U_FORWARD = 0.01  # m/s
+# "Mostly sideways": the mean velocity's direction within atan(1/2) = 26.6 deg of the body's
+# lateral axis, and the crab actually moving (the same 0.01 m/s as "moves").
+SIDEWAYS_RATIO = 2.0
+V_SIDEWAYS = 0.01  # m/s
+# "Turns": at least 3 deg/s, 42 deg over the 14 s window (a U-turn within a minute), and more
+# than any other gait at the same point (the other gaits drift by up to ~6 deg/s in the band).
+YAW_TURN = 3.0  # deg/s
+PASS_LINE = 0.8  # a finding "holds over the band" if it holds at >= 80 % of the band points
+
+GAITS = ("swim", "trot", "walk", "crab", "turning")
+FORWARD_GAITS = ("swim", "trot", "walk")  # section 4.1's forward locomotion (Figs. 6-7)
+FLOOR_GAITS = ("trot", "walk", "crab", "turning")
+BAND_KEYS = ("contact.friction", "hull_damping", "net_weight_kg")
+BAND_LABELS = {"contact.friction": "friction", "hull_damping": "hull damping x",
+               "net_weight_kg": "net weight kg"}
+MARK_BEGIN = "<!-- findings-report:begin -->"
+MARK_END = "<!-- findings-report:end -->"
+DEFAULT_RESULTS = "out/findings/results.csv"
+SHIPPED_RESULTS = "diagrams/sweeps/data/findings_results.csv"
+
+
+@dc.dataclass(frozen=True)
+class Motion:
+    """One gait's mean motion at one band point; None = undetermined."""
+
+    u: float | None = None  # mean forward velocity [m/s] (body frame, free-water window)
+    v: float | None = None  # mean leftward velocity [m/s]
+    yaw: float | None = None  # mean yaw rate [deg/s]
+    window_s: float | None = None  # length of the free-water window [s]
+
+
+UNDETERMINED = Motion()
+
+
+def _and(values) -> bool | None:
+    """Kleene AND: False if any is False, else None if any is None, else True."""
+    values = list(values)
+    if any(v is False for v in values):
+        return False
+    if any(v is None for v in values):
+        return None
+    return True
+
+
+def _get(point: dict, gait: str) -> Motion:
+    return point.get(gait) or UNDETERMINED
+
+
+def moves_forward(point: dict, gait: str) -> bool | None:
+    """u of ``gait`` > U_FORWARD (None if its u is undetermined)."""
+    u = _get(point, gait).u
+    return None if u is None else u > U_FORWARD
+
+
+def every_gait_forward(point: dict, gaits=FORWARD_GAITS) -> bool | None:
+    """Finding 1: every gait in ``gaits`` moves forward."""
+    return _and(moves_forward(point, g) for g in gaits)
+
+
+def walk_fastest(point: dict, others=tuple(g for g in GAITS if g != "walk")) -> bool | None:
+    """Finding 2: u_walk strictly greater than u of every gait in ``others``."""
+    u_walk = _get(point, "walk").u
+    if u_walk is None:
+        return None
+    return _and(None if _get(point, g).u is None else u_walk > _get(point, g).u for g in others)
+
+
+def swim_slower_than_walk(point: dict) -> bool | None:
+    """Finding 3: u_swim < u_walk."""
+    u_swim, u_walk = _get(point, "swim").u, _get(point, "walk").u
+    if u_swim is None or u_walk is None:
+        return None
+    return u_swim < u_walk
+
+
+def crab_sideways(point: dict) -> bool | None:
+    """Finding 4: |v| > SIDEWAYS_RATIO |u| and |v| > V_SIDEWAYS for the crab."""
+    m = _get(point, "crab")
+    if m.u is None or m.v is None:
+        return None
+    return abs(m.v) > SIDEWAYS_RATIO * abs(m.u) and abs(m.v) > V_SIDEWAYS
+
+
+def turning_turns(point: dict, others=tuple(g for g in GAITS if g != "turning")) -> bool | None:
+    """Finding 5: |yaw rate| of turning >= YAW_TURN and > |yaw rate| of every gait in ``others``.
+
+    A turning gait that turns less than YAW_TURN fails whatever the others do."""
+    y = _get(point, "turning").yaw
+    if y is None:
+        return None
+    if abs(y) < YAW_TURN:
+        return False
+    return _and(None if _get(point, g).yaw is None else abs(y) > abs(_get(point, g).yaw)
+                for g in others)
+
+
+# (key, label, criterion text, function); the first five are the paper's findings.
+FINDINGS = (
+    ("forward", "1. every gait moves forward",
+     f"u > {U_FORWARD} m/s for swim, trot and walk", every_gait_forward),
+    ("walk_fastest", "2. walk is the fastest gait",
+     "u_walk > u of swim, trot, crab and turning", walk_fastest),
+    ("swim_slower", "3. swimming is slower than walking", "u_swim < u_walk",
+     swim_slower_than_walk),
+    ("crab_sideways", "4. crab moves mostly sideways",
+     f"\\|v\\| > {SIDEWAYS_RATIO:g} \\|u\\| and \\|v\\| > {V_SIDEWAYS} m/s", crab_sideways),
+    ("turning_turns", "5. turning turns",
+     f"\\|yaw rate\\| >= {YAW_TURN:g} deg/s and > every other gait's", turning_turns),
+)
+VARIANTS = (
+    ("walk_fastest_floor", "2'. walk fastest among the floor gaits",
+     "u_walk > u of trot, crab and turning (swim left out)",
+     lambda p: walk_fastest(p, ("trot", "crab", "turning"))),
+    ("turning_turns_floor", "5'. turning turns, compared with the floor gaits",
+     f"\\|yaw rate\\| >= {YAW_TURN:g} deg/s and > trot's, walk's and crab's",
+     lambda p: turning_turns(p, ("trot", "walk", "crab"))),
+) + tuple(
+    (f"forward_{g}", f"{g} moves forward", f"u_{g} > {U_FORWARD} m/s",
+     (lambda p, g=g: moves_forward(p, g)))
+    for g in GAITS
+)
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading the table
+
+
+def _float(cell) -> float | None:
+    if cell is None or str(cell).strip() == "":
+        return None
+    x = float(cell)
+    return x if math.isfinite(x) else None
+
+
+def gait_of(base: str) -> str:
+    """``locomotion_walk`` (or a path ending in it, with or without .yaml) -> ``walk``."""
+    name = pathlib.Path(str(base)).name
+    return name.removesuffix(".yaml").removeprefix("locomotion_")
+
+
+def motion_of(row: dict) -> Motion:
+    """A results.csv row -> Motion; a run that is not ok or has no u/v is undetermined (its
+    yaw rate is kept only when the velocities are there: they share the window)."""
+    if row.get("status", "ok") != "ok":
+        return UNDETERMINED
+    u, v = _float(row.get("u")), _float(row.get("v"))
+    if u is None or v is None:
+        return UNDETERMINED
+    start, end = _float(row.get("steady_start_s")), _float(row.get("steady_end_s"))
+    window = None if start is None or end is None else end - start
+    return Motion(u, v, _float(row.get("yaw_rate_deg_s")), window)
+
+
+def band_points(rows) -> dict:
+    """{(friction, damping, weight): {gait: Motion}} from results rows (dicts of strings).
+
+    Raises ValueError on a gait that appears twice at one point (two seeds are not averaged
+    silently)."""
+    points: dict = {}
+    for row in rows:
+        key = tuple(float(row[k]) for k in BAND_KEYS)
+        gait = gait_of(row["base"])
+        point = points.setdefault(key, {})
+        if gait in point:
+            raise ValueError(f"{gait} appears twice at band point {key} "
+                             f"(more than one seed?); give one row per gait and point")
+        point[gait] = motion_of(row)
+    return dict(sorted(points.items()))
+
+
+def read_results(path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+# ---------------------------------------------------------------------------------------------
+# Evaluation
+
+
+@dc.dataclass
+class Tally:
+    key: str
+    label: str
+    criterion: str
+    holds: int = 0
+    fails: int = 0
+    undetermined: int = 0
+
+    @property
+    def total(self) -> int:
+        return self.holds + self.fails + self.undetermined
+
+    @property
+    def fraction(self) -> float:
+        return self.holds / self.total if self.total else math.nan
+
+
+def evaluate(points: dict, findings=FINDINGS) -> tuple[list[Tally], dict]:
+    """Tallies per finding and the verdicts {point: {key: True/False/None}}."""
+    tallies = [Tally(key, label, text) for key, label, text, _ in findings]
+    verdicts = {}
+    for pt, motions in points.items():
+        verdicts[pt] = {}
+        for tally, (key, _, _, fn) in zip(tallies, findings):
+            result = fn(motions)
+            verdicts[pt][key] = result
+            if result is True:
+                tally.holds += 1
+            elif result is False:
+                tally.fails += 1
+            else:
+                tally.undetermined += 1
+    return tallies, verdicts
+
+
+def gait_stats(points: dict) -> dict:
+    """Per gait: n, undetermined, and (median, min, max) of u, v, yaw and the window length."""
+    out = {}
+    for gait in GAITS:
+        ms = [p.get(gait, UNDETERMINED) for p in points.values()]
+        det = [m for m in ms if m.u is not None]
+        entry = {"n": len(ms), "undetermined": len(ms) - len(det)}
+        for field in ("u", "v", "yaw", "window_s"):
+            xs = [getattr(m, field) for m in det if getattr(m, field) is not None]
+            entry[field] = (statistics.median(xs), min(xs), max(xs)) if xs else None
+        out[gait] = entry
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Output
+
+
+def _fmt_range(stat, digits: int) -> str:
+    if stat is None:
+        return "-"
+    med, lo, hi = stat
+    return f"{med:.{digits}f} ({lo:.{digits}f} to {hi:.{digits}f})"
+
+
+def _verdict_mark(v) -> str:
+    return {True: "yes", False: "**no**", None: "?"}[v]
+
+
+def markdown_block(tallies, variant_tallies, stats, verdicts, source: str) -> str:
+    lines = [MARK_BEGIN,
+             f"<!-- generated by scripts/findings_report.py from {source}; do not edit by hand -->",
+             "",
+             ("| finding | criterion at each band point | holds | fails | undetermined "
+              "| fraction of the band |"),
+             "| --- | --- | --- | --- | --- | --- |"]
+
+    def row(t):
+        flag = "" if t.fraction >= PASS_LINE else " (below 80 %)"
+        return (f"| {t.label} | {t.criterion} | {t.holds}/{t.total} | {t.fails} | "
+                f"{t.undetermined} | {100 * t.fraction:.0f} %{flag} |")
+
+    lines += [row(t) for t in tallies]
+    lines += ["", "Variants (not the paper's statements; they separate the causes):", "",
+              "| variant | criterion | holds | fails | undetermined | fraction of the band |",
+              "| --- | --- | --- | --- | --- | --- |"]
+    lines += [row(t) for t in variant_tallies]
+    lines += ["", ("Per gait over the band: median (min to max) of the free-water window's "
+                   "mean velocity and yaw rate."), "",
+              "| gait | runs | undetermined | u m/s | v m/s | yaw rate deg/s | window s |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
+    for gait, s in stats.items():
+        lines.append(f"| {gait} | {s['n']} | {s['undetermined']} | {_fmt_range(s['u'], 3)} | "
+                     f"{_fmt_range(s['v'], 3)} | {_fmt_range(s['yaw'], 1)} | "
+                     f"{_fmt_range(s['window_s'], 1)} |")
+    keys = [t.key for t in tallies]
+    lines += ["", "Per band point (yes = holds, **no** = fails, ? = undetermined):", "",
+              "| friction | hull damping x | net weight kg | "
+              + " | ".join(t.label.split(".")[0] for t in tallies) + " |",
+              "| --- | --- | --- | " + " | ".join("---" for _ in keys) + " |"]
+    for pt, vd in verdicts.items():
+        lines.append(f"| {pt[0]:g} | {pt[1]:g} | {pt[2]:g} | "
+                     + " | ".join(_verdict_mark(vd[k]) for k in keys) + " |")
+    lines += ["", MARK_END]
+    return "\n".join(lines)
+
+
+def write_markdown(path: pathlib.Path, block: str) -> None:
+    """Replaces the marked block of ``path`` (keeping the rest), or writes a new file."""
+    if path.exists():
+        text = path.read_text()
+        if MARK_BEGIN in text and MARK_END in text:
+            head, rest = text.split(MARK_BEGIN, 1)
+            tail = rest.split(MARK_END, 1)[1]
+            path.write_text(head + block + tail)
+            return
+        raise SystemExit(f"error: {path} exists but has no {MARK_BEGIN} ... {MARK_END} block; "
+                         f"add the two markers where the table belongs, or choose another "
+                         f"--out-md")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("# Findings of section 4.1 over the uncertainty band\n\n" + block + "\n")
+
+
+def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    fig = plt.figure(figsize=(17, 8.5))
+    grid = fig.add_gridspec(3, 6, width_ratios=[1.6, 1, 1, 1, 1, 1], wspace=0.35, hspace=0.3,
+                            left=0.11, right=0.99, top=0.92, bottom=0.08)
+
+    # Left: fraction of the band where each finding (and variant) holds, fails, is undetermined.
+    ax = fig.add_subplot(grid[:, 0])
+    shown = list(tallies) + [t for t in variant_tallies if not t.key.startswith("forward_")]
+    y = list(range(len(shown)))[::-1]
+    for i, (yi, t) in enumerate(zip(y, shown)):
+        n = max(t.total, 1)
+        alpha = 1.0 if i < len(tallies) else 0.5
+        ax.barh(yi, t.holds / n, color="tab:green" if t.fraction >= PASS_LINE else "tab:red",
+                alpha=alpha)
+        ax.barh(yi, t.fails / n, left=t.holds / n, color="mistyrose", alpha=alpha,
+                edgecolor="tab:red", lw=0.5)
+        ax.barh(yi, t.undetermined / n, left=(t.holds + t.fails) / n, color="0.75")
+        ax.text(1.02, yi, f"{t.holds}/{t.total}", va="center", fontsize=9)
+    ax.axvline(PASS_LINE, color="k", ls="--", lw=1)
+    ax.text(PASS_LINE, len(shown) - 0.45, "80 %", fontsize=9, ha="center")
+    ax.set_yticks(y, [textwrap.fill(t.label, 24) for t in shown], fontsize=9)
+    ax.set_xlim(0, 1.15)
+    ax.set_xticks([0, 0.2, 0.4, 0.6, 0.8, 1.0])
+    ax.set_ylim(-0.6, len(shown) - 0.2)
+    ax.set_xlabel(f"fraction of the {shown[0].total} band points\n"
+                  "(solid: holds, pale: fails, grey: undetermined)", fontsize=9)
+    ax.set_title("Findings of section 4.1 over the band\n(lighter: variants without the swim)",
+                 fontsize=10)
+
+    # Right: u, v and yaw rate of each gait against friction; colour = net weight,
+    # marker = hull damping, small horizontal offset per damping.
+    weights = sorted({p[2] for p in points})
+    dampings = sorted({p[1] for p in points})
+    cmap = plt.get_cmap("viridis")
+    colour = {w: cmap(i / max(1, len(weights) - 1)) for i, w in enumerate(weights)}
+    markers = dict(zip(dampings, ["v", "o", "^", "s", "D"]))
+    offset = {d: (i - (len(dampings) - 1) / 2) * 0.012 for i, d in enumerate(dampings)}
+    rows = (("u", "u  [m/s]", U_FORWARD), ("v", "v  [m/s]", V_SIDEWAYS),
+            ("yaw", "yaw rate  [deg/s]", YAW_TURN))
+    axes = {}
+    for r, (field, ylabel, thr) in enumerate(rows):
+        for c, gait in enumerate(GAITS):
+            a = fig.add_subplot(grid[r, c + 1], sharey=axes.get((r, 0)))
+            axes[(r, c)] = a
+            for (fr, dmp, w), motions in points.items():
+                m = motions.get(gait, UNDETERMINED)
+                val = getattr(m, field)
+                if val is None:
+                    a.plot(fr + offset[dmp], 0, marker="x", color="red", ms=6)
+                    continue
+                a.plot(fr + offset[dmp], val, marker=markers[dmp], color=colour[w], ms=5,
+                       ls="none", mec="k", mew=0.3)
+            a.axhline(0, color="0.5", lw=0.6)
+            for s in (1, -1):
+                a.axhline(s * thr, color="0.4", lw=0.7, ls=":")
+            a.set_xticks(sorted({p[0] for p in points}))
+            a.tick_params(labelsize=8)
+            a.grid(alpha=0.3)
+            if r == 0:
+                a.set_title(gait, fontsize=10)
+            if r == len(rows) - 1:
+                a.set_xlabel("foot-floor friction", fontsize=9)
+            else:
+                a.tick_params(labelbottom=False)
+            if c == 0:
+                a.set_ylabel(ylabel, fontsize=9)
+            else:
+                a.tick_params(labelleft=False)
+    handles = [Line2D([], [], ls="none", marker="o", color=colour[w], label=f"net weight {w:g} kg")
+               for w in weights]
+    handles += [Line2D([], [], ls="none", marker=markers[d], color="0.3", label=f"hull damping x{d:g}")
+                for d in dampings]
+    handles += [Line2D([], [], color="0.4", ls=":", label=f"thresholds: {U_FORWARD} m/s, "
+                        f"{V_SIDEWAYS} m/s, {YAW_TURN:g} deg/s")]
+    fig.legend(handles=handles, loc="upper center", ncol=7, fontsize=8, frameon=False,
+               bbox_to_anchor=(0.6, 0.995))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------------------------------
+# Diagnostics (--diagnose DIR): the targeted simulations behind docs/findings.md's explanations.
+# Each is a shipped gait scenario at one band point, simulated one at a time with the same
+# diagram, seed and step grid as the sweep (its u, v and yaw rate equal the sweep's), sampled
+# at every plant step (1 ms): the hull's pose and velocity, every contact with the floor (Drake's
+# ContactResults: force, point, slip speed, the robot's geometry) and the water's forces by
+# term (recomputed from the state with manta_drake.station.water's functions).
+
+SAMPLE_PERIOD = 0.001  # s: every plant step (sampling every 10 ms aliased the contact forces:
+#                        the traction of a 20 s walk came out 30 % short of the water drag)
+SLIDING = 0.005  # m/s: a contact whose slip speed exceeds this is sliding (SAP's regularised
+#                  friction lets a stuck contact creep at well under 1 mm/s)
+
+
+def band_scenario(gait: str, friction: float, damping: float, weight: float, duration: float,
+                  extra: dict | None = None):
+    """The shipped ``locomotion_<gait>`` at one band point, as the sweep resolves it."""
+    from manta_drake.scenario import load_scenario
+    from manta_drake.sweep import apply_overrides
+
+    overrides = {"contact.friction": friction,
+                 "water.coefficient_scales.body.linear_damping": damping,
+                 "water.coefficient_scales.body.quadratic_damping": damping,
+                 "net_weight_kg": weight, "random_seed": 0, "duration": duration,
+                 "visualization.meshcat": False, **(extra or {})}
+    return apply_overrides(load_scenario(f"locomotion_{gait}"), overrides)
+
+
+def swim_without_phase_lag():
+    """Diagnostic gait: the shipped swim with Phi'_swim = 0 (the printed matrix asks for a
+    left-right lag that no set of phases satisfies, docs/design.md contradiction (d))."""
+    import numpy as np
+
+    from manta_drake.control.gaits import GAITS, GaitParams
+
+    g = GAITS["swim"]
+    return GaitParams(g.R, g.X, g.Phi, np.zeros((4, 4)))
+
+
+def sample_run(scenario, period: float = SAMPLE_PERIOD) -> dict:
+    """Simulates ``scenario`` and samples it every ``period`` s (see the section comment).
+
+    Returns a dict: numpy arrays ``t``, ``xyz`` (N, 3), ``quat_wxyz`` (N, 4), ``yaw`` (N,),
+    ``v_world`` (N, 3), ``hydro`` (N, 3, 3): the world force [N] of the hull's damping, the
+    16 links' damping and the fin strips (blade elements) at each sample; and ``contacts``:
+    per sample a list of tuples (kind, leg, p_W (3), f_W on the robot (3), v_W of the
+    robot's point (3), slip speed) of the robot's contacts with the floor; kind: foot (the
+    sphere at a fin tip), proximal plate, distal plate (a fin plate's box), hull."""
+    import numpy as np
+    from pydrake.multibody.tree import BodyIndex
+
+    from manta_drake.diagram import build_diagram
+    from manta_drake.simulate import make_simulator
+    from manta_drake.station import water as W
+
+    diagram, h = build_diagram(scenario)
+    sim = make_simulator(diagram, scenario)
+    root = sim.get_mutable_context()
+    plant = h.plant
+    pctx = plant.GetMyContextFromRoot(root)
+    robot_bodies = {int(i) for i in plant.GetBodyIndices(h.plant_handles.robot)}
+    hull = h.plant_handles.body
+    hydro = h.systems.get("hydro")
+    hydro_bodies = [plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else []
+    inspector = h.station_handles.plant_handles.scene_graph.model_inspector()
+    steps = max(1, round(period / scenario.time_step))
+    n = round(scenario.duration / (steps * scenario.time_step))
+    out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "contacts")}
+    sim.Initialize()
+    for k in range(n + 1):
+        if k:
+            sim.AdvanceTo(k * steps * scenario.time_step)
+        X = plant.EvalBodyPoseInWorld(pctx, hull)
+        out["t"].append(root.get_time())
+        out["xyz"].append(X.translation().copy())
+        out["quat_wxyz"].append(X.rotation().ToQuaternion().wxyz())
+        R = X.rotation().matrix()
+        out["yaw"].append(np.arctan2(R[1, 0], R[0, 0]))
+        out["v_world"].append(plant.EvalBodySpatialVelocityInWorld(pctx, hull).translational())
+        if hydro is not None:
+            Xs = [plant.EvalBodyPoseInWorld(pctx, b) for b in hydro_bodies]
+            Vs = [plant.EvalBodySpatialVelocityInWorld(pctx, b) for b in hydro_bodies]
+            Rb = np.array([x.rotation().matrix() for x in Xs])
+            pb = np.array([x.translation() for x in Xs])
+            wb = np.array([v.rotational() for v in Vs])
+            vb = np.array([v.translational() for v in Vs])
+            _, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
+            D = W.damping_wrenches(Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad,
+                                   body_frac)
+            _, fs = W.fin_strip_forces(Rb, wb, vb, hydro.current, hydro.el, frac, hydro.rho,
+                                       hydro.c_normal, hydro.c_friction, hydro.pitch_max,
+                                       hydro.pitch_pressure)
+            out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fs.sum(0)]))
+        results = plant.get_contact_results_output_port().Eval(pctx)
+        contacts = []
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            pair = info.point_pair()
+            a_is_robot = int(info.bodyA_index()) in robot_bodies
+            if a_is_robot == (int(info.bodyB_index()) in robot_bodies):
+                continue
+            body = plant.get_body(info.bodyA_index() if a_is_robot else info.bodyB_index())
+            if "floor" not in inspector.GetName(pair.id_B if a_is_robot else pair.id_A):
+                continue
+            geom = inspector.GetName(pair.id_A if a_is_robot else pair.id_B)
+            kind = ("hull" if body.name() == "body" else "foot" if "foot" in geom
+                    else {"link3": "proximal plate", "link4": "distal plate"}.get(
+                        body.name().split("_")[-1], body.name()))
+            p = info.contact_point()
+            f = info.contact_force() * (-1.0 if a_is_robot else 1.0)  # on the robot
+            Vb = plant.EvalBodySpatialVelocityInWorld(pctx, body)
+            v = Vb.Shift(p - plant.EvalBodyPoseInWorld(pctx, body).translation()).translational()
+            contacts.append((kind, body.name().split("_")[0], p.copy(), np.array(f),
+                             np.array(v), info.slip_speed()))
+        out["contacts"].append(contacts)
+    for key in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro"):
+        out[key] = np.array(out[key])
+    return out
+
+
+def metric_window(samples: dict, scenario) -> tuple[float, float] | None:
+    """The free-water window exactly as ``simulate.compute_metrics`` finds it (from
+    ``steady_after``, at most half the run, until the hull comes within
+    ``free_water_margin`` of a wall), at the samples' times; None if shorter than 1 s."""
+    from manta_drake import metrics as M
+    from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT
+    from manta_drake.simulate import MIN_STEADY_WINDOW
+
+    t = samples["t"]
+    clearance = M.wall_clearance(samples["xyz"], samples["quat_wxyz"],
+                                 DEFAULT_ROBOT.body_semi_axes, DEFAULT_POOL.length / 2,
+                                 DEFAULT_POOL.width / 2)
+    near = M.free_water_end(t, clearance, scenario.free_water_margin)
+    start = min(scenario.steady_after, 0.5 * float(t[-1]))
+    end = float(t[-1]) if near is None else near
+    return (start, end) if end - start >= MIN_STEADY_WINDOW else None
+
+
+def whole_cycles(window, period_s: float) -> tuple[float, float]:
+    """The window shortened to a whole number of gait periods (at least one, if it has one),
+    so a mean over it does not keep a part-cycle share of the gait's oscillating forces."""
+    n = math.floor((window[1] - window[0]) / period_s + 1e-9)
+    return (window[0], window[0] + n * period_s) if n >= 1 else tuple(window)
+
+
+def heading_frame(yaw):
+    """(forward, left) horizontal unit vectors for the heading angle(s) ``yaw``."""
+    import numpy as np
+
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c, s, 0 * c], -1), np.stack([-s, c, 0 * c], -1)
+
+
+def motion_summary(samples: dict, window) -> dict:
+    """u, v [m/s] and yaw rate [deg/s] over the window by the metric's own functions, and the
+    hull's mean horizontal speed."""
+    import numpy as np
+
+    from manta_drake import metrics as M
+
+    t, q, xyz = samples["t"], samples["quat_wxyz"], samples["xyz"]
+    u, v = M.mean_velocity_from_displacement(t, q, xyz, window[0], window[1])
+    m = (t >= window[0]) & (t <= window[1])
+    return {"u": u, "v": v, "yaw_rate": M.yaw_rate_deg_s(t, q, window[0], window[1]),
+            "speed": float(np.linalg.norm(samples["v_world"][m][:, :2], axis=1).mean()),
+            "window": [float(window[0]), float(window[1])]}
+
+
+def hydro_summary(samples: dict, window) -> dict:
+    """Mean forward (heading-frame) force [N] of each water term over the window."""
+    import numpy as np
+
+    t = samples["t"]
+    m = (t >= window[0]) & (t < window[1])
+    fwd, _ = heading_frame(samples["yaw"][m])
+    F = samples["hydro"][m]  # (N, 3 terms, 3)
+    mean = np.einsum("ntk,nk->t", F, fwd) / m.sum()
+    return dict(zip(("hull_damping", "link_damping", "fin_strips"), map(float, mean)))
+
+
+def contact_summary(samples: dict, window) -> dict:
+    """The robot's floor contacts over the window, in the heading frame of each sample.
+
+    Returns ``load``: the mean total normal force [N]; ``share``: its fraction per kind of
+    geometry (``sample_run``); ``traction``: the mean forward friction force [N]; and for
+    all contacts together (``all``) and per leg (``legs``): ``share`` of the normal load,
+    normal-force-weighted means of the robot's contact point's horizontal velocity
+    ``slip_u``, ``slip_v`` [m/s] (zero if nothing slides) and of the hull's velocity
+    relative to that point, ``noslip_u``, ``noslip_v`` (the stride's own speed: what the
+    hull would do if the loaded points held), and ``sliding``: the fraction of the normal
+    load on points sliding faster than SLIDING."""
+    import numpy as np
+
+    t = samples["t"]
+    kinds: dict = {}
+    acc: dict = {}  # per leg: [fn, fn slip_u, fn slip_v, fn noslip_u, fn noslip_v, sliding fn]
+    traction, n = 0.0, 0
+    for k in np.flatnonzero((t >= window[0]) & (t < window[1])):
+        n += 1
+        fwd, left = heading_frame(samples["yaw"][k])
+        v_hull = samples["v_world"][k]
+        for kind, leg, _, f, v, slip in samples["contacts"][k]:
+            fn = max(float(f[2]), 0.0)
+            kinds[kind] = kinds.get(kind, 0.0) + fn
+            rel = v_hull - v  # the hull's velocity relative to the robot's contact point
+            row = fn * np.array([1.0, v @ fwd, v @ left, rel @ fwd, rel @ left,
+                                 1.0 if slip > SLIDING else 0.0])
+            acc[leg] = acc.get(leg, np.zeros(6)) + row
+            traction += float(f @ fwd)
+    total = sum(kinds.values())
+
+    def stats(a):
+        w = a[0] if a[0] > 0 else math.nan
+        return {"share": a[0] / total if total else math.nan, "slip_u": a[1] / w,
+                "slip_v": a[2] / w, "noslip_u": a[3] / w, "noslip_v": a[4] / w,
+                "sliding": a[5] / w}
+
+    return {"load": total / max(n, 1), "traction": traction / max(n, 1),
+            "share": {k: v / total for k, v in sorted(kinds.items())},
+            "all": stats(sum(acc.values(), np.zeros(6))),
+            "legs": {leg: stats(a) for leg, a in sorted(acc.items())}}
+
+
+# name: (gait, friction, damping x, net weight kg, duration s, extra overrides, gait override)
+DIAGNOSTIC_RUNS = {
+    # What sets the swim's speed and yaw (one band point, 10 s: steady from ~4 s).
+    "swim": ("swim", 0.65, 1.0, 0.85, 10.0, {}, None),
+    "swim_rigid_fins": ("swim", 0.65, 1.0, 0.85, 10.0,
+                        {"water.coefficient_scales.fins.passive_pitch_max_deg": 0.0}, None),
+    "swim_passive_pitch_x0.5": ("swim", 0.65, 1.0, 0.85, 10.0,
+                                {"water.coefficient_scales.fins.passive_pitch_max_deg": 0.5},
+                                None),
+    "swim_hull_damping_x3": ("swim", 0.65, 3.0, 0.85, 10.0, {}, None),
+    "swim_no_phase_lag": ("swim", 0.65, 1.0, 0.85, 10.0, {}, "swim_no_phase_lag"),
+    "swim_printed": ("swim", 0.65, 1.0, 0.85, 10.0, {}, "swim_printed"),
+    # What sets the floor gaits' speeds: contacts and slip (20 s, as the sweep).
+    "walk_f0.8_w0.85": ("walk", 0.8, 1.0, 0.85, 20.0, {}, None),
+    "walk_f0.5_w0.85": ("walk", 0.5, 1.0, 0.85, 20.0, {}, None),
+    "walk_f0.65_w0.6": ("walk", 0.65, 1.0, 0.6, 20.0, {}, None),
+    "walk_f0.8_w1.1_d1.3": ("walk", 0.8, 1.3, 1.1, 20.0, {}, None),
+    "trot_f0.8_w0.85": ("trot", 0.8, 1.0, 0.85, 20.0, {}, None),
+    "trot_f0.65_w0.6": ("trot", 0.65, 1.0, 0.6, 20.0, {}, None),
+    "crab_f0.65_w0.85": ("crab", 0.65, 1.0, 0.85, 20.0, {}, None),
+    "crab_f0.65_w0.6": ("crab", 0.65, 1.0, 0.6, 20.0, {}, None),
+    "crab_f0.5_w1.1_d0.7": ("crab", 0.5, 0.7, 1.1, 20.0, {}, None),
+    "turning_f0.65_w0.85": ("turning", 0.65, 1.0, 0.85, 20.0, {}, None),
+}
+
+
+def diagnose(out_dir: pathlib.Path, names=None) -> dict:
+    """Runs DIAGNOSTIC_RUNS (or ``names`` of them) one after another; writes and returns
+    ``out_dir/diagnostics.json`` (existing entries are kept, so an interrupted call resumes)."""
+    import json
+    import time
+
+    from manta_drake.control import gaits
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "diagnostics.json"
+    done = json.loads(path.read_text()) if path.exists() else {}
+    for name, (gait, fr, dmp, w, dur, extra, gait_override) in DIAGNOSTIC_RUNS.items():
+        if (names and name not in names) or name in done:
+            continue
+        scenario = band_scenario(gait, fr, dmp, w, dur, extra)
+        added = None
+        if gait_override is not None:
+            if gait_override not in gaits.GAITS:  # a diagnostic gait, in this process only
+                gaits.GAITS[gait_override] = swim_without_phase_lag()
+                added = gait_override
+            scenario.controller.gait = gait_override
+            scenario.initial_stance = gait_override
+        start = time.perf_counter()
+        try:
+            samples = sample_run(scenario.validate())
+        finally:
+            if added:
+                gaits.GAITS.pop(added, None)
+        window = metric_window(samples, scenario)
+        entry = {"run": [gait, fr, dmp, w, dur, extra, gait_override],
+                 "wall_s": time.perf_counter() - start}
+        if window is not None:
+            cycles = whole_cycles(window, 1.0 / scenario.cpg.frequency_hz)
+            entry["motion"] = motion_summary(samples, window)
+            entry["force_window"] = list(cycles)
+            if len(samples["hydro"]):
+                entry["water_forward_N"] = hydro_summary(samples, cycles)
+            entry["contacts"] = contact_summary(samples, cycles)
+        done[name] = entry
+        path.write_text(json.dumps(done, indent=1) + "\n")
+        print(f"{name}: {json.dumps(entry)}", flush=True)
+    return done
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter,
+                                epilog="Without a fresh sweep, use the table shipped in the "
+                                       f"repository: --results {SHIPPED_RESULTS}")
+    p.add_argument("--results", default=DEFAULT_RESULTS,
+                   help=f"results.csv of the findings sweep (default {DEFAULT_RESULTS}; "
+                        f"the shipped copy: {SHIPPED_RESULTS})")
+    p.add_argument("--out-md", default="docs/findings.md",
+                   help="markdown file whose generated block is (re)written")
+    p.add_argument("--out-fig", default="docs/figures/findings.png", help="the figure (PNG)")
+    p.add_argument("--diagnose", metavar="DIR", type=pathlib.Path,
+                   help="instead of the report: run the targeted simulations behind the "
+                        "explanations in docs/findings.md (one at a time, ~5 min) and write "
+                        "DIR/diagnostics.json")
+    p.add_argument("--only", nargs="*", help="with --diagnose: only these runs "
+                   f"({', '.join(DIAGNOSTIC_RUNS)})")
+    args = p.parse_args(argv)
+    if args.diagnose is not None:
+        diagnose(args.diagnose, args.only)
+        return 0
+
+    results = pathlib.Path(args.results)
+    if not results.exists():
+        print(f"error: {results} does not exist; run `manta-drake sweep "
+              f"diagrams/sweeps/findings.yaml --out {results.parent}` or use "
+              f"--results {SHIPPED_RESULTS}", file=sys.stderr)
+        return 2
+    points = band_points(read_results(results))
+    tallies, verdicts = evaluate(points)
+    variant_tallies, _ = evaluate(points, VARIANTS)
+    stats = gait_stats(points)
+    write_markdown(pathlib.Path(args.out_md),
+                   markdown_block(tallies, variant_tallies, stats, verdicts, args.results))
+    plot(points, tallies, variant_tallies, pathlib.Path(args.out_fig))
+    for t in list(tallies) + list(variant_tallies):
+        print(f"{t.label:52s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "
+              f"undetermined {t.undetermined:3d}  {100 * t.fraction:5.1f} %")
+    print(f"wrote {args.out_md} and {args.out_fig}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

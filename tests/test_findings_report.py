@@ -1,0 +1,220 @@
+"""The criteria of scripts/findings_report.py on small synthetic tables with known answers."""
+
+import csv
+import importlib.util
+import pathlib
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCRIPT = ROOT / "scripts" / "findings_report.py"
+SHIPPED = ROOT / "diagrams" / "sweeps" / "data" / "findings_results.csv"
+
+
+@pytest.fixture(scope="module")
+def fr():
+    spec = importlib.util.spec_from_file_location("findings_report", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["findings_report"] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    yield module
+    sys.modules.pop("findings_report", None)
+
+
+def point(fr, **gaits):
+    """{gait: Motion}; a gait given as None is a run without a mean velocity."""
+    return {g: (fr.UNDETERMINED if m is None else fr.Motion(*m)) for g, m in gaits.items()}
+
+
+# A band point where the paper's five findings all hold: (u, v, yaw).
+GOOD = {"swim": (0.05, 0.0, 0.5), "trot": (0.06, 0.0, 0.5), "walk": (0.08, 0.0, -1.0),
+        "crab": (0.002, -0.015, 0.3), "turning": (0.0, -0.005, -8.0)}
+
+
+def test_a_point_where_everything_holds(fr):
+    p = point(fr, **GOOD)
+    assert fr.every_gait_forward(p) is True
+    assert fr.walk_fastest(p) is True
+    assert fr.swim_slower_than_walk(p) is True
+    assert fr.crab_sideways(p) is True
+    assert fr.turning_turns(p) is True
+
+
+def test_walk_behind_trot_fails_walk_fastest(fr):
+    p = point(fr, **{**GOOD, "walk": (0.07, 0.0, 0.0), "trot": (0.08, 0.0, 0.0)})
+    assert fr.walk_fastest(p) is False
+    assert fr.walk_fastest(p, ("crab", "turning")) is True  # the variant without the trot
+    assert fr.swim_slower_than_walk(p) is True
+
+
+def test_a_fast_swim_fails_findings_2_and_3_but_not_the_floor_variant(fr):
+    p = point(fr, **{**GOOD, "swim": (0.107, -0.02, -11.0)})
+    assert fr.walk_fastest(p) is False
+    assert fr.swim_slower_than_walk(p) is False
+    assert fr.walk_fastest(p, ("trot", "crab", "turning")) is True
+    # Its yaw of 11 deg/s beats the turning gait's 8: finding 5 fails, its floor variant holds.
+    assert fr.turning_turns(p) is False
+    assert fr.turning_turns(p, ("trot", "walk", "crab")) is True
+
+
+def test_empty_u_is_undetermined_never_holds_or_fails(fr):
+    p = point(fr, **{**GOOD, "walk": None})
+    assert fr.every_gait_forward(p) is None
+    assert fr.walk_fastest(p) is None
+    assert fr.swim_slower_than_walk(p) is None
+    assert fr.moves_forward(p, "walk") is None
+    # ... but a definite failure elsewhere is still a failure (three-valued AND).
+    p = point(fr, **{**GOOD, "walk": None, "trot": (0.005, 0.0, 0.0)})
+    assert fr.every_gait_forward(p) is False
+    # A missing gait (no row) is undetermined too.
+    p = point(fr, **{g: m for g, m in GOOD.items() if g != "crab"})
+    assert fr.crab_sideways(p) is None
+    assert fr.walk_fastest(p) is None  # walk beats all it can see, but the crab is unknown
+
+
+def test_forward_threshold(fr):
+    assert fr.moves_forward(point(fr, trot=(0.0101, 0, 0)), "trot") is True
+    assert fr.moves_forward(point(fr, trot=(0.0099, 0, 0)), "trot") is False
+    assert fr.moves_forward(point(fr, trot=(-0.05, 0, 0)), "trot") is False
+    p = point(fr, **{**GOOD, "trot": (0.007, 0.0, 0.0)})
+    assert fr.every_gait_forward(p) is False
+    # Finding 1 is about the forward gaits: a crab or turning gait that does not go forward
+    # does not fail it.
+    assert fr.every_gait_forward(point(fr, **GOOD)) is True
+    assert fr.moves_forward(point(fr, **GOOD), "turning") is False
+
+
+def test_crab_sideways(fr):
+    def crab(u, v):
+        return fr.crab_sideways(point(fr, crab=(u, v, 0.0)))
+
+    assert crab(0.004, -0.011) is True  # |v| > 2|u| and moving
+    assert crab(0.0071, -0.0085) is False  # more sideways than forward, but not 2:1
+    assert crab(0.0, 0.008) is False  # purely sideways but below 0.01 m/s: not moving
+    assert crab(-0.004, 0.011) is True  # signs do not matter
+    assert crab(0.044, -0.021) is False
+    assert fr.crab_sideways(point(fr, crab=None)) is None
+
+
+def test_turning_turns(fr):
+    base = {**GOOD}
+    assert fr.turning_turns(point(fr, **{**base, "turning": (0.0, 0.0, 2.9)})) is False
+    assert fr.turning_turns(point(fr, **{**base, "turning": (0.0, 0.0, 3.1)})) is True
+    # Larger in magnitude, either sense, than every other gait at the point.
+    assert fr.turning_turns(point(fr, **{**base, "crab": (0.0, 0.0, -8.5)})) is False
+    assert fr.turning_turns(point(fr, **{**base, "turning": (0.0, 0.0, 9.0),
+                                         "crab": (0.0, 0.0, -8.5)})) is True
+    # Below 3 deg/s it fails even if another gait's yaw rate is unknown; above, it is undetermined.
+    assert fr.turning_turns(point(fr, **{**base, "turning": (0, 0, 1.0), "swim": None})) is False
+    assert fr.turning_turns(point(fr, **{**base, "swim": None})) is None
+
+
+def _rows(fr, points):
+    """results.csv-like rows (strings) for {(friction, damping, weight): {gait: (u, v, yaw)}}."""
+    rows = []
+    for (f, d, w), gaits in points.items():
+        for g, m in gaits.items():
+            u, v, yaw = ("", "", "") if m is None else (repr(m[0]), repr(m[1]), repr(m[2]))
+            rows.append({"base": f"locomotion_{g}", "contact.friction": str(f),
+                         "hull_damping": str(d), "net_weight_kg": str(w), "status": "ok",
+                         "u": u, "v": v, "yaw_rate_deg_s": yaw, "steady_start_s": "6.0",
+                         "steady_end_s": "20.0" if m else "6.5"})
+    return rows
+
+
+def test_band_tally_counts_holds_fails_and_undetermined(fr):
+    pts = {
+        (0.5, 1.0, 0.85): dict(GOOD),
+        (0.8, 1.0, 0.85): {**GOOD, "walk": (0.07, 0.0, 0.0), "trot": (0.08, 0.0, 0.0)},
+        (0.8, 1.3, 0.85): {**GOOD, "walk": None},
+    }
+    points = fr.band_points(_rows(fr, pts))
+    assert len(points) == 3 and points[(0.8, 1.3, 0.85)]["walk"] == fr.UNDETERMINED
+    tallies, verdicts = fr.evaluate(points)
+    t = {x.key: x for x in tallies}
+    assert (t["walk_fastest"].holds, t["walk_fastest"].fails, t["walk_fastest"].undetermined) \
+        == (1, 1, 1)
+    assert t["walk_fastest"].fraction == pytest.approx(1 / 3)  # undetermined never counts
+    assert t["crab_sideways"].holds == 3
+    assert verdicts[(0.8, 1.3, 0.85)]["swim_slower"] is None
+    stats = fr.gait_stats(points)
+    assert stats["walk"]["undetermined"] == 1 and stats["walk"]["n"] == 3
+    assert stats["walk"]["u"] == (pytest.approx(0.075), 0.07, 0.08)
+
+
+def test_a_failed_run_is_undetermined_and_duplicates_are_refused(fr):
+    rows = _rows(fr, {(0.5, 1.0, 0.85): dict(GOOD)})
+    rows[0]["status"] = "failed"
+    assert fr.band_points(rows)[(0.5, 1.0, 0.85)]["swim"] == fr.UNDETERMINED
+    with pytest.raises(ValueError, match="appears twice"):
+        fr.band_points(rows + rows[:1])
+    assert fr.gait_of("path/to/locomotion_crab.yaml") == "crab"
+
+
+def test_markdown_block_is_replaced_in_place(fr, tmp_path):
+    md = tmp_path / "findings.md"
+    md.write_text(f"# title\n\nintro\n\n{fr.MARK_BEGIN}\nstale table\n{fr.MARK_END}\n\nanalysis\n")
+    points = fr.band_points(_rows(fr, {(0.5, 1.0, 0.85): dict(GOOD)}))
+    tallies, verdicts = fr.evaluate(points)
+    variants, _ = fr.evaluate(points, fr.VARIANTS)
+    block = fr.markdown_block(tallies, variants, fr.gait_stats(points), verdicts, "x.csv")
+    fr.write_markdown(md, block)
+    text = md.read_text()
+    assert text.startswith("# title\n\nintro\n\n") and text.endswith("\n\nanalysis\n")
+    assert "stale table" not in text and "| 1. every gait moves forward |" in text
+    assert "1/1" in text
+
+
+@pytest.mark.skipif(not SHIPPED.exists(), reason="no shipped sweep table")
+def test_shipped_table_is_a_full_band(fr):
+    with open(SHIPPED, newline="") as f:
+        points = fr.band_points(list(csv.DictReader(f)))
+    assert len(points) == 27
+    assert all(set(p) == set(fr.GAITS) for p in points.values())
+
+
+# The diagnostics' pure functions (the simulations themselves are not run here).
+
+
+def test_whole_cycles(fr):
+    assert fr.whole_cycles((6.0, 20.0), 2.0) == (6.0, 20.0)
+    assert fr.whole_cycles((6.0, 15.23), 2.0) == (6.0, 14.0)
+    assert fr.whole_cycles((5.0, 6.5), 2.0) == (5.0, 6.5)  # shorter than a cycle: kept
+
+
+def _samples(yaw, v_hull, contacts):
+    import numpy as np
+
+    n = len(contacts)
+    return {"t": np.arange(n) * 0.001, "yaw": np.full(n, yaw),
+            "v_world": np.tile(np.asarray(v_hull, dtype=float), (n, 1)), "contacts": contacts}
+
+
+def test_contact_summary_stride_and_slip_in_the_heading_frame(fr):
+    import numpy as np
+
+    zero = np.zeros(3)
+    # Heading +y (yaw 90 deg), hull moving at 0.05 m/s along +y: forward in its own frame.
+    # Leg fl holds (its point does not move: 3 N); leg rr's point slides back at 0.02 m/s (1 N).
+    held = ("distal plate", "fl", zero, np.array([0.0, 0.1, 3.0]), zero, 0.0)
+    sliding = ("foot", "rr", zero, np.array([0.0, 0.2, 1.0]), np.array([0.0, -0.02, 0.0]), 0.02)
+    s = _samples(np.pi / 2, [0.0, 0.05, 0.0], [[held, sliding]] * 4)
+    c = fr.contact_summary(s, (0.0, 1.0))
+    assert c["load"] == pytest.approx(4.0)
+    assert c["share"] == {"distal plate": pytest.approx(0.75), "foot": pytest.approx(0.25)}
+    assert c["traction"] == pytest.approx(0.3)  # forward friction on the robot
+    legs = c["legs"]
+    assert legs["fl"]["noslip_u"] == pytest.approx(0.05) and legs["fl"]["slip_u"] == 0.0
+    assert legs["rr"]["slip_u"] == pytest.approx(-0.02)
+    assert legs["rr"]["noslip_u"] == pytest.approx(0.07)  # the stride the hull would have
+    assert abs(legs["fl"]["noslip_v"]) < 1e-12  # nothing sideways in the heading frame
+    assert c["all"]["noslip_u"] == pytest.approx((3 * 0.05 + 1 * 0.07) / 4)
+    assert c["all"]["sliding"] == pytest.approx(0.25)  # rr's load slides (> 5 mm/s)
+
+
+def test_contact_summary_without_contacts_is_nan_not_zero(fr):
+    import math
+
+    c = fr.contact_summary(_samples(0.0, [0.05, 0.0, 0.0], [[]] * 3), (0.0, 1.0))
+    assert c["load"] == 0.0 and c["legs"] == {} and math.isnan(c["all"]["noslip_u"])

@@ -1,6 +1,6 @@
 """The ``manta-drake`` command line.
 
-    manta-drake run SCENARIO.yaml --out DIR [--duration S] [--no-meshcat]
+    manta-drake run SCENARIO.yaml --out DIR [--duration S] [--set KEY=VALUE ...] [--no-meshcat]
     manta-drake list
     manta-drake station SCENARIO.yaml --lcm URL      (manta_drake.lcm_seam)
     manta-drake controller SCENARIO.yaml --lcm URL   (manta_drake.lcm_seam)
@@ -47,15 +47,24 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  recording: open {(out_dir / 'recording.html').resolve()} in a browser")
 
 
-def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True):
-    """Loads a scenario (with the command line's overrides) and runs it."""
+def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True,
+                  settings=()):
+    """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
+    KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it."""
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import run
+    from manta_drake.sweep import parse_set, set_override
 
     scenario = load_scenario(scenario_path, {} if duration is None else {"duration": duration})
+    for key, value in parse_set(list(settings)).items():
+        set_override(scenario, key, value)
     if no_meshcat:
         scenario.visualization.meshcat = False
-    return run(scenario, out, progress=progress), scenario
+    return run(scenario.validate(), out, progress=progress), scenario
+
+
+_SET_HELP = ("override a scenario field, e.g. --set contact.friction=0.6 or --set "
+             "water.coefficient_scales.body.linear_damping=1.2 (repeatable; checked like the file)")
 
 
 def _error(e: Exception) -> int:
@@ -74,10 +83,13 @@ def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) ->
     parser.add_argument("--out", default=default_out)
     parser.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     parser.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help=_SET_HELP)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     args = parser.parse_args()
     try:
-        result, scenario = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat)
+        result, scenario = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
+                                         settings=args.set)
         figures = after_run(result, scenario) if after_run else []
     except Exception as e:  # one clear line; --debug for the traceback
         if args.debug:
@@ -104,7 +116,7 @@ def _list() -> int:
 
 def _run(args) -> int:
     result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
-                              progress=not args.quiet)
+                              progress=not args.quiet, settings=args.set)
     print_metrics(result.metrics, result.out_dir)
     return 0
 
@@ -139,6 +151,7 @@ def main(argv=None) -> int:
     p_run.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
+    p_run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     sub.add_parser("list", help="list the shipped scenarios")
     for command in EXTENSIONS:

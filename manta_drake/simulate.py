@@ -188,8 +188,18 @@ def make_simulator(diagram, scenario: Scenario, context=None, seed: int | None =
 
 
 # The files a run writes (and the only ones it removes from an old output folder).
-OUTPUT_FILES = ("recording.html", "log.npz", "metrics.json", "joints.png", "states.png",
-                "trajectory.png")
+OUTPUT_FILES = ("scenario.yaml", "recording.html", "log.npz", "metrics.json", "joints.png",
+                "states.png", "trajectory.png")
+
+
+def _write_scenario(scenario: Scenario, folder: pathlib.Path) -> None:
+    """The run's resolved scenario (every field, overrides applied): ``load_scenario`` on it
+    runs the same simulation again."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    (folder / "scenario.yaml").write_text(
+        "# The resolved scenario of this run (every field, overrides applied); run it again\n"
+        "# with: manta-drake run scenario.yaml --out DIR\n" + yaml_dump_typed(scenario))
 
 
 def _publish(staging: pathlib.Path, out_dir: pathlib.Path) -> None:
@@ -212,6 +222,7 @@ def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseEx
                "failure": {"stage": "build", "time_s": 0.0,
                            "reason": f"{type(error).__name__}: {error}"}}
     (staging / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    _write_scenario(scenario, staging)
     _publish(staging, out_dir)
 
 
@@ -300,6 +311,7 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     try:
         np.savez_compressed(staging / "log.npz", **log)
         (staging / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+        _write_scenario(scenario, staging)
         if write_outputs and not interrupted:
             plots.write_run_plots(log, staging, title=scenario.name)
             if handles.visualizer is not None:

@@ -67,3 +67,36 @@ def test_diagram_script_errors_are_one_line_too(tmp_path):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "balloon.initial_fill" in lines[0] and "[0, 1]" in lines[0]
+
+
+def test_set_overrides_a_field_and_the_run_writes_its_resolved_scenario(tmp_path):
+    """--set KEY=VALUE reaches the simulation (the resolved scenario.yaml has it) and the
+    written scenario.yaml loads back to the same scenario, field for field."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    from manta_drake.scenario import load_scenario
+
+    out = tmp_path / "o"
+    result = cli("run", "stand", "--out", str(out), "--duration", "0.2", "--no-meshcat",
+                 "--quiet", "--set", "contact.friction=0.55",
+                 "--set", "water.coefficient_scales.body.linear_damping=1.2")
+    assert result.returncode == 0, result.stderr
+    again = load_scenario(out / "scenario.yaml")
+    assert again.contact.friction == 0.55 and again.duration == 0.2
+    assert again.water.coefficient_scales == {"body.linear_damping": 1.2}
+    assert yaml_dump_typed(again) == yaml_dump_typed(
+        load_scenario(out / "scenario.yaml"))  # a fixed point
+    expected = load_scenario("stand", {"duration": 0.2})
+    expected.contact.friction = 0.55
+    expected.water.coefficient_scales = {"body.linear_damping": 1.2}
+    expected.visualization.meshcat = False
+    assert yaml_dump_typed(again) == yaml_dump_typed(expected.validate())
+
+
+def test_set_with_a_misspelt_or_out_of_range_field_is_one_line(tmp_path):
+    for setting, words in (("contact.frction=0.6", "contact.frction"),
+                           ("contact.friction=7", "contact.friction: 7.0 is outside")):
+        result = cli("run", "stand", "--out", str(tmp_path / "o"), "--set", setting)
+        assert result.returncode == 2
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and words in lines[0], result.stderr

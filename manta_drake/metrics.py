@@ -86,14 +86,23 @@ def max_joint_step(joint_angles: np.ndarray) -> float:
     return float(np.abs(np.diff(joint_angles, axis=0)).max())
 
 
+def _wrapped_difference(params, target) -> np.ndarray:
+    """params - target with every angle wrapped to (-pi, pi] (parameters on the torus)."""
+    return np.angle(np.exp(1j * (np.atleast_2d(params) - np.asarray(target))))
+
+
+def at_behaviour(params, target, tolerance: float) -> np.ndarray:
+    """Per sample, whether every parameter is within ``tolerance`` of ``target`` (wrapped)."""
+    return np.abs(_wrapped_difference(params, target)).max(axis=1) < tolerance
+
+
 def behaviour_at(params: np.ndarray, behaviours: dict, tolerance: float) -> list:
     """Per sample, the behaviour whose parameters are all within ``tolerance`` (angles on
     the torus, wrapped), or None while between behaviours."""
     params = np.atleast_2d(params)
     labels = [None] * len(params)
     for name, target in behaviours.items():
-        err = np.abs(np.angle(np.exp(1j * (params - np.asarray(target))))).max(axis=1)
-        for i in np.flatnonzero(err < tolerance):
+        for i in np.flatnonzero(at_behaviour(params, target, tolerance)):
             labels[i] = name
     return labels
 
@@ -102,9 +111,8 @@ def transition_progress(params: np.ndarray, start, target) -> np.ndarray:
     """Per sample, how far the parameters are on their way from ``start`` to ``target``:
     d_s / (d_s + d_t) with d the norm of the wrapped differences (0 at ``start``, 1 at
     ``target``; direction-free, so it needs no choice of path round the torus)."""
-    params = np.atleast_2d(params)
-    d_s = np.linalg.norm(np.angle(np.exp(1j * (params - np.asarray(start)))), axis=1)
-    d_t = np.linalg.norm(np.angle(np.exp(1j * (params - np.asarray(target)))), axis=1)
+    d_s = np.linalg.norm(_wrapped_difference(params, start), axis=1)
+    d_t = np.linalg.norm(_wrapped_difference(params, target), axis=1)
     return d_s / np.maximum(d_s + d_t, 1e-12)
 
 

@@ -32,6 +32,9 @@ import time
 
 import numpy as np
 
+from manta_drake.control.transition import wrap  # angles to (-pi, pi]
+from manta_drake.metrics import at_behaviour  # every parameter within a tolerance, wrapped
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENARIO = "two_behaviors"
 # (label, transition.blend, transition.follow, folder)
@@ -55,11 +58,6 @@ COMMAND = ".venv/bin/python scripts/transition_baselines.py"
 # ----------------------------------------------------------------------------------------
 # Metric functions: plain numpy, tested on synthetic signals (tests/test_transition_baselines.py)
 # ----------------------------------------------------------------------------------------
-
-def wrap(x):
-    """Angles wrapped to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - np.asarray(x, dtype=float), 2.0 * np.pi)
-
 
 def window_mask(t, start: float, end: float) -> np.ndarray:
     """Samples with start <= t <= end."""
@@ -189,11 +187,6 @@ def gait_changes(labels, start) -> int:
     behaviour, starting from ``start``."""
     seq = [start] + [label for label in labels if label is not None]
     return int(sum(a != b for a, b in zip(seq[:-1], seq[1:])))
-
-
-def at_behaviour(psi, params, tol: float) -> np.ndarray:
-    """Per sample, whether every parameter of psi (N, 64) is within tol of params (wrapped)."""
-    return np.abs(wrap(np.atleast_2d(psi) - np.asarray(params))).max(axis=1) < tol
 
 
 def transition_event(t, psi_d, source, target, tol: float, after: float = -np.inf):

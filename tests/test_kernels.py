@@ -13,6 +13,7 @@ from manta_drake.model.coefficients import load_coefficients
 from manta_drake.model.plant import add_plant, body_pose, set_initial_state
 from manta_drake.station import water_kernels as WK
 from manta_drake.station.hydro import HydrodynamicForces
+from manta_drake.station.station import connect_hydro
 from manta_drake.station.water import hydro_body_names
 
 COEFFS = load_coefficients()
@@ -120,17 +121,7 @@ def _hydro_diagram(plant_state: bool, update_period: float):
     hydro = builder.AddSystem(HydrodynamicForces(
         h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
         update_period=update_period, plant_state=plant_state))
-    plant = h.plant
-    if plant_state:
-        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
-        builder.Connect(hydro.GetOutputPort("generalized_forces"),
-                        plant.get_applied_generalized_force_input_port())
-    else:
-        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-        builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                        hydro.GetInputPort("body_spatial_velocities"))
-        builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                        plant.get_applied_spatial_force_input_port())
+    connect_hydro(builder, h.plant, hydro, generalized_forces=plant_state)
     return builder.Build(), h, hydro
 
 

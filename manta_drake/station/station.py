@@ -177,6 +177,27 @@ def _random_source(builder, name: str, distribution, size: int, period: float):
     return builder.AddNamedSystem(name, RandomSource(distribution, size, period))
 
 
+def connect_hydro(builder, plant, hydro, generalized_forces: bool) -> None:
+    """Wires a HydrodynamicForces to its plant: its inputs (the plant's state vector, or the
+    body poses and spatial velocities of the contract ports, as ``hydro.plant_state`` says)
+    and its forces to the plant, as generalized forces (``generalized_forces``, which needs
+    ``hydro.plant_state``) or as the list of spatial forces."""
+    if hydro.plant_state:
+        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    else:
+        if generalized_forces:
+            raise ValueError("connect_hydro: generalized forces need plant_state=True")
+        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+        builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                        hydro.GetInputPort("body_spatial_velocities"))
+    if generalized_forces:
+        builder.Connect(hydro.GetOutputPort("generalized_forces"),
+                        plant.get_applied_generalized_force_input_port())
+    else:
+        builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                        plant.get_applied_spatial_force_input_port())
+
+
 def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
     """Balloon, hydrodynamic forces and the pressure sensor with its noise sources."""
     plant, ph, coeffs = handles.plant, handles.plant_handles, handles.coefficients
@@ -194,26 +215,14 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
         plant, ph.robot, coeffs, scenario.time_step, current=scenario.water.current,
         added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period,
         plant_state=HYDRO_PLANT_STATE))
-    if hydro.plant_state:
-        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
-        if hydro.update_period > 0:
-            # Held forces: the list changes only at the hydro's updates, so Drake's cache
-            # keeps it between them and the plant maps it to joint torques in C++ at each
-            # step (no Python per step). A held generalized-force vector needs a Python
-            # call per step (J^T F at the current configuration): measured slower, 0.65
-            # against 0.69 of (a)'s speed (median of 5 interleaved rounds).
-            builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                            plant.get_applied_spatial_force_input_port())
-        else:
-            # Forces at every step: one vector out per step instead of 17 force objects.
-            builder.Connect(hydro.GetOutputPort("generalized_forces"),
-                            plant.get_applied_generalized_force_input_port())
-    else:
-        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-        builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                        hydro.GetInputPort("body_spatial_velocities"))
-        builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                        plant.get_applied_spatial_force_input_port())
+    # Held forces: the list changes only at the hydro's updates, so Drake's cache keeps it
+    # between them and the plant maps it to joint torques in C++ at each step (no Python per
+    # step). A held generalized-force vector needs a Python call per step (J^T F at the
+    # current configuration): measured slower, 0.65 against 0.69 of (a)'s speed (median of 5
+    # interleaved rounds). Forces at every step: one vector out per step instead of 17 force
+    # objects.
+    connect_hydro(builder, plant, hydro, generalized_forces=hydro.plant_state
+                  and hydro.update_period == 0)
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
 
     ps = scenario.pressure_sensor

@@ -39,7 +39,6 @@ Example (diagrams/sweeps/calibration.yaml)::
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses as dc
 import functools
 import hashlib
@@ -59,10 +58,10 @@ from manta_drake.sweep import (
     SweepError,
     add_cluster_arguments,
     apply_overrides,
+    cluster_client,
     check_config_keys,
     check_parameter_name,
     coefficient_names,
-    dask_client,
     read_yaml_mapping,
 )
 
@@ -881,11 +880,7 @@ def add_calibrate_parser(subparsers) -> None:
 def calibrate_main(args) -> int:
     """``manta-drake calibrate``: load (errors are one line), fit, print the result."""
     config = load_calibration(args.calibration)
-    if args.workers < 0:
-        raise SweepError(f"--workers: {args.workers} must be >= 0")
-    use_dask = args.scheduler or args.workers > 0
-    with (dask_client(args.scheduler, args.workers) if use_dask
-          else contextlib.nullcontext()) as client:
+    with cluster_client(args) as client:
         result = calibrate(config, args.out, client, progress=not args.quiet)
     print(f"\n  {config.name}: {result.message}")
     for name, x0, x, se in zip(result.names, result.x0, result.x, result.standard_error):

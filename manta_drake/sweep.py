@@ -1028,6 +1028,21 @@ def add_cluster_arguments(parser) -> None:
                              "process, without Dask")
 
 
+def check_cluster_arguments(args) -> None:
+    """Raises SweepError for a ``--workers`` the cluster arguments do not allow."""
+    if args.workers < 0:
+        raise SweepError(f"--workers: {args.workers} must be >= 0")
+
+
+def cluster_client(args):
+    """What ``--scheduler`` / ``--workers`` ask for, as a context manager giving the client:
+    a running scheduler, a new local cluster, or None (``--workers 0``: in this process)."""
+    check_cluster_arguments(args)
+    if args.scheduler or args.workers > 0:
+        return dask_client(args.scheduler, args.workers)
+    return contextlib.nullcontext()
+
+
 def add_sweep_parser(subparsers) -> None:
     """Adds ``manta-drake sweep``."""
     p = subparsers.add_parser(
@@ -1054,8 +1069,7 @@ def sweep_main(args) -> int:
     config = load_sweep(args.sweep, parse_set(args.set))
     if args.limit is not None and args.limit < 1:
         raise SweepError(f"--limit: {args.limit} must be >= 1")
-    if args.workers < 0:
-        raise SweepError(f"--workers: {args.workers} must be >= 0")
+    check_cluster_arguments(args)
     if args.dry_run:
         specs = plan_runs(config, args.limit)
         for spec in specs:
@@ -1064,9 +1078,7 @@ def sweep_main(args) -> int:
         print(f"\n{len(specs)} runs; {sum(bool(s.invalid_reason) for s in specs)} invalid")
         return 0
     start = time.perf_counter()
-    use_dask = args.scheduler or args.workers > 0
-    with (dask_client(args.scheduler, args.workers) if use_dask
-          else contextlib.nullcontext()) as client:
+    with cluster_client(args) as client:
         result = run_sweep(config, args.out, client, progress=not args.quiet,
                            limit=args.limit, rerun_failed=args.rerun_failed)
     counts = ", ".join(f"{n} {status}" for status, n in sorted(result.counts.items()))

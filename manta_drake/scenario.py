@@ -310,11 +310,8 @@ class Scenario:
                   10.0, "(0, 10] m", open_low=True)
         _in_range("depth_estimator.surface_depth", self.depth_estimator.surface_depth, 0.0,
                   self.depth_estimator.floor_distance,
-                  f"[0, floor_distance = {self.depth_estimator.floor_distance}) m")
-        if self.depth_estimator.surface_depth >= self.depth_estimator.floor_distance:
-            raise ScenarioError(f"depth_estimator.surface_depth: "
-                                f"{self.depth_estimator.surface_depth!r} must be below "
-                                f"floor_distance = {self.depth_estimator.floor_distance}")
+                  f"[0, floor_distance = {self.depth_estimator.floor_distance}) m",
+                  open_high=True)
         cam = self.camera
         _boolean("camera.enabled", cam.enabled)
         for name in ("width", "height"):
@@ -322,10 +319,7 @@ class Scenario:
         _in_range("camera.fov_y_deg", cam.fov_y_deg, 0.0, 170.0, "(0, 170] deg", open_low=True)
         _in_range("camera.max_range", cam.max_range, 0.0, 10.0, "(0, 10] m", open_low=True)
         _in_range("camera.min_range", cam.min_range, 0.0, cam.max_range,
-                  f"(0, max_range = {cam.max_range}) m", open_low=True)
-        if cam.min_range >= cam.max_range:
-            raise ScenarioError(f"camera.min_range: {cam.min_range!r} must be below max_range "
-                                f"= {cam.max_range}")
+                  f"(0, max_range = {cam.max_range}) m", open_low=True, open_high=True)
         _in_range("camera.rate_hz", cam.rate_hz, 0.0, 60.0, "(0, 60] Hz", open_low=True)
         _in_range("camera.depth_noise_std", cam.depth_noise_std, 0.0, MAX_DEPTH_NOISE,
                   f"[0, {MAX_DEPTH_NOISE}] m (the depth-camera model: a RealSense-class "
@@ -486,9 +480,11 @@ def _number(field: str, value) -> None:
         raise ScenarioError(f"{field}: {value!r} is not finite")
 
 
-def _in_range(field, value, lo, hi, text, open_low=False) -> None:
+def _in_range(field, value, lo, hi, text, open_low=False, open_high=False) -> None:
     _number(field, value)
-    if not ((value > lo if open_low else value >= lo) and value <= hi):
+    above = value > lo if open_low else value >= lo
+    below = value < hi if open_high else value <= hi
+    if not (above and below):
         raise ScenarioError(f"{field}: {value!r} is outside the allowed range {text}")
 
 

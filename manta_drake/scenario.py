@@ -70,6 +70,29 @@ class ControllerConfig:
 
     mode: str = "hold"
     gait: str = "trot"
+    # How Eqs. (6)-(8) are read (manta_drake.control.gaits.READINGS): ``paper`` (the
+    # legged gaits as printed, the swim mirrored) or ``mirrored`` (one mirror rule for
+    # every gait; its stance needs robot.fin_sweep_deg: 30, docs/stance.md).
+    gait_reading: str = "paper"
+
+
+@dc.dataclass
+class RobotConfig:
+    """The robot's geometry that the paper leaves open (manta_drake.model.robot_params)."""
+
+    # Table 2's theta_offset: each leg-fin swept back by this at theta_1 = 0 [deg]. 10 keeps
+    # Table 1's size at the zero pose and balances the printed trot's stance; the mirrored
+    # reading's stance balances at 30 (docs/stance.md).
+    fin_sweep_deg: float = 10.0
+
+    def params(self):
+        """The RobotParams of this geometry (DEFAULT_ROBOT itself at the default)."""
+        from manta_drake.model.robot_params import DEFAULT_ROBOT
+
+        sweep = math.radians(self.fin_sweep_deg)
+        if sweep == DEFAULT_ROBOT.mounts[0].sweep:
+            return DEFAULT_ROBOT
+        return DEFAULT_ROBOT.with_fin_sweep(sweep)
 
 
 @dc.dataclass
@@ -202,6 +225,7 @@ class Scenario:
     discrete_contact_approximation: str = "sap"
     contact: ContactConfig = dc.field(default_factory=ContactConfig)
     random_seed: int = 0
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
     initial_pose: InitialPose = dc.field(default_factory=InitialPose)
     # Initial joint angles: the stance (X) of this gait, or "zero".
     initial_stance: str = "trot"
@@ -225,7 +249,7 @@ class Scenario:
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises
         ScenarioError naming the field, the value and the allowed range."""
-        from manta_drake.control.gaits import GAITS  # late imports: they import scenario
+        from manta_drake.control.gaits import READINGS  # late imports: they import scenario
         from manta_drake.control.transition import check_parameters
 
         _text("name", self.name)
@@ -240,13 +264,19 @@ class Scenario:
         _integer("random_seed", self.random_seed, 0, 2**32 - 1)
         _vector("initial_pose.xyz", self.initial_pose.xyz, 3)
         _vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3, bound=360.0)
-        _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(GAITS))
+        # Beyond +-60 deg the yaw joint's +-60 deg range cannot bring a fin back to the side.
+        _in_range("robot.fin_sweep_deg", self.robot.fin_sweep_deg, -60.0, 60.0,
+                  "[-60, 60] deg")
+        _one_of("controller.gait_reading", self.controller.gait_reading, tuple(READINGS))
+        gaits = READINGS[self.controller.gait_reading]
+        _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(gaits))
         problem = initial_pose_problem(self.initial_pose.xyz, self.initial_pose.rpy_deg,
-                                       self.initial_stance)
+                                       self.initial_stance, self.controller.gait_reading,
+                                       self.robot.fin_sweep_deg)
         if problem:
             raise ScenarioError(f"initial_pose: {problem}")
         _one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
-        _one_of("controller.gait", self.controller.gait, tuple(GAITS))
+        _one_of("controller.gait", self.controller.gait, tuple(gaits))
         _in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True)
         for name in ("chain_weight", "fcs_weight"):
             _in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 100.0, "[0, 100] rad/s")
@@ -358,27 +388,29 @@ class Scenario:
         return self
 
 
-@functools.lru_cache(maxsize=1)
-def _collision_model():
-    """A robot + pool plant (no water) and a context, built once, for start-pose checks."""
+@functools.lru_cache(maxsize=2)
+def _collision_model(fin_sweep_deg: float = RobotConfig.fin_sweep_deg):
+    """A robot + pool plant (no water) and a context, built once per geometry, for
+    start-pose checks."""
     from pydrake.systems.framework import DiagramBuilder
 
     from manta_drake.model.plant import add_plant
 
     builder = DiagramBuilder()
-    handles = add_plant(builder)
+    handles = add_plant(builder, robot_params=RobotConfig(fin_sweep_deg).params())
     diagram = builder.Build()
     return diagram, handles, diagram.CreateDefaultContext()
 
 
-def _start_penetration(p, rpy_deg, q, tolerance: float = 0.002) -> str | None:
+def _start_penetration(p, rpy_deg, q, tolerance: float = 0.002,
+                       fin_sweep_deg: float = RobotConfig.fin_sweep_deg) -> str | None:
     """Why the robot's collision geometry (hull, fin plates, feet) starts more than
     ``tolerance`` inside the pool's floor or walls, or None."""
     import numpy as np
 
     from manta_drake.model.plant import body_pose
 
-    diagram, handles, context = _collision_model()
+    diagram, handles, context = _collision_model(fin_sweep_deg)
     plant = handles.plant
     pc = plant.GetMyMutableContextFromRoot(context)
     plant.SetFreeBodyPose(pc, handles.body, body_pose(p, rpy_deg))
@@ -399,7 +431,8 @@ def _start_penetration(p, rpy_deg, q, tolerance: float = 0.002) -> str | None:
 MAX_DEPTH_NOISE = 0.03
 
 
-def initial_pose_problem(xyz, rpy_deg, stance: str) -> str | None:
+def initial_pose_problem(xyz, rpy_deg, stance: str, gait_reading: str = "paper",
+                         fin_sweep_deg: float = RobotConfig.fin_sweep_deg) -> str | None:
     """Why a start pose is not inside the pool's water clear of its floor and walls, or None.
 
     Checked at the start's stance: the hull's centre in the water (below the surface, above
@@ -411,23 +444,23 @@ def initial_pose_problem(xyz, rpy_deg, stance: str) -> str | None:
     import numpy as np
     from pydrake.math import RollPitchYaw
 
-    from manta_drake.control.gaits import GAITS
+    from manta_drake.control.gaits import get_gait
     from manta_drake.model.kinematics import fin_tip_pose
-    from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, LEGS
+    from manta_drake.model.robot_params import DEFAULT_POOL, LEGS
 
-    pool, robot = DEFAULT_POOL, DEFAULT_ROBOT
+    pool, robot = DEFAULT_POOL, RobotConfig(fin_sweep_deg).params()
     p = np.asarray(xyz, dtype=float)
     R = RollPitchYaw(np.radians(rpy_deg)).ToRotationMatrix().matrix()
     floor, half_x, half_y = -pool.depth, pool.length / 2, pool.width / 2
     if not (floor < p[2] <= 0.0 and abs(p[0]) < half_x and abs(p[1]) < half_y):
         return (f"the body at {list(map(float, p))} m is not in the pool's water "
                 f"(x in (-{half_x}, {half_x}), y in (-{half_y}, {half_y}), z in ({floor}, 0])")
-    q = np.zeros((len(LEGS), 4)) if stance == "zero" else GAITS[stance].X
+    q = np.zeros((len(LEGS), 4)) if stance == "zero" else get_gait(stance, gait_reading).X
     # Hull: an ellipsoid's extent along world axis k is sqrt(sum_i (R[k, i] a_i)^2).
     extent = np.sqrt(((R * np.asarray(robot.body_semi_axes)) ** 2).sum(axis=1))
     points = [("hull", p - extent, p + extent)]
     for leg, q_leg in zip(LEGS, q):
-        tip = p + R @ fin_tip_pose(leg, q_leg)[:3, 3]
+        tip = p + R @ fin_tip_pose(leg, q_leg, robot)[:3, 3]
         r = robot.foot_radius
         points.append((f"{leg} fin tip", tip - r, tip + r))
     for name, low, high in points:
@@ -439,7 +472,7 @@ def initial_pose_problem(xyz, rpy_deg, stance: str) -> str | None:
                     f"{0.5 * (low[1] + high[1]):.3f} m is inside or beyond a wall (the walls "
                     f"are at x = +-{half_x}, y = +-{half_y} m)")
     # The fin plates and feet as modelled (collision geometry), at the start's stance.
-    return _start_penetration(p, rpy_deg, q)
+    return _start_penetration(p, rpy_deg, q, fin_sweep_deg=fin_sweep_deg)
 
 
 SCENARIOS_DIR = pathlib.Path(__file__).resolve().parent / "scenarios"

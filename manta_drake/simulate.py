@@ -155,10 +155,11 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
     if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
-        from manta_drake.control.gaits import GAITS
+        from manta_drake.control.gaits import get_gait
         from manta_drake.control.transition import BEHAVIOURS
 
-        behaviours = {name: GAITS[name].to_vector() for name in BEHAVIOURS}
+        behaviours = {name: get_gait(name, scenario.controller.gait_reading).to_vector()
+                      for name in BEHAVIOURS}
         m["transitions"] = M.behaviour_transitions(
             log["t_cpg_params"], log["cpg_params"], behaviours,
             scenario.transition.arrival_tolerance)

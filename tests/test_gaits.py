@@ -134,3 +134,37 @@ def test_swim_fcs_is_inconsistent_and_locks_at_the_compromise():
     # Eq. (6): fl->fr and rl->rr lag pi/18, every front-rear pair 0: no exact solution.
     phi = phase_lock_targets(GAITS["swim"].Phi_prime)
     np.testing.assert_allclose(phi, [0, -np.pi / 36, 0, -np.pi / 36], atol=1e-6)
+
+
+def test_mirrored_reading_is_one_mirror_rule_and_the_crab_keeps_its_pitch():
+    """Every right fin's R and X row mirrors its left partner's (MIRROR_SIGNS); the left rows
+    are the printed ones; the only exception is R_crab's pitch column (antisymmetric, as
+    printed), without which the crab cannot walk sideways."""
+    from manta_drake.control.gaits import MIRROR_SIGNS, READINGS
+
+    lib, paper = READINGS["mirrored"], READINGS["paper"]
+    for name in ("swim", "trot", "walk", "turning", "crab"):
+        g, p = lib[name], paper[name]
+        for M, P in ((g.R, p.R), (g.X, p.X)):
+            np.testing.assert_array_equal(M[[0, 2]], P[[0, 2]])  # left rows as printed
+        np.testing.assert_array_equal(g.X[[1, 3]], MIRROR_SIGNS * g.X[[0, 2]])
+        np.testing.assert_array_equal(g.Phi, p.Phi)
+        np.testing.assert_array_equal(g.Phi_prime, p.Phi_prime)
+        if name == "crab":
+            np.testing.assert_array_equal(g.R, p.R)
+            assert np.all(g.R[[1, 3], 2] == g.R[[0, 2], 2])  # pitch: not mirrored
+        else:
+            np.testing.assert_array_equal(g.R[[1, 3]], MIRROR_SIGNS * g.R[[0, 2]])
+    # The entries the rule changes in the printed legged matrices: X yaw and R pitch of fr, rr.
+    changed = np.argwhere(lib["trot"].R != paper["trot"].R).tolist()
+    changed += np.argwhere(lib["trot"].X != paper["trot"].X).tolist()
+    assert changed == [[1, 2], [3, 2], [1, 0], [3, 0]]
+
+
+def test_get_gait_names_the_unknown_reading_and_gait():
+    from manta_drake.control.gaits import get_gait
+
+    with pytest.raises(KeyError, match="unknown gait reading 'mirror'.*paper, mirrored"):
+        get_gait("trot", "mirror")
+    with pytest.raises(KeyError, match="unknown gait 'trott'.*trot"):
+        get_gait("trott", "mirrored")

@@ -56,3 +56,60 @@ def test_plant_fin_tip_pose_equals_dh_product(robot_plant, rng):
             X_dh = fin_tip_pose(leg, q[4 * k : 4 * k + 4], DEFAULT_ROBOT)
             worst = max(worst, np.abs(X_plant.GetAsMatrix4() - X_dh).max())
     assert worst < 1e-9
+
+
+@pytest.mark.parametrize("sweep_deg", [30.0, -15.0])
+def test_plant_of_another_fin_sweep_equals_its_dh_product(sweep_deg, rng):
+    """``robot.fin_sweep_deg`` reaches the plant: the generated model's tips (read back after
+    Finalize) equal Eq. (1) with that theta_offset, and differ from the shipped model's."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from manta_drake.model.plant import add_plant
+
+    params = DEFAULT_ROBOT.with_fin_sweep(np.radians(sweep_deg))
+    h = add_plant(DiagramBuilder(), robot_params=params)
+    plant = h.plant
+    context = plant.CreateDefaultContext()
+    joints = [plant.GetJointByName(n, h.robot) for n in h.joint_names]
+    worst = 0.0
+    for _ in range(20):
+        q = rng.uniform(-1.0, 1.0, 16)
+        for joint, qi in zip(joints, q):
+            joint.set_angle(context, qi)
+        for k, leg in enumerate(LEGS):
+            X = plant.GetFrameByName(f"{leg}_tip", h.robot).CalcPose(context, h.body.body_frame())
+            worst = max(worst, np.abs(X.GetAsMatrix4() - fin_tip_pose(leg, q[4 * k:4 * k + 4],
+                                                                      params)).max())
+    assert worst < 1e-9
+    # closed form at the zero pose: the left front tip swept back (or forward) by the sweep
+    for joint in joints:
+        joint.set_angle(context, 0.0)
+    tip = plant.GetFrameByName("fl_tip", h.robot).CalcPose(context, h.body.body_frame())
+    span = DEFAULT_ROBOT.d3 + DEFAULT_ROBOT.dE
+    assert tip.translation()[0] == pytest.approx(0.10 - span * np.sin(np.radians(sweep_deg)))
+
+
+def _support_offsets(X, params):
+    """Signed distances [m] of the CG from the trot's two support diagonals (fl-rr, fr-rl)
+    with the fins at the stance X, in the horizontal plane."""
+    tips = np.array([fin_tip_pose(leg, X[k], params)[:2, 3] for k, leg in enumerate(LEGS)])
+
+    def offset(a, b):
+        d = b - a
+        return (a[0] * d[1] - a[1] * d[0]) / np.linalg.norm(d)
+
+    return offset(tips[0], tips[3]), offset(tips[1], tips[2])
+
+
+def test_each_readings_stance_is_balanced_at_its_fin_sweep():
+    """Why the mirrored reading needs robot.fin_sweep_deg 30 (docs/stance.md): its stance
+    turns all four fins forward, so at the shipped 10 deg both trot diagonals pass ~8 cm
+    ahead of the CG; at 30 deg (and the paper reading's pinwheel at 10) within 1.5 cm."""
+    from manta_drake.control.gaits import get_gait
+
+    paper = get_gait("trot", "paper").X
+    mirrored = get_gait("trot", "mirrored").X
+    assert max(map(abs, _support_offsets(paper, DEFAULT_ROBOT))) < 0.015
+    assert min(map(abs, _support_offsets(mirrored, DEFAULT_ROBOT))) > 0.07
+    swept = DEFAULT_ROBOT.with_fin_sweep(np.radians(30.0))
+    assert max(map(abs, _support_offsets(mirrored, swept))) < 0.015

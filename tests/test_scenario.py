@@ -37,6 +37,7 @@ def test_values_are_typed(tmp_path):
     ("duraton: 3\n", "scenario.duraton"),
     ("initial_pose: {xyzz: [0, 0, 0]}\n", "scenario.initial_pose.xyzz"),
     ("controller: {mdoe: gait}\n", "scenario.controller.mdoe"),
+    ("robot: {fin_sweep: 30}\n", "scenario.robot.fin_sweep"),
     ("simulator: {max_stepsize: 0.001}\n", "scenario.simulator.max_stepsize"),
 ])
 def test_misspelt_key_fails_naming_the_key(tmp_path, text, needle):
@@ -54,6 +55,8 @@ def test_misspelt_key_fails_naming_the_key(tmp_path, text, needle):
     ("controller: {gait: gallop}\n", "controller.gait", "swim, trot, walk, turning, crab"),
     ("initial_pose: {xyz: [0, 0]}\n", "initial_pose.xyz", "3 finite numbers"),
     ("random_seed: -4\n", "random_seed", "[0, 4294967295]"),
+    ("robot: {fin_sweep_deg: 75}\n", "robot.fin_sweep_deg", "[-60, 60] deg"),
+    ("controller: {gait_reading: mirror}\n", "controller.gait_reading", "paper, mirrored"),
 ])
 def test_out_of_range_value_fails_naming_field_and_range(tmp_path, text, field, allowed):
     with pytest.raises(ScenarioError) as info:

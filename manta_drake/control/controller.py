@@ -55,7 +55,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from manta_drake.control.cpg import CpgOscillators, initial_state
 from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
 from manta_drake.control.depth_image_filter import DepthImageFilter
-from manta_drake.control.gaits import GAITS, get_gait
+from manta_drake.control.gaits import get_gait
 from manta_drake.control.transition import (
     BEHAVIOURS,
     PotentialTransition,
@@ -85,10 +85,11 @@ def initial_cpg_params(scenario: Scenario) -> np.ndarray:
         de = scenario.depth_estimator
         z0 = float(fuzzy_depth(initial_sensor_depth(scenario), de.floor_distance,
                                de.surface_depth)[1])
-        behaviours = (GAITS[name].to_vector() for name in BEHAVIOURS)
+        reading = scenario.controller.gait_reading
+        behaviours = (get_gait(name, reading).to_vector() for name in BEHAVIOURS)
         return target_params(z0, 0.0, *behaviours, scenario.transition.z_t,
                              scenario.transition.blend)
-    return get_gait(scenario.controller.gait).to_vector()
+    return get_gait(scenario.controller.gait, scenario.controller.gait_reading).to_vector()
 
 
 def balloon_schedule(scenario: Scenario) -> TrajectorySource:
@@ -164,7 +165,8 @@ def _add_transition(builder, scenario: Scenario, handles: ControllerHandles, s_h
     transition = builder.AddNamedSystem("transition", PotentialTransition(
         tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend, follow=tr.follow,
         initial_params=initial_cpg_params(scenario),
-        s_hat_time_constant=tr.s_hat_time_constant))
+        s_hat_time_constant=tr.s_hat_time_constant,
+        gait_reading=scenario.controller.gait_reading))
     builder.Connect(handles.systems["depth_estimator"].GetOutputPort("z_hat"),
                     transition.GetInputPort("z_hat"))
     if s_hat is None:  # no camera: no wall is ever seen
@@ -196,12 +198,13 @@ def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, Control
         s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
     if mode == "hold":
         source = builder.AddNamedSystem("hold_stance", stance_ramp(
-            initial_joint_angles(scenario), get_gait(scenario.controller.gait).X.ravel()))
+            initial_joint_angles(scenario), get_gait(scenario.controller.gait, scenario.controller.gait_reading).X.ravel()))
         builder.ExportOutput(source.get_output_port(), "desired_state")
     elif mode in ("gait", "transition"):
         if mode == "gait":
             params = builder.AddNamedSystem("gait_params", ConstantVectorSource(
-                get_gait(scenario.controller.gait).to_vector())).get_output_port()
+                get_gait(scenario.controller.gait, scenario.controller.gait_reading)
+                .to_vector())).get_output_port()
         else:
             params = _add_transition(builder, scenario, handles, s_hat)
         c = scenario.cpg

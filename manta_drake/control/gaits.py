@@ -32,7 +32,9 @@ the right fins' pitch column (``R_SWIM``); the matrix exactly as printed is the 
 and X's pitch columns, the crab needs the left-right antisymmetric pitch to walk sideways
 (a mirror-symmetric command with the trot's phases cannot make a net side force), and with
 the mirror rule applied to every column the trot and the walk of this model stop (measured:
-docs/design.md).
+docs/design.md) unless the fins' rest sweep is changed for that stance. ``MIRRORED`` below is
+that reading, one rule for every gait, selected by ``controller.gait_reading: mirrored``
+together with ``robot.fin_sweep_deg: 30`` (docs/stance.md compares the two).
 """
 
 from __future__ import annotations
@@ -169,12 +171,41 @@ GAITS: dict[str, GaitParams] = {
 }
 
 
-def get_gait(name: str) -> GaitParams:
-    """The gait called ``name``; a clear error lists the known ones."""
+# The second reading (docs/design.md, section 6 (c); docs/stance.md): one rule for every
+# gait. The printed left rows are the reference (Fig. 9 checks the left front fin) and each
+# right fin's R and X rows are their mirror image, so every motion is mirror-symmetric
+# up to its phases. Changed printed entries: R_swim and R_gait [fr, rr; pitch] and
+# X_gait [fr, rr; yaw]. One exception, forced by symmetry: the crab keeps R_crab's
+# printed pitch column, whose left-right antisymmetry is what walks it sideways (a
+# mirror-symmetric command with the trot's half-period left-right phases makes side forces
+# that cancel over a cycle). Its all-forward yaw bias balances the stance only with the
+# fins swept back ~30 deg at theta_1 = 0 (``robot.fin_sweep_deg``; docs/stance.md).
+X_GAIT_MIRRORED = mirror_right_fins(X_GAIT)
+R_GAIT_MIRRORED = mirror_right_fins(R_GAIT)
+MIRRORED: dict[str, GaitParams] = {
+    "swim": GAITS["swim"],  # already the mirror rule
+    "trot": GaitParams(R_GAIT_MIRRORED, X_GAIT_MIRRORED, PHI_GAIT, PHI_PRIME_GAIT),
+    "walk": GaitParams(R_GAIT_MIRRORED, X_GAIT_MIRRORED, PHI_GAIT, PHI_PRIME_WALK),
+    "turning": GaitParams(R_GAIT_MIRRORED, X_GAIT_MIRRORED, PHI_GAIT, PHI_PRIME_TURNING),
+    "crab": GaitParams(R_CRAB, X_GAIT_MIRRORED, PHI_CRAB, PHI_PRIME_GAIT),
+    "swim_printed": GAITS["swim_printed"],
+}
+
+# Gait libraries by reading (the scenario's ``controller.gait_reading``).
+READINGS: dict[str, dict[str, GaitParams]] = {"paper": GAITS, "mirrored": MIRRORED}
+
+
+def get_gait(name: str, reading: str = "paper") -> GaitParams:
+    """The gait called ``name`` under ``reading``; a clear error lists the known ones."""
     try:
-        return GAITS[name]
+        library = READINGS[reading]
     except KeyError:
-        raise KeyError(f"unknown gait '{name}'; known gaits: {', '.join(GAITS)}") from None
+        raise KeyError(f"unknown gait reading '{reading}'; known readings: "
+                       f"{', '.join(READINGS)}") from None
+    try:
+        return library[name]
+    except KeyError:
+        raise KeyError(f"unknown gait '{name}'; known gaits: {', '.join(library)}") from None
 
 
 def phase_lock_targets(Phi_prime) -> np.ndarray:

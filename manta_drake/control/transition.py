@@ -41,7 +41,7 @@ the sinking).
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.control.gaits import GAITS
+from manta_drake.control.gaits import get_gait
 
 # The behaviours Eq. (12) blends: swim (surface), and in the gait trot or turning (vision).
 BEHAVIOURS = ("swim", "trot", "turning")
@@ -142,7 +142,8 @@ class PotentialTransition(LeafSystem):
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
                  alpha: float = 0.95, z_t: float = 1.0, blend: str = "potential",
                  follow: str = "descent",
-                 initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0):
+                 initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0,
+                 gait_reading: str = "paper"):
         super().__init__()
         try:
             check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant, follow)
@@ -154,7 +155,8 @@ class PotentialTransition(LeafSystem):
         self.period, self.g, self.T, self.alpha, self.z_t, self.blend = period, g, T, alpha, z_t, blend
         self.follow = follow
         self.max_step = alpha * g * T
-        self.swim, self.trot, self.turning = (GAITS[b].to_vector() for b in behaviours)
+        self.swim, self.trot, self.turning = (get_gait(b, gait_reading).to_vector()
+                                              for b in behaviours)
         initial = self.swim if initial_params is None else np.asarray(initial_params, dtype=float)
         if initial.shape != self.swim.shape or not np.all(np.isfinite(initial)):
             raise ValueError(f"PotentialTransition.initial_params: expected {self.swim.size} "

@@ -22,7 +22,7 @@ from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake.model import MODELS_DIR
-from manta_drake.model.robot_params import JOINT_NAMES
+from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES
 
 ROBOT_URL = "package://manta_drake/manta.sdf"
 POOL_URL = "package://manta_drake/pool.sdf"
@@ -55,6 +55,7 @@ def add_plant(
     with_pool: bool = True,
     weld_body: RigidTransform | None = None,
     hydro=None,
+    robot_params=None,
 ) -> PlantHandles:
     """Adds the robot (and pool) to ``builder`` and finalizes the plant.
 
@@ -71,6 +72,8 @@ def add_plant(
             hull at its centre of mass (model instance ``manta_added_mass``, so the
             robot's own mass stays 8.4 kg; HydrodynamicForces cancels its weight), and
             each fin's added inertia about its hinge as the actuator's rotor inertia.
+        robot_params: RobotParams of another geometry than the shipped model's
+            (``manta.sdf`` is ``DEFAULT_ROBOT``); its SDFormat is generated here.
     """
     if not time_step > 0:
         raise ValueError(f"time_step: {time_step} must be > 0 (the plant is discrete)")
@@ -85,7 +88,12 @@ def add_plant(
     )
     plant, scene_graph = AddMultibodyPlant(config, builder)
     parser = make_parser(plant)
-    (robot,) = parser.AddModels(url=ROBOT_URL)
+    if robot_params is None or robot_params == DEFAULT_ROBOT:
+        (robot,) = parser.AddModels(url=ROBOT_URL)
+    else:
+        from manta_drake.model.model_sdf import robot_sdf
+
+        (robot,) = parser.AddModelsFromString(robot_sdf(robot_params), "sdf")
     pool = parser.AddModels(url=POOL_URL)[0] if with_pool else None
     body = plant.GetBodyByName("body", robot)
     if weld_body is not None:

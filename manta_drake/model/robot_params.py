@@ -32,7 +32,7 @@ so a 4x4 matrix flattened row-major is in the plant's order.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 LEGS = ("fl", "fr", "rl", "rr")
 JOINTS = ("yaw", "roll1", "pitch", "roll2")
@@ -68,7 +68,7 @@ class LegMount:
         """Table 2, link 1: yaw-servo zero: at theta_1 = 0 the fin points sideways, swept
         back by ``sweep`` (NED yaw: left fins rotate negative, right fins positive)."""
         lateral = math.copysign(math.pi / 2, self.y)
-        return lateral + math.copysign(self.sweep, self.y) - self.theta_init
+        return lateral + math.copysign(1.0, self.y) * self.sweep - self.theta_init
 
 
 @dataclass(frozen=True)
@@ -120,6 +120,11 @@ class RobotParams:
     friction: float = 0.8
     point_contact_stiffness: float = 2.0e5  # N/m
     hunt_crossley_dissipation: float = 5.0  # s/m
+
+    def with_fin_sweep(self, sweep: float) -> "RobotParams":
+        """These parameters with every leg-fin swept back by ``sweep`` [rad] at theta_1 = 0
+        (negative: swept forward)."""
+        return replace(self, mounts=tuple(replace(m, sweep=sweep) for m in self.mounts))
 
     @property
     def total_mass(self) -> float:

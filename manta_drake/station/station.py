@@ -131,7 +131,7 @@ def initial_joint_angles(scenario: Scenario) -> np.ndarray:
 
     if scenario.initial_stance == "zero":
         return np.zeros(NUM_JOINTS)
-    return get_gait(scenario.initial_stance).X.ravel().copy()
+    return get_gait(scenario.initial_stance, scenario.controller.gait_reading).X.ravel().copy()
 
 
 def camera_info(cam: CameraConfig) -> CameraInfo:
@@ -212,7 +212,8 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
     builder.ExportInput(fill_to_volume.get_input_port(), "balloon_command")
     builder.ExportOutput(balloon.GetOutputPort("balloon_volume"), "balloon_volume")
     hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
-        plant, ph.robot, coeffs, scenario.time_step, current=scenario.water.current,
+        plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot.params(),
+        current=scenario.water.current,
         added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period,
         plant_state=HYDRO_PLANT_STATE))
     # Held forces: the list changes only at the hydro's updates, so Drake's cache keeps it
@@ -387,7 +388,7 @@ def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHan
                                     scenario.water.coefficient_scales)
     plant_handles = add_plant(builder, time_step=scenario.time_step,
                               discrete_contact_approximation=scenario.discrete_contact_approximation,
-                              hydro=coeffs)
+                              hydro=coeffs, robot_params=scenario.robot.params())
     set_contact_friction(plant_handles, scenario.contact.friction)
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant

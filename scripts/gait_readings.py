@@ -19,7 +19,7 @@ numbers:
 * ``swim_no_lag``: the shipped swim with Phi'_swim set to zero (no left-right lag).
 
 Usage: python scripts/gait_readings.py [--out out/gait_readings] [--duration 12]
-       [--readings printed,shipped,...] [--gaits swim,trot,...]
+       [--readings printed,shipped,...] [--gaits swim,trot,...] [--fin-sweep DEG]
 Prints a markdown table (u, v, yaw rate over the window; wall clearance) and writes it to
 OUT/readings.md, with a figure of the swims' paths (OUT/swim_paths.png).
 """
@@ -76,8 +76,10 @@ READINGS = {
 }
 
 
-def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float) -> dict:
-    """One locomotion scenario with the gait library of ``reading``; its metrics."""
+def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float,
+                fin_sweep_deg: float | None = None) -> dict:
+    """One locomotion scenario with the gait library of ``reading`` (and the fins' rest sweep
+    ``fin_sweep_deg``, the scenario's own if None); its metrics."""
     for name in GAITS:
         G.GAITS[name] = READINGS[reading](name)
     try:
@@ -85,6 +87,8 @@ def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float) -> 
         s.visualization.meshcat = False
         s.duration = duration
         s.steady_after = duration / 2
+        if fin_sweep_deg is not None:
+            s.robot.fin_sweep_deg = fin_sweep_deg
         s.validate()
         run(s, out, progress=False)
     finally:
@@ -98,6 +102,9 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=12.0)
     parser.add_argument("--readings", default=",".join(READINGS))
     parser.add_argument("--gaits", default=",".join(GAITS))
+    parser.add_argument("--fin-sweep", type=float, default=None, metavar="DEG",
+                        help="robot.fin_sweep_deg of every run (default: the scenario's, 10); "
+                             "docs/stance.md balances each reading's stance")
     args = parser.parse_args()
     readings, gaits = args.readings.split(","), args.gaits.split(",")
     for r in readings:
@@ -112,7 +119,7 @@ def main() -> int:
             if reading == "swim_no_lag" and gait != "swim":
                 continue
             out = args.out / f"{reading}_{gait}"
-            m = run_reading(reading, gait, out, args.duration)
+            m = run_reading(reading, gait, out, args.duration, args.fin_sweep)
             u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
             row = (reading, gait, u, v, m["yaw_rate_deg_s"], m["min_wall_clearance_m"])
             rows.append(row)

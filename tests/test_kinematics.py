@@ -89,16 +89,22 @@ def test_plant_of_another_fin_sweep_equals_its_dh_product(sweep_deg, rng):
     assert tip.translation()[0] == pytest.approx(0.10 - span * np.sin(np.radians(sweep_deg)))
 
 
-def _support_offsets(X, params):
-    """Signed distances [m] of the CG from the trot's two support diagonals (fl-rr, fr-rl)
-    with the fins at the stance X, in the horizontal plane."""
-    tips = np.array([fin_tip_pose(leg, X[k], params)[:2, 3] for k, leg in enumerate(LEGS)])
+def test_support_diagonal_offsets_closed_form():
+    """At the zero pose with no sweep the tips form a rectangle centred on the CG (offsets 0);
+    swept back by s, every tip moves back by span * sin(s), and the CG lies that far ahead of
+    both diagonals, times the cosine of the diagonals' angle to the y axis."""
+    from manta_drake.model.kinematics import support_diagonal_offsets
 
-    def offset(a, b):
-        d = b - a
-        return (a[0] * d[1] - a[1] * d[0]) / np.linalg.norm(d)
-
-    return offset(tips[0], tips[3]), offset(tips[1], tips[2])
+    flat = DEFAULT_ROBOT.with_fin_sweep(0.0)
+    assert support_diagonal_offsets(np.zeros((4, 4)), flat) == pytest.approx((0, 0), abs=1e-12)
+    s = np.radians(20.0)
+    span = DEFAULT_ROBOT.d3 + DEFAULT_ROBOT.dE
+    shift = span * np.sin(s)
+    half_x, half_y = 0.10 - 0.0, 0.10 + span * np.cos(s)  # tip rectangle half sides
+    cos_angle = 2 * half_y / np.hypot(2 * half_x, 2 * half_y)
+    d1, d2 = support_diagonal_offsets(np.zeros((4, 4)), DEFAULT_ROBOT.with_fin_sweep(s))
+    assert abs(d1) == pytest.approx(shift * cos_angle, rel=1e-9)
+    assert d1 == pytest.approx(-d2, rel=1e-9)
 
 
 def test_each_readings_stance_is_balanced_at_its_fin_sweep():
@@ -106,10 +112,11 @@ def test_each_readings_stance_is_balanced_at_its_fin_sweep():
     turns all four fins forward, so at the shipped 10 deg both trot diagonals pass ~8 cm
     ahead of the CG; at 30 deg (and the paper reading's pinwheel at 10) within 1.5 cm."""
     from manta_drake.control.gaits import get_gait
+    from manta_drake.model.kinematics import support_diagonal_offsets as offsets
 
     paper = get_gait("trot", "paper").X
     mirrored = get_gait("trot", "mirrored").X
-    assert max(map(abs, _support_offsets(paper, DEFAULT_ROBOT))) < 0.015
-    assert min(map(abs, _support_offsets(mirrored, DEFAULT_ROBOT))) > 0.07
+    assert max(map(abs, offsets(paper, DEFAULT_ROBOT))) < 0.015
+    assert min(map(abs, offsets(mirrored, DEFAULT_ROBOT))) > 0.07
     swept = DEFAULT_ROBOT.with_fin_sweep(np.radians(30.0))
-    assert max(map(abs, _support_offsets(mirrored, swept))) < 0.015
+    assert max(map(abs, offsets(mirrored, swept))) < 0.015

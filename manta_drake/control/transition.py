@@ -137,6 +137,9 @@ class PotentialTransition(LeafSystem):
     z_hat comes from a continuous depth and is used as it is.
 
     Non-finite inputs are treated as z_hat = 0 / s_hat = 0 for that update.
+
+    The three behaviours (``behaviours``: swim, trot, turning) are taken from the gait library
+    of ``gait_reading`` (``gaits.READINGS``: ``paper`` or ``mirrored``).
     """
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,

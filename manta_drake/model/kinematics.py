@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS, RobotParams
+from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS, LEGS, RobotParams
 
 # Rotation by pi about x: the paper's NED body axes (x fwd, y right, z down)
 # expressed in Drake's z-up body axes (x fwd, y left, z up).
@@ -87,6 +87,27 @@ def leg_frames_ned(leg: str, q, params: RobotParams = DEFAULT_ROBOT) -> list:
 def fin_tip_pose(leg: str, q, params: RobotParams = DEFAULT_ROBOT) -> np.ndarray:
     """Fin-tip frame F_E in Drake's z-up body frame: the product of Eq. (1) transforms."""
     return X_BODYDRAKE_BODYNED @ leg_frames_ned(leg, q, params)[-1]
+
+
+def support_diagonal_offsets(stance, params: RobotParams = DEFAULT_ROBOT) -> tuple:
+    """How far the CG (the body origin) is from the trot's two support diagonals.
+
+    Args:
+        stance: 4x4 joint angles (rows fl, fr, rl, rr), e.g. a gait's X.
+        params: the robot's geometry.
+
+    Returns:
+        (d_fl_rr, d_fr_rl): signed horizontal distances [m] of the CG from the lines through
+        the fin tips fl-rr and fr-rl (both 0 when the CG lies on both diagonals).
+    """
+    q = np.asarray(stance, dtype=float)
+    tips = np.array([fin_tip_pose(leg, q[k], params)[:2, 3] for k, leg in enumerate(LEGS)])
+
+    def offset(a, b):
+        d = b - a
+        return float((a[0] * d[1] - a[1] * d[0]) / np.linalg.norm(d))
+
+    return offset(tips[0], tips[3]), offset(tips[1], tips[2])
 
 
 def link_poses_at_zero(leg: str, params: RobotParams = DEFAULT_ROBOT) -> dict:

@@ -18,6 +18,9 @@ Table 1 holds (8.4 kg; 0.38 m x 0.85 m x 0.14 m at the zero pose):
   roll2 -> tip): a short distal link keeps that forward bend small. With the sweep
   both trot diagonals pass within 1.5 cm of the CG. d_3 + d_E = 0.325 m puts the tips
   0.84 m apart at the zero pose (Table 1: 0.85 m).
+* The sweep is the scenario's ``robot.fin_sweep_deg`` (``RobotParams.with_fin_sweep``): the
+  mirrored reading of the gait matrices (``controller.gait_reading: mirrored``) turns all four
+  fins forward at the stance and balances at 30 deg (docs/stance.md).
 
 Frames: the paper's body frame is NED (x forward, y starboard, z down). Drake's world
 is z-up, so the robot's Drake body frame is x forward, y port (left), z up; the two

@@ -1,0 +1,273 @@
+#!/usr/bin/env python3
+"""The stance behind each reading of the gait matrices (issue 10; docs/stance.md).
+
+The paper prints the gait matrices of Eqs. (6)-(8) but not the leg-fins' rest sweep
+(Table 2's theta_offset). ``controller.gait_reading`` chooses how the matrices are read:
+``paper`` (the legged gaits as printed, the swim's right fins mirrored) or ``mirrored`` (each
+right fin mirrors its left partner in every gait, the crab's pitch excepted);
+``robot.fin_sweep_deg`` chooses the sweep. This script answers two questions:
+
+1. Kinematics (Eq. 1, no simulation): with the fins at the trot's stance (X_gait), where do
+   the two support diagonals pass relative to the CG, for each reading and sweep? And how
+   big is the robot at the zero pose (Table 1: 0.38 m x 0.85 m x 0.14 m)?
+2. Dynamics: every gait under each (reading, sweep) of the sweep ``diagrams/sweeps/stance.yaml``
+   (20 s, nominal band point): u, v, yaw rate over the free-water window, and the mean body
+   roll and pitch there (from each run's log: a stance that tips shows as pitch).
+
+Usage:
+    manta-drake sweep diagrams/sweeps/stance.yaml --out out/stance
+    python scripts/stance_study.py --sweep-out out/stance
+    python scripts/stance_study.py            # from the shipped table, no simulation
+
+``--sweep-out`` also writes the dynamics table to ``--table`` (shipped as
+diagrams/sweeps/data/stance_table.csv). Writes the markdown block between
+``<!-- stance-study:begin -->`` and ``<!-- stance-study:end -->`` of ``--out-md`` and the
+figure ``--out-fig``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import pathlib
+import sys
+
+import numpy as np
+import yaml
+
+from manta_drake.control.gaits import get_gait
+from manta_drake.model.kinematics import fin_tip_pose, support_diagonal_offsets
+from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+MARK_BEGIN = "<!-- stance-study:begin -->"
+MARK_END = "<!-- stance-study:end -->"
+READINGS = ("paper", "mirrored")
+SWEEPS_DEG = (0.0, 10.0, 20.0, 30.0, 40.0)
+GAITS = ("swim", "trot", "walk", "crab", "turning")
+# (reading, sweep) pairs of diagrams/sweeps/stance.yaml, the balanced ones first.
+CONFIGS = (("paper", 10.0), ("mirrored", 30.0), ("mirrored", 10.0), ("paper", 30.0))
+COLUMNS = ("gait_reading", "fin_sweep_deg", "gait", "u", "v", "yaw_rate_deg_s",
+           "mean_roll_deg", "mean_pitch_deg", "steady_start_s", "steady_end_s")
+
+
+def params_for(sweep_deg: float):
+    return DEFAULT_ROBOT.with_fin_sweep(math.radians(sweep_deg))
+
+
+def stance_tips(reading: str, sweep_deg: float) -> np.ndarray:
+    """Fin tips (x, y) [m] in the body frame (Drake: x forward, y left) at the trot's X."""
+    X, p = get_gait("trot", reading).X, params_for(sweep_deg)
+    return np.array([fin_tip_pose(leg, X[k], p)[:2, 3] for k, leg in enumerate(LEGS)])
+
+
+def zero_pose_size(sweep_deg: float) -> np.ndarray:
+    """L, W, H [m]: the axis-aligned box around the robot's illustration geometry at q = 0."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from manta_drake.model.plant import add_plant
+
+    builder = DiagramBuilder()
+    h = add_plant(builder, with_pool=False, robot_params=params_for(sweep_deg))
+    diagram = builder.Build()
+    context = h.plant.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    query = h.plant.get_geometry_query_input_port().Eval(context)
+    inspector = query.inspector()
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    from pydrake.geometry import Role
+
+    for body in h.plant.GetBodyIndices(h.robot):
+        for gid in inspector.GetGeometries(h.plant.GetBodyFrameIdOrThrow(body),
+                                           Role.kIllustration):
+            shape, X = inspector.GetShape(gid), query.GetPoseInWorld(gid)
+            R = np.abs(X.rotation().matrix())
+            kind = type(shape).__name__
+            if kind == "Box":
+                ext = R @ (np.array([shape.width(), shape.depth(), shape.height()]) / 2)
+            elif kind == "Ellipsoid":
+                A = np.diag([shape.a(), shape.b(), shape.c()])
+                Rm = X.rotation().matrix()
+                ext = np.sqrt(np.diag(Rm @ A @ A @ Rm.T))
+            elif kind == "Sphere":
+                ext = np.full(3, shape.radius())
+            else:
+                raise RuntimeError(f"zero_pose_size: unexpected shape {kind}")
+            lo = np.minimum(lo, X.translation() - ext)
+            hi = np.maximum(hi, X.translation() + ext)
+    return hi - lo
+
+
+def kinematics_rows() -> list[dict]:
+    rows = []
+    for sweep in SWEEPS_DEG:
+        size = zero_pose_size(sweep)
+        for reading in READINGS:
+            tips = stance_tips(reading, sweep)
+            d1, d2 = support_diagonal_offsets(get_gait("trot", reading).X, params_for(sweep))
+            rows.append({"reading": reading, "sweep": sweep, "fl_rr": d1, "fr_rl": d2,
+                         "centroid_x": float(tips[:, 0].mean()), "L": size[0], "W": size[1]})
+    return rows
+
+
+def table_from_sweep(sweep_out: pathlib.Path) -> list[dict]:
+    """The dynamics table from a sweep's results.csv and its runs' logs."""
+    rows = []
+    with open(sweep_out / "results.csv", newline="") as f:
+        results = list(csv.DictReader(f))
+    for r in results:
+        run = sweep_out / "runs" / r["run_id"]
+        s = yaml.safe_load((run / "scenario.yaml").read_text())  # the resolved scenario
+        reading = s["controller"]["gait_reading"]
+        sweep = float(s["robot"]["fin_sweep_deg"])
+        gait = r["base"].removeprefix("locomotion_")
+        row = {"gait_reading": reading, "fin_sweep_deg": sweep, "gait": gait}
+        if r["status"] != "ok" or not r["u"]:
+            raise SystemExit(f"error: run {r['run_id']} ({reading}, {sweep:g} deg, {gait}) "
+                             f"is {r['status']}: {r['reason']}")
+        t0, t1 = float(r["steady_start_s"]), float(r["steady_end_s"])
+        log = np.load(run / "log.npz")
+        window = (log["t"] >= t0) & (log["t"] <= t1)
+        roll, pitch = np.degrees(log["body_rpy"][window, :2]).mean(axis=0)
+        row.update(u=float(r["u"]), v=float(r["v"]), yaw_rate_deg_s=float(r["yaw_rate_deg_s"]),
+                   mean_roll_deg=float(roll), mean_pitch_deg=float(pitch),
+                   steady_start_s=t0, steady_end_s=t1)
+        rows.append(row)
+    return rows
+
+
+def write_table(rows: list[dict], path: pathlib.Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        for row in rows:
+            w.writerow({k: row[k] for k in COLUMNS})
+
+
+def read_table(path: pathlib.Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return [{k: (v if k in ("gait_reading", "gait") else float(v)) for k, v in r.items()}
+                for r in csv.DictReader(f)]
+
+
+def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
+    lines = [MARK_BEGIN, "",
+             "**Kinematics** (Eq. 1; the trot's stance X_gait under each reading): distance of "
+             "the CG from the trot's two support diagonals fl-rr / fr-rl, the fin tips' mean x "
+             "(+ ahead of the CG), and the robot's size at the zero pose (Table 1: L 0.38 m, "
+             "W 0.85 m).", "",
+             "| fin sweep deg | zero-pose L x W m | paper: diagonals m | paper: tips' mean x m "
+             "| mirrored: diagonals m | mirrored: tips' mean x m |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for sweep in SWEEPS_DEG:
+        p, m = ([r for r in kin if r["sweep"] == sweep and r["reading"] == x][0]
+                for x in READINGS)
+        lines.append(f"| {sweep:g} | {p['L']:.2f} x {p['W']:.2f} | {p['fl_rr']:+.3f} / "
+                     f"{p['fr_rl']:+.3f} | {p['centroid_x']:+.3f} | {m['fl_rr']:+.3f} / "
+                     f"{m['fr_rl']:+.3f} | {m['centroid_x']:+.3f} |")
+    lines += ["", "**Dynamics** (20 s runs, nominal band point; means over each run's "
+              "free-water window; body pitch + is nose down). From `" + table_path + "`:", "",
+              "| reading, fin sweep | gait | u m/s | v m/s | yaw rate deg/s | mean roll / pitch "
+              "deg | window s |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for reading, sweep in CONFIGS:
+        for gait in GAITS:
+            r = [x for x in dyn if x["gait_reading"] == reading and x["fin_sweep_deg"] == sweep
+                 and x["gait"] == gait]
+            if not r:
+                continue
+            r = r[0]
+            lines.append(f"| {reading}, {sweep:g} deg | {gait} | {r['u']:+.3f} | {r['v']:+.3f} "
+                         f"| {r['yaw_rate_deg_s']:+.2f} | {r['mean_roll_deg']:+.1f} / "
+                         f"{r['mean_pitch_deg']:+.1f} | {r['steady_start_s']:g}-"
+                         f"{r['steady_end_s']:.1f} |")
+    lines += ["", MARK_END]
+    return "\n".join(lines)
+
+
+def write_markdown(path: pathlib.Path, block: str) -> None:
+    text = path.read_text() if path.exists() else ""
+    if MARK_BEGIN not in text or MARK_END not in text:
+        raise SystemExit(f"error: {path} has no {MARK_BEGIN} ... {MARK_END} block; add the two "
+                         f"markers where the tables belong")
+    head, rest = text.split(MARK_BEGIN, 1)
+    path.write_text(head + block + rest.split(MARK_END, 1)[1])
+
+
+def plot(dyn: list[dict], path: pathlib.Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2),
+                             gridspec_kw={"width_ratios": [1.0, 1.3, 1.3]})
+    ax = axes[0]
+    for (reading, sweep), style in zip(CONFIGS[:2], ("o-", "s--")):
+        tips = stance_tips(reading, sweep)
+        order = [0, 1, 3, 2, 0]  # fl fr rr rl: the support rectangle
+        ax.plot(tips[order, 0], tips[order, 1], style, lw=1.5, label=f"{reading}, {sweep:g} deg")
+        for diag in ((0, 3), (1, 2)):
+            ax.plot(tips[list(diag), 0], tips[list(diag), 1], ":", color=ax.lines[-1].get_color())
+    ax.plot(0, 0, "k+", ms=12, mew=2, label="CG")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m] (forward)")
+    ax.set_ylabel("y [m] (left)")
+    ax.set_title("trot stance: fin tips, diagonals")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
+    ax.grid(alpha=0.3)
+    width = 0.8 / len(CONFIGS)
+    x = np.arange(len(GAITS))
+    for k, (reading, sweep) in enumerate(CONFIGS):
+        sel = {r["gait"]: r for r in dyn if r["gait_reading"] == reading
+               and r["fin_sweep_deg"] == sweep}
+        for ax, key in ((axes[1], "u"), (axes[2], "yaw_rate_deg_s")):
+            ax.bar(x + (k - 1.5) * width, [sel[g][key] if g in sel else np.nan for g in GAITS],
+                   width, label=f"{reading}, {sweep:g} deg",
+                   hatch="" if k < 2 else "//", alpha=1.0 if k < 2 else 0.5)
+    for ax, label in ((axes[1], "u [m/s]"), (axes[2], "yaw rate [deg/s]")):
+        ax.set_xticks(x, GAITS)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_ylabel(label)
+        ax.grid(axis="y", alpha=0.3)
+    axes[1].set_title("forward speed (free-water window)")
+    axes[2].set_title("yaw rate")
+    axes[1].legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sweep-out", type=pathlib.Path,
+                        help="output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`")
+    parser.add_argument("--table", type=pathlib.Path,
+                        default=ROOT / "diagrams/sweeps/data/stance_table.csv")
+    parser.add_argument("--out-md", type=pathlib.Path, default=ROOT / "docs/stance.md")
+    parser.add_argument("--out-fig", type=pathlib.Path, default=ROOT / "docs/figures/stance.png")
+    args = parser.parse_args()
+    if args.sweep_out is not None:
+        if not (args.sweep_out / "results.csv").exists():
+            parser.error(f"--sweep-out: no results.csv in {args.sweep_out}")
+        dyn = table_from_sweep(args.sweep_out)
+        write_table(dyn, args.table)
+        print(f"wrote {args.table}")
+    elif not args.table.exists():
+        parser.error(f"--table: {args.table} not found; run the sweep and pass --sweep-out")
+    else:
+        dyn = read_table(args.table)
+    try:
+        shown = str(args.table.resolve().relative_to(ROOT))
+    except ValueError:
+        shown = str(args.table)
+    block = markdown(kinematics_rows(), dyn, shown)
+    print(block)
+    write_markdown(args.out_md, block)
+    plot(dyn, args.out_fig)
+    print(f"wrote {args.out_md} and {args.out_fig}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -72,7 +72,7 @@ class ControllerConfig:
     gait: str = "trot"
     # How Eqs. (6)-(8) are read (manta_drake.control.gaits.READINGS): ``paper`` (the
     # legged gaits as printed, the swim mirrored) or ``mirrored`` (one mirror rule for
-    # every gait; its stance needs robot.fin_sweep_deg: 30, docs/stance.md).
+    # every gait; its stance needs robot.fin_sweep_deg 30, its default then; docs/stance.md).
     gait_reading: str = "paper"
 
 
@@ -80,15 +80,19 @@ class ControllerConfig:
 class RobotConfig:
     """The robot's geometry that the paper leaves open (manta_drake.model.robot_params)."""
 
-    # Table 2's theta_offset: each leg-fin swept back by this at theta_1 = 0 [deg]. 10 keeps
-    # Table 1's size at the zero pose and balances the printed trot's stance; the mirrored
-    # reading's stance balances at 30 (docs/stance.md).
-    fin_sweep_deg: float = 10.0
+    # Table 2's theta_offset: each leg-fin swept back by this at theta_1 = 0 [deg]. None: the
+    # sweep that balances the stance of controller.gait_reading (gaits.BALANCED_FIN_SWEEP_DEG:
+    # paper 10, which also keeps Table 1's size at the zero pose; mirrored 30), filled in by
+    # Scenario.validate. docs/stance.md.
+    fin_sweep_deg: float | None = None
 
     def params(self):
-        """The RobotParams of this geometry (DEFAULT_ROBOT itself at the default)."""
+        """The RobotParams of this geometry (DEFAULT_ROBOT itself at the shipped model's
+        sweep)."""
         from manta_drake.model.robot_params import DEFAULT_ROBOT
 
+        if self.fin_sweep_deg is None:
+            raise ValueError("robot.fin_sweep_deg is not resolved yet: call Scenario.validate()")
         sweep = math.radians(self.fin_sweep_deg)
         if sweep == DEFAULT_ROBOT.mounts[0].sweep:
             return DEFAULT_ROBOT
@@ -248,8 +252,11 @@ class Scenario:
 
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises
-        ScenarioError naming the field, the value and the allowed range."""
-        from manta_drake.control.gaits import READINGS  # late imports: they import scenario
+        ScenarioError naming the field, the value and the allowed range. Fills in the one
+        default that depends on another field: ``robot.fin_sweep_deg`` (None) from
+        ``controller.gait_reading``."""
+        # late imports: they import scenario
+        from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
         from manta_drake.control.transition import check_parameters
 
         _text("name", self.name)
@@ -264,10 +271,12 @@ class Scenario:
         _integer("random_seed", self.random_seed, 0, 2**32 - 1)
         _vector("initial_pose.xyz", self.initial_pose.xyz, 3)
         _vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3, bound=360.0)
+        _one_of("controller.gait_reading", self.controller.gait_reading, tuple(READINGS))
+        if self.robot.fin_sweep_deg is None:  # the reading's own (written to scenario.yaml)
+            self.robot.fin_sweep_deg = BALANCED_FIN_SWEEP_DEG[self.controller.gait_reading]
         # Beyond +-60 deg the yaw joint's +-60 deg range cannot bring a fin back to the side.
         _in_range("robot.fin_sweep_deg", self.robot.fin_sweep_deg, -60.0, 60.0,
                   "[-60, 60] deg")
-        _one_of("controller.gait_reading", self.controller.gait_reading, tuple(READINGS))
         gaits = READINGS[self.controller.gait_reading]
         _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(gaits))
         problem = initial_pose_problem(self.initial_pose.xyz, self.initial_pose.rpy_deg,
@@ -389,7 +398,7 @@ class Scenario:
 
 
 @functools.lru_cache(maxsize=2)
-def _collision_model(fin_sweep_deg: float = RobotConfig.fin_sweep_deg):
+def _collision_model(fin_sweep_deg: float = 10.0):
     """A robot + pool plant (no water) and a context, built once per geometry, for
     start-pose checks."""
     from pydrake.systems.framework import DiagramBuilder
@@ -403,7 +412,7 @@ def _collision_model(fin_sweep_deg: float = RobotConfig.fin_sweep_deg):
 
 
 def _start_penetration(p, rpy_deg, q, tolerance: float = 0.002,
-                       fin_sweep_deg: float = RobotConfig.fin_sweep_deg) -> str | None:
+                       fin_sweep_deg: float = 10.0) -> str | None:
     """Why the robot's collision geometry (hull, fin plates, feet) starts more than
     ``tolerance`` inside the pool's floor or walls, or None."""
     import numpy as np
@@ -432,7 +441,7 @@ MAX_DEPTH_NOISE = 0.03
 
 
 def initial_pose_problem(xyz, rpy_deg, stance: str, gait_reading: str = "paper",
-                         fin_sweep_deg: float = RobotConfig.fin_sweep_deg) -> str | None:
+                         fin_sweep_deg: float = 10.0) -> str | None:
     """Why a start pose is not inside the pool's water clear of its floor and walls, or None.
 
     Checked at the start's stance: the hull's centre in the water (below the surface, above

@@ -111,12 +111,13 @@ def test_each_readings_stance_is_balanced_at_its_fin_sweep():
     """Why the mirrored reading needs robot.fin_sweep_deg 30 (docs/stance.md): its stance
     turns all four fins forward, so at the shipped 10 deg both trot diagonals pass ~8 cm
     ahead of the CG; at 30 deg (and the paper reading's pinwheel at 10) within 1.5 cm."""
-    from manta_drake.control.gaits import get_gait
+    from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, get_gait
     from manta_drake.model.kinematics import support_diagonal_offsets as offsets
 
-    paper = get_gait("trot", "paper").X
+    assert BALANCED_FIN_SWEEP_DEG == {"paper": 10.0, "mirrored": 30.0}
+    for reading, sweep in BALANCED_FIN_SWEEP_DEG.items():
+        params = DEFAULT_ROBOT.with_fin_sweep(np.radians(sweep))
+        assert max(map(abs, offsets(get_gait("trot", reading).X, params))) < 0.015, reading
+    assert DEFAULT_ROBOT.mounts[0].sweep == pytest.approx(np.radians(10.0))  # manta.sdf's
     mirrored = get_gait("trot", "mirrored").X
-    assert max(map(abs, offsets(paper, DEFAULT_ROBOT))) < 0.015
     assert min(map(abs, offsets(mirrored, DEFAULT_ROBOT))) > 0.07
-    swept = DEFAULT_ROBOT.with_fin_sweep(np.radians(30.0))
-    assert max(map(abs, offsets(mirrored, swept))) < 0.015

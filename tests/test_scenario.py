@@ -1,6 +1,7 @@
 """Scenario loading: typos and out-of-range values fail at load time, naming the field."""
 
 
+import numpy as np
 import pytest
 
 from manta_drake.scenario import (
@@ -22,6 +23,20 @@ def test_shipped_scenarios_load(path):
     scenario = load_scenario(path)
     assert scenario.duration > 0
     assert scenario.name == path.stem
+
+
+def test_fin_sweep_defaults_to_the_readings_balanced_sweep(tmp_path):
+    """robot.fin_sweep_deg left out: the sweep that balances the reading's stance, resolved at
+    load time (so scenario.yaml records it); set: kept."""
+    from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG
+
+    for reading, sweep in BALANCED_FIN_SWEEP_DEG.items():
+        s = load_scenario(_write(tmp_path, f"controller: {{gait_reading: {reading}}}\n"))
+        assert s.robot.fin_sweep_deg == sweep
+    s = load_scenario(_write(tmp_path, "controller: {gait_reading: mirrored}\n"
+                                       "robot: {fin_sweep_deg: 12.5}\n"))
+    assert s.robot.fin_sweep_deg == 12.5
+    assert s.robot.params().mounts[0].sweep == pytest.approx(np.radians(12.5))
 
 
 def test_values_are_typed(tmp_path):

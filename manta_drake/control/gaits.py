@@ -33,8 +33,9 @@ and X's pitch columns, the crab needs the left-right antisymmetric pitch to walk
 (a mirror-symmetric command with the trot's phases cannot make a net side force), and with
 the mirror rule applied to every column the trot and the walk of this model stop (measured:
 docs/design.md) unless the fins' rest sweep is changed for that stance. ``MIRRORED`` below is
-that reading, one rule for every gait, selected by ``controller.gait_reading: mirrored``
-together with ``robot.fin_sweep_deg: 30`` (docs/stance.md compares the two).
+that reading, one rule for every gait, selected by ``controller.gait_reading: mirrored``;
+its stance balances with the fins swept back 30 deg at rest (``robot.fin_sweep_deg``, whose
+default follows the reading: ``BALANCED_FIN_SWEEP_DEG``; docs/stance.md compares the two).
 """
 
 from __future__ import annotations
@@ -193,6 +194,10 @@ MIRRORED: dict[str, GaitParams] = {
 
 # Gait libraries by reading (the scenario's ``controller.gait_reading``).
 READINGS: dict[str, dict[str, GaitParams]] = {"paper": GAITS, "mirrored": MIRRORED}
+# The fins' rest sweep [deg] (``robot.fin_sweep_deg``) at which each reading's trot stance has
+# both support diagonals within 1.5 cm of the CG (tests/test_kinematics.py; docs/stance.md):
+# the scenario's default for that reading.
+BALANCED_FIN_SWEEP_DEG: dict[str, float] = {"paper": 10.0, "mirrored": 30.0}
 
 
 def get_gait(name: str, reading: str = "paper") -> GaitParams:

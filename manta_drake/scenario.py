@@ -82,21 +82,10 @@ class RobotConfig:
 
     # Table 2's theta_offset: each leg-fin swept back by this at theta_1 = 0 [deg]. None: the
     # sweep that balances the stance of controller.gait_reading (gaits.BALANCED_FIN_SWEEP_DEG:
-    # paper 10, which also keeps Table 1's size at the zero pose; mirrored 30), filled in by
-    # Scenario.validate. docs/stance.md.
+    # paper 10, which also keeps Table 1's size at the zero pose; mirrored 30), resolved where
+    # it is used (Scenario.fin_sweep_deg) so that a later override of the reading moves it.
+    # docs/stance.md.
     fin_sweep_deg: float | None = None
-
-    def params(self):
-        """The RobotParams of this geometry (DEFAULT_ROBOT itself at the shipped model's
-        sweep)."""
-        from manta_drake.model.robot_params import DEFAULT_ROBOT
-
-        if self.fin_sweep_deg is None:
-            raise ValueError("robot.fin_sweep_deg is not resolved yet: call Scenario.validate()")
-        sweep = math.radians(self.fin_sweep_deg)
-        if sweep == DEFAULT_ROBOT.mounts[0].sweep:
-            return DEFAULT_ROBOT
-        return DEFAULT_ROBOT.with_fin_sweep(sweep)
 
 
 @dc.dataclass
@@ -250,13 +239,29 @@ class Scenario:
     # ... until the hull first comes within this distance of a wall [m] (free water only).
     free_water_margin: float = 0.3
 
+    def fin_sweep_deg(self) -> float:
+        """The fins' rest sweep [deg]: ``robot.fin_sweep_deg``, or if None the one that
+        balances the stance of ``controller.gait_reading`` (gaits.BALANCED_FIN_SWEEP_DEG)."""
+        from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG
+
+        if self.robot.fin_sweep_deg is not None:
+            return float(self.robot.fin_sweep_deg)
+        try:
+            return BALANCED_FIN_SWEEP_DEG[self.controller.gait_reading]
+        except KeyError:
+            raise ScenarioError(f"controller.gait_reading: {self.controller.gait_reading!r} is "
+                                f"not one of {', '.join(BALANCED_FIN_SWEEP_DEG)}") from None
+
+    def robot_params(self):
+        """The RobotParams of this scenario's geometry (model.robot_params)."""
+        from manta_drake.model.robot_params import robot_with_fin_sweep_deg
+
+        return robot_with_fin_sweep_deg(self.fin_sweep_deg())
+
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises
-        ScenarioError naming the field, the value and the allowed range. Fills in the one
-        default that depends on another field: ``robot.fin_sweep_deg`` (None) from
-        ``controller.gait_reading``."""
-        # late imports: they import scenario
-        from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
+        ScenarioError naming the field, the value and the allowed range."""
+        from manta_drake.control.gaits import READINGS  # late imports: they import scenario
         from manta_drake.control.transition import check_parameters
 
         _text("name", self.name)
@@ -272,16 +277,15 @@ class Scenario:
         _vector("initial_pose.xyz", self.initial_pose.xyz, 3)
         _vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3, bound=360.0)
         _one_of("controller.gait_reading", self.controller.gait_reading, tuple(READINGS))
-        if self.robot.fin_sweep_deg is None:  # the reading's own (written to scenario.yaml)
-            self.robot.fin_sweep_deg = BALANCED_FIN_SWEEP_DEG[self.controller.gait_reading]
-        # Beyond +-60 deg the yaw joint's +-60 deg range cannot bring a fin back to the side.
-        _in_range("robot.fin_sweep_deg", self.robot.fin_sweep_deg, -60.0, 60.0,
-                  "[-60, 60] deg")
+        if self.robot.fin_sweep_deg is not None:
+            # Beyond +-60 deg the yaw joint's +-60 deg range cannot bring a fin to the side.
+            _in_range("robot.fin_sweep_deg", self.robot.fin_sweep_deg, -60.0, 60.0,
+                      "[-60, 60] deg (or null: the gait reading's balanced sweep)")
         gaits = READINGS[self.controller.gait_reading]
         _one_of("initial_stance", self.initial_stance, ("zero",) + tuple(gaits))
         problem = initial_pose_problem(self.initial_pose.xyz, self.initial_pose.rpy_deg,
                                        self.initial_stance, self.controller.gait_reading,
-                                       self.robot.fin_sweep_deg)
+                                       self.fin_sweep_deg())
         if problem:
             raise ScenarioError(f"initial_pose: {problem}")
         _one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
@@ -398,21 +402,22 @@ class Scenario:
 
 
 @functools.lru_cache(maxsize=2)
-def _collision_model(fin_sweep_deg: float = 10.0):
+def _collision_model(fin_sweep_deg: float):
     """A robot + pool plant (no water) and a context, built once per geometry, for
     start-pose checks."""
     from pydrake.systems.framework import DiagramBuilder
 
     from manta_drake.model.plant import add_plant
+    from manta_drake.model.robot_params import robot_with_fin_sweep_deg
 
     builder = DiagramBuilder()
-    handles = add_plant(builder, robot_params=RobotConfig(fin_sweep_deg).params())
+    handles = add_plant(builder, robot_params=robot_with_fin_sweep_deg(fin_sweep_deg))
     diagram = builder.Build()
     return diagram, handles, diagram.CreateDefaultContext()
 
 
-def _start_penetration(p, rpy_deg, q, tolerance: float = 0.002,
-                       fin_sweep_deg: float = 10.0) -> str | None:
+def _start_penetration(p, rpy_deg, q, fin_sweep_deg: float,
+                       tolerance: float = 0.002) -> str | None:
     """Why the robot's collision geometry (hull, fin plates, feet) starts more than
     ``tolerance`` inside the pool's floor or walls, or None."""
     import numpy as np
@@ -441,23 +446,26 @@ MAX_DEPTH_NOISE = 0.03
 
 
 def initial_pose_problem(xyz, rpy_deg, stance: str, gait_reading: str = "paper",
-                         fin_sweep_deg: float = 10.0) -> str | None:
+                         fin_sweep_deg: float | None = None) -> str | None:
     """Why a start pose is not inside the pool's water clear of its floor and walls, or None.
 
     Checked at the start's stance: the hull's centre in the water (below the surface, above
     the floor); the hull (an ellipsoid) and the four fin tips (with their foot spheres, from
     the kinematics of Eq. 1) inside the walls and above the floor; and then every collision
     geometry of the robot (fin plates included) overlapping the pool's by at most 2 mm (a
-    resting contact).
+    resting contact). The stance is ``stance``'s X under ``gait_reading``, on the fins' rest
+    sweep ``fin_sweep_deg`` (None: the reading's balanced sweep, as ``Scenario.fin_sweep_deg``).
     """
     import numpy as np
     from pydrake.math import RollPitchYaw
 
-    from manta_drake.control.gaits import get_gait
+    from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, get_gait
     from manta_drake.model.kinematics import fin_tip_pose
-    from manta_drake.model.robot_params import DEFAULT_POOL, LEGS
+    from manta_drake.model.robot_params import DEFAULT_POOL, LEGS, robot_with_fin_sweep_deg
 
-    pool, robot = DEFAULT_POOL, RobotConfig(fin_sweep_deg).params()
+    if fin_sweep_deg is None:
+        fin_sweep_deg = BALANCED_FIN_SWEEP_DEG[gait_reading]
+    pool, robot = DEFAULT_POOL, robot_with_fin_sweep_deg(fin_sweep_deg)
     p = np.asarray(xyz, dtype=float)
     R = RollPitchYaw(np.radians(rpy_deg)).ToRotationMatrix().matrix()
     floor, half_x, half_y = -pool.depth, pool.length / 2, pool.width / 2
@@ -481,7 +489,7 @@ def initial_pose_problem(xyz, rpy_deg, stance: str, gait_reading: str = "paper",
                     f"{0.5 * (low[1] + high[1]):.3f} m is inside or beyond a wall (the walls "
                     f"are at x = +-{half_x}, y = +-{half_y} m)")
     # The fin plates and feet as modelled (collision geometry), at the start's stance.
-    return _start_penetration(p, rpy_deg, q, fin_sweep_deg=fin_sweep_deg)
+    return _start_penetration(p, rpy_deg, q, fin_sweep_deg)
 
 
 SCENARIOS_DIR = pathlib.Path(__file__).resolve().parent / "scenarios"

@@ -122,6 +122,9 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
     sim_time = float(log.get("sim_time", t[-1] if len(t) else 0.0))
     m = {
         "scenario": scenario.name,
+        # How the gait matrices were read and on which fin sweep (docs/stance.md).
+        "gait_reading": scenario.controller.gait_reading,
+        "fin_sweep_deg": scenario.fin_sweep_deg(),
         "sim_time_s": sim_time,
         "wall_time_s": wall_time,
         "real_time_factor": sim_time / wall_time if wall_time > 0 else math.nan,

@@ -235,8 +235,10 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names: list[str],
         from manta_drake.scenario import initial_pose_problem
 
         stance = o.get("initial_stance", data.get("initial_stance", "trot"))
+        reading = data.get("controller", {}).get("gait_reading", "paper")
+        sweep = data.get("robot", {}).get("fin_sweep_deg")
         for z in np.arange(xyz[2], -0.02, 0.01):
-            if not initial_pose_problem([xyz[0], xyz[1], z], rpy, stance):
+            if not initial_pose_problem([xyz[0], xyz[1], z], rpy, stance, reading, sweep):
                 xyz[2] = float(z)
                 break
     elif start == "upside_down":
@@ -434,22 +436,25 @@ _GEOMETRY = {}
 def initial_penetration(scenario) -> tuple[float, str]:
     """Deepest penetration [m] between the robot and the pool at the scenario's start
     pose and stance, and the pair's geometry names (a plant of robot and pool built once
-    per process; geometry only, so the water's added-mass body does not matter)."""
-    from manta_drake.control.gaits import GAITS
+    per process and fin sweep; geometry only, so the water's added-mass body does not
+    matter)."""
+    from manta_drake.control.gaits import get_gait
     from manta_drake.model.plant import add_plant, body_pose, set_initial_state
 
-    if "plant" not in _GEOMETRY:
+    sweep = scenario.fin_sweep_deg()
+    if sweep not in _GEOMETRY:
         from pydrake.systems.framework import DiagramBuilder
 
         builder = DiagramBuilder()
-        handles = add_plant(builder, time_step=1e-3)
+        handles = add_plant(builder, time_step=1e-3, robot_params=scenario.robot_params())
         diagram = builder.Build()
         context = diagram.CreateDefaultContext()
-        _GEOMETRY.update(plant=handles, context=handles.plant.GetMyMutableContextFromRoot(
+        _GEOMETRY[sweep] = dict(plant=handles, context=handles.plant.GetMyMutableContextFromRoot(
             context), diagram_context=context, keep=diagram)
-    h, pc = _GEOMETRY["plant"], _GEOMETRY["context"]
+    h, pc = _GEOMETRY[sweep]["plant"], _GEOMETRY[sweep]["context"]
     stance = scenario.initial_stance
-    q = np.zeros(16) if stance == "zero" else GAITS[stance].X.reshape(-1)
+    q = (np.zeros(16) if stance == "zero"
+         else get_gait(stance, scenario.controller.gait_reading).X.reshape(-1))
     set_initial_state(h, pc, body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
                       q)
     inspector = h.scene_graph.model_inspector()

@@ -34,11 +34,11 @@ import pathlib
 import sys
 
 import numpy as np
-import yaml
 
 from manta_drake.control.gaits import get_gait
 from manta_drake.model.kinematics import fin_tip_pose, support_diagonal_offsets
 from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
+from manta_drake.scenario import load_scenario
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 MARK_BEGIN = "<!-- stance-study:begin -->"
@@ -117,9 +117,8 @@ def table_from_sweep(sweep_out: pathlib.Path) -> list[dict]:
         results = list(csv.DictReader(f))
     for r in results:
         run = sweep_out / "runs" / r["run_id"]
-        s = yaml.safe_load((run / "scenario.yaml").read_text())  # the resolved scenario
-        reading = s["controller"]["gait_reading"]
-        sweep = float(s["robot"]["fin_sweep_deg"])
+        s = load_scenario(run / "scenario.yaml")  # the run's resolved scenario
+        reading, sweep = s.controller.gait_reading, s.fin_sweep_deg()
         gait = r["base"].removeprefix("locomotion_")
         row = {"gait_reading": reading, "fin_sweep_deg": sweep, "gait": gait}
         if r["status"] != "ok" or not r["u"]:

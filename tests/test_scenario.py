@@ -26,17 +26,21 @@ def test_shipped_scenarios_load(path):
 
 
 def test_fin_sweep_defaults_to_the_readings_balanced_sweep(tmp_path):
-    """robot.fin_sweep_deg left out: the sweep that balances the reading's stance, resolved at
-    load time (so scenario.yaml records it); set: kept."""
+    """robot.fin_sweep_deg left out: the sweep that balances the reading's stance, also when
+    the reading is overridden after loading (--set, sweep rows); an explicit value wins."""
     from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG
+    from manta_drake.sweep import set_override
 
     for reading, sweep in BALANCED_FIN_SWEEP_DEG.items():
         s = load_scenario(_write(tmp_path, f"controller: {{gait_reading: {reading}}}\n"))
-        assert s.robot.fin_sweep_deg == sweep
-    s = load_scenario(_write(tmp_path, "controller: {gait_reading: mirrored}\n"
-                                       "robot: {fin_sweep_deg: 12.5}\n"))
-    assert s.robot.fin_sweep_deg == 12.5
-    assert s.robot.params().mounts[0].sweep == pytest.approx(np.radians(12.5))
+        assert s.fin_sweep_deg() == sweep
+        assert s.robot_params().mounts[0].sweep == pytest.approx(np.radians(sweep))
+    s = load_scenario("locomotion_trot")
+    set_override(s, "controller.gait_reading", "mirrored")
+    assert s.validate().fin_sweep_deg() == 30.0
+    set_override(s, "robot.fin_sweep_deg", 12.5)
+    assert s.validate().fin_sweep_deg() == 12.5
+    assert s.robot_params().mounts[0].sweep == pytest.approx(np.radians(12.5))
 
 
 def test_values_are_typed(tmp_path):
@@ -70,7 +74,7 @@ def test_misspelt_key_fails_naming_the_key(tmp_path, text, needle):
     ("controller: {gait: gallop}\n", "controller.gait", "swim, trot, walk, turning, crab"),
     ("initial_pose: {xyz: [0, 0]}\n", "initial_pose.xyz", "3 finite numbers"),
     ("random_seed: -4\n", "random_seed", "[0, 4294967295]"),
-    ("robot: {fin_sweep_deg: 75}\n", "robot.fin_sweep_deg", "[-60, 60] deg"),
+    ("robot: {fin_sweep_deg: 75}\n", "robot.fin_sweep_deg", "[-60, 60] deg (or null"),
     ("controller: {gait_reading: mirror}\n", "controller.gait_reading", "paper, mirrored"),
 ])
 def test_out_of_range_value_fails_naming_field_and_range(tmp_path, text, field, allowed):

@@ -166,3 +166,30 @@ def test_scenario_seed_gives_bit_identical_logs(tmp_path):
     np.testing.assert_array_equal(logs[0]["depth"], logs[1]["depth"])
     np.testing.assert_array_equal(logs[0]["body_xyz"], logs[1]["body_xyz"])
     assert not np.array_equal(logs[0]["depth"], logs[2]["depth"])
+
+
+def test_the_gait_reading_and_its_fin_sweep_reach_the_station_and_the_controller():
+    """controller.gait_reading: mirrored builds the robot on its balanced sweep (30 deg: the
+    plant's tips equal Eq. (1) with that sweep) and runs the mirrored gaits (the controller's
+    first CPG parameters and the start stance are MIRRORED's trot)."""
+    from manta_drake.control.controller import initial_cpg_params
+    from manta_drake.control.gaits import MIRRORED
+    from manta_drake.model.kinematics import fin_tip_pose
+    from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
+
+    s = _scenario("locomotion_trot", duration=0.1)
+    s.controller.gait_reading = "mirrored"
+    s.validate()
+    station, sh = build_station(s)
+    plant, robot = sh.plant_handles.plant, sh.plant_handles.robot
+    context = station.CreateDefaultContext()
+    pc = plant.GetMyContextFromRoot(context)
+    q = plant.GetPositions(pc, robot)[7:].reshape(4, 4)  # after the floating base
+    np.testing.assert_allclose(q, MIRRORED["trot"].X, atol=1e-12)  # the start stance
+    swept = DEFAULT_ROBOT.with_fin_sweep(np.radians(30.0))
+    body = sh.plant_handles.body.body_frame()
+    for k, leg in enumerate(LEGS):
+        X = plant.GetFrameByName(f"{leg}_tip", robot).CalcPose(pc, body).GetAsMatrix4()
+        np.testing.assert_allclose(X, fin_tip_pose(leg, q[k], swept), atol=1e-9)
+        assert not np.allclose(X, fin_tip_pose(leg, q[k], DEFAULT_ROBOT), atol=1e-3)
+    np.testing.assert_array_equal(initial_cpg_params(s), MIRRORED["trot"].to_vector())

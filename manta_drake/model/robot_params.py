@@ -143,6 +143,15 @@ class RobotParams:
 DEFAULT_ROBOT = RobotParams()
 
 
+def robot_with_fin_sweep_deg(fin_sweep_deg: float) -> RobotParams:
+    """DEFAULT_ROBOT with every fin swept back by ``fin_sweep_deg`` at theta_1 = 0
+    (DEFAULT_ROBOT itself at its own sweep, so the shipped manta.sdf is used)."""
+    sweep = math.radians(fin_sweep_deg)
+    if all(m.sweep == sweep for m in DEFAULT_ROBOT.mounts):
+        return DEFAULT_ROBOT
+    return DEFAULT_ROBOT.with_fin_sweep(sweep)
+
+
 @dataclass(frozen=True)
 class PoolParams:
     """The paper's outdoor pool (section 4.1): 15 m x 2 m, 0.5 m deep; water surface at z = 0."""

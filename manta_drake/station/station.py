@@ -212,7 +212,7 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
     builder.ExportInput(fill_to_volume.get_input_port(), "balloon_command")
     builder.ExportOutput(balloon.GetOutputPort("balloon_volume"), "balloon_volume")
     hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
-        plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot.params(),
+        plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
         current=scenario.water.current,
         added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period,
         plant_state=HYDRO_PLANT_STATE))
@@ -388,7 +388,7 @@ def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHan
                                     scenario.water.coefficient_scales)
     plant_handles = add_plant(builder, time_step=scenario.time_step,
                               discrete_contact_approximation=scenario.discrete_contact_approximation,
-                              hydro=coeffs, robot_params=scenario.robot.params())
+                              hydro=coeffs, robot_params=scenario.robot_params())
     set_contact_friction(plant_handles, scenario.contact.friction)
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant

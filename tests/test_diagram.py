@@ -101,3 +101,28 @@ def test_meshcat_recording_does_not_change_the_simulation(tmp_path):
         logs.append(run(s, tmp_path / str(meshcat), progress=False, write_outputs=False).log)
     np.testing.assert_allclose(logs[0]["body_xyz"], logs[1]["body_xyz"], atol=1e-9)
     np.testing.assert_allclose(logs[0]["joint_angles"], logs[1]["joint_angles"], atol=1e-9)
+
+
+@pytest.mark.parametrize("sweep_deg", [None, 10.0])
+def test_mirrored_trot_stands_level_and_goes_straight_only_on_its_balanced_sweep(sweep_deg,
+                                                                                  tmp_path):
+    """The mirror rule makes the trot's command symmetric under "mirror, then half a period
+    later", so on a balanced stance it goes straight: no side drift, no turn (docs/stance.md).
+    On the paper reading's 10 deg sweep its support is 8 cm ahead of the CG and it stands
+    nose up and barely moves."""
+    s = _scenario("locomotion_trot", duration=10.0, steady_after=4.0)
+    s.controller.gait_reading = "mirrored"
+    s.robot.fin_sweep_deg = sweep_deg
+    result = run(s.validate(), tmp_path, progress=False, write_outputs=False)
+    u, v = result.metrics["mean_velocity_body"]
+    window = result.log["t"] >= 4.0
+    pitch = np.degrees(result.log["body_rpy"][window, 1]).mean()  # + nose down
+    if sweep_deg is None:  # the reading's own, 30 deg
+        assert result.metrics["fin_sweep_deg"] == 30.0
+        assert u > 0.03
+        assert abs(v) < 0.2 * u
+        assert abs(result.metrics["yaw_rate_deg_s"]) < 1.5
+        assert abs(pitch) < 12.0
+    else:
+        assert pitch < -15.0  # nose up: the support is ahead of the CG
+        assert u < 0.02

@@ -128,7 +128,9 @@ def _wrap(x):
     return np.angle(np.exp(1j * np.asarray(x)))
 
 
-@pytest.mark.parametrize("name", sorted(GAITS))
+# The distinct gaits (trot_printed and the like are the same matrices as trot in this reading).
+@pytest.mark.parametrize("name", sorted(n for n in GAITS if not n.endswith("_printed"))
+                         + ["swim_printed"])
 def test_phase_lock_after_settling(name, rng):
     gait = GAITS[name]
     sim, cpg, _, _ = cpg_diagram(gait.to_vector())

@@ -28,7 +28,8 @@ against the kinematics in tests/test_gaits.py). The printed R_swim gives every f
 pitch amplitude, so the left and right fins feather in opposite senses and the printed swim
 turns (-11 deg/s). Eq. (6) describes one flapping motion of all fins, so ``swim`` mirrors
 the right fins' pitch column (``R_SWIM``); the matrix exactly as printed is the gait
-``swim_printed``. The legged gaits stay as printed: their matrices already mirror R's yaw
+``swim_printed`` (and every gait exactly as printed is ``<gait>_printed``, in both readings).
+The legged gaits stay as printed: their matrices already mirror R's yaw
 and X's pitch columns, the crab needs the left-right antisymmetric pitch to walk sideways
 (a mirror-symmetric command with the trot's phases cannot make a net side force), and with
 the mirror rule applied to every column the trot and the walk of this model stop (measured:
@@ -170,6 +171,10 @@ GAITS: dict[str, GaitParams] = {
     # Eq. (6) exactly as printed (its fins feather in opposite senses and it turns).
     "swim_printed": GaitParams(R_SWIM_PRINTED, X_SWIM, PHI_SWIM, PHI_PRIME_SWIM),
 }
+# Every matrix exactly as printed, by name, in both readings: ``<gait>_printed``. (In this
+# reading the legged gaits are the printed ones.)
+PRINTED_NAMES = tuple(f"{name}_printed" for name in ("swim", "trot", "walk", "turning", "crab"))
+GAITS.update({f"{name}_printed": GAITS[name] for name in ("trot", "walk", "turning", "crab")})
 
 
 # The second reading (docs/design.md, section 6 (c); docs/stance.md): one rule for every
@@ -189,7 +194,7 @@ MIRRORED: dict[str, GaitParams] = {
     "walk": GaitParams(R_GAIT_MIRRORED, X_GAIT_MIRRORED, PHI_GAIT, PHI_PRIME_WALK),
     "turning": GaitParams(R_GAIT_MIRRORED, X_GAIT_MIRRORED, PHI_GAIT, PHI_PRIME_TURNING),
     "crab": GaitParams(R_CRAB, X_GAIT_MIRRORED, PHI_CRAB, PHI_PRIME_GAIT),
-    "swim_printed": GAITS["swim_printed"],
+    **{name: GAITS[name] for name in PRINTED_NAMES},
 }
 
 # Gait libraries by reading (the scenario's ``controller.gait_reading``).

@@ -88,6 +88,20 @@ class RobotConfig:
     fin_sweep_deg: float | None = None
 
 
+def resolve_fin_sweep_deg(fin_sweep_deg: float | None, gait_reading: str) -> float:
+    """``fin_sweep_deg``, or if None the sweep that balances ``gait_reading``'s stance
+    (gaits.BALANCED_FIN_SWEEP_DEG)."""
+    from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG
+
+    if fin_sweep_deg is not None:
+        return float(fin_sweep_deg)
+    try:
+        return BALANCED_FIN_SWEEP_DEG[gait_reading]
+    except KeyError:
+        raise ScenarioError(f"controller.gait_reading: {gait_reading!r} is not one of "
+                            f"{', '.join(BALANCED_FIN_SWEEP_DEG)}") from None
+
+
 @dc.dataclass
 class CpgConfig:
     """Parameters of the CPG (Eq. 5); see ``manta_drake.control.cpg`` for why these defaults."""
@@ -242,15 +256,7 @@ class Scenario:
     def fin_sweep_deg(self) -> float:
         """The fins' rest sweep [deg]: ``robot.fin_sweep_deg``, or if None the one that
         balances the stance of ``controller.gait_reading`` (gaits.BALANCED_FIN_SWEEP_DEG)."""
-        from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG
-
-        if self.robot.fin_sweep_deg is not None:
-            return float(self.robot.fin_sweep_deg)
-        try:
-            return BALANCED_FIN_SWEEP_DEG[self.controller.gait_reading]
-        except KeyError:
-            raise ScenarioError(f"controller.gait_reading: {self.controller.gait_reading!r} is "
-                                f"not one of {', '.join(BALANCED_FIN_SWEEP_DEG)}") from None
+        return resolve_fin_sweep_deg(self.robot.fin_sweep_deg, self.controller.gait_reading)
 
     def robot_params(self):
         """The RobotParams of this scenario's geometry (model.robot_params)."""
@@ -416,28 +422,33 @@ def _collision_model(fin_sweep_deg: float):
     return diagram, handles, diagram.CreateDefaultContext()
 
 
+def deepest_start_contact(xyz, rpy_deg, q, fin_sweep_deg: float) -> tuple[float, tuple]:
+    """The deepest penetration [m] between the robot's collision geometry (hull, fin plates,
+    feet) and the pool's, with the body at ``xyz``, ``rpy_deg`` (world, deg), joint angles
+    ``q`` and fins swept back ``fin_sweep_deg``; and the pair's geometry names (empty: no
+    contact). One plant per sweep, built once per process."""
+    from manta_drake.model.plant import body_pose, set_initial_state
+
+    diagram, handles, context = _collision_model(fin_sweep_deg)
+    pc = handles.plant.GetMyMutableContextFromRoot(context)
+    set_initial_state(handles, pc, body_pose(xyz, rpy_deg), q)
+    query = handles.plant.get_geometry_query_input_port().Eval(pc)
+    deepest = max(query.ComputePointPairPenetration(), key=lambda pair: pair.depth, default=None)
+    if deepest is None:
+        return 0.0, ()
+    inspector = query.inspector()
+    return float(deepest.depth), tuple(inspector.GetName(g) for g in (deepest.id_A, deepest.id_B))
+
+
 def _start_penetration(p, rpy_deg, q, fin_sweep_deg: float,
                        tolerance: float = 0.002) -> str | None:
     """Why the robot's collision geometry (hull, fin plates, feet) starts more than
     ``tolerance`` inside the pool's floor or walls, or None."""
-    import numpy as np
-
-    from manta_drake.model.plant import body_pose
-
-    diagram, handles, context = _collision_model(fin_sweep_deg)
-    plant = handles.plant
-    pc = plant.GetMyMutableContextFromRoot(context)
-    plant.SetFreeBodyPose(pc, handles.body, body_pose(p, rpy_deg))
-    for name, angle in zip(handles.joint_names, np.asarray(q, dtype=float).ravel()):
-        plant.GetJointByName(name, handles.robot).set_angle(pc, angle)
-    query = plant.get_geometry_query_input_port().Eval(pc)
-    inspector = query.inspector()
-    deepest = max(query.ComputePointPairPenetration(), key=lambda pair: pair.depth, default=None)
-    if deepest is None or deepest.depth <= tolerance:
+    depth, names = deepest_start_contact(p, rpy_deg, q, fin_sweep_deg)
+    if depth <= tolerance:
         return None
-    names = sorted(inspector.GetName(g) for g in (deepest.id_A, deepest.id_B))
-    return (f"the robot starts {deepest.depth * 1e3:.1f} mm inside the pool "
-            f"({' and '.join(names)} overlap; at most {tolerance * 1e3:g} mm allowed)")
+    return (f"the robot starts {depth * 1e3:.1f} mm inside the pool "
+            f"({' and '.join(sorted(names))} overlap; at most {tolerance * 1e3:g} mm allowed)")
 
 
 # Largest depth-image range noise the sensor model supports [m]: beyond ~30 mm at the 0.8 m
@@ -459,12 +470,11 @@ def initial_pose_problem(xyz, rpy_deg, stance: str, gait_reading: str = "paper",
     import numpy as np
     from pydrake.math import RollPitchYaw
 
-    from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, get_gait
+    from manta_drake.control.gaits import get_gait
     from manta_drake.model.kinematics import fin_tip_pose
     from manta_drake.model.robot_params import DEFAULT_POOL, LEGS, robot_with_fin_sweep_deg
 
-    if fin_sweep_deg is None:
-        fin_sweep_deg = BALANCED_FIN_SWEEP_DEG[gait_reading]
+    fin_sweep_deg = resolve_fin_sweep_deg(fin_sweep_deg, gait_reading)
     pool, robot = DEFAULT_POOL, robot_with_fin_sweep_deg(fin_sweep_deg)
     p = np.asarray(xyz, dtype=float)
     R = RollPitchYaw(np.radians(rpy_deg)).ToRotationMatrix().matrix()

@@ -430,40 +430,20 @@ def log_stats(log: dict, dropout: float) -> dict:
     return out
 
 
-_GEOMETRY = {}
-
-
 def initial_penetration(scenario) -> tuple[float, str]:
     """Deepest penetration [m] between the robot and the pool at the scenario's start
-    pose and stance, and the pair's geometry names (a plant of robot and pool built once
-    per process and fin sweep; geometry only, so the water's added-mass body does not
+    pose and stance, and the pair's geometry names (the start-pose check's plant of robot
+    and pool, one per fin sweep; geometry only, so the water's added-mass body does not
     matter)."""
     from manta_drake.control.gaits import get_gait
-    from manta_drake.model.plant import add_plant, body_pose, set_initial_state
+    from manta_drake.scenario import deepest_start_contact
 
-    sweep = scenario.fin_sweep_deg()
-    if sweep not in _GEOMETRY:
-        from pydrake.systems.framework import DiagramBuilder
-
-        builder = DiagramBuilder()
-        handles = add_plant(builder, time_step=1e-3, robot_params=scenario.robot_params())
-        diagram = builder.Build()
-        context = diagram.CreateDefaultContext()
-        _GEOMETRY[sweep] = dict(plant=handles, context=handles.plant.GetMyMutableContextFromRoot(
-            context), diagram_context=context, keep=diagram)
-    h, pc = _GEOMETRY[sweep]["plant"], _GEOMETRY[sweep]["context"]
     stance = scenario.initial_stance
     q = (np.zeros(16) if stance == "zero"
-         else get_gait(stance, scenario.controller.gait_reading).X.reshape(-1))
-    set_initial_state(h, pc, body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg),
-                      q)
-    inspector = h.scene_graph.model_inspector()
-    pairs = h.plant.get_geometry_query_input_port().Eval(pc).ComputePointPairPenetration()
-    deepest = max(pairs, key=lambda p: p.depth, default=None)
-    if deepest is None:
-        return 0.0, ""
-    return float(deepest.depth), (f"{inspector.GetName(deepest.id_A)}/"
-                                  f"{inspector.GetName(deepest.id_B)}")
+         else get_gait(stance, scenario.controller.gait_reading).X)
+    depth, names = deepest_start_contact(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg,
+                                         q, scenario.fin_sweep_deg())
+    return depth, "/".join(names)
 
 
 def _flags(row: dict) -> bool:

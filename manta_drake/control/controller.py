@@ -197,14 +197,14 @@ def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, Control
     if scenario.camera.enabled:
         s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
     if mode == "hold":
+        stance = get_gait(scenario.controller.gait, scenario.controller.gait_reading).X
         source = builder.AddNamedSystem("hold_stance", stance_ramp(
-            initial_joint_angles(scenario), get_gait(scenario.controller.gait, scenario.controller.gait_reading).X.ravel()))
+            initial_joint_angles(scenario), stance.ravel()))
         builder.ExportOutput(source.get_output_port(), "desired_state")
     elif mode in ("gait", "transition"):
         if mode == "gait":
             params = builder.AddNamedSystem("gait_params", ConstantVectorSource(
-                get_gait(scenario.controller.gait, scenario.controller.gait_reading)
-                .to_vector())).get_output_port()
+                initial_cpg_params(scenario))).get_output_port()  # the fixed gait
         else:
             params = _add_transition(builder, scenario, handles, s_hat)
         c = scenario.cpg

@@ -11,7 +11,7 @@ right fin mirrors its left partner in every gait, the crab's pitch excepted);
    the two support diagonals pass relative to the CG, for each reading and sweep? And how
    big is the robot at the zero pose (Table 1: 0.38 m x 0.85 m x 0.14 m)?
 2. Dynamics: every gait under each (reading, sweep) of the sweep ``diagrams/sweeps/stance.yaml``
-   (20 s, nominal band point): u, v, yaw rate over the free-water window, and the mean body
+   (20 s, the shipped defaults): u, v, yaw rate over the free-water window, and the mean body
    roll and pitch there (from each run's log: a stance that tips shows as pitch).
 
 Usage:
@@ -29,15 +29,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 import pathlib
 import sys
 
 import numpy as np
 
 from manta_drake.control.gaits import get_gait
-from manta_drake.model.kinematics import fin_tip_pose, support_diagonal_offsets
-from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
+from manta_drake.model.kinematics import fin_tips_xy, support_diagonal_offsets
+from manta_drake.model.robot_params import robot_with_fin_sweep_deg
 from manta_drake.scenario import load_scenario
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -52,14 +51,9 @@ COLUMNS = ("gait_reading", "fin_sweep_deg", "gait", "u", "v", "yaw_rate_deg_s",
            "mean_roll_deg", "mean_pitch_deg", "steady_start_s", "steady_end_s")
 
 
-def params_for(sweep_deg: float):
-    return DEFAULT_ROBOT.with_fin_sweep(math.radians(sweep_deg))
-
-
 def stance_tips(reading: str, sweep_deg: float) -> np.ndarray:
     """Fin tips (x, y) [m] in the body frame (Drake: x forward, y left) at the trot's X."""
-    X, p = get_gait("trot", reading).X, params_for(sweep_deg)
-    return np.array([fin_tip_pose(leg, X[k], p)[:2, 3] for k, leg in enumerate(LEGS)])
+    return fin_tips_xy(get_gait("trot", reading).X, robot_with_fin_sweep_deg(sweep_deg))
 
 
 def zero_pose_size(sweep_deg: float) -> np.ndarray:
@@ -69,7 +63,7 @@ def zero_pose_size(sweep_deg: float) -> np.ndarray:
     from manta_drake.model.plant import add_plant
 
     builder = DiagramBuilder()
-    h = add_plant(builder, with_pool=False, robot_params=params_for(sweep_deg))
+    h = add_plant(builder, with_pool=False, robot_params=robot_with_fin_sweep_deg(sweep_deg))
     diagram = builder.Build()
     context = h.plant.GetMyContextFromRoot(diagram.CreateDefaultContext())
     query = h.plant.get_geometry_query_input_port().Eval(context)
@@ -104,7 +98,7 @@ def kinematics_rows() -> list[dict]:
         size = zero_pose_size(sweep)
         for reading in READINGS:
             tips = stance_tips(reading, sweep)
-            d1, d2 = support_diagonal_offsets(get_gait("trot", reading).X, params_for(sweep))
+            d1, d2 = support_diagonal_offsets(get_gait("trot", reading).X, robot_with_fin_sweep_deg(sweep))
             rows.append({"reading": reading, "sweep": sweep, "fl_rr": d1, "fr_rl": d2,
                          "centroid_x": float(tips[:, 0].mean()), "L": size[0], "W": size[1]})
     return rows
@@ -165,8 +159,8 @@ def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
         lines.append(f"| {sweep:g} | {p['L']:.2f} x {p['W']:.2f} | {p['fl_rr']:+.3f} / "
                      f"{p['fr_rl']:+.3f} | {p['centroid_x']:+.3f} | {m['fl_rr']:+.3f} / "
                      f"{m['fr_rl']:+.3f} | {m['centroid_x']:+.3f} |")
-    lines += ["", "**Dynamics** (20 s runs, nominal band point; means over each run's "
-              "free-water window; body pitch + is nose down). From `" + table_path + "`:", "",
+    lines += ["", "**Dynamics** (20 s runs at the shipped defaults: friction 0.8, hull damping "
+              "x1, net weight 0.84 kg; means over each run's free-water window; body pitch + is nose down). From `" + table_path + "`:", "",
               "| reading, fin sweep | gait | u m/s | v m/s | yaw rate deg/s | mean roll / pitch "
               "deg | window s |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for reading, sweep in CONFIGS:

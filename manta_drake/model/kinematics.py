@@ -89,6 +89,13 @@ def fin_tip_pose(leg: str, q, params: RobotParams = DEFAULT_ROBOT) -> np.ndarray
     return X_BODYDRAKE_BODYNED @ leg_frames_ned(leg, q, params)[-1]
 
 
+def fin_tips_xy(stance, params: RobotParams = DEFAULT_ROBOT) -> np.ndarray:
+    """The four fin tips' horizontal positions (4x2, rows fl, fr, rl, rr) [m] in Drake's body
+    frame (x forward, y left) with the joints at ``stance`` (4x4, e.g. a gait's X)."""
+    q = np.asarray(stance, dtype=float)
+    return np.array([fin_tip_pose(leg, q[k], params)[:2, 3] for k, leg in enumerate(LEGS)])
+
+
 def support_diagonal_offsets(stance, params: RobotParams = DEFAULT_ROBOT) -> tuple:
     """How far the CG (the body origin) is from the trot's two support diagonals.
 
@@ -100,8 +107,7 @@ def support_diagonal_offsets(stance, params: RobotParams = DEFAULT_ROBOT) -> tup
         (d_fl_rr, d_fr_rl): signed horizontal distances [m] of the CG from the lines through
         the fin tips fl-rr and fr-rl (both 0 when the CG lies on both diagonals).
     """
-    q = np.asarray(stance, dtype=float)
-    tips = np.array([fin_tip_pose(leg, q[k], params)[:2, 3] for k, leg in enumerate(LEGS)])
+    tips = fin_tips_xy(stance, params)
 
     def offset(a, b):
         d = b - a

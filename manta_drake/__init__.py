@@ -10,21 +10,19 @@ The public API (stable across restructurings; README's "API" section documents i
   on the robot), which ``build_diagram`` connects by port name.
 """
 
-__version__ = "0.2.0"
+from manta_drake.version import __version__
 
-from manta_drake.control.controller import build_controller
 from manta_drake.control.cpg import CpgOscillators
 from manta_drake.control.depth import FuzzyDepthEstimator
 from manta_drake.control.gaits import GAITS, GaitParams
 from manta_drake.control.transition import PotentialTransition
 from manta_drake.control.vision import WallDetector
-from manta_drake.diagram import build_diagram
 from manta_drake.scenario import Scenario, load_scenario
 from manta_drake.simulate import run
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.hydro import HydrodynamicForces
 from manta_drake.station.pressure import PressureSensor
-from manta_drake.station.station import build_station
+from manta_drake.wiring import build_controller, build_diagram, build_station
 
 __all__ = [
     "BalloonBuoyancy", "CpgOscillators", "FuzzyDepthEstimator", "GAITS", "GaitParams",

@@ -53,7 +53,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from manta_drake.scenario import Scenario, ScenarioError, load_scenario
+from manta_drake.model import resolve_path
+from manta_drake.scenario import Scenario, ScenarioError, coefficient_names, load_scenario
 from manta_drake.sweep import (
     SweepError,
     add_cluster_arguments,
@@ -61,7 +62,6 @@ from manta_drake.sweep import (
     cluster_client,
     check_config_keys,
     check_parameter_name,
-    coefficient_names,
     read_yaml_mapping,
 )
 
@@ -187,7 +187,6 @@ def _positive(where: str, value) -> None:
 def validate_calibration(config: CalibrationConfig, require_data: bool = True) -> None:
     """Checks names, ranges and files of a calibration (values of overrides per scenario)."""
     from manta_drake.model.coefficients import load_coefficients
-    from manta_drake.scenario import resolve_path
 
     try:
         load_coefficients(resolve_path(config.coefficients_path()))
@@ -660,7 +659,6 @@ def write_calibrated_coefficients(path: pathlib.Path, config: CalibrationConfig,
     (every entry ``{value, source}``); calibrated sources say what they were fitted to and
     keep the prior's value and source."""
     from manta_drake.model.coefficients import load_coefficients, scale_coefficients
-    from manta_drake.scenario import resolve_path
 
     prior = load_coefficients(resolve_path(config.coefficients_path()))
     coeffs = scale_coefficients(prior, parameter_scales(config, result.x))

@@ -51,16 +51,16 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
                   settings=()):
     """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
     KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it."""
-    from manta_drake.scenario import load_scenario
+    from manta_drake.scenario import load_scenario, parse_set
     from manta_drake.simulate import run
-    from manta_drake.sweep import parse_set, set_override
 
-    scenario = load_scenario(scenario_path, {} if duration is None else {"duration": duration})
-    for key, value in parse_set(list(settings)).items():
-        set_override(scenario, key, value)
+    overrides = parse_set(list(settings))
+    if duration is not None:
+        overrides["duration"] = duration
     if no_meshcat:
-        scenario.visualization.meshcat = False
-    return run(scenario.validate(), out, progress=progress), scenario
+        overrides["visualization.meshcat"] = False
+    scenario = load_scenario(scenario_path, overrides=overrides)
+    return run(scenario, out, progress=progress), scenario
 
 
 _SET_HELP = ("override a scenario field, e.g. --set contact.friction=0.6 or --set "
@@ -102,12 +102,11 @@ def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) ->
 
 
 def _list() -> int:
-    import yaml
-
+    from manta_drake.config_io import load_yaml_mapping
     from manta_drake.scenario import shipped_scenarios
 
     for path in shipped_scenarios():
-        data = yaml.safe_load(path.read_text()) or {}
+        data, _ = load_yaml_mapping(path, "scenario")
         print(f"{path.stem:<22} {data.get('description', '')}")
     print("\n(run one with `manta-drake run NAME --out DIR`; the files are in "
           f"{shipped_scenarios()[0].parent})")

@@ -568,9 +568,7 @@ class SeamResult:
 def initial_commands(scenario) -> dict[str, np.ndarray]:
     """What the station holds before the first command: the start stance at rest and the
     initial balloon fill (a robot's servos hold their pose until commanded)."""
-    from manta_drake.station.station import initial_joint_angles
-
-    return {"desired_state": np.concatenate([initial_joint_angles(scenario),
+    return {"desired_state": np.concatenate([scenario.initial_joint_angles(),
                                              np.zeros(NUM_JOINTS)]),
             "balloon_command": np.array([scenario.balloon.initial_fill])}
 
@@ -657,7 +655,7 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         SeamError: the controller was silent for ``timeout`` s (lockstep).
     """
     from manta_drake.simulate import make_simulator
-    from manta_drake.station.station import build_station
+    from manta_drake.wiring.station import build_station
 
     station, handles = build_station(scenario)
     sends, reads = station_channels(station)
@@ -789,7 +787,7 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     Raises:
         SeamError: the station was silent for ``timeout`` s.
     """
-    from manta_drake.control.controller import build_controller
+    from manta_drake.wiring.controller import build_controller
     from manta_drake.simulate import make_simulator
 
     controller, _ = build_controller(scenario)

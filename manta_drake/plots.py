@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from manta_drake.control.vision import LABEL_COLORS  # noqa: E402
 from manta_drake.model.robot_params import JOINTS, LEGS  # noqa: E402
 
 LEG_TITLES = {"fl": "front-left", "fr": "front-right", "rl": "rear-left", "rr": "rear-right"}
@@ -229,8 +230,6 @@ def fig_left_front_joints(logs: dict, path, window: float = 6.0):
 
 def fig_point_cloud(detection, path, title="Labelled point cloud (cf. paper Fig. 12)"):
     """Top and side views of the wall detector's labelled clusters."""
-    from manta_drake.control.vision import LABEL_COLORS
-
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     for c in detection.clusters if detection is not None else []:
         color = LABEL_COLORS[c.label]

@@ -27,12 +27,16 @@ import time
 import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.framework import Diagram
+from pydrake.systems.primitives import RandomSource
 
 from manta_drake import metrics as M
 from manta_drake import plots
-from manta_drake.diagram import DiagramHandles, build_diagram, logger_data
-from manta_drake.model.robot_params import NUM_JOINTS
-from manta_drake.scenario import Scenario
+from manta_drake.control.gaits import get_gait
+from manta_drake.control.transition import BEHAVIOURS
+from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, NUM_JOINTS
+from manta_drake.scenario import Scenario, scenario_yaml
+from manta_drake.wiring.diagram import DiagramHandles, build_diagram, logger_data
 
 LOG_KEYS = (
     "t", "joint_angles", "joint_velocities", "commanded_joint_angles",
@@ -130,8 +134,6 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         "real_time_factor": sim_time / wall_time if wall_time > 0 else math.nan,
     }
     if len(t) >= 2 and "body_xyz" in log:
-        from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT
-
         q, xyz = log["body_quat_wxyz"], log["body_xyz"]
         # The steady window: from steady_after (at most half the run) until the hull first
         # comes within free_water_margin of a wall, so no speed is averaged over a robot
@@ -158,9 +160,6 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
     if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
-        from manta_drake.control.gaits import get_gait
-        from manta_drake.control.transition import BEHAVIOURS
-
         behaviours = {name: get_gait(name, scenario.controller.gait_reading).to_vector()
                       for name in BEHAVIOURS}
         m["transitions"] = M.behaviour_transitions(
@@ -174,16 +173,38 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
     return m
 
 
+def random_sources(system) -> list:
+    """Every Drake ``RandomSource`` inside ``system``, depth first in the order the
+    diagrams hold them (the order ``Diagram.SetRandomContext`` draws their seeds in)."""
+    if isinstance(system, RandomSource):
+        return [system]
+    if isinstance(system, Diagram):
+        return [s for child in system.GetSystems() for s in random_sources(child)]
+    return []
+
+
 def seed_context(diagram, context, seed: int) -> None:
-    """The scenario's start with its noise: the default context (the scenario's initial
-    condition, see ``build_diagram``) with every random source (Drake ``RandomSource``
-    systems in the station) drawn from ``RandomGenerator(seed)``. Same seed, same run."""
-    diagram.SetRandomContext(context, RandomGenerator(int(seed)))
+    """Seeds every random source of ``diagram`` in ``context`` from
+    ``RandomGenerator(seed)`` and changes nothing else in it: a pose, a CPG phase or a
+    parameter the caller set on ``context`` stays. The sources draw their seeds in the
+    order ``Diagram.SetRandomContext`` would, so a default context seeded here is the
+    scenario's start with exactly the noise of that seed. Same seed, same run."""
+    generator = RandomGenerator(int(seed))
+    for source in random_sources(diagram):
+        source.SetRandomContext(source.GetMyMutableContextFromRoot(context), generator)
 
 
 def make_simulator(diagram, scenario: Scenario, context=None, seed: int | None = None):
-    """A Simulator of ``diagram`` with the scenario's integrator settings and its context
-    (a new one, or ``context``) seeded from ``seed`` (default ``scenario.random_seed``)."""
+    """A Simulator of ``diagram`` with the scenario's integrator settings.
+
+    Args:
+        diagram: a diagram of ``build_diagram`` (or the station or controller alone).
+        scenario: its scenario (the integrator settings and the seed).
+        context: the root context to simulate from; None: a new default context, which is
+            the scenario's start. A given context is kept as it is, only its random
+            sources are seeded (``seed_context``).
+        seed: the noise seed (default ``scenario.random_seed``).
+    """
     simulator = Simulator(diagram) if context is None else Simulator(diagram, context)
     ApplySimulatorConfig(scenario.simulator, simulator)
     seed_context(diagram, simulator.get_mutable_context(),
@@ -199,11 +220,9 @@ OUTPUT_FILES = ("scenario.yaml", "recording.html", "log.npz", "metrics.json", "j
 def _write_scenario(scenario: Scenario, folder: pathlib.Path) -> None:
     """The run's resolved scenario (every field, overrides applied): ``load_scenario`` on it
     runs the same simulation again."""
-    from pydrake.common.yaml import yaml_dump_typed
-
     (folder / "scenario.yaml").write_text(
         "# The resolved scenario of this run (every field, overrides applied); run it again\n"
-        "# with: manta-drake run scenario.yaml --out DIR\n" + yaml_dump_typed(scenario))
+        "# with: manta-drake run scenario.yaml --out DIR\n" + scenario_yaml(scenario))
 
 
 def _publish(staging: pathlib.Path, out_dir: pathlib.Path) -> None:

@@ -41,7 +41,6 @@ sweep goes on.
 from __future__ import annotations
 
 import contextlib
-import copy
 import csv
 import dataclasses as dc
 import functools
@@ -55,23 +54,26 @@ import re
 import sys
 import tempfile
 import time
-import types
-import typing
 from typing import Any
 
 import numpy as np
-import yaml
 
+from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping, schema_fields
+from manta_drake.model import resolve_path
+from manta_drake.model.coefficients import load_coefficients, scale_coefficients
+from manta_drake.model.robot_params import DEFAULT_ROBOT
 from manta_drake.scenario import (
     Scenario,
-    ScenarioError,
-    check_keys,
+    check_override_key,
     find_scenario,
     load_scenario,
+    parse_set,
+    scenario_yaml,
 )
+from manta_drake.station.water import build_elements
 
 
-class SweepError(ValueError):
+class SweepError(ScenarioError):
     """The sweep (or calibration) file is invalid; the message names the field."""
 
 
@@ -105,7 +107,6 @@ class SweepConfig:
 
 # Parameters computed from a value instead of set directly.
 DERIVED = ("net_weight_kg",)
-_COEFFICIENT_SCALES = "water.coefficient_scales"
 
 
 @dc.dataclass(frozen=True)
@@ -132,113 +133,6 @@ class RunSpec:
     overrides: dict
     scenario_yaml: str = ""
     invalid_reason: str = ""
-
-
-# --- dotted scenario keys --------------------------------------------------------------------
-
-def _fields(schema) -> dict | None:
-    """Field name -> type of a dataclass or a pydrake config struct; None for other types."""
-    if dc.is_dataclass(schema):
-        hints = typing.get_type_hints(schema)
-        return {f.name: hints[f.name] for f in dc.fields(schema)}
-    if hasattr(schema, "__fields__"):  # pydrake-bound structs such as SimulatorConfig
-        return {f.name: f.type for f in schema.__fields__}
-    return None
-
-
-@functools.lru_cache(maxsize=1)
-def coefficient_names() -> tuple[str, ...]:
-    """Dotted names of every hydrodynamic coefficient (keys of ``water.coefficient_scales``)."""
-    from manta_drake.model.coefficients import HydroCoefficients
-
-    return tuple(name for name, _ in HydroCoefficients().entries())
-
-
-def _walk_key(dotted: str):
-    """Resolves a dotted scenario key against the schema.
-
-    Returns:
-        (attribute path, field type, dict key or None): e.g. ``contact.friction`` ->
-        (["contact", "friction"], float, None) and
-        ``water.coefficient_scales.body.linear_damping`` ->
-        (["water", "coefficient_scales"], dict[str, float], "body.linear_damping").
-
-    Raises:
-        SweepError: the key names no scenario field (the message names the first bad part).
-    """
-    parts = dotted.split(".")
-    schema, path = Scenario, []
-    for i, part in enumerate(parts):
-        fields = _fields(schema)
-        if fields is None or part not in fields:
-            where = ".".join(["scenario", *path])
-            allowed = f"; allowed: {', '.join(sorted(fields))}" if fields else ""
-            raise SweepError(f"{dotted}: {where} has no field {part!r}{allowed}")
-        path.append(part)
-        tp = fields[part]
-        if typing.get_origin(tp) is dict and i + 1 < len(parts):
-            key = ".".join(parts[i + 1:])
-            if ".".join(path) == _COEFFICIENT_SCALES and key not in coefficient_names():
-                raise SweepError(f"{dotted}: unknown coefficient {key!r}; allowed: "
-                                 f"{', '.join(coefficient_names())}")
-            return path, tp, key
-        if typing.get_origin(tp) in (typing.Union, types.UnionType):
-            args = [a for a in typing.get_args(tp) if a is not type(None)]
-            tp = args[0] if len(args) == 1 else tp
-        schema = tp
-    return path, schema, None
-
-
-def check_override_key(dotted: str) -> None:
-    """Raises SweepError if ``dotted`` is not a settable scenario key (no value needed)."""
-    if not dotted or not isinstance(dotted, str):
-        raise SweepError(f"{dotted!r}: not a dotted scenario key")
-    _walk_key(dotted)
-
-
-def _build_value(tp, value, path: str):
-    """``value`` (from YAML) as a value of field type ``tp``; raises ScenarioError if it is
-    the wrong type (the caller's check_keys has run)."""
-    origin = typing.get_origin(tp)
-    if tp is float and isinstance(value, int) and not isinstance(value, bool):
-        return float(value)
-    if origin is list:
-        (item,) = typing.get_args(tp) or (None,)
-        return [_build_value(item, v, f"{path}[{i}]") for i, v in enumerate(value)]
-    if origin is dict:
-        _, item = typing.get_args(tp)
-        return {k: _build_value(item, v, f"{path}.{k}") for k, v in value.items()}
-    if _fields(tp) is not None and isinstance(value, dict):
-        from pydrake.common.yaml import yaml_load_typed
-
-        try:  # Drake's loader builds dataclasses and bound structs alike, defaults kept
-            return yaml_load_typed(schema=tp, data=yaml.safe_dump(value))
-        except (RuntimeError, ValueError, TypeError) as e:
-            raise ScenarioError(f"{path}: {e}") from None
-    return value
-
-
-def set_override(scenario: Scenario, dotted: str, value) -> None:
-    """Sets one dotted key on ``scenario`` (in place).
-
-    Raises:
-        SweepError: the key names no field.
-        ScenarioError: the value has the wrong type (its range is checked by validate).
-    """
-    path, tp, dict_key = _walk_key(dotted)
-    node = scenario
-    for part in path[:-1]:
-        node = getattr(node, part)
-    where = f"scenario.{dotted}"
-    if dict_key is not None:
-        _, item_type = typing.get_args(tp)
-        check_keys(value, item_type, where)
-        mapping = dict(getattr(node, path[-1]))  # a copy: never share the base's dict
-        mapping[dict_key] = _build_value(item_type, value, where)
-        setattr(node, path[-1], mapping)
-        return
-    check_keys(value, tp, where)
-    setattr(node, path[-1], _build_value(tp, value, where))
 
 
 # --- net weight ------------------------------------------------------------------------------
@@ -275,9 +169,6 @@ def hull_scale_for_net_weight(net_weight_kg: float, total_mass_kg: float, water_
 def deflated_net_weight_kg(coeffs, params=None) -> float:
     """The robot's net weight [kg] with the balloon empty, from the volume elements the water
     model really uses (``station.water.build_elements``)."""
-    from manta_drake.model.robot_params import DEFAULT_ROBOT
-    from manta_drake.station.water import build_elements
-
     params = params or DEFAULT_ROBOT
     volume = build_elements(coeffs, params)["volume"].sum()
     return float(params.total_mass - coeffs.water_density.value * volume)
@@ -290,9 +181,6 @@ def net_weight_scales(net_weight_kg: float, coeffs, params=None) -> dict[str, fl
     also sets the waterline); ``body.sealed_volume`` is its documented volume. Both are
     scaled (by s and s^3) so the coefficients file stays consistent.
     """
-    from manta_drake.model.robot_params import DEFAULT_ROBOT
-    from manta_drake.station.water import build_elements
-
     params = params or DEFAULT_ROBOT
     volumes = build_elements(coeffs, params)["volume"]
     s = hull_scale_for_net_weight(net_weight_kg, params.total_mass, coeffs.water_density.value,
@@ -310,17 +198,12 @@ def _cached_coefficients(path: pathlib.Path):
 
 @functools.lru_cache(maxsize=8)
 def _load_coefficients_once(path: str, mtime_ns: int):
-    from manta_drake.model.coefficients import load_coefficients
-
     return load_coefficients(path)
 
 
 def apply_net_weight(scenario: Scenario, net_weight_kg) -> None:
     """Adds the hull scales for ``net_weight_kg`` to the scenario's coefficient scales
     (after its other scales, e.g. of the servo volume). Raises ScenarioError."""
-    from manta_drake.model.coefficients import scale_coefficients
-    from manta_drake.scenario import resolve_path
-
     if isinstance(net_weight_kg, bool) or not isinstance(net_weight_kg, (int, float)):
         raise ScenarioError(f"net_weight_kg: expected a number, got {net_weight_kg!r}")
     if not scenario.water.enabled:
@@ -357,10 +240,8 @@ def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
         SweepError: a key names no field.
         ScenarioError: a value is invalid (the message names the field).
     """
-    scenario = copy.deepcopy(scenario)
-    for key, value in overrides.items():
-        if key not in DERIVED:
-            set_override(scenario, key, value)
+    plain = {k: v for k, v in overrides.items() if k not in DERIVED}
+    scenario = load_scenario(defaults=scenario, overrides=plain, validate=False)
     if "net_weight_kg" in overrides:
         apply_net_weight(scenario, overrides["net_weight_kg"])
     return scenario.validate()
@@ -447,15 +328,11 @@ def plan_runs(config: SweepConfig, limit: int | None = None) -> list[RunSpec]:
 
 
 def _dump_scenario(scenario: Scenario) -> str:
-    from pydrake.common.yaml import yaml_dump_typed
-
-    return yaml_dump_typed(scenario)
+    return scenario_yaml(scenario)
 
 
 def _load_scenario_text(text: str) -> Scenario:
-    from pydrake.common.yaml import yaml_load_typed
-
-    return yaml_load_typed(schema=Scenario, data=text).validate()
+    return load_scenario(data=text)
 
 
 # --- loading a sweep file --------------------------------------------------------------------
@@ -475,17 +352,9 @@ def check_config_keys(data: dict, schema, root: str) -> None:
 
 
 def read_yaml_mapping(path, what: str) -> dict:
-    """A YAML file's top-level mapping; SweepError if missing or not a mapping."""
-    path = pathlib.Path(path)
-    if not path.is_file():
-        raise SweepError(f"{what} file not found: {path}")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as e:
-        raise SweepError(f"{path}: not valid YAML: {' '.join(str(e).split())}") from None
-    if not isinstance(data, dict):
-        raise SweepError(f"{path}: expected a mapping at the top level, got {data!r}")
-    return data
+    """A YAML file's top-level mapping, read strictly (a duplicated key is refused);
+    SweepError naming the file otherwise."""
+    return load_yaml_mapping(path, what, SweepError)[0]
 
 
 def check_parameter_name(name: str, links: dict, where: str) -> None:
@@ -494,7 +363,7 @@ def check_parameter_name(name: str, links: dict, where: str) -> None:
         return
     try:
         check_override_key(name)
-    except SweepError as e:
+    except ScenarioError as e:
         raise SweepError(f"{where}: {e} (nor is it a link or one of {', '.join(DERIVED)})") \
             from None
 
@@ -545,7 +414,7 @@ def validate_sweep(config: SweepConfig) -> None:
     if len(set(config.seeds)) != len(config.seeds):
         raise SweepError(f"sweep.seeds: duplicate seeds in {config.seeds}")
     for name, keys in config.links.items():
-        if "." in name or name in DERIVED or name in (_fields(Scenario) or {}):
+        if "." in name or name in DERIVED or name in (schema_fields(Scenario) or {}):
             raise SweepError(f"sweep.links.{name}: a link's name must not contain '.' nor be "
                              "a scenario field or a derived parameter")
         if not keys:
@@ -553,7 +422,7 @@ def validate_sweep(config: SweepConfig) -> None:
         for i, key in enumerate(keys):
             try:
                 check_override_key(key)
-            except SweepError as e:
+            except ScenarioError as e:
                 raise SweepError(f"sweep.links.{name}[{i}]: {e}") from None
     modes = [m for m in ("grid", "rows", "random")
              if getattr(config, m) not in ({}, [], None)]
@@ -901,15 +770,13 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
 
 
 def _worker_version() -> str:
-    import manta_drake
+    from manta_drake.version import __version__
 
-    return getattr(manta_drake, "__version__", "?")
+    return __version__
 
 
 def check_workers(client) -> None:
     """Raises SweepError if the cluster has no workers or a worker lacks manta_drake."""
-    import manta_drake
-
     try:
         versions = client.run(_worker_version)
     except ModuleNotFoundError as e:
@@ -918,7 +785,7 @@ def check_workers(client) -> None:
     if not versions:
         raise SweepError("the Dask cluster has no workers; start some with "
                          "`dask worker ADDRESS`")
-    mine = getattr(manta_drake, "__version__", "?")
+    mine = _worker_version()
     other = {w: v for w, v in versions.items() if v != mine}
     if other:
         raise SweepError(f"Dask workers run manta_drake {sorted(set(other.values()))}, this "
@@ -1005,17 +872,6 @@ def run_sweep(config: SweepConfig, out_dir, client=None, progress: bool = True,
 
 
 # --- command line ----------------------------------------------------------------------------
-
-def parse_set(items: list[str]) -> dict:
-    """``--set KEY=VALUE`` items as a dict (values parsed as YAML: numbers, lists, ...)."""
-    out = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise SweepError(f"--set {item}: expected KEY=VALUE, e.g. duration=2")
-        out[key.strip()] = yaml.safe_load(value)
-    return out
-
 
 def add_cluster_arguments(parser) -> None:
     """``--scheduler`` and ``--workers`` (shared with ``manta-drake calibrate``)."""

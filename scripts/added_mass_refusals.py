@@ -121,7 +121,7 @@ def new_check(coeffs) -> tuple[bool, str, float, object]:
 def station_refuses(scales: dict) -> tuple[bool, str]:
     """AFTER through the real path: build_station of a scenario with coefficient_scales."""
     from manta_drake.scenario import load_scenario
-    from manta_drake.station.station import build_station
+    from manta_drake.wiring.station import build_station
 
     scenario = load_scenario("locomotion_swim")
     scenario.visualization.meshcat = False

@@ -55,8 +55,8 @@ T_IMPORT_START = time.perf_counter()
 import numpy as np  # noqa: E402
 
 import manta_drake.control.cpg as cpg_module  # noqa: E402
-import manta_drake.station.station as station_module  # noqa: E402
-from manta_drake.diagram import build_diagram  # noqa: E402
+import manta_drake.wiring.station as station_module  # noqa: E402
+from manta_drake.wiring.diagram import build_diagram  # noqa: E402
 from manta_drake.scenario import load_scenario  # noqa: E402
 from manta_drake.simulate import make_simulator  # noqa: E402
 
@@ -121,7 +121,7 @@ def build_case(label: str, scenario_) -> Case:
 def record_replay(case_b: Case, warmup: float, duration: float) -> dict:
     """What (b)'s Python systems gave its plant, recorded from a (b) run: the desired
     state and the water's generalized forces at every 1 ms step."""
-    from manta_drake.diagram import logger_data
+    from manta_drake.wiring.diagram import logger_data
     from manta_drake.station import water_kernels as K
 
     simulator = case_b.simulator()
@@ -158,7 +158,7 @@ def physical_limit_builder(s, replay: dict):
     from manta_drake.model.coefficients import load_coefficients, scale_coefficients
     from manta_drake.model.plant import add_plant, set_contact_friction
     from manta_drake.scenario import resolve_path
-    from manta_drake.station.station import _set_default_start
+    from manta_drake.wiring.station import _set_default_start
 
     builder = DiagramBuilder()
     coeffs = scale_coefficients(load_coefficients(resolve_path(s.water.coefficients)),
@@ -191,7 +191,7 @@ def build_physical_limit(case_b: Case, warmup: float, duration: float) -> Case:
 STARTUP_CODE = """
 import time
 t0 = time.perf_counter()
-from manta_drake.diagram import build_diagram
+from manta_drake.wiring.diagram import build_diagram
 from manta_drake.scenario import load_scenario
 from manta_drake.simulate import make_simulator
 t1 = time.perf_counter()

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from manta_drake.control.vision import detect
-from manta_drake.diagram import build_diagram
+from manta_drake.wiring.diagram import build_diagram
 from manta_drake.scenario import (
     ControllerConfig,
     InitialPose,

@@ -493,7 +493,7 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD) -> dict:
     import numpy as np
     from pydrake.multibody.tree import BodyIndex
 
-    from manta_drake.diagram import build_diagram
+    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
     from manta_drake.station import water as W
 

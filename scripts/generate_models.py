@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes manta_drake/model/models/manta.sdf and manta_drake/model/models/pool.sdf from manta_drake/model/robot_params.py.
+"""Writes models/manta.sdf and models/pool.sdf from manta_drake/model/robot_params.py.
 
 Usage: python scripts/generate_models.py [--check]
   --check  exit 1 if the committed files differ from what the parameters give.

@@ -6,8 +6,8 @@ roll, pitch, yaw), fits force = d_lin * u + d_quad * u|u| per axis, prints the
 coefficients and their residuals, and (with --write) writes them into the body's
 linear_damping / quadratic_damping entries of the hydrodynamics YAML.
 
-Usage: python scripts/identify_damping.py [--csv manta_drake/model/models/damping_samples.csv]
-                                          [--yaml manta_drake/model/models/hydrodynamics.yaml] [--write]
+Usage: python scripts/identify_damping.py [--csv models/damping_samples.csv]
+                                          [--yaml models/hydrodynamics.yaml] [--write]
 """
 
 import argparse

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes manta_drake/model/models/damping_samples.csv: a velocity-force table for scripts/identify_damping.py.
+"""Writes models/damping_samples.csv: a velocity-force table for scripts/identify_damping.py.
 
 The paper identifies its damping from Autodesk CFD runs (0.4-1.2 m/s, +-30 deg) that are
 not published. This table stands in for them: forces from textbook drag coefficients
@@ -7,7 +7,7 @@ not published. This table stands in for them: forces from textbook drag coeffici
 the rotations, plus a small linear (skin-friction) part, with 3 % seeded noise. Replace
 the CSV with your own CFD or tow-tank table and re-run identify_damping.py.
 
-Usage: python scripts/reference_damping_samples.py [--out manta_drake/model/models/damping_samples.csv]
+Usage: python scripts/reference_damping_samples.py [--out models/damping_samples.csv]
 """
 
 import argparse

@@ -23,11 +23,11 @@ from pydrake.perception import BaseField, DepthImageToPointCloud  # noqa: E402
 from pydrake.systems.sensors import ImageDepth32F, PixelType  # noqa: E402
 
 from manta_drake.control.vision import detect, median_filter_depth  # noqa: E402
-from manta_drake.diagram import build_diagram  # noqa: E402
+from manta_drake.wiring.diagram import build_diagram  # noqa: E402
 from manta_drake.scenario import load_scenario  # noqa: E402
 from manta_drake.simulate import make_simulator  # noqa: E402
 from manta_drake.station.depth_image_noise import noisy_depth  # noqa: E402
-from manta_drake.station.station import camera_info  # noqa: E402
+from manta_drake.wiring.station import camera_info  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOISE_MM = (0, 2.5, 5, 7.5, 10, 12.5, 15, 17.5, 20, 22.5, 25, 27.5, 30)

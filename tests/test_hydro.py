@@ -341,7 +341,7 @@ def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
 
 
 def test_surge_step_force_accelerates_with_added_mass():
-    from manta_drake.diagram import build_diagram
+    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.25]),
@@ -445,7 +445,7 @@ def test_spinning_plate_gets_torque_and_no_net_force():
 
 def test_held_forces_start_from_the_initial_state():
     """With update_period > 0 the first held forces are those of the initial state."""
-    from manta_drake.diagram import build_diagram
+    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
@@ -471,7 +471,7 @@ def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt):
     bound of the explicit -I_res alpha_prev term (its amplification factor per step is
     -I_res / I_eff): the swim with a pitch residual of 0.9 I_eff stays bounded; at 1.5 I_eff
     it diverges, at every time step (the check is bypassed to show it)."""
-    from manta_drake.diagram import build_diagram
+    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import make_simulator
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from manta_drake import simulate
-from manta_drake.diagram import build_diagram, logger_data
+from manta_drake.wiring.diagram import build_diagram, logger_data
 from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.scenario import load_scenario
 

@@ -13,7 +13,7 @@ from manta_drake.model.coefficients import load_coefficients
 from manta_drake.model.plant import add_plant, body_pose, set_initial_state
 from manta_drake.station import water_kernels as WK
 from manta_drake.station.hydro import HydrodynamicForces
-from manta_drake.station.station import connect_hydro
+from manta_drake.wiring.station import connect_hydro
 from manta_drake.station.water import hydro_body_names
 
 COEFFS = load_coefficients()
@@ -280,7 +280,7 @@ def test_camera_scene_renders_what_the_plant_scene_renders():
     from pydrake.systems.sensors import RgbdSensor
 
     from manta_drake.scenario import CameraConfig
-    from manta_drake.station.station import add_camera_scene, camera_info
+    from manta_drake.wiring.station import add_camera_scene, camera_info
 
     cam = CameraConfig()
     builder = DiagramBuilder()
@@ -330,7 +330,7 @@ def _locomotion_velocity(name, duration, tmp_path):
 def test_locomotion_metrics_unchanged_by_the_compiled_paths(name, tmp_path, monkeypatch):
     """3 s of the gait: the mean velocity with the compiled paths (state ports, kernels)
     within 1 % of the reference paths (contract ports, numpy maths)."""
-    import manta_drake.station.station as station
+    import manta_drake.wiring.station as station
 
     fast = _locomotion_velocity(name, 3.0, tmp_path / "fast")
     monkeypatch.setattr(station, "HYDRO_PLANT_STATE", False)
@@ -369,7 +369,7 @@ def test_kernels_cache_in_the_user_cache_when_the_package_folder_is_not_used(tmp
 def test_closed_loop_s_hat_same_with_the_camera_in_its_own_scene(tmp_path, monkeypatch):
     """The wall in view while trotting toward it: the logged s_hat series with the camera in
     its own SceneGraph against the camera in the plant's SceneGraph (as before)."""
-    import manta_drake.station.station as station
+    import manta_drake.wiring.station as station
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import run
 

@@ -111,9 +111,9 @@ def test_project_lcmtypes_are_generated_from_their_sources(tmp_path):
 
 
 def test_channel_table_matches_the_ports_and_the_docs():
-    from manta_drake.control.controller import build_controller
+    from manta_drake.wiring.controller import build_controller
     from manta_drake.scenario import load_scenario
-    from manta_drake.station.station import build_station
+    from manta_drake.wiring.station import build_station
 
     scenario = load_scenario("three_behaviors", {"duration": 1.0})
     station, _ = build_station(scenario)
@@ -131,7 +131,7 @@ def test_channel_table_matches_the_ports_and_the_docs():
 
 def test_controller_commands_do_not_depend_directly_on_the_sensors():
     """Why the lockstep controller may publish its commands for t before t's sensors."""
-    from manta_drake.control.controller import build_controller
+    from manta_drake.wiring.controller import build_controller
     from manta_drake.scenario import load_scenario
 
     controller, _ = build_controller(load_scenario("three_behaviors"))
@@ -277,7 +277,7 @@ def _scenario_file(tmp_path, duration=5.0, extra="") -> pathlib.Path:
 def _single_run(path):
     """The single diagram, advanced in one call (simulate.run's 50 ms chunk ends are not
     on the plant's step grid, which adds ~1e-16 s integrator steps)."""
-    from manta_drake.diagram import build_diagram
+    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import extract_log, make_simulator
 

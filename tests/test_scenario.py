@@ -29,7 +29,7 @@ def test_fin_sweep_defaults_to_the_readings_balanced_sweep(tmp_path):
     """robot.fin_sweep_deg left out: the sweep that balances the reading's stance, also when
     the reading is overridden after loading (--set, sweep rows); an explicit value wins."""
     from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG
-    from manta_drake.sweep import set_override
+    from manta_drake.scenario import set_override
 
     for reading, sweep in BALANCED_FIN_SWEEP_DEG.items():
         s = load_scenario(_write(tmp_path, f"controller: {{gait_reading: {reading}}}\n"))

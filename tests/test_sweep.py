@@ -95,7 +95,7 @@ def test_set_override_dotted_keys_dicts_and_nested_values():
     ("water.coefficient_scales.body.damping", "unknown coefficient 'body.damping'"),
 ])
 def test_bad_override_keys_are_named(key, message):
-    with pytest.raises(S.SweepError, match=message):
+    with pytest.raises(ScenarioError, match=message):
         S.check_override_key(key)
 
 
@@ -266,7 +266,7 @@ def test_cluster_gives_the_rows_of_series_and_records_failures(tmp_path):
 def test_any_exception_is_a_record_not_a_raise():
     out = S.simulate_run("duration: [unterminated")
     assert out["metrics"]["status"] == "error" and out["log_npz"] is None
-    assert out["metrics"]["reason"].startswith("ParserError")
+    assert out["metrics"]["reason"].startswith("ScenarioError: scenario data: not valid YAML")
 
 
 def test_restart_skips_done_runs(tmp_path, monkeypatch):

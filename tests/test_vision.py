@@ -258,10 +258,9 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     m from the end wall (x = 7.5 m), body yawed by each of ``yaws_deg``: the detector's
     Detection of one frame through the controller's real chain (station depth noise,
     median filter, DepthImageToPointCloud), and the camera's distance to the wall."""
-    from manta_drake.diagram import build_diagram
+    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.model.plant import body_pose, set_initial_state
     from manta_drake.model.robot_params import RobotParams
-    from manta_drake.station.station import initial_joint_angles
 
     s = Scenario(name="camera", duration=0.45, initial_stance="trot",
                  controller=ControllerConfig(mode="hold", gait="trot"),
@@ -279,7 +278,7 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     for yaw in yaws_deg:
         x = 7.5 - camera_to_wall - camera_x * np.cos(np.radians(yaw))
         set_initial_state(h.plant_handles, plant_context,
-                          body_pose([x, 0.0, -0.25], [0.0, 0.0, yaw]), initial_joint_angles(s))
+                          body_pose([x, 0.0, -0.25], [0.0, 0.0, yaw]), s.initial_joint_angles())
         X_WC = to_cloud.camera_pose_input_port().Eval(cloud_context)
         xyz = to_cloud.point_cloud_output_port().Eval(cloud_context).xyzs()
         det = detect(xyz, s.wall_detector, X_WC.translation(), 0.0, X_WC.rotation().matrix()[:, 2])

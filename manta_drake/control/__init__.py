@@ -1,6 +1,7 @@
-"""The controller: what runs on the robot (depth estimator, wall detector, behaviour
-transition, CPG and the gait library).
+"""The controller's systems: what runs on the robot (depth estimator, wall detector,
+behaviour transition, CPG and the gait library).
 
-``build_controller`` (in ``manta_drake.control.controller``) assembles them into one
-Diagram that consumes only the station's sensor ports and commands joints and balloon.
+Each module is one Drake System (or its pure maths). They import only
+``manta_drake.model`` and ``manta_drake.config_io``, never the station;
+``manta_drake.wiring.controller`` assembles them into the controller Diagram.
 """

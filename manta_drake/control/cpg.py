@@ -36,6 +36,7 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from manta_drake.control import cpg_kernels as K
+from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ, phase_lock_targets
 from manta_drake.model.robot_params import (
     GAIT_SHAPE,
     JOINTS_PER_LEG,
@@ -116,8 +117,6 @@ def joint_rates(x, phi_dot) -> np.ndarray:
 
 def locked_phases(params) -> np.ndarray:
     """Phases with every chain at its bias and the bases at the FCS lock (leg 1 base = 0)."""
-    from manta_drake.control.gaits import phase_lock_targets
-
     params = np.asarray(params, dtype=float)
     base = phase_lock_targets(params[_PHI_PRIME].reshape(GAIT_SHAPE))
     Phi = params[_PHI].reshape(GAIT_SHAPE)
@@ -171,16 +170,12 @@ class CpgOscillators(LeafSystem):
         ValueError: naming the argument and its allowed range.
     """
 
-    # False selects the numpy reference maths (set before constructing; for the tests and
-    # scripts/benchmark.py's reference path).
-    COMPILED = True
-
     def __init__(self, frequency_hz: float | None = None, chain_weight: float = 4.0,
                  fcs_weight: float = 4.0, a: float = 20.0, b: float = 20.0,
-                 initial_state=None):
+                 initial_state=None, compiled: bool = True):
         super().__init__()
-        from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ
-
+        if not isinstance(compiled, bool):
+            raise ValueError(f"CpgOscillators.compiled: {compiled!r} is not true or false")
         if frequency_hz is None:
             frequency_hz = DEFAULT_FREQUENCY_HZ
         for name, value in (("frequency_hz", frequency_hz), ("a", a), ("b", b)):
@@ -208,7 +203,6 @@ class CpgOscillators(LeafSystem):
         # The default context starts here (see ``initial_state``).
         self.DeclareContinuousState(BasicVector(x0))
         self._params_port = self.DeclareVectorInputPort("cpg_params", NUM_PARAMS)
-        compiled = type(self).COMPILED
         # The kernels' output buffers (SetFromVector copies out of them).
         self._xdot, self._angles = np.empty(NUM_STATES), np.empty(NUM_OSC)
         self._desired = np.empty(2 * NUM_OSC)
@@ -251,7 +245,7 @@ class CpgOscillators(LeafSystem):
                         NUM_OSC, self._desired)
         output.SetFromVector(self._desired)
 
-    # The numpy reference (COMPILED = False).
+    # The numpy reference (compiled=False).
 
     def _derivatives_numpy(self, context, derivatives):
         x = context.get_continuous_state_vector().CopyToVector()

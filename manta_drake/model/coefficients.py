@@ -31,6 +31,7 @@ import pathlib
 import numpy as np
 from pydrake.common.yaml import yaml_load_typed
 
+from manta_drake.config_io import ScenarioError, check_keys, parse_yaml, read_text_file
 from manta_drake.model import MODELS_DIR
 from manta_drake.model.robot_params import RobotParams
 
@@ -226,8 +227,6 @@ SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_m
 def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -> None:
     """Raises ScenarioError naming the first entry with a missing source, a wrong size, a
     non-finite, negative (or zero where it must be positive) or non-integer value."""
-    from manta_drake.scenario import ScenarioError
-
     for name, entry in _walk(coeffs, ""):
         if not entry.source.strip():
             raise ScenarioError(f"{where}: {name} has no source")
@@ -261,18 +260,11 @@ def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None) 
     """Loads and checks ``hydrodynamics.yaml`` (unknown and duplicate keys, sizes, signs,
     sources); errors are one line naming the file (and ``field``, the scenario field that
     named it)."""
-    import yaml
-
-    from manta_drake.scenario import ScenarioError, UniqueKeyLoader, check_keys, read_text_file
-
     path = pathlib.Path(path)
     where = f"{field} = {path}" if field else str(path)
     try:
         text = read_text_file(path)
-        try:
-            data = yaml.load(text, Loader=UniqueKeyLoader)
-        except yaml.YAMLError as e:
-            raise ScenarioError(f"not valid YAML: {' '.join(str(e).split())}") from None
+        data = parse_yaml(text)
         if not isinstance(data, dict):
             raise ScenarioError("must be a mapping of coefficient sections (water_density, "
                                 f"gravity, body, links, fins, balloon), got {type(data).__name__}")

@@ -11,18 +11,22 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
+from pydrake.geometry import RoleAssign
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
+    CoulombFriction,
     MultibodyPlant,
     MultibodyPlantConfig,
 )
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
-from manta_drake.model import MODELS_DIR
-from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES
+from manta_drake.model import package_map
+from manta_drake.model.added_mass import split_added_inertia, split_added_mass
+from manta_drake.model.model_sdf import robot_sdf
+from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES, JOINTS_PER_LEG
 
 ROBOT_URL = "package://manta_drake/manta.sdf"
 POOL_URL = "package://manta_drake/pool.sdf"
@@ -42,9 +46,9 @@ class PlantHandles:
 
 
 def make_parser(plant: MultibodyPlant) -> Parser:
-    """A Parser that resolves ``package://manta_drake/``."""
+    """A Parser that resolves ``package://manta_drake/`` (``models/package.xml``)."""
     parser = Parser(plant)
-    parser.package_map().AddPackageXml(str(MODELS_DIR / "package.xml"))
+    parser.package_map().AddMap(package_map())
     return parser
 
 
@@ -91,8 +95,6 @@ def add_plant(
     if robot_params is None or robot_params == DEFAULT_ROBOT:
         (robot,) = parser.AddModels(url=ROBOT_URL)
     else:
-        from manta_drake.model.model_sdf import robot_sdf
-
         (robot,) = parser.AddModelsFromString(robot_sdf(robot_params), "sdf")
     pool = parser.AddModels(url=POOL_URL)[0] if with_pool else None
     body = plant.GetBodyByName("body", robot)
@@ -112,8 +114,6 @@ def add_plant(
 
 def _add_hydro_inertia(plant, robot, body, hydro) -> float:
     """Puts the implicit part of the added mass into the plant (before Finalize)."""
-    from manta_drake.station.hydro import split_added_inertia, split_added_mass
-
     iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
     Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value)[0]
     instance = plant.AddModelInstance("manta_added_mass")
@@ -133,8 +133,6 @@ def _set_hinge_added_inertia(plant, robot, hinge) -> None:
     left the hinge inertia silently unapplied. The values are read back from a
     default context, so a setting that did not take effect fails loudly.
     """
-    from manta_drake.model.robot_params import JOINTS_PER_LEG
-
     indices = plant.GetJointActuatorIndices(robot)
     expected = [hinge[i % JOINTS_PER_LEG] for i in range(len(indices))]
     for index, value in zip(indices, expected):
@@ -151,8 +149,6 @@ def set_contact_friction(handles: PlantHandles, mu: float) -> None:
     """Sets the Coulomb friction (static = dynamic = ``mu``) of every collision geometry
     of the robot and the pool, so the foot-floor pair has exactly ``mu`` (Drake combines
     two materials' coefficients as 2 mu1 mu2 / (mu1 + mu2)). Read back from the model."""
-    from pydrake.geometry import RoleAssign
-    from pydrake.multibody.plant import CoulombFriction
 
     if not (np.isfinite(mu) and 0.0 < mu <= 2.0):
         raise ValueError(f"contact friction: {mu!r} is outside the allowed range (0, 2]")
@@ -185,3 +181,27 @@ def set_initial_state(handles: PlantHandles, plant_context, X_WB: RigidTransform
     q_joints = np.asarray(q_joints, dtype=float).reshape(-1)
     for name, q in zip(handles.joint_names, q_joints):
         plant.GetJointByName(name, handles.robot).set_angle(plant_context, q)
+
+
+def joint_state_selector(handles: PlantHandles) -> np.ndarray:
+    """(32, nx) matrix that picks the joints' [q, v] out of the plant's state vector."""
+    plant = handles.plant
+    nq = plant.num_positions()
+    joints = [plant.GetJointByName(n, handles.robot) for n in handles.joint_names]
+    rows = [j.position_start() for j in joints] + [nq + j.velocity_start() for j in joints]
+    S = np.zeros((len(rows), plant.num_multibody_states()))
+    S[np.arange(len(rows)), rows] = 1.0
+    return S
+
+
+def joint_torque_port(handles: PlantHandles):
+    """The plant's net actuation output of the robot: the joint actuators' torques
+    (including the implicit PD's), in actuator order, which must be the joint order of
+    ``measured_joint_state`` (``handles.joint_names``); checked here."""
+    plant = handles.plant
+    names = tuple(plant.get_joint_actuator(i).joint().name()
+                  for i in plant.GetJointActuatorIndices(handles.robot))
+    if names != tuple(handles.joint_names):
+        raise RuntimeError(f"joint_torque: actuator order {names} is not the joint order "
+                           f"{handles.joint_names}")
+    return plant.get_net_actuation_output_port(handles.robot)

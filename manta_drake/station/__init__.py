@@ -1,5 +1,6 @@
-"""The station: the simulated robot and its world (plant, water, balloon, sensors).
+"""The station's systems: the simulated robot's world (water, balloon, sensors, noise).
 
-``build_station`` (in ``manta_drake.station.station``) assembles them into one
-Diagram whose exported ports are what the real robot's hardware takes and gives.
+Each module is one Drake System with its maths as plain functions. They import only
+``manta_drake.model`` and ``manta_drake.config_io``; ``manta_drake.wiring.station``
+assembles them with the plant into the station Diagram from a scenario.
 """

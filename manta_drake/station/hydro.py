@@ -387,3 +387,24 @@ def _is_real(value) -> bool:
     """A real number (not a bool, string or array)."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
         value, (bool, np.bool_))
+
+
+def connect_hydro(builder, plant, hydro, generalized_forces: bool) -> None:
+    """Wires a HydrodynamicForces to its plant: its inputs (the plant's state vector, or the
+    body poses and spatial velocities of the contract ports, as ``hydro.plant_state`` says)
+    and its forces to the plant, as generalized forces (``generalized_forces``, which needs
+    ``hydro.plant_state``) or as the list of spatial forces."""
+    if hydro.plant_state:
+        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    else:
+        if generalized_forces:
+            raise ValueError("connect_hydro: generalized forces need plant_state=True")
+        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+        builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                        hydro.GetInputPort("body_spatial_velocities"))
+    if generalized_forces:
+        builder.Connect(hydro.GetOutputPort("generalized_forces"),
+                        plant.get_applied_generalized_force_input_port())
+    else:
+        builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                        plant.get_applied_spatial_force_input_port())

@@ -1,7 +1,7 @@
 """The one place that wires the whole diagram: station + controller + loggers.
 
-``build_diagram(scenario)`` builds the station (``manta_drake.station.station``) and
-the controller (``manta_drake.control.controller``), connects every controller input
+``build_diagram(scenario)`` builds the station (``manta_drake.wiring.station``) and
+the controller (``manta_drake.wiring.controller``), connects every controller input
 to the station output of the same name and the controller's commands to the station's
 inputs of the same names, and logs the signals that ``simulate`` writes to log.npz.
 See ``docs/design.md`` for the picture and the port lists.
@@ -16,10 +16,10 @@ from pydrake.geometry import Meshcat, MeshcatParams
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
-from manta_drake.control.controller import ControllerHandles, build_controller
 from manta_drake.model.plant import PlantHandles
 from manta_drake.scenario import Scenario
-from manta_drake.station.station import StationHandles, build_station
+from manta_drake.wiring.controller import ControllerHandles, build_controller
+from manta_drake.wiring.station import StationHandles, build_station
 
 # What the top-level diagram logs: (source, port, period) with the period a function of
 # the scenario; a port the built halves do not have (e.g. no camera) is skipped.
@@ -76,8 +76,14 @@ def connect_by_name(builder: DiagramBuilder, source, sink) -> list[str]:
     return names
 
 
-def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
+def build_diagram(scenario: Scenario, *, hydro_plant_state: bool = True,
+                  camera_own_scene: bool = True,
+                  compiled_cpg: bool = True) -> tuple[Diagram, DiagramHandles]:
     """Builds the diagram of ``scenario``.
+
+    The keyword arguments choose between equivalent implementations (the defaults are the
+    fast ones; see ``build_station`` and ``build_controller``); tests and the benchmark
+    pass them to compare against the reference paths.
 
     Returns:
         (diagram, handles). ``handles.loggers`` holds ``plant_state``, ``desired_state``
@@ -86,8 +92,11 @@ def build_diagram(scenario: Scenario) -> tuple[Diagram, DiagramHandles]:
     """
     meshcat = Meshcat(MeshcatParams(host="localhost", port=None)) \
         if scenario.visualization.meshcat else None
-    station, station_handles = build_station(scenario, meshcat)
-    controller, controller_handles = build_controller(scenario, meshcat)
+    station, station_handles = build_station(scenario, meshcat,
+                                             hydro_plant_state=hydro_plant_state,
+                                             camera_own_scene=camera_own_scene)
+    controller, controller_handles = build_controller(scenario, meshcat,
+                                                      compiled_cpg=compiled_cpg)
     builder = DiagramBuilder()
     builder.AddSystem(station)
     builder.AddSystem(controller)

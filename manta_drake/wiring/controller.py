@@ -62,8 +62,8 @@ from manta_drake.control.transition import (
     target_params,
 )
 from manta_drake.control.vision import WallDetector
+from manta_drake.model.camera import camera_info
 from manta_drake.scenario import Scenario
-from manta_drake.station.station import camera_info, initial_joint_angles
 
 
 @dc.dataclass
@@ -146,7 +146,7 @@ def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, 
     denoise = builder.AddNamedSystem("depth_filter", DepthImageFilter(
         cam.width, cam.height, scenario.wall_detector.depth_median_filter_px))
     to_cloud = builder.AddNamedSystem("depth_to_cloud", DepthImageToPointCloud(
-        camera_info(cam), PixelType.kDepth32F, 1.0, BaseField.kXYZs))
+        camera_info(cam.width, cam.height, cam.fov_y_deg), PixelType.kDepth32F, 1.0, BaseField.kXYZs))
     detector = builder.AddNamedSystem("wall_detector", WallDetector(
         period=1.0 / cam.rate_hz, params=scenario.wall_detector, meshcat=meshcat))
     builder.ExportInput(denoise.GetInputPort("depth_image"), "depth_image")
@@ -177,13 +177,16 @@ def _add_transition(builder, scenario: Scenario, handles: ControllerHandles, s_h
     return transition.GetOutputPort("cpg_params")
 
 
-def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, ControllerHandles]:
+def build_controller(scenario: Scenario, meshcat=None, *,
+                     compiled_cpg: bool = True) -> tuple[Diagram, ControllerHandles]:
     """Builds the controller of ``scenario`` (see the module docstring for its ports).
 
     Args:
         scenario: a validated Scenario (``controller``, ``cpg``, ``transition``,
             ``depth_estimator``, ``camera``, ``wall_detector``, ``balloon``).
         meshcat: if given, the wall detector draws its labelled clusters there.
+        compiled_cpg: False runs the CPG on its numpy reference maths (the tests and the
+            benchmark's reference path); the default, its compiled kernels.
 
     Returns:
         (controller diagram, ControllerHandles).
@@ -199,7 +202,7 @@ def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, Control
     if mode == "hold":
         stance = get_gait(scenario.controller.gait, scenario.controller.gait_reading).X
         source = builder.AddNamedSystem("hold_stance", stance_ramp(
-            initial_joint_angles(scenario), stance.ravel()))
+            scenario.initial_joint_angles(), stance.ravel()))
         builder.ExportOutput(source.get_output_port(), "desired_state")
     elif mode in ("gait", "transition"):
         if mode == "gait":
@@ -210,9 +213,9 @@ def build_controller(scenario: Scenario, meshcat=None) -> tuple[Diagram, Control
         c = scenario.cpg
         cpg = builder.AddNamedSystem("cpg", CpgOscillators(
             frequency_hz=c.frequency_hz, chain_weight=c.chain_weight, fcs_weight=c.fcs_weight,
-            a=c.a, b=c.b,
+            a=c.a, b=c.b, compiled=compiled_cpg,
             initial_state=initial_state(initial_cpg_params(scenario),
-                                        initial_joint_angles(scenario))))
+                                        scenario.initial_joint_angles())))
         builder.Connect(params, cpg.GetInputPort("cpg_params"))
         builder.ExportOutput(params, "cpg_params")
         builder.ExportOutput(cpg.GetOutputPort("joint_angles"), "joint_angles")

@@ -62,54 +62,43 @@ from __future__ import annotations
 
 import dataclasses as dc
 
-import numpy as np
 from pydrake.common import RandomDistribution
-from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     ClippingRange,
     DepthRange,
     DepthRenderCamera,
-    FramePoseVector,
-    GeometryFrame,
-    GeometryInstance,
     MakeRenderEngineVtk,
-    PerceptionProperties,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
     RenderCameraCore,
     RenderEngineVtkParams,
-    Role,
-    SceneGraph,
 )
 from pydrake.math import RigidTransform
-from pydrake.multibody.tree import BodyIndex
-from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource
-from pydrake.systems.sensors import CameraInfo, RgbdSensor
+from pydrake.systems.sensors import RgbdSensor
 
+from manta_drake.model import resolve_path
+from manta_drake.model.camera import camera_info
 from manta_drake.model.coefficients import (
     HydroCoefficients,
     load_coefficients,
     scale_coefficients,
 )
-from manta_drake.model.plant import PlantHandles, add_plant, body_pose, set_contact_friction
-from manta_drake.model.robot_params import NUM_JOINTS
-from manta_drake.scenario import CameraConfig, Scenario, resolve_path
+from manta_drake.model.plant import (
+    PlantHandles,
+    add_plant,
+    body_pose,
+    joint_state_selector,
+    joint_torque_port,
+    set_contact_friction,
+)
+from manta_drake.scenario import Scenario
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
-from manta_drake.station.hydro import HydrodynamicForces
+from manta_drake.station.hydro import HydrodynamicForces, connect_hydro
 from manta_drake.station.pressure import PressureSensor
-
-
-# HydrodynamicForces' port set: True (the default) feeds it the plant's state vector (the
-# per-body pose and velocity objects of the design's port contract cost more than the
-# maths; docs/performance.md) and applies its generalized forces (forces at every step) or
-# its held spatial forces (update_period > 0); False wires the contract's ports
-# (body_poses, body_spatial_velocities -> spatial_forces). The forces are the same to
-# 1e-12; tests and scripts/benchmark.py set False for the reference path.
-HYDRO_PLANT_STATE = True
-# Where the camera renders: True (the default) in a SceneGraph of its own
-# (``add_camera_scene``); False in the plant's SceneGraph, as before (a VTK pose update
-# at every plant step); scripts/benchmark.py sets False to measure the difference.
-CAMERA_OWN_SCENE = True
+from manta_drake.station.render_poses import add_camera_scene
 
 
 @dc.dataclass
@@ -125,51 +114,13 @@ class StationHandles:
         return self.plant_handles.plant
 
 
-def initial_joint_angles(scenario: Scenario) -> np.ndarray:
-    """The initial joint angles: the stance X of ``scenario.initial_stance``, or zeros."""
-    from manta_drake.control.gaits import get_gait
-
-    if scenario.initial_stance == "zero":
-        return np.zeros(NUM_JOINTS)
-    return get_gait(scenario.initial_stance, scenario.controller.gait_reading).X.ravel().copy()
-
-
-def camera_info(cam: CameraConfig) -> CameraInfo:
-    """The depth camera's intrinsics (shared by the renderer and the point-cloud maker)."""
-    return CameraInfo(cam.width, cam.height, np.radians(cam.fov_y_deg))
-
-
-def joint_state_selector(handles: PlantHandles) -> np.ndarray:
-    """(32, nx) matrix that picks the joints' [q, v] out of the plant's state vector."""
-    plant = handles.plant
-    nq = plant.num_positions()
-    joints = [plant.GetJointByName(n, handles.robot) for n in handles.joint_names]
-    rows = [j.position_start() for j in joints] + [nq + j.velocity_start() for j in joints]
-    S = np.zeros((len(rows), plant.num_multibody_states()))
-    S[np.arange(len(rows)), rows] = 1.0
-    return S
-
-
-def joint_torque_port(handles: PlantHandles):
-    """The plant's net actuation output of the robot: the joint actuators' torques
-    (including the implicit PD's), in actuator order, which must be the joint order of
-    ``measured_joint_state`` (``handles.joint_names``); checked here."""
-    plant = handles.plant
-    names = tuple(plant.get_joint_actuator(i).joint().name()
-                  for i in plant.GetJointActuatorIndices(handles.robot))
-    if names != tuple(handles.joint_names):
-        raise RuntimeError(f"joint_torque: actuator order {names} is not the joint order "
-                           f"{handles.joint_names}")
-    return plant.get_net_actuation_output_port(handles.robot)
-
-
 def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
     """The scenario's initial pose and stance as the plant's defaults."""
     plant = handles.plant
     if handles.body.is_floating_base_body():
         plant.SetDefaultFloatingBaseBodyPose(handles.body, body_pose(scenario.initial_pose.xyz,
                                                              scenario.initial_pose.rpy_deg))
-    for name, q in zip(handles.joint_names, initial_joint_angles(scenario)):
+    for name, q in zip(handles.joint_names, scenario.initial_joint_angles()):
         plant.GetJointByName(name, handles.robot).set_default_angle(q)
 
 
@@ -177,28 +128,8 @@ def _random_source(builder, name: str, distribution, size: int, period: float):
     return builder.AddNamedSystem(name, RandomSource(distribution, size, period))
 
 
-def connect_hydro(builder, plant, hydro, generalized_forces: bool) -> None:
-    """Wires a HydrodynamicForces to its plant: its inputs (the plant's state vector, or the
-    body poses and spatial velocities of the contract ports, as ``hydro.plant_state`` says)
-    and its forces to the plant, as generalized forces (``generalized_forces``, which needs
-    ``hydro.plant_state``) or as the list of spatial forces."""
-    if hydro.plant_state:
-        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
-    else:
-        if generalized_forces:
-            raise ValueError("connect_hydro: generalized forces need plant_state=True")
-        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-        builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                        hydro.GetInputPort("body_spatial_velocities"))
-    if generalized_forces:
-        builder.Connect(hydro.GetOutputPort("generalized_forces"),
-                        plant.get_applied_generalized_force_input_port())
-    else:
-        builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                        plant.get_applied_spatial_force_input_port())
-
-
-def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
+def _add_water(builder, scenario: Scenario, handles: StationHandles,
+               hydro_plant_state: bool) -> None:
     """Balloon, hydrodynamic forces and the pressure sensor with its noise sources."""
     plant, ph, coeffs = handles.plant, handles.plant_handles, handles.coefficients
     b = coeffs.balloon
@@ -215,7 +146,7 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
         plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
         current=scenario.water.current,
         added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period,
-        plant_state=HYDRO_PLANT_STATE))
+        plant_state=hydro_plant_state))
     # Held forces: the list changes only at the hydro's updates, so Drake's cache keeps it
     # between them and the plant maps it to joint torques in C++ at each step (no Python per
     # step). A held generalized-force vector needs a Python call per step (J^T F at the
@@ -243,101 +174,13 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles) -> None:
     handles.systems.update(balloon=balloon, hydro=hydro, pressure_sensor=sensor)
 
 
-class RenderPoses(LeafSystem):
-    """The poses of the camera scene's frames (one per plant body with perception
-    geometry), read from the plant's body poses when the camera renders.
-
-    .. pydrake_system::
-
-        name: RenderPoses
-        input_ports:
-        - body_poses
-        output_ports:
-        - geometry_pose
-
-    * ``body_poses``: the plant's output of that name.
-    * ``geometry_pose``: a FramePoseVector for the camera SceneGraph's source.
-
-    Nothing but the camera asks for ``geometry_pose``, so it is evaluated only when a
-    frame is rendered (at the camera's rate), not at every plant step.
-    """
-
-    def __init__(self, plant, frames):
-        """``frames``: (FrameId in the camera scene, BodyIndex in the plant) pairs."""
-        super().__init__()
-        self._frames = [(frame_id, int(index)) for frame_id, index in frames]
-        self._poses = self.DeclareAbstractInputPort(
-            "body_poses", plant.get_body_poses_output_port().Allocate())
-        # It depends on the body poses only (not on time), so a plant step that does not
-        # move the robot leaves the rendered frame valid in the cache.
-        self.DeclareAbstractOutputPort(
-            "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()), self._calc,
-            prerequisites_of_calc={self.input_port_ticket(self._poses.get_index())})
-
-    def _calc(self, context, output):
-        poses = self._poses.Eval(context)
-        vector = output.get_mutable_value()
-        for frame_id, index in self._frames:
-            vector.set_value(frame_id, poses[index])
-
-
-def add_camera_scene(builder, handles: PlantHandles):
-    """A SceneGraph of its own for the camera, with a VTK renderer and a copy of every
-    geometry of the plant that has the perception role (the robot and the pool), posed
-    from the plant's body poses through ``RenderPoses``.
-
-    Why not render from the plant's own SceneGraph: a SceneGraph moves every render
-    engine's geometry whenever its poses are updated, and the plant's are updated at every
-    step (contact queries), so a renderer there costs a VTK pose update per plant step
-    (~80 us) for a camera that takes 5 frames a second. Here the poses are computed and
-    pushed to VTK only when a frame is rendered. The images are the same: same geometry,
-    same properties, same poses at the frame's time.
-
-    Returns:
-        (camera SceneGraph, RenderPoses system, {plant body index (int): FrameId in the
-        camera scene}); the robot's main body always has a frame (the camera's mount).
-    """
-    plant, plant_scene = handles.plant, handles.scene_graph
-    inspector = plant_scene.model_inspector()
-    scene = builder.AddNamedSystem("camera_scene_graph", SceneGraph())
-    scene.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
-    source = scene.RegisterSource("camera_scene")
-    world, mount = int(plant.world_body().index()), int(handles.body.index())
-    frames = {}
-    for index in range(plant.num_bodies()):
-        body = plant.get_body(BodyIndex(index))
-        geometries = inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body.index()),
-                                             Role.kPerception)
-        if not geometries and index != mount:
-            continue
-        if index == world:
-            frame = scene.world_frame_id()
-        else:
-            frame = scene.RegisterFrame(source, GeometryFrame(body.scoped_name().get_full()))
-            frames[index] = frame
-        for geometry in geometries:
-            instance = GeometryInstance(inspector.GetPoseInFrame(geometry),
-                                        inspector.GetShape(geometry),
-                                        inspector.GetName(geometry))
-            instance.set_perception_properties(
-                PerceptionProperties(inspector.GetPerceptionProperties(geometry)))
-            if frame == scene.world_frame_id():
-                scene.RegisterAnchoredGeometry(source, instance)
-            else:
-                scene.RegisterGeometry(source, frame, instance)
-    poses = builder.AddNamedSystem("camera_render_poses", RenderPoses(
-        plant, [(frame, index) for index, frame in frames.items()]))
-    builder.Connect(plant.get_body_poses_output_port(), poses.GetInputPort("body_poses"))
-    builder.Connect(poses.GetOutputPort("geometry_pose"), scene.get_source_pose_port(source))
-    return scene, poses, frames
-
-
-def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
+def _add_camera(builder, scenario: Scenario, handles: StationHandles,
+                camera_own_scene: bool) -> None:
     """RGB-D camera on the head (VTK, in its own SceneGraph), its depth noise and the
     noise sources."""
     plant, ph = handles.plant, handles.plant_handles
     cam = scenario.camera
-    if CAMERA_OWN_SCENE:
+    if camera_own_scene:
         scene, poses, frames = add_camera_scene(builder, ph)
         camera_frame = frames[int(ph.body.index())]
         handles.systems.update(camera_scene_graph=scene, camera_render_poses=poses)
@@ -346,7 +189,7 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
         if not scene.HasRenderer("vtk"):
             scene.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
         camera_frame = plant.GetBodyFrameIdOrThrow(ph.body.index())
-    core = RenderCameraCore("vtk", camera_info(cam),
+    core = RenderCameraCore("vtk", camera_info(cam.width, cam.height, cam.fov_y_deg),
                             ClippingRange(0.5 * cam.min_range, 2.0 * cam.max_range),
                             RigidTransform())
     X_BC = plant.GetFrameByName("camera", ph.robot).GetFixedPoseInBodyFrame()
@@ -357,7 +200,7 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
     # The range limit is the sensor's (light absorbed along each ray), applied with the noise.
     noise = builder.AddNamedSystem("depth_noise", DepthImageNoise(
         cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout,
-        max_range=cam.max_range, camera_info=camera_info(cam)))
+        max_range=cam.max_range, camera_info=camera_info(cam.width, cam.height, cam.fov_y_deg)))
     builder.Connect(camera.depth_image_32F_output_port(), noise.GetInputPort("depth_image"))
     n_pixels, period = cam.width * cam.height, 1.0 / cam.rate_hz
     for port, distribution in (("range_noise", RandomDistribution.kGaussian),
@@ -369,7 +212,8 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles) -> None:
     handles.systems.update(camera=camera, depth_noise=noise)
 
 
-def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHandles]:
+def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool = True,
+                  camera_own_scene: bool = True) -> tuple[Diagram, StationHandles]:
     """Builds the station of ``scenario`` (see the module docstring for its ports).
 
     Args:
@@ -377,6 +221,15 @@ def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHan
             ``pressure_sensor``, ``camera``, ``initial_pose``, ``initial_stance``).
         meshcat: if given, a MeshcatVisualizer inside the station draws the plant
             (as in ``MakeHardwareStation``).
+        hydro_plant_state: True (the default) feeds ``HydrodynamicForces`` the plant's
+            state vector and applies its generalized forces (forces at every step) or its
+            held spatial forces (``water.update_period`` > 0); False wires the contract's
+            ports (body poses and spatial velocities in, spatial forces out), the reference
+            path (the same forces to 1e-12; the per-body objects cost more than the maths,
+            docs/performance.md).
+        camera_own_scene: True (the default) renders the camera in a SceneGraph of its own
+            (``add_camera_scene``); False in the plant's SceneGraph (a VTK pose update at
+            every plant step; the benchmark measures the difference).
 
     Returns:
         (station diagram, StationHandles).
@@ -402,12 +255,10 @@ def build_station(scenario: Scenario, meshcat=None) -> tuple[Diagram, StationHan
     builder.ExportOutput(plant.get_state_output_port(), "plant_state")
     builder.ExportOutput(plant_handles.scene_graph.get_query_output_port(), "query_object")
     if coeffs is not None:
-        _add_water(builder, scenario, handles)
+        _add_water(builder, scenario, handles, hydro_plant_state)
     if scenario.camera.enabled:
-        _add_camera(builder, scenario, handles)
+        _add_camera(builder, scenario, handles, camera_own_scene)
     if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
-
         params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
         handles.systems["visualizer"] = MeshcatVisualizer.AddToBuilder(
             builder, plant_handles.scene_graph, meshcat, params)

@@ -1,0 +1,116 @@
+"""The one Dask cluster helper of every many-run command (sweep, calibrate, optimize, the
+studies): ``--scheduler ADDRESS`` connects to a running cluster, ``--workers N`` starts a
+``LocalCluster`` of N single-threaded worker processes, ``--workers 0`` runs in this
+process without Dask."""
+
+import contextlib
+import os
+
+from manta_drake.config_io import ScenarioError
+from manta_drake.version import __version__
+
+
+class ClusterError(ScenarioError):
+    """The cluster options or the cluster itself cannot run the work; one line says why."""
+
+
+def default_workers() -> int:
+    """Worker processes of a local cluster: the CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:
+        return max(1, os.cpu_count() or 1)
+
+
+# Dask's statistical profiler samples every worker's task thread every 10 ms, taking the
+# GIL each time: it made a 6 s swim ~20 % slower (median of 9 runs alternated between fresh
+# one-worker clusters: 2.04 s with it, 1.72 s without). A simulation steps Python systems
+# thousands of times a second, so the profiler is off in the clusters these commands start
+# and stopped on the workers of a cluster they connect to (the dashboard's profile page then
+# stays empty).
+_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+
+
+def _stop_worker_profiler(dask_worker) -> int:
+    """Stops a running worker's profiler callbacks; returns how many were running."""
+    stopped = 0
+    for name in ("profile", "profile-cycle"):
+        callback = dask_worker.periodic_callbacks.pop(name, None)
+        if callback is not None:
+            callback.stop()
+            stopped += 1
+    return stopped
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None):
+    """A ``distributed.Client``: connected to ``scheduler`` (an address such as
+    ``tcp://host:8786``), or to a new LocalCluster of ``workers`` processes with one thread
+    each (Drake runs are single-threaded and hold the GIL: processes, not threads, run them
+    side by side). Closed (and the local cluster shut down) on exit. The workers' profiler
+    is off (see ``_WORKER_CONFIG``)."""
+    import dask.config
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        with Client(scheduler, timeout="30s") as client:
+            check_workers(client)
+            client.run(_stop_worker_profiler)
+            yield client
+        return
+    # The nannies hand this configuration to the worker processes they start.
+    with dask.config.set(_WORKER_CONFIG), \
+            LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                         # ":0": any free port (8787 may be another user's dashboard)
+                         processes=True, dashboard_address=":0") as cluster, \
+            Client(cluster) as client:
+        yield client
+
+
+def _worker_version() -> str:
+    from manta_drake.version import __version__ as version  # the worker's own
+
+    return version
+
+
+def check_workers(client) -> None:
+    """Raises ClusterError if the cluster has no workers or a worker lacks manta_drake."""
+    try:
+        versions = client.run(_worker_version)
+    except ModuleNotFoundError as e:
+        raise ClusterError(f"a Dask worker cannot import manta_drake ({e}); install this "
+                         "package (pip install -e .) in every worker's environment") from None
+    if not versions:
+        raise ClusterError("the Dask cluster has no workers; start some with "
+                         "`dask worker ADDRESS`")
+    mine = _worker_version()
+    other = {w: v for w, v in versions.items() if v != mine}
+    if other:
+        raise ClusterError(f"Dask workers run manta_drake {sorted(set(other.values()))}, this "
+                         f"client {mine}: install the same version everywhere")
+
+
+def add_cluster_arguments(parser) -> None:
+    """``--scheduler`` and ``--workers`` (shared with ``manta-drake calibrate``)."""
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a running Dask scheduler, e.g. tcp://host:8786 (default: a "
+                             "local cluster on this machine)")
+    parser.add_argument("--workers", type=int, default=default_workers(), metavar="N",
+                        help="worker processes of the local cluster (default: the CPU count, "
+                             f"{default_workers()} here); 0: one run after another in this "
+                             "process, without Dask")
+
+
+def check_cluster_arguments(args) -> None:
+    """Raises ClusterError for a ``--workers`` the cluster arguments do not allow."""
+    if args.workers < 0:
+        raise ClusterError(f"--workers: {args.workers} must be >= 0")
+
+
+def cluster_client(args):
+    """What ``--scheduler`` / ``--workers`` ask for, as a context manager giving the client:
+    a running scheduler, a new local cluster, or None (``--workers 0``: in this process)."""
+    check_cluster_arguments(args)
+    if args.scheduler or args.workers > 0:
+        return dask_client(args.scheduler, args.workers)
+    return contextlib.nullcontext()

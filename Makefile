@@ -44,4 +44,4 @@ models: setup
 	$(PY) scripts/generate_models.py
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache
+	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis build dist *.egg-info docs/_build

@@ -84,9 +84,8 @@ def test_set_overrides_a_field_and_the_run_writes_its_resolved_scenario(tmp_path
     again = load_scenario(out / "scenario.yaml")
     assert again.contact.friction == 0.55 and again.duration == 0.2
     assert again.water.coefficient_scales == {"body.linear_damping": 1.2}
-    assert yaml_dump_typed(again) == yaml_dump_typed(
-        load_scenario(out / "scenario.yaml"))  # a fixed point
-    expected = load_scenario("stand", {"duration": 0.2})
+    # The same scenario built without the layering: the file, then plain attribute writes.
+    expected = load_scenario("stand", overrides={"duration": 0.2})
     expected.contact.friction = 0.55
     expected.water.coefficient_scales = {"body.linear_damping": 1.2}
     expected.visualization.meshcat = False

@@ -91,8 +91,19 @@ def test_wrong_type_and_missing_file(tmp_path):
         load_scenario(tmp_path / "nope.yaml")
 
 
-def test_defaults_validate():
-    assert Scenario().validate().time_step == pytest.approx(1e-3)
+def test_defaults_are_consistent_with_each_other():
+    """The defaults' relations that the runs rely on: the integrator steps on the plant's
+    grid, the recording, the log and the transition on whole steps, the start clear of the
+    pool (validate runs the collision query) and the sensor's rate within one step."""
+    s = Scenario().validate()
+    assert s.simulator.max_step_size == s.time_step
+    assert not s.simulator.use_error_control
+    steps = 1.0 / s.visualization.recording_fps / s.time_step
+    assert steps == pytest.approx(round(steps)) and round(steps) >= 1
+    for period in (s.log_period, s.transition.period, 1.0 / s.pressure_sensor.rate_hz):
+        assert period / s.time_step == pytest.approx(round(period / s.time_step))
+    assert s.depth_estimator.surface_depth < s.depth_estimator.floor_distance
+    assert s.camera.min_range < s.camera.max_range
 
 
 def test_transition_parameters_checked_at_load_time(tmp_path):
@@ -100,3 +111,51 @@ def test_transition_parameters_checked_at_load_time(tmp_path):
         load_scenario(_write(tmp_path, "transition: {g: 5.0, T: 1.0}\n"))
     with pytest.raises(ScenarioError, match=r"transition\.z_t: 1.5 is outside \(0, 1\]"):
         load_scenario(_write(tmp_path, "transition: {z_t: 1.5}\n"))
+
+
+def test_layers_apply_in_order_and_keep_what_they_do_not_name(tmp_path):
+    """defaults <- file <- data <- overrides, as the manipulation course's LoadScenario."""
+    from manta_drake.scenario import Scenario as S
+
+    base = S(duration=3.0, random_seed=5)
+    base.water.coefficient_scales = {"body.linear_damping": 1.1}
+    path = _write(tmp_path, "name: layered\ncontact: {friction: 0.7}\n"
+                            "water: {coefficient_scales: {body.quadratic_damping: 0.9}}\n")
+    s = load_scenario(path, data={"contact": {"friction": 0.6}, "random_seed": 9},
+                      defaults=base, overrides={"random_seed": 11, "duration": 2.0,
+                                                "water.coefficient_scales.fins.normal_force_coefficient": 1.2})
+    assert s.name == "layered" and s.duration == 2.0 and s.random_seed == 11
+    assert s.contact.friction == 0.6
+    # Maps merge across the layers; a field no layer names keeps the dataclass default.
+    assert s.water.coefficient_scales == {"body.linear_damping": 1.1,
+                                          "body.quadratic_damping": 0.9,
+                                          "fins.normal_force_coefficient": 1.2}
+    assert s.camera.width == S().camera.width
+    assert base.duration == 3.0 and base.random_seed == 5  # the defaults are not changed
+
+
+def test_layered_errors_name_the_full_dotted_field(tmp_path):
+    with pytest.raises(ScenarioError, match=r"contact\.frction: scenario\.contact has no field"):
+        load_scenario("stand", overrides={"contact.frction": 0.5})
+    with pytest.raises(ScenarioError, match=r"scenario\.contact\.friction: expected a float"):
+        load_scenario("stand", overrides={"contact.friction": "high"})
+    with pytest.raises(ScenarioError, match=r"contact\.friction: 7\.0 is outside"):
+        load_scenario("stand", overrides={"contact.friction": 7})
+    with pytest.raises(ScenarioError, match=r"scenario\.camera\.widht: unknown key"):
+        load_scenario("stand", data={"camera": {"widht": 3}})
+    with pytest.raises(ScenarioError, match="set twice"):
+        load_scenario("stand", overrides={"water.current": [0, 0, 0],
+                                          "water": {"current": [0.1, 0, 0]}})
+    with pytest.raises(ScenarioError, match="duplicate key 'duration'"):
+        load_scenario(_write(tmp_path, "duration: 1\nduration: 2\n"))
+
+
+def test_set_items_parse_as_yaml_and_name_the_option():
+    from manta_drake.scenario import parse_set
+
+    assert parse_set(["a.b=0.5", "c=[1, 2]", "d=null", "e=text"]) == {
+        "a.b": 0.5, "c": [1, 2], "d": None, "e": "text"}
+    with pytest.raises(ScenarioError, match=r"--set duration: not valid YAML"):
+        parse_set(["duration=[1"])
+    with pytest.raises(ScenarioError, match=r"--set x: expected KEY=VALUE"):
+        parse_set(["x"])

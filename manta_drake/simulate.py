@@ -15,13 +15,16 @@ written, and the exception is re-raised as ``SimulationError``.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses as dc
 import json
 import math
+import os
 import pathlib
-import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -215,53 +218,185 @@ def make_simulator(diagram, scenario: Scenario, context=None, seed: int | None =
 # The files a run writes (and the only ones it removes from an old output folder).
 OUTPUT_FILES = ("scenario.yaml", "recording.html", "log.npz", "metrics.json", "joints.png",
                 "states.png", "trajectory.png")
+SCENARIO_HEADER = ("# The resolved scenario of this run (every field, overrides applied); run it "
+                   "again\n# with: manta-drake run scenario.yaml --out DIR\n")
+
+
+class OutputFolderError(SimulationError):
+    """The output folder cannot take a run's files; raised before anything is built."""
+
+
+def check_output_folder(out_dir, inputs=()) -> pathlib.Path:
+    """Checks that a run can write its files into ``out_dir`` without losing anything, before
+    anything expensive starts; creates the folder.
+
+    Refused: an empty path; a path that is a file, or whose parent is; a folder that cannot
+    be created or written; a folder holding one of ``inputs`` (a run never overwrites its own
+    input) or a ``scenario.yaml`` that no run wrote (a user's own file).
+
+    Raises:
+        OutputFolderError: one line naming the folder and why.
+    """
+    if out_dir is None or not str(out_dir).strip():
+        raise OutputFolderError("--out: an empty path; name an output folder (e.g. out/run)")
+    out_dir = pathlib.Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputFolderError(f"--out {out_dir}: is a file, not a folder")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputFolderError(f"--out {out_dir}: cannot be created ({e.strerror})") from None
+    if not os.access(out_dir, os.W_OK | os.X_OK):
+        raise OutputFolderError(f"--out {out_dir}: is not writable")
+    try:  # the permission bits do not tell everything (read-only mounts, root)
+        probe = tempfile.NamedTemporaryFile(dir=out_dir, prefix=".write-check-", delete=True)
+        probe.close()
+    except OSError as e:
+        raise OutputFolderError(f"--out {out_dir}: cannot be written ({e.strerror})") from None
+    ours = {(out_dir / name).resolve() for name in OUTPUT_FILES}
+    for path in inputs:
+        if path is not None and pathlib.Path(path).resolve() in ours:
+            raise OutputFolderError(
+                f"--out {out_dir}: the run would overwrite its own input {path}; choose "
+                "another output folder")
+    existing = out_dir / "scenario.yaml"
+    if existing.is_file():
+        try:
+            head = existing.read_text(encoding="utf-8", errors="replace")[:len(SCENARIO_HEADER)]
+        except OSError:
+            head = ""
+        if head != SCENARIO_HEADER:
+            raise OutputFolderError(
+                f"--out {out_dir}: holds a scenario.yaml that no run wrote; a run would "
+                "replace it: choose another output folder")
+    return out_dir
 
 
 def _write_scenario(scenario: Scenario, folder: pathlib.Path) -> None:
     """The run's resolved scenario (every field, overrides applied): ``load_scenario`` on it
     runs the same simulation again."""
-    (folder / "scenario.yaml").write_text(
-        "# The resolved scenario of this run (every field, overrides applied); run it again\n"
-        "# with: manta-drake run scenario.yaml --out DIR\n" + scenario_yaml(scenario))
+    _write_atomic(folder / "scenario.yaml", SCENARIO_HEADER + scenario_yaml(scenario))
 
 
-def _publish(staging: pathlib.Path, out_dir: pathlib.Path) -> None:
-    """Moves a run's files from its staging folder into ``out_dir``, first removing our own
-    outputs of an earlier run there (so no stale metrics.json or recording.html stays)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+def _write_atomic(path: pathlib.Path, text: str) -> None:
+    """Writes ``text`` to ``path`` through a temporary file in the same folder and a rename,
+    so a reader (or a kill) never sees half a file."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def _write_metrics(out_dir: pathlib.Path, metrics: dict) -> None:
+    _write_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+
+
+def _start_outputs(scenario: Scenario, out_dir: pathlib.Path) -> None:
+    """Removes our own outputs of an earlier run in ``out_dir`` (so no stale recording or
+    metrics stays beside this run's) and writes this run's scenario and a ``metrics.json``
+    that says it is running: a run killed outright (SIGKILL, power) leaves that story, not
+    the previous run's."""
     for name in OUTPUT_FILES:
         (out_dir / name).unlink(missing_ok=True)
-    for path in staging.iterdir():
-        target = out_dir / path.name
-        if target.is_dir():
-            shutil.rmtree(target)
-        shutil.move(str(path), str(target))
-    staging.rmdir()
+    _write_scenario(scenario, out_dir)
+    _write_metrics(out_dir, {
+        "scenario": scenario.name, "status": "running",
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "note": "written when the run started; a run that ends replaces it, so this one is "
+                "still running or was killed"})
 
 
-def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseException) -> None:
-    staging = pathlib.Path(tempfile.mkdtemp(prefix=".run-", dir=out_dir.parent))
-    metrics = {"scenario": scenario.name, "status": "failed",
-               "failure": {"stage": "build", "time_s": 0.0,
-                           "reason": f"{type(error).__name__}: {error}"}}
-    (staging / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    _write_scenario(scenario, staging)
-    _publish(staging, out_dir)
+def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseException,
+                        reason: str | None = None) -> None:
+    _write_metrics(out_dir, {"scenario": scenario.name, "status": "failed",
+                             "failure": {"stage": "build", "time_s": 0.0,
+                                         "reason": reason or f"{type(error).__name__}: {error}"}})
 
 
-def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True) -> RunResult:
+def write_interrupted_start(out_dir: pathlib.Path, name: str, error: KeyboardInterrupt) -> None:
+    """A run interrupted while its scenario was loaded (before ``run``): the folder's earlier
+    outputs go and a metrics.json says the run never started and why."""
+    for file in OUTPUT_FILES:
+        (out_dir / file).unlink(missing_ok=True)
+    reason = error.reason if isinstance(error, RunInterrupted) else "interrupted (Ctrl-C)"
+    _write_metrics(out_dir, {"scenario": name, "status": "failed",
+                             "failure": {"stage": "load", "time_s": 0.0, "reason": reason}})
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The run was interrupted by a signal: Ctrl-C (SIGINT), SIGTERM or SIGHUP."""
+
+    def __init__(self, signal_name: str = "SIGINT"):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+    @property
+    def reason(self) -> str:
+        return "interrupted (Ctrl-C)" if self.signal_name == "SIGINT" else \
+            f"terminated ({self.signal_name})"
+
+
+@contextlib.contextmanager
+def interrupts_as_exceptions():
+    """While inside: SIGTERM and SIGHUP raise ``RunInterrupted`` like Ctrl-C does, so a run
+    stopped by a service manager, ``kill`` or a closed terminal still writes its partial log
+    and a metrics.json saying why. Only in the main thread (signals go there); restored on
+    exit."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise RunInterrupted(signal.Signals(signum).name)
+
+    previous = {}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        previous[sig] = signal.signal(sig, handler)
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+@contextlib.contextmanager
+def _signals_deferred():
+    """While inside, SIGINT, SIGTERM and SIGHUP are held; the first one is raised on exit."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+
+    def hold(signum, frame):
+        pending.append(signal.Signals(signum).name)
+
+    previous = {sig: signal.signal(sig, hold)
+                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+    if pending:
+        raise RunInterrupted(pending[0])
+
+
+def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True,
+        inputs=()) -> RunResult:
     """Simulates ``scenario`` and writes its outputs into ``out_dir``.
 
-    The outputs are written into a fresh staging folder beside ``out_dir`` and moved into
-    place at the end, replacing this function's own files of an earlier run there: a
-    folder never mixes two runs. Whatever happens, ``out_dir`` ends with a metrics.json
-    that says so: a build failure (``status: failed``, ``stage: build``), a failure part-way
-    (the log up to it, the time and the reason), Ctrl-C (``reason: interrupted``, then
-    KeyboardInterrupt is re-raised).
+    The folder is checked before anything is built (``check_output_folder``). This
+    function's own files of an earlier run there are removed first and a ``metrics.json``
+    saying ``running`` is written, so a folder never mixes two runs. Whatever happens,
+    ``out_dir`` ends with a metrics.json that says so: a build failure (``status: failed``,
+    ``stage: build``), a failure part-way (the log up to it, the time and the reason),
+    Ctrl-C, SIGTERM or SIGHUP (the partial log, ``reason: interrupted (Ctrl-C)`` or
+    ``terminated (SIGTERM)``, then ``RunInterrupted``, a KeyboardInterrupt, is re-raised).
+    Every file is written whole (a temporary file and a rename), metrics.json last.
 
     Args:
         scenario: a validated Scenario.
         out_dir: output folder (created).
+        inputs: the files the run was made from (the scenario file): refused as outputs.
         progress: show a progress bar on stderr (only when stderr is a terminal).
         write_outputs: write plots and the recording (tests may skip them).
 
@@ -271,13 +406,24 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     Raises:
         SimulationError: the build or the simulation failed; the outputs above are written
             first.
-        KeyboardInterrupt: interrupted; the partial log and metrics.json are written first.
+        OutputFolderError: ``out_dir`` cannot take the outputs (nothing was built).
+        RunInterrupted: interrupted; the partial log and metrics.json are written first.
     """
-    out_dir = pathlib.Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    out_dir = check_output_folder(out_dir, inputs)
+    with interrupts_as_exceptions():
+        return _run(scenario, out_dir, progress, write_outputs)
+
+
+def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
+         write_outputs: bool) -> RunResult:
+    _start_outputs(scenario, out_dir)
     try:
         diagram, handles = build_diagram(scenario)
         simulator = make_simulator(diagram, scenario)
+    except KeyboardInterrupt as e:
+        reason = e.reason if isinstance(e, RunInterrupted) else "interrupted (Ctrl-C)"
+        _write_failed_build(scenario, out_dir, e, reason)
+        raise
     except Exception as e:
         _write_failed_build(scenario, out_dir, e)
         raise SimulationError(f"{scenario.name}: building the diagram failed: "
@@ -306,9 +452,9 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
             simulator.AdvanceTo(t_next)
             if bar is not None:
                 bar.update(t_next - bar.n)
-    except KeyboardInterrupt:
-        interrupted = True
-        failure = {"time_s": float(root_context.get_time()), "reason": "interrupted (Ctrl-C)"}
+    except KeyboardInterrupt as e:
+        interrupted = e if isinstance(e, RunInterrupted) else RunInterrupted("SIGINT")
+        failure = {"time_s": float(root_context.get_time()), "reason": interrupted.reason}
     except (Exception, SystemExit) as e:  # keep the log of what happened up to the failure
         # SystemExit: a Drake abort surfacing in Python; it must not end the process
         # without the log.
@@ -330,21 +476,21 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     elif not interrupted:
         metrics["max_penetration_m"] = max_penetration(handles, diagram, root_context)
 
-    staging = pathlib.Path(tempfile.mkdtemp(prefix=".run-", dir=out_dir.parent))
-    try:
-        np.savez_compressed(staging / "log.npz", **log)
-        (staging / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-        _write_scenario(scenario, staging)
+    # A second signal while the files are written must not cut them short: the story is
+    # written whole, then the interruption goes on.
+    with _signals_deferred():
+        tmp_log = out_dir / ".log.npz.tmp.npz"
+        np.savez_compressed(tmp_log, **log)
+        os.replace(tmp_log, out_dir / "log.npz")
         if write_outputs and not interrupted:
-            plots.write_run_plots(log, staging, title=scenario.name)
+            plots.write_run_plots(log, out_dir, title=scenario.name)
             if handles.visualizer is not None:
                 handles.visualizer.StopRecording()
                 handles.visualizer.PublishRecording()
-                (staging / "recording.html").write_text(handles.meshcat.StaticHtml())
-    finally:
-        _publish(staging, out_dir)
+                _write_atomic(out_dir / "recording.html", handles.meshcat.StaticHtml())
+        _write_metrics(out_dir, metrics)  # last: its presence says the others are complete
     if interrupted:
-        raise KeyboardInterrupt
+        raise interrupted
     if failure:
         raise SimulationError(
             f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "

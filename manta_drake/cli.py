@@ -2,12 +2,12 @@
 
     manta-drake run SCENARIO.yaml --out DIR [--duration S] [--set KEY=VALUE ...] [--no-meshcat]
     manta-drake list
-    manta-drake station SCENARIO.yaml --lcm URL      (manta_drake.lcm_seam)
-    manta-drake controller SCENARIO.yaml --lcm URL   (manta_drake.lcm_seam)
+    manta-drake station SCENARIO.yaml --lcm URL      (manta_drake.seam)
+    manta-drake controller SCENARIO.yaml --lcm URL   (manta_drake.seam)
     manta-drake sweep SWEEP.yaml --out DIR           (manta_drake.sweep)
     manta-drake calibrate CALIBRATION.yaml --out DIR (manta_drake.calibrate)
 
-Each of the last four lives in its own module, which provides ``add_<command>_parser(sub)``
+Each of the last four lives in its own package, which provides ``add_<command>_parser(sub)``
 (adds its subparser) and ``<command>_main(args) -> int``; see ``EXTENSIONS``.
 
 Errors are printed as one line (no traceback) and exit with status 2.
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import pathlib
+import signal
 import sys
 
 
@@ -51,16 +52,28 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
                   settings=()):
     """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
     KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it."""
-    from manta_drake.scenario import load_scenario, parse_set
-    from manta_drake.simulate import run
+    from manta_drake.scenario import find_scenario, load_scenario, parse_set
+    from manta_drake.simulate import (
+        check_output_folder,
+        interrupts_as_exceptions,
+        run,
+        write_interrupted_start,
+    )
 
+    path = find_scenario(scenario_path)
     overrides = parse_set(list(settings))
     if duration is not None:
         overrides["duration"] = duration
     if no_meshcat:
         overrides["visualization.meshcat"] = False
-    scenario = load_scenario(scenario_path, overrides=overrides)
-    return run(scenario, out, progress=progress), scenario
+    out = check_output_folder(out, inputs=[path])  # before the (slower) load and build
+    with interrupts_as_exceptions():
+        try:
+            scenario = load_scenario(path, overrides=overrides)
+        except KeyboardInterrupt as e:
+            write_interrupted_start(out, path.stem, e)
+            raise
+        return run(scenario, out, progress=progress, inputs=[path]), scenario
 
 
 _SET_HELP = ("override a scenario field, e.g. --set contact.friction=0.6 or --set "
@@ -122,8 +135,8 @@ def _run(args) -> int:
 
 # command -> module with add_<command>_parser(subparsers) and <command>_main(args).
 EXTENSIONS = {
-    "station": "manta_drake.lcm_seam",
-    "controller": "manta_drake.lcm_seam",
+    "station": "manta_drake.seam",
+    "controller": "manta_drake.seam",
     "sweep": "manta_drake.sweep",
     "calibrate": "manta_drake.calibrate",
 }
@@ -162,9 +175,11 @@ def main(argv=None) -> int:
         if args.command in EXTENSIONS:
             return getattr(_extension(args.command), f"{args.command}_main")(args)
         return _list() if args.command == "list" else _run(args)
-    except KeyboardInterrupt:
-        print("manta-drake: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM/SIGHUP during a run
+        name = getattr(e, "signal_name", "SIGINT")
+        print(f"manta-drake: {'interrupted' if name == 'SIGINT' else 'terminated'} ({name})",
+              file=sys.stderr)
+        return 128 + int(getattr(signal.Signals, name, signal.SIGINT))
     except Exception as e:  # one clear line; --debug for the traceback
         if args.debug:
             raise

@@ -12,7 +12,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "manta_drake"
 # Bottom up. A module may import modules of lower layers, and of its own layer only where
 # the layer says so (``within``); the package face (manta_drake/__init__.py) is above all.
 LAYERS = [
-    ("config I/O", ["manta_drake.config_io", "manta_drake.version"], False),
+    ("config I/O", ["manta_drake.config_io", "manta_drake.version", "manta_drake.jit"], False),
     ("model", ["manta_drake.model", "manta_drake.models", "manta_drake.lcmtypes"], True),
     ("halves", ["manta_drake.station", "manta_drake.control"], True),
     ("scenario", ["manta_drake.scenario"], False),

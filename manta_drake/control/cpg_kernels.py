@@ -17,7 +17,7 @@ the cache.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from manta_drake.jit import njit
 
 
 def pack_pairs(pair_i, pair_j, bias_index, bias_sign) -> np.ndarray:

@@ -66,12 +66,12 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
         overrides["duration"] = duration
     if no_meshcat:
         overrides["visualization.meshcat"] = False
-    out = check_output_folder(out, inputs=[path])  # before the (slower) load and build
+    check_output_folder(out, inputs=[path], create=False)  # before the slower load and build
     with interrupts_as_exceptions():
         try:
             scenario = load_scenario(path, overrides=overrides)
         except KeyboardInterrupt as e:
-            write_interrupted_start(out, path.stem, e)
+            write_interrupted_start(check_output_folder(out, inputs=[path]), path.stem, e)
             raise
         return run(scenario, out, progress=progress, inputs=[path]), scenario
 
@@ -139,6 +139,7 @@ EXTENSIONS = {
     "controller": "manta_drake.seam",
     "sweep": "manta_drake.sweep",
     "calibrate": "manta_drake.calibrate",
+    "study": "manta_drake.studies",
 }
 
 

@@ -12,7 +12,9 @@ This module is the bottom layer: it imports nothing of the package.
 
 import dataclasses as dc
 import math
+import numbers
 import pathlib
+import re
 import types
 import typing
 
@@ -26,7 +28,9 @@ class ScenarioError(ValueError):
 # --- the strict YAML reader --------------------------------------------------------------
 
 class UniqueKeyLoader(yaml.SafeLoader):
-    """A safe YAML loader that refuses a key given twice in one mapping."""
+    """A safe YAML loader that refuses a key given twice in one mapping, and reads YAML 1.2
+    floats such as ``1e-3`` and ``1.0e9`` as numbers (PyYAML's YAML 1.1 reads them as
+    strings; Drake's loader and every other YAML 1.2 tool read them as floats)."""
 
     def construct_mapping(self, node, deep=False):
         seen = set()
@@ -37,6 +41,12 @@ class UniqueKeyLoader(yaml.SafeLoader):
                     None, None, f"duplicate key {key!r}", key_node.start_mark)
             seen.add(key)
         return super().construct_mapping(node, deep)
+
+
+UniqueKeyLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."))
 
 
 def read_text_file(path, error=ScenarioError) -> str:
@@ -161,8 +171,8 @@ def check_keys(data, schema, path: str = "scenario") -> None:
 # --- value checks --------------------------------------------------------------------------
 
 def check_number(field: str, value) -> None:
-    """A finite int or float (not a bool)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    """A finite real number (int, float or a numpy scalar; not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ScenarioError(f"{field}: {value!r} is not a number")
     if not math.isfinite(value):
         raise ScenarioError(f"{field}: {value!r} is not finite")
@@ -178,8 +188,8 @@ def check_in_range(field, value, lo, hi, text, open_low=False, open_high=False) 
 
 
 def check_integer(field: str, value, lo: int, hi: int) -> None:
-    """An int (not a bool, not 1.7) in [lo, hi]."""
-    if isinstance(value, bool) or not isinstance(value, int):
+    """An int (or a numpy integer; not a bool, not 1.7) in [lo, hi]."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise ScenarioError(f"{field}: {value!r} is not an integer (allowed: {lo} to {hi})")
     if not lo <= value <= hi:
         raise ScenarioError(f"{field}: {value!r} is outside the allowed range [{lo}, {hi}]")

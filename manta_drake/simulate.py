@@ -35,6 +35,7 @@ from pydrake.systems.primitives import RandomSource
 
 from manta_drake import metrics as M
 from manta_drake import plots
+from manta_drake.config_io import check_integer
 from manta_drake.control.gaits import get_gait
 from manta_drake.control.transition import BEHAVIOURS
 from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, NUM_JOINTS
@@ -192,6 +193,7 @@ def seed_context(diagram, context, seed: int) -> None:
     parameter the caller set on ``context`` stays. The sources draw their seeds in the
     order ``Diagram.SetRandomContext`` would, so a default context seeded here is the
     scenario's start with exactly the noise of that seed. Same seed, same run."""
+    check_integer("seed", seed, 0, 2**32 - 1)
     generator = RandomGenerator(int(seed))
     for source in random_sources(diagram):
         source.SetRandomContext(source.GetMyMutableContextFromRoot(context), generator)
@@ -226,12 +228,12 @@ class OutputFolderError(SimulationError):
     """The output folder cannot take a run's files; raised before anything is built."""
 
 
-def check_output_folder(out_dir, inputs=()) -> pathlib.Path:
+def check_output_folder(out_dir, inputs=(), create: bool = True) -> pathlib.Path:
     """Checks that a run can write its files into ``out_dir`` without losing anything, before
-    anything expensive starts; creates the folder.
+    anything expensive starts; creates the folder if ``create``.
 
-    Refused: an empty path; a path that is a file, or whose parent is; a folder that cannot
-    be created or written; a folder holding one of ``inputs`` (a run never overwrites its own
+    Refused: an empty path; a path that is a file, or under one; a folder that cannot be
+    created or written; a folder holding one of ``inputs`` (a run never overwrites its own
     input) or a ``scenario.yaml`` that no run wrote (a user's own file).
 
     Raises:
@@ -242,17 +244,26 @@ def check_output_folder(out_dir, inputs=()) -> pathlib.Path:
     out_dir = pathlib.Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputFolderError(f"--out {out_dir}: is a file, not a folder")
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise OutputFolderError(f"--out {out_dir}: cannot be created ({e.strerror})") from None
-    if not os.access(out_dir, os.W_OK | os.X_OK):
-        raise OutputFolderError(f"--out {out_dir}: is not writable")
+    existing = out_dir
+    while not existing.exists():  # the nearest folder that exists must take the new ones
+        existing = existing.parent
+    if not existing.is_dir():
+        raise OutputFolderError(f"--out {out_dir}: cannot be created ({existing} is a file)")
+    if create:
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise OutputFolderError(f"--out {out_dir}: cannot be created ({e.strerror})") \
+                from None
+        existing = out_dir
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputFolderError(f"--out {out_dir}: {existing} is not writable")
     try:  # the permission bits do not tell everything (read-only mounts, root)
-        probe = tempfile.NamedTemporaryFile(dir=out_dir, prefix=".write-check-", delete=True)
-        probe.close()
+        with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
+            pass
     except OSError as e:
-        raise OutputFolderError(f"--out {out_dir}: cannot be written ({e.strerror})") from None
+        raise OutputFolderError(f"--out {out_dir}: {existing} cannot be written "
+                                f"({e.strerror})") from None
     ours = {(out_dir / name).resolve() for name in OUTPUT_FILES}
     for path in inputs:
         if path is not None and pathlib.Path(path).resolve() in ours:

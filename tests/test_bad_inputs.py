@@ -111,6 +111,10 @@ def _coefficients_with(tmp_path, old, new):
     # The buoyancy comes from the semi-axes: a volume edited alone would have no effect.
     (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.0051", "sealed_volume:\n    value: 0.0061"),
      "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes (4/3 pi abc = 0.0051 m^3"),
+    (lambda p: _coefficients_with(p, "water_density:\n  value: 1000.0", "water_density:\n  value: 1.0e9"),
+     "water_density = 1000000000.0 is outside the allowed range [900, 1300] kg/m^3"),
+    (lambda p: _coefficients_with(p, "gravity:\n  value: 9.81", "gravity:\n  value: 98.1"),
+     "gravity = 98.1 is outside the allowed range [9.7, 9.9] m/s^2"),
     (lambda p: _file(p / "empty.yaml", b""), "must be a mapping"),
     (lambda p: _file(p / "bin.yaml", b"\xff\xfe\x00\x81binary"), "not a UTF-8 text"),
 ])
@@ -144,6 +148,7 @@ def test_bad_python_calls_name_the_argument():
     from manta_drake.control.depth_image_filter import DepthImageFilter
     from manta_drake.control.vision import WallDetectorParams
     from manta_drake.model.plant import add_plant
+    from manta_drake.simulate import seed_context
 
     cases = [
         (lambda: PotentialTransition(initial_params=np.zeros(10)), "initial_params"),
@@ -154,6 +159,12 @@ def test_bad_python_calls_name_the_argument():
         (lambda: BalloonBuoyancy(-1.0, 1e-4, 0.01), "max_volume"),
         (lambda: CpgOscillators(frequency_hz=0.0), "frequency_hz"),
         (lambda: CpgOscillators(initial_state=np.zeros(3)), "initial_state"),
+        (lambda: CpgOscillators(frequency_hz=1e9),
+         "CpgOscillators.frequency_hz: 1000000000.0 is outside the allowed range (0, 5] Hz"),
+        (lambda: CpgOscillators(chain_weight=-1.0), "chain_weight: -1.0 is outside"),
+        (lambda: FuzzyDepthEstimator(0.2, period=0.02, initial_depth=math.nan),
+         "FuzzyDepthEstimator.initial_depth: nan is not finite"),
+        (lambda: seed_context(None, None, 1.7), "seed: 1.7 is not an integer"),
         (lambda: add_plant(DiagramBuilder(), time_step=0.0), "time_step"),
         (lambda: DepthImageFilter(160, 120, size=20), "size"),
     ]

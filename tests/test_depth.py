@@ -58,7 +58,7 @@ def test_depth_counted_from_the_surface_float():
     np.testing.assert_allclose(h_hat, hs + expected * (D - hs), atol=1e-12)
     # A robot bobbing 2.5 cm about its float reads the surface, without the offset it did not.
     assert fuzzy_depth(hs + 0.025, D, hs)[1] == 0.0 and fuzzy_depth(hs + 0.025, D)[1] > 0.05
-    with pytest.raises(ValueError, match="surface_depth: 0.3 must be in"):
+    with pytest.raises(ValueError, match="surface_depth: 0.3 is outside the allowed range"):
         FuzzyDepthEstimator(D, 0.02, surface_depth=0.3)
 
 

@@ -35,6 +35,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from manta_drake.config_io import check_in_range
 from manta_drake.control import cpg_kernels as K
 from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ, phase_lock_targets
 from manta_drake.model.robot_params import (
@@ -178,12 +179,15 @@ class CpgOscillators(LeafSystem):
             raise ValueError(f"CpgOscillators.compiled: {compiled!r} is not true or false")
         if frequency_hz is None:
             frequency_hz = DEFAULT_FREQUENCY_HZ
-        for name, value in (("frequency_hz", frequency_hz), ("a", a), ("b", b)):
-            if not (_is_real(value) and math.isfinite(value) and value > 0):
-                raise ValueError(f"CpgOscillators.{name}: {value!r} must be a finite number > 0")
+        # The ranges Scenario.validate gives the cpg.* fields: beyond 5 Hz a 1 ms step no
+        # longer resolves the oscillation, beyond 200 1/s the RK2 step is unstable.
+        check_in_range("CpgOscillators.frequency_hz", frequency_hz, 0.0, 5.0, "(0, 5] Hz",
+                       open_low=True)
         for name, value in (("chain_weight", chain_weight), ("fcs_weight", fcs_weight)):
-            if not (_is_real(value) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"CpgOscillators.{name}: {value!r} must be a finite number >= 0")
+            check_in_range(f"CpgOscillators.{name}", value, 0.0, 100.0, "[0, 100] rad/s")
+        for name, value in (("a", a), ("b", b)):
+            check_in_range(f"CpgOscillators.{name}", value, 0.0, 200.0, "(0, 200] 1/s",
+                           open_low=True)
         self.frequency_hz = float(frequency_hz)
         self.a, self.b = float(a), float(b)
         self.weights = pair_weights(chain_weight, fcs_weight)
@@ -271,9 +275,3 @@ class CpgOscillators(LeafSystem):
                     raise ValueError("CpgOscillators.set_state: non-finite value")
                 x[row] = value
         context.get_mutable_continuous_state_vector().SetFromVector(x.ravel())
-
-
-def _is_real(value) -> bool:
-    """A real number (not a bool, string or array)."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_))

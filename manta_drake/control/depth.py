@@ -30,6 +30,8 @@ swimming and made the return to swimming arrive or not by chance.
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from manta_drake.config_io import check_in_range
+
 
 def memberships(h, D: float) -> np.ndarray:
     """Membership degrees (surface, mid, deep) of depths ``h`` in [0, D]; shape (..., 3).
@@ -82,15 +84,15 @@ class FuzzyDepthEstimator(LeafSystem):
     def __init__(self, floor_distance: float, period: float, initial_depth: float = 0.0,
                  surface_depth: float = 0.0):
         super().__init__()
-        if not (np.isfinite(floor_distance) and floor_distance > 0):
-            raise ValueError(f"FuzzyDepthEstimator.floor_distance: {floor_distance} must be > 0 "
-                             "(the distance to the floor D divides h_hat)")
-        if not (np.isfinite(surface_depth) and 0.0 <= surface_depth < floor_distance):
-            raise ValueError(f"FuzzyDepthEstimator.surface_depth: {surface_depth} must be in "
-                             f"[0, floor_distance = {floor_distance})")
+        # The ranges Scenario.validate gives these fields (depth_estimator.*, pressure_sensor).
+        check_in_range("FuzzyDepthEstimator.floor_distance", floor_distance, 0.0, 10.0,
+                       "(0, 10] m (the distance to the floor D divides h_hat)", open_low=True)
+        check_in_range("FuzzyDepthEstimator.surface_depth", surface_depth, 0.0, floor_distance,
+                       f"[0, floor_distance = {floor_distance}) m", open_high=True)
+        check_in_range("FuzzyDepthEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
+        check_in_range("FuzzyDepthEstimator.initial_depth", initial_depth, 0.0, 100.0,
+                       "[0, 100] m below the surface")
         self.surface_depth = float(surface_depth)
-        if not (np.isfinite(period) and period > 0):
-            raise ValueError(f"FuzzyDepthEstimator.period: {period} must be > 0")
         self.D = float(floor_distance)
         h0, z0 = fuzzy_depth(initial_depth, self.D, self.surface_depth)
         self._state = self.DeclareDiscreteState([float(h0), float(z0)])

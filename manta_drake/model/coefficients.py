@@ -218,6 +218,10 @@ POSITIVE = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_
             "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate")
 INTEGER = ("fins.strips_per_plate",)
 SEALED_VOLUME_TOLERANCE = 0.01  # relative: body.sealed_volume against 4/3 pi abc
+# Physical ranges of the constants: a pool of water on Earth. Fresh water is 997 kg/m^3 at
+# 25 C, sea water about 1025, brines up to about 1200; beyond these the contact solver and
+# the buoyancy are asked for something no pool holds. g on Earth's surface: 9.78-9.83.
+RANGES = {"water_density": (900.0, 1300.0, "kg/m^3"), "gravity": (9.7, 9.9, "m/s^2")}
 SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
          "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
          "links.linear_damping": 6, "links.quadratic_damping": 6,
@@ -242,6 +246,11 @@ def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be > 0")
         if name in INTEGER and np.any(values != np.round(values)):
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be a whole number")
+        if name in RANGES:
+            lo, hi, unit = RANGES[name]
+            if not np.all((lo <= values) & (values <= hi)):
+                raise ScenarioError(f"{where}: {name} = {entry.value!r} is outside the allowed "
+                                    f"range [{lo:g}, {hi:g}] {unit}")
     # The water model integrates the hull's buoyancy over body.sealed_semi_axes; the volume
     # is its documented value. One changed without the other would change nothing (or
     # something else than meant) without a word, so they must agree.

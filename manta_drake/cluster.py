@@ -5,6 +5,7 @@ process without Dask."""
 
 import contextlib
 import os
+import re
 
 from manta_drake.config_io import ScenarioError
 from manta_drake.version import __version__
@@ -42,12 +43,21 @@ def _stop_worker_profiler(dask_worker) -> int:
     return stopped
 
 
+# A local cluster listens on the loopback interface only: its scheduler, workers and
+# dashboard have no authentication, so nothing beyond this machine may reach them unless
+# the user asks (``--dashboard ADDRESS``).
+LOCAL_HOST = "127.0.0.1"
+DEFAULT_DASHBOARD = f"{LOCAL_HOST}:0"  # port 0: any free port (8787 may be another user's)
+
+
 @contextlib.contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None):
+def dask_client(scheduler: str | None = None, workers: int | None = None,
+                dashboard: str = DEFAULT_DASHBOARD):
     """A ``distributed.Client``: connected to ``scheduler`` (an address such as
     ``tcp://host:8786``), or to a new LocalCluster of ``workers`` processes with one thread
     each (Drake runs are single-threaded and hold the GIL: processes, not threads, run them
-    side by side). Closed (and the local cluster shut down) on exit. The workers' profiler
+    side by side), listening on 127.0.0.1 with its dashboard at ``dashboard`` (``host:port``;
+    ``""``: none). Closed (and the local cluster shut down) on exit. The workers' profiler
     is off (see ``_WORKER_CONFIG``)."""
     import dask.config
     from distributed import Client, LocalCluster
@@ -61,8 +71,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
     # The nannies hand this configuration to the worker processes they start.
     with dask.config.set(_WORKER_CONFIG), \
             LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                         # ":0": any free port (8787 may be another user's dashboard)
-                         processes=True, dashboard_address=":0") as cluster, \
+                         processes=True, host=LOCAL_HOST,
+                         dashboard_address=dashboard or None) as cluster, \
             Client(cluster) as client:
         yield client
 
@@ -99,12 +109,29 @@ def add_cluster_arguments(parser) -> None:
                         help="worker processes of the local cluster (default: the CPU count, "
                              f"{default_workers()} here); 0: one run after another in this "
                              "process, without Dask")
+    parser.add_argument("--dashboard", default=DEFAULT_DASHBOARD, metavar="HOST:PORT",
+                        help="where the local cluster serves its Dask dashboard (default: "
+                             f"{DEFAULT_DASHBOARD}, this machine only, any free port; e.g. "
+                             "0.0.0.0:8787 to expose it, which has no authentication; '' for "
+                             "none)")
 
 
 def check_cluster_arguments(args) -> None:
-    """Raises ClusterError for a ``--workers`` the cluster arguments do not allow."""
+    """Raises ClusterError for cluster arguments that cannot work (before any cluster or run
+    starts)."""
     if args.workers < 0:
         raise ClusterError(f"--workers: {args.workers} must be >= 0")
+    if args.workers > 256:
+        raise ClusterError(f"--workers: {args.workers} is outside the allowed range [0, 256]")
+    scheduler = getattr(args, "scheduler", None)
+    if scheduler is not None and not re.fullmatch(r"(tcp|tls|inproc|ucx|ws|wss)://\S+:\d+",
+                                                  scheduler):
+        raise ClusterError(f"--scheduler {scheduler!r}: expected an address such as "
+                           "tcp://HOST:8786")
+    dashboard = getattr(args, "dashboard", DEFAULT_DASHBOARD)
+    if dashboard and not re.fullmatch(r"[^\s:]*:\d{1,5}", dashboard):
+        raise ClusterError(f"--dashboard {dashboard!r}: expected HOST:PORT (e.g. "
+                           f"{DEFAULT_DASHBOARD}) or '' for none")
 
 
 def cluster_client(args):
@@ -112,5 +139,6 @@ def cluster_client(args):
     a running scheduler, a new local cluster, or None (``--workers 0``: in this process)."""
     check_cluster_arguments(args)
     if args.scheduler or args.workers > 0:
-        return dask_client(args.scheduler, args.workers)
+        return dask_client(args.scheduler, args.workers,
+                           getattr(args, "dashboard", DEFAULT_DASHBOARD))
     return contextlib.nullcontext()

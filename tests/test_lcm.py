@@ -1,4 +1,4 @@
-"""The seam over LCM (manta_drake.lcm_seam): messages, schedule, transport, and the split
+"""The seam over LCM (manta_drake.seam): messages, schedule, transport, and the split
 run in two processes against the single diagram."""
 
 import json
@@ -12,12 +12,13 @@ import time
 
 import numpy as np
 import pytest
+from drake import lcmt_image, lcmt_image_array, lcmt_scope
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.sensors import ImageDepth32F
 
-from manta_drake import lcm_seam as seam
+from manta_drake import seam
 from manta_drake.lcmtypes import lcmt_manta_joint_state, lcmt_manta_pose
 from manta_drake.model.robot_params import JOINT_NAMES
 
@@ -36,7 +37,7 @@ def unique_url() -> str:
 
 def test_vector_round_trip_keeps_nan_and_every_bit(rng):
     values = np.r_[rng.normal(size=3), np.nan, 1e-300]
-    msg = seam.lcmt_scope.decode(seam.vector_message(1.234, values).encode())
+    msg = lcmt_scope.decode(seam.vector_message(1.234, values).encode())
     assert msg.utime == 1_234_000
     np.testing.assert_array_equal(seam.vector_from_message(msg), values)
 
@@ -62,7 +63,7 @@ def test_depth_image_round_trip_is_exact(rng):
     pixels = rng.uniform(0.1, 0.8, size=(5, 7)).astype(np.float32)
     pixels[1, 2], pixels[3, 4] = np.nan, np.inf  # dropout, out of range
     image.mutable_data[:, :, 0] = pixels
-    msg = seam.lcmt_image_array.decode(seam.depth_image_message(2.0, image).encode())
+    msg = lcmt_image_array.decode(seam.depth_image_message(2.0, image).encode())
     assert msg.header.utime == 2_000_000 and msg.images[0].pixel_format == 5
     back = seam.depth_image_from_message(msg)
     assert (back.width(), back.height()) == (7, 5)
@@ -77,9 +78,9 @@ def test_depth_image_accepts_zlib_and_rejects_other_pixels():
     msg = seam.depth_image_message(0.0, image)
     msg.images[0].data = zlib.compress(msg.images[0].data)
     msg.images[0].size = len(msg.images[0].data)
-    msg.images[0].compression_method = seam.lcmt_image.COMPRESSION_METHOD_ZLIB
+    msg.images[0].compression_method = lcmt_image.COMPRESSION_METHOD_ZLIB
     np.testing.assert_array_equal(seam.depth_image_from_message(msg).data, image.data)
-    msg.images[0].pixel_format = seam.lcmt_image.PIXEL_FORMAT_RGB
+    msg.images[0].pixel_format = lcmt_image.PIXEL_FORMAT_RGB
     with pytest.raises(seam.SeamError, match="expected DEPTH"):
         seam.depth_image_from_message(msg)
 
@@ -212,7 +213,7 @@ def test_link_waits_resends_and_gives_up():
     station.resend()
     station.drain()
     assert [len(sent[clock.name]), len(sent[depth.name])] == [2, 3]
-    assert seam.lcmt_scope.decode(sent[depth.name][-1]).utime == 20000
+    assert lcmt_scope.decode(sent[depth.name][-1]).utime == 20000
     got = station.take({desired.name: 20000})
     np.testing.assert_array_equal(seam.joint_state_from_message(got[desired.name]),
                                   np.ones(32))

@@ -14,8 +14,12 @@ Cases (no Meshcat, progress bars off):
             transition, CPG);
   (b exact) the same with the water's forces at every step (``water.update_period: 0``);
   (c)       the closed loop with the camera: ``three_behaviors``;
-  (b ref)   optional (``--reference``): (b) on the reference paths (numpy maths, the
-            contract's per-body ports), what the compiled paths replaced;
+  (b ref)   optional (``--reference``): (b) on the reference paths that
+            ``build_diagram`` offers, what the compiled paths replaced: the water's
+            contract ports (per-body poses and velocities in, the force list out) and the
+            CPG's numpy functions (``hydro_plant_state=False, compiled_cpg=False``); the
+            water's maths stay compiled there (``build_diagram`` takes no choice of the
+            water's backend: ``scripts/benchmark_hydro.py`` times the numpy maths);
   (c) plant SG  optional (``--camera-in-plant-scene``): (c) with the camera rendering in
             the plant's SceneGraph, as before (its VTK poses move at every plant step);
   (b) 2 ms, (c) 2 ms  optional (``--two-ms``): the plant and integrator at 2 ms.
@@ -54,8 +58,6 @@ T_IMPORT_START = time.perf_counter()
 
 import numpy as np  # noqa: E402
 
-import manta_drake.control.cpg as cpg_module  # noqa: E402
-import manta_drake.wiring.station as station_module  # noqa: E402
 from manta_drake.wiring.diagram import build_diagram  # noqa: E402
 from manta_drake.scenario import load_scenario  # noqa: E402
 from manta_drake.simulate import make_simulator  # noqa: E402
@@ -113,8 +115,10 @@ def run_round(cases, warmup: float, duration: float, chunk: float, first: int = 
         case.rtf.append(duration / seconds)
 
 
-def build_case(label: str, scenario_) -> Case:
-    diagram, handles = build_diagram(scenario_)
+def build_case(label: str, scenario_, **build) -> Case:
+    """A case of the diagram ``build_diagram(scenario_, **build)`` builds (its keywords
+    choose the reference implementations)."""
+    diagram, handles = build_diagram(scenario_, **build)
     return Case(label, scenario_, diagram, handles)
 
 
@@ -122,7 +126,6 @@ def record_replay(case_b: Case, warmup: float, duration: float) -> dict:
     """What (b)'s Python systems gave its plant, recorded from a (b) run: the desired
     state and the water's generalized forces at every 1 ms step."""
     from manta_drake.wiring.diagram import logger_data
-    from manta_drake.station import water_kernels as K
 
     simulator = case_b.simulator()
     simulator.AdvanceTo(warmup + duration + 0.01)
@@ -134,14 +137,14 @@ def record_replay(case_b: Case, warmup: float, duration: float) -> dict:
     # The water's generalized forces at each logged state (exact per-step forces, the
     # hull's acceleration from the previous sample): close to what (b) applied.
     hydro = handles.systems["hydro"]
-    elements, strips, damping, prm = hydro._pack()
-    tau = np.zeros((len(t), hydro._nv))
-    v_prev = np.tile(np.r_[np.zeros(6), -1.0], 2)
-    hull = hydro._hull_v
+    plant = handles.plant
+    tau = np.zeros((len(t), plant.num_velocities()))
+    v_prev = np.tile(np.r_[np.zeros(6), -1.0], 2)  # the system's velocity samples: none yet
+    # The floating hull's [w_W, v_W] in the state vector.
+    hull = plant.num_positions() + handles.plant_handles.body.floating_velocities_start_in_v()
     for k in range(len(t)):
         volume = float(balloon[max(0, np.searchsorted(tb, t[k], "right") - 1), 0])
-        F = K.forces_from_state(x[k], hydro._nq, volume, t[k], v_prev, hydro._tree_i,
-                                hydro._tree_f, elements, strips, damping, prm)
+        F = hydro.compute_from_state(x[k], volume, t[k], v_prev)
         tau[k] = hydro.generalized_forces(x[k], F)
         v_prev = np.r_[x[k, hull + 3:hull + 6], x[k, hull:hull + 3], t[k], v_prev[:7]]
     return {"t": t, "tau": tau, "t_desired": td, "desired": desired}
@@ -284,23 +287,19 @@ class CallbackTimer:
 
 
 def python_system_classes():
+    """The LeafSystem classes of the two halves' packages (every module, so a new or
+    renamed one is timed without editing this list)."""
+    import importlib
+    import pkgutil
+
     from pydrake.systems.framework import LeafSystem
 
-    import manta_drake.control.cpg
-    import manta_drake.control.depth
-    import manta_drake.control.transition
-    import manta_drake.control.vision
-    import manta_drake.station.buoyancy
-    import manta_drake.station.depth_image_noise
-    import manta_drake.station.hydro
-    import manta_drake.station.pressure
-    import manta_drake.station.station
+    import manta_drake.control
+    import manta_drake.station
 
-    modules = [manta_drake.control.cpg, manta_drake.control.depth,
-               manta_drake.control.transition, manta_drake.control.vision,
-               manta_drake.station.buoyancy, manta_drake.station.depth_image_noise,
-               manta_drake.station.hydro, manta_drake.station.pressure,
-               manta_drake.station.station]
+    modules = [importlib.import_module(info.name)
+               for package in (manta_drake.control, manta_drake.station)
+               for info in pkgutil.iter_modules(package.__path__, package.__name__ + ".")]
     return sorted({obj for m in modules for obj in vars(m).values()
                    if isinstance(obj, type) and issubclass(obj, LeafSystem)
                    and obj.__module__.startswith("manta_drake")}, key=lambda c: c.__name__)
@@ -363,7 +362,8 @@ def main() -> int:
     parser.add_argument("--chunk", type=float, default=0.25,
                         help="sim s each case runs before the next takes its turn")
     parser.add_argument("--reference", action="store_true",
-                        help="also time (b) on the reference paths (numpy, per-body ports)")
+                        help="also time (b) on the reference paths (the water's per-body "
+                             "ports, the CPG's numpy functions)")
     parser.add_argument("--camera-in-plant-scene", action="store_true",
                         help="also time (c) with the camera rendering in the plant's SceneGraph")
     parser.add_argument("--two-ms", action="store_true",
@@ -382,22 +382,11 @@ def main() -> int:
              build_case("(c)", scenario("three_behaviors"))]
     t_build = time.perf_counter() - t0
     if args.reference:
-        station_module.HYDRO_PLANT_STATE = False
-        cpg_module.CpgOscillators.COMPILED = False
-        try:
-            reference = build_case("(b ref)", scenario("two_behaviors"))
-        finally:
-            station_module.HYDRO_PLANT_STATE = True
-            cpg_module.CpgOscillators.COMPILED = True
-        hydro = reference.handles.systems["hydro"]
-        hydro.compute = hydro.compute_reference  # this instance only: the numpy maths
-        cases.append(reference)
+        cases.append(build_case("(b ref)", scenario("two_behaviors"), hydro_plant_state=False,
+                                compiled_cpg=False))
     if args.camera_in_plant_scene:
-        station_module.CAMERA_OWN_SCENE = False
-        try:
-            cases.append(build_case("(c) plant SG", scenario("three_behaviors")))
-        finally:
-            station_module.CAMERA_OWN_SCENE = True
+        cases.append(build_case("(c) plant SG", scenario("three_behaviors"),
+                                camera_own_scene=False))
     if args.two_ms:
         cases += [build_case("(b) 2 ms", scenario("two_behaviors", time_step=0.002)),
                   build_case("(c) 2 ms", scenario("three_behaviors", time_step=0.002))]

@@ -5,7 +5,8 @@ The robot is in the swim stance at the surface with a random velocity, so every 
 active. Rows, each the median of --rounds interleaved rounds of --calls calls:
 
 * the force maths on numpy arrays: ``compute_reference`` (the numpy functions of
-  ``manta_drake.station.water``) and ``compute`` (the numba kernel);
+  ``manta_drake.station.water``, ``backend="numpy"``) and ``compute_compiled`` (the numba
+  kernel, ``backend="compiled"``);
 * reading the kinematics: the plant's per-body ``body_poses`` / ``body_spatial_velocities``
   ports into arrays (the contract's inputs), the plant's per-body Eval functions, and the
   kernel's forward kinematics from the
@@ -13,8 +14,9 @@ active. Rows, each the median of --rounds interleaved rounds of --calls calls:
   ``EvalBodyPoseInWorld`` / ``EvalBodySpatialVelocityInWorld`` stand in for it);
 * the outputs: writing the list of 17 ExternallyAppliedSpatialForce, and J^T F (kernel);
 * whole port evaluations as the plant sees them (a new state each call): the contract path
-  (per-body ports, numpy maths, force list) and the compiled path (state vector, kernels,
-  generalized forces).
+  (``inputs="contract", backend="numpy"``: per-body ports, numpy maths, force list) and the
+  compiled path (``inputs="plant_state", backend="compiled"``: state vector, kernels,
+  generalized forces), each built by ``HydrodynamicForces.AddToBuilder``.
 
 Usage: python scripts/benchmark_hydro.py [--calls 2000] [--rounds 5]
 """
@@ -34,19 +36,15 @@ from manta_drake.model.plant import add_plant, body_pose, set_initial_state
 from manta_drake.station.hydro import HydrodynamicForces
 
 
-def make(plant_state: bool):
+def make(inputs: str, backend: str):
+    """The plant with a HydrodynamicForces of that port set and backend, wired both ways
+    (the plant's outputs that the forces read do not depend on the forces)."""
     coeffs = load_coefficients()
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=coeffs)
-    hydro = builder.AddSystem(HydrodynamicForces(h.plant, h.robot, coeffs, 1e-3,
-                                                 added_mass_iso=h.added_mass_iso,
-                                                 plant_state=plant_state))
-    if plant_state:
-        builder.Connect(h.plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
-    else:
-        builder.Connect(h.plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-        builder.Connect(h.plant.get_body_spatial_velocities_output_port(),
-                        hydro.GetInputPort("body_spatial_velocities"))
+    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, coeffs, 1e-3,
+                                            added_mass_iso=h.added_mass_iso, inputs=inputs,
+                                            backend=backend)
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant_context = h.plant.GetMyMutableContextFromRoot(context)
@@ -64,12 +62,12 @@ def main() -> int:
     parser.add_argument("--calls", type=int, default=2000)
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args()
-    h, fast, plant_context, fast_context, v0 = make(True)
-    h2, slow, plant_context2, slow_context, v2 = make(False)
+    h, fast, plant_context, fast_context, v0 = make("plant_state", "compiled")
+    h2, slow, plant_context2, slow_context, v2 = make("contract", "numpy")
     plant = h.plant
     R, p, w, v = fast._kinematics(fast_context)
     a, alpha = np.zeros(3), np.zeros(3)
-    F = fast.compute(R, p, w, v, 1.5e-3, a, alpha)
+    F = fast.compute_compiled(R, p, w, v, 1.5e-3, a, alpha)
     x = plant.get_state_output_port().Eval(plant_context)
     out = fast.GetOutputPort("spatial_forces").Allocate()
     counter = [0]
@@ -93,7 +91,8 @@ def main() -> int:
     rows = {
         "maths, numpy reference (compute_reference)":
             lambda: fast.compute_reference(R, p, w, v, 1.5e-3, a, alpha),
-        "maths, numba kernel (compute)": lambda: fast.compute(R, p, w, v, 1.5e-3, a, alpha),
+        "maths, numba kernel (compute_compiled)":
+            lambda: fast.compute_compiled(R, p, w, v, 1.5e-3, a, alpha),
         "kinematics: per-body ports -> arrays": lambda: slow._kinematics(slow_context),
         "kinematics: EvalBodyPose/SpatialVelocityInWorld": all_poses,
         "kinematics: state port + kernel FK": lambda: fast._kinematics(fast_context),
@@ -106,8 +105,6 @@ def main() -> int:
         "port eval, compiled path (state, kernels, J^T F)":
             lambda: (new_state(h, plant_context, v0), gen_port.Eval(fast_context)),
     }
-    # The contract path with the numpy maths, as before the kernels.
-    slow.compute = slow.compute_reference
     times = {k: [] for k in rows}
     for _ in range(args.rounds):
         for name, fn in rows.items():
@@ -128,7 +125,7 @@ def main() -> int:
                   f"{max(times[name]) * 1e6 - offset:7.1f}]")
         print(f"  {name:52s} {value:8.1f} us   {spread}")
     speedup = (med["maths, numpy reference (compute_reference)"]
-               / med["maths, numba kernel (compute)"])
+               / med["maths, numba kernel (compute_compiled)"])
     print(f"  kernel vs reference maths: {speedup:.0f}x faster")
     return 0
 

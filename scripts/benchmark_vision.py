@@ -3,13 +3,15 @@
 
 For each resolution the robot stands in the trot stance with its camera 0.6 m from the end
 wall of the pool (the station's camera: VTK in the camera's own SceneGraph, see
-``manta_drake.station.station.add_camera_scene``). Over --frames frames it times, per
-frame: rendering the depth image, adding the depth noise, the controller's depth-image
-filter (where it has one), converting to a point cloud, and the wall detector's pipeline
-(NaN removal, voxel downsampling, normals, normal-angle DBSCAN, PCA labels, s_hat). The
-first frame (renderer set-up) is reported apart.
+``manta_drake.station.render_poses.add_camera_scene``; ``--camera-in-plant-scene`` renders
+in the plant's SceneGraph instead, ``build_diagram(..., camera_own_scene=False)``). Over
+--frames frames it times, per frame: rendering the depth image, adding the depth noise, the
+controller's depth-image filter (where it has one), converting to a point cloud, and the
+wall detector's pipeline (NaN removal, voxel downsampling, normals, normal-angle DBSCAN,
+PCA labels, s_hat). The first frame (renderer set-up) is reported apart.
 
 Usage: python scripts/benchmark_vision.py [--frames 20] [--resolutions 160x120 320x240]
+       [--camera-in-plant-scene]
 """
 
 import argparse
@@ -33,6 +35,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--resolutions", nargs="+", default=["160x120", "320x240", "640x480"])
+    parser.add_argument("--camera-in-plant-scene", action="store_true",
+                        help="render in the plant's SceneGraph instead of the camera's own")
     args = parser.parse_args()
     print(f"{'resolution':>10s} {'points':>7s} {'1st frame':>9s} {'render':>9s} {'noise':>9s} "
           f"{'filter':>9s} {'to cloud':>9s} {'detector':>9s} {'s_hat':>6s}")
@@ -43,7 +47,8 @@ def main() -> int:
                      initial_pose=InitialPose(xyz=[7.5 - 0.6 - 0.19, 0.0, -0.235]),
                      visualization=VisualizationConfig(meshcat=False))
         s.camera.enabled, s.camera.width, s.camera.height = True, width, height
-        diagram, h = build_diagram(s.validate())
+        diagram, h = build_diagram(s.validate(),
+                                   camera_own_scene=not args.camera_in_plant_scene)
         simulator = make_simulator(diagram, s)  # the scenario's start, noise seeded
         context = simulator.get_mutable_context()
         plant, plant_context = h.plant, h.plant.GetMyMutableContextFromRoot(context)

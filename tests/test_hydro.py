@@ -466,23 +466,45 @@ def test_held_forces_start_from_the_initial_state():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("dt", [0.5e-3, 1e-3, 2e-3])
-def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt):
+def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt, tmp_path,
+                                                                           monkeypatch):
     """The build-time criterion |residual| < effective inertia, per axis, is the stability
     bound of the explicit -I_res alpha_prev term (its amplification factor per step is
     -I_res / I_eff): the swim with a pitch residual of 0.9 I_eff stays bounded; at 1.5 I_eff
-    it diverges, at every time step (the check is bypassed to show it)."""
+    it diverges, at every time step (the check is bypassed to show it).
+
+    The residual comes from a coefficient file whose pitch added inertia exceeds the part
+    a rigid body can carry (roll + yaw, which stays in the mass matrix, so I_eff does not
+    change) by ratio * I_eff."""
+    import yaml
+
+    import manta_drake.station.hydro as hydro_module
     from manta_drake.wiring.diagram import build_diagram
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import make_simulator
 
-    def peak_pitch_rate(ratio):
+    def swim(coefficients=None):
         s = load_scenario("locomotion_swim")
         s.visualization.meshcat = False
         s.time_step = s.simulator.max_step_size = dt
         s.water.update_period = 0.0  # forces and the acceleration estimate at every step
-        diagram, h = build_diagram(s)
+        if coefficients is not None:
+            s.water.coefficients = str(coefficients)
+        return (s, *build_diagram(s))
+
+    i_eff = float(swim()[2].systems["hydro"].effective_inertia[1])
+    data = yaml.safe_load((MODELS_DIR / "hydrodynamics.yaml").read_text())
+    roll, _, yaw = data["body"]["added_inertia"]["value"]
+
+    def peak_pitch_rate(ratio):
+        data["body"]["added_inertia"]["value"] = [roll, roll + yaw + ratio * i_eff, yaw]
+        path = tmp_path / f"hydrodynamics_{ratio}.yaml"
+        path.write_text(yaml.safe_dump(data))
+        s, diagram, h = swim(path)
         hydro = h.systems["hydro"]
-        hydro.residual_added_inertia = np.array([0.0, ratio * hydro.effective_inertia[1], 0.0])
+        assert hydro.effective_inertia[1] == pytest.approx(i_eff, rel=1e-12)
+        np.testing.assert_allclose(hydro.residual_added_inertia, [0.0, ratio * i_eff, 0.0],
+                                   rtol=1e-9, atol=1e-15)
         simulator = make_simulator(diagram, s)
         plant_context = h.plant.GetMyContextFromRoot(simulator.get_context())
         peak = 0.0
@@ -499,6 +521,9 @@ def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt):
 
     stable = peak_pitch_rate(0.9)
     assert stable < 0.5  # rad/s: the swim's own rocking (0.14 measured at every dt)
+    with pytest.raises(ValueError, match="pitch axis"):
+        peak_pitch_rate(1.5)  # what the check refuses; bypassed below to show why
+    monkeypatch.setattr(hydro_module, "check_explicit_added_mass", lambda *args: None)
     # Unstable: 10-29 rad/s within 1.5 s (measured at 2, 1 and 0.5 ms), growing until the
     # quadratic damping holds it; 70-200 times the stable swim's peak.
     assert peak_pitch_rate(1.5) > 20 * max(stable, 0.05)

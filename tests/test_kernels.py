@@ -1,6 +1,8 @@
 """The compiled kernels against the numpy reference, the compiled paths of the systems
 against the reference paths, constructor checks, and the camera's own scene."""
 
+import copy
+
 import numpy as np
 import pytest
 from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
@@ -13,7 +15,6 @@ from manta_drake.model.coefficients import load_coefficients
 from manta_drake.model.plant import add_plant, body_pose, set_initial_state
 from manta_drake.station import water_kernels as WK
 from manta_drake.station.hydro import HydrodynamicForces
-from manta_drake.wiring.station import connect_hydro
 from manta_drake.station.water import hydro_body_names
 
 COEFFS = load_coefficients()
@@ -25,10 +26,9 @@ def water_plant():
     """(diagram, PlantHandles, HydrodynamicForces with the state ports) in one diagram."""
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=COEFFS)
-    hydro = builder.AddSystem(HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3,
-                                                 added_mass_iso=h.added_mass_iso,
-                                                 current=(0.1, -0.05, 0.02), plant_state=True))
-    builder.Connect(h.plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3,
+                                            added_mass_iso=h.added_mass_iso,
+                                            current=(0.1, -0.05, 0.02), inputs="plant_state")
     return builder.Build(), h, hydro
 
 
@@ -59,26 +59,48 @@ def test_water_kernel_equals_the_numpy_reference_on_random_states(water_plant, r
         R, p, w, v = random_kinematics(rng)
         balloon = (0.0, 1e-10, 1.5e-3, 2.6e-3)[k % 4]  # empty (skipped), tiny, half, full
         accel = (rng.normal(size=3), rng.normal(size=3)) if k % 3 else (None, None)
-        got = hydro.compute(R, p, w, v, balloon, *accel)
+        got = hydro.compute_compiled(R, p, w, v, balloon, *accel)
         expected = hydro.compute_reference(R, p, w, v, balloon, *accel)
         assert np.abs(expected).max() > 1.0  # the terms are active
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
 
 
 def test_water_kernel_with_rigid_plates_and_changed_parameters(water_plant, rng):
-    """Attributes set after construction reach the kernel (the packed arrays are rebuilt)."""
+    """Other constructor arguments reach the kernel's packed arrays: rigid plates (the
+    other branch of passive pitching), a pitch residual of added inertia, a current."""
     _, h, _ = water_plant
-    hydro = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso)
+    coeffs = copy.deepcopy(COEFFS)
+    coeffs.fins.passive_pitch_max_deg.value = 0.0
+    roll, _, yaw = coeffs.body.added_inertia.value
+    coeffs.body.added_inertia.value = [roll, roll + yaw + 0.01, yaw]  # 0.01 above the implicit
+    default = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso)
+    hydro = HydrodynamicForces(h.plant, h.robot, coeffs, 1e-3, added_mass_iso=h.added_mass_iso,
+                               current=(0.3, 0.0, 0.0))
+    assert hydro.pitch_max == 0.0
+    np.testing.assert_allclose(hydro.residual_added_inertia, [0.0, 0.01, 0.0], atol=1e-15)
     R, p, w, v = random_kinematics(rng)
     a, alpha = rng.normal(size=3), rng.normal(size=3)
-    before = hydro.compute(R, p, w, v, 1e-3, a, alpha)
-    hydro.pitch_max = 0.0  # rigid plates: the other branch of passive pitching
-    hydro.residual_added_inertia = np.array([0.0, 0.01, 0.0])
-    hydro.current = np.array([0.3, 0.0, 0.0])
-    got = hydro.compute(R, p, w, v, 1e-3, a, alpha)
+    before = default.compute_compiled(R, p, w, v, 1e-3, a, alpha)
+    got = hydro.compute_compiled(R, p, w, v, 1e-3, a, alpha)
     assert np.abs(got - before).max() > 1e-3
     np.testing.assert_allclose(got, hydro.compute_reference(R, p, w, v, 1e-3, a, alpha),
                                rtol=1e-12, atol=1e-12)
+
+
+def test_hydro_parameters_are_fixed_at_construction(water_plant):
+    """Assigning or changing a parameter in place fails: the kernels were packed from them
+    once, so a changed copy would leave the compiled backend behind the numpy one."""
+    _, _, hydro = water_plant
+    for name in ("current", "pitch_max", "residual_added_inertia", "inputs", "backend"):
+        with pytest.raises(AttributeError):
+            setattr(hydro, name, getattr(hydro, name))
+    with pytest.raises(ValueError, match="read-only"):
+        hydro.current[0] = 0.5
+    with pytest.raises(ValueError, match="read-only"):
+        hydro.el["strip_area"][0] = 1.0
+    with pytest.raises(TypeError):
+        hydro.el["strip_area"] = np.zeros(3)
+    np.testing.assert_array_equal(hydro.current, [0.1, -0.05, 0.02])
 
 
 def test_kinematics_kernel_equals_the_plant(water_plant, rng):
@@ -115,26 +137,64 @@ def test_generalized_forces_are_the_plant_jacobians_transposed(water_plant, rng)
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
 
 
-def _hydro_diagram(plant_state: bool, update_period: float):
+# Every (inputs, backend) pair; the first is the station's.
+VARIANTS = [("plant_state", "compiled"), ("plant_state", "numpy"), ("contract", "compiled"),
+            ("contract", "numpy")]
+
+
+def _hydro_diagram(inputs: str, backend: str, update_period: float, apply_as=None):
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=COEFFS)
-    hydro = builder.AddSystem(HydrodynamicForces(
-        h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
-        update_period=update_period, plant_state=plant_state))
-    connect_hydro(builder, h.plant, hydro, generalized_forces=plant_state)
+    hydro = HydrodynamicForces.AddToBuilder(
+        builder, h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
+        current=(0.05, 0.02, 0.0), update_period=update_period, inputs=inputs,
+        backend=backend, apply_as=apply_as)
     return builder.Build(), h, hydro
 
 
+def test_every_port_set_and_backend_gives_the_same_forces(rng):
+    """The output ports of the four (inputs, backend) variants on the same random plant
+    states, with the hull's velocity samples set so the residual added mass is active."""
+    systems = [_hydro_diagram(inputs, backend, 0.0) for inputs, backend in VARIANTS]
+    contexts = [diagram.CreateDefaultContext() for diagram, _, _ in systems]
+    for k in range(8):
+        seed = int(rng.integers(1 << 30))
+        v_prev = np.r_[rng.normal(size=6), 0.0, np.zeros(6), -1.0]
+        spatial, generalized = [], []
+        for (diagram, h, hydro), context in zip(systems, contexts):
+            random_state(h, context, np.random.default_rng(seed))
+            context.SetTime(1e-3)
+            hydro_context = hydro.GetMyMutableContextFromRoot(context)
+            hydro_context.SetDiscreteState(0, v_prev)
+            hydro.GetInputPort("balloon_volume").FixValue(hydro_context, [(k % 3) * 1e-3])
+            spatial.append(np.array([np.r_[f.F_Bq_W.rotational(), f.F_Bq_W.translational()]
+                                     for f in hydro.GetOutputPort("spatial_forces").Eval(
+                                         hydro_context)]))
+            if hydro.inputs == "plant_state":
+                generalized.append(hydro.GetOutputPort("generalized_forces").Eval(hydro_context))
+        assert np.abs(spatial[0]).max() > 1.0  # the terms are active
+        for got in spatial[1:]:
+            np.testing.assert_allclose(got, spatial[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(generalized[1], generalized[0], rtol=1e-12, atol=1e-12)
+        # The residual added mass acts: the same forces without the samples differ.
+        hydro_context.SetDiscreteState(0, np.tile(np.r_[np.zeros(6), -1.0], 2))
+        without = hydro.compute_reference(*hydro._kinematics(hydro_context), (k % 3) * 1e-3)
+        assert np.abs(without - spatial[-1]).max() > 1e-6
+
+
 @pytest.mark.parametrize("update_period", [0.0, 0.004])
-def test_state_ports_move_the_plant_as_the_contract_ports(update_period, rng):
-    """Generalized forces from the plant's state vector and spatial forces from the body
-    poses and velocities give the same motion: the robot released flapping in the water."""
+@pytest.mark.parametrize("inputs, backend", VARIANTS[1:])
+def test_every_variant_moves_the_plant_as_the_stations(inputs, backend, update_period):
+    """The robot released flapping in the water, forces applied as AddToBuilder connects
+    them (with the state input: generalized forces, held too): the same motion as the
+    station's variant (state input, compiled maths)."""
     from pydrake.systems.analysis import Simulator
 
     x0 = None
     finals = []
-    for plant_state in (True, False):
-        diagram, h, hydro = _hydro_diagram(plant_state, update_period)
+    for inputs_, backend_ in (VARIANTS[0], (inputs, backend)):
+        apply_as = "generalized_forces" if inputs_ == "plant_state" else None
+        diagram, h, hydro = _hydro_diagram(inputs_, backend_, update_period, apply_as)
         simulator = Simulator(diagram)
         context = simulator.get_mutable_context()
         plant_context = h.plant.GetMyMutableContextFromRoot(context)
@@ -174,9 +234,7 @@ def test_cpg_kernels_equal_the_numpy_reference(rng):
 
 def test_cpg_system_compiled_equals_reference(rng, monkeypatch):
     kw = dict(frequency_hz=0.7, chain_weight=3.0, fcs_weight=5.0, a=17.0, b=23.0)
-    systems = [C.CpgOscillators(**kw)]
-    monkeypatch.setattr(C.CpgOscillators, "COMPILED", False)
-    systems.append(C.CpgOscillators(**kw))
+    systems = [C.CpgOscillators(**kw), C.CpgOscillators(**kw, compiled=False)]
     calls = []  # the reference system really runs the numpy functions
 
     def counted(*args, _reference=C.cpg_derivatives):
@@ -211,6 +269,9 @@ def test_cpg_system_compiled_equals_reference(rng, monkeypatch):
     (dict(current=(0.1, 0.0)), "current: .* must be 3 finite numbers"),
     (dict(current="east"), "current: .* must be 3 finite numbers"),
     (dict(current=(1.5, 1.5, 0.0)), r"current: .* 2.12 m/s is outside the allowed range \[0, 2"),
+    (dict(inputs="state"), "inputs: 'state' must be one of 'contract', 'plant_state'"),
+    (dict(inputs=True), "inputs: True must be one of"),
+    (dict(backend="numba"), "backend: 'numba' must be one of 'compiled', 'numpy'"),
 ])
 def test_hydro_constructor_rejects_bad_arguments(water_plant, kwargs, match):
     _, h, _ = water_plant
@@ -221,10 +282,58 @@ def test_hydro_constructor_rejects_bad_arguments(water_plant, kwargs, match):
         HydrodynamicForces(h.plant, h.robot, COEFFS, time_step, **args)
 
 
-def test_hydro_constructor_accepts_the_edges(water_plant):
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_hydro_constructor_accepts_the_edges(water_plant, backend):
+    """The largest current (2 m/s) and forces at every step (update_period 0) are taken
+    and reach the forces: the hull at rest deep under water in that current feels the
+    surge drag law of Eq. (2), (d_lin + d_quad |u|) u with u = 2 m/s, and no held state."""
     _, h, _ = water_plant
-    HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, current=(2.0, 0.0, 0.0),
-                       update_period=0.0)
+    hydro = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, current=(2.0, 0.0, 0.0),
+                               update_period=0.0, backend=backend)
+    assert hydro.num_discrete_state_groups() == 1  # the velocity samples only: nothing held
+    nb = len(hydro_body_names())
+    R, p = np.tile(np.eye(3), (nb, 1, 1)), np.tile([0.0, 0.0, -1.0], (nb, 1))
+    F = hydro.compute(R, p, np.zeros((nb, 3)), np.zeros((nb, 3)), 0.0)
+    d_lin, d_quad = COEFFS.body.linear_damping.value[0], COEFFS.body.quadratic_damping.value[0]
+    assert F[0, 3] == pytest.approx((d_lin + d_quad * 2.0) * 2.0, rel=1e-12)
+    assert F[0, 3] > 0  # downstream
+    np.testing.assert_allclose(F[0, 4], 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(apply_as="joint_torques"), "apply_as: 'joint_torques' must be None or one of"),
+    (dict(apply_as="generalized_forces"),
+     "apply_as: 'generalized_forces' needs inputs='plant_state', got inputs='contract'"),
+])
+def test_add_to_builder_rejects_bad_arguments(kwargs, match):
+    builder = DiagramBuilder()
+    h = add_plant(builder, hydro=COEFFS)
+    with pytest.raises(ValueError, match="HydrodynamicForces.AddToBuilder." + match):
+        HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3, **kwargs)
+
+
+@pytest.mark.parametrize("inputs, update_period, force_port", [
+    ("plant_state", 0.0, "applied_generalized_force"),
+    ("plant_state", 0.004, "applied_spatial_force"),
+    ("contract", 0.0, "applied_spatial_force"),
+])
+def test_add_to_builder_connects_the_plant(inputs, update_period, force_port):
+    """Its inputs come from the plant, its forces go into the plant's input that the
+    default ``apply_as`` names; only ``balloon_volume`` is left to the caller."""
+    builder = DiagramBuilder()
+    h = add_plant(builder, hydro=COEFFS)
+    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3,
+                                            added_mass_iso=h.added_mass_iso,
+                                            update_period=update_period, inputs=inputs,
+                                            name="water")
+    assert hydro.get_name() == "water"
+    unconnected = [hydro.get_input_port(i).get_name() for i in range(hydro.num_input_ports())
+                   if not builder.IsConnectedOrExported(hydro.get_input_port(i))]
+    assert unconnected == ["balloon_volume"]
+    ports = {"applied_generalized_force": h.plant.get_applied_generalized_force_input_port(),
+             "applied_spatial_force": h.plant.get_applied_spatial_force_input_port()}
+    for name, port in ports.items():
+        assert builder.IsConnectedOrExported(port) == (name == force_port), name
 
 
 @pytest.mark.parametrize("initial_state, match", [
@@ -279,8 +388,9 @@ def test_camera_scene_renders_what_the_plant_scene_renders():
     from pydrake.math import RigidTransform
     from pydrake.systems.sensors import RgbdSensor
 
+    from manta_drake.model.camera import camera_info
     from manta_drake.scenario import CameraConfig
-    from manta_drake.wiring.station import add_camera_scene, camera_info
+    from manta_drake.station.render_poses import add_camera_scene
 
     cam = CameraConfig()
     builder = DiagramBuilder()
@@ -288,7 +398,8 @@ def test_camera_scene_renders_what_the_plant_scene_renders():
     plant = h.plant
     scene, _, frames = add_camera_scene(builder, h)
     h.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
-    core = RenderCameraCore("vtk", camera_info(cam), ClippingRange(0.05, 1.6), RigidTransform())
+    core = RenderCameraCore("vtk", camera_info(cam.width, cam.height, cam.fov_y_deg),
+                            ClippingRange(0.05, 1.6), RigidTransform())
     depth_camera = DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range))
     X_BC = plant.GetFrameByName("camera", h.robot).GetFixedPoseInBodyFrame()
     own = builder.AddSystem(RgbdSensor(frames[int(h.body.index())], X_BC, depth_camera, False))
@@ -314,29 +425,37 @@ def test_camera_scene_renders_what_the_plant_scene_renders():
 
 # --- whole diagrams: the compiled paths against the reference paths ---------------------------
 
-def _locomotion_velocity(name, duration, tmp_path):
+def _simulated_log(s, **build):
+    """The log of scenario ``s`` simulated to its end in the diagram ``build_diagram(s,
+    **build)`` builds (from the scenario's start, as ``run`` does)."""
+    from manta_drake.simulate import extract_log, make_simulator
+    from manta_drake.wiring.diagram import build_diagram
+
+    diagram, handles = build_diagram(s, **build)
+    simulator = make_simulator(diagram, s)
+    simulator.AdvanceTo(s.duration)
+    return extract_log(handles, simulator.get_context())
+
+
+def _locomotion_velocity(name, duration, **build):
     from manta_drake.scenario import load_scenario
-    from manta_drake.simulate import run
+    from manta_drake.simulate import compute_metrics
 
     s = load_scenario(name)
     s.visualization.meshcat = False
     s.duration, s.steady_after = duration, 1.0
-    result = run(s.validate(), tmp_path, progress=False, write_outputs=False)
-    return np.array(result.metrics["mean_velocity_body"])
+    s = s.validate()
+    return np.array(compute_metrics(s, _simulated_log(s, **build), 0.0)["mean_velocity_body"])
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["locomotion_swim", "locomotion_trot"])
-def test_locomotion_metrics_unchanged_by_the_compiled_paths(name, tmp_path, monkeypatch):
-    """3 s of the gait: the mean velocity with the compiled paths (state ports, kernels)
-    within 1 % of the reference paths (contract ports, numpy maths)."""
-    import manta_drake.wiring.station as station
-
-    fast = _locomotion_velocity(name, 3.0, tmp_path / "fast")
-    monkeypatch.setattr(station, "HYDRO_PLANT_STATE", False)
-    monkeypatch.setattr(HydrodynamicForces, "compute", HydrodynamicForces.compute_reference)
-    monkeypatch.setattr(C.CpgOscillators, "COMPILED", False)
-    reference = _locomotion_velocity(name, 3.0, tmp_path / "reference")
+def test_locomotion_metrics_unchanged_by_the_compiled_paths(name):
+    """3 s of the gait: the mean velocity with the compiled paths (the water's state input,
+    the CPG's kernels) within 1 % of the reference paths (the contract's per-body ports,
+    the CPG's numpy functions)."""
+    fast = _locomotion_velocity(name, 3.0)
+    reference = _locomotion_velocity(name, 3.0, hydro_plant_state=False, compiled_cpg=False)
     speed = np.linalg.norm(reference)
     assert speed > 0.005
     np.testing.assert_allclose(fast, reference, rtol=0, atol=0.01 * speed)
@@ -366,24 +485,19 @@ def test_kernels_cache_in_the_user_cache_when_the_package_folder_is_not_used(tmp
 
 
 @pytest.mark.slow
-def test_closed_loop_s_hat_same_with_the_camera_in_its_own_scene(tmp_path, monkeypatch):
+def test_closed_loop_s_hat_same_with_the_camera_in_its_own_scene():
     """The wall in view while trotting toward it: the logged s_hat series with the camera in
     its own SceneGraph against the camera in the plant's SceneGraph (as before)."""
-    import manta_drake.wiring.station as station
     from manta_drake.scenario import load_scenario
-    from manta_drake.simulate import run
 
     def s_hat_series(own_scene: bool):
-        monkeypatch.setattr(station, "CAMERA_OWN_SCENE", own_scene)
         s = load_scenario("three_behaviors")
         s.visualization.meshcat = False
         s.duration = 2.1
         s.initial_pose.xyz = [7.5 - 0.19 - 0.7, 0.0, -0.25]  # camera 0.7 m from the wall
         s.initial_stance = s.controller.gait = "trot"
         s.balloon.initial_fill, s.balloon.schedule = 0.0, []
-        log = run(s.validate(), tmp_path / str(own_scene), progress=False,
-                  write_outputs=False).log
-        return log["s_hat"][:, 0]
+        return _simulated_log(s.validate(), camera_own_scene=own_scene)["s_hat"][:, 0]
 
     own, shared = s_hat_series(True), s_hat_series(False)
     assert own.max() > 0.5  # the wall is seen
@@ -397,10 +511,9 @@ def test_kernels_with_the_hull_welded_to_the_world(rng):
     builder = DiagramBuilder()
     X_WB = RigidTransform(RollPitchYaw(0.2, -0.1, 0.4), [0.3, -0.2, -0.05])
     h = add_plant(builder, with_pool=False, weld_body=X_WB, hydro=COEFFS)
-    hydro = builder.AddSystem(HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3,
-                                                 added_mass_iso=h.added_mass_iso,
-                                                 plant_state=True))
-    builder.Connect(h.plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3,
+                                            added_mass_iso=h.added_mass_iso,
+                                            inputs="plant_state")
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant_context = h.plant.GetMyMutableContextFromRoot(context)

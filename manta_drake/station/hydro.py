@@ -5,32 +5,37 @@ volume, and sums the water's terms (buoyancy, balloon, damping, fin blade elemen
 residual added mass), plus the cancellation of the weight of the added-mass body that
 ``manta_drake.model.plant`` welds to the hull (added mass adds inertia, not weight).
 
-The maths runs in the numba kernels of ``manta_drake.station.water_kernels``; the pure
-numpy functions of ``manta_drake.station.water`` stay the reference
-(``compute_reference``), and the tests hold the two equal to 1e-12.
+As Drake's ``multibody/plant/wing.h``: every parameter is fixed at construction (the
+kernels' arrays are packed once, in the constructor, and the parameters are read-only
+attributes), the only state is the Context's, and ``AddToBuilder`` adds the system and
+connects it to its plant.
 
-Two port sets (the constructor's ``plant_state`` flag):
+Two choices, both constructor arguments, none changing the forces (the tests hold every
+combination equal to 1e-12):
 
-* ``plant_state=False`` (the default, the design's contract): inputs ``body_poses`` and
-  ``body_spatial_velocities`` (the plant's per-body outputs), output ``spatial_forces``
-  (a list of ExternallyAppliedSpatialForce for the plant's ``applied_spatial_force``).
-  Works with any plant.
-* ``plant_state=True`` (what the station uses): input ``plant_state`` (the plant's state
-  vector [q, v]) instead of the two per-body inputs, and outputs ``spatial_forces`` and
-  ``generalized_forces`` (J^T F at the current configuration, for the plant's
-  ``applied_generalized_force``). Why: the per-body inputs are Python lists of 20
-  RigidTransform / SpatialVelocity objects built and converted at every evaluation; one
-  state vector costs ~1 us and the kernels compute the bodies' kinematics from it. The
-  station applies ``generalized_forces`` when the forces are computed at every step (one
-  vector instead of 17 force objects per step) and ``spatial_forces`` when they are held
-  (``update_period`` > 0): the held list changes only at the updates, Drake's cache keeps
-  it in between and the plant maps it to joint torques in C++, so no Python runs between
-  updates (a held generalized-force vector depends on q, so it would need a Python call
-  at every step). docs/performance.md has the measurements. The forces are the same as
-  with the contract's ports to 1e-12.
+* ``backend``: ``"compiled"`` (the default) runs the maths in the numba kernels of
+  ``manta_drake.station.water_kernels``; ``"numpy"`` in the pure numpy functions of
+  ``manta_drake.station.water``, the reference the kernels are held to. Both are
+  available on every instance as ``compute_compiled`` and ``compute_reference``.
+* ``inputs``: the port set.
+
+  - ``"contract"`` (the default, the design's contract): inputs ``body_poses`` and
+    ``body_spatial_velocities`` (the plant's per-body outputs), output ``spatial_forces``
+    (a list of ExternallyAppliedSpatialForce for the plant's ``applied_spatial_force``).
+    Works with any plant.
+  - ``"plant_state"`` (what the station uses): input ``plant_state`` (the plant's state
+    vector [q, v]) instead of the two per-body inputs, and outputs ``spatial_forces`` and
+    ``generalized_forces`` (J^T F at the current configuration, for the plant's
+    ``applied_generalized_force``). Why: the per-body inputs are Python lists of 20
+    RigidTransform / SpatialVelocity objects built and converted at every evaluation; one
+    state vector costs ~1 us and the kernels compute the bodies' kinematics from it (the
+    forward kinematics and J^T F are compiled with either backend: they have no numpy
+    twin, and the tests hold them to the plant's own poses, velocities and Jacobians).
+    docs/performance.md has the measurements.
 """
 
 import math
+import types
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -55,6 +60,10 @@ from manta_drake.station.water import (
     split_added_mass,
 )
 
+INPUTS = ("contract", "plant_state")
+BACKENDS = ("compiled", "numpy")
+APPLY_AS = ("spatial_forces", "generalized_forces")
+
 
 def effective_inertia(plant, robot) -> tuple[float, np.ndarray]:
     """Mass [kg] and the diagonal of the rotational inertia about the centre of mass, in
@@ -71,6 +80,19 @@ def effective_inertia(plant, robot) -> tuple[float, np.ndarray]:
     return float(M.get_mass()), np.diag(I).copy()
 
 
+def _fixed(name: str, doc: str) -> property:
+    """A read-only attribute: the value the constructor fixed (and packed the kernels'
+    arrays from), so assigning one fails instead of leaving the kernels behind."""
+    return property(lambda self: self._fixed_values[name], doc=doc)
+
+
+def _frozen(value):
+    """``value`` as a read-only numpy array (an in-place change raises)."""
+    array = np.array(value)
+    array.setflags(write=False)
+    return array
+
+
 class HydrodynamicForces(LeafSystem):
     """Hydrostatic, damping, blade-element and residual added-mass forces (Eqs. 2-3).
 
@@ -78,13 +100,13 @@ class HydrodynamicForces(LeafSystem):
 
         name: HydrodynamicForces
         input_ports:
-        - body_poses (plant_state=False)
-        - body_spatial_velocities (plant_state=False)
-        - plant_state (plant_state=True)
+        - body_poses (inputs="contract")
+        - body_spatial_velocities (inputs="contract")
+        - plant_state (inputs="plant_state")
         - balloon_volume
         output_ports:
         - spatial_forces
-        - generalized_forces (plant_state=True)
+        - generalized_forces (inputs="plant_state")
 
     * ``body_poses``, ``body_spatial_velocities``: the plant's outputs of the same names.
     * ``plant_state`` (nq + nv): the plant's ``state`` output.
@@ -93,6 +115,14 @@ class HydrodynamicForces(LeafSystem):
       for the plant's ``applied_spatial_force`` input.
     * ``generalized_forces`` (nv): the same forces as generalized forces (J^T F at the
       current configuration), for the plant's ``applied_generalized_force`` input.
+
+    Per body, as [torque about its origin, force] in the world, the sum of: the lift
+    rho g V_e s_e e_z of each volume element applied at its centre of buoyancy (s_e its
+    submerged fraction: Eq. 3 at any attitude), the balloon's likewise, the damping
+    -(D_lin + D_quad |nu|) nu s_b per body axis on the velocity nu relative to the water
+    (Eq. 2), the fin strips' blade-element forces, and on the hull m_iso g e_z (the
+    added-mass body's weight cancelled) and -M_res a_prev, -I_res alpha_prev per hull axis
+    (the residual added mass, from the hull's finite-difference acceleration).
 
     Discrete state: the hull's world velocity at the last two steps (for the residual
     added-mass force), updated every ``time_step``. With ``update_period`` > 0 the forces
@@ -112,30 +142,48 @@ class HydrodynamicForces(LeafSystem):
         added_mass_iso: the isotropic added mass [kg] the plant carries in its mass matrix
             (None: split here from the coefficients).
         update_period: 0 (forces at every step) or the hold period [s], finite and >= 0.
-        plant_state: the port set (see the module docstring).
+        inputs: the port set, ``"contract"`` or ``"plant_state"`` (see the module
+            docstring).
+        backend: the force maths, ``"compiled"`` (numba kernels) or ``"numpy"`` (the
+            reference functions of ``manta_drake.station.water``).
 
     Raises:
-        ValueError: naming the argument and its allowed range.
+        ValueError: naming the argument and its allowed values or range.
     """
 
     MAX_CURRENT = 2.0  # m/s: far above any pool's current; larger is a units mistake
 
-    # Attributes that the kernels read from packed arrays: assigning one (e.g. a test
-    # setting residual_added_inertia) repacks them before the next evaluation. Assign a new
-    # value; changing an array in place is not seen.
-    _PACKED = frozenset({"rho", "g", "c_normal", "c_friction", "pitch_max", "pitch_pressure",
-                         "added_mass_iso", "current", "balloon_mount", "residual_added_mass",
-                         "residual_added_inertia", "d_lin", "d_quad", "el"})
-
-    def __setattr__(self, name, value):
-        if name in HydrodynamicForces._PACKED:
-            self.__dict__["_packed"] = None
-        super().__setattr__(name, value)
+    rho = _fixed("rho", "Water density [kg/m^3].")
+    g = _fixed("g", "Gravity [m/s^2].")
+    current = _fixed("current", "The water's velocity in the world (3,) [m/s].")
+    time_step = _fixed("time_step", "The plant's period [s].")
+    update_period = _fixed("update_period", "0 (forces at every step) or the hold period [s].")
+    inputs = _fixed("inputs", "The port set: 'contract' or 'plant_state'.")
+    backend = _fixed("backend", "The force maths: 'compiled' or 'numpy'.")
+    body_indices = _fixed("body_indices", "The hydro bodies' BodyIndex values (ints).")
+    el = _fixed("el", "Volume elements and strips (``water.build_elements``), read-only.")
+    d_lin = _fixed("d_lin", "Linear damping per body and axis (nb, 6).")
+    d_quad = _fixed("d_quad", "Quadratic damping per body and axis (nb, 6).")
+    c_normal = _fixed("c_normal", "Flat-plate normal-force coefficient.")
+    c_friction = _fixed("c_friction", "Skin-friction coefficient.")
+    pitch_max = _fixed("pitch_max", "Largest passive pitch of the fin plates [rad].")
+    pitch_pressure = _fixed("pitch_pressure", "Passive pitch's reference pressure [Pa].")
+    balloon_mount = _fixed("balloon_mount", "The balloon's centre on the hull (3,) [m].")
+    added_mass_iso = _fixed("added_mass_iso", "Isotropic added mass in the mass matrix [kg].")
+    residual_added_mass = _fixed("residual_added_mass",
+                                 "Explicit added mass (surge, sway, heave) [kg].")
+    residual_added_inertia = _fixed("residual_added_inertia",
+                                    "Explicit added inertia (roll, pitch, yaw) [kg m^2].")
+    effective_mass = _fixed("effective_mass",
+                            "The robot's mass with the implicit added mass [kg].")
+    effective_inertia = _fixed("effective_inertia",
+                               "The robot's inertia per hull axis with the implicit added "
+                               "inertia (3,) [kg m^2].")
 
     def __init__(self, plant, robot, coeffs: HydroCoefficients, time_step: float,
                  params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
-                 added_mass_iso: float | None = None, update_period: float = 0.0,
-                 plant_state: bool = False):
+                 added_mass_iso: float | None = None, update_period: float = 0.0, *,
+                 inputs: str = "contract", backend: str = "compiled"):
         super().__init__()
         if not (_is_real(time_step) and math.isfinite(time_step) and time_step > 0):
             raise ValueError(f"HydrodynamicForces.time_step: {time_step!r} must be a finite "
@@ -144,6 +192,12 @@ class HydrodynamicForces(LeafSystem):
                 and update_period >= 0):
             raise ValueError(f"HydrodynamicForces.update_period: {update_period!r} must be a "
                              "finite number >= 0 [s] (0: forces at every step)")
+        if not (isinstance(inputs, str) and inputs in INPUTS):
+            raise ValueError(f"HydrodynamicForces.inputs: {inputs!r} must be one of "
+                             f"{', '.join(map(repr, INPUTS))}")
+        if not (isinstance(backend, str) and backend in BACKENDS):
+            raise ValueError(f"HydrodynamicForces.backend: {backend!r} must be one of "
+                             f"{', '.join(map(repr, BACKENDS))}")
         try:
             current_array = np.asarray(current, dtype=float)
         except (TypeError, ValueError):
@@ -156,56 +210,73 @@ class HydrodynamicForces(LeafSystem):
             raise ValueError(f"HydrodynamicForces.current: |{current!r}| = "
                              f"{np.linalg.norm(current_array):.3g} m/s is outside the allowed "
                              f"range [0, {self.MAX_CURRENT}] m/s")
-        self.rho = coeffs.water_density.value
-        self.g = coeffs.gravity.value
-        self.current = current_array
-        self.time_step = float(time_step)
-        self.update_period = float(update_period)
-        self.plant_state = bool(plant_state)
+        self._plant_state = inputs == "plant_state"
+        self._compiled = backend == "compiled"
         self._nq, self._nv = plant.num_positions(), plant.num_velocities()
         names = hydro_body_names()
-        body_index = [plant.GetBodyByName(n, robot).index() for n in names]
-        self.body_indices = [int(i) for i in body_index]
-        self.el = build_elements(coeffs, params)
-        b, links = coeffs.body, coeffs.links
         nb = len(names)
-        self.d_lin = np.tile(links.linear_damping.value, (nb, 1))
-        self.d_quad = np.tile(links.quadratic_damping.value, (nb, 1))
-        self.d_lin[0], self.d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
-        self.c_normal = coeffs.fins.normal_force_coefficient.value
-        self.c_friction = coeffs.fins.skin_friction_coefficient.value
-        self.pitch_max = np.radians(coeffs.fins.passive_pitch_max_deg.value)
-        self.pitch_pressure = coeffs.fins.passive_pitch_reference_pressure.value
-        self.balloon_mount = np.asarray(coeffs.balloon.mount_point.value, dtype=float)
+        body_index = [plant.GetBodyByName(n, robot).index() for n in names]
+        el = build_elements(coeffs, params)
+        # Sums of element rows into body rows as matrix products (faster than np.add.at).
+        el["elem_to_body"] = np.eye(nb)[:, el["body"]]
+        b, links = coeffs.body, coeffs.links
+        d_lin = np.tile(links.linear_damping.value, (nb, 1))
+        d_quad = np.tile(links.quadratic_damping.value, (nb, 1))
+        d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
         if added_mass_iso is None:
-            added_mass_iso, self.residual_added_mass = split_added_mass(
+            added_mass_iso, residual_added_mass = split_added_mass(
                 b.added_mass.value, plant.GetBodyByName("body", robot).default_mass())
         else:
-            self.residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
-        self.added_mass_iso = added_mass_iso
-        _, self.residual_added_inertia = split_added_inertia(b.added_inertia.value)
+            residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
+        _, residual_added_inertia = split_added_inertia(b.added_inertia.value)
         # The explicit residual acts on the hull's acceleration, which every body held by
         # the servos shares: compare it, axis by axis, with the whole robot's effective
         # mass and inertia (implicit added mass included) along that axis.
-        self.effective_mass, self.effective_inertia = effective_inertia(plant, robot)
-        check_explicit_added_mass(self.residual_added_mass, self.effective_mass)
-        check_explicit_added_mass(self.residual_added_inertia, self.effective_inertia,
+        mass, inertia = effective_inertia(plant, robot)
+        check_explicit_added_mass(residual_added_mass, mass)
+        check_explicit_added_mass(residual_added_inertia, inertia,
                                   ("roll", "pitch", "yaw"), "kg m^2")
-        # Sums of element rows into body rows as matrix products (faster than np.add.at).
-        self.el["elem_to_body"] = np.eye(nb)[:, self.el["body"]]
-        self._strip_to_body = np.eye(nb)[:, self.el["strip_body"]]
+        self._fixed_values = {
+            "rho": float(coeffs.water_density.value), "g": float(coeffs.gravity.value),
+            "current": _frozen(current_array), "time_step": float(time_step),
+            "update_period": float(update_period), "inputs": inputs, "backend": backend,
+            "body_indices": tuple(int(i) for i in body_index),
+            "el": types.MappingProxyType({k: _frozen(v) for k, v in el.items()}),
+            "d_lin": _frozen(d_lin), "d_quad": _frozen(d_quad),
+            "c_normal": float(coeffs.fins.normal_force_coefficient.value),
+            "c_friction": float(coeffs.fins.skin_friction_coefficient.value),
+            "pitch_max": float(np.radians(coeffs.fins.passive_pitch_max_deg.value)),
+            "pitch_pressure": float(coeffs.fins.passive_pitch_reference_pressure.value),
+            "balloon_mount": _frozen(np.asarray(coeffs.balloon.mount_point.value, dtype=float)),
+            "added_mass_iso": float(added_mass_iso),
+            "residual_added_mass": _frozen(residual_added_mass),
+            "residual_added_inertia": _frozen(residual_added_inertia),
+            "effective_mass": mass, "effective_inertia": _frozen(inertia),
+        }
+        self._strip_to_body = _frozen(np.eye(nb)[:, el["strip_body"]])
+        # The kernels' arrays, once: (elements, strips, damping, parameters).
+        elements, strips = K.pack_elements(el)
+        self._packed = (elements, strips,
+                        np.ascontiguousarray(np.hstack([d_lin, d_quad]), dtype=float),
+                        K.pack_params(self.rho, self.g, self.c_normal, self.c_friction,
+                                      self.pitch_max, self.pitch_pressure, self.added_mass_iso,
+                                      self.current, self.balloon_mount,
+                                      self.residual_added_mass, self.residual_added_inertia))
+        # Scratch force objects for the outputs (body and point fixed here): each output
+        # calculation overwrites every force and set_value copies the list into the output
+        # (a C++ vector), so nothing of one evaluation outlives it. Reusing them halves the
+        # output's cost (measured: 19 against 38 us for 17 new objects per call).
         self._forces = [ExternallyAppliedSpatialForce() for _ in names]
         for force, index in zip(self._forces, body_index):
             force.body_index = index
             force.p_BoBq_B = np.zeros(3)
         # The hull's (v_W, w_W, t) at the last two updates; t = -1 marks "none yet".
         self._v_prev = self.DeclareDiscreteState(np.tile(np.r_[np.zeros(6), -1.0], 2))
-        if self.plant_state:
+        if self._plant_state:
             self._tree_i, self._tree_f = K.pack_tree(plant, body_index)
             # Where the hull's [w_W, v_W] sit in the state (a floating hull), else None.
             self._hull_v = (self._nq + int(self._tree_i[0, 3])
                             if self._tree_i[0, 1] == K.QUATERNION_FLOATING else None)
-            self._sample = np.empty(14)  # _store_velocity's buffer
             self._state = self.DeclareVectorInputPort("plant_state", self._nq + self._nv)
         else:
             self._poses = self.DeclareAbstractInputPort(
@@ -217,7 +288,7 @@ class HydrodynamicForces(LeafSystem):
         forces_model = lambda: AbstractValue.Make(list(self._forces))  # noqa: E731
         if self.update_period == 0.0:
             self.DeclareAbstractOutputPort("spatial_forces", forces_model, self._calc_forces)
-            if self.plant_state:
+            if self._plant_state:
                 self.DeclareVectorOutputPort("generalized_forces", self._nv,
                                              self._calc_generalized)
             self.DeclarePeriodicDiscreteUpdateEvent(self.time_step, 0.0, self._store_velocity)
@@ -226,7 +297,7 @@ class HydrodynamicForces(LeafSystem):
             self.DeclareAbstractOutputPort(
                 "spatial_forces", forces_model, self._output_held,
                 prerequisites_of_calc={self.xd_ticket()})
-            if self.plant_state:
+            if self._plant_state:
                 self.DeclareVectorOutputPort(
                     "generalized_forces", self._nv, self._output_held_generalized,
                     prerequisites_of_calc={self.xd_ticket(), self.input_port_ticket(
@@ -235,35 +306,71 @@ class HydrodynamicForces(LeafSystem):
             # Held forces start from the initial state, not from zero.
             self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
 
-    # -- evaluation ---------------------------------------------------------------------------
+    @staticmethod
+    def AddToBuilder(builder, plant, robot, coeffs: HydroCoefficients, time_step: float,
+                     params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
+                     added_mass_iso: float | None = None, update_period: float = 0.0, *,
+                     inputs: str = "contract", backend: str = "compiled",
+                     apply_as: str | None = None, name: str = "hydro") -> "HydrodynamicForces":
+        """Adds a HydrodynamicForces to ``builder`` and connects it to ``plant``, as Drake's
+        ``Wing.AddToBuilder``: its kinematics inputs from the plant's outputs (the state
+        vector, or the body poses and spatial velocities, as ``inputs`` says) and its forces
+        into the plant's applied-force input. ``balloon_volume`` is left to the caller.
 
-    def _pack(self):
-        """The kernels' arrays, packed from the attributes (again after one is set)."""
-        elements, strips = K.pack_elements(self.el)
-        damping = np.ascontiguousarray(np.hstack([self.d_lin, self.d_quad]), dtype=float)
-        prm = K.pack_params(self.rho, self.g, self.c_normal, self.c_friction, self.pitch_max,
-                            self.pitch_pressure, self.added_mass_iso, self.current,
-                            self.balloon_mount, self.residual_added_mass,
-                            self.residual_added_inertia)
-        self.__dict__["_packed"] = (elements, strips, damping, prm)
-        return self._packed
+        Args:
+            builder: the DiagramBuilder holding ``plant``.
+            plant, robot, coeffs, time_step, params, current, added_mass_iso,
+                update_period, inputs, backend: the constructor's arguments.
+            apply_as: ``"generalized_forces"`` (needs ``inputs="plant_state"``) into the
+                plant's ``applied_generalized_force``, ``"spatial_forces"`` into its
+                ``applied_spatial_force``, or None: generalized forces with the state
+                input and forces at every step, spatial forces otherwise. Why: at every
+                step one vector out is cheaper than 17 force objects; held forces are
+                cheaper as the list, which changes only at the updates, so Drake's cache
+                keeps it in between and the plant maps it to joint torques in C++ (a held
+                generalized-force vector depends on q and needs a Python call per step:
+                measured slower, 0.65 against 0.69 of the plant alone's speed, median of 5
+                interleaved rounds of scripts/benchmark.py).
+            name: the system's name in the diagram.
 
-    def _kinematics(self, context):
-        """(R, p, w, v) of the hydro bodies in the world, from the input ports."""
-        if self.plant_state:
-            R, p, w, v, _, _ = K.body_kinematics(self._state.Eval(context), self._nq,
-                                                 self._tree_i, self._tree_f)
-            return R, p, w, v
-        poses = self._poses.Eval(context)
-        velocities = self._velocities.Eval(context)
-        X = np.array([poses[i].GetAsMatrix34() for i in self.body_indices])
-        V = np.array([velocities[i].get_coeffs() for i in self.body_indices])
-        return X[:, :, :3], X[:, :, 3], V[:, :3], V[:, 3:]
+        Returns:
+            The system, owned by the builder.
+
+        Raises:
+            ValueError: naming the argument and its allowed values.
+        """
+        if apply_as is not None and apply_as not in APPLY_AS:
+            raise ValueError(f"HydrodynamicForces.AddToBuilder.apply_as: {apply_as!r} must be "
+                             f"None or one of {', '.join(map(repr, APPLY_AS))}")
+        if apply_as == "generalized_forces" and inputs != "plant_state":
+            raise ValueError("HydrodynamicForces.AddToBuilder.apply_as: 'generalized_forces' "
+                             f"needs inputs='plant_state', got inputs={inputs!r}")
+        hydro = builder.AddNamedSystem(name, HydrodynamicForces(
+            plant, robot, coeffs, time_step, params, current, added_mass_iso, update_period,
+            inputs=inputs, backend=backend))
+        if apply_as is None:
+            apply_as = ("generalized_forces" if inputs == "plant_state" and update_period == 0
+                        else "spatial_forces")
+        if inputs == "plant_state":
+            builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+        else:
+            builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+            builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                            hydro.GetInputPort("body_spatial_velocities"))
+        if apply_as == "generalized_forces":
+            builder.Connect(hydro.GetOutputPort("generalized_forces"),
+                            plant.get_applied_generalized_force_input_port())
+        else:
+            builder.Connect(hydro.GetOutputPort("spatial_forces"),
+                            plant.get_applied_spatial_force_input_port())
+        return hydro
+
+    # -- the maths ------------------------------------------------------------------------------
 
     def compute(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
                 hull_alpha_W=None) -> np.ndarray:
         """Spatial forces [tau_W, f_W] (per hydro body, about its origin) from kinematics,
-        by the compiled kernel (``compute_reference`` is the numpy reference).
+        by this system's ``backend`` (``compute_compiled`` or ``compute_reference``).
 
         Args:
             R, p: (nb, 3, 3), (nb, 3) body orientations and origins in the world.
@@ -272,7 +379,15 @@ class HydrodynamicForces(LeafSystem):
             hull_accel_W, hull_alpha_W: (3,) hull translational and angular acceleration
                 estimates for the residual added mass and inertia (None: not yet known).
         """
-        elements, strips, damping, prm = self._packed or self._pack()
+        if self._compiled:
+            return self.compute_compiled(R, p, w, v, balloon_volume, hull_accel_W,
+                                         hull_alpha_W)
+        return self.compute_reference(R, p, w, v, balloon_volume, hull_accel_W, hull_alpha_W)
+
+    def compute_compiled(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
+                         hull_alpha_W=None) -> np.ndarray:
+        """``compute`` by the numba kernel (``water_kernels.spatial_wrenches``)."""
+        elements, strips, damping, prm = self._packed
         has_accel = hull_accel_W is not None
         accel = np.zeros(6)
         if has_accel:
@@ -300,39 +415,70 @@ class HydrodynamicForces(LeafSystem):
                                                self.residual_added_inertia, body_frac[0])
         return F
 
+    def compute_from_state(self, x, balloon_volume: float, t: float, v_prev) -> np.ndarray:
+        """The spatial forces the system outputs at the plant state ``x`` = [q, v] and time
+        ``t`` (needs ``inputs="plant_state"``), by its ``backend``.
+
+        Args:
+            x: (nq + nv,) the plant's state.
+            balloon_volume: [m^3], finite.
+            t: the time [s].
+            v_prev: (14,) the velocity samples of the discrete state: two [v_W (3),
+                w_W (3), t] of the hull, newest first (t < 0: none).
+        """
+        self._require_plant_state("compute_from_state")
+        return self._from_state(np.ascontiguousarray(x, dtype=float), float(balloon_volume),
+                                float(t), np.ascontiguousarray(v_prev, dtype=float))
+
     def generalized_forces(self, x, F) -> np.ndarray:
-        """J^T F at the plant state ``x`` (needs ``plant_state=True``): the generalized
+        """J^T F at the plant state ``x`` (needs ``inputs="plant_state"``): the generalized
         forces of the spatial forces F (nb, 6) [tau_W, f_W] at the body origins."""
+        self._require_plant_state("generalized_forces")
         return K.generalized_forces_from_state(
             np.ascontiguousarray(x, dtype=float), self._nq, self._nv,
             np.ascontiguousarray(F, dtype=float).ravel(), self._tree_i, self._tree_f)
 
-    def _hull_accel(self, context, v_hull, w_hull):
-        """Finite-difference hull accelerations against the newest sample taken strictly
-        before now (whether this step's update has run yet depends on event order)."""
-        t = context.get_time()
-        for sample in context.get_discrete_state(self._v_prev).get_value().reshape(2, 7):
-            if 0.0 <= sample[6] < t - 1e-12:
-                dt = t - sample[6]
-                return (v_hull - sample[:3]) / dt, (w_hull - sample[3:6]) / dt
-        return None, None
+    def _require_plant_state(self, what: str) -> None:
+        if not self._plant_state:
+            raise ValueError(f"HydrodynamicForces.{what}: needs inputs='plant_state' (the "
+                             f"packed kinematic tree), this system has inputs={self.inputs!r}")
+
+    def _from_state(self, x, balloon_volume: float, t: float, v_prev) -> np.ndarray:
+        if self._compiled:  # one kernel call: kinematics, acceleration estimate, forces
+            return K.forces_from_state(x, self._nq, balloon_volume, t, v_prev, self._tree_i,
+                                       self._tree_f, *self._packed)
+        R, p, w, v, _, _ = K.body_kinematics(x, self._nq, self._tree_i, self._tree_f)
+        return self.compute_reference(R, p, w, v, balloon_volume,
+                                      *_hull_acceleration(v[0], w[0], t, v_prev))
+
+    # -- evaluation -----------------------------------------------------------------------------
+
+    def _kinematics(self, context):
+        """(R, p, w, v) of the hydro bodies in the world, from the input ports."""
+        if self._plant_state:
+            R, p, w, v, _, _ = K.body_kinematics(self._state.Eval(context), self._nq,
+                                                 self._tree_i, self._tree_f)
+            return R, p, w, v
+        poses = self._poses.Eval(context)
+        velocities = self._velocities.Eval(context)
+        X = np.array([poses[i].GetAsMatrix34() for i in self.body_indices])
+        V = np.array([velocities[i].get_coeffs() for i in self.body_indices])
+        return X[:, :, :3], X[:, :, 3], V[:, :3], V[:, 3:]
 
     def _forces_now(self, context) -> np.ndarray:
         balloon = float(self._balloon.Eval(context)[0])
         if not math.isfinite(balloon):
             balloon = 0.0
-        if self.plant_state:  # one kernel call: kinematics, acceleration estimate, forces
-            elements, strips, damping, prm = self._packed or self._pack()
-            F = K.forces_from_state(
-                self._state.Eval(context), self._nq, balloon, context.get_time(),
-                context.get_discrete_state(self._v_prev).get_value(), self._tree_i,
-                self._tree_f, elements, strips, damping, prm)
+        t = context.get_time()
+        v_prev = context.get_discrete_state(self._v_prev).get_value()
+        if self._plant_state:
+            F = self._from_state(self._state.Eval(context), balloon, t, v_prev)
         else:
             R, p, w, v = self._kinematics(context)
-            F = self.compute(R, p, w, v, balloon, *self._hull_accel(context, v[0], w[0]))
+            F = self.compute(R, p, w, v, balloon, *_hull_acceleration(v[0], w[0], t, v_prev))
         if not math.isfinite(F.sum()):  # a NaN or inf anywhere makes the sum non-finite
             raise RuntimeError(
-                f"HydrodynamicForces: non-finite force at t = {context.get_time():.4f} s "
+                f"HydrodynamicForces: non-finite force at t = {t:.4f} s "
                 "(the body state is no longer finite)")
         return F
 
@@ -366,45 +512,41 @@ class HydrodynamicForces(LeafSystem):
         self._store_velocity(context, discrete_state)
 
     def _store_velocity(self, context, discrete_state):
-        if self.plant_state and self._hull_v is not None:  # floating hull: [w, v] in the state
-            x, h, sample = self._state.Eval(context), self._hull_v, self._sample
-            sample[:3], sample[3:6], sample[6] = x[h + 3:h + 6], x[h:h + 3], context.get_time()
-            sample[7:] = context.get_discrete_state(self._v_prev).get_value()[:7]
-            discrete_state.get_mutable_vector(self._v_prev).SetFromVector(sample)
-            return
-        if self.plant_state:
+        """Shifts the hull's velocity samples: [now, the newest before]."""
+        samples = discrete_state.get_mutable_vector(self._v_prev).get_mutable_value()
+        # The older slot first, from the context (safe even if the two were one buffer).
+        samples[7:] = context.get_discrete_state(self._v_prev).get_value()[:7]
+        if self._plant_state and self._hull_v is not None:  # floating hull: [w, v] in x
+            x, h = self._state.Eval(context), self._hull_v
+            samples[:3], samples[3:6] = x[h + 3:h + 6], x[h:h + 3]
+        elif self._plant_state:
             _, _, w, v = self._kinematics(context)
-            v_hull, w_hull = v[0], w[0]
+            samples[:3], samples[3:6] = v[0], w[0]
         else:
             V = self._velocities.Eval(context)[self.body_indices[0]]
-            v_hull, w_hull = V.translational(), V.rotational()
-        newest = context.get_discrete_state(self._v_prev).get_value()[:7]
-        discrete_state.get_mutable_vector(self._v_prev).SetFromVector(
-            np.concatenate([v_hull, w_hull, [context.get_time()], newest]))
+            samples[:3], samples[3:6] = V.translational(), V.rotational()
+        samples[6] = context.get_time()
+
+
+def _hull_acceleration(v_hull, w_hull, t: float, v_prev):
+    """Finite-difference hull accelerations (a_W, alpha_W) against the newest velocity
+    sample taken strictly before ``t`` (whether this step's update has run yet depends on
+    event order), or (None, None) when there is none; the numpy twin of
+    ``water_kernels.hull_acceleration``.
+
+    Args:
+        v_hull, w_hull: (3,) the hull's velocity and angular velocity now (world).
+        t: now [s].
+        v_prev: (14,) two samples [v_W (3), w_W (3), t], newest first; t < 0: none.
+    """
+    for sample in np.reshape(v_prev, (2, 7)):
+        if 0.0 <= sample[6] < t - 1e-12:
+            dt = t - sample[6]
+            return (v_hull - sample[:3]) / dt, (w_hull - sample[3:6]) / dt
+    return None, None
 
 
 def _is_real(value) -> bool:
     """A real number (not a bool, string or array)."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
         value, (bool, np.bool_))
-
-
-def connect_hydro(builder, plant, hydro, generalized_forces: bool) -> None:
-    """Wires a HydrodynamicForces to its plant: its inputs (the plant's state vector, or the
-    body poses and spatial velocities of the contract ports, as ``hydro.plant_state`` says)
-    and its forces to the plant, as generalized forces (``generalized_forces``, which needs
-    ``hydro.plant_state``) or as the list of spatial forces."""
-    if hydro.plant_state:
-        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
-    else:
-        if generalized_forces:
-            raise ValueError("connect_hydro: generalized forces need plant_state=True")
-        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-        builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                        hydro.GetInputPort("body_spatial_velocities"))
-    if generalized_forces:
-        builder.Connect(hydro.GetOutputPort("generalized_forces"),
-                        plant.get_applied_generalized_force_input_port())
-    else:
-        builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                        plant.get_applied_spatial_force_input_port())

@@ -84,7 +84,7 @@ def pack_tree(plant, body_indices) -> tuple[np.ndarray, np.ndarray]:
         ValueError: a body's parent is neither the world nor an earlier hydro body, or its
             inboard joint is not a weld, a revolute joint or a quaternion floating joint
             (the kernels handle those only; ``HydrodynamicForces`` with
-            ``plant_state=False`` handles any plant).
+            ``inputs="contract"`` handles any plant).
     """
     rows = {int(b): k for k, b in enumerate(body_indices)}
     world = int(plant.world_body().index())
@@ -446,7 +446,7 @@ def generalized_forces_from_state(x, nq, nv, F_flat, tree_i, tree_f):
 
 @njit(cache=True)
 def hull_acceleration(v_hull, w_hull, t, v_prev):
-    """``HydrodynamicForces._hull_accel`` compiled: finite-difference hull accelerations
+    """``hydro._hull_acceleration`` compiled: finite-difference hull accelerations
     against the newest stored sample taken strictly before ``t``.
 
     Args:

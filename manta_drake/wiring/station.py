@@ -96,7 +96,7 @@ from manta_drake.model.plant import (
 from manta_drake.scenario import Scenario
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
-from manta_drake.station.hydro import HydrodynamicForces, connect_hydro
+from manta_drake.station.hydro import HydrodynamicForces
 from manta_drake.station.pressure import PressureSensor
 from manta_drake.station.render_poses import add_camera_scene
 
@@ -142,19 +142,14 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles,
     builder.Connect(fill_to_volume.get_output_port(), balloon.GetInputPort("volume_command"))
     builder.ExportInput(fill_to_volume.get_input_port(), "balloon_command")
     builder.ExportOutput(balloon.GetOutputPort("balloon_volume"), "balloon_volume")
-    hydro = builder.AddNamedSystem("hydro", HydrodynamicForces(
-        plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
-        current=scenario.water.current,
-        added_mass_iso=ph.added_mass_iso, update_period=scenario.water.update_period,
-        plant_state=hydro_plant_state))
-    # Held forces: the list changes only at the hydro's updates, so Drake's cache keeps it
-    # between them and the plant maps it to joint torques in C++ at each step (no Python per
-    # step). A held generalized-force vector needs a Python call per step (J^T F at the
-    # current configuration): measured slower, 0.65 against 0.69 of (a)'s speed (median of 5
-    # interleaved rounds). Forces at every step: one vector out per step instead of 17 force
-    # objects.
-    connect_hydro(builder, plant, hydro, generalized_forces=hydro.plant_state
-                  and hydro.update_period == 0)
+    # AddToBuilder's default force port: generalized forces when they are computed at every
+    # step (one vector instead of 17 force objects), the held list otherwise (cached between
+    # updates, mapped to joint torques in C++ at each step).
+    hydro = HydrodynamicForces.AddToBuilder(
+        builder, plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
+        current=scenario.water.current, added_mass_iso=ph.added_mass_iso,
+        update_period=scenario.water.update_period,
+        inputs="plant_state" if hydro_plant_state else "contract", name="hydro")
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
 
     ps = scenario.pressure_sensor

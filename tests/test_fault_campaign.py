@@ -1,23 +1,17 @@
-"""scripts/fault_campaign.py on a few tiny runs: rows, refusals naming the field, finite
-numbers for a normal run, a crashed worker recorded as a crash (not a dead campaign)."""
+"""The fault campaign (manta_drake.studies.faults) on a few tiny runs: rows, refusals naming
+the field, finite numbers for a normal run, a crashed worker recorded as a crash (not a dead
+campaign)."""
 
-import importlib.util
 import math
-import pathlib
-import sys
 
 import pytest
 
-SCRIPT = pathlib.Path(__file__).resolve().parents[1] / "scripts" / "fault_campaign.py"
+from manta_drake.studies import faults
 
 
 @pytest.fixture(scope="module")
 def fc():
-    spec = importlib.util.spec_from_file_location("fault_campaign", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["fault_campaign"] = module
-    spec.loader.exec_module(module)
-    return module
+    return faults
 
 
 def test_draws_are_seeded_and_well_formed(fc):

@@ -1,25 +1,20 @@
-"""The criteria of scripts/findings_report.py on small synthetic tables with known answers."""
+"""The criteria of the findings study (manta_drake.studies.findings) on small synthetic
+tables with known answers."""
 
 import csv
-import importlib.util
 import pathlib
-import sys
 
 import pytest
 
+from manta_drake.studies import findings
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-SCRIPT = ROOT / "scripts" / "findings_report.py"
 SHIPPED = ROOT / "diagrams" / "sweeps" / "data" / "findings_results.csv"
 
 
 @pytest.fixture(scope="module")
 def fr():
-    spec = importlib.util.spec_from_file_location("findings_report", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["findings_report"] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop("findings_report", None)
+    return findings
 
 
 def point(fr, **gaits):
@@ -218,3 +213,85 @@ def test_contact_summary_without_contacts_is_nan_not_zero(fr):
 
     c = fr.contact_summary(_samples(0.0, [0.05, 0.0, 0.0], [[]] * 3), (0.0, 1.0))
     assert c["load"] == 0.0 and c["legs"] == {} and math.isnan(c["all"]["noslip_u"])
+
+
+# The command line, and the diagnostics' gaits given as data (manta_drake.studies.explicit_gait).
+
+
+def test_the_study_command_writes_the_committed_findings_page(tmp_path, monkeypatch, capsys):
+    """``manta-drake study findings`` on the shipped table reproduces docs/findings.md and its
+    figure's file name; ``manta-drake study --help`` lists every study."""
+    from manta_drake.cli import main
+    from manta_drake.studies import STUDIES
+
+    page = tmp_path / "findings.md"
+    page.write_text((ROOT / "docs" / "findings.md").read_text())
+    monkeypatch.chdir(ROOT)  # the page names the table by its path in the repository
+    assert main(["study", "findings", "--results", str(SHIPPED.relative_to(ROOT)),
+                 "--out-md", str(page), "--out-fig", str(tmp_path / "findings.png")]) == 0
+    assert page.read_text() == (ROOT / "docs" / "findings.md").read_text()
+    assert (tmp_path / "findings.png").stat().st_size > 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_info:
+        main(["study", "--help"])
+    assert exit_info.value.code == 0
+    listing = capsys.readouterr().out
+    assert set(STUDIES) == {"faults", "findings", "transitions", "stance", "readings",
+                            "wall-noise"}
+    assert all(f"  {name} " in listing for name in STUDIES)
+
+
+def _short(name: str, duration: float = 0.2):
+    from manta_drake.scenario import load_scenario
+
+    return load_scenario(name, overrides={"duration": duration, "steady_after": duration / 2,
+                                          "visualization.meshcat": False})
+
+
+def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_alone():
+    """start_with_gait: the controller commands the given gait's parameters and its stance
+    (r = 0: theta = chi = X, at rest), the plant's joints start there, and the library still
+    holds its own gait."""
+    import numpy as np
+
+    from manta_drake.control.gaits import GAITS, MIRROR_SIGNS, GaitParams
+    from manta_drake.studies.explicit_gait import start_with_gait
+    from manta_drake.wiring.diagram import build_diagram
+
+    trot = GAITS["trot"]
+    library_trot = trot.to_vector().copy()
+    X = trot.X.copy()
+    X[[1, 3]] = MIRROR_SIGNS * X[[0, 2]]  # right fins mirror the left ones
+    variant = GaitParams(trot.R, X, trot.Phi, trot.Phi_prime)
+    diagram, handles = build_diagram(_short("locomotion_trot"))
+    context = diagram.CreateDefaultContext()
+    start_with_gait(handles, context, variant)
+    controller = handles.controller.GetMyContextFromRoot(context)
+    np.testing.assert_array_equal(
+        handles.controller.GetOutputPort("cpg_params").Eval(controller), variant.to_vector())
+    desired = handles.controller.GetOutputPort("desired_state").Eval(controller)
+    np.testing.assert_allclose(desired[:16], X.ravel(), atol=1e-12)
+    np.testing.assert_allclose(desired[16:], 0.0, atol=1e-12)
+    plant, ph = handles.plant, handles.plant_handles
+    pc = plant.GetMyContextFromRoot(context)
+    q = [plant.GetJointByName(n, ph.robot).get_angle(pc) for n in ph.joint_names]
+    np.testing.assert_allclose(q, X.ravel(), atol=1e-12)
+    np.testing.assert_array_equal(GAITS["trot"].to_vector(), library_trot)
+    assert not np.allclose(variant.X, trot.X)
+
+
+def test_a_library_gait_given_as_data_runs_exactly_as_the_scenario_names_it(tmp_path):
+    """run_with_gait with the scenario's own gait: the same log as simulate.run, sample for
+    sample."""
+    import numpy as np
+
+    from manta_drake.control.gaits import GAITS
+    from manta_drake.simulate import run
+    from manta_drake.studies.explicit_gait import run_with_gait
+
+    run(_short("locomotion_swim"), tmp_path / "named", progress=False, write_outputs=False)
+    run_with_gait(_short("locomotion_swim"), GAITS["swim"], tmp_path / "data")
+    named, data = np.load(tmp_path / "named" / "log.npz"), np.load(tmp_path / "data" / "log.npz")
+    assert set(named.files) == set(data.files)
+    for key in named.files:
+        np.testing.assert_array_equal(named[key], data[key], err_msg=key)

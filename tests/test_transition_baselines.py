@@ -1,20 +1,15 @@
-"""The metric functions of scripts/transition_baselines.py on signals with known answers."""
-
-import importlib.util
-import pathlib
+"""The metric functions of the transitions study (manta_drake.studies.transitions) on
+signals with known answers."""
 
 import numpy as np
 import pytest
 
-SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "scripts" / "transition_baselines.py"
+from manta_drake.studies import transitions
 
 
 @pytest.fixture(scope="module")
 def tb():
-    spec = importlib.util.spec_from_file_location("transition_baselines", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return transitions
 
 
 def test_a_step_is_the_largest_jump(tb):

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """s_hat against the depth camera's range noise: the wall detector's graceful degradation.
 
 The robot stands on the pool floor facing the end wall at several distances; the camera
@@ -7,29 +6,24 @@ and seed the station's noise (``noisy_depth``, 1 % pixel dropout), the controlle
 filter, ``DepthImageToPointCloud`` and the detector run on it. Prints the mean and the
 range of s_hat per noise level and distance, and writes docs/figures/s_hat_vs_noise.png.
 
-Usage: python scripts/wall_detector_noise.py [--seeds 8] [--out docs/figures/s_hat_vs_noise.png]
+Usage: manta-drake study wall-noise [--seeds 8] [--out docs/figures/s_hat_vs_noise.png]
 """
 
 import argparse
 import pathlib
-import sys
 
-import matplotlib
+import numpy as np
+from pydrake.perception import BaseField, DepthImageToPointCloud
+from pydrake.systems.sensors import ImageDepth32F, PixelType
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from pydrake.perception import BaseField, DepthImageToPointCloud  # noqa: E402
-from pydrake.systems.sensors import ImageDepth32F, PixelType  # noqa: E402
+from manta_drake.control.vision import detect, median_filter_depth
+from manta_drake.model.camera import camera_info
+from manta_drake.scenario import load_scenario
+from manta_drake.simulate import make_simulator
+from manta_drake.station.depth_image_noise import noisy_depth
+from manta_drake.studies import REPO as ROOT
+from manta_drake.wiring.diagram import build_diagram
 
-from manta_drake.control.vision import detect, median_filter_depth  # noqa: E402
-from manta_drake.wiring.diagram import build_diagram  # noqa: E402
-from manta_drake.scenario import load_scenario  # noqa: E402
-from manta_drake.simulate import make_simulator  # noqa: E402
-from manta_drake.station.depth_image_noise import noisy_depth  # noqa: E402
-from manta_drake.wiring.station import camera_info  # noqa: E402
-
-ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOISE_MM = (0, 2.5, 5, 7.5, 10, 12.5, 15, 17.5, 20, 22.5, 25, 27.5, 30)
 DISTANCES = (0.4, 0.5, 0.6, 0.7, 0.75, 1.0)
 
@@ -54,8 +48,9 @@ def wall_frame(distance: float):
 
 def s_hat_samples(s, image, X_WC, noise_std: float, seeds) -> np.ndarray:
     """s_hat of the frame under ``noise_std`` for each seed, through the real pipeline."""
-    to_cloud = DepthImageToPointCloud(camera_info(s.camera), PixelType.kDepth32F, 1.0,
-                                      BaseField.kXYZs)
+    cam = s.camera
+    to_cloud = DepthImageToPointCloud(camera_info(cam.width, cam.height, cam.fov_y_deg),
+                                      PixelType.kDepth32F, 1.0, BaseField.kXYZs)
     context = to_cloud.CreateDefaultContext()
     to_cloud.camera_pose_input_port().FixValue(context, X_WC)
     out = []
@@ -72,11 +67,19 @@ def s_hat_samples(s, image, X_WC, noise_std: float, seeds) -> np.ndarray:
     return np.array(out)
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study wall-noise``); returns the exit status."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--out", default=str(ROOT / "docs" / "figures" / "s_hat_vs_noise.png"))
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    # Imported here, with the file-only backend: importing the study (``--help``) needs no
+    # plotting, and a figure file needs no display.
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(7, 4))
     print(f"{'noise mm':>9} " + " ".join(f"{'d=' + str(d) + ' m':>16}" for d in DISTANCES))
     table = {}
@@ -102,7 +105,3 @@ def main() -> int:
     fig.savefig(args.out, dpi=110)
     print(f"figure: {args.out}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,4 @@
-#!/usr/bin/env python3
-"""Fault campaign: many seeded random scenarios with faults, each in its own process
-(issue 12, "Correct water, no crash, no silent acceptance").
+"""Fault campaign: many seeded random scenarios with faults, each in its own process.
 
 Every run starts from a shipped scenario chosen at random (camera runs are slower and
 kept to a small share) and draws faults from a seeded numpy Generator:
@@ -22,16 +20,19 @@ kept to a small share) and draws faults from a seeded numpy Generator:
   random balloon fills and commands; swapped gaits and stances;
 * short durations (2-4 s).
 
-Each run is one ``dask.distributed`` task on a ``LocalCluster`` of single-threaded worker
-processes. A worker that dies (segfault, abort, out of memory) is recorded as a *crash* of
-the run it was executing (the scheduler allows no retry, so the death surfaces as
-``KilledWorker`` on that future); a run that exceeds ``--run-timeout`` is killed and
-recorded as a *timeout*. Neither stops the campaign: the nanny starts a fresh worker.
+Each run is one ``dask.distributed`` task on the cluster of ``manta_drake.cluster``
+(``--workers N``: a local cluster of N single-threaded worker processes; ``--scheduler
+ADDRESS``: a running one, whose scheduler must allow no retry,
+``distributed.scheduler.allowed-failures: 0``, and whose workers must see ``--out``).
+A worker that dies (segfault, abort, out of memory) is recorded as a *crash* of the run it
+was executing (the scheduler allows no retry, so the death surfaces as ``KilledWorker`` on
+that future); a run that exceeds ``--run-timeout`` is killed and recorded as a *timeout*.
+Neither stops the campaign: the nanny starts a fresh worker.
 
 Outcomes per run:
 
   ok            the run finished (``simulate.run`` returned)
-  refused       ``Scenario.validate`` raised ``ScenarioError`` (the field it names is the cause)
+  refused       the scenario raised ``ScenarioError`` (the field it names is the cause)
   build_failed  ``simulate.run`` raised ``SimulationError`` at the build stage
   sim_failed    ``simulate.run`` raised ``SimulationError`` part-way (the reason is the cause)
   exception     any other exception (its type is the cause): a bug
@@ -49,8 +50,8 @@ reproduces it) and its ``metrics.json`` (``log.npz`` kept only for runs that did
 ``ok`` / ``refused`` or showed NaN, a pool exit or a limit violation).
 
 Usage:
-  python scripts/fault_campaign.py --runs 300 --seed 1 --out out/fault_campaign --workers 2
-  python scripts/fault_campaign.py --runs 20 --seed 3 --out /tmp/fc --duration 1 --check
+  manta-drake study faults --runs 300 --seed 1 --out out/fault_campaign --workers 2
+  manta-drake study faults --runs 20 --seed 3 --out /tmp/fc --duration 1 --check
 
 Exit status: 1 if any run crashed, timed out, produced NaN without failing, or raised an
 unexpected exception type (with ``--strict`` also: a fault that must be refused was
@@ -69,11 +70,14 @@ import os
 import pathlib
 import re
 import shutil
+import socket
 import sys
 import time
 import traceback
 
 import numpy as np
+
+from manta_drake.scenario import coefficient_names
 
 # --- what is drawn -------------------------------------------------------------------------
 
@@ -129,13 +133,6 @@ OUTCOMES = ("ok", "refused", "build_failed", "sim_failed", "exception", "crashed
 EXPECTED_EXCEPTIONS = ("ScenarioError", "SimulationError")
 
 
-def coefficient_names() -> list[str]:
-    """Every coefficient entry of the shipped hydrodynamics.yaml (dotted names)."""
-    from manta_drake.model.coefficients import load_coefficients
-
-    return [name for name, _ in load_coefficients().entries()]
-
-
 def _unit_vector(rng) -> list[float]:
     v = rng.normal(size=3)
     return (v / np.linalg.norm(v)).tolist()
@@ -145,12 +142,19 @@ def _r(x, nd=6):
     return float(round(float(x), nd))
 
 
-def draw_spec(rng, run: int, duration: float | None, coeff_names: list[str],
-              base_yaml: dict) -> dict:
+def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -> dict:
     """One run's scenario: a base scenario name, the overrides (dotted field -> value), the
-    fault tags, and the fields that must be refused (empty: the run must be accepted)."""
+    fault tags, and the fields that must be refused (empty: the run must be accepted).
+
+    Args:
+        rng: the campaign's numpy Generator (every draw comes from it, in a fixed order).
+        run: the run's index.
+        duration: every run's duration [s]; None: drawn in [2, 4].
+        coeff_names: the dotted coefficient names a scale may name.
+        bases: the loaded base Scenario of each name in ``BASES``.
+    """
     base = str(rng.choice(list(BASES), p=np.array(list(BASES.values())) / sum(BASES.values())))
-    data = base_yaml[base]
+    data = bases[base]
     water = base not in NO_WATER_BASES
     o: dict = {}
     faults: list[str] = []
@@ -205,7 +209,7 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names: list[str],
         o["pressure_sensor.dropout_rate"] = _r(rng.uniform(0.0, 0.5), 4)
         faults.append("pressure_noise")
 
-    camera = bool(data.get("camera", {}).get("enabled", False))
+    camera = bool(data.camera.enabled)
     if water and not camera and rng.random() < P["camera_on"]:
         o["camera.enabled"] = True
         camera = True
@@ -219,26 +223,29 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names: list[str],
         faults.append("depth_noise_over")
         expect.append("camera.depth_noise_std")
 
-    mode = data.get("controller", {}).get("mode", "hold")
+    mode = data.controller.mode
     if mode != "transition" and rng.random() < P["gait_swap"]:
         gait = str(rng.choice(GAIT_NAMES))
         o["controller.gait"] = gait
         o["initial_stance"] = str(rng.choice(GAIT_NAMES + ("zero",)))
         faults.append("gait_swap")
     # Start pose.
-    xyz = list(data.get("initial_pose", {}).get("xyz", [0.0, 0.0, -0.22]))
-    rpy = list(data.get("initial_pose", {}).get("rpy_deg", [0.0, 0.0, 0.0]))
+    xyz = list(data.initial_pose.xyz)
+    rpy = list(data.initial_pose.rpy_deg)
     start = str(rng.choice(list(STARTS), p=np.array(list(STARTS.values())) / sum(STARTS.values())))
     if start == "tilted":
         rpy = [rng.uniform(-45, 45), rng.uniform(-45, 45), rng.uniform(-180, 180)]
         # Raised (dropped from a height) until no fin is below the floor, when possible.
-        from manta_drake.scenario import initial_pose_problem
+        from manta_drake.control.gaits import get_gait
+        from manta_drake.model.start_pose import start_pose_problem
+        from manta_drake.scenario import resolve_fin_sweep_deg
 
-        stance = o.get("initial_stance", data.get("initial_stance", "trot"))
-        reading = data.get("controller", {}).get("gait_reading", "paper")
-        sweep = data.get("robot", {}).get("fin_sweep_deg")
+        stance = o.get("initial_stance", data.initial_stance)
+        reading = data.controller.gait_reading
+        q = np.zeros((4, 4)) if stance == "zero" else get_gait(stance, reading).X
+        sweep = resolve_fin_sweep_deg(data.robot.fin_sweep_deg, reading)
         for z in np.arange(xyz[2], -0.02, 0.01):
-            if not initial_pose_problem([xyz[0], xyz[1], z], rpy, stance, reading, sweep):
+            if not start_pose_problem([xyz[0], xyz[1], z], rpy, q, sweep, stance):
                 xyz[2] = float(z)
                 break
     elif start == "upside_down":
@@ -308,40 +315,38 @@ def make_spec(run: int, base: str, overrides: dict | None = None, faults=(), exp
 
 def draw_specs(n: int, seed: int, duration: float | None = None) -> list[dict]:
     """``n`` run specs from ``numpy.random.default_rng(seed)`` (same seed, same specs)."""
-    import yaml
-
-    from manta_drake.scenario import find_scenario
+    from manta_drake.scenario import load_scenario
 
     rng = np.random.default_rng(seed)
-    names = coefficient_names()
-    base_yaml = {b: yaml.safe_load(find_scenario(b).read_text()) or {} for b in BASES}
-    return [draw_spec(rng, i, duration, names, base_yaml) for i in range(n)]
+    names = list(coefficient_names())
+    bases = {b: load_scenario(b) for b in BASES}
+    return [draw_spec(rng, i, duration, names, bases) for i in range(n)]
 
 
 # --- one run (executed in a worker process) --------------------------------------------------
 
-def apply_overrides(scenario, overrides: dict):
-    """Sets dotted fields (``water.current``, ``simulator.max_step_size``, ...)."""
-    from manta_drake.scenario import BalloonCommand
+def load_run_scenario(spec: dict):
+    """The run's scenario: ``spec``'s base scenario with its overrides layered on
+    (``load_scenario``), validated.
 
-    for path, value in overrides.items():
-        *parents, leaf = path.split(".")
-        target = scenario
-        for p in parents:
-            target = getattr(target, p)
-        if path == "balloon.schedule":
-            value = [BalloonCommand(**cmd) for cmd in value]
-        setattr(target, leaf, copy.deepcopy(value))
-    return scenario
+    Raises:
+        ScenarioError: a fault the scenario refuses; the message starts with the field.
+    """
+    from manta_drake.scenario import load_scenario
+
+    # Validated apart: load_scenario would put the base file's path before a refusal's
+    # field, and refusals are grouped by the field.
+    return load_scenario(spec["base"], overrides=spec["overrides"], validate=False).validate()
 
 
 def scenario_yaml(spec: dict) -> str:
     """The base scenario's YAML with the overrides merged in (loads to the same scenario)."""
     import yaml
 
+    from manta_drake.config_io import load_yaml_mapping
     from manta_drake.scenario import find_scenario
 
-    data = yaml.safe_load(find_scenario(spec["base"]).read_text()) or {}
+    data, _ = load_yaml_mapping(find_scenario(spec["base"]), "scenario")
     for path, value in spec["overrides"].items():
         *parents, leaf = path.split(".")
         node = data
@@ -435,14 +440,11 @@ def initial_penetration(scenario) -> tuple[float, str]:
     pose and stance, and the pair's geometry names (the start-pose check's plant of robot
     and pool, one per fin sweep; geometry only, so the water's added-mass body does not
     matter)."""
-    from manta_drake.control.gaits import get_gait
-    from manta_drake.scenario import deepest_start_contact
+    from manta_drake.model.start_pose import deepest_start_contact
 
-    stance = scenario.initial_stance
-    q = (np.zeros(16) if stance == "zero"
-         else get_gait(stance, scenario.controller.gait_reading).X)
     depth, names = deepest_start_contact(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg,
-                                         q, scenario.fin_sweep_deg())
+                                         scenario.initial_joint_angles(),
+                                         scenario.fin_sweep_deg())
     return depth, "/".join(names)
 
 
@@ -454,26 +456,37 @@ def _flags(row: dict) -> bool:
                 or (row.get("max_penetration_m") or 0) > PENETRATION_FLAG)
 
 
+def _worker_address() -> str | None:
+    """The address of the Dask worker running this process's task (None: no worker)."""
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return None
+
+
 def run_one(spec: dict, out_root: str) -> dict:
     """Runs one spec and returns its row. Never raises for a run's own failure: every
     exception is classified into the row (so only a dying process escapes)."""
     run_dir = pathlib.Path(out_root) / "runs" / f"run_{spec['run']:04d}"
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "scenario.yaml").write_text(scenario_yaml(spec))
-    (run_dir / "started.json").write_text(json.dumps({"pid": os.getpid(), "time": time.time()}))
+    (run_dir / "started.json").write_text(json.dumps(
+        {"pid": os.getpid(), "host": socket.gethostname(), "worker": _worker_address(),
+         "time": time.time()}))
     if spec.get("inject_crash"):  # harness self-test: a segfault in this process
         import ctypes
 
         ctypes.string_at(0)
     row: dict = {"outcome": None, "cause": "", "message": "", "worker_pid": os.getpid()}
     t0 = time.perf_counter()
-    from manta_drake.scenario import ScenarioError, load_scenario
+    from manta_drake.scenario import ScenarioError
     from manta_drake.simulate import SimulationError, run
 
     scenario = None
     try:
-        scenario = apply_overrides(load_scenario(spec["base"]), spec["overrides"])
-        scenario.validate()
+        scenario = load_run_scenario(spec)
     except ScenarioError as e:
         row.update(outcome="refused", cause=refused_field(str(e)), message=str(e))
     except Exception as e:  # noqa: BLE001 - an unclear error from validation: a bug
@@ -602,10 +615,31 @@ def _marker(out_dir: pathlib.Path, run: int) -> dict | None:
     return _read_json(out_dir / "runs" / f"run_{run:04d}" / "started.json") or None
 
 
+def _end_worker(client, marker: dict) -> None:
+    """Ends the worker process that wrote ``marker`` (a run past its timeout): by its pid when
+    it runs on this machine, else through its nanny (a pid names another process here)."""
+    if marker.get("host") == socket.gethostname():
+        try:
+            os.kill(int(marker["pid"]), 9)
+        except OSError:
+            pass
+    elif marker.get("worker"):
+        client.restart_workers([marker["worker"]], timeout=60, raise_for_error=False)
+
+
 def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: float = 600.0,
-                 echo=print) -> list[dict]:
-    """Runs every spec (``workers`` = 0: one after the other in this process, without crash
-    isolation) and returns the rows in run order."""
+                 echo=print, scheduler: str | None = None) -> list[dict]:
+    """Runs every spec and returns the rows in run order.
+
+    Args:
+        specs: the run specs (``draw_specs``, ``make_spec``).
+        out_dir: the campaign's output folder (every worker must see it).
+        workers: worker processes of a local cluster (``manta_drake.cluster.dask_client``);
+            0: one run after the other in this process, without crash isolation.
+        run_timeout: wall seconds after which a run's worker is ended (a timeout).
+        echo: prints one line per finished run.
+        scheduler: a running Dask scheduler's address instead of a local cluster.
+    """
     out_dir = pathlib.Path(out_dir)
     for spec in specs:
         shutil.rmtree(out_dir / "runs" / f"run_{spec['run']:04d}", ignore_errors=True)
@@ -618,7 +652,7 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
         echo(f"[{len(rows):4d}/{len(specs)}] run {spec['run']:4d} {spec['base']:<18} "
              f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s  {r['cause'][:70]}")
 
-    if workers == 0:
+    if workers == 0 and not scheduler:
         for spec in specs:
             try:
                 done(spec, run_one(spec, str(out_dir)))
@@ -627,110 +661,91 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
                             "message": str(e), "wall_time_s": 0.0})
         return [rows[s["run"]] for s in specs]
 
-    import logging
-
-    import cloudpickle
     import dask
     import distributed
 
-    module = sys.modules[run_one.__module__]
-    if module.__name__ != "__main__":  # imported (tests): ship the code, not a module name
-        cloudpickle.register_pickle_by_value(module)
-    # ... and let the workers import this file under its name in any case (spawned worker
-    # processes start with this process's sys.path).
-    here = str(pathlib.Path(__file__).resolve().parent)
-    if here not in sys.path:
-        sys.path.append(here)
+    from manta_drake.cluster import dask_client
+
     # No retries of a run whose worker died (it would crash again, and its death would be
     # blamed on nothing), and one task per worker at a time, so a worker's death is the
-    # death of exactly the run it was executing.
+    # death of exactly the run it was executing. A local cluster's scheduler and nannies
+    # take this configuration when they start; a running scheduler keeps its own.
     config = {"distributed.scheduler.allowed-failures": 0,
               "distributed.scheduler.worker-saturation": 1.0,
               "distributed.worker.daemon": False}
-    env = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
-           "NUMBA_NUM_THREADS": "1"}
-    os.environ.update(env)
-    with dask.config.set(config):
-        cluster = distributed.LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-            silence_logs=logging.CRITICAL, memory_limit=0)
-        client = distributed.Client(cluster)
-        try:
-            by_spec = {s["run"]: s for s in specs}
-            attempts = collections.Counter()
-            killed: dict[int, str] = {}
-            pending = {}
+    if not scheduler:  # the local workers inherit this process's environment
+        os.environ.update({"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+                           "OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"})
+    with dask.config.set(config), dask_client(scheduler, workers) as client:
+        by_spec = {s["run"]: s for s in specs}
+        attempts = collections.Counter()
+        killed: dict[int, str] = {}
+        pending = {}
 
-            def submit(spec):
-                attempts[spec["run"]] += 1
-                f = client.submit(run_one, spec, str(out_dir), pure=False, retries=0,
-                                  key=f"fault-run-{spec['run']}-{attempts[spec['run']]}")
-                pending[f] = spec["run"]
+        def submit(spec):
+            attempts[spec["run"]] += 1
+            f = client.submit(run_one, spec, str(out_dir), pure=False, retries=0,
+                              key=f"fault-run-{spec['run']}-{attempts[spec['run']]}")
+            pending[f] = spec["run"]
 
-            for spec in specs:
-                submit(spec)
-            last_progress, started = time.time(), set()
-            while pending:
-                finished = [f for f in pending if f.done()]
-                if not finished:
-                    time.sleep(0.5)
-                    now = time.time()
-                    for run in pending.values():
-                        if run not in started and _marker(out_dir, run):
-                            started.add(run)
-                            last_progress = now
-                    if now - last_progress > run_timeout + 60.0:
-                        # Nothing started or finished for that long: the harness itself
-                        # is stuck (e.g. workers that cannot take tasks). Give up on the
-                        # rest rather than hang.
-                        for f, run in list(pending.items()):
-                            done(by_spec[run], {"outcome": "timeout", "cause": "harness stall",
-                                                "message": "no run started or finished for "
-                                                f"{now - last_progress:.0f} s",
-                                                "wall_time_s": 0.0})
-                            f.cancel()
-                        pending.clear()
-                        break
-                else:
-                    last_progress = time.time()
-                for f in finished:
-                    run = pending.pop(f)
-                    spec = by_spec[run]
-                    marker = _marker(out_dir, run)
-                    try:
-                        done(spec, f.result())
-                    except distributed.KilledWorker:
-                        if run in killed:
-                            done(spec, {"outcome": "timeout", "cause": "timeout",
-                                        "message": killed[run], "wall_time_s": run_timeout})
-                        elif marker is None and attempts[run] < 3:
-                            submit(spec)  # its worker died before it started: not its fault
-                        else:
-                            wall = time.time() - marker["time"] if marker else 0.0
-                            done(spec, {"outcome": "crashed", "cause": "worker process died",
-                                        "message": "the worker process executing the run "
-                                        f"died (pid {marker and marker['pid']})",
-                                        "wall_time_s": wall,
-                                        "worker_pid": marker and marker["pid"]})
-                    except Exception as e:  # noqa: BLE001 - the task raised
-                        done(spec, {"outcome": "exception", "cause": type(e).__name__,
-                                    "message": str(e), "wall_time_s": 0.0})
-                    f.release()
-                # Watchdog: a run past the timeout gets its worker killed (recorded as a
-                # timeout when its KilledWorker arrives).
+        for spec in specs:
+            submit(spec)
+        last_progress, started = time.time(), set()
+        while pending:
+            finished = [f for f in pending if f.done()]
+            if not finished:
+                time.sleep(0.5)
                 now = time.time()
-                for run in list(pending.values()):
-                    marker = _marker(out_dir, run)
-                    if (run not in killed and marker and now - marker["time"] > run_timeout
-                            and not (out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()):
-                        killed[run] = f"no result after {run_timeout:.0f} s; worker killed"
-                        try:
-                            os.kill(int(marker["pid"]), 9)
-                        except OSError:
-                            pass
-        finally:
-            client.close()
-            cluster.close()
+                for run in pending.values():
+                    if run not in started and _marker(out_dir, run):
+                        started.add(run)
+                        last_progress = now
+                if now - last_progress > run_timeout + 60.0:
+                    # Nothing started or finished for that long: the harness itself
+                    # is stuck (e.g. workers that cannot take tasks). Give up on the
+                    # rest rather than hang.
+                    for f, run in list(pending.items()):
+                        done(by_spec[run], {"outcome": "timeout", "cause": "harness stall",
+                                            "message": "no run started or finished for "
+                                            f"{now - last_progress:.0f} s",
+                                            "wall_time_s": 0.0})
+                        f.cancel()
+                    pending.clear()
+                    break
+            else:
+                last_progress = time.time()
+            for f in finished:
+                run = pending.pop(f)
+                spec = by_spec[run]
+                marker = _marker(out_dir, run)
+                try:
+                    done(spec, f.result())
+                except distributed.KilledWorker:
+                    if run in killed:
+                        done(spec, {"outcome": "timeout", "cause": "timeout",
+                                    "message": killed[run], "wall_time_s": run_timeout})
+                    elif marker is None and attempts[run] < 3:
+                        submit(spec)  # its worker died before it started: not its fault
+                    else:
+                        wall = time.time() - marker["time"] if marker else 0.0
+                        done(spec, {"outcome": "crashed", "cause": "worker process died",
+                                    "message": "the worker process executing the run "
+                                    f"died (pid {marker and marker['pid']})",
+                                    "wall_time_s": wall,
+                                    "worker_pid": marker and marker["pid"]})
+                except Exception as e:  # noqa: BLE001 - the task raised
+                    done(spec, {"outcome": "exception", "cause": type(e).__name__,
+                                "message": str(e), "wall_time_s": 0.0})
+                f.release()
+            # Watchdog: a run past the timeout gets its worker killed (recorded as a
+            # timeout when its KilledWorker arrives).
+            now = time.time()
+            for run in list(pending.values()):
+                marker = _marker(out_dir, run)
+                if (run not in killed and marker and now - marker["time"] > run_timeout
+                        and not (out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()):
+                    killed[run] = f"no result after {run_timeout:.0f} s; worker killed"
+                    _end_worker(client, marker)
     echo(f"campaign wall time {time.perf_counter() - t_start:.0f} s")
     return [rows[s["run"]] for s in specs]
 
@@ -874,13 +889,15 @@ def write_outputs(rows: list[dict], summary: dict, out_dir) -> None:
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study faults``); returns the exit status."""
+    from manta_drake.cluster import add_cluster_arguments, check_cluster_arguments
+
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=300)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="out/fault_campaign")
-    ap.add_argument("--workers", type=int, default=2,
-                    help="worker processes (0: in this process, no crash isolation)")
+    add_cluster_arguments(ap)  # --workers 0: in this process, without crash isolation
     ap.add_argument("--duration", type=float, default=None,
                     help="every run's duration [s] (default: drawn in [2, 4])")
     ap.add_argument("--run-timeout", type=float, default=600.0,
@@ -894,6 +911,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.runs < 1:
         ap.error("--runs must be >= 1")
+    check_cluster_arguments(args)
     specs = draw_specs(args.runs, args.seed, args.duration)
     for i in args.inject_crash:
         if 0 <= i < len(specs):
@@ -902,10 +920,13 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     (out / "specs.json").write_text(json.dumps(specs, indent=1) + "\n")
     t0 = time.perf_counter()
-    rows = run_campaign(specs, out, workers=args.workers, run_timeout=args.run_timeout)
+    rows = run_campaign(specs, out, workers=args.workers, run_timeout=args.run_timeout,
+                        scheduler=args.scheduler)
     wall = time.perf_counter() - t0
     summary = summarise(rows, wall)
     summary["seed"], summary["workers"] = args.seed, args.workers
+    if args.scheduler:
+        summary["scheduler"] = args.scheduler
     write_outputs(rows, summary, out)
     print()
     print(format_summary(summary))
@@ -923,7 +944,3 @@ def main(argv=None) -> int:
             print(f"check failed: {json.dumps(failures)}", file=sys.stderr)
         return 1
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,11 +1,10 @@
-#!/usr/bin/env python3
-"""The stance behind each reading of the gait matrices (issue 10; docs/stance.md).
+"""The stance behind each reading of the gait matrices (docs/stance.md).
 
 The paper prints the gait matrices of Eqs. (6)-(8) but not the leg-fins' rest sweep
 (Table 2's theta_offset). ``controller.gait_reading`` chooses how the matrices are read:
 ``paper`` (the legged gaits as printed, the swim's right fins mirrored) or ``mirrored`` (each
 right fin mirrors its left partner in every gait, the crab's pitch excepted);
-``robot.fin_sweep_deg`` chooses the sweep. This script answers two questions:
+``robot.fin_sweep_deg`` chooses the sweep. This study answers two questions:
 
 1. Kinematics (Eq. 1, no simulation): with the fins at the trot's stance (X_gait), where do
    the two support diagonals pass relative to the CG, for each reading and sweep? And how
@@ -16,8 +15,8 @@ right fin mirrors its left partner in every gait, the crab's pitch excepted);
 
 Usage:
     manta-drake sweep diagrams/sweeps/stance.yaml --out out/stance
-    python scripts/stance_study.py --sweep-out out/stance
-    python scripts/stance_study.py            # from the shipped table, no simulation
+    manta-drake study stance --sweep-out out/stance
+    manta-drake study stance            # from the shipped table, no simulation
 
 ``--sweep-out`` also writes the dynamics table to ``--table`` (shipped as
 diagrams/sweeps/data/stance_table.csv). Writes the markdown block between
@@ -30,7 +29,6 @@ from __future__ import annotations
 import argparse
 import csv
 import pathlib
-import sys
 
 import numpy as np
 
@@ -38,8 +36,8 @@ from manta_drake.control.gaits import get_gait
 from manta_drake.model.kinematics import fin_tips_xy, support_diagonal_offsets
 from manta_drake.model.robot_params import robot_with_fin_sweep_deg
 from manta_drake.scenario import load_scenario
+from manta_drake.studies import REPO as ROOT
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
 MARK_BEGIN = "<!-- stance-study:begin -->"
 MARK_END = "<!-- stance-study:end -->"
 READINGS = ("paper", "mirrored")
@@ -231,15 +229,16 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
     fig.savefig(path, dpi=120)
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study stance``); returns the exit status."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--sweep-out", type=pathlib.Path,
                         help="output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`")
     parser.add_argument("--table", type=pathlib.Path,
                         default=ROOT / "diagrams/sweeps/data/stance_table.csv")
     parser.add_argument("--out-md", type=pathlib.Path, default=ROOT / "docs/stance.md")
     parser.add_argument("--out-fig", type=pathlib.Path, default=ROOT / "docs/figures/stance.png")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.sweep_out is not None:
         if not (args.sweep_out / "results.csv").exists():
             parser.error(f"--sweep-out: no results.csv in {args.sweep_out}")
@@ -260,7 +259,3 @@ def main() -> int:
     plot(dyn, args.out_fig)
     print(f"wrote {args.out_md} and {args.out_fig}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

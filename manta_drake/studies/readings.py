@@ -1,10 +1,11 @@
-#!/usr/bin/env python3
-"""The printed gait matrices under different readings of their signs and row order (issue 10).
+"""The printed gait matrices under different readings of their signs and row order.
 
 Eqs. (6)-(8) cannot all be read with one sign convention (docs/design.md, section 6 (c)).
-This script runs every locomotion scenario (12 s, mean over 6-12 s, free water) with the
-gait library replaced by one reading at a time, so the choice in ``gaits.py`` rests on
-numbers:
+This study runs every locomotion scenario (12 s, mean over 6-12 s, free water) with its
+gait and stance taken from one reading at a time, so the choice in ``gaits.py`` rests on
+numbers. A reading is data (``READINGS``: a gait name to its ``GaitParams``, built from the
+package's library, which is read and never changed); each run starts from a context that
+holds the reading's gait (``explicit_gait``):
 
 * ``printed``: every matrix exactly as printed, rows fl, fr, rl, rr (``swim_printed`` for
   the swim);
@@ -18,7 +19,7 @@ numbers:
   images;
 * ``swim_no_lag``: the shipped swim with Phi'_swim set to zero (no left-right lag).
 
-Usage: python scripts/gait_readings.py [--out out/gait_readings] [--duration 12]
+Usage: manta-drake study readings [--out out/gait_readings] [--duration 12]
        [--readings printed,shipped,...] [--gaits swim,trot,...] [--fin-sweep DEG]
 Prints a markdown table (u, v, yaw rate over the window; wall clearance) and writes it to
 OUT/readings.md, with a figure of the swims' paths (OUT/swim_paths.png).
@@ -27,23 +28,26 @@ OUT/readings.md, with a figure of the swims' paths (OUT/swim_paths.png).
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
-import sys
 
 import numpy as np
 
 import manta_drake.control.gaits as G
 from manta_drake.scenario import load_scenario
-from manta_drake.simulate import run
+from manta_drake.studies.explicit_gait import run_with_gait
 
 GAITS = ("swim", "trot", "walk", "crab", "turning")
-SHIPPED = {name: G.GAITS[name] for name in G.GAITS}
 LEFT_FIRST = [0, 2, 1, 3]  # our row (fl, fr, rl, rr) <- printed row, when rows are fl, rl, fr, rr
 
 
+def shipped(name: str) -> G.GaitParams:
+    """The gait ``name`` of the package's default reading (``controller.gait_reading: paper``)."""
+    return G.get_gait(name, "paper")
+
+
 def printed(name: str) -> G.GaitParams:
-    return SHIPPED["swim_printed" if name == "swim" else name]
+    """The gait ``name`` exactly as printed (``<name>_printed``)."""
+    return G.get_gait(f"{name}_printed", "paper")
 
 
 def mirrored(g: G.GaitParams, from_left: bool) -> G.GaitParams:
@@ -57,6 +61,7 @@ def mirrored(g: G.GaitParams, from_left: bool) -> G.GaitParams:
 
 
 def left_first(g: G.GaitParams) -> G.GaitParams:
+    """``g`` with its rows read as fl, rl, fr, rr and the right fins mirror-built."""
     p = LEFT_FIRST
     R, X = g.R[p].copy(), g.X[p].copy()
     R[list(G.RIGHT_LEGS)] *= G.MIRROR_SIGNS
@@ -64,40 +69,44 @@ def left_first(g: G.GaitParams) -> G.GaitParams:
     return G.GaitParams(R, X, g.Phi[p], g.Phi_prime[np.ix_(p, p)])
 
 
+# reading -> (gait name -> the gait under that reading)
 READINGS = {
     "printed": printed,
-    "shipped": lambda name: SHIPPED[name],
+    "shipped": shipped,
     "mirror_left": lambda name: mirrored(printed(name), True),
     "mirror_right": lambda name: mirrored(printed(name), False),
     "left_first": lambda name: left_first(printed(name)),
-    "swim_no_lag": lambda name: G.GaitParams(SHIPPED["swim"].R, SHIPPED["swim"].X,
-                                             SHIPPED["swim"].Phi, np.zeros((4, 4)))
-    if name == "swim" else SHIPPED[name],
+    "swim_no_lag": lambda name: G.GaitParams(shipped("swim").R, shipped("swim").X,
+                                             shipped("swim").Phi, np.zeros((4, 4)))
+    if name == "swim" else shipped(name),
 }
 
 
 def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float,
-                fin_sweep_deg: float | None = None) -> dict:
-    """One locomotion scenario with the gait library of ``reading`` (and the fins' rest sweep
-    ``fin_sweep_deg``, the scenario's own if None); its metrics."""
-    for name in GAITS:
-        G.GAITS[name] = READINGS[reading](name)
-    try:
-        s = load_scenario(f"locomotion_{gait}")
-        s.visualization.meshcat = False
-        s.duration = duration
-        s.steady_after = duration / 2
-        if fin_sweep_deg is not None:
-            s.robot.fin_sweep_deg = fin_sweep_deg
-        s.validate()
-        run(s, out, progress=False)
-    finally:
-        G.GAITS.update(SHIPPED)
-    return json.loads((out / "metrics.json").read_text())
+                fin_sweep_deg: float | None = None, readings=READINGS) -> dict:
+    """One locomotion scenario with its gait and stance under ``reading`` (and the fins'
+    rest sweep ``fin_sweep_deg``, the scenario's own if None); its metrics.
+
+    Args:
+        reading: a key of ``readings``.
+        gait: one of ``GAITS`` (the scenario ``locomotion_<gait>``).
+        out: the run's output folder.
+        duration: the run's duration [s]; the means are over its second half.
+        fin_sweep_deg: ``robot.fin_sweep_deg`` of the run (None: the scenario's).
+        readings: reading -> (gait name -> GaitParams).
+    """
+    overrides = {"visualization.meshcat": False, "duration": duration,
+                 "steady_after": duration / 2}
+    if fin_sweep_deg is not None:
+        overrides["robot.fin_sweep_deg"] = fin_sweep_deg
+    s = load_scenario(f"locomotion_{gait}", overrides=overrides)
+    # The locomotion scenarios start in the stance of the gait they run.
+    return run_with_gait(s, readings[reading](gait), out, gait_name=f"{gait}, {reading}")
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study readings``); returns the exit status."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/gait_readings"))
     parser.add_argument("--duration", type=float, default=12.0)
     parser.add_argument("--readings", default=",".join(READINGS))
@@ -105,7 +114,7 @@ def main() -> int:
     parser.add_argument("--fin-sweep", type=float, default=None, metavar="DEG",
                         help="robot.fin_sweep_deg of every run (default: the scenario's, 10); "
                              "docs/stance.md balances each reading's stance")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     readings, gaits = args.readings.split(","), args.gaits.split(",")
     for r in readings:
         if r not in READINGS:
@@ -126,7 +135,7 @@ def main() -> int:
             print("%-13s %-8s u %+.3f  v %+.3f m/s  yaw %+6.2f deg/s  clearance %.2f m"
                   % row, flush=True)
     w0, w1 = args.duration / 2, args.duration
-    table = [f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`python scripts/gait_readings.py"
+    table = [f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`manta-drake study readings"
              f" --duration {w1:g}`):", "",
              "| reading | gait | u m/s | v m/s | yaw rate deg/s | min wall clearance m |",
              "| --- | --- | --- | --- | --- | --- |"]
@@ -156,7 +165,3 @@ def main() -> int:
         fig.savefig(args.out / "swim_paths.png", dpi=120)
         print(f"figure: {args.out / 'swim_paths.png'}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

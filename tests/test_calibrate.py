@@ -9,8 +9,9 @@ import pytest
 import yaml
 
 from manta_drake import calibrate as C
+from manta_drake.cluster import dask_client
 from manta_drake.model.coefficients import load_coefficients
-from manta_drake.sweep import SweepError, dask_client
+from manta_drake.sweep import SweepError
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SWEEPS = ROOT / "diagrams" / "sweeps"

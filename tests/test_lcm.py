@@ -107,6 +107,16 @@ def test_project_lcmtypes_are_generated_from_their_sources(tmp_path):
         assert committed.read_text() == path.read_text(), f"{committed.name} is out of date"
 
 
+def test_the_old_module_name_gives_the_seams_objects():
+    """``manta_drake.lcm_seam`` (kept for one release) names what ``manta_drake.seam``
+    exports, as the very same objects."""
+    from manta_drake import lcm_seam
+
+    assert sorted(lcm_seam.__all__) == sorted(seam.__all__)
+    for name in seam.__all__:
+        assert getattr(lcm_seam, name) is getattr(seam, name), name
+
+
 # ---------------------------------------------------------------------------------------
 # The channel table and the schedule
 

@@ -8,7 +8,6 @@ from pydrake.systems.analysis import MonteCarloSimulation, Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake import build_controller, build_diagram, build_station, load_scenario
-from manta_drake.control.cpg import locked_phases
 from manta_drake.control.gaits import GAITS
 from manta_drake.wiring.diagram import connect_by_name
 from manta_drake.model.plant import body_pose
@@ -53,8 +52,13 @@ def test_default_context_is_the_scenario_start():
     transition = h.systems["transition"]
     psi = transition.GetOutputPort("cpg_params").Eval(transition.GetMyContextFromRoot(context))
     np.testing.assert_allclose(psi, GAITS["swim"].to_vector(), atol=1e-12)
-    np.testing.assert_allclose(phi, locked_phases(psi), atol=1e-12)
-    assert np.any(np.abs(phi) > 1.0)
+    # A lock of Eq. (5), read from the CPG's own derivatives: the couplings cancel, so every
+    # oscillator turns at 2 pi f; along each leg-fin phi_{j+1} - phi_j is the gait's Phi[k, j].
+    phi_dot = cpg.EvalTimeDerivatives(cpg.GetMyContextFromRoot(context)).CopyToVector()[:16]
+    np.testing.assert_allclose(phi_dot, 2 * np.pi * s.cpg.frequency_hz, rtol=0, atol=1e-6)
+    chain = np.diff(phi.reshape(4, 4), axis=1) - GAITS["swim"].Phi[:, :-1]
+    np.testing.assert_allclose(np.angle(np.exp(1j * chain)), 0.0, atol=1e-12)
+    assert phi[0] == 0.0 and np.any(np.abs(phi) > 1.0)  # leg 1's base at 0; not in phase
     np.testing.assert_array_equal(r, 0.0)
     np.testing.assert_allclose(chi, q)
     # and the balloon is full, the depth estimate at the initial head depth

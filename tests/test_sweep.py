@@ -1,6 +1,7 @@
 """Sweeps (manta_drake.sweep): the file format, the pure helpers, and runs on a Dask
 LocalCluster against the same runs in series."""
 
+import hashlib
 import json
 import pathlib
 
@@ -9,6 +10,7 @@ import pytest
 
 from manta_drake import sweep as S
 from manta_drake.model.coefficients import load_coefficients, scale_coefficients
+from manta_drake.model.robot_params import DEFAULT_ROBOT, NUM_LEGS
 from manta_drake.scenario import ScenarioError, load_scenario
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -37,15 +39,34 @@ def test_hull_scale_for_net_weight_closed_form():
         S.hull_scale_for_net_weight(float("nan"), 8.4, 1000.0, 0.005, 0.0025)
 
 
+def _net_weight_by_hand(coeffs, robot=DEFAULT_ROBOT) -> float:
+    """W = M - rho V with the sealed volume V added up from the robot's parts, apart from the
+    water model: the hull ellipsoid 4/3 pi abc, two servo cases per leg-fin, and the two fin
+    plates of each leg-fin (thickness x chord x span)."""
+    a, b, c = coeffs.body.sealed_semi_axes.value
+    hull = 4.0 / 3.0 * np.pi * a * b * c
+    servos = 2 * NUM_LEGS * coeffs.links.servo_volume.value
+    plates = NUM_LEGS * robot.fin_thickness * (robot.proximal_chord * robot.d3
+                                               + robot.distal_chord * robot.dE)
+    return robot.total_mass - coeffs.water_density.value * (hull + servos + plates)
+
+
 @pytest.mark.parametrize("target", [0.6, 0.85, 1.1])
-def test_net_weight_scales_give_the_target_in_the_water_model(target):
+def test_net_weight_scales_give_the_target_weight_of_the_robots_volumes(target):
     coeffs = load_coefficients()
-    assert S.deflated_net_weight_kg(coeffs) == pytest.approx(0.844, abs=0.002)  # the model's
+    assert _net_weight_by_hand(coeffs) == pytest.approx(0.844, abs=0.002)  # the shipped robot
+    # The water model's volume elements hold the same volume as the parts.
+    assert S.deflated_net_weight_kg(coeffs) == pytest.approx(_net_weight_by_hand(coeffs),
+                                                             abs=1e-9)
     scales = S.net_weight_scales(target, coeffs)
     scaled = scale_coefficients(coeffs, scales)
-    # Measured on the volume elements the buoyancy really integrates (build_elements).
-    assert S.deflated_net_weight_kg(scaled) == pytest.approx(target, abs=1e-9)
-    # The documented sealed volume stays the hull ellipsoid's volume.
+    assert _net_weight_by_hand(scaled) == pytest.approx(target, abs=1e-9)
+    # The hull keeps its shape (every semi-axis times s) and the documented sealed volume
+    # stays the ellipsoid's (times s^3).
+    s = scales["body.sealed_semi_axes"]
+    np.testing.assert_allclose(scaled.body.sealed_semi_axes.value,
+                               s * np.asarray(coeffs.body.sealed_semi_axes.value), rtol=1e-12)
+    assert scales["body.sealed_volume"] == pytest.approx(s**3, rel=1e-12)
     a, b, c = scaled.body.sealed_semi_axes.value
     assert scaled.body.sealed_volume.value == pytest.approx(4 / 3 * np.pi * a * b * c, rel=1e-5)
 
@@ -106,8 +127,15 @@ def test_run_id_is_deterministic_and_order_free():
     assert a != S.make_run_id("locomotion_swim", {"contact.friction": 0.5, "duration": 2.0}, 4)
     assert a != S.make_run_id("locomotion_swim", {"contact.friction": 0.6, "duration": 2.0}, 3)
     assert a != S.make_run_id("locomotion_walk", {"contact.friction": 0.5, "duration": 2.0}, 3)
-    # Fixed by the payload: a change of the hash or the encoding would break restarts.
-    assert S.make_run_id("stand", {}, 0) == S.make_run_id("stand", {}, 0)
+    # The digest is SHA-256 of the canonical JSON of (base, overrides, seed), computed here
+    # from that definition, and pinned: a change of the hash or the encoding breaks restarts.
+    payload = json.dumps({"base": "stand", "overrides": {"duration": 2.0}, "seed": 0},
+                         sort_keys=True, separators=(",", ":"))
+    digest = hashlib.sha256(payload.encode()).hexdigest()[:10]
+    assert S.make_run_id("stand", {"duration": 2.0}, 0) == f"stand-s0-{digest}" == \
+        "stand-s0-0d8e1927df"
+    # A base given as a path is named by its stem.
+    assert S.make_run_id("diagrams/my swim.yaml", {}, 1).startswith("my_swim-s1-")
 
 
 def test_parameter_sets_grid_rows_random():
@@ -270,6 +298,8 @@ def test_any_exception_is_a_record_not_a_raise():
 
 
 def test_restart_skips_done_runs(tmp_path, monkeypatch):
+    from manta_drake.sweep import runner
+
     calls = []
     real = S.simulate_run
 
@@ -277,7 +307,7 @@ def test_restart_skips_done_runs(tmp_path, monkeypatch):
         calls.append(text)
         return real(text)
 
-    monkeypatch.setattr(S, "simulate_run", counting)
+    monkeypatch.setattr(runner, "simulate_run", counting)  # what run_sweep calls
     text = ("base: stand\nfixed: {duration: 0.2}\ngrid: {contact.friction: [0.5, 0.8]}\n")
     out = tmp_path / "out"
     first = S.run_sweep(S.load_sweep(write(tmp_path / "s.yaml", text)), out, progress=False)

@@ -1,0 +1,107 @@
+"""A calibration's ``calibration.png``: each experiment measured against simulated before
+and after, and the cost and parameters at every evaluation."""
+
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+
+from manta_drake.calibrate.config import CalibrationConfig
+from manta_drake.calibrate.evaluator import Evaluator
+from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured
+from manta_drake.calibrate.results import CalibrationResult
+
+
+def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
+                             evaluator: Evaluator, initial: dict, final: dict,
+                             result: CalibrationResult) -> pathlib.Path:
+    """calibration.png: per experiment the measured trajectory (or targets) against the
+    simulated ones before and after; the last row the cost and parameters per evaluation."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(config.experiments)
+    fig, axes = plt.subplots(n + 1, 3, figsize=(12, 3.0 * (n + 1)), squeeze=False)
+    styles = (("initial", initial, dict(color="tab:orange", ls="--")),
+              ("calibrated", final, dict(color="tab:blue")))
+    for row, e in enumerate(config.experiments):
+        ax_path, ax_z, ax_yaw = axes[row]
+        if e.measured:
+            full = load_measured(config.folder / e.measured, [c for c in TRAJECTORY_COLUMNS
+                                 if c in _header(config.folder / e.measured)])
+            if "x" in full and "y" in full:
+                ax_path.plot(full["x"], full["y"], "k.", ms=3, label="measured")
+            if "z" in full:
+                ax_z.plot(full["t"], full["z"], "k.", ms=3, label="measured")
+            if "yaw" in full:
+                ax_yaw.plot(full["t"], np.degrees(full["yaw"]), "k.", ms=3, label="measured")
+            for label, ev, style in styles:
+                sim = ev["runs"][row]
+                if "t" not in sim:
+                    continue
+                ax_path.plot(sim["x"], sim["y"], label=label, **style)
+                ax_z.plot(sim["t"], sim["z"], label=label, **style)
+                ax_yaw.plot(sim["t"], np.degrees(sim["yaw"]), label=label, **style)
+            ax_path.set(xlabel="x [m]", ylabel="y [m]", title=f"{e.name}: top view")
+            ax_path.axis("equal")
+            ax_z.set(xlabel="t [s]", ylabel="z [m]", title=f"{e.name}: depth")
+            ax_yaw.set(xlabel="t [s]", ylabel="yaw [deg]", title=f"{e.name}: heading")
+        else:
+            for ax in (ax_z, ax_yaw):
+                ax.axis("off")
+        if e.target:
+            ax = ax_path if not e.measured else ax_yaw.twinx()
+            keys = list(e.target)
+            pos = np.arange(len(keys))
+            ax.bar(pos - 0.25, [e.target[k] for k in keys], 0.25, color="k", label="target")
+            for k, (label, ev, style) in enumerate(styles):
+                ax.bar(pos + 0.25 * k, [ev["runs"][row].get(key, math.nan) for key in keys],
+                       0.25, color=style["color"], label=label)
+            ax.set_xticks(pos, keys)
+            ax.set_title(f"{e.name}: targets")
+        for ax in axes[row]:
+            if ax.has_data():
+                ax.grid(alpha=0.3)
+        axes[row, 0].legend(fontsize=7)
+    ax_cost, ax_x, ax_text = axes[n]
+    hist = evaluator.history
+    centres = [h for h in hist if h["kind"] == "point"]
+    ax_cost.semilogy([h["evaluation"] for h in centres], [h["cost"] for h in centres], "o-",
+                     ms=3)
+    ax_cost.set(xlabel="evaluation", ylabel="cost (1/2 sum of squared scores)",
+                title="cost at the optimiser's points")
+    for i, name in enumerate(result.names):
+        line, = ax_x.plot([h["evaluation"] for h in centres], [h["x"][i] for h in centres],
+                          "o-", ms=3, label=name)
+        ax_x.plot([h["evaluation"] for h in hist if h["kind"] != "point"],
+                  [h["x"][i] for h in hist if h["kind"] != "point"], ".", ms=3, alpha=0.5,
+                  color=line.get_color())
+    ax_x.set(xlabel="evaluation", ylabel="factor",
+             title="parameters (dots: finite-difference points)")
+    ax_x.legend(fontsize=7)
+    for ax in (ax_cost, ax_x):
+        ax.grid(alpha=0.3)
+    ax_text.axis("off")
+    lines = [f"{name}: {x0:.3f} -> {x:.3f} +- {se:.3f}" for name, x0, x, se in
+             zip(result.names, result.x0, result.x, result.standard_error)]
+    lines += [f"cost {result.initial_cost:.4g} -> {result.cost:.4g}",
+              f"{result.evaluations} points, {result.simulations} simulations",
+              f"{result.wall_time_s:.0f} s wall"]
+    ax_text.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=9)
+    fig.suptitle(f"calibration {config.name}", x=0.02, ha="left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _header(path) -> tuple:
+    with open(path) as f:
+        for line in f:
+            if not line.startswith("#"):
+                return tuple(c.strip() for c in line.split(","))
+    return ()

@@ -1,0 +1,141 @@
+"""Reading a calibration file: ``load_calibration`` checks its names, ranges, coefficients,
+scenarios and measured files before any simulation."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+import pathlib
+
+from manta_drake.calibrate.config import (
+    TARGET_KEYS,
+    CalibrationConfig,
+    CalibrationParameter,
+    Experiment,
+    OptimizerConfig,
+    Sigma,
+)
+from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured
+from manta_drake.calibrate.scenarios import base_scenario
+from manta_drake.model import resolve_path
+from manta_drake.model.coefficients import load_coefficients
+from manta_drake.scenario import ScenarioError, coefficient_names
+from manta_drake.sweep.config import (
+    SweepError,
+    check_config_keys,
+    check_parameter_name,
+    read_yaml_mapping,
+)
+
+
+def load_calibration(path, require_data: bool = True) -> CalibrationConfig:
+    """Loads and checks a calibration file and its measured CSVs; simulates nothing.
+
+    Args:
+        path: the calibration YAML file.
+        require_data: check the measured CSVs (False: they may not exist yet, as when
+            ``synthesize_measurements`` is about to make them).
+
+    Raises:
+        SweepError: an unknown key, a wrong type or range, a coefficient or scenario key that
+            does not exist, or a measured file that is missing or malformed; the message
+            names the path in the file (``calibration.experiments[0].measured``).
+    """
+    path = pathlib.Path(path)
+    data = read_yaml_mapping(path, "calibration")
+    check_config_keys(data, CalibrationConfig, "calibration")
+    config = CalibrationConfig(
+        name=data.get("name") or path.stem,
+        description=data.get("description", ""),
+        coefficients=data.get("coefficients", CalibrationConfig.coefficients),
+        seed=data.get("seed", 0),
+        parameters=[CalibrationParameter(**p) for p in data.get("parameters") or []],
+        experiments=[Experiment(**e) for e in data.get("experiments") or []],
+        sigma=Sigma(**(data.get("sigma") or {})),
+        optimizer=OptimizerConfig(**(data.get("optimizer") or {})),
+        folder=path.resolve().parent,
+    )
+    validate_calibration(config, require_data)
+    return config
+
+
+def _positive(where: str, value) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise SweepError(f"{where}: {value!r} must be a finite number > 0")
+
+
+def validate_calibration(config: CalibrationConfig, require_data: bool = True) -> None:
+    """Checks names, ranges and files of a calibration (values of overrides per scenario)."""
+    try:
+        load_coefficients(resolve_path(config.coefficients_path()))
+    except ScenarioError as e:
+        raise SweepError(f"calibration.coefficients: {e}") from None
+    if not 0 <= config.seed < 2**32:
+        raise SweepError(f"calibration.seed: {config.seed} is outside [0, 2^32)")
+    if not config.parameters:
+        raise SweepError("calibration.parameters: name at least one parameter")
+    seen_params, seen_coeffs = set(), {}
+    for i, p in enumerate(config.parameters):
+        where = f"calibration.parameters[{i}]"
+        if not p.name or p.name in seen_params:
+            raise SweepError(f"{where}.name: {p.name!r} is empty or used twice")
+        seen_params.add(p.name)
+        if not p.coefficients:
+            raise SweepError(f"{where}.coefficients: name at least one coefficient")
+        for c in p.coefficients:
+            if c not in coefficient_names():
+                raise SweepError(f"{where}.coefficients: unknown coefficient {c!r}; allowed: "
+                                 f"{', '.join(coefficient_names())}")
+            if c in seen_coeffs:
+                raise SweepError(f"{where}.coefficients: {c} is also fitted by "
+                                 f"{seen_coeffs[c]}")
+            seen_coeffs[c] = p.name
+        if len(p.bounds) != 2 or not 0 <= p.bounds[0] < p.bounds[1] \
+                or not math.isfinite(p.bounds[1]):
+            raise SweepError(f"{where}.bounds: expected [low, high] with 0 <= low < high, "
+                             f"got {p.bounds}")
+        if not p.bounds[0] < p.initial < p.bounds[1]:
+            raise SweepError(f"{where}.initial: {p.initial} must be strictly inside the "
+                             f"bounds {p.bounds}")
+    if not config.experiments:
+        raise SweepError("calibration.experiments: name at least one experiment")
+    names = set()
+    for i, e in enumerate(config.experiments):
+        where = f"calibration.experiments[{i}]"
+        if not e.name or e.name in names:
+            raise SweepError(f"{where}.name: {e.name!r} is empty or used twice")
+        names.add(e.name)
+        try:
+            base_scenario(config.folder, e.scenario)
+        except ScenarioError as err:
+            raise SweepError(f"{where}.scenario: {err}") from None
+        for key in e.overrides:
+            check_parameter_name(key, {}, f"{where}.overrides.{key}")
+            if key in ("random_seed", "water.coefficients"):
+                raise SweepError(f"{where}.overrides.{key}: set by the calibration file "
+                                 "(seed, coefficients)")
+        if not e.measured and not e.target:
+            raise SweepError(f"{where}: give `measured` (a CSV) or `target` (mean velocities)")
+        if e.measured:
+            bad = [c for c in e.columns if c not in TRAJECTORY_COLUMNS]
+            if bad or not e.columns:
+                raise SweepError(f"{where}.columns: {e.columns} must be some of "
+                                 f"{', '.join(TRAJECTORY_COLUMNS)}")
+            if require_data:
+                load_measured(config.folder / e.measured, e.columns, f"{where}.measured")
+        for key in e.target:
+            if key not in TARGET_KEYS:
+                raise SweepError(f"{where}.target.{key}: not one of {', '.join(TARGET_KEYS)}")
+        _positive(f"{where}.weight", e.weight)
+    for f in dc.fields(Sigma):
+        _positive(f"calibration.sigma.{f.name}", getattr(config.sigma, f.name))
+    o = config.optimizer
+    if o.method not in ("trf", "dogbox"):
+        raise SweepError(f"calibration.optimizer.method: {o.method!r} is not one of trf, dogbox")
+    if o.max_evaluations < 1:
+        raise SweepError(f"calibration.optimizer.max_evaluations: {o.max_evaluations} must be "
+                         ">= 1")
+    if not 0 < o.diff_step < 0.5:
+        raise SweepError(f"calibration.optimizer.diff_step: {o.diff_step} must be in (0, 0.5)")
+    for name in ("xtol", "ftol", "gtol"):
+        _positive(f"calibration.optimizer.{name}", getattr(o, name))

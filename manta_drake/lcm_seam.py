@@ -1,0 +1,61 @@
+"""The old name of ``manta_drake.seam`` (the station and the controller over LCM).
+
+Kept importable for one release: ``from manta_drake import lcm_seam`` still gives the
+seam's public names. New code imports ``manta_drake.seam``.
+"""
+
+from manta_drake.seam import (
+    CHANNEL_BY_NAME,
+    CHANNELS,
+    CLOCK,
+    CODECS,
+    DEFAULT_STARTUP_TIMEOUT_S,
+    DEFAULT_TIMEOUT_S,
+    DEFAULT_URL,
+    MAX_LEAD_STEPS,
+    QUEUE_CAPACITY,
+    RESEND_PERIOD_S,
+    STALE_AFTER_S,
+    Channel,
+    Codec,
+    Exchange,
+    Link,
+    PlantStepTick,
+    SeamError,
+    SeamResult,
+    add_controller_parser,
+    add_station_parser,
+    channel_table_markdown,
+    controller_channels,
+    controller_main,
+    controller_with_tick,
+    depth_image_from_message,
+    depth_image_message,
+    exchange_schedule,
+    has_feedthrough,
+    initial_commands,
+    joint_state_from_message,
+    joint_state_message,
+    pose_from_message,
+    pose_message,
+    run_controller,
+    run_station,
+    sample_times,
+    station_channels,
+    station_main,
+    to_utime,
+    vector_from_message,
+    vector_message,
+)
+
+__all__ = [
+    "CHANNEL_BY_NAME", "CHANNELS", "CLOCK", "CODECS", "DEFAULT_STARTUP_TIMEOUT_S",
+    "DEFAULT_TIMEOUT_S", "DEFAULT_URL", "MAX_LEAD_STEPS", "QUEUE_CAPACITY", "RESEND_PERIOD_S",
+    "STALE_AFTER_S", "Channel", "Codec", "Exchange", "Link", "PlantStepTick", "SeamError",
+    "SeamResult", "add_controller_parser", "add_station_parser", "channel_table_markdown",
+    "controller_channels", "controller_main", "controller_with_tick",
+    "depth_image_from_message", "depth_image_message", "exchange_schedule", "has_feedthrough",
+    "initial_commands", "joint_state_from_message", "joint_state_message", "pose_from_message",
+    "pose_message", "run_controller", "run_station", "sample_times", "station_channels",
+    "station_main", "to_utime", "vector_from_message", "vector_message",
+]

@@ -1,0 +1,105 @@
+"""The channel table: the one place that says what crosses the seam, in which message type
+and how often (``CHANNELS``; docs/lcm.md prints it), which channels each side sends and
+reads, and how a received message reaches its input port."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+from collections.abc import Callable
+
+from manta_drake.seam.messages import CODECS
+
+
+@dc.dataclass(frozen=True)
+class Channel:
+    """One LCM channel of the seam.
+
+    Attributes:
+        name: the LCM channel.
+        port: the station's and the controller's port of that name.
+        sender: "station" (a sensor) or "controller" (a command).
+        codec: a key of ``CODECS``.
+        period: the scenario -> the publishing period [s]: the period of the periodic
+            event that reads it on the other side (a sensor's value between those
+            events is never read), or the plant step.
+        period_text: ``period`` for people (docs/lcm.md).
+        clock: the lockstep clock: published at every plant step; the controller
+            reads none of its values but its stamps (how far ahead it may run), and
+            waits for it at t = 0 (the station is there).
+        what: one line for the docs.
+    """
+
+    name: str
+    port: str
+    sender: str
+    codec: str
+    period: Callable
+    period_text: str
+    what: str
+    clock: bool = False
+
+    @property
+    def lcm_type(self) -> type:
+        return CODECS[self.codec].lcm_type
+
+
+CHANNELS = (
+    Channel("MANTA_MEASURED_JOINT_STATE", "measured_joint_state", "station", "joint_state",
+            lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
+            "the 16 servos' angles [rad] and rates [rad/s]; the lockstep clock", clock=True),
+    Channel("MANTA_DEPTH", "depth", "station", "vector",
+            lambda s: 1.0 / s.pressure_sensor.rate_hz, "1 / `pressure_sensor.rate_hz` (20 ms)",
+            "pressure depth [m] below the surface (1 value, NaN on a dropout); water on"),
+    Channel("MANTA_DEPTH_IMAGE", "depth_image", "station", "depth_image",
+            lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
+            "the head camera's noisy depth image [m], float32; camera on"),
+    Channel("MANTA_CAMERA_POSE", "camera_pose", "station", "pose",
+            lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
+            "the camera's pose X_WC (on the robot: IMU attitude + pressure depth); camera on"),
+    Channel("MANTA_BALLOON_VOLUME", "balloon_volume", "station", "vector",
+            lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
+            "balloon volume [m^3], for monitoring (the controller reads none); water on"),
+    Channel("MANTA_DESIRED_JOINT_STATE", "desired_state", "controller", "joint_state",
+            lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
+            "the servos' desired angles [rad] and rates [rad/s] (their PD's set point)"),
+    Channel("MANTA_BALLOON_COMMAND", "balloon_command", "controller", "vector",
+            lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
+            "balloon fill command in [0, 1] (1 value); the station reads it with water on"),
+)
+CHANNEL_BY_NAME = {c.name: c for c in CHANNELS}
+CLOCK = next(c for c in CHANNELS if c.clock)
+
+
+def channel_table_markdown() -> str:
+    """``CHANNELS`` as a Markdown table (docs/lcm.md holds this text; a test checks)."""
+    rows = ["| channel | port | from | message type | period | what |",
+            "| --- | --- | --- | --- | --- | --- |"]
+    for c in CHANNELS:
+        module = c.lcm_type.__module__.rsplit(".", 1)[0]  # the package a driver imports
+        rows.append(f"| `{c.name}` | `{c.port}` | {c.sender} | `{module}.{c.lcm_type.__name__}` "
+                    f"| {c.period_text} | {c.what} |")
+    return "\n".join(rows) + "\n"
+
+
+def station_channels(station) -> tuple[list[Channel], list[Channel]]:
+    """(what the station publishes, what it reads): the channels whose port it has."""
+    sends = [c for c in CHANNELS if c.sender == "station" and station.HasOutputPort(c.port)]
+    reads = [c for c in CHANNELS if c.sender == "controller" and station.HasInputPort(c.port)]
+    return sends, reads
+
+
+def controller_channels(controller) -> tuple[list[Channel], list[Channel]]:
+    """(what the controller publishes, what it waits for): its commands, and the sensors
+    it reads plus the clock."""
+    sends = [c for c in CHANNELS if c.sender == "controller" and controller.HasOutputPort(c.port)]
+    reads = [c for c in CHANNELS if c.sender == "station"
+             and (c.clock or controller.HasInputPort(c.port))]
+    return sends, reads
+
+
+def fix_inputs(system, context, got: dict) -> None:
+    """Fixes each received message's value on the system's input port of its channel."""
+    for name, msg in got.items():
+        channel = CHANNEL_BY_NAME[name]
+        if system.HasInputPort(channel.port):
+            system.GetInputPort(channel.port).FixValue(context, CODECS[channel.codec].decode(msg))

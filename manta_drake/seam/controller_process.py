@@ -1,0 +1,247 @@
+"""The controller alone, in its own process (``manta-drake controller``): ``run_controller``
+commands a station (or the robot) over LCM, in lockstep with the station's time or on
+this machine's clock."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from manta_drake.model.robot_params import NUM_JOINTS
+from manta_drake.seam.channels import CLOCK, controller_channels, fix_inputs
+from manta_drake.seam.errors import SeamError, warn
+from manta_drake.seam.link import (
+    DEFAULT_STARTUP_TIMEOUT_S,
+    DEFAULT_TIMEOUT_S,
+    DEFAULT_URL,
+    RESEND_PERIOD_S,
+    STALE_AFTER_S,
+    Link,
+)
+from manta_drake.seam.messages import CODECS, to_utime
+from manta_drake.seam.plant_step_tick import controller_with_tick
+from manta_drake.seam.result import SeamResult
+from manta_drake.seam.schedule import advance_to, exchange_schedule
+from manta_drake.simulate import make_simulator
+from manta_drake.wiring.controller import build_controller
+
+# How far (plant steps) the lockstep controller may run ahead of the station: enough to
+# overlap the two processes' work, few enough messages in flight for the sockets.
+MAX_LEAD_STEPS = 4
+
+
+def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
+                   timeout: float = DEFAULT_TIMEOUT_S,
+                   startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
+                   progress: bool = False) -> SeamResult:
+    """Runs the controller of ``scenario`` alone against a station over LCM.
+
+    Lockstep: at each exchange time tau it publishes its commands for tau (they depend
+    on its state at tau only, not on tau's sensors: ``build_controller`` has no direct
+    feedthrough; with one it would wait first), then waits for the sensors due at tau
+    and fixes them before advancing past tau. So it runs ahead of the station, at most
+    ``MAX_LEAD_STEPS`` plant steps (it watches the station's clock channel), and the
+    station rarely waits.
+
+    Args:
+        scenario: a validated Scenario (the station's).
+        url: the LCM URL (the station's).
+        wall_clock: run on this machine's clock with the latest sensor messages (as on
+            the robot), instead of lockstep with the station's time.
+        timeout: give up after the station has been silent this long [s]; meanwhile the
+            last command is held (re-sent) and stderr says so.
+        startup_timeout: the same for the first message (the station may start later).
+        progress: print the controller's time on stderr every second of it.
+
+    Returns:
+        SeamResult; its log has ``t_command`` and ``commanded_joint_angles`` (the
+        desired angles sent at every plant step) and, where the controller has them,
+        ``cpg_params``, ``z_hat``, ``s_hat``, ``detector_status`` at the same times.
+
+    Raises:
+        SeamError: the station was silent for ``timeout`` s.
+    """
+    controller, _ = build_controller(scenario)
+    controller = controller_with_tick(controller, scenario.time_step)
+    sends, reads = controller_channels(controller)
+    link = Link(url, reads, "controller", lockstep=not wall_clock)
+    simulator = make_simulator(controller, scenario)
+    context = simulator.get_mutable_context()
+    monitors = [p for p in ("cpg_params", "z_hat", "s_hat", "detector_status")
+                if controller.HasOutputPort(p)]
+    log = {"t_command": [], "commanded_joint_angles": [], **{p: [] for p in monitors}}
+    mode = "wall-clock" if wall_clock else "lockstep"
+    state = {"last_t": 0.0}
+
+    def command(t: float) -> None:
+        for channel in sends:
+            value = controller.GetOutputPort(channel.port).Eval(context)
+            link.publish(channel.name, CODECS[channel.codec].encode(t, value), to_utime(t))
+            if channel.port == "desired_state":
+                log["t_command"].append(t)
+                log["commanded_joint_angles"].append(value[:NUM_JOINTS].copy())
+        for p in monitors:
+            log[p].append(controller.GetOutputPort(p).Eval(context).copy())
+        state["last_t"] = t
+
+    def on_stale(waited):
+        warn(f"controller: no message from the station for {waited:.1f} s (last command "
+             f"stamped t = {state['last_t']:.3f} s); holding the last command "
+             f"(gives up after {timeout:g} s)")
+
+    def on_timeout(waited):
+        if link.last_arrival is None:
+            return SeamError(f"controller: nothing from the station within {waited:.1f} s; is "
+                             "`manta-drake station` running with the same scenario, --lcm URL "
+                             "and --wall-clock setting?")
+        return SeamError(f"controller: the station has been silent for {waited:.1f} s "
+                         f"(last command stamped t = {state['last_t']:.3f} s, held until now); "
+                         "stopped")
+
+    if progress:
+        warn(f"controller: {scenario.name}, {mode}, waiting for the station on {url}")
+    if wall_clock:
+        wall_start, exchanges = _controller_wall_clock(
+            scenario, simulator, link, reads, command, timeout, startup_timeout,
+            on_stale, on_timeout, progress)
+        wall = time.monotonic() - wall_start
+    else:
+        exchanges, wall = _controller_lockstep(scenario, simulator, link, sends, reads, command,
+                                               timeout, startup_timeout, on_stale, on_timeout,
+                                               progress)
+        _linger(link)
+    arrays = {k: np.array(v) for k, v in log.items() if len(v)}
+    return SeamResult("controller", mode, url, float(context.get_time()), wall, exchanges,
+                      link.resends, arrays)
+
+
+def has_feedthrough(controller, inputs, outputs) -> bool:
+    """Whether a command port depends directly on a sensor port (then a command for t
+    must wait for t's sensors)."""
+    return any(controller.HasDirectFeedthrough(controller.GetInputPort(i.port).get_index(),
+                                               controller.GetOutputPort(o.port).get_index())
+               for i in inputs if controller.HasInputPort(i.port) for o in outputs)
+
+
+def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeout,
+                         startup_timeout, on_stale, on_timeout, progress):
+    """The controller in lockstep with the station's time (see ``run_controller``).
+    Returns (number of exchanges, wall time from the first exchange)."""
+    controller, context = simulator.get_system(), simulator.get_mutable_context()
+    schedule = exchange_schedule(scenario.duration,
+                                 {c.name: c.period(scenario) for c in sends + reads})
+    inputs = {c.name for c in reads if controller.HasInputPort(c.port)}
+    sending = {c.name for c in sends}
+    wait_first = has_feedthrough(controller, reads, sends)
+    lead = MAX_LEAD_STEPS * to_utime(scenario.time_step)
+    wall_start = None
+    next_progress = 1.0
+
+    def publish(ex) -> None:
+        # Flow control: no further ahead of the station's clock than MAX_LEAD_STEPS.
+        link.wait_for(lambda: True if link.newest.get(CLOCK.name, -1) >= ex.utime - lead
+                      else None, timeout, on_stale, on_timeout)
+        command(ex.time)
+
+    for ex in schedule:
+        first = wall_start is None
+        if not first:
+            advance_to(simulator, ex.time)
+        link.advance_floor(ex.utime)
+        commands_due = any(name in sending for name in ex.channels)
+        if commands_due and not (first or wait_first):
+            publish(ex)
+        wanted = {name: ex.utime for name in ex.channels if name in inputs}
+        if first:  # the station is there: its clock at the start
+            wanted[CLOCK.name] = ex.utime
+        if wanted:
+            got = link.wait_for(lambda wanted=wanted: link.take(wanted),
+                                startup_timeout if first else timeout,
+                                (lambda waited: None) if first else on_stale, on_timeout)
+            fix_inputs(controller, context, got)
+        if first:  # every input has its value now
+            simulator.Initialize()
+            wall_start = time.monotonic()
+        if commands_due and (first or wait_first):
+            publish(ex)
+        if progress and ex.time >= next_progress:
+            warn(f"controller: t = {ex.time:.1f} s")
+            next_progress += 1.0
+    if wall_start is None:
+        return 0, 0.0
+    simulator.AdvanceTo(scenario.duration)
+    return len(schedule), time.monotonic() - wall_start
+
+
+def _linger(link: Link, quiet_s: float = 0.3) -> None:
+    """After the last command: while the station still sends (it re-sends while it waits
+    for a command it did not get), re-send what it may not have; leave once it has
+    been quiet for ``quiet_s``."""
+    deadline = time.monotonic() + quiet_s
+    last_resend = 0.0
+    while time.monotonic() < deadline:
+        if link.poll(20):
+            deadline = time.monotonic() + quiet_s
+            if time.monotonic() - last_resend > RESEND_PERIOD_S:
+                link.resend()
+                last_resend = time.monotonic()
+
+
+def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
+                           startup_timeout, on_stale, on_timeout, progress):
+    """The controller on this machine's clock: latest sensor values, a command after every
+    plant step of its own time; holds (stops, re-sends its last command) while the
+    station is silent. Returns (wall start, number of commands)."""
+    controller, context = simulator.get_system(), simulator.get_mutable_context()
+    h = scenario.time_step
+    start = time.monotonic()
+    latest: dict = {}
+    while len(latest) < len(reads):  # every input once before starting
+        link.poll(50)
+        latest.update({c.name: m for c in reads if (m := link.latest(c.name)) is not None})
+        if time.monotonic() - start > startup_timeout:
+            missing = sorted(c.name for c in reads if c.name not in latest)
+            raise SeamError(f"controller: nothing on {', '.join(missing)} within "
+                            f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
+                            "running with the same scenario and --lcm URL?")
+    fix_inputs(controller, context, latest)
+    simulator.Initialize()
+    command(0.0)
+    wall_start = time.monotonic()
+    held_for = 0.0  # wall time spent holding: the controller's clock stops meanwhile
+    k, commands, next_progress = 0, 1, 1.0
+    holding_since = None
+    last_resend = 0.0
+    n_steps = round(scenario.duration / h)
+    while k < n_steps:
+        link.poll(1)
+        fresh = {c.name: m for c in reads if (m := link.latest(c.name)) is not None}
+        fix_inputs(controller, context, fresh)
+        now = time.monotonic()
+        silent = now - link.last_arrival
+        if silent > STALE_AFTER_S:  # hold: stop the clock, re-send the last command
+            if holding_since is None:
+                holding_since = now - silent
+                on_stale(silent)
+            if silent > timeout:
+                raise on_timeout(silent)
+            if now - last_resend > RESEND_PERIOD_S:
+                link.resend()
+                last_resend = now
+            continue
+        if holding_since is not None:
+            warn(f"controller: the station is back after {now - holding_since:.1f} s; resuming")
+            held_for += now - holding_since
+            holding_since = None
+        k_target = min(int((now - wall_start - held_for) / h), n_steps)
+        if k_target > k:
+            k = k_target
+            simulator.AdvanceTo(k * h)
+            link.acknowledge_all()  # re-send (hold) only the newest command
+            command(k * h)
+            commands += 1
+            if progress and k * h >= next_progress:
+                warn(f"controller: t = {k * h:.1f} s")
+                next_progress += 1.0
+    return wall_start, commands

@@ -1,0 +1,138 @@
+"""A sweep's results on disk: each run's folder (``scenario.yaml``, ``log.npz``,
+``metrics.json`` last, so a run is done when it holds a status) and ``results.csv``, one
+row per run with its metrics flattened into scalar cells."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pathlib
+
+from manta_drake.sweep.config import RunSpec
+
+
+def _atomic_write(path: pathlib.Path, data: bytes) -> None:
+    """Writes via a temporary file and a rename, so a file is whole or absent (restarts)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+
+
+def write_run(run_dir: pathlib.Path, spec: RunSpec, outcome: dict) -> dict:
+    """Writes a run's folder (``scenario.yaml``, ``log.npz``, then ``metrics.json``) and
+    returns its metrics record."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if spec.scenario_yaml:
+        (run_dir / "scenario.yaml").write_text(spec.scenario_yaml)
+    if outcome.get("log_npz"):
+        _atomic_write(run_dir / "log.npz", outcome["log_npz"])
+    record = dict(outcome["metrics"])
+    record["run"] = {"run_id": spec.run_id, "base": spec.base, "seed": spec.seed,
+                     "parameters": spec.parameters, "overrides": spec.overrides}
+    _atomic_write(run_dir / "metrics.json", (json.dumps(record, indent=2) + "\n").encode())
+    return record
+
+
+def read_done(run_dir: pathlib.Path) -> dict | None:
+    """A run's metrics record if the run is done (metrics.json with a status), else None."""
+    try:
+        record = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) and record.get("status") else None
+
+
+def format_transitions(transitions) -> str:
+    """Behaviour transitions as one compact cell: ``swim>trot@8.10-16.20;trot>turning@...``."""
+    return ";".join(f"{t['from']}>{t['to']}@{t['start_s']:.2f}-{t['end_s']:.2f}"
+                    for t in transitions or [])
+
+
+NAMED_VECTORS = {
+    "mean_velocity_body": ("u", "v"),
+    "final_body_xyz": ("final_x", "final_y", "final_z"),
+    "final_body_rpy_deg": ("final_roll_deg", "final_pitch_deg", "final_yaw_deg"),
+    "steady_window_s": ("steady_start_s", "steady_end_s"),
+}
+METRIC_COLUMNS = (
+    "u", "v", "yaw_rate_deg_s", "distance_m", "transitions", "sim_time_s", "wall_time_s",
+    "real_time_factor", "max_penetration_m", "max_joint_step_rad", "final_max_joint_error_rad",
+    "final_x", "final_y", "final_z", "final_roll_deg", "final_pitch_deg", "final_yaw_deg",
+    "failure_time_s", "steady_start_s", "steady_end_s",
+)
+
+
+def flatten_metrics(metrics: dict) -> dict:
+    """A run's metrics as scalar table cells.
+
+    Named vectors become named columns (``mean_velocity_body`` -> ``u``, ``v``), other lists
+    ``<name>_<i>``, transitions one compact string, the failure its time; ``scenario``,
+    ``status``, ``reason`` and ``run`` are left out (the table has them elsewhere).
+    """
+    out = {}
+    for key, value in metrics.items():
+        if key in ("scenario", "status", "reason", "run"):
+            continue
+        if key == "transitions":
+            out["transitions"] = format_transitions(value)
+        elif key == "failure":
+            out["failure_time_s"] = value.get("time_s") if isinstance(value, dict) else None
+        elif key in NAMED_VECTORS and value is None:  # e.g. no mean velocity: empty cells
+            out.update(dict.fromkeys(NAMED_VECTORS[key]))
+        elif isinstance(value, (list, tuple)):
+            names = NAMED_VECTORS.get(key) or [f"{key}_{i}" for i in range(len(value))]
+            out.update(zip(names, value))
+        elif isinstance(value, dict):
+            out.update({f"{key}.{k}": v for k, v in value.items()})
+        else:
+            out[key] = value
+    return out
+
+
+def table_rows(specs: list[RunSpec], records: dict) -> tuple[list[str], list[dict]]:
+    """The table's columns and rows (runs with a record, in sweep order)."""
+    params: dict[str, None] = {}
+    for spec in specs:
+        params.update(dict.fromkeys(spec.parameters))
+    rows, extra = [], {}
+    for spec in specs:
+        record = records.get(spec.run_id)
+        if record is None:
+            continue
+        row = {"run_id": spec.run_id, "base": spec.base, "seed": spec.seed, **spec.parameters,
+               "status": record.get("status", ""), "reason": record.get("reason", "")}
+        flat = flatten_metrics(record)
+        row.update(flat)
+        extra.update(dict.fromkeys(k for k in flat if k not in METRIC_COLUMNS))
+        rows.append(row)
+    present = {k for row in rows for k in row}
+    metric_cols = [c for c in METRIC_COLUMNS if c in present] + sorted(extra)
+    return ["run_id", "base", "seed", *params, "status", "reason", *metric_cols], rows
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)  # shortest exact form: tables compare equal across machines
+    if isinstance(value, (list, dict)):
+        return json.dumps(value)
+    return str(value)
+
+
+def write_table(path: pathlib.Path, columns: list[str], rows: list[dict]) -> None:
+    """Writes the results CSV (atomically)."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow([_cell(row.get(c)) for c in columns])
+    _atomic_write(path, buffer.getvalue().encode())
+
+
+def read_table(path) -> list[dict]:
+    """The results CSV as a list of dicts of strings."""
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))

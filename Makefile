@@ -16,7 +16,7 @@ syslibs:
 	@bash scripts/ensure_syslibs.sh
 
 $(STAMP): pyproject.toml
-	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; manta_drake needs Python 3.11" >&2; exit 1; }
+	@$(PYTHON) -c 'import sys; sys.exit(not (3, 11) <= sys.version_info[:2] <= (3, 13))' || { echo "error: $(PYTHON) is not a runnable Python 3.11, 3.12 or 3.13, which manta_drake needs (choose one with PYTHON=..., e.g. make test PYTHON=python3.12)" >&2; exit 1; }
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	@echo "installing manta_drake and its pinned dependencies into $(VENV) ..."
 	@$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test]" 2>&1 | grep -v "is ignored: it is neither" || true

@@ -142,3 +142,106 @@ def behaviour_transitions(t, params, behaviours: dict, tolerance: float = 0.05,
                         "end_s": float(t[i])})
         current, last_index = label, i
     return out
+
+
+# --- energy --------------------------------------------------------------------------------
+
+# Below this speed of travel [m/s] no cost of transport is reported. 5 mm/s is 1.3 % of a
+# body length (0.38 m) per second, 7 cm over a 14 s steady window: the size of the hull's
+# sway within a gait cycle and of a standing robot's settling drift, which the
+# displacement-based mean speed cannot tell from travel; and there P / (m g u) exceeds ~50,
+# a number that says the robot is not going anywhere rather than how dearly.
+MIN_TRANSPORT_SPEED = 0.005
+STANDARD_GRAVITY = 9.81  # m/s^2
+
+
+def _step_integral(t, values, start: float = -np.inf, end: float = np.inf) -> tuple:
+    """(integral, duration) of a logged per-step signal over (start, end]: each sample k >= 1
+    holds the value over (t[k-1], t[k]] (the energy model's outputs are the last step's),
+    so the integral is sum values[k] (t[k] - t[k-1]), exact when the log period is the
+    plant's step."""
+    t = np.asarray(t, dtype=float)
+    values = np.asarray(values, dtype=float).reshape(len(t), -1).sum(axis=1)
+    if len(t) < 2:
+        return 0.0, 0.0
+    dt = np.diff(t)
+    inside = (t[1:] > start) & (t[1:] <= end)
+    return float(np.sum(values[1:][inside] * dt[inside])), float(np.sum(dt[inside]))
+
+
+def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: float,
+                   steady_window=None, mean_velocity=None,
+                   min_speed: float = MIN_TRANSPORT_SPEED,
+                   gravity: float = STANDARD_GRAVITY) -> dict:
+    """The run's ``energy`` block from the logged energy model.
+
+    Args:
+        log: with ``t_electrical_power``, ``electrical_power`` (N, 1) [W],
+            ``t_joint_mechanical_power``, ``joint_mechanical_power`` (N, 16) [W] (tau qdot of
+            the last step per joint) and ``t_battery``, ``battery`` (N, 3) [SoC, V, A].
+        mass: the robot's mass [kg] (the plant's total).
+        usable_energy_wh: the pack's energy between full and the cut-off [Wh].
+        cutoff_soc: the state of charge at which the battery counts as empty.
+        steady_window: [start, end] [s], the free-water steady window of the run's metrics
+            (None: none; no cost of transport).
+        mean_velocity: the mean horizontal velocity [u, v] in the mean-heading frame over
+            that window [m/s]; the speed of travel is its magnitude (so a crab's sideways
+            travel counts).
+        min_speed: below this speed of travel the costs of transport are None, with a note.
+        gravity: [m/s^2].
+
+    Returns:
+        ``mechanical_energy_j`` (integral of sum_j |tau_j qdot_j| over the run),
+        ``electrical_energy_j`` (integral of the electrical power), ``mean_electrical_power_w``
+        (over the run), ``cost_of_transport`` (the window's mean electrical power / (m g u)),
+        ``cost_of_transport_mechanical`` (the window's mean sum |tau qdot| / (m g u)),
+        ``battery_soc_end``, ``operation_time_h`` (usable energy / mean electrical power),
+        and ``steady_electrical_power_w``, ``steady_mechanical_power_w``,
+        ``transport_speed_m_s``, ``battery_cutoff_at_s`` (first time at the cut-off, or
+        None) and ``cost_of_transport_note`` (why a cost of transport is None).
+    """
+    t_p, power = log["t_electrical_power"], log["electrical_power"]
+    t_m, mech = log["t_joint_mechanical_power"], np.abs(log["joint_mechanical_power"])
+    t_b, battery = log["t_battery"], np.asarray(log["battery"], dtype=float)
+    electrical, duration = _step_integral(t_p, power)
+    mechanical, _ = _step_integral(t_m, mech)
+    mean_power = electrical / duration if duration > 0 else None
+    out = {
+        "mechanical_energy_j": mechanical,
+        "electrical_energy_j": electrical,
+        "mean_electrical_power_w": mean_power,
+        "cost_of_transport": None,
+        "cost_of_transport_mechanical": None,
+        "battery_soc_end": float(battery[-1, 0]) if len(battery) else None,
+        "operation_time_h": (usable_energy_wh / mean_power
+                             if mean_power is not None and mean_power > 0 else None),
+        "steady_electrical_power_w": None,
+        "steady_mechanical_power_w": None,
+        "transport_speed_m_s": None,
+        "battery_cutoff_at_s": None,
+        "cost_of_transport_note": None,
+    }
+    empty = np.flatnonzero(battery[:, 0] <= cutoff_soc) if len(battery) else []
+    if len(empty):
+        out["battery_cutoff_at_s"] = float(t_b[empty[0]])
+    if steady_window is None or mean_velocity is None:
+        out["cost_of_transport_note"] = "no steady window (no mean velocity)"
+        return out
+    start, end = steady_window
+    e_steady, t_steady = _step_integral(t_p, power, start, end)
+    m_steady, t_steady_m = _step_integral(t_m, mech, start, end)
+    if t_steady <= 0 or t_steady_m <= 0:
+        out["cost_of_transport_note"] = "no energy samples in the steady window"
+        return out
+    out["steady_electrical_power_w"] = e_steady / t_steady
+    out["steady_mechanical_power_w"] = m_steady / t_steady_m
+    speed = float(np.hypot(*mean_velocity))
+    out["transport_speed_m_s"] = speed
+    if speed < min_speed:
+        out["cost_of_transport_note"] = (f"speed of travel {speed:.4f} m/s is below "
+                                         f"{min_speed} m/s: no cost of transport")
+        return out
+    weight_speed = mass * gravity * speed
+    out["cost_of_transport"] = out["steady_electrical_power_w"] / weight_speed
+    out["cost_of_transport_mechanical"] = out["steady_mechanical_power_w"] / weight_speed
+    return out

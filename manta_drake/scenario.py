@@ -52,6 +52,7 @@ from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS, get_gait
 from manta_drake.control.transition import check_parameters
 from manta_drake.control.vision import WallDetectorParams
 from manta_drake.model import MODELS_DIR, resolve_path
+from manta_drake.model.actuators import load_actuators, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
 from manta_drake.model.start_pose import start_pose_problem
@@ -234,6 +235,25 @@ class CameraConfig:
 
 
 @dc.dataclass
+class ActuatorsConfig:
+    """The energy model: servo power and battery (it applies no force). ``file``:
+    ``package://manta_drake/<file>``, an absolute path, or one relative to the working
+    directory (see manta_drake.model.actuators)."""
+
+    enabled: bool = True
+    file: str = "package://manta_drake/actuators.yaml"
+    # Multipliers of named numeric entries of the file, e.g. {servo.winding_resistance: 1.2}
+    # (see manta_drake.model.actuators.scale_actuators).
+    scales: dict[str, float] = dc.field(default_factory=dict)
+    # The Jetson's power mode, one of the file's electronics.jetson_power modes; None: the
+    # file's electronics.jetson_mode.
+    electronics_mode: str | None = None
+    initial_soc: float = 1.0  # state of charge at t = 0, above the file's cutoff_soc
+    # Stop the run (Simulator termination) once the state of charge reaches cutoff_soc.
+    stop_when_empty: bool = True
+
+
+@dc.dataclass
 class VisualizationConfig:
     """Meshcat recording and logging."""
 
@@ -269,6 +289,7 @@ class Scenario:
     wall_detector: WallDetectorParams = dc.field(default_factory=WallDetectorParams)
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
+    actuators: ActuatorsConfig = dc.field(default_factory=ActuatorsConfig)
     log_period: float = 1e-3  # s, sample period of log.npz
     # Metrics average over t >= steady_after (capped at half the run) ...
     steady_after: float = 2.0
@@ -290,6 +311,30 @@ class Scenario:
         if self.initial_stance == "zero":
             return np.zeros(NUM_JOINTS)
         return get_gait(self.initial_stance, self.controller.gait_reading).X.ravel().copy()
+
+    def _validate_actuators(self) -> None:
+        """The ``actuators`` section: its file loads, its scales apply, its mode exists and
+        the initial charge lies above the file's cut-off."""
+        a = self.actuators
+        check_boolean("actuators.enabled", a.enabled)
+        check_boolean("actuators.stop_when_empty", a.stop_when_empty)
+        check_text("actuators.file", a.file)
+        if not isinstance(a.scales, dict):
+            raise ScenarioError(f"actuators.scales: expected a mapping, got {a.scales!r}")
+        params = load_actuators(resolve_path(a.file), "actuators.file")
+        try:
+            params = scale_actuators(params, a.scales)
+        except ValueError as e:
+            message = str(e)
+            if message.startswith("scales: "):  # a scaled value refused
+                message = "scales." + message[len("scales: "):]
+            raise ScenarioError(f"actuators.{message}") from None
+        modes = tuple(params.electronics.jetson_power.value)
+        if a.electronics_mode is not None:
+            check_one_of("actuators.electronics_mode", a.electronics_mode, modes)
+        cutoff = params.battery.cutoff_soc.value
+        check_in_range("actuators.initial_soc", a.initial_soc, cutoff, 1.0,
+                       f"(cutoff_soc = {cutoff:g}, 1]", open_low=True)
 
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises
@@ -362,6 +407,7 @@ class Scenario:
                 if message.startswith("coefficient_scales: "):  # a scaled value refused
                     message = "coefficient_scales." + message[len("coefficient_scales: "):]
                 raise ScenarioError(f"water.{message}") from None
+        self._validate_actuators()
         check_in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")
         last = -math.inf
         for i, cmd in enumerate(self.balloon.schedule):

@@ -174,6 +174,14 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         n = min(len(log["joint_angles"]), len(log["commanded_joint_angles"]))
         err = log["joint_angles"][:n] - log["commanded_joint_angles"][:n]
         m["final_max_joint_error_rad"] = float(np.abs(err[-1]).max())
+    if "electrical_power" in log:  # the energy model is on (actuators.enabled)
+        from manta_drake.model.actuators import load_energy_model
+
+        a = scenario.actuators
+        pack = load_energy_model(a.file, a.scales, a.electronics_mode).pack
+        m["energy"] = M.energy_metrics(
+            log, scenario.robot_params().total_mass, pack.usable_energy_wh(), pack.cutoff_soc,
+            m.get("steady_window_s"), m.get("mean_velocity_body"))
     return m
 
 

@@ -27,6 +27,10 @@ _LOGGED = (
     ("station", "plant_state", lambda s: s.log_period),
     ("controller", "desired_state", lambda s: s.log_period),
     ("station", "joint_torque", lambda s: s.log_period),
+    # The energy model's signals change at every plant step: logged with the joint state.
+    ("station", "electrical_power", lambda s: s.log_period),
+    ("station", "joint_mechanical_power", lambda s: s.log_period),
+    ("station", "battery", lambda s: s.log_period),
     ("controller", "cpg_params", lambda s: s.transition.period
      if s.controller.mode == "transition" else max(s.log_period, 0.01)),
     ("station", "balloon_volume", lambda s: max(s.log_period, 0.01)),

@@ -16,7 +16,10 @@ station in another process (over LCM) or the robot itself.
     - depth_image (camera on)
     - camera_pose (camera on)
     - measured_joint_state
+    - battery (actuators on)
+    - electrical_power (actuators on)
     - joint_torque
+    - joint_mechanical_power (actuators on)
     - balloon_volume (water on)
     - plant_state
     - query_object
@@ -36,6 +39,11 @@ Outputs, what the robot's sensors give:
   is the IMU attitude and the pressure depth; the detector uses only its height and
   its horizontal viewing direction.
 * ``measured_joint_state`` (32): the servos' angles and rates.
+* ``battery`` (3): [state of charge 0-1, terminal voltage V, current A] of the pack
+  (``Battery``; the run stops when the charge reaches the file's cut-off, see
+  ``actuators.stop_when_empty``).
+* ``electrical_power`` (1) [W]: what the servos and the computers draw (``ServoPower``,
+  parameters in ``models/actuators.yaml``).
 
 and, for logging and visualisation only (a controller must not read them):
 
@@ -44,6 +52,7 @@ and, for logging and visualisation only (a controller must not read them):
   actuation, which includes the implicit PD's contribution (SAP evaluates the PD at the
   step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next), clamped to the effort
   limit), i.e. what the servos deliver, not the PD law at the logged state.
+* ``joint_mechanical_power`` (16) [W]: tau qdot of each joint over the last step.
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
 
@@ -75,10 +84,11 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource
+from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource, ZeroOrderHold
 from pydrake.systems.sensors import RgbdSensor
 
 from manta_drake.model import resolve_path
+from manta_drake.model.actuators import load_energy_model
 from manta_drake.model.camera import camera_info
 from manta_drake.model.coefficients import (
     HydroCoefficients,
@@ -94,11 +104,13 @@ from manta_drake.model.plant import (
     set_contact_friction,
 )
 from manta_drake.scenario import Scenario
+from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
 from manta_drake.station.hydro import HydrodynamicForces
 from manta_drake.station.pressure import PressureSensor
 from manta_drake.station.render_poses import add_camera_scene
+from manta_drake.station.servo_power import ServoPower
 
 
 @dc.dataclass
@@ -207,6 +219,32 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles,
     handles.systems.update(camera=camera, depth_noise=noise)
 
 
+def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
+    """The energy model: the servos' and computers' electrical power and the battery. It
+    reads the plant and applies no force, so the run's motion is the same without it."""
+    a, ph = scenario.actuators, handles.plant_handles
+    model = load_energy_model(a.file, a.scales, a.electronics_mode)
+    n = len(ph.joint_names)
+    # The live net-actuation port gives the torque of the step about to be taken (evaluated
+    # at its end state); held for one step (in C++, no Python call), it meets the joint rate
+    # at that step's end, so tau qdot dt is the step's work.
+    hold = builder.AddNamedSystem("joint_torque_hold", ZeroOrderHold(scenario.time_step, n))
+    builder.Connect(joint_torque_port(ph), hold.get_input_port())
+    servos = builder.AddNamedSystem("servo_power", ServoPower(model.servo,
+                                                              model.electronics_power, n))
+    builder.Connect(hold.get_output_port(), servos.GetInputPort("joint_torque"))
+    builder.Connect(builder.GetSubsystemByName("joint_state_selector").get_output_port(),
+                    servos.GetInputPort("measured_joint_state"))
+    battery = builder.AddNamedSystem("battery", Battery(
+        model.pack, scenario.time_step, a.initial_soc, stop_at_cutoff=a.stop_when_empty))
+    builder.Connect(servos.GetOutputPort("electrical_power"),
+                    battery.GetInputPort("electrical_power"))
+    builder.ExportOutput(servos.GetOutputPort("electrical_power"), "electrical_power")
+    builder.ExportOutput(battery.GetOutputPort("battery"), "battery")
+    builder.ExportOutput(servos.GetOutputPort("joint_mechanical_power"), "joint_mechanical_power")
+    handles.systems.update(joint_torque_hold=hold, servo_power=servos, battery=battery)
+
+
 def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool = True,
                   camera_own_scene: bool = True) -> tuple[Diagram, StationHandles]:
     """Builds the station of ``scenario`` (see the module docstring for its ports).
@@ -253,6 +291,8 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
         _add_water(builder, scenario, handles, hydro_plant_state)
     if scenario.camera.enabled:
         _add_camera(builder, scenario, handles, camera_own_scene)
+    if scenario.actuators.enabled:
+        _add_power(builder, scenario, handles)
     if meshcat is not None:
         params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
         handles.systems["visualizer"] = MeshcatVisualizer.AddToBuilder(

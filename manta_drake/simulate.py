@@ -29,7 +29,7 @@ import time
 
 import numpy as np
 from pydrake.common import RandomGenerator
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorStatus
 from pydrake.systems.framework import Diagram
 from pydrake.systems.primitives import RandomSource
 
@@ -309,14 +309,16 @@ def _write_metrics(out_dir: pathlib.Path, metrics: dict) -> None:
     _write_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2) + "\n")
 
 
-def _start_outputs(scenario: Scenario, out_dir: pathlib.Path) -> None:
+def _start_outputs(scenario: Scenario, out_dir: pathlib.Path,
+                   write_scenario: bool = True) -> None:
     """Removes our own outputs of an earlier run in ``out_dir`` (so no stale recording or
     metrics stays beside this run's) and writes this run's scenario and a ``metrics.json``
     that says it is running: a run killed outright (SIGKILL, power) leaves that story, not
     the previous run's."""
     for name in OUTPUT_FILES:
         (out_dir / name).unlink(missing_ok=True)
-    _write_scenario(scenario, out_dir)
+    if write_scenario:
+        _write_scenario(scenario, out_dir)
     _write_metrics(out_dir, {
         "scenario": scenario.name, "status": "running",
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
@@ -400,7 +402,7 @@ def _signals_deferred():
 
 
 def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True,
-        inputs=()) -> RunResult:
+        inputs=(), prepare=None) -> RunResult:
     """Simulates ``scenario`` and writes its outputs into ``out_dir``.
 
     The folder is checked before anything is built (``check_output_folder``). This
@@ -416,6 +418,10 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         scenario: a validated Scenario.
         out_dir: output folder (created).
         inputs: the files the run was made from (the scenario file): refused as outputs.
+        prepare: a callable ``prepare(handles, context)`` that changes the diagram's default
+            context (the scenario's start) before the run, e.g. a study's gait given as data
+            (``manta_drake.studies.explicit_gait``). The folder's ``scenario.yaml`` then
+            does not describe the run alone: it is not written.
         progress: show a progress bar on stderr (only when stderr is a terminal).
         write_outputs: write plots and the recording (tests may skip them).
 
@@ -430,15 +436,18 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     """
     out_dir = check_output_folder(out_dir, inputs)
     with interrupts_as_exceptions():
-        return _run(scenario, out_dir, progress, write_outputs)
+        return _run(scenario, out_dir, progress, write_outputs, prepare)
 
 
 def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
-         write_outputs: bool) -> RunResult:
-    _start_outputs(scenario, out_dir)
+         write_outputs: bool, prepare) -> RunResult:
+    _start_outputs(scenario, out_dir, write_scenario=prepare is None)
     try:
         diagram, handles = build_diagram(scenario)
-        simulator = make_simulator(diagram, scenario)
+        context = diagram.CreateDefaultContext()
+        if prepare is not None:
+            prepare(handles, context)
+        simulator = make_simulator(diagram, scenario, context)
     except KeyboardInterrupt as e:
         reason = e.reason if isinstance(e, RunInterrupted) else "interrupted (Ctrl-C)"
         _write_failed_build(scenario, out_dir, e, reason)
@@ -468,9 +477,15 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
         for k in range(1, n_chunks + 1):
             t_next = (scenario.duration if k == n_chunks
                       else round(k * n_steps / n_chunks) * scenario.time_step)
-            simulator.AdvanceTo(t_next)
+            status = simulator.AdvanceTo(t_next)
             if bar is not None:
-                bar.update(t_next - bar.n)
+                bar.update(root_context.get_time() - bar.n)
+            if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+                # A System ended the run (the battery at its cut-off): the run stops there
+                # and says why, rather than going on.
+                failure = {"time_s": float(root_context.get_time()),
+                           "reason": status.message() or "a system ended the run"}
+                break
     except KeyboardInterrupt as e:
         interrupted = e if isinstance(e, RunInterrupted) else RunInterrupted("SIGINT")
         failure = {"time_s": float(root_context.get_time()), "reason": interrupted.reason}

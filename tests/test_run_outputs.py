@@ -116,3 +116,25 @@ def test_a_signal_mid_run_writes_the_partial_log_and_why(tmp_path, sig, code, re
         assert log["t"][-1] == pytest.approx(metrics["failure"]["time_s"], abs=0.01)
     else:
         assert not (out / "log.npz").exists()
+
+
+def test_a_run_that_empties_the_battery_stops_and_says_so(tmp_path):
+    """Started just above the cut-off, the trot drains the pack within a second: the run
+    ends there (not at its duration), failed, with the battery's reason, and the log and
+    the energy block end where it stopped."""
+    from manta_drake.simulate import SimulationError
+
+    s = load_scenario("locomotion_trot", overrides={
+        "duration": 3.0, "actuators.initial_soc": 0.2002, "visualization.meshcat": False})
+    with pytest.raises(SimulationError, match="battery empty"):
+        run(s, tmp_path / "out", progress=False, write_outputs=False)
+    metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert metrics["status"] == "failed"
+    stop = metrics["failure"]["time_s"]
+    assert "battery empty" in metrics["failure"]["reason"] and 0.0 < stop < 3.0
+    assert metrics["sim_time_s"] == pytest.approx(stop, abs=2e-3)
+    assert metrics["energy"]["battery_soc_end"] <= 0.2 + 1e-9
+    import numpy as np
+
+    log = np.load(tmp_path / "out" / "log.npz")
+    assert log["t"][-1] == pytest.approx(stop, abs=2e-3)

@@ -26,20 +26,35 @@ def print_metrics(metrics: dict, out_dir) -> None:
     keys = [
         "scenario", "status", "sim_time_s", "wall_time_s", "real_time_factor",
         "mean_velocity_body", "yaw_rate_deg_s", "steady_window_s", "near_wall_at_s",
-        "distance_m", "max_joint_step_rad",
+        "min_wall_clearance_m", "touched_wall", "distance_m", "max_joint_step_rad",
         "max_penetration_m", "final_max_joint_error_rad",
     ]
+    energy_keys = ["mean_electrical_power_w", "cost_of_transport", "cost_of_transport_mechanical",
+                   "operation_time_h", "battery_soc_end"]
     print()
     for key in keys:
         if key in metrics:
             value = metrics[key]
-            if isinstance(value, float):
+            if isinstance(value, bool):
+                value = "yes" if value else "no"
+            elif isinstance(value, float):
                 value = f"{value:.4g}"
             elif isinstance(value, list):
                 value = "[" + ", ".join(f"{v:.4g}" for v in value) + "]"
             elif value is None:
                 value = "-"
             print(f"  {key:<28} {value}")
+    energy = metrics.get("energy") or {}
+    for key in energy_keys:
+        if key in energy:
+            value = energy[key]
+            print(f"  {key:<28} {'-' if value is None else f'{value:.4g}'}")
+    if energy.get("cost_of_transport") is None and energy.get("cost_of_transport_note"):
+        print(f"  {'':<28} ({energy['cost_of_transport_note']})")
+    failure = metrics.get("failure")
+    if failure:
+        print(f"  {'failure':<28} {failure.get('stage')} at {failure.get('time_s', 0):.3f} s: "
+              f"{failure.get('reason')}")
     for tr in metrics.get("transitions", []):
         print(f"  transition {tr['from']:>8} -> {tr['to']:<8} {tr['start_s']:.1f} s .. {tr['end_s']:.1f} s")
     out_dir = pathlib.Path(out_dir)
@@ -83,6 +98,10 @@ _SET_HELP = ("override a scenario field, e.g. --set contact.friction=0.6 or --se
 def _error(e: Exception) -> int:
     """Prints an error as one line and returns the exit status 2."""
     message = " ".join(str(e).split())
+    if isinstance(e, MemoryError):
+        message = f"out of memory{': ' + message if message else ''} (a sweep or grid too large?)"
+    elif not message:  # an exception without a message still says what it was
+        message = type(e).__name__
     print(f"manta-drake: error: {message} (--debug shows the traceback)", file=sys.stderr)
     return 2
 
@@ -154,7 +173,7 @@ def _extension(command: str):
         return None
 
 
-def main(argv=None) -> int:
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="manta-drake", description="Manta-ray robot simulator")
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="simulate a scenario YAML file")
@@ -171,16 +190,28 @@ def main(argv=None) -> int:
         module = _extension(command)
         if module is not None:
             getattr(module, f"add_{command}_parser")(sub)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _interrupted(e: KeyboardInterrupt) -> int:
+    """One line for Ctrl-C (or SIGTERM/SIGHUP during a run); the exit status 128 + signal."""
+    name = getattr(e, "signal_name", "SIGINT")
+    print(f"manta-drake: {'interrupted' if name == 'SIGINT' else 'terminated'} ({name})",
+          file=sys.stderr)
+    return 128 + int(getattr(signal.Signals, name, signal.SIGINT))
+
+
+def main(argv=None) -> int:
+    try:  # building the parser imports the commands' modules: Ctrl-C may come here too
+        args = _parser().parse_args(argv)
+    except KeyboardInterrupt as e:
+        return _interrupted(e)
     try:
         if args.command in EXTENSIONS:
             return getattr(_extension(args.command), f"{args.command}_main")(args)
         return _list() if args.command == "list" else _run(args)
-    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM/SIGHUP during a run
-        name = getattr(e, "signal_name", "SIGINT")
-        print(f"manta-drake: {'interrupted' if name == 'SIGINT' else 'terminated'} ({name})",
-              file=sys.stderr)
-        return 128 + int(getattr(signal.Signals, name, signal.SIGINT))
+    except KeyboardInterrupt as e:
+        return _interrupted(e)
     except Exception as e:  # one clear line; --debug for the traceback
         if args.debug:
             raise

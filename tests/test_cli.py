@@ -99,3 +99,22 @@ def test_set_with_a_misspelt_or_out_of_range_field_is_one_line(tmp_path):
         assert result.returncode == 2
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and words in lines[0], result.stderr
+
+
+def test_the_summary_prints_walls_energy_and_a_failure(capsys, tmp_path):
+    from manta_drake.cli import print_metrics
+
+    print_metrics({"scenario": "x", "status": "failed", "touched_wall": True,
+                   "min_wall_clearance_m": 0.004, "near_wall_at_s": None,
+                   "energy": {"mean_electrical_power_w": 26.84, "cost_of_transport": None,
+                              "cost_of_transport_note": "u below 0.005 m/s",
+                              "operation_time_h": 2.3102},
+                   "failure": {"stage": "simulation", "time_s": 1.25,
+                               "reason": "battery empty"}}, tmp_path)
+    lines = {line.split()[0]: line.split(None, 1)[1] for line in
+             capsys.readouterr().out.splitlines() if line.strip() and len(line.split()) > 1}
+    assert lines["touched_wall"] == "yes" and lines["min_wall_clearance_m"] == "0.004"
+    assert lines["near_wall_at_s"] == "-"
+    assert lines["mean_electrical_power_w"] == "26.84" and lines["operation_time_h"] == "2.31"
+    assert lines["cost_of_transport"] == "-"
+    assert lines["failure"] == "simulation at 1.250 s: battery empty"

@@ -101,3 +101,106 @@ def test_initial_penetration_of_an_accepted_start(fc):
     s.initial_pose.xyz, s.initial_pose.rpy_deg = [0.0, 0.0, -0.19], [90.0, 0.0, 0.0]
     depth, pair = fc.initial_penetration(s)
     assert depth > 0.0025 and "floor" in pair
+
+
+# One message of each form the package's refusals take, and the field each is filed under.
+REFUSAL_FORMS = [
+    # check_in_range, check_number, check_integer, check_one_of, check_vector
+    ("time_step: 0.05 is outside the allowed range [0.0001, 0.01] s", "time_step"),
+    ("camera.depth_noise_std: 0.05 is outside the allowed range [0, 0.03] m (the depth-camera "
+     "model: a RealSense-class sensor's range noise within its 0.8 m underwater range)",
+     "camera.depth_noise_std"),
+    ("pressure_sensor.noise_std: 'a' is not a number", "pressure_sensor.noise_std"),
+    ("duration: inf is not finite", "duration"),
+    ("camera.width: 7.5 is not an integer (allowed: 8 to 1024)", "camera.width"),
+    ("controller.gait: 'fly' is not one of swim, trot, walk, turning, crab", "controller.gait"),
+    ("water.current: [1.2, 0.0, 0.0] has magnitude above the allowed 1.0 m/s", "water.current"),
+    ("water.current[0]: nan is not finite", "water.current[0]"),
+    ("balloon.schedule[1].time: 0.5 is before the previous command's time 1.0; times must "
+     "not decrease", "balloon.schedule[1].time"),
+    # check_keys (layering) and the dotted-key walk (overrides)
+    ("scenario.water.curent: unknown key (a typo?); allowed keys: coefficient_scales, "
+     "coefficients, current, enabled, update_period", "water.curent"),
+    ("scenario.time_step: expected a float, got 'abc'", "time_step"),
+    ("scenario.water.coefficient_scales key: expected a str, got 1", "water.coefficient_scales"),
+    ("water.curent: scenario.water has no field 'curent'; allowed: coefficient_scales, "
+     "coefficients, current, enabled, update_period", "water.curent"),
+    ("water.coefficient_scales.body.linear_dampnig: unknown coefficient 'body.linear_dampnig'; "
+     "allowed: water_density, gravity", "water.coefficient_scales.body.linear_dampnig"),
+    # the start-pose check
+    ("initial_pose: the body at [0.0, 0.0, -0.9] m is not in the pool's water (x in (-7.5, "
+     "7.5), y in (-1.0, 1.0), z in (-0.5, 0])", "initial_pose"),
+    # coefficient scales: a bad factor, and a scaled set the coefficient checks refuse
+    ("water.coefficient_scales.body.added_mass: -0.5 must be a finite number >= 0",
+     "water.coefficient_scales.body.added_mass"),
+    ("water.coefficient_scales.fins.strips_per_plate = 5.2 must be a whole number",
+     "water.coefficient_scales.fins.strips_per_plate"),
+    ("water.coefficient_scales.water_density = 0.0 must be > 0",
+     "water.coefficient_scales.water_density"),
+    ("water.coefficient_scales.body.sealed_volume = 0.00663 m^3 disagrees with "
+     "body.sealed_semi_axes (4/3 pi abc = 0.0051 m^3, more than 1% apart); the buoyancy comes "
+     "from the semi-axes: change both together", "water.coefficient_scales.body.sealed_volume"),
+    # a coefficient or actuator file: filed under the scenario field that names it
+    ("water.coefficients = /tmp/bad_hydro.yaml: bad_hydro.yaml: body.added_mass = "
+     "[-1.0, 1.0, 1.0] must be >= 0 (magnitudes)", "water.coefficients"),
+    ("actuators.file = /tmp/bad_act.yaml: actuators file not found: /tmp/bad_act.yaml",
+     "actuators.file"),
+    # actuators: a bad factor, a scaled set refused, the initial charge
+    ("actuators.scales.servo.winding_resistance: -1.0 must be a finite number >= 0",
+     "actuators.scales.servo.winding_resistance"),
+    ("actuators.scales.battery.cutoff_soc = 2.0 is outside the allowed range [0, 1)",
+     "actuators.scales.battery.cutoff_soc"),
+    ("actuators.initial_soc: 0.01 is outside the allowed range (cutoff_soc = 0.2, 1]",
+     "actuators.initial_soc"),
+    # a scenario file's path in front (load_scenario with validation)
+    ("/work/main/models/scenarios/locomotion_swim.yaml: time_step: 0.5 is outside the allowed "
+     "range [0.0001, 0.01] s", "time_step"),
+    # the System constructors' ValueErrors (build stage)
+    ("BalloonBuoyancy.max_volume: 0.0 must be a finite number > 0", "BalloonBuoyancy.max_volume"),
+    ("HydrodynamicForces.update_period: -1.0 must be a finite number >= 0",
+     "HydrodynamicForces.update_period"),
+    # no field at the start: grouped by the message's first clause
+    ("scenario file not found: nope (shipped scenarios: stand)", "scenario file not found: nope"),
+]
+
+
+@pytest.mark.parametrize("message, field", REFUSAL_FORMS)
+def test_refused_field_of_each_message_form(fc, message, field):
+    assert fc.refused_field(message) == field
+
+
+def test_refusal_naming_the_scaled_entry_is_as_expected(fc):
+    """A scaled coefficient set refused in the ``X = v must ...`` form names the expected
+    field (not refused_other_field); an index names its vector."""
+    spec = fc.make_spec(0, "locomotion_swim", expect=[
+        "water.coefficient_scales.fins.strips_per_plate"])
+    message = "water.coefficient_scales.fins.strips_per_plate = 5.2 must be a whole number"
+    row = {"outcome": "refused", "cause": fc.refused_field(message), "message": message}
+    assert fc.finish_row(spec, row)["expectation"] == "as_expected"
+    spec = fc.make_spec(1, "locomotion_swim", expect=["water.current"])
+    row = {"outcome": "refused", "cause": fc.refused_field("water.current[2]: nan is not finite")}
+    assert fc.finish_row(spec, row)["expectation"] == "as_expected"
+    row = {"outcome": "refused", "cause": fc.refused_field("time_step: 0.05 is outside ...")}
+    assert fc.finish_row(spec, row)["expectation"] == "refused_other_field"
+
+
+def test_refused_field_of_the_package_own_refusals(fc):
+    """The package's current messages (not copies): each refusal is filed under its field."""
+    from manta_drake.scenario import ScenarioError
+
+    cases = [
+        ({"water.coefficient_scales": {"fins.strips_per_plate": 1.3}},
+         "water.coefficient_scales.fins.strips_per_plate"),
+        ({"water.coefficient_scales": {"gravity": 0.0}}, "water.coefficient_scales.gravity"),
+        ({"water.coefficient_scales": {"body.added_mass": -0.5}},
+         "water.coefficient_scales.body.added_mass"),
+        ({"actuators.scales": {"servo.winding_resistance": -1.0}},
+         "actuators.scales.servo.winding_resistance"),
+        ({"actuators.initial_soc": 0.01}, "actuators.initial_soc"),
+        ({"time_step": "abc"}, "time_step"),
+        ({"initial_pose.xyz": [0.0, 0.0, -0.9]}, "initial_pose"),
+    ]
+    for overrides, field in cases:
+        with pytest.raises(ScenarioError) as e:
+            fc.load_run_scenario(fc.make_spec(0, "locomotion_swim", overrides))
+        assert fc.refused_field(str(e.value)) == field, str(e.value)

@@ -366,9 +366,40 @@ def cause_of(message: str) -> str:
     return (m.group(1) if m else text[:90]).strip()
 
 
+# A dotted field with optional list indices: ``time_step``, ``water.current[0]``,
+# ``balloon.schedule[1].time``, ``water.coefficient_scales.fins.strips_per_plate``,
+# ``BalloonBuoyancy.max_volume``.
+_FIELD = r"[A-Za-z_]\w*(?:\[\d+\])*(?:\.[A-Za-z_]\w*(?:\[\d+\])*)*"
+# The field, then what the package's messages put after it: ``: `` (``field: value is
+# outside the allowed range ...``, ``field: unknown key``, ``System.arg: ...``,
+# ``initial_pose: ...``), `` key: `` (a mapping's key of the wrong type) or `` = ``
+# (``water.coefficient_scales.X = v must be ...``, and a file named by a scenario field,
+# ``water.coefficients = PATH: name = v ...``, ``actuators.file = PATH: ...``).
+_FIELD_AT_START = re.compile(rf"({_FIELD})(?: key)?(?::\s| = )")
+# A scenario file's path before the field (``load_scenario`` with validation).
+_FILE_PREFIX = re.compile(r"\S+\.ya?ml: ")
+
+
 def refused_field(message: str) -> str:
-    """The field a ScenarioError names: the text before the first ': '."""
-    return message.split(": ", 1)[0].strip()
+    """The field a ScenarioError (or a System constructor's ValueError) names.
+
+    The field is the dotted name the message starts with, up to ``: ``, `` key: `` or
+    `` = ``; a leading scenario file path and the schema walk's ``scenario.`` root are
+    dropped. A coefficient or actuator file's problem is filed under the scenario field that
+    names the file (``water.coefficients``, ``actuators.file``). A message that starts with
+    no field is grouped by ``cause_of``.
+    """
+    text = message.strip()
+    m = _FILE_PREFIX.match(text)
+    if m and _FIELD_AT_START.match(text, m.end()):
+        text = text[m.end():]
+    m = _FIELD_AT_START.match(text)
+    if not m:
+        return cause_of(text)
+    field = m.group(1)
+    if field.startswith("scenario."):  # check_keys' path: scenario.water.curent
+        field = field[len("scenario."):]
+    return field
 
 
 STATE_KEYS = ("t", "joint_angles", "joint_velocities", "commanded_joint_angles", "body_xyz",
@@ -577,7 +608,7 @@ def expectation(spec: dict, row: dict) -> str:
     if expect:
         if outcome == "refused":
             field = row["cause"]
-            if any(field == e or field.startswith(e + ".") or e.startswith(field + ".")
+            if any(field == e or field.startswith((e + ".", e + "[")) or e.startswith(field + ".")
                    for e in expect):
                 return "as_expected"
             return "refused_other_field"
@@ -761,11 +792,11 @@ def _stats(values) -> dict:
 
 
 def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
-    """Counts per outcome with the most common causes, NaN, penetration, pool exits,
+    """Counts per outcome with every cause (most common first), NaN, penetration, pool exits,
     joint limits and speeds, expectation mismatches, and the bugs that fail --check."""
     counts = collections.Counter(r["outcome"] for r in rows)
     causes = {o: collections.Counter(r["cause"] for r in rows if r["outcome"] == o)
-              .most_common(8) for o in OUTCOMES if counts.get(o)}
+              .most_common() for o in OUTCOMES if counts.get(o)}
     ran = [r for r in rows if r["outcome"] in ("ok", "sim_failed", "build_failed", "exception")
            and r.get("sim_time_reached_s") is not None]
     ok = [r for r in rows if r["outcome"] == "ok"]
@@ -791,6 +822,9 @@ def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
         "silently_accepted": [{"run": r["run"], "expected": r["expect_refused"],
                                "outcome": r["outcome"]} for r in rows
                               if r["expectation"] == "silently_accepted"],
+        "refused_other_field": [{"run": r["run"], "expected": r["expect_refused"],
+                                 "cause": r["cause"]} for r in rows
+                                if r["expectation"] == "refused_other_field"],
         "unexpected_refusals": collections.Counter(
             r["cause"] for r in rows if r["expectation"] == "unexpected_refusal").most_common(),
         "nan": {"runs_with_nan": len(nan_runs), "ok_runs_with_nan": nan_silent},
@@ -827,13 +861,19 @@ def format_summary(s: dict) -> str:
         first = f"{causes[0][1]:>4} x {causes[0][0]}" if causes and o != "ok" else ""
         lines.append(f"{o:<14}{n:>6}  {first}")
         if o != "ok":
-            for c, k in causes[1:6]:
+            shown = causes[1:] if o == "refused" else causes[1:6]  # refusals: every field
+            for c, k in shown:
                 lines.append(f"{'':<22}{k:>4} x {c}")
+            if len(causes) > 1 + len(shown):
+                lines.append(f"{'':<22}... {len(causes) - 1 - len(shown)} more (summary.json)")
     lines.append("")
     lines.append("expectation: " + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items())))
     if s["silently_accepted"]:
         lines.append("  SILENTLY ACCEPTED (must be refused): " + "; ".join(
             f"run {x['run']} ({x['expected']} -> {x['outcome']})" for x in s["silently_accepted"]))
+    if s.get("refused_other_field"):
+        lines.append("  refused naming another field: " + "; ".join(
+            f"run {x['run']} ({x['expected']} -> {x['cause']})" for x in s["refused_other_field"]))
     if s["unexpected_refusals"]:
         lines.append("  refused without a must-refuse fault: " + ", ".join(
             f"{c} x{n}" for c, n in s["unexpected_refusals"]))

@@ -25,13 +25,15 @@ numba keeps the cache in the ``__pycache__`` folder beside this file, or, when t
 not writable (a system-wide, non-editable install), in its user-wide cache folder
 (``$XDG_CACHE_HOME`` or ``~/.cache``, sub-folder ``numba``); the ``NUMBA_CACHE_DIR``
 environment variable overrides both. The cache is keyed on this file's contents and the
-CPU, so an edited kernel or another machine recompiles by itself.
+CPU, so an edited kernel or another machine recompiles by itself. Where none of those
+folders is writable (a read-only install), ``manta_drake.jit`` caches in a temporary
+folder or compiles without a cache instead of failing at import.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from manta_drake.jit import njit
 
 # Joint types in the packed tree.
 WELD, REVOLUTE, QUATERNION_FLOATING = 0, 1, 2

@@ -24,7 +24,7 @@ import time
 import yaml
 
 from manta_drake.calibrate import Sigma, load_calibration, synthesize_measurements, write_measured
-from manta_drake.sweep import coefficient_names
+from manta_drake.scenario import coefficient_names
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DEFAULT_TRUTH = ("body.linear_damping=1.25", "body.quadratic_damping=1.25")

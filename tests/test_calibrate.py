@@ -227,3 +227,163 @@ def test_calibration_recovers_a_known_hull_damping_on_a_cluster(tmp_path):
 
     history = json.loads(result.history_file.read_text())
     assert history["history"][0]["x"] == [1.0] and len(history["history"]) == result.evaluations
+
+
+# --- measured data checked against the experiment, before any simulation ---------------------
+
+def _csv(path: pathlib.Path, t) -> pathlib.Path:
+    t = np.asarray(t, dtype=float)
+    C.write_measured(path, {"t": t, "x": t, "y": 0 * t, "z": -0.1 + 0 * t, "yaw": 0 * t})
+    return path
+
+
+def _put(path: pathlib.Path, content) -> pathlib.Path:
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content)
+    return path
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """Fails the test if anything is simulated."""
+    from manta_drake.calibrate import evaluator
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a simulation ran")
+
+    monkeypatch.setattr(evaluator, "simulate_trajectory", refuse)
+
+
+@pytest.mark.parametrize("data, change, message", [
+    # GOOD's swim runs 2.0 s: samples up to 3 s cannot be compared with it.
+    (lambda p: _csv(p, np.linspace(0.0, 3.0, 7)), None,
+     "calibration.experiments[0].measured: {csv}: t ends at 3.0 s, after the run's end "
+     "(duration 2.0 s; allowed: 0 <= t <= 2.0); shorten the data or set the experiment's "
+     "overrides: {{duration: ...}}"),
+    (lambda p: _csv(p, [-0.5, 0.0, 0.5]), None,
+     "calibration.experiments[0].measured: {csv}: t starts at -0.5 s; times are seconds from "
+     "the start of the run (allowed: t >= 0)"),
+    (lambda p: _csv(p, [0.0, 0.5, 0.5, 1.0]), None,
+     "calibration.experiments[0].measured: {csv}: t must increase, with at least two samples "
+     "(data row 3: 0.5 s after 0.5 s)"),
+    (lambda p: _csv(p, [0.0, 0.5]), ("target: {u: 0.07}", "target: {u: .nan}"),
+     "calibration.experiments[1].target.u: nan is not a finite number (a measured mean "
+     "velocity)"),
+    (lambda p: _csv(p, [0.0, 0.5]), ("target: {u: 0.07}", "target: {u: 0.07, v: .inf}"),
+     "calibration.experiments[1].target.v: inf is not a finite number (a measured mean "
+     "velocity)"),
+    (lambda p: _put(p, b"\x89PNG\r\n\x1a\n\x00\xff\xfe"), None,
+     "calibration.experiments[0].measured: {csv}: not a UTF-8 text (CSV) file"),
+    (lambda p: _put(p, b"t,x,y,z,yaw\n0,0,0,0,0\x00\n"), None,
+     "calibration.experiments[0].measured: {csv}: not a text (CSV) file (it holds NUL bytes)"),
+    (lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,0,0,0\n"),
+     ("columns: [x, y, yaw]", "columns: [x, z]"),
+     "calibration.experiments[0].measured: {csv} has no column 'z' (header: t, x, y, yaw)"),
+    (lambda p: _put(p, "t,x,y,x,yaw\n0,0,0,0,0\n1,0,0,0,0\n"), None,
+     "calibration.experiments[0].measured: {csv}: column 'x' appears twice in the header"),
+    (lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,0,0\n"), None,
+     "calibration.experiments[0].measured: {csv}: data row 2 has 3 fields, the header 4"),
+    (lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,nan,0,0\n"), None,
+     "calibration.experiments[0].measured: {csv}: data row 2: column x is nan, not a finite "
+     "number"),
+    (lambda p: _csv(p, [0.0, 0.5]), ("overrides: {duration: 2.0}", "overrides: {duration: -2.0}"),
+     "calibration.experiments[0].overrides: duration: -2.0 is outside the allowed range "
+     "(0, 3600] s"),
+])
+def test_measured_data_are_checked_against_the_experiment(tmp_path, no_simulation, data,
+                                                          change, message):
+    csv = data(tmp_path / "m.csv")
+    text = GOOD.replace(*change) if change else GOOD
+    with pytest.raises(SweepError) as e:
+        C.load_calibration(write(tmp_path / "c.yaml", text))
+    assert str(e.value) == message.format(csv=csv)
+
+
+def test_data_beyond_the_run_fail_the_command_in_one_line(tmp_path, capsys, no_simulation):
+    from manta_drake.cli import main
+
+    _csv(tmp_path / "m.csv", np.linspace(0.0, 3.0, 7))
+    out = tmp_path / "out"
+    assert main(["calibrate", str(write(tmp_path / "c.yaml", GOOD)), "--out", str(out),
+                 "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "t ends at 3.0 s, after the run's end (duration 2.0 s" in err[0]
+    assert not out.exists()  # no coefficients file labelled calibrated
+
+
+def test_the_shipped_data_lie_within_their_runs():
+    config = C.load_calibration(SWEEPS / "calibration.yaml")
+    for e in config.experiments:
+        t = C.load_measured(config.folder / e.measured, e.columns)["t"]
+        assert 0.0 <= t[0] and t[-1] <= C.experiment_scenario(config, e, {}).duration
+
+
+# --- the output folder, checked before the fit -----------------------------------------------
+
+@pytest.mark.parametrize("case", ["a file", "under a file", "the prior", "unwritable"])
+def test_calibrate_out_is_checked_before_the_fit(tmp_path, capsys, no_simulation, case):
+    import os
+
+    from manta_drake.cli import main
+
+    measured_csv(tmp_path / "m.csv")
+    (tmp_path / "file").write_text("x")
+    prior_dir = tmp_path / "earlier"
+    prior_dir.mkdir()
+    (prior_dir / "coefficients.yaml").write_text(
+        (ROOT / "models" / "hydrodynamics.yaml").read_text())
+    text = GOOD + (f"coefficients: {prior_dir / 'coefficients.yaml'}\n"
+                   if case == "the prior" else "")
+    config_path = write(tmp_path / "c.yaml", text)
+    if case == "unwritable":
+        if os.geteuid() != 0:
+            (tmp_path / "ro").mkdir(mode=0o555)
+            out = tmp_path / "ro" / "out"
+        elif pathlib.Path("/sys").is_dir():
+            out = pathlib.Path("/sys/manta_drake_calibration")
+        else:
+            pytest.skip("no read-only folder for root here")
+    else:
+        out = {"a file": tmp_path / "file", "under a file": tmp_path / "file" / "out",
+               "the prior": prior_dir}[case]
+    message = {
+        "a file": f"--out {out}: is a file, not a folder",
+        "under a file": f"--out {out}: cannot be created ({tmp_path / 'file'} is a file)",
+        "the prior": f"--out {out}: writing coefficients.yaml would overwrite the input "
+                     f"{prior_dir / 'coefficients.yaml'}; choose another output folder",
+        "unwritable": f"--out {out}: ",
+    }[case]
+    assert main(["calibrate", str(config_path), "--out", str(out), "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"manta-drake: error: {message}")
+    with pytest.raises(SweepError, match=f"^--out {out}"):  # and from Python
+        C.calibrate(C.load_calibration(config_path), out, progress=False)
+
+
+def test_a_fit_whose_simulations_fail_writes_no_coefficients(tmp_path, capsys, monkeypatch):
+    """Every simulation fails: the cost is the failures' penalty, so nothing is calibrated;
+    the history is written, no coefficients file (an earlier one is removed), exit 1."""
+    from manta_drake.calibrate import evaluator
+    from manta_drake.cli import main
+
+    monkeypatch.setattr(evaluator, "simulate_trajectory", lambda text: {
+        "status": "failed", "reason": "simulation failed at t = 0.1 s: diverged"})
+    measured_csv(tmp_path / "m.csv")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "coefficients.yaml").write_text("# an earlier fit's\n")
+    assert main(["calibrate", str(write(tmp_path / "c.yaml", GOOD)), "--out", str(out),
+                 "--workers", "0", "--quiet"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == [
+        "manta-drake: calibrate t: not calibrated: a simulation at the fitted point did not "
+        "run to its end (swim: failed (simulation failed at t = 0.1 s: diverged); walk: "
+        "failed (simulation failed at t = 0.1 s: diverged))"]
+    assert not (out / "coefficients.yaml").exists()
+    assert "coefficients: none written" in captured.out
+    import json
+
+    history = json.loads((out / "calibration.json").read_text())
+    assert history["success"] is False and history["message"].startswith("not calibrated")

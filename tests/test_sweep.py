@@ -4,6 +4,7 @@ LocalCluster against the same runs in series."""
 import hashlib
 import json
 import pathlib
+import re
 
 import numpy as np
 import pytest
@@ -349,3 +350,454 @@ def test_progress_bar_counts_finished_runs(tmp_path, capsys):
     S.run_sweep(S.load_sweep(sweep), tmp_path / "o", progress=True)
     err = capsys.readouterr().err
     assert "2/2" in err and "run" in err
+
+
+# --- the size of a sweep: counted, bounded, drawn only as far as listed ----------------------
+
+def _huge_grid(n_params: int = 8, n_values: int = 10) -> str:
+    """A grid of n_values ** n_params combinations over coefficient scales."""
+    from manta_drake.scenario import coefficient_names
+
+    names = [n for n in coefficient_names() if n.endswith(("damping", "coefficient"))
+             or n in ("body.added_mass", "body.added_inertia", "fins.hinge_added_inertia")]
+    values = "[" + ", ".join(f"{0.5 + 0.1 * i:.1f}" for i in range(n_values)) + "]"
+    return "base: stand\ngrid:\n" + "".join(
+        f"  water.coefficient_scales.{n}: {values}\n" for n in names[:n_params])
+
+
+def test_a_huge_grid_is_counted_and_refused_without_expanding(tmp_path, monkeypatch):
+    """10^8 combinations: refused from the lengths of the lists, never drawn."""
+    from manta_drake.sweep import plan
+
+    def no_expansion(*args, **kwargs):
+        raise AssertionError("the grid was expanded")
+
+    monkeypatch.setattr(plan.itertools, "product", no_expansion)
+    path = write(tmp_path / "huge.yaml", _huge_grid())
+    with pytest.raises(S.SweepError) as e:
+        S.load_sweep(path)
+    assert str(e.value) == ("sweep: 100000000 runs (1 base x 100000000 parameter sets x 1 "
+                            "seed) is above the maximum of 100000 runs; split the sweep into "
+                            "smaller ones")
+    config = S.SweepConfig(base=["stand", "locomotion_swim"], seeds=[0, 1, 2],
+                           grid={"a": [1, 2, 3], "b": list(range(7))})
+    assert S.count_runs(config) == 2 * 21 * 3 and S.count_parameter_sets(config) == 21
+
+
+@pytest.mark.parametrize("n, message", [
+    ("1000000000", "sweep.random.n: 1000000000 is outside the allowed range [1, 100000]"),
+    ("1e9", "sweep.random.n: 1000000000.0 is not an integer (allowed: 1 to 100000)"),
+    ("0", "sweep.random.n: 0 is outside the allowed range [1, 100000]"),
+])
+def test_a_huge_random_sample_is_refused_before_drawing(tmp_path, n, message):
+    text = f"base: stand\nrandom: {{n: {n}, seed: 1, uniform: {{contact.friction: [0.5, 0.8]}}}}\n"
+    with pytest.raises(S.SweepError) as e:
+        S.load_sweep(write(tmp_path / "r.yaml", text))
+    assert str(e.value) == message
+
+
+def test_the_refusal_is_one_line_under_a_memory_limit(tmp_path):
+    """The command under a 1.5 GB address-space limit: the count and the maximum, not an
+    empty out-of-memory line (expanding the grid needs ~3 GB)."""
+    import resource
+    import subprocess
+    import sys
+
+    path = write(tmp_path / "huge.yaml", _huge_grid())
+    limit = 1536 * 2**20
+
+    def cap():
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+    done = subprocess.run(
+        [sys.executable, "-m", "manta_drake.cli", "sweep", str(path), "--out",
+         str(tmp_path / "o"), "--dry-run", "--limit", "1"],
+        capture_output=True, text=True, preexec_fn=cap, timeout=120, cwd=tmp_path)
+    err = done.stderr.strip().splitlines()
+    assert done.returncode == 2, done.stderr
+    assert err == ["manta-drake: error: sweep: 100000000 runs (1 base x 100000000 parameter "
+                   "sets x 1 seed) is above the maximum of 100000 runs; split the sweep into "
+                   "smaller ones (--debug shows the traceback)"]
+
+
+def test_limit_draws_only_the_runs_it_lists(tmp_path, monkeypatch):
+    # numpy's Generator fills the (n, k) table row by row: the first K rows of the whole
+    # draw are a draw of (K, k) from the same seed.
+    low, high = np.array([0.5, -1.0, 2.0]), np.array([0.8, 1.0, 3.0])
+    whole = np.random.default_rng(7).uniform(low, high, size=(100_000, 3))
+    np.testing.assert_array_equal(np.random.default_rng(7).uniform(low, high, size=(5, 3)),
+                                  whole[:5])
+    rand = S.SweepConfig(base=["stand"], seeds=[0, 1], random=S.RandomSample(
+        n=100_000, seed=7, uniform={"a": [0.5, 0.8], "b": [-1.0, 1.0], "c": [2.0, 3.0]}))
+    sizes = []
+    real = np.random.default_rng
+
+    class Recording:
+        def __init__(self, seed):
+            self.rng = real(seed)
+
+        def uniform(self, low, high, size):
+            sizes.append(size)
+            return self.rng.uniform(low, high, size)
+
+    from manta_drake.sweep import plan
+
+    monkeypatch.setattr(plan.np.random, "default_rng", Recording)
+    specs = S.run_specs(rand, limit=5)  # 5 runs over 2 seeds: 3 parameter sets
+    assert sizes == [(3, 3)]
+    assert [s.parameters for s in specs] == [
+        dict(zip("abc", map(float, whole[i]))) for i in (0, 0, 1, 1, 2)]
+    assert [s.seed for s in specs] == [0, 1, 0, 1, 0]
+    assert S.parameter_sets(rand, 4) == S.parameter_sets(rand)[:4]
+    # A grid of 100 000 combinations: the first runs, the same as the whole sweep's.
+    grid = S.SweepConfig(base=["stand"], grid={"contact.friction": list(np.linspace(
+        0.1, 1.0, 100)), "duration": [float(d) for d in range(1, 1001)]})
+    assert [s.run_id for s in S.run_specs(grid, 3)] == \
+        [s.run_id for s in S.run_specs(grid)[:3]]
+    assert S.run_specs(grid, 3)[2].parameters == {"contact.friction": 0.1, "duration": 3.0}
+
+
+def test_dry_run_with_limit_on_the_largest_sweep_lists_one_run(tmp_path, capsys):
+    from manta_drake.cli import main
+
+    path = write(tmp_path / "big.yaml", _huge_grid(5, 10))  # exactly the maximum
+    assert S.count_runs(S.load_sweep(path)) == S.MAX_RUNS
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--dry-run",
+                 "--limit", "1"]) == 0
+    assert capsys.readouterr().out.strip().endswith("1 runs; 0 invalid")
+
+
+# --- inputs refused at once ------------------------------------------------------------------
+
+@pytest.mark.parametrize("text, message", [
+    ("base: stand\nseeds: [0]\nseeds: [1]\n", "duplicate key 'seeds'"),
+    ("base: stand\ngrid:\n  contact.friction: [0.5]\n  contact.friction: [0.6]\n",
+     "duplicate key 'contact.friction'"),
+    ("base: stand\ngrid: {duration: [1, 1.0]}\n", re.escape(
+        "sweep.grid.duration: duplicate values in [1, 1.0]: 1 and 1.0 are the same value once "
+        "typed as the scenario field; give each value once")),
+    ("base: stand\nlinks: {d: [duration]}\ngrid: {d: [2.0, 2]}\n", re.escape(
+        "sweep.grid.d: duplicate values in [2.0, 2]: 2.0 and 2 are the same value once typed")),
+    ("base: stand\ngrid: {net_weight_kg: [1, 1.0]}\n", "sweep.grid.net_weight_kg: duplicate"),
+    ("base: stand\nrows: [{duration: 1}, {contact.friction: 0.5}, {duration: 1.0}]\n",
+     "sweep.rows\\[2\\]: the same values as sweep.rows\\[0\\]"),
+    ("base: [stand, stand.yaml]\n", "sweep.base: stand.yaml and stand are the same scenario"),
+    ("base: stand\nfixed: {contact.friction: -1.0}\ngrid: {duration: [1.0, 2.0]}\n",
+     "sweep.fixed: on base stand: .*contact.friction.*-1.0"),
+    ("base: stand\nfixed: {net_weight_kg: 9.0}\n", "sweep.fixed: on base stand: net_weight_kg"),
+])
+def test_more_bad_sweep_files_fail_at_load(tmp_path, text, message):
+    with pytest.raises(S.SweepError, match=message):
+        S.load_sweep(write(tmp_path / "s.yaml", text))
+
+
+def test_values_are_typed_as_the_scenario_holds_them():
+    """An int given for a float field is that float, in lists and nested records too; an int
+    field keeps its ints (1.0 for it stays apart from 1: the run refuses it)."""
+    assert S.typed_parameter("duration", 1, {}) == 1.0
+    assert isinstance(S.typed_parameter("duration", 1, {}), float)
+    assert S.typed_parameter("initial_pose.xyz", [0, 0, -1], {}) == [0.0, 0.0, -1.0]
+    typed = S.typed_parameter("balloon.schedule", [{"time": 1, "fill": 1}], {})
+    assert typed == [{"time": 1.0, "fill": 1.0}] and isinstance(typed[0]["time"], float)
+    assert S.typed_parameter("water.coefficient_scales.body.linear_damping", 2, {}) == 2.0
+    assert S.typed_parameter("simulator.max_step_size", 1, {}) == 1.0  # a pydrake struct
+    assert type(S.typed_parameter("random_seed", 1, {})) is int
+    assert type(S.typed_parameter("random_seed", 1.0, {})) is float
+    assert S.typed_parameter("net_weight_kg", 1, {}) == 1.0
+    assert S.typed_parameter("hull", 1, {"hull": ["duration", "random_seed"]}) == [1.0, 1]
+    assert S.typed_parameter("contact.friction", True, {}) is True  # a bool is no number
+
+
+def test_fixed_and_set_are_checked_once_at_load(tmp_path, capsys):
+    from manta_drake.cli import main
+
+    good = write(tmp_path / "s.yaml", "base: [stand, locomotion_swim]\nfixed: {duration: 0.2}\n"
+                 "grid: {contact.friction: [0.5, 0.6]}\n")
+    with pytest.raises(S.SweepError, match="^--set: on base stand: .*duration"):
+        S.load_sweep(good, {"duration": -1.0})
+    with pytest.raises(S.SweepError, match="^--set contact.friction: the sweep varies it"):
+        S.load_sweep(good, {"contact.friction": 0.7})
+    with pytest.raises(S.SweepError, match="^--set contact.frction: "):
+        S.load_sweep(good, {"contact.frction": 0.7})
+    bad = write(tmp_path / "b.yaml", "base: stand\nfixed: {contact.friction: -1.0}\n"
+                "grid: {duration: [1.0, 2.0]}\n")
+    assert main(["sweep", str(bad), "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("manta-drake: error: sweep.fixed: on base "
+                                               "stand: ") and "contact.friction" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_sweep_with_no_valid_run_exits_1(tmp_path, capsys):
+    from manta_drake.cli import main
+
+    sweep = write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.2}\n"
+                  "rows: [{contact.friction: -1.0}, {contact.friction: -2.0}]\n")
+    out = tmp_path / "o"
+    assert main(["sweep", str(sweep), "--out", str(out), "--dry-run"]) == 1
+    assert capsys.readouterr().err.strip() == "manta-drake: sweep s: no run is valid"
+    assert main(["sweep", str(sweep), "--out", str(out), "--workers", "0", "--quiet"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"manta-drake: sweep s: no run is ok (2 invalid); see {out / 'results.csv'}"]
+    assert [r["status"] for r in S.read_table(out / "results.csv")] == ["invalid", "invalid"]
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\xff\xfe", "not a UTF-8 text (YAML) file"),
+    (b"base: stand\x00\x00\x00\n", "not valid YAML: unacceptable character #x0000"),
+])
+def test_a_binary_sweep_file_is_one_line(tmp_path, capsys, content, message):
+    from manta_drake.cli import main
+
+    path = tmp_path / "s.yaml"
+    path.write_bytes(content)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{path}: {message}" in err[0]
+
+
+def test_a_binary_results_table_is_one_line(tmp_path):
+    path = tmp_path / "results.csv"
+    path.write_bytes(b"run_id,status\n\xff\xfe\x00")
+    with pytest.raises(S.SweepError, match=f"^{path}: not a UTF-8 text \\(CSV\\) file$"):
+        S.read_table(path)
+    path.write_bytes(b"run_id,status\nx,\x00ok\n")
+    with pytest.raises(S.SweepError, match="not a text \\(CSV\\) file \\(it holds NUL bytes\\)"):
+        S.read_table(path)
+
+
+def _unwritable(tmp_path) -> pathlib.Path:
+    """A folder this process cannot write (a read-only mount for root, else chmod 555)."""
+    import os
+
+    if os.geteuid() != 0:
+        folder = tmp_path / "ro"
+        folder.mkdir(mode=0o555)
+        return folder / "out"
+    sys_fs = pathlib.Path("/sys")
+    if sys_fs.is_dir() and not os.access(sys_fs, os.W_OK):
+        return sys_fs / "manta_drake_out"
+    try:
+        import tempfile
+
+        with tempfile.TemporaryFile(dir=sys_fs):
+            pass
+    except OSError:
+        return sys_fs / "manta_drake_out"
+    pytest.skip("no read-only folder for root here")
+
+
+@pytest.mark.parametrize("case", ["a file", "under a file", "unwritable", "empty"])
+def test_sweep_out_is_checked_before_anything_runs(tmp_path, capsys, monkeypatch, case):
+    from manta_drake.cli import main
+    from manta_drake.sweep import loading
+
+    sweep = write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.2}\n")
+    (tmp_path / "file").write_text("x")
+    out, message = {
+        "a file": (tmp_path / "file", f"--out {tmp_path / 'file'}: is a file, not a folder"),
+        "under a file": (tmp_path / "file" / "o", f"--out {tmp_path / 'file' / 'o'}: cannot "
+                         f"be created ({tmp_path / 'file'} is a file)"),
+        "unwritable": (_unwritable(tmp_path), "--out "),
+        "empty": ("", "--out: an empty path; name an output folder (e.g. out/sweep)"),
+    }[case]
+    loads = []
+    monkeypatch.setattr(loading, "read_yaml_mapping", lambda *a: loads.append(a) or {})
+    assert main(["sweep", str(sweep), "--out", str(out), "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"manta-drake: error: {message}")
+    if case == "unwritable":
+        assert "not writable" in err[0] or "cannot be written" in err[0]
+    assert loads == []  # refused before the file was read
+    # run_sweep itself checks too (Python callers).
+    if case != "empty":
+        with pytest.raises(S.SweepError, match="^--out "):
+            S.run_sweep(S.SweepConfig(base=["stand"]), out, progress=False)
+    runs_file = tmp_path / "o2"
+    runs_file.mkdir()
+    (runs_file / "runs").write_text("not a folder")
+    with pytest.raises(S.SweepError, match="runs is a file, not a folder"):
+        S.check_out_folder(runs_file, ("results.csv",), folders=("runs",))
+
+
+# --- restarts: what is done ------------------------------------------------------------------
+
+def _record(run_dir: pathlib.Path, status: str, reason: str = "", log: bool | None = None,
+            log_file: bool = False) -> pathlib.Path:
+    run_dir.mkdir(parents=True, exist_ok=True)
+    record = {"status": status, "reason": reason, "run": {"run_id": run_dir.name}}
+    if log is not None:
+        record["run"]["log_npz"] = log
+    (run_dir / "metrics.json").write_text(json.dumps(record))
+    if log_file:
+        (run_dir / "log.npz").write_bytes(b"x")
+    return run_dir
+
+
+@pytest.mark.parametrize("status, reason, log, log_file, done", [
+    ("ok", "", True, True, True),
+    ("ok", "", True, False, False),         # the log went missing
+    ("ok", "", None, False, False),         # an ok record of before run.log_npz: has a log
+    ("failed", "at t = 1", True, False, False),
+    ("failed", "building", False, False, True),
+    ("invalid", "x", False, False, True),
+    ("error", "ValueError: boom", False, False, True),
+    ("error", "KilledWorker: Attempted to run task", False, False, False),
+    ("error", "CommClosedError: in <TCP>", None, False, False),
+    ("lost", "lost to the cluster in 3 attempts: KilledWorker: x", False, False, False),
+    ("running", "", None, False, False),
+])
+def test_read_done_infrastructure_and_missing_logs_are_not_done(tmp_path, status, reason, log,
+                                                                log_file, done):
+    run_dir = _record(tmp_path / "r", status, reason, log, log_file)
+    assert (S.read_done(run_dir) is not None) == done
+
+
+def test_restart_reruns_a_run_whose_log_is_missing_or_lost(tmp_path, monkeypatch):
+    from manta_drake.sweep import runner
+
+    calls = []
+    real = S.simulate_run
+    monkeypatch.setattr(runner, "simulate_run", lambda text: calls.append(text) or real(text))
+    sweep = S.load_sweep(write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.1}\n"
+                               "grid: {contact.friction: [0.5, 0.6, 0.7]}\n"))
+    out = tmp_path / "o"
+    first = S.run_sweep(sweep, out, progress=False)
+    assert len(calls) == 3 and [r["status"] for r in first.rows] == ["ok"] * 3
+    ids = [r["run_id"] for r in first.rows]
+    (out / "runs" / ids[0] / "log.npz").unlink()
+    record = json.loads((out / "runs" / ids[1] / "metrics.json").read_text())
+    record.update(status="error", reason="KilledWorker: Attempted to run task on 4 workers")
+    (out / "runs" / ids[1] / "metrics.json").write_text(json.dumps(record))
+    second = S.run_sweep(sweep, out, progress=False)
+    assert second.simulated == ids[:2] and len(calls) == 5
+    assert [r["status"] for r in second.rows] == ["ok"] * 3
+    assert (out / "runs" / ids[0] / "log.npz").is_file()
+
+
+def _kill_once(marker: str):
+    """A stand-in for simulate_run whose first call kills its worker process outright."""
+    import os
+
+    def run(text):
+        if not os.path.exists(marker):
+            with open(marker, "w"):
+                pass
+            os._exit(1)  # the worker process dies mid-task: no exception, no result
+        return S.simulate_run(text)
+
+    return run
+
+
+def test_a_run_lost_with_its_worker_is_run_again(tmp_path, monkeypatch):
+    """A real LocalCluster; the first task kills its worker. With allowed-failures 0
+    distributed gives up on every task that worker held (the killer and the run queued
+    behind it); the sweep submits them again and every row says ok."""
+    import dask.config
+
+    from manta_drake.sweep import runner
+
+    monkeypatch.setattr(runner, "simulate_run", _kill_once(str(tmp_path / "killed")))
+    sweep = S.load_sweep(write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.1}\n"
+                               "grid: {contact.friction: [0.5, 0.6, 0.7, 0.8]}\n"))
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            S.dask_client(workers=2) as client:
+        result = S.run_sweep(sweep, tmp_path / "o", client=client, progress=False)
+    assert (tmp_path / "killed").exists()  # a worker did die
+    assert [r["status"] for r in result.rows] == ["ok"] * 4, [r["reason"] for r in result.rows]
+    assert sorted(result.simulated) == sorted(r["run_id"] for r in result.rows)
+    for row in result.rows:
+        assert S.read_done(tmp_path / "o" / "runs" / row["run_id"])["status"] == "ok"
+
+
+def test_a_run_lost_on_every_attempt_is_lost_not_done(tmp_path, monkeypatch):
+    """The cluster's exceptions are retried ATTEMPTS times, then the row says lost and the
+    run is not done; any other exception from a task is the run's error."""
+    from manta_drake.sweep import runner
+
+    class KilledWorker(Exception):
+        pass
+
+    class FakeFuture:
+        def __init__(self, fn, arg):
+            self.fn, self.arg = fn, arg
+
+        def result(self):
+            return self.fn(self.arg)
+
+        def release(self):
+            pass
+
+    submitted = []
+
+    class FakeClient:
+        def nthreads(self):
+            return {"w": 1}
+
+        def submit(self, fn, arg, pure, key):
+            submitted.append(key)
+            return FakeFuture(fn, arg)
+
+    def always_lost(text):
+        raise KilledWorker("Attempted to run task on 4 different workers")
+
+    import distributed
+
+    monkeypatch.setattr(distributed, "as_completed", _FakeAsCompleted)
+    monkeypatch.setattr(runner, "simulate_run", always_lost)
+    sweep = S.load_sweep(write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.1}\n"))
+    result = S.run_sweep(sweep, tmp_path / "o", client=FakeClient(), progress=False)
+    (row,) = result.rows
+    assert row["status"] == "lost" and submitted == [
+        f"manta-run-{row['run_id']}-a{i}" for i in range(1, runner.ATTEMPTS + 1)]
+    assert row["reason"] == ("lost to the cluster in 3 attempts: KilledWorker: Attempted to "
+                             "run task on 4 different workers")
+    assert S.read_done(tmp_path / "o" / "runs" / row["run_id"]) is None
+
+
+class _FakeAsCompleted:
+    """distributed.as_completed over fake futures that are done at once."""
+
+    def __init__(self):
+        self.queue = []
+
+    def add(self, future):
+        self.queue.append(future)
+
+    def __iter__(self):
+        while self.queue:
+            yield self.queue.pop(0)
+
+
+# --- energy columns --------------------------------------------------------------------------
+
+ENERGY = {"mechanical_energy_j": 12.5, "electrical_energy_j": 80.25,
+          "mean_electrical_power_w": 4.0125, "cost_of_transport": 3.1,
+          "cost_of_transport_mechanical": 0.6, "battery_soc_end": 0.97,
+          "operation_time_h": 12.4, "steady_electrical_power_w": 4.1,
+          "cost_of_transport_note": None}
+
+
+def test_energy_block_becomes_energy_columns_in_the_documented_order(tmp_path):
+    metrics = {"status": "ok", "reason": "", "mean_velocity_body": [0.05, 0.0],
+               "sim_time_s": 20.0, "energy": ENERGY}
+    flat = S.flatten_metrics(metrics)
+    for key, value in ENERGY.items():
+        assert flat[f"energy.{key}"] == value
+    spec = S.RunSpec(0, "stand-s0-0000000000", "stand", 0, {"contact.friction": 0.5}, {})
+    failed = S.RunSpec(1, "stand-s0-1111111111", "stand", 0, {"contact.friction": -1.0}, {})
+    columns, rows = S.table_rows([spec, failed], {spec.run_id: metrics, failed.run_id: {
+        "status": "invalid", "reason": "contact.friction"}})
+    contract = ["energy.mechanical_energy_j", "energy.electrical_energy_j",
+                "energy.mean_electrical_power_w", "energy.cost_of_transport",
+                "energy.cost_of_transport_mechanical", "energy.battery_soc_end",
+                "energy.operation_time_h"]
+    energy_columns = [c for c in columns if c.startswith("energy.")]
+    assert energy_columns[:7] == contract  # then the block's other keys, sorted
+    assert energy_columns[7:] == ["energy.cost_of_transport_note",
+                                  "energy.steady_electrical_power_w"]
+    S.write_table(tmp_path / "results.csv", columns, rows)
+    table = S.read_table(tmp_path / "results.csv")
+    assert table[0]["energy.cost_of_transport"] == "3.1"
+    assert table[0]["energy.electrical_energy_j"] == "80.25"
+    assert table[1]["energy.cost_of_transport"] == "" and table[1]["status"] == "invalid"

@@ -22,6 +22,13 @@ to), ``calibration.png`` (measured against simulated before and after) and
 ``calibration.json`` (every evaluation, the iterations, the result). Use the file with
 ``water: {coefficients: DIR/coefficients.yaml}``.
 
+Checked before any simulation, each refused with one line naming the field or option: the
+file (keys, types, ranges, coefficients, scenarios and override values), every measured CSV
+against its experiment (UTF-8 text, the columns, finite numbers, times from 0 that increase
+and end within the run's duration), finite targets, and the output folder. A fit whose
+simulations at the fitted point did not all run to their end writes no coefficients file
+(``calibrate`` exits 1).
+
 Example (diagrams/sweeps/calibration.yaml)::
 
     name: hull_damping
@@ -54,7 +61,13 @@ from manta_drake.calibrate.config import (
 )
 from manta_drake.calibrate.evaluator import Evaluator, fd_points
 from manta_drake.calibrate.figure import write_calibration_figure
-from manta_drake.calibrate.fit import calibrate, standard_errors
+from manta_drake.calibrate.fit import (
+    OUTPUTS,
+    calibrate,
+    calibration_inputs,
+    check_calibration_out,
+    standard_errors,
+)
 from manta_drake.calibrate.loading import load_calibration, validate_calibration
 from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured, write_measured
 from manta_drake.calibrate.residuals import (
@@ -100,7 +113,8 @@ __all__ = [
     "parameter_scales", "experiment_scenario", "simulate_trajectory", "FAILED_RESIDUAL",
     "trajectory_residuals", "target_residuals", "Evaluator", "fd_points",
     # the fit and its outputs
-    "calibrate", "standard_errors", "CalibrationResult", "calibrated_sources",
+    "calibrate", "standard_errors", "OUTPUTS", "check_calibration_out", "calibration_inputs",
+    "CalibrationResult", "calibrated_sources",
     "write_calibrated_coefficients", "write_history", "write_calibration_figure",
     # the command line
     "add_calibrate_parser", "calibrate_main",

@@ -16,13 +16,16 @@ from manta_drake.calibrate.measured import load_measured
 from manta_drake.calibrate.residuals import target_residuals, trajectory_residuals
 from manta_drake.calibrate.run import simulate_trajectory
 from manta_drake.calibrate.scenarios import experiment_scenario, parameter_scales, scenario_text
+from manta_drake.sweep.results import is_infrastructure_error
+from manta_drake.sweep.runner import ATTEMPTS
 
 
 class Evaluator:
     """Residuals of parameter vectors; each batch of points is simulated in parallel.
 
     Every (point, experiment) is one task; results are cached by point, so the optimiser's
-    repeated points cost nothing. ``history`` records every evaluated point.
+    repeated points cost nothing. A task the cluster lost (its worker died) is submitted
+    again, up to ``sweep.runner.ATTEMPTS`` times. ``history`` records every evaluated point.
     """
 
     def __init__(self, config: CalibrationConfig, client=None, progress: bool = True):
@@ -78,16 +81,32 @@ class Evaluator:
         else:
             from distributed import as_completed
 
-            futures = {self.client.submit(simulate_trajectory, text, pure=False,
-                                          key=f"manta-cal-{_digest(text)}"): (x, i)
-                       for x, i, text in jobs}
-            for future in as_completed(futures):
+            pending = as_completed()
+            futures: dict = {}
+
+            def submit(job, attempt: int) -> None:
+                # A key per attempt: the scheduler may still hold a lost attempt's key.
+                future = self.client.submit(simulate_trajectory, job[2], pure=False,
+                                            key=f"manta-cal-{_digest(job[2])}-a{attempt}")
+                futures[future] = (job, attempt)
+                pending.add(future)
+
+            for job in jobs:
+                submit(job, 1)
+            for future in pending:
+                job, attempt = futures.pop(future)
                 try:
-                    results[futures[future]] = future.result()
-                except Exception as e:  # e.g. the worker died: a failed simulation
-                    results[futures[future]] = {"status": "error",
-                                                "reason": f"{type(e).__name__}: {e}"}
+                    outcome = future.result()
+                except Exception as e:  # simulate_trajectory returns failures: the cluster's
+                    outcome = e
                 future.release()
+                if isinstance(outcome, Exception):
+                    if is_infrastructure_error(outcome) and attempt < ATTEMPTS:
+                        submit(job, attempt + 1)  # a lost worker is no failed simulation
+                        continue
+                    outcome = {"status": "error",
+                               "reason": f"{type(outcome).__name__}: {outcome}"}
+                results[job[:2]] = outcome
                 self._tick()
         self.simulations += len(jobs)
         wall = time.perf_counter() - start

@@ -1,5 +1,7 @@
 """The calibration: ``calibrate`` fits the parameters with ``scipy.optimize.least_squares``
-(residuals and Jacobian from the evaluator) and writes the outputs."""
+(residuals and Jacobian from the evaluator) and writes the outputs. The output folder is
+checked before the first simulation; coefficients are written only when every simulation
+at the fitted point ran to its end (a fit to failed runs' penalties is no calibration)."""
 
 from __future__ import annotations
 
@@ -17,6 +19,28 @@ from manta_drake.calibrate.results import (
     write_calibrated_coefficients,
     write_history,
 )
+from manta_drake.model import resolve_path
+from manta_drake.sweep.config import check_out_folder
+
+# What calibrate writes in its output folder.
+OUTPUTS = ("coefficients.yaml", "calibration.json", "calibration.png")
+
+
+def calibration_inputs(config: CalibrationConfig) -> list:
+    """The files a calibration reads: its outputs may not overwrite them (a prior
+    ``coefficients.yaml`` in the output folder, a measured CSV)."""
+    inputs = [config.folder / e.measured for e in config.experiments if e.measured]
+    if not config.coefficients.startswith("package://"):  # the shipped prior is no --out
+        inputs.append(resolve_path(config.coefficients_path()))
+    return inputs
+
+
+def check_calibration_out(config: CalibrationConfig | None, out_dir,
+                          inputs=()) -> pathlib.Path:
+    """Checks a calibration's output folder before any simulation (``check_out_folder``:
+    not a file, creatable, writable; no output over an input). SweepError otherwise."""
+    inputs = list(inputs) + (calibration_inputs(config) if config is not None else [])
+    return check_out_folder(out_dir, OUTPUTS, inputs)
 
 
 def calibrate(config: CalibrationConfig, out_dir=None, client=None,
@@ -29,9 +53,19 @@ def calibrate(config: CalibrationConfig, out_dir=None, client=None,
             (None: write nothing).
         client: a ``distributed.Client`` (each simulation a task), or None: in this process.
         progress: a tqdm bar counting simulations.
+
+    Returns:
+        The result; ``coefficients_file`` is None (and ``success`` False) when a simulation
+        at the fitted point did not run to its end: ``calibration.json`` and the figure are
+        written, no coefficients file.
+
+    Raises:
+        SweepError: ``out_dir`` cannot take the outputs (before any simulation).
     """
     from scipy.optimize import least_squares
 
+    if out_dir is not None:
+        out_dir = check_calibration_out(config, out_dir)
     start = time.perf_counter()
     evaluator = Evaluator(config, client, progress)
     x0 = np.array([p.initial for p in config.parameters], dtype=float)
@@ -57,11 +91,18 @@ def calibrate(config: CalibrationConfig, out_dir=None, client=None,
         success=bool(result.success), message=str(result.message),
         evaluations=len(evaluator.history), simulations=evaluator.simulations,
         wall_time_s=time.perf_counter() - start)
+    not_ok = [f"{e.name}: {run['status']} ({run.get('reason') or 'no reason'})"
+              for e, run in zip(config.experiments, final["runs"]) if run["status"] != "ok"]
+    if not_ok:
+        out.success = False
+        out.message = ("not calibrated: a simulation at the fitted point did not run to its "
+                       f"end ({'; '.join(not_ok)})")
     if out_dir is not None:
-        out_dir = pathlib.Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        out.coefficients_file = write_calibrated_coefficients(
-            out_dir / "coefficients.yaml", config, out)
+        (out_dir / "coefficients.yaml").unlink(missing_ok=True)  # never an earlier fit's
+        if not not_ok:
+            out.coefficients_file = write_calibrated_coefficients(
+                out_dir / "coefficients.yaml", config, out)
         out.history_file = write_history(out_dir / "calibration.json", config, out, evaluator,
                                          result)
         out.figure = write_calibration_figure(out_dir / "calibration.png", config, evaluator,

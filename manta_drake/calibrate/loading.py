@@ -16,7 +16,7 @@ from manta_drake.calibrate.config import (
     Sigma,
 )
 from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured
-from manta_drake.calibrate.scenarios import base_scenario
+from manta_drake.calibrate.scenarios import base_scenario, experiment_scenario
 from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients
 from manta_drake.scenario import ScenarioError, coefficient_names
@@ -37,9 +37,11 @@ def load_calibration(path, require_data: bool = True) -> CalibrationConfig:
             ``synthesize_measurements`` is about to make them).
 
     Raises:
-        SweepError: an unknown key, a wrong type or range, a coefficient or scenario key that
-            does not exist, or a measured file that is missing or malformed; the message
-            names the path in the file (``calibration.experiments[0].measured``).
+        SweepError: an unknown or duplicated key, a wrong type or range, a coefficient or
+            scenario key that does not exist, an override value the scenario refuses, a
+            target that is not a finite number, or a measured file that is missing, not a
+            text file, malformed or longer than its run; the message names the path in the
+            file (``calibration.experiments[0].measured``).
     """
     path = pathlib.Path(path)
     data = read_yaml_mapping(path, "calibration")
@@ -114,18 +116,26 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
             if key in ("random_seed", "water.coefficients"):
                 raise SweepError(f"{where}.overrides.{key}: set by the calibration file "
                                  "(seed, coefficients)")
+        try:  # the values too, once: every simulation of the fit starts from this scenario
+            scenario = experiment_scenario(config, e, {})
+        except ScenarioError as err:
+            raise SweepError(f"{where}.overrides: {' '.join(str(err).split())}") from None
         if not e.measured and not e.target:
             raise SweepError(f"{where}: give `measured` (a CSV) or `target` (mean velocities)")
         if e.measured:
             bad = [c for c in e.columns if c not in TRAJECTORY_COLUMNS]
-            if bad or not e.columns:
+            if bad or not e.columns or len(set(e.columns)) != len(e.columns):
                 raise SweepError(f"{where}.columns: {e.columns} must be some of "
-                                 f"{', '.join(TRAJECTORY_COLUMNS)}")
+                                 f"{', '.join(TRAJECTORY_COLUMNS)}, each once")
             if require_data:
-                load_measured(config.folder / e.measured, e.columns, f"{where}.measured")
-        for key in e.target:
+                load_measured(config.folder / e.measured, e.columns, f"{where}.measured",
+                              duration=scenario.duration)
+        for key, value in e.target.items():
             if key not in TARGET_KEYS:
                 raise SweepError(f"{where}.target.{key}: not one of {', '.join(TARGET_KEYS)}")
+            if not math.isfinite(value):
+                raise SweepError(f"{where}.target.{key}: {value!r} is not a finite number "
+                                 "(a measured mean velocity)")
         _positive(f"{where}.weight", e.weight)
     for f in dc.fields(Sigma):
         _positive(f"calibration.sigma.{f.name}", getattr(config.sigma, f.name))

@@ -25,17 +25,22 @@ hull's sealed volume). Instead of ``grid``: ``rows`` (a list of explicit paramet
 ``numpy.random.default_rng(seed)``).
 
 Outputs in ``--out DIR``: ``results.csv`` (one row per run: its parameters, status, reason and
-flattened metrics), ``summary.png``, and ``runs/<run_id>/`` with ``scenario.yaml`` (the
-resolved scenario: ``manta-drake run`` it to reproduce the run), ``log.npz`` and
-``metrics.json`` (written last: a run is done when it holds a ``status``; a restarted sweep
-skips done runs). Run ids hash the base, the resolved overrides and the seed, so they are
+flattened metrics, the ``energy`` block as ``energy.<key>`` columns), ``summary.png``, and
+``runs/<run_id>/`` with ``scenario.yaml`` (the resolved scenario: ``manta-drake run`` it to
+reproduce the run), ``log.npz`` and ``metrics.json`` (written last: a run is done when it
+holds a final status and the log it says it wrote is there; a restarted sweep skips done
+runs). Run ids hash the base, the resolved overrides and the seed, so they are
 the same on every machine and every restart.
 
-Where things can go wrong: an unknown key anywhere in the sweep file, or a parameter that
-names no scenario field, fails at load time (before any run) with one line naming the
-path. A bad *value* (``contact.friction: -1``), a simulation failure or any other exception
-makes that run a row with ``status`` (``invalid``, ``failed``, ``error``) and ``reason``; the
-sweep goes on.
+Where things can go wrong: an unknown or duplicated key anywhere in the sweep file, a
+parameter that names no scenario field, a value given twice (``1`` and ``1.0`` of a float
+field are one value), more than ``MAX_RUNS`` runs (counted, never expanded), a ``fixed``
+value no base accepts, or an output folder that cannot take the results fails at once
+(before any run) with one line naming the path or option. A bad varied *value*
+(``contact.friction: -1``), a simulation failure or any other exception makes that run a
+row with ``status`` (``invalid``, ``failed``, ``error``) and ``reason``; the sweep goes on.
+A run the cluster lost (its worker died) is submitted again; lost every time, its row says
+``lost`` and a restart runs it again.
 
 The package, one module per step: ``config`` (the file's dataclasses, ``SweepError`` and
 the checks shared with calibration files), ``loading`` (``load_sweep``), ``net_weight``
@@ -78,16 +83,19 @@ from manta_drake.station.water import build_elements  # noqa: F401
 from manta_drake.sweep.cli import add_sweep_parser, sweep_main
 from manta_drake.sweep.config import (
     DERIVED,
+    MAX_RUNS,
     RandomSample,
     RunSpec,
     SweepConfig,
     SweepError,
     check_config_keys,
+    check_out_folder,
     check_parameter_name,
     read_yaml_mapping,
+    typed_parameter,
 )
 from manta_drake.sweep.figure import write_summary_figure
-from manta_drake.sweep.loading import load_sweep, validate_sweep
+from manta_drake.sweep.loading import check_fixed_values, load_sweep, validate_sweep
 from manta_drake.sweep.net_weight import (
     apply_net_weight,
     deflated_net_weight_kg,
@@ -96,17 +104,26 @@ from manta_drake.sweep.net_weight import (
 )
 from manta_drake.sweep.plan import (
     apply_overrides,
+    count_parameter_sets,
+    count_runs,
     expand_overrides,
+    iter_parameter_sets,
     make_run_id,
     parameter_names,
     parameter_sets,
     plan_runs,
+    resolve_run,
+    run_specs,
 )
 from manta_drake.sweep.results import (
+    DONE_STATUSES,
+    INFRASTRUCTURE_ERRORS,
+    LOST,
     METRIC_COLUMNS,
     NAMED_VECTORS,
     flatten_metrics,
     format_transitions,
+    is_infrastructure_error,
     read_done,
     read_table,
     table_rows,
@@ -114,22 +131,25 @@ from manta_drake.sweep.results import (
     write_table,
 )
 from manta_drake.sweep.run import failure_reason, simulate_run
-from manta_drake.sweep.runner import SweepResult, run_sweep
+from manta_drake.sweep.runner import ATTEMPTS, SweepResult, run_sweep
 
 __all__ = [
     # the sweep file
-    "SweepError", "RandomSample", "SweepConfig", "RunSpec", "DERIVED", "load_sweep",
-    "validate_sweep", "check_config_keys", "read_yaml_mapping", "check_parameter_name",
+    "SweepError", "RandomSample", "SweepConfig", "RunSpec", "DERIVED", "MAX_RUNS",
+    "load_sweep", "validate_sweep", "check_fixed_values", "check_config_keys",
+    "read_yaml_mapping", "check_parameter_name", "typed_parameter", "check_out_folder",
     # the derived parameter net_weight_kg
     "hull_scale_for_net_weight", "deflated_net_weight_kg", "net_weight_scales",
     "apply_net_weight",
     # from a sweep to its runs
-    "expand_overrides", "apply_overrides", "make_run_id", "parameter_sets", "parameter_names",
-    "plan_runs",
+    "expand_overrides", "apply_overrides", "make_run_id", "count_parameter_sets",
+    "count_runs", "iter_parameter_sets", "parameter_sets", "parameter_names", "run_specs",
+    "resolve_run", "plan_runs",
     # one run, the results, the sweep
-    "simulate_run", "failure_reason", "write_run", "read_done", "format_transitions",
+    "simulate_run", "failure_reason", "write_run", "read_done", "DONE_STATUSES", "LOST",
+    "INFRASTRUCTURE_ERRORS", "is_infrastructure_error", "format_transitions",
     "NAMED_VECTORS", "METRIC_COLUMNS", "flatten_metrics", "table_rows", "write_table",
-    "read_table", "write_summary_figure", "SweepResult", "run_sweep",
+    "read_table", "write_summary_figure", "ATTEMPTS", "SweepResult", "run_sweep",
     # the command line
     "add_sweep_parser", "sweep_main",
     # the Dask cluster helper (manta_drake.cluster)

@@ -1,17 +1,28 @@
-"""``manta-drake sweep SWEEP.yaml --out DIR`` (``manta_drake.cli`` dispatches here)."""
+"""``manta-drake sweep SWEEP.yaml --out DIR`` (``manta_drake.cli`` dispatches here).
+
+Exit status: 0 when at least one run is ok and none was lost to the cluster; 1 when no run
+is ok (every run invalid, failed or in error: the table tells no result) or a run was lost
+(the sweep is incomplete: the same command again runs what is missing); 2 when the input is
+refused (one line naming the file or option, the field and the allowed range; nothing
+ran)."""
 
 from __future__ import annotations
 
 import json
 import pathlib
+import sys
 import time
 
 from manta_drake.cluster import add_cluster_arguments, check_cluster_arguments, cluster_client
 from manta_drake.scenario import parse_set
-from manta_drake.sweep.config import SweepError
+from manta_drake.sweep.config import MAX_RUNS, SweepError, check_out_folder
 from manta_drake.sweep.loading import load_sweep
 from manta_drake.sweep.plan import plan_runs
-from manta_drake.sweep.runner import run_sweep
+from manta_drake.sweep.results import LOST
+from manta_drake.sweep.runner import OUTPUTS, run_sweep
+
+# Exit status of a sweep that ran but gives no result or an incomplete one.
+NO_RESULT = 1
 
 
 def add_sweep_parser(subparsers) -> None:
@@ -20,14 +31,18 @@ def add_sweep_parser(subparsers) -> None:
         "sweep", help="many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)",
         description="Runs every (base scenario, parameter set, seed) of a sweep file as a "
                     "Dask task; writes DIR/results.csv, DIR/summary.png and DIR/runs/<id>/. "
-                    "Restarted with the same --out, it skips the runs already done.")
+                    "Restarted with the same --out, it skips the runs already done. Exit "
+                    "status 1 when no run is ok or a run was lost to the cluster, 2 when "
+                    "the input is refused.")
     p.add_argument("sweep", help="sweep YAML file (docs/sweeps.md)")
     p.add_argument("--out", required=True, help="output folder")
     add_cluster_arguments(p)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="add to the file's `fixed` overrides, e.g. --set duration=2 (changes "
                         "the run ids); repeatable")
-    p.add_argument("--limit", type=int, metavar="N", help="only the first N runs")
+    p.add_argument("--limit", type=int, metavar="N",
+                   help=f"only the first N runs (1 to {MAX_RUNS}); only their parameter sets "
+                        "are drawn")
     p.add_argument("--rerun-failed", action="store_true",
                    help="run again the runs whose status is not ok")
     p.add_argument("--dry-run", action="store_true",
@@ -36,17 +51,32 @@ def add_sweep_parser(subparsers) -> None:
 
 
 def sweep_main(args) -> int:
-    """``manta-drake sweep``: load (errors are one line), run, print a summary."""
-    config = load_sweep(args.sweep, parse_set(args.set))
-    if args.limit is not None and args.limit < 1:
-        raise SweepError(f"--limit: {args.limit} must be >= 1")
+    """``manta-drake sweep``: check the options, load (errors are one line), run, print a
+    summary; the exit status as the module says."""
+    if args.limit is not None and not 1 <= args.limit <= MAX_RUNS:
+        raise SweepError(f"--limit: {args.limit} is outside the allowed range [1, {MAX_RUNS}]")
     check_cluster_arguments(args)
+    # Before the load and any run: a sweep never ends by finding it cannot write.
+    check_out_folder(args.out, OUTPUTS, [args.sweep], folders=("runs",))
+    try:
+        return _sweep(args)
+    except MemoryError:  # its message is empty: say what ran out
+        raise SweepError(f"{args.sweep}: out of memory while planning or running the sweep; "
+                         "use --limit or a smaller sweep") from None
+
+
+def _sweep(args) -> int:
+    config = load_sweep(args.sweep, parse_set(args.set))
     if args.dry_run:
         specs = plan_runs(config, args.limit)
         for spec in specs:
             state = f"invalid: {spec.invalid_reason}" if spec.invalid_reason else ""
             print(f"{spec.run_id:<40} {json.dumps(spec.parameters)} {state}")
-        print(f"\n{len(specs)} runs; {sum(bool(s.invalid_reason) for s in specs)} invalid")
+        invalid = sum(bool(s.invalid_reason) for s in specs)
+        print(f"\n{len(specs)} runs; {invalid} invalid")
+        if invalid == len(specs):
+            print(f"manta-drake: sweep {config.name}: no run is valid", file=sys.stderr)
+            return NO_RESULT
         return 0
     start = time.perf_counter()
     with cluster_client(args) as client:
@@ -59,4 +89,12 @@ def sweep_main(args) -> int:
     if result.figure:
         print(f"  figure: {result.figure}")
     print(f"  runs:   {pathlib.Path(args.out) / 'runs'}/<run_id>/")
+    if not result.counts.get("ok"):
+        print(f"manta-drake: sweep {config.name}: no run is ok ({counts}); see "
+              f"{result.table}", file=sys.stderr)
+        return NO_RESULT
+    if result.counts.get(LOST):
+        print(f"manta-drake: sweep {config.name}: {result.counts[LOST]} runs lost to the "
+              "cluster; run the same command again to finish them", file=sys.stderr)
+        return NO_RESULT
     return 0

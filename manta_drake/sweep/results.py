@@ -1,6 +1,7 @@
 """A sweep's results on disk: each run's folder (``scenario.yaml``, ``log.npz``,
-``metrics.json`` last, so a run is done when it holds a status) and ``results.csv``, one
-row per run with its metrics flattened into scalar cells."""
+``metrics.json`` last, so a run is done when it holds a final status and the files it says
+it wrote) and ``results.csv``, one row per run with its metrics flattened into scalar
+cells."""
 
 from __future__ import annotations
 
@@ -10,7 +11,27 @@ import json
 import os
 import pathlib
 
-from manta_drake.sweep.config import RunSpec
+from manta_drake.sweep.config import RunSpec, SweepError
+
+# Statuses of a run that is done: a restart skips it (``--rerun-failed`` runs the ones that
+# are not ok again). ``lost``, a run the cluster lost (its worker died, the connection
+# dropped) after every attempt, is not done: a restart runs it again.
+DONE_STATUSES = ("ok", "invalid", "failed", "error")
+LOST = "lost"
+# Exceptions of the cluster, not of a run: distributed raises them from a task's result
+# when the worker running (or holding) the task died or the connection to it closed.
+INFRASTRUCTURE_ERRORS = ("KilledWorker", "CommClosedError", "StreamClosedError",
+                         "FutureCancelledError", "CancelledError")
+
+
+def is_infrastructure_error(error) -> bool:
+    """Whether an exception is the cluster's, not the run's: one of
+    ``INFRASTRUCTURE_ERRORS`` or any ``OSError`` (distributed's connection errors are; a
+    task's own errors never reach the client as exceptions, ``simulate_run`` returns them).
+    Given a reason ``"Name: text"`` of a record, only the names count."""
+    if isinstance(error, str):
+        return error.split(":", 1)[0].strip() in INFRASTRUCTURE_ERRORS
+    return isinstance(error, OSError) or type(error).__name__ in INFRASTRUCTURE_ERRORS
 
 
 def _atomic_write(path: pathlib.Path, data: bytes) -> None:
@@ -22,26 +43,51 @@ def _atomic_write(path: pathlib.Path, data: bytes) -> None:
 
 def write_run(run_dir: pathlib.Path, spec: RunSpec, outcome: dict) -> dict:
     """Writes a run's folder (``scenario.yaml``, ``log.npz``, then ``metrics.json``) and
-    returns its metrics record."""
+    returns its metrics record.
+
+    An earlier attempt's ``metrics.json`` goes first and its other files are replaced or
+    removed, so that an interruption part-way leaves a run that is not done rather than
+    the old record beside new files. The record's ``run.log_npz`` says whether the run
+    wrote a log (a done run whose log is missing is not done).
+    """
     run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "metrics.json").unlink(missing_ok=True)
     if spec.scenario_yaml:
-        (run_dir / "scenario.yaml").write_text(spec.scenario_yaml)
+        _atomic_write(run_dir / "scenario.yaml", spec.scenario_yaml.encode())
+    else:
+        (run_dir / "scenario.yaml").unlink(missing_ok=True)
     if outcome.get("log_npz"):
         _atomic_write(run_dir / "log.npz", outcome["log_npz"])
+    else:
+        (run_dir / "log.npz").unlink(missing_ok=True)
     record = dict(outcome["metrics"])
     record["run"] = {"run_id": spec.run_id, "base": spec.base, "seed": spec.seed,
-                     "parameters": spec.parameters, "overrides": spec.overrides}
+                     "parameters": spec.parameters, "overrides": spec.overrides,
+                     "log_npz": bool(outcome.get("log_npz"))}
     _atomic_write(run_dir / "metrics.json", (json.dumps(record, indent=2) + "\n").encode())
     return record
 
 
 def read_done(run_dir: pathlib.Path) -> dict | None:
-    """A run's metrics record if the run is done (metrics.json with a status), else None."""
+    """A run's metrics record if the run is done, else None.
+
+    Done: ``metrics.json`` holds one of ``DONE_STATUSES`` and the log it says the run wrote
+    is there (a record written before ``run.log_npz`` existed: an ``ok`` run has a log).
+    Not done: no or a broken ``metrics.json``, status ``lost`` (or ``error`` from one of
+    ``INFRASTRUCTURE_ERRORS``: the cluster failed, not the run), or a missing log.
+    """
     try:
-        record = json.loads((run_dir / "metrics.json").read_text())
+        record = json.loads((run_dir / "metrics.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
-    return record if isinstance(record, dict) and record.get("status") else None
+    if not isinstance(record, dict) or record.get("status") not in DONE_STATUSES:
+        return None
+    if record["status"] == "error" and is_infrastructure_error(str(record.get("reason", ""))):
+        return None
+    run = record.get("run") if isinstance(record.get("run"), dict) else {}
+    if run.get("log_npz", record["status"] == "ok") and not (run_dir / "log.npz").is_file():
+        return None
+    return record
 
 
 def format_transitions(transitions) -> str:
@@ -61,6 +107,11 @@ METRIC_COLUMNS = (
     "real_time_factor", "max_penetration_m", "max_joint_step_rad", "final_max_joint_error_rad",
     "final_x", "final_y", "final_z", "final_roll_deg", "final_pitch_deg", "final_yaw_deg",
     "failure_time_s", "steady_start_s", "steady_end_s",
+    # The run's energy block (metrics.json ``energy``), each key prefixed with ``energy.``.
+    *(f"energy.{k}" for k in ("mechanical_energy_j", "electrical_energy_j",
+                              "mean_electrical_power_w", "cost_of_transport",
+                              "cost_of_transport_mechanical", "battery_soc_end",
+                              "operation_time_h")),
 )
 
 
@@ -68,8 +119,10 @@ def flatten_metrics(metrics: dict) -> dict:
     """A run's metrics as scalar table cells.
 
     Named vectors become named columns (``mean_velocity_body`` -> ``u``, ``v``), other lists
-    ``<name>_<i>``, transitions one compact string, the failure its time; ``scenario``,
-    ``status``, ``reason`` and ``run`` are left out (the table has them elsewhere).
+    ``<name>_<i>``, transitions one compact string, the failure its time, a block of
+    metrics (``energy``) one column per key, ``<block>.<key>``
+    (``energy.cost_of_transport``); ``scenario``, ``status``, ``reason`` and ``run`` are
+    left out (the table has them elsewhere).
     """
     out = {}
     for key, value in metrics.items():
@@ -133,6 +186,18 @@ def write_table(path: pathlib.Path, columns: list[str], rows: list[dict]) -> Non
 
 
 def read_table(path) -> list[dict]:
-    """The results CSV as a list of dicts of strings."""
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+    """The results CSV as a list of dicts of strings.
+
+    Raises:
+        SweepError: the file is missing, unreadable or not UTF-8 text (one line naming it).
+    """
+    path = pathlib.Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise SweepError(f"{path}: not a UTF-8 text (CSV) file") from None
+    except OSError as e:
+        raise SweepError(f"{path}: cannot be read: {e.strerror}") from None
+    if "\0" in text:
+        raise SweepError(f"{path}: not a text (CSV) file (it holds NUL bytes)")
+    return list(csv.DictReader(io.StringIO(text, newline="")))

@@ -7,8 +7,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
+DOCS_OUT ?= docs/_build/html
 
-.PHONY: demo test setup clean syslibs models experiments benchmark
+.PHONY: demo test setup clean syslibs models experiments benchmark docs
 
 setup: syslibs $(STAMP)
 
@@ -42,6 +43,12 @@ benchmark: setup
 
 models: setup
 	$(PY) scripts/generate_models.py
+
+# The API reference (Sphinx, docs/conf.py, sources docs/api/): warnings are errors; -E
+# rereads every docstring (Sphinx cannot see that a docstring changed).
+docs: setup
+	$(PY) -m sphinx -b html -E -W --keep-going -q -d docs/_build/doctrees docs $(DOCS_OUT)
+	@echo "API reference: $(DOCS_OUT)/index.html"
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis build dist *.egg-info docs/_build

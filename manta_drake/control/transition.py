@@ -28,7 +28,7 @@ Where the printed paper contradicts its own text we follow the text (DESIGN.md):
 Guarantees (tested): each parameter's error e (wrapped to (-pi, pi], the potential is
 on the torus) shrinks monotonically without overshoot from any start, because the
 step is -c sin(e) exp(-T (1 - cos e)) with c = alpha g T <= 1 (checked at
-construction) and |sin e| <= |e|; and no update moves a parameter by more than
+construction) and ``|sin e| <= |e|``; and no update moves a parameter by more than
 ``max_step = alpha g T`` rad (0.059 rad with the defaults).
 
 Defaults: T = 0.5 (a broad well: a parameter starting near the far side of the torus,

@@ -119,7 +119,7 @@ class HydrodynamicForces(LeafSystem):
     Per body, as [torque about its origin, force] in the world, the sum of: the lift
     rho g V_e s_e e_z of each volume element applied at its centre of buoyancy (s_e its
     submerged fraction: Eq. 3 at any attitude), the balloon's likewise, the damping
-    -(D_lin + D_quad |nu|) nu s_b per body axis on the velocity nu relative to the water
+    ``-(D_lin + D_quad |nu|) nu s_b`` per body axis on the velocity nu relative to the water
     (Eq. 2), the fin strips' blade-element forces, and on the hull m_iso g e_z (the
     added-mass body's weight cancelled) and -M_res a_prev, -I_res alpha_prev per hull axis
     (the residual added mass, from the hull's finite-difference acceleration).
@@ -319,8 +319,9 @@ class HydrodynamicForces(LeafSystem):
 
         Args:
             builder: the DiagramBuilder holding ``plant``.
-            plant, robot, coeffs, time_step, params, current, added_mass_iso,
-                update_period, inputs, backend: the constructor's arguments.
+            plant, robot, coeffs, time_step, params, current, added_mass_iso: the
+                constructor's arguments.
+            update_period, inputs, backend: the constructor's arguments.
             apply_as: ``"generalized_forces"`` (needs ``inputs="plant_state"``) into the
                 plant's ``applied_generalized_force``, ``"spatial_forces"`` into its
                 ``applied_spatial_force``, or None: generalized forces with the state

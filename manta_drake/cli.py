@@ -152,28 +152,43 @@ def _run(args) -> int:
     return 0
 
 
-# command -> module with add_<command>_parser(subparsers) and <command>_main(args).
+# command -> (module with add_<command>_parser(subparsers) and <command>_main(args), the
+# one-line help `manta-drake --help` shows). Only the command being run imports its module:
+# `manta-drake run` does not load the seam, the sweep or the studies, and `--help` loads
+# nothing heavy.
 EXTENSIONS = {
-    "station": "manta_drake.seam",
-    "controller": "manta_drake.seam",
-    "sweep": "manta_drake.sweep",
-    "calibrate": "manta_drake.calibrate",
-    "study": "manta_drake.studies",
+    "station": ("manta_drake.seam", "run the simulated robot alone, over LCM"),
+    "controller": ("manta_drake.seam", "run the controller alone, over LCM"),
+    "sweep": ("manta_drake.sweep",
+              "many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)"),
+    "calibrate": ("manta_drake.calibrate",
+                  "fit hydrodynamic coefficients to measured runs on Dask (Sim2Real; "
+                  "docs/sweeps.md)"),
+    "study": ("manta_drake.studies", "run a study that regenerates a report of docs/"),
 }
 
 
 def _extension(command: str):
     import importlib
 
+    name = EXTENSIONS[command][0]
     try:
-        return importlib.import_module(EXTENSIONS[command])
+        return importlib.import_module(name)
     except ModuleNotFoundError as e:
-        if e.name != EXTENSIONS[command]:
+        if e.name != name:
             raise
         return None
 
 
-def _parser() -> argparse.ArgumentParser:
+def _command_in(argv) -> str | None:
+    """The subcommand ``argv`` names (its first argument that is not an option)."""
+    for arg in argv:
+        if not arg.startswith("-"):
+            return arg
+    return None
+
+
+def _parser(argv) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="manta-drake", description="Manta-ray robot simulator")
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="simulate a scenario YAML file")
@@ -186,10 +201,13 @@ def _parser() -> argparse.ArgumentParser:
     p_run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     sub.add_parser("list", help="list the shipped scenarios")
-    for command in EXTENSIONS:
-        module = _extension(command)
+    chosen = _command_in(argv)
+    for command, (_, help_text) in EXTENSIONS.items():
+        module = _extension(command) if command == chosen else None
         if module is not None:
             getattr(module, f"add_{command}_parser")(sub)
+        else:  # listed by --help; its options are read only when it is the command
+            sub.add_parser(command, help=help_text, add_help=False)
     return parser
 
 
@@ -202,8 +220,9 @@ def _interrupted(e: KeyboardInterrupt) -> int:
 
 
 def main(argv=None) -> int:
-    try:  # building the parser imports the commands' modules: Ctrl-C may come here too
-        args = _parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:  # building the parser imports the command's module: Ctrl-C may come here too
+        args = _parser(argv).parse_args(argv)
     except KeyboardInterrupt as e:
         return _interrupted(e)
     try:

@@ -118,3 +118,23 @@ def test_the_summary_prints_walls_energy_and_a_failure(capsys, tmp_path):
     assert lines["mean_electrical_power_w"] == "26.84" and lines["operation_time_h"] == "2.31"
     assert lines["cost_of_transport"] == "-"
     assert lines["failure"] == "simulation at 1.250 s: battery empty"
+
+
+def test_help_and_run_import_only_what_they_need():
+    """`manta-drake --help` lists every command without importing Drake or any command's
+    module; the parser of `run` imports none of the other commands' modules."""
+    code = ("import sys; from manta_drake.cli import _parser; _parser(sys.argv[1:]); "
+            "print(' '.join(m for m in ('pydrake', 'manta_drake.seam', 'manta_drake.sweep', "
+            "'manta_drake.calibrate', 'manta_drake.studies', 'distributed', 'lcm') "
+            "if m in sys.modules))")
+    import subprocess
+    import sys as _sys
+
+    for argv in (["--help"], ["run", "stand", "--out", "x"]):
+        out = subprocess.run([_sys.executable, "-c", code, *argv], capture_output=True,
+                             text=True, timeout=120)
+        assert out.stdout.strip() == "", (argv, out.stdout, out.stderr)
+    listed = subprocess.run([_sys.executable, "-m", "manta_drake.cli", "--help"],
+                            capture_output=True, text=True, timeout=120).stdout
+    for command in ("run", "list", "station", "controller", "sweep", "calibrate", "study"):
+        assert command in listed

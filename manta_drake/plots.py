@@ -1,17 +1,22 @@
-"""Matplotlib figures of a run (headless, Agg backend)."""
+"""Matplotlib figures of a run, written to files.
+
+The figures are made with matplotlib's object API (``Figure``, no pyplot), so writing
+them needs no display and leaves the caller's pyplot backend alone (a notebook keeps its
+inline figures).
+"""
 
 from __future__ import annotations
 
 import pathlib
 
 import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from manta_drake.control.vision import LABEL_COLORS  # noqa: E402
-from manta_drake.model.robot_params import JOINTS, LEGS  # noqa: E402
+from manta_drake import metrics as M
+from manta_drake.control.vision import LABEL_COLORS
+from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, JOINTS, LEGS
 
 LEG_TITLES = {"fl": "front-left", "fr": "front-right", "rl": "rear-left", "rr": "rear-right"}
 
@@ -22,8 +27,9 @@ def plot_joints(t, q, t_cmd, q_cmd, path, title="", shade=None):
     Args:
         shade: optional list of (start, end, label) spans to shade (behaviour phases).
     """
-    fig, axes = plt.subplots(4, 1, figsize=(10, 9), sharex=True)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig = Figure(figsize=(10, 9))
+    axes = fig.subplots(4, 1, sharex=True)
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, (ax, leg) in enumerate(zip(axes, LEGS)):
         for j, joint in enumerate(JOINTS):
             i = 4 * k + j
@@ -43,7 +49,6 @@ def plot_joints(t, q, t_cmd, q_cmd, path, title="", shade=None):
     fig.suptitle(f"{title} joint angles (solid: measured, dashed: commanded)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_states(log: dict, path, title=""):
@@ -56,7 +61,8 @@ def plot_states(log: dict, path, title=""):
         if key in log and len(log[key]):
             scale = 1000.0 if key == "balloon_volume" else 1.0
             panels.append((label, [(log[key][:, 0] * scale, key, log[f"t_{key}"])]))
-    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.2 * len(panels) + 1), sharex=True)
+    fig = Figure(figsize=(10, 2.2 * len(panels) + 1))
+    axes = fig.subplots(len(panels), 1, sharex=True)
     axes = np.atleast_1d(axes)
     for ax, (ylabel, series) in zip(axes, panels):
         for s in series:
@@ -69,15 +75,15 @@ def plot_states(log: dict, path, title=""):
     axes[-1].set_xlabel("time [s]")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_trajectory(log: dict, path, title="", pool=(15.0, 2.0)):
     """Top view of the body's path in the pool."""
     xyz = log["body_xyz"]
-    fig, ax = plt.subplots(figsize=(10, 3.2))
+    fig = Figure(figsize=(10, 3.2))
+    ax = fig.subplots()
     L, W = pool
-    ax.add_patch(plt.Rectangle((-L / 2, -W / 2), L, W, fill=False, lw=1.5, color="gray"))
+    ax.add_patch(Rectangle((-L / 2, -W / 2), L, W, fill=False, lw=1.5, color="gray"))
     ax.plot(xyz[:, 0], xyz[:, 1], lw=1.5)
     ax.plot(*xyz[0, :2], "go", label="start")
     ax.plot(*xyz[-1, :2], "rs", label="end")
@@ -88,7 +94,6 @@ def plot_trajectory(log: dict, path, title="", pool=(15.0, 2.0)):
     ax.set_title(f"{title} trajectory (top view)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def write_run_plots(log: dict, out_dir, title="", shade=None) -> None:
@@ -118,18 +123,32 @@ def behaviour_spans(transitions: list, end: float) -> list:
     return spans
 
 
+def wall_spans(log: dict, margin: float) -> list:
+    """(start, end) of each stretch of the log where the hull is within ``margin`` [m] of a
+    pool wall (``metrics.wall_clearance``, the rule of metrics.json's ``near_wall_at_s``)."""
+    t = log["t"]
+    near = M.wall_clearance(log["body_xyz"], log["body_quat_wxyz"], DEFAULT_ROBOT.body_semi_axes,
+                            DEFAULT_POOL.length / 2, DEFAULT_POOL.width / 2) < margin
+    edges = np.flatnonzero(np.diff(np.r_[0, near.astype(int), 0]))
+    return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+
+
 def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",),
-                       paper_windows=()):
+                       paper_windows=(), wall_margin=None, wall_label="near a wall"):
     """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth, z_hat and s_hat over
     time, with the behaviour phases shaded (grey: a behaviour held, orange: a transition).
 
     ``paper_windows``: (label, start_s, end_s) of the paper's transitions, drawn as dashed
-    purple brackets on every panel so the run can be compared with the printed figure."""
+    purple brackets on every panel so the run can be compared with the printed figure.
+    ``wall_margin`` [m]: the time the hull is within it of a wall is hatched red on every
+    panel, ``wall_label`` in the legends."""
     t, tc = log["t"], log["t_command"]
     spans = behaviour_spans(metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
+    walls = wall_spans(log, wall_margin) if wall_margin is not None and len(t) else []
     rows = [("joint outputs [deg]", "joints"), ("Euler angles [deg]", "euler"),
             ("depth [m]", "depth"), ("z_hat, s_hat", "sensing")]
-    fig, axes = plt.subplots(len(rows), 1, figsize=(11, 10), sharex=True)
+    fig = Figure(figsize=(11, 10))
+    axes = fig.subplots(len(rows), 1, sharex=True)
     for ax, (ylabel, kind) in zip(axes, rows):
         for start, end, label in spans:
             transition = "->" in label
@@ -138,6 +157,9 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
             if kind == "joints":
                 ax.text((start + end) / 2, 1.01, label, transform=ax.get_xaxis_transform(),
                         ha="center", va="bottom", fontsize=8)
+        for k, (start, end) in enumerate(walls):  # labelled once, in each panel's legend
+            ax.axvspan(start, end, facecolor="none", edgecolor="tab:red", hatch="//", lw=0,
+                       alpha=0.35, label=wall_label if k == 0 else None)
         for label, start, end in paper_windows:
             for x in (start, end):
                 ax.axvline(x, color="tab:purple", ls="--", lw=1.0, alpha=0.8)
@@ -178,7 +200,6 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def fig_velocities(speeds: dict, path):
@@ -190,7 +211,8 @@ def fig_velocities(speeds: dict, path):
     yaw = [np.nan if speeds[n]["yaw_rate_deg_s"] is None else speeds[n]["yaw_rate_deg_s"]
            for n in names]
     x = np.arange(len(names))
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    fig = Figure(figsize=(11, 4))
+    (ax1, ax2) = fig.subplots(1, 2)
     ax1.bar(x - 0.2, u, 0.4, label="surge u (forward)")
     ax1.bar(x + 0.2, v, 0.4, label="sway v (left)")
     ax1.set_xticks(x, names)
@@ -206,12 +228,12 @@ def fig_velocities(speeds: dict, path):
     fig.suptitle("Locomotion velocity per gait (cf. paper Fig. 7)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def fig_left_front_joints(logs: dict, path, window: float = 6.0):
     """Fig. 9 style: left-front joint angles (measured) per gait over the last ``window`` s."""
-    fig, axes = plt.subplots(len(logs), 1, figsize=(9, 2.3 * len(logs) + 0.5), sharex=False)
+    fig = Figure(figsize=(9, 2.3 * len(logs) + 0.5))
+    axes = fig.subplots(len(logs), 1, sharex=False)
     axes = np.atleast_1d(axes)
     for ax, (name, log) in zip(axes, logs.items()):
         t = log["t"]
@@ -225,12 +247,12 @@ def fig_left_front_joints(logs: dict, path, window: float = 6.0):
     fig.suptitle("Left-front leg-fin joint angles per gait (cf. paper Fig. 9)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def fig_point_cloud(detection, path, title="Labelled point cloud (cf. paper Fig. 12)"):
     """Top and side views of the wall detector's labelled clusters."""
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    fig = Figure(figsize=(11, 4.5))
+    (ax1, ax2) = fig.subplots(1, 2)
     for c in detection.clusters if detection is not None else []:
         color = LABEL_COLORS[c.label]
         ax1.scatter(c.points[:, 0], c.points[:, 1], s=4, color=color)
@@ -250,4 +272,3 @@ def fig_point_cloud(detection, path, title="Labelled point cloud (cf. paper Fig.
     fig.suptitle(title + s)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

@@ -1,5 +1,6 @@
-"""The seam over LCM (manta_drake.seam): messages, schedule, transport, and the split
-run in two processes against the single diagram."""
+"""The seam over LCM (manta_drake.seam): messages, schedule, transport, the options, the
+handshake, what passes (clipped commands, ignored readings, skipped malformed messages),
+and the split run in two processes against the single diagram."""
 
 import json
 import os
@@ -99,7 +100,8 @@ def test_project_lcmtypes_are_generated_from_their_sources(tmp_path):
     if not os.access(lcm_gen, os.X_OK):
         pytest.skip("lcm-gen (from the lcm package) is not installed")
     sources = sorted((REPO / "manta_drake" / "lcmtypes").glob("*.lcm"))
-    assert [p.stem for p in sources] == ["lcmt_manta_joint_state", "lcmt_manta_pose"]
+    assert [p.stem for p in sources] == ["lcmt_manta_handshake", "lcmt_manta_joint_state",
+                                         "lcmt_manta_pose"]
     subprocess.run([lcm_gen, "-p", "--ppath", str(tmp_path), *map(str, sources)], check=True)
     generated = tmp_path / "manta_drake" / "lcmtypes"
     for path in sorted(generated.glob("*.py")):
@@ -224,9 +226,8 @@ def test_link_waits_resends_and_gives_up():
     station.drain()
     assert [len(sent[clock.name]), len(sent[depth.name])] == [2, 3]
     assert lcmt_scope.decode(sent[depth.name][-1]).utime == 20000
-    got = station.take({desired.name: 20000})
-    np.testing.assert_array_equal(seam.joint_state_from_message(got[desired.name]),
-                                  np.ones(32))
+    got = station.take({desired.name: 20000})  # decoded as it arrived
+    np.testing.assert_array_equal(got[desired.name], np.ones(32))
     # Nothing comes: a warning after STALE_AFTER_S, re-sends meanwhile, then the error.
     stale = []
     start = time.monotonic()
@@ -239,22 +240,393 @@ def test_link_waits_resends_and_gives_up():
     assert len(sent[clock.name]) >= 2 + 10  # the clock again every 0.1 s while waiting
 
 
-def test_bad_url_is_one_clear_line(capsys):
-    from manta_drake.cli import main
-
-    assert main(["controller", "stand", "--lcm", "bogus://nowhere", "--quiet"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "cannot open the LCM URL 'bogus://nowhere'" in err[0]
-
-
 def test_station_without_controller_times_out():
     from manta_drake.scenario import load_scenario
 
     scenario = load_scenario("stand", {"duration": 0.1})
     start = time.monotonic()
-    with pytest.raises(seam.SeamError, match=r"no command for t = 0\.000 s within 0\.5 s"):
+    with pytest.raises(seam.SeamError, match=r"^station: no controller answered on memq:// "
+                       r"within 0\.5 s; is `manta-drake controller` running"):
         seam.run_station(scenario, "memq://", timeout=0.5, startup_timeout=0.5)
     assert time.monotonic() - start < 30
+
+
+def _err_lines(captured) -> list[str]:
+    return [line for line in captured.err.splitlines() if line.strip()]
+
+
+# ---------------------------------------------------------------------------------------
+# Options: each refused in one line, before anything is built
+
+
+@pytest.fixture
+def nothing_built(monkeypatch):
+    """Fails the test if a side builds its diagram."""
+    from manta_drake.seam import controller_process, station_process
+
+    def built(*_args, **_kwargs):
+        raise AssertionError("a side was built before its options were checked")
+
+    monkeypatch.setattr(station_process, "build_station", built)
+    monkeypatch.setattr(controller_process, "build_controller", built)
+
+
+@pytest.mark.parametrize("side", ["station", "controller"])
+@pytest.mark.parametrize("args, line", [
+    (["--duration", "0"], "duration: 0.0 is outside the allowed range (0, 3600] s"),
+    (["--duration", "nan"], "duration: nan is not finite"),
+    (["--timeout", "nan"], "--timeout: nan is not finite"),
+    (["--timeout", "inf"], "--timeout: inf is not finite"),
+    (["--timeout", "0"], "--timeout: 0.0 is outside the allowed range (0, inf) s"),
+    (["--timeout", "-3"], "--timeout: -3.0 is outside the allowed range (0, inf) s"),
+    (["--startup-timeout", "nan"], "--startup-timeout: nan is not finite"),
+    (["--lcm", "bogus://nowhere"], ("--lcm 'bogus://nowhere': unknown LCM provider 'bogus'; "
+     "expected udpm://GROUP:PORT")),
+    (["--lcm", "udpm://239.255.76.67"], ("--lcm 'udpm://239.255.76.67': no port in "
+     "'239.255.76.67'")),
+    (["--lcm", "udpm://239.255.76.67:"], "port '' is not a number in 1-65535"),
+    (["--lcm", "garbage"], "--lcm 'garbage': not a URL (no PROVIDER://)"),
+    (["--lcm", "udpm://10.1.2.3:7667"], "10.1.2.3 is not a multicast group"),
+    (["--lcm", "udpm://239.255.76.67:7667?tll=0"], "unknown option 'tll'"),
+    (["--lcm", "memq://"], "memq:// reaches this process only"),
+    (["--lcm", "tcpq://127.0.0.1:1"], "cannot open the LCM URL 'tcpq://127.0.0.1:1': LCM tcpq"),
+    (["--out", "/proc/manta_drake_out"], "--out /proc/manta_drake_out: cannot be created"),
+    (["--out", "/proc/self"], "--out /proc/self: cannot be written"),
+])
+def test_bad_options_are_one_line_each_before_anything_is_built(capfd, nothing_built, side,
+                                                                  args, line):
+    from manta_drake.cli import main
+
+    assert main([side, "stand", "--quiet", *args]) == 2
+    err = _err_lines(capfd.readouterr())  # file descriptor 2: liblcm's own lines too
+    assert len(err) == 1, err
+    assert err[0].startswith("manta-drake: error: ") and line in err[0], err[0]
+
+
+def test_out_that_is_a_file_is_refused(capfd, nothing_built, tmp_path):
+    from manta_drake.cli import main
+
+    (tmp_path / "f").write_text("")
+    for out, line in ((tmp_path / "f", "is a file, not a folder"),
+                      (tmp_path / "f" / "sub", "cannot be created")):
+        assert main(["station", "stand", "--quiet", "--out", str(out)]) == 2
+        err = _err_lines(capfd.readouterr())
+        assert len(err) == 1 and f"--out {out}: {line}" in err[0], err
+
+
+def test_duration_zero_is_refused_as_run_refuses_it(capfd, tmp_path):
+    """The seam's sides and `manta-drake run` name the same range."""
+    from manta_drake.cli import main
+
+    messages = []
+    for argv in (["run", "stand", "--out", str(tmp_path / "run")],
+                 ["station", "stand", "--quiet", "--out", str(tmp_path / "station")],
+                 ["controller", "stand", "--quiet"]):
+        assert main([*argv, "--duration", "0"]) == 2
+        messages.append(_err_lines(capfd.readouterr()))
+    assert all(len(m) == 1 for m in messages), messages
+    assert messages[0] == messages[1] == messages[2]
+    assert not (tmp_path / "station").exists()  # a refused scenario leaves no folder
+
+
+# ---------------------------------------------------------------------------------------
+# The handshake (real udpm traffic, in this process: Links without diagrams)
+
+
+def _hello(role, duration=1.0, clock="lockstep", channels=()):
+    return seam.Hello(role, f"{role[:4]}{random.randrange(16**4):04x}", "test", duration,
+                      1e-3, clock, tuple(channels))
+
+
+def _shake(link, timeout=5.0):
+    """Runs ``link.shake_hands`` in a thread; returns (thread, box with its result)."""
+    import threading
+
+    box = {}
+
+    def run():
+        try:
+            box["peer"] = link.shake_hands(timeout)
+        except seam.SeamError as e:
+            box["error"] = str(e)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread, box
+
+
+@pytest.mark.parametrize("controller_duration, clock, station_line, controller_line", [
+    (1.0, "lockstep", None, None),
+    (2.0, "lockstep", "duration 2 s there, 1 s here (--duration)",
+     "duration 1 s there, 2 s here (--duration)"),
+    (1.0, "wall-clock", "clock wall-clock there, lockstep here (--wall-clock)",
+     "clock lockstep there, wall-clock here (--wall-clock)"),
+])
+def test_handshake_pairs_or_names_the_mismatch_on_both_sides(controller_duration, clock,
+                                                            station_line, controller_line):
+    url = unique_url()
+    s_hello = _hello("station")
+    c_hello = _hello("controller", controller_duration, clock)
+    station = seam.Link(url, [], "station", hello=s_hello)
+    controller = seam.Link(url, [], "controller", hello=c_hello)
+    start = time.monotonic()
+    threads = [_shake(station), _shake(controller)]
+    for thread, _ in threads:
+        thread.join(10)
+    assert time.monotonic() - start < 3.0  # at once, not after a timeout
+    (_, s_box), (_, c_box) = threads
+    if station_line is None:
+        assert s_box["peer"].run_id == c_hello.run_id
+        assert c_box["peer"].run_id == s_hello.run_id
+        return
+    for box, line, me, other in ((s_box, station_line, "station", c_hello),
+                                 (c_box, controller_line, "controller", s_hello)):
+        assert box["error"].startswith(f"{me}: the {other.role} {other.run_id} (pid "), box
+        assert f"does not match this {me}: {line}; start both sides" in box["error"]
+        assert "\n" not in box["error"]
+
+
+def test_a_second_station_is_named_at_once_on_both_sides(capsys):
+    """A station and a controller are paired; a second station on their URL stops at once
+    with one line naming the first; the pair names it once each and goes on."""
+    import threading
+
+    url = unique_url()
+    first, controller = _hello("station"), _hello("controller")
+    links = [seam.Link(url, [], "station", hello=first),
+             seam.Link(url, [], "controller", hello=controller)]
+    threads = [_shake(link) for link in links]
+    for thread, box in threads:
+        thread.join(10)
+        assert "peer" in box, box
+    running = threading.Event()
+    running.set()
+
+    def keep_polling(link):  # the pair's run goes on: it polls as it exchanges
+        while running.is_set():
+            link.poll(10)
+
+    pollers = [threading.Thread(target=keep_polling, args=(link,), daemon=True)
+               for link in links]
+    for poller in pollers:
+        poller.start()
+    second = _hello("station")
+    start = time.monotonic()
+    with pytest.raises(seam.SeamError) as refused:
+        seam.Link(url, [], "station", hello=second).shake_hands(5.0)
+    assert time.monotonic() - start < 2.0
+    time.sleep(0.3)  # the pair handles the second station's last requests
+    running.clear()
+    for poller in pollers:
+        poller.join(2)
+    line = str(refused.value)
+    assert "\n" not in line and line.startswith("station: ")
+    assert (f"another station is on {url}: the station {first.run_id}" in line
+            or f"is paired with the station {first.run_id} already" in line), line
+    assert "give each run a URL of its own" in line
+    err = _err_lines(capsys.readouterr())
+    for role, peer in (("station", controller), ("controller", first)):
+        said = [e for e in err if e.startswith(f"{role}: a second station")]
+        assert len(said) == 1, err  # once, though it heard several requests
+        assert (f"the station {second.run_id}" in said[0]
+                and f"this run goes on with the {peer.role} {peer.run_id}" in said[0])
+
+
+# ---------------------------------------------------------------------------------------
+# Malformed messages
+
+
+def test_a_malformed_message_is_named_once_counted_and_skipped(capsys):
+    """A truncated message, another type on the channel and a vector of the wrong length:
+    each skipped and counted; the first named in one line with channel and type; the good
+    messages after them arrive."""
+    import lcm
+
+    url = unique_url()
+    desired = seam.CHANNEL_BY_NAME["MANTA_DESIRED_JOINT_STATE"]
+    balloon = seam.CHANNEL_BY_NAME["MANTA_BALLOON_COMMAND"]
+    link = seam.Link(url, [desired, balloon], "station")
+    sender = lcm.LCM(url)
+    good = seam.joint_state_message(0.02, np.ones(32)).encode()
+    sender.publish(desired.name, good[:20])  # the header, then no joint names
+    sender.publish(desired.name, good[:-5])
+    sender.publish(desired.name, seam.vector_message(0.0, [0.1]).encode())  # another type
+    sender.publish(balloon.name, seam.vector_message(0.02, [0.1, 0.2]).encode())  # 2 values
+    sender.publish(desired.name, good)
+    sender.publish(balloon.name, seam.vector_message(0.02, [0.5]).encode())
+    deadline = time.monotonic() + 5
+    while (20000 not in link.inbox[balloon.name] or 20000 not in link.inbox[desired.name]) \
+            and time.monotonic() < deadline:
+        link.poll(20)
+    np.testing.assert_array_equal(link.inbox[desired.name][20000], np.ones(32))
+    np.testing.assert_array_equal(link.inbox[balloon.name][20000], [0.5])
+    assert link.incidents.counts == {desired.name: {"malformed": 3},
+                                     balloon.name: {"malformed": 1}}
+    err = _err_lines(capsys.readouterr())
+    assert err == [
+        ("station: MANTA_DESIRED_JOINT_STATE: a message (20 bytes) that is not a valid "
+         "manta_drake.lcmtypes.lcmt_manta_joint_state (unpack requires a buffer of 4 bytes): "
+         "skipped (further malformed messages on MANTA_DESIRED_JOINT_STATE are counted, not "
+         "shown)"),
+        ("station: MANTA_BALLOON_COMMAND: a message (36 bytes) that is not a valid "
+         "drake.lcmt_scope (2 values, expected 1): skipped (further malformed messages on "
+         "MANTA_BALLOON_COMMAND are counted, not shown)")], err
+
+
+# ---------------------------------------------------------------------------------------
+# What crosses: the station clips and holds commands, the controller ignores readings
+# outside their range (each side in this process against a scripted peer over udpm)
+
+
+class _ScriptedPeer:
+    """The other side of a lockstep run, scripted, in a thread of this process: it shakes
+    hands, then ``step(link, exchange)`` publishes what it has to and waits for what it
+    needs, over the real transport."""
+
+    def __init__(self, url, hello, subscribe, step, schedule, sticky=()):
+        import threading
+
+        self.link = seam.Link(url, subscribe, hello.role, hello=hello, sticky=sticky)
+        self.error = None
+        self._step, self._schedule = step, schedule
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        try:
+            self.link.shake_hands(60)
+            for ex in self._schedule:
+                self._step(self.link, ex)
+            self.link.say_goodbye("finished")
+        except Exception as e:  # noqa: BLE001 (reported by the test)
+            self.error = e
+
+
+def _bad_commands():
+    """Step -> (joint index, angle, rate) or balloon fill: what the scripted controller
+    sends wrong."""
+    return {5: ("joint", 0, 1e6, 0.0), 6: ("joint", 0, np.nan, 0.0),
+            7: ("joint", 5, None, 50.0), 8: ("balloon", 1.7), 9: ("balloon", np.nan),
+            **{k: ("joint", 0, 1e6, 0.0) for k in range(10, 15)}}
+
+
+def test_station_clips_commands_and_never_passes_a_nan_to_the_servos(capsys):
+    from manta_drake.scenario import load_scenario
+
+    scenario = load_scenario("float_sink", {"duration": 0.03})
+    url = unique_url()
+    held = seam.initial_commands(scenario)
+    desired = seam.CHANNEL_BY_NAME["MANTA_DESIRED_JOINT_STATE"]
+    balloon = seam.CHANNEL_BY_NAME["MANTA_BALLOON_COMMAND"]
+    bad = _bad_commands()
+    h = scenario.time_step
+
+    def step(link, ex):  # the controller: wait for the station's clock, command
+        link.wait_for(lambda: link.newest.get(seam.CLOCK.name, -1) >= ex.utime or None, 30,
+                      lambda _: None, lambda _: seam.SeamError("no clock"))
+        x, fill = held["desired_state"].copy(), held["balloon_command"].copy()
+        k = round(ex.time / h)
+        what = bad.get(k, ("none",))
+        if what[0] == "joint":
+            _, i, angle, rate = what
+            x[i] = x[i] if angle is None else angle
+            x[16 + i] = rate
+        elif what[0] == "balloon":
+            fill[0] = what[1]
+        link.publish(desired.name, seam.joint_state_message(ex.time, x), ex.utime)
+        link.publish(balloon.name, seam.vector_message(ex.time, fill), ex.utime)
+
+    hello = seam.Hello("controller", "fakectrl", "float_sink", 0.03, h, "lockstep",
+                       (desired.name, balloon.name))
+    schedule = seam.exchange_schedule(0.03, {"STEP": h})
+    peer = _ScriptedPeer(url, hello, [seam.CLOCK], step, schedule)
+    result = seam.run_station(scenario, url, timeout=10, startup_timeout=60)
+    peer.thread.join(10)
+    assert peer.error is None, peer.error
+    assert result.incidents == {desired.name: {"clipped": 7, "held": 1},
+                                balloon.name: {"clipped": 1, "held": 1}}
+    assert result.metrics()["incidents"] == result.incidents
+    assert "MANTA_DESIRED_JOINT_STATE: 7 clipped, 1 held" in result.summary()
+    err = _err_lines(capsys.readouterr())
+    assert err == [
+        ("station: MANTA_DESIRED_JOINT_STATE: at t = 0.005 s: fl_yaw angle 1e+06 rad outside "
+         "[-1.047, 1.047]: clipped to the servos' limits (further clipped messages on "
+         "MANTA_DESIRED_JOINT_STATE are counted, not shown)"),
+        ("station: MANTA_DESIRED_JOINT_STATE: at t = 0.006 s: fl_yaw (nan rad, 0 rad/s) not "
+         "finite: those servos hold their last good command (further held messages on "
+         "MANTA_DESIRED_JOINT_STATE are counted, not shown)"),
+        ("station: MANTA_BALLOON_COMMAND: at t = 0.008 s: fill 1.7 outside [0, 1]: clipped to "
+         "the pump's range (further clipped messages on MANTA_BALLOON_COMMAND are counted, "
+         "not shown)"),
+        ("station: MANTA_BALLOON_COMMAND: at t = 0.009 s: fill nan not finite: the pump holds "
+         "the last good command 1 (further held messages on MANTA_BALLOON_COMMAND are "
+         "counted, not shown)")], err
+    q = result.log["joint_angles"]
+    assert np.all(np.isfinite(q)) and np.all(np.isfinite(result.log["joint_velocities"]))
+    lower, upper = (np.array([lim[i % 4] for i in range(16)]) for lim in zip(
+        *scenario.robot_params().position_limits))
+    assert np.all(q >= lower - 1e-6) and np.all(q <= upper + 1e-6)
+    # The clipped command did move the yaw joint toward its limit: clipped, not dropped.
+    assert q[-1, 0] - q[5, 0] > 1e-3
+
+
+def test_controller_ignores_readings_outside_their_physical_range(capsys):
+    """Depths of -1e6 m and 1e6 m are read as dropped readings (as NaN is): the depth
+    estimator holds (1e6 m would read as the floor, z_hat = 1); a battery state of charge
+    of 7 is logged as NaN. One line per channel and kind; all counted."""
+    from manta_drake.scenario import load_scenario
+
+    scenario = load_scenario("locomotion_swim", {"duration": 0.1})
+    url = unique_url()
+    h = scenario.time_step
+    depth = seam.CHANNEL_BY_NAME["MANTA_DEPTH"]
+    battery = seam.CHANNEL_BY_NAME["MANTA_BATTERY"]
+    desired = seam.CHANNEL_BY_NAME["MANTA_DESIRED_JOINT_STATE"]
+    readings = {0.0: 0.05, 0.02: -1e6, 0.04: np.nan, 0.06: 1e6, 0.08: 0.3}
+    periods = {seam.CLOCK.name: h, depth.name: 0.02, battery.name: 0.01}
+    schedule = seam.exchange_schedule(0.1, periods)
+
+    def step(link, ex):  # the station: publish what is due, then wait for the command
+        link.advance_floor(ex.utime)
+        for name in ex.channels:
+            if name == seam.CLOCK.name:
+                msg = seam.joint_state_message(ex.time, held["desired_state"])
+            elif name == depth.name:
+                msg = seam.vector_message(ex.time, [readings[round(ex.time, 3)]])
+            else:
+                soc = 7.0 if round(ex.time, 3) == 0.03 else 0.9
+                msg = seam.vector_message(ex.time, [soc, 16.0, 3.0])
+            link.publish(name, msg, ex.utime)
+        if seam.CLOCK.name in ex.channels:
+            link.wait_for(lambda: link.take({desired.name: ex.utime}), 30, lambda _: None,
+                          lambda _: seam.SeamError(f"no command for {ex.time}"))
+
+    held = seam.initial_commands(scenario)
+    hello = seam.Hello("station", "fakestat", "locomotion_swim", 0.1, h, "lockstep",
+                       tuple(periods))
+    peer = _ScriptedPeer(url, hello, [desired], step, schedule, sticky=(seam.CLOCK.name,))
+    result = seam.run_controller(scenario, url, timeout=10, startup_timeout=60)
+    peer.thread.join(10)
+    assert peer.error is None, peer.error
+    assert result.incidents == {depth.name: {"ignored": 2, "dropout": 1},
+                                battery.name: {"ignored": 1}}
+    err = _err_lines(capsys.readouterr())
+    assert err == [  # in time order: lockstep logs the battery of 0.03 s before 0.031 s
+        ("controller: MANTA_DEPTH: at t = 0.020 s: depth -1e+06 m outside its physical range "
+         "[-1, 300] m: ignored (read as a dropped reading; the depth estimator holds its "
+         "estimate) (further ignored messages on MANTA_DEPTH are counted, not shown)"),
+        ("controller: MANTA_BATTERY: at t = 0.030 s: state of charge 7 outside [0, 1]: ignored "
+         "(logged as NaN) (further ignored messages on MANTA_BATTERY are counted, not shown)"),
+        ("controller: MANTA_DEPTH: at t = 0.040 s: depth NaN (a dropped reading): the depth "
+         "estimator holds its estimate (further dropout messages on MANTA_DEPTH are counted, "
+         "not shown)")], err
+    t, z_hat = result.log["t_command"], result.log["z_hat"][:, 0]
+    held_span = (t > 0.021) & (t <= 0.08)
+    assert np.all(z_hat[held_span] == z_hat[np.argmax(t > 0.0)])  # held from the 0 s reading
+    assert z_hat[held_span][0] < 0.1 and z_hat[-1] == 1.0  # the 0.3 m of 0.08 s: the floor
+    np.testing.assert_array_equal(result.log["t_battery"], np.arange(10) * 0.01)
+    soc = result.log["battery"][:, 0]
+    assert np.isnan(soc[3]) and np.all(soc[np.arange(10) != 3] == 0.9)
 
 
 # ---------------------------------------------------------------------------------------
@@ -350,6 +722,18 @@ def test_split_run_matches_the_single_diagram(tmp_path):
     # The run did cross the seam's depth path: the robot sank and the transition moved.
     assert single["z_hat"].max() > 0.4
     assert np.abs(controller["cpg_params"][-1] - controller["cpg_params"][0]).max() > 1.0
+    # The station's monitoring ports cross too: what it sent at u is the single diagram's
+    # signal (logged before the updates at each log time: the first log time >= u), and the
+    # controller logged every sample exactly as sent.
+    for port, size in (("battery", 3), ("electrical_power", 1), ("balloon_volume", 1)):
+        t_sent, sent = station[f"t_{port}"], station[port]
+        assert len(t_sent) == 500, port  # every 10 ms
+        k = np.searchsorted(single[f"t_{port}"], t_sent, side="left")
+        np.testing.assert_array_equal(sent.reshape(-1, size), single[port][k], err_msg=port)
+        np.testing.assert_array_equal(controller[f"t_{port}"], t_sent, err_msg=port)
+        np.testing.assert_array_equal(controller[port], sent, err_msg=port)
+    assert np.ptp(station["battery"][:, 0]) > 0 and np.ptp(station["electrical_power"]) > 1.0
+    assert metrics["incidents"] == {} and metrics["peer_run_id"]
     print(f"split real-time factor {metrics['real_time_factor']:.2f}, "
           f"single {single_rtf:.2f}, re-sends {metrics['resends']}")
 
@@ -374,6 +758,39 @@ def test_split_run_with_camera_meets_drakes_off_grid_camera_times(tmp_path):
     np.testing.assert_array_equal(controller["detector_status"][steps[ok]],
                                   single["detector_status"][ok])
     assert single["s_hat"].max() > 0.9  # the wall was seen: the camera path was used
+
+
+@pytest.mark.slow
+def test_the_battery_cutoff_ends_both_sides_at_the_single_diagrams_time(tmp_path):
+    """The battery reaches its cut-off a few steps in: the station stops where the single
+    diagram stops, says why, and its controller stops too at once, naming the reason."""
+    extra = "actuators: {initial_soc: 0.200004}\n"
+    path = _scenario_file(tmp_path, duration=1.0, extra=extra)
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
+
+    scenario = load_scenario(path)
+    diagram, _ = build_diagram(scenario)
+    simulator = make_simulator(diagram, scenario)
+    simulator.Initialize()
+    status = simulator.AdvanceTo(scenario.duration)
+    t_stop = simulator.get_context().get_time()
+    assert 0.0 < t_stop < 0.5 and "battery empty" in status.message()
+
+    start = time.monotonic()
+    _, controller, metrics = _split_run(path, tmp_path)
+    assert time.monotonic() - start < 60
+    assert metrics["sim_time_s"] == t_stop and metrics["status"] == "stopped"
+    assert metrics["stopped"] == f"at t = {t_stop:.3f} s: {status.message()}"
+    station_err = (tmp_path / "station.err").read_text()
+    assert f"station: stopped at t = {t_stop:.3f} s: battery empty" in station_err
+    controller_err = (tmp_path / "controller.err").read_text()
+    assert (f"controller: the station stopped at t = {t_stop:.3f} s: battery empty"
+            in controller_err and "stopping too" in controller_err)
+    c_metrics = json.loads((tmp_path / "controller_metrics.json").read_text())
+    assert c_metrics["status"] == "stopped"
+    assert controller["t_command"][-1] <= t_stop + seam.MAX_LEAD_STEPS * 1e-3
 
 
 def _listen(listener, until, timeout: float) -> bool:

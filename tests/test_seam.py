@@ -197,3 +197,102 @@ def test_the_gait_reading_and_its_fin_sweep_reach_the_station_and_the_controller
         np.testing.assert_allclose(X, fin_tip_pose(leg, q[k], swept), atol=1e-9)
         assert not np.allclose(X, fin_tip_pose(leg, q[k], DEFAULT_ROBOT), atol=1e-3)
     np.testing.assert_array_equal(initial_cpg_params(s), MIRRORED["trot"].to_vector())
+
+
+# ---------------------------------------------------------------------------------------
+# What the seam lets through (manta_drake.seam.limits)
+
+
+def test_the_stations_limits_are_the_plants_joints_and_the_robots_parameters():
+    """The station clips to its plant's joint limits; the controller, which has no plant,
+    takes the same numbers from the robot's parameters the model is generated from."""
+    from manta_drake.seam import JointLimits
+
+    s = _scenario("locomotion_swim", duration=0.1)
+    _, handles = build_station(s)
+    plant, params = JointLimits.from_plant(handles.plant_handles), JointLimits.from_params(
+        s.robot_params())
+    assert plant.names == params.names
+    for field in ("lower", "upper", "velocity"):
+        np.testing.assert_allclose(getattr(plant, field), getattr(params, field), rtol=1e-12)
+    assert np.degrees(plant.upper[[0, 1, 2, 3]]).round(6).tolist() == [60, 90, 90, 100]
+    assert np.all(plant.velocity == 8.0)
+
+
+def test_joint_commands_are_clipped_and_a_nan_keeps_the_last_good_one():
+    from manta_drake.model.robot_params import DEFAULT_ROBOT
+    from manta_drake.seam import JointLimits, screen_joint_command
+
+    limits = JointLimits.from_params(DEFAULT_ROBOT)
+    last = np.r_[np.full(16, 0.1), np.full(16, 0.2)]
+    good = np.r_[np.full(16, 0.5), np.full(16, -1.0)]
+    same, problems = screen_joint_command(good, last, limits)
+    assert same is good and problems == []  # nothing wrong: the very same array, bit for bit
+    x = good.copy()
+    x[0], x[16] = 1e6, 3.0  # fl_yaw far beyond +60 deg, moving further out
+    x[1], x[17] = -2.0, -1.0  # fl_roll1 below -90 deg, moving further out
+    x[18] = 50.0  # fl_pitch rate beyond 8 rad/s
+    x[3], x[19] = np.nan, 0.0  # fl_roll2 angle NaN
+    x[20] = np.inf  # fr_yaw rate inf
+    safe, problems = screen_joint_command(x, last, limits)
+    assert safe[0] == limits.upper[0] and safe[16] == 0.0  # at the stop, not pushing on
+    assert safe[1] == limits.lower[1] and safe[17] == 0.0
+    assert safe[18] == 8.0
+    assert (safe[3], safe[19]) == (0.1, 0.2) and (safe[4], safe[20]) == (0.1, 0.2)  # held
+    np.testing.assert_array_equal(np.delete(safe, [0, 1, 3, 4, 16, 17, 18, 19, 20]),
+                                  np.delete(good, [0, 1, 3, 4, 16, 17, 18, 19, 20]))
+    assert [kind for kind, _ in problems] == ["clipped", "held"]
+    assert problems[0][1] == ("fl_yaw angle 1e+06 rad outside [-1.047, 1.047], fl_roll1 angle "
+                              "-2 rad outside [-1.571, 1.571], fl_pitch rate 50 rad/s beyond "
+                              "+-8: clipped to the servos' limits")
+    assert problems[1][1] == ("fl_roll2 (nan rad, 0 rad/s), fr_yaw (0.5 rad, inf rad/s) not "
+                              "finite: those servos hold their last good command")
+    assert np.all(np.isfinite(safe))
+
+
+def test_balloon_commands_are_clipped_to_the_pumps_range():
+    from manta_drake.seam import screen_balloon_command
+
+    fill = np.array([0.25])
+    assert screen_balloon_command(fill, [0.5]) == (fill, [])
+    for value, expected, kind in ((1.7, 1.0, "clipped"), (-0.2, 0.0, "clipped"),
+                                  (np.nan, 0.5, "held"), (-np.inf, 0.5, "held")):
+        safe, problems = screen_balloon_command(np.array([value]), np.array([0.5]))
+        assert safe.tolist() == [expected] and [k for k, _ in problems] == [kind]
+
+
+def test_sensor_ranges_come_from_the_robot_the_scenario_describes():
+    """The battery's physical range is its pack's: n cells x 4.35 V, and at most the
+    short-circuit current OCV / R_int."""
+    from manta_drake.model.actuators import load_energy_model
+    from manta_drake.seam import SensorRanges, screen_depth
+
+    s = _scenario("locomotion_swim", duration=0.1)
+    ranges = SensorRanges.for_scenario(s)
+    pack = load_energy_model(s.actuators.file).pack
+    assert pack.cells_in_series == 4 and ranges.battery_voltage == pytest.approx(4 * 4.35)
+    ocv = 4 * max(pack.ocv_cell_voltage)
+    assert ranges.battery_current == pytest.approx(ocv / pack.internal_resistance)
+    assert ranges.image_size == (s.camera.width, s.camera.height)
+    assert screen_depth(np.array([299.0]), ranges)[1] == []
+    for bad in (-1e6, 301.0, np.inf, -np.inf):
+        value, problems = screen_depth(np.array([bad]), ranges)
+        assert np.isnan(value[0]) and [k for k, _ in problems] == ["ignored"]
+
+
+def test_incidents_name_each_kind_once_per_channel_and_count_all(capsys):
+    from manta_drake.seam import Incidents
+
+    incidents = Incidents("station")
+    for _ in range(1000):  # a NaN storm
+        incidents.report("A", ["held"], "x not finite")
+    incidents.report("A", ["clipped", "held"], "y too far; x not finite")
+    incidents.report("B", ["held"], "z not finite")
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [
+        "station: A: x not finite (further held messages on A are counted, not shown)",
+        ("station: A: y too far; x not finite (further clipped/held messages on A are counted, "
+         "not shown)"),
+        "station: B: z not finite (further held messages on B are counted, not shown)"]
+    assert incidents.counts == {"A": {"held": 1001, "clipped": 1}, "B": {"held": 1}}
+    assert incidents.count(kind="held") == 1002 and incidents.count("A") == 1002

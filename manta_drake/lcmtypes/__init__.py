@@ -4,5 +4,6 @@ DO NOT MODIFY BY HAND!!!!
 lcm-gen 1.5.3
 """
 
+from .lcmt_manta_handshake import lcmt_manta_handshake as lcmt_manta_handshake
 from .lcmt_manta_joint_state import lcmt_manta_joint_state as lcmt_manta_joint_state
 from .lcmt_manta_pose import lcmt_manta_pose as lcmt_manta_pose

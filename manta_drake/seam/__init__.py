@@ -34,6 +34,14 @@ Two ways to run:
   with the latest command (from the first one on), the controller on its own wall
   clock with the latest sensor messages, as on the robot.
 
+The first exchange is a handshake (``handshake``): run ids, duration, plant step, clock
+mode and the channels each side publishes, so a second station or controller on the URL,
+or a peer that runs otherwise, is named at once in one line on both sides. What crosses
+is screened (``limits``): the station clips commands to its servos' and pump's limits and
+holds the last good one instead of a non-finite one; the controller treats readings
+outside their physical range as dropped readings; a message that does not decode is
+skipped. Each kind is named once per channel and every one is counted (``Incidents``).
+
 Either side re-sends what the other may not have received while it waits (lost
 UDP datagrams, a peer that starts later), warns on stderr when its peer has been
 silent for ``STALE_AFTER_S`` (the controller then holds its last command: it stops and
@@ -41,9 +49,9 @@ re-sends it) and gives up with a one-line error after ``--timeout`` seconds: not
 waits forever. docs/lcm.md has the whole story.
 
 The package, one module per part: ``messages`` (the codecs), ``channels`` (the channel
-table), ``schedule`` (the exchange schedule), ``link`` (the transport), ``result``,
-``plant_step_tick``, ``station_process`` (``run_station``), ``controller_process``
-(``run_controller``), ``errors`` and ``cli``.
+table), ``schedule`` (the exchange schedule), ``handshake``, ``limits`` (what passes),
+``link`` (the transport), ``result``, ``plant_step_tick``, ``station_process``
+(``run_station``), ``controller_process`` (``run_controller``), ``errors`` and ``cli``.
 """
 
 from manta_drake.seam.channels import (
@@ -53,16 +61,40 @@ from manta_drake.seam.channels import (
     Channel,
     channel_table_markdown,
     controller_channels,
+    monitor_channels,
     station_channels,
 )
 from manta_drake.seam.cli import (
     add_controller_parser,
     add_station_parser,
+    check_options,
+    check_out_folder,
     controller_main,
     station_main,
 )
-from manta_drake.seam.controller_process import MAX_LEAD_STEPS, has_feedthrough, run_controller
-from manta_drake.seam.errors import SeamError
+from manta_drake.seam.controller_process import (
+    MAX_LEAD_STEPS,
+    has_feedthrough,
+    run_controller,
+)
+from manta_drake.seam.errors import Incidents, PeerStopped, SeamError
+from manta_drake.seam.handshake import (
+    HANDSHAKE_CHANNEL,
+    Handshake,
+    Hello,
+    hello_for,
+    hello_from_message,
+    hello_message,
+    mismatches,
+)
+from manta_drake.seam.limits import (
+    Guard,
+    JointLimits,
+    SensorRanges,
+    screen_balloon_command,
+    screen_depth,
+    screen_joint_command,
+)
 from manta_drake.seam.link import (
     DEFAULT_STARTUP_TIMEOUT_S,
     DEFAULT_TIMEOUT_S,
@@ -71,6 +103,7 @@ from manta_drake.seam.link import (
     RESEND_PERIOD_S,
     STALE_AFTER_S,
     Link,
+    check_url,
 )
 from manta_drake.seam.messages import (
     CODECS,
@@ -91,13 +124,64 @@ from manta_drake.seam.schedule import Exchange, exchange_schedule, sample_times
 from manta_drake.seam.station_process import initial_commands, run_station
 
 __all__ = [
-    "CHANNEL_BY_NAME", "CHANNELS", "CLOCK", "CODECS", "DEFAULT_STARTUP_TIMEOUT_S",
-    "DEFAULT_TIMEOUT_S", "DEFAULT_URL", "MAX_LEAD_STEPS", "QUEUE_CAPACITY", "RESEND_PERIOD_S",
-    "STALE_AFTER_S", "Channel", "Codec", "Exchange", "Link", "PlantStepTick", "SeamError",
-    "SeamResult", "add_controller_parser", "add_station_parser", "channel_table_markdown",
-    "controller_channels", "controller_main", "controller_with_tick",
-    "depth_image_from_message", "depth_image_message", "exchange_schedule", "has_feedthrough",
-    "initial_commands", "joint_state_from_message", "joint_state_message", "pose_from_message",
-    "pose_message", "run_controller", "run_station", "sample_times", "station_channels",
-    "station_main", "to_utime", "vector_from_message", "vector_message",
+    "CHANNELS",
+    "CHANNEL_BY_NAME",
+    "CLOCK",
+    "CODECS",
+    "DEFAULT_STARTUP_TIMEOUT_S",
+    "DEFAULT_TIMEOUT_S",
+    "DEFAULT_URL",
+    "HANDSHAKE_CHANNEL",
+    "MAX_LEAD_STEPS",
+    "QUEUE_CAPACITY",
+    "RESEND_PERIOD_S",
+    "STALE_AFTER_S",
+    "Channel",
+    "Codec",
+    "Exchange",
+    "Guard",
+    "Handshake",
+    "Hello",
+    "Incidents",
+    "JointLimits",
+    "Link",
+    "PeerStopped",
+    "PlantStepTick",
+    "SeamError",
+    "SeamResult",
+    "SensorRanges",
+    "add_controller_parser",
+    "add_station_parser",
+    "channel_table_markdown",
+    "check_options",
+    "check_out_folder",
+    "check_url",
+    "controller_channels",
+    "controller_main",
+    "controller_with_tick",
+    "depth_image_from_message",
+    "depth_image_message",
+    "exchange_schedule",
+    "has_feedthrough",
+    "hello_for",
+    "hello_from_message",
+    "hello_message",
+    "initial_commands",
+    "joint_state_from_message",
+    "joint_state_message",
+    "mismatches",
+    "monitor_channels",
+    "pose_from_message",
+    "pose_message",
+    "run_controller",
+    "run_station",
+    "sample_times",
+    "screen_balloon_command",
+    "screen_depth",
+    "screen_joint_command",
+    "station_channels",
+    "station_main",
+    "to_utime",
+    "vector_from_message",
+    "vector_message",
 ]

@@ -27,6 +27,8 @@ class Channel:
             reads none of its values but its stamps (how far ahead it may run), and
             waits for it at t = 0 (the station is there).
         what: one line for the docs.
+        size: a vector channel's length (a message of another length is malformed);
+            None for the other codecs, whose decoders check their own shape.
     """
 
     name: str
@@ -37,6 +39,7 @@ class Channel:
     period_text: str
     what: str
     clock: bool = False
+    size: int | None = None
 
     @property
     def lcm_type(self) -> type:
@@ -49,7 +52,8 @@ CHANNELS = (
             "the 16 servos' angles [rad] and rates [rad/s]; the lockstep clock", clock=True),
     Channel("MANTA_DEPTH", "depth", "station", "vector",
             lambda s: 1.0 / s.pressure_sensor.rate_hz, "1 / `pressure_sensor.rate_hz` (20 ms)",
-            "pressure depth [m] below the surface (1 value, NaN on a dropout); water on"),
+            "pressure depth [m] below the surface (1 value, NaN on a dropout); water on",
+            size=1),
     Channel("MANTA_DEPTH_IMAGE", "depth_image", "station", "depth_image",
             lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
             "the head camera's noisy depth image [m], float32; camera on"),
@@ -58,13 +62,22 @@ CHANNELS = (
             "the camera's pose X_WC (on the robot: IMU attitude + pressure depth); camera on"),
     Channel("MANTA_BALLOON_VOLUME", "balloon_volume", "station", "vector",
             lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
-            "balloon volume [m^3], for monitoring (the controller reads none); water on"),
+            "balloon volume [m^3], for monitoring (the controller logs it); water on", size=1),
+    Channel("MANTA_BATTERY", "battery", "station", "vector",
+            lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
+            "the pack's state of charge (0-1), terminal voltage [V] and current [A] (3 values), "
+            "for monitoring (the controller logs it); actuators on", size=3),
+    Channel("MANTA_ELECTRICAL_POWER", "electrical_power", "station", "vector",
+            lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
+            "what the servos and the computers draw [W] (1 value), for monitoring (the "
+            "controller logs it); actuators on", size=1),
     Channel("MANTA_DESIRED_JOINT_STATE", "desired_state", "controller", "joint_state",
             lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
             "the servos' desired angles [rad] and rates [rad/s] (their PD's set point)"),
     Channel("MANTA_BALLOON_COMMAND", "balloon_command", "controller", "vector",
             lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
-            "balloon fill command in [0, 1] (1 value); the station reads it with water on"),
+            "balloon fill command in [0, 1] (1 value); the station reads it with water on",
+            size=1),
 )
 CHANNEL_BY_NAME = {c.name: c for c in CHANNELS}
 CLOCK = next(c for c in CHANNELS if c.clock)
@@ -97,9 +110,19 @@ def controller_channels(controller) -> tuple[list[Channel], list[Channel]]:
     return sends, reads
 
 
+def monitor_channels(controller, published) -> list[Channel]:
+    """The station's channels the controller has no port for but logs (the balloon volume,
+    the battery, the electrical power): of ``published`` (the channel names the station
+    said it sends, in its handshake), the sensor channels that are neither the clock nor
+    one of the controller's inputs."""
+    return [c for c in CHANNELS if c.sender == "station" and c.name in set(published)
+            and not c.clock and not controller.HasInputPort(c.port)]
+
+
 def fix_inputs(system, context, got: dict) -> None:
-    """Fixes each received message's value on the system's input port of its channel."""
-    for name, msg in got.items():
+    """Fixes each received value (already decoded and screened) on the system's input port
+    of its channel."""
+    for name, value in got.items():
         channel = CHANNEL_BY_NAME[name]
         if system.HasInputPort(channel.port):
-            system.GetInputPort(channel.port).FixValue(context, CODECS[channel.codec].decode(msg))
+            system.GetInputPort(channel.port).FixValue(context, value)

@@ -3,11 +3,26 @@ here)."""
 
 from __future__ import annotations
 
-from manta_drake.scenario import load_scenario
+import math
+import pathlib
+import tempfile
+
+from manta_drake.config_io import check_in_range
+from manta_drake.scenario import find_scenario, load_scenario
 from manta_drake.seam.controller_process import run_controller
-from manta_drake.seam.errors import SeamError
-from manta_drake.seam.link import DEFAULT_STARTUP_TIMEOUT_S, DEFAULT_TIMEOUT_S, DEFAULT_URL
+from manta_drake.seam.link import (
+    DEFAULT_STARTUP_TIMEOUT_S,
+    DEFAULT_TIMEOUT_S,
+    DEFAULT_URL,
+    check_url,
+    open_lcm,
+)
 from manta_drake.seam.station_process import run_station
+from manta_drake.simulate import OutputFolderError
+
+# What a side writes into --out.
+OUTPUT_FILES = tuple(f"{side}_{kind}" for side in ("station", "controller")
+                     for kind in ("log.npz", "metrics.json"))
 
 
 def _add_common(parser) -> None:
@@ -48,10 +63,71 @@ def add_controller_parser(subparsers) -> None:
     _add_common(p)
 
 
+def check_out_folder(out_dir, inputs=(), create: bool = True) -> pathlib.Path:
+    """Checks the ``--out`` folder before anything is built, as
+    ``manta_drake.simulate.check_output_folder`` does for a run: an empty path, a file, a
+    folder that cannot be created or written, or one where a side would overwrite its own
+    input are refused; creates it if ``create`` (a refused scenario leaves no folder, so the
+    first check does not). A user's ``scenario.yaml`` there is not refused: a side writes
+    only ``<side>_log.npz`` and ``<side>_metrics.json``.
+
+    Raises:
+        OutputFolderError: one line naming the folder and why.
+    """
+    if out_dir is None or not str(out_dir).strip():
+        raise OutputFolderError("--out: an empty path; name an output folder (e.g. out/split)")
+    out_dir = pathlib.Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputFolderError(f"--out {out_dir}: is a file, not a folder")
+    existing = out_dir
+    while not existing.exists():  # the nearest folder that exists must take the new ones
+        existing = existing.parent
+    if not existing.is_dir():
+        raise OutputFolderError(f"--out {out_dir}: cannot be created ({existing} is a file)")
+    if create:
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise OutputFolderError(f"--out {out_dir}: cannot be created ({e.strerror})") \
+                from None
+        existing = out_dir
+    try:  # the permission bits do not tell everything (read-only mounts, root)
+        with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
+            pass
+    except OSError as e:
+        what = "cannot be written" if existing == out_dir else "cannot be created"
+        raise OutputFolderError(f"--out {out_dir}: {what} ({existing}: {e.strerror})") from None
+    ours = {(out_dir / name).resolve() for name in OUTPUT_FILES}
+    for path in inputs:
+        if pathlib.Path(path).resolve() in ours:
+            raise OutputFolderError(f"--out {out_dir}: a side would overwrite its own input "
+                                    f"{path}; choose another output folder")
+    return out_dir
+
+
+def check_options(args) -> None:
+    """The options, each checked in one line before anything is loaded or built.
+
+    Raises:
+        ScenarioError, SeamError, OutputFolderError: the first option that is refused.
+    """
+    for name in ("timeout", "startup_timeout"):
+        check_in_range(f"--{name.replace('_', '-')}", getattr(args, name), 0.0, math.inf,
+                       "(0, inf) s", open_low=True, open_high=True)
+    check_url(args.lcm)
+    open_lcm(args.lcm, getattr(args, "command", None) or "seam")  # what only liblcm can tell
+
+
 def _load(args):
-    if args.timeout <= 0 or args.startup_timeout <= 0:
-        raise SeamError("--timeout and --startup-timeout must be > 0 s")
-    return load_scenario(args.scenario, {"duration": args.duration} if args.duration else {})
+    check_options(args)
+    path = find_scenario(args.scenario)
+    if args.out is not None:
+        check_out_folder(args.out, inputs=[path], create=False)
+    # --duration 0 is refused by the scenario's own check, with its range, as `run` does.
+    scenario = load_scenario(path, {} if args.duration is None else {"duration": args.duration})
+    if args.out is not None:
+        check_out_folder(args.out, inputs=[path])
+    return scenario
 
 
 def _main(args, run) -> int:

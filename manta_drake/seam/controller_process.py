@@ -9,8 +9,16 @@ import time
 import numpy as np
 
 from manta_drake.model.robot_params import NUM_JOINTS
-from manta_drake.seam.channels import CLOCK, controller_channels, fix_inputs
-from manta_drake.seam.errors import SeamError, warn
+from manta_drake.seam.channels import (
+    CHANNELS,
+    CLOCK,
+    controller_channels,
+    fix_inputs,
+    monitor_channels,
+)
+from manta_drake.seam.errors import Incidents, PeerStopped, SeamError, warn
+from manta_drake.seam.handshake import failure_status, hello_for
+from manta_drake.seam.limits import Guard
 from manta_drake.seam.link import (
     DEFAULT_STARTUP_TIMEOUT_S,
     DEFAULT_TIMEOUT_S,
@@ -22,7 +30,7 @@ from manta_drake.seam.link import (
 from manta_drake.seam.messages import CODECS, to_utime
 from manta_drake.seam.plant_step_tick import controller_with_tick
 from manta_drake.seam.result import SeamResult
-from manta_drake.seam.schedule import advance_to, exchange_schedule
+from manta_drake.seam.schedule import advance_to, exchange_schedule, sample_times
 from manta_drake.simulate import make_simulator
 from manta_drake.wiring.controller import build_controller
 
@@ -31,18 +39,92 @@ from manta_drake.wiring.controller import build_controller
 MAX_LEAD_STEPS = 4
 
 
+class StationLog:
+    """The station's channels the controller has no port for (the balloon volume, the
+    battery, the electrical power), screened and logged as ``t_<port>`` and ``<port>``.
+
+    In lockstep every sample is logged: before the controller publishes its commands for
+    tau it has every sample stamped before tau (``complete_before``), so its commands still
+    acknowledge only what it has. On the wall clock, what arrives.
+    """
+
+    def __init__(self, channels, link: Link, guard: Guard, scenario):
+        self.channels, self.link, self.guard = list(channels), link, guard
+        # The sample times as the station computes them (j * period), by stamp.
+        self.expected = {c.name: {to_utime(t): t for t in sample_times(c.period(scenario),
+                                                                       scenario.duration)}
+                         for c in self.channels}
+        self._stamps = {name: sorted(times) for name, times in self.expected.items()}
+        self._next = {c.name: 0 for c in self.channels}
+        self.log = {c.name: ([], []) for c in self.channels}
+
+    def _take(self, channel, stamp) -> None:
+        value = self.link.monitored[channel.name].pop(stamp)
+        t = self.expected[channel.name].get(stamp, stamp / 1e6)
+        value = self.guard.screen_one(channel, value, t)
+        times, values = self.log[channel.name]
+        times.append(t)
+        values.append(np.array(value, dtype=float))
+
+    def complete_before(self, utime: int) -> bool:
+        """Logs the samples that have arrived in stamp order; True once every sample stamped
+        before ``utime`` is logged."""
+        complete = True
+        for c in self.channels:
+            stamps, box = self._stamps[c.name], self.link.monitored[c.name]
+            i = self._next[c.name]
+            while i < len(stamps) and stamps[i] < utime and stamps[i] in box:
+                self._take(c, stamps[i])
+                i += 1
+            self._next[c.name] = i
+            complete = complete and (i == len(stamps) or stamps[i] >= utime)
+        return complete
+
+    def take_arrived(self) -> None:
+        """Logs whatever has arrived, in stamp order (the wall clock; the end of a lockstep
+        run); a re-sent duplicate of a logged sample is dropped."""
+        for c in self.channels:
+            logged = self._stamps_logged(c)
+            for stamp in sorted(self.link.monitored[c.name]):
+                if logged is None or stamp > logged:
+                    self._take(c, stamp)
+                    logged = stamp
+                else:
+                    self.link.monitored[c.name].pop(stamp)
+
+    def _stamps_logged(self, channel):
+        times = self.log[channel.name][0]
+        return to_utime(times[-1]) if times else None
+
+    def arrays(self) -> dict:
+        out = {}
+        for c in self.channels:
+            times, values = self.log[c.name]
+            if times:
+                out[f"t_{c.port}"] = np.array(times)
+                values = np.array(values)
+                out[c.port] = values.reshape(-1) if c.size == 1 else values
+        return out
+
+
 def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
                    timeout: float = DEFAULT_TIMEOUT_S,
                    startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
                    progress: bool = False) -> SeamResult:
     """Runs the controller of ``scenario`` alone against a station over LCM.
 
-    Lockstep: at each exchange time tau it publishes its commands for tau (they depend
-    on its state at tau only, not on tau's sensors: ``build_controller`` has no direct
-    feedthrough; with one it would wait first), then waits for the sensors due at tau
-    and fixes them before advancing past tau. So it runs ahead of the station, at most
-    ``MAX_LEAD_STEPS`` plant steps (it watches the station's clock channel), and the
-    station rarely waits.
+    It first shakes hands with the station (``manta_drake.seam.handshake``), and checks
+    that the station publishes every sensor it reads. Lockstep: at each exchange time tau
+    it publishes its commands for tau (they depend on its state at tau only, not on tau's
+    sensors: ``build_controller`` has no direct feedthrough; with one it would wait
+    first), then waits for the sensors due at tau and fixes them before advancing past
+    tau. So it runs ahead of the station, at most ``MAX_LEAD_STEPS`` plant steps (it
+    watches the station's clock channel), and the station rarely waits.
+
+    Every reading passes ``Guard.for_controller`` first: one outside its physical range
+    is treated as a dropped reading (NaN depth: the estimator holds), a non-finite or
+    impossible joint state or camera pose keeps the last good one; each kind is named
+    once per channel on stderr, and all are counted (``incidents``).
 
     Args:
         scenario: a validated Scenario (the station's).
@@ -51,21 +133,31 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
             the robot), instead of lockstep with the station's time.
         timeout: give up after the station has been silent this long [s]; meanwhile the
             last command is held (re-sent) and stderr says so.
-        startup_timeout: the same for the first message (the station may start later).
+        startup_timeout: the same for the handshake and the first message (the station
+            may start later).
         progress: print the controller's time on stderr every second of it.
 
     Returns:
         SeamResult; its log has ``t_command`` and ``commanded_joint_angles`` (the
         desired angles sent at every plant step) and, where the controller has them,
-        ``cpg_params``, ``z_hat``, ``s_hat``, ``detector_status`` at the same times.
+        ``cpg_params``, ``z_hat``, ``s_hat``, ``detector_status`` at the same times; and
+        ``t_<port>``, ``<port>`` of the station's channels it has no port for
+        (``balloon_volume``, ``battery``, ``electrical_power``), as received.
 
     Raises:
-        SeamError: the station was silent for ``timeout`` s.
+        SeamError: the handshake failed, or the station was silent for ``timeout`` s.
     """
     controller, _ = build_controller(scenario)
     controller = controller_with_tick(controller, scenario.time_step)
     sends, reads = controller_channels(controller)
-    link = Link(url, reads, "controller", lockstep=not wall_clock)
+    incidents = Incidents("controller")
+    hello = hello_for("controller", scenario, wall_clock, sends)
+    # Every station channel it might log is subscribed from the start: the station's first
+    # samples may arrive right after the handshake.
+    loggable = [c for c in CHANNELS if c.sender == "station" and c not in reads]
+    link = Link(url, reads + loggable, "controller", lockstep=not wall_clock,
+                incidents=incidents, monitor=[c.name for c in loggable], hello=hello)
+    guard = Guard.for_controller(scenario, incidents)
     simulator = make_simulator(controller, scenario)
     context = simulator.get_mutable_context()
     monitors = [p for p in ("cpg_params", "z_hat", "s_hat", "detector_status")
@@ -91,29 +183,55 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
              f"(gives up after {timeout:g} s)")
 
     def on_timeout(waited):
+        skipped = incidents.count(kind="malformed")
+        skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
         if link.last_arrival is None:
             return SeamError(f"controller: nothing from the station within {waited:.1f} s; is "
                              "`manta-drake station` running with the same scenario, --lcm URL "
-                             "and --wall-clock setting?")
+                             f"and --wall-clock setting?{skipped}")
         return SeamError(f"controller: the station has been silent for {waited:.1f} s "
                          f"(last command stamped t = {state['last_t']:.3f} s, held until now); "
-                         "stopped")
+                         f"stopped{skipped}")
 
     if progress:
-        warn(f"controller: {scenario.name}, {mode}, waiting for the station on {url}")
-    if wall_clock:
-        wall_start, exchanges = _controller_wall_clock(
-            scenario, simulator, link, reads, command, timeout, startup_timeout,
-            on_stale, on_timeout, progress)
-        wall = time.monotonic() - wall_start
-    else:
-        exchanges, wall = _controller_lockstep(scenario, simulator, link, sends, reads, command,
-                                               timeout, startup_timeout, on_stale, on_timeout,
-                                               progress)
-        _linger(link)
+        warn(f"controller: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
+             f"station on {url}")
+    stopped = ""
+    try:
+        peer = link.shake_hands(startup_timeout)
+        missing = [c.name for c in reads if c.name not in peer.channels]
+        if missing:
+            raise SeamError(f"controller: {peer.describe()} does not publish "
+                            f"{', '.join(missing)}, which this controller reads (has its "
+                            "scenario the same water and camera settings?)")
+        station_log = StationLog(monitor_channels(controller, peer.channels), link, guard,
+                                 scenario)
+        paired_at = time.monotonic()
+        try:
+            if wall_clock:
+                wall_start, exchanges = _controller_wall_clock(
+                    scenario, simulator, link, reads, command, timeout, startup_timeout,
+                    on_stale, on_timeout, progress, guard, station_log)
+                wall = time.monotonic() - wall_start
+            else:
+                exchanges, wall = _controller_lockstep(
+                    scenario, simulator, link, sends, reads, command, timeout, startup_timeout,
+                    on_stale, on_timeout, progress, guard, station_log)
+                _linger(link)
+        except PeerStopped as e:  # the station ended the run (its battery): so does this side
+            stopped = str(e)
+            warn(f"controller: {stopped}; stopping too")
+            exchanges, wall = len(log["t_command"]), time.monotonic() - paired_at
+        station_log.take_arrived()
+    except BaseException as e:
+        link.say_goodbye(failure_status(e))
+        raise
+    link.say_goodbye("finished")
     arrays = {k: np.array(v) for k, v in log.items() if len(v)}
+    arrays.update(station_log.arrays())
     return SeamResult("controller", mode, url, float(context.get_time()), wall, exchanges,
-                      link.resends, arrays)
+                      link.resends, arrays, incidents=incidents.counts, stopped=stopped,
+                      run_id=hello.run_id, peer_run_id=peer.run_id)
 
 
 def has_feedthrough(controller, inputs, outputs) -> bool:
@@ -125,7 +243,7 @@ def has_feedthrough(controller, inputs, outputs) -> bool:
 
 
 def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeout,
-                         startup_timeout, on_stale, on_timeout, progress):
+                         startup_timeout, on_stale, on_timeout, progress, guard, station_log):
     """The controller in lockstep with the station's time (see ``run_controller``).
     Returns (number of exchanges, wall time from the first exchange)."""
     controller, context = simulator.get_system(), simulator.get_mutable_context()
@@ -139,9 +257,12 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
     next_progress = 1.0
 
     def publish(ex) -> None:
-        # Flow control: no further ahead of the station's clock than MAX_LEAD_STEPS.
+        # Flow control: no further ahead of the station's clock than MAX_LEAD_STEPS; and a
+        # command stamped tau says the controller has everything stamped before tau (the
+        # station stops re-sending it), so the logged channels' samples come first.
         link.wait_for(lambda: True if link.newest.get(CLOCK.name, -1) >= ex.utime - lead
-                      else None, timeout, on_stale, on_timeout)
+                      and station_log.complete_before(ex.utime) else None,
+                      timeout, on_stale, on_timeout)
         command(ex.time)
 
     for ex in schedule:
@@ -159,7 +280,7 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
             got = link.wait_for(lambda wanted=wanted: link.take(wanted),
                                 startup_timeout if first else timeout,
                                 (lambda waited: None) if first else on_stale, on_timeout)
-            fix_inputs(controller, context, got)
+            fix_inputs(controller, context, guard.screen(got, ex.time))
         if first:  # every input has its value now
             simulator.Initialize()
             wall_start = time.monotonic()
@@ -189,7 +310,7 @@ def _linger(link: Link, quiet_s: float = 0.3) -> None:
 
 
 def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
-                           startup_timeout, on_stale, on_timeout, progress):
+                           startup_timeout, on_stale, on_timeout, progress, guard, station_log):
     """The controller on this machine's clock: latest sensor values, a command after every
     plant step of its own time; holds (stops, re-sends its last command) while the
     station is silent. Returns (wall start, number of commands)."""
@@ -205,7 +326,7 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
             raise SeamError(f"controller: nothing on {', '.join(missing)} within "
                             f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
                             "running with the same scenario and --lcm URL?")
-    fix_inputs(controller, context, latest)
+    fix_inputs(controller, context, guard.screen(latest, 0.0))
     simulator.Initialize()
     command(0.0)
     wall_start = time.monotonic()
@@ -216,8 +337,11 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
     n_steps = round(scenario.duration / h)
     while k < n_steps:
         link.poll(1)
+        if link.handshake.peer_status == "finished":  # nothing more to command
+            break
         fresh = {c.name: m for c in reads if (m := link.latest(c.name)) is not None}
-        fix_inputs(controller, context, fresh)
+        fix_inputs(controller, context, guard.screen(fresh, context.get_time()))
+        station_log.take_arrived()
         now = time.monotonic()
         silent = now - link.last_arrival
         if silent > STALE_AFTER_S:  # hold: stop the clock, re-send the last command

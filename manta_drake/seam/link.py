@@ -1,15 +1,30 @@
-"""Transport: one end of the seam (``Link``): an LCM instance, the messages received, what
-to re-send; and how long a side waits for its peer."""
+"""Transport: one end of the seam (``Link``): an LCM instance, the messages received (decoded
+as they arrive; what does not decode is counted and skipped), the handshake, what to
+re-send; the URL check; and how long a side waits for its peer."""
 
 from __future__ import annotations
 
 import collections
+import contextlib
 import functools
+import ipaddress
+import math
+import os
+import struct
+import tempfile
 import time
+import urllib.parse
+import zlib
 from collections.abc import Callable
 
 from manta_drake.seam.channels import Channel
-from manta_drake.seam.errors import SeamError
+from manta_drake.seam.errors import Incidents, SeamError, warn
+from manta_drake.seam.handshake import (
+    HANDSHAKE_CHANNEL,
+    Handshake,
+    Hello,
+    hello_from_message,
+)
 from manta_drake.seam.messages import CODECS
 
 # LCM's default group; ttl=0: this machine only; a 2 MB receive buffer (capped by the
@@ -21,6 +36,113 @@ RESEND_PERIOD_S = 0.1  # s between re-sends while waiting
 DEFAULT_TIMEOUT_S = 10.0  # s of silence before giving up
 DEFAULT_STARTUP_TIMEOUT_S = 120.0  # s for the first message: the peer may still be building
 
+# What decoding a truncated, foreign or inconsistent message raises: struct.error (too few
+# bytes), ValueError (a wrong fingerprint, bad UTF-8, a reshape), SeamError (a codec's own
+# checks), zlib.error; IndexError, TypeError, OverflowError for lengths that do not add up.
+DECODE_ERRORS = (struct.error, ValueError, SeamError, zlib.error, IndexError, TypeError,
+                 OverflowError)
+# liblcm's udpm provider options and their ranges; it ignores any other (and its obsolete
+# transmit_only) with a warning on a line of its own.
+UDPM_OPTIONS = {"ttl": (0, 255), "recv_buf_size": (1, 2**31 - 1)}
+URL_FORM = ("udpm://GROUP:PORT[?ttl=N&recv_buf_size=BYTES] (e.g. udpm://239.255.76.67:7667?ttl=0) "
+            "or tcpq://HOST:PORT")
+
+
+def check_url(url: str, in_process: bool = False) -> None:
+    """Refuses, in one line, an LCM URL the seam cannot use, before liblcm sees it (liblcm
+    prints its own reason on stderr and raises "Couldn't create LCM").
+
+    Args:
+        url: the ``--lcm`` URL.
+        in_process: also accept ``memq://`` (one process only: the unit tests' transport).
+
+    Raises:
+        SeamError: the URL and what is wrong with it.
+    """
+    def refuse(why: str):
+        return SeamError(f"--lcm {url!r}: {why}; expected {URL_FORM}")
+
+    if not isinstance(url, str) or not url.strip():
+        raise refuse("an empty URL")
+    scheme, sep, rest = url.partition("://")
+    if not sep:
+        raise refuse("not a URL (no PROVIDER://)")
+    if scheme == "memq":
+        if in_process:
+            return
+        raise refuse("memq:// reaches this process only, and the other side runs in another")
+    if scheme not in ("udpm", "tcpq"):
+        raise refuse("file:// is a log file, not a peer" if scheme == "file"
+                     else f"unknown LCM provider {scheme!r}")
+    address, _, query = rest.partition("?")
+    host, colon, port = address.rpartition(":")
+    if not colon:
+        raise refuse(f"no port in {address!r}")
+    if not host:
+        raise refuse(f"no host in {address!r}")
+    if not (port.isdigit() and 1 <= int(port) <= 65535):
+        raise refuse(f"port {port!r} is not a number in 1-65535")
+    if scheme == "tcpq":
+        if query:
+            raise refuse("tcpq:// takes no options")
+        return
+    try:
+        group = ipaddress.IPv4Address(host)
+    except ValueError:
+        raise refuse(f"{host!r} is not an IPv4 multicast group (224.0.0.0-239.255.255.255)") \
+            from None
+    if not group.is_multicast:
+        raise refuse(f"{host} is not a multicast group (224.0.0.0-239.255.255.255)")
+    for key, value in urllib.parse.parse_qsl(query, keep_blank_values=True):
+        if key not in UDPM_OPTIONS:
+            raise refuse(f"unknown option {key!r} (known: {', '.join(UDPM_OPTIONS)})")
+        bounds = UDPM_OPTIONS[key]
+        if not (value.isdigit() and bounds[0] <= int(value) <= bounds[1]):
+            raise refuse(f"{key}={value!r}: expected an integer in {bounds[0]}-{bounds[1]}")
+
+
+@contextlib.contextmanager
+def _stderr_captured():
+    """Collects what C code writes on file descriptor 2 meanwhile (liblcm prints its reasons
+    there), so the seam can say it in its own one line. Yields a list that holds the text
+    afterwards."""
+    text: list[str] = []
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to capture
+        yield text
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield text
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            text.append(" ".join(tmp.read().decode(errors="replace").split()))
+
+
+def open_lcm(url: str, who: str):
+    """An ``lcm.LCM`` on ``url``; liblcm's own complaint goes into one line.
+
+    Raises:
+        SeamError: liblcm cannot open it (with its reason).
+    """
+    import lcm
+
+    with _stderr_captured() as said:
+        try:
+            instance = lcm.LCM(url)
+        except RuntimeError:
+            instance = None
+    said = "".join(said)
+    if instance is None:
+        raise SeamError(f"{who}: cannot open the LCM URL {url!r}: {said or 'liblcm refused it'}")
+    if said:
+        warn(f"{who}: liblcm on {url!r}: {said}")
+    return instance
+
 
 class Link:
     """One end of the seam: an LCM instance, the messages received, what to re-send.
@@ -30,26 +152,32 @@ class Link:
     ``Subscribe`` gives no handle to change that, while the lockstep controller runs a
     few steps ahead, so several messages per channel can wait to be handled.
 
-    Messages are decoded as they arrive and kept by channel and stamp; those stamped
-    before ``floor_utime`` (re-sent duplicates) are dropped, but each channel's newest
-    stamp is kept in ``newest``. What is published stays "unacknowledged" until a
-    message from the peer stamped later arrives (lockstep: the peer sends a message
-    stamped u only after it has everything it reads stamped before u) or, on the wall
-    clock, until ``acknowledge_all``; ``resend`` publishes it again, and always the
-    newest message of a ``sticky`` channel (the clock, which the peer watches but
-    does not read, so no stamp acknowledges it).
+    Messages are decoded into port values as they arrive (one that does not decode, or a
+    vector of the wrong length, is counted and skipped: ``Incidents``, kind
+    ``malformed``) and kept by channel and stamp; those stamped before ``floor_utime``
+    (re-sent duplicates) are dropped, but each channel's newest stamp is kept in
+    ``newest``. The ``monitor`` channels' values are kept apart, in ``monitored``, and
+    never dropped (the controller logs them). What is published stays "unacknowledged"
+    until a message from the peer stamped later arrives (lockstep: the peer sends a
+    message stamped u only after it has everything it reads stamped before u) or, on the
+    wall clock, until ``acknowledge_all``; ``resend`` publishes it again, and always the
+    newest message of a ``sticky`` channel (the clock, which the peer watches but does
+    not read, so no stamp acknowledges it).
+
+    With a ``hello`` the Link takes part in the handshake (``manta_drake.seam.handshake``)
+    for as long as it lives: ``shake_hands`` pairs it with its peer, and later requests
+    (a second station, say) are answered and named.
     """
 
     def __init__(self, url: str, subscribe, who: str, lockstep: bool = True,
-                 sticky: tuple[str, ...] = ()):
-        import lcm
-
+                 sticky: tuple[str, ...] = (), incidents: Incidents | None = None,
+                 monitor=(), hello: Hello | None = None):
+        check_url(url, in_process=True)
         self.who, self.url, self.lockstep = who, url, lockstep
-        try:
-            self.lcm = lcm.LCM(url)
-        except RuntimeError as e:  # with the provider's reason
-            raise SeamError(f"{who}: cannot open the LCM URL {url!r}: {e}") from None
+        self.lcm = open_lcm(url, who)
+        self.incidents = incidents if incidents is not None else Incidents(who)
         self.inbox: dict[str, dict[int, object]] = {}
+        self.monitored: dict[str, dict[int, object]] = {}
         self.newest: dict[str, int] = {}
         self.floor_utime = -1
         self.last_arrival = None  # monotonic time of the last message received
@@ -58,27 +186,97 @@ class Link:
         self._error: Exception | None = None
         self._unacked: collections.deque[tuple[int, str, bytes]] = collections.deque()
         self._sticky = {name: None for name in sticky}
+        self._channels: dict[str, Channel] = {}
         for channel in subscribe:
-            self.inbox[channel.name] = {}
-            subscription = self.lcm.subscribe(channel.name,
-                                              functools.partial(self._receive, channel))
-            subscription.set_queue_capacity(QUEUE_CAPACITY)
+            self._subscribe(channel, channel.name in set(monitor))
+        self.handshake = None
+        if hello is not None:
+            self.handshake = Handshake(hello, self.lcm.publish, url)
+            self.lcm.subscribe(HANDSHAKE_CHANNEL, self._receive_hello).set_queue_capacity(
+                QUEUE_CAPACITY)
+
+    def _subscribe(self, channel: Channel, monitor: bool = False) -> None:
+        if channel.name in self._channels:
+            return
+        self._channels[channel.name] = channel
+        (self.monitored if monitor else self.inbox)[channel.name] = {}
+        subscription = self.lcm.subscribe(channel.name, functools.partial(self._receive, channel))
+        subscription.set_queue_capacity(QUEUE_CAPACITY)
+
+    def _malformed(self, channel_name: str, type_name: str, data: bytes, fingerprint: bytes,
+                   reason: str) -> None:
+        if data[:8] != fingerprint:
+            reason = "another type's fingerprint: another program on this URL?"
+        self.incidents.report(channel_name, ["malformed"],
+                              f"a message ({len(data)} bytes) that is not a valid {type_name} "
+                              f"({reason}): skipped")
 
     def _receive(self, channel: Channel, _name: str, data: bytes) -> None:
         codec = CODECS[channel.codec]
+        lcm_type = codec.lcm_type
+        type_name = f"{lcm_type.__module__.rsplit('.', 1)[0]}.{lcm_type.__name__}"
         try:
-            msg = codec.lcm_type.decode(data)
-        except ValueError:  # another program's type on our channel
-            self._error = SeamError(f"{self.who}: a message on {channel.name} is not "
-                                    f"{codec.lcm_type.__name__} (another program on {self.url}?)")
+            msg = lcm_type.decode(data)
+            stamp = int(codec.stamp(msg))
+            value = codec.decode(msg)
+            if channel.size is not None and len(value) != channel.size:
+                raise SeamError(f"{len(value)} values, expected {channel.size}")
+        except DECODE_ERRORS as e:  # a truncated or foreign message must not stop the run
+            self._malformed(channel.name, type_name, data, lcm_type._get_packed_fingerprint(),
+                            " ".join(str(e).split()) or type(e).__name__)
             return
         self.last_arrival = time.monotonic()
-        stamp = codec.stamp(msg)
         self.newest[channel.name] = max(stamp, self.newest.get(channel.name, stamp))
         if self.lockstep:
             self._acked_below = max(self._acked_below, stamp)
-        if stamp >= self.floor_utime:
-            self.inbox[channel.name][stamp] = msg
+        if channel.name in self.monitored:
+            self.monitored[channel.name][stamp] = value
+        elif stamp >= self.floor_utime:
+            self.inbox[channel.name][stamp] = value
+
+    def _receive_hello(self, _name: str, data: bytes) -> None:
+        from manta_drake.lcmtypes import lcmt_manta_handshake
+
+        try:
+            msg = lcmt_manta_handshake.decode(data)
+            theirs = hello_from_message(msg)
+        except DECODE_ERRORS as e:  # skipped like any other malformed message
+            self._malformed(HANDSHAKE_CHANNEL, "manta_drake.lcmtypes.lcmt_manta_handshake",
+                            data, lcmt_manta_handshake._get_packed_fingerprint(),
+                            " ".join(str(e).split()) or type(e).__name__)
+            return
+        self.handshake.receive(msg, theirs)
+        if self.handshake.error is not None and self._error is None:
+            self._error = self.handshake.error
+
+    def shake_hands(self, timeout: float) -> Hello:
+        """Sends this side's Hello every ``RESEND_PERIOD_S`` until a matching peer has named
+        it back; returns the peer's Hello.
+
+        Raises:
+            SeamError: the handshake failed (a mismatch, a second station or controller), in
+                one line, or nobody answered within ``timeout`` s.
+        """
+        hs = self.handshake
+        start, last_send = time.monotonic(), -math.inf
+        while not hs.done:
+            now = time.monotonic()
+            if now - start >= timeout:
+                peer = hs.mine.peer_role
+                raise SeamError(f"{self.who}: no {peer} answered on {self.url} within "
+                                f"{now - start:.1f} s; is `manta-drake {peer}` running with the "
+                                "same --lcm URL?")
+            if now - last_send >= RESEND_PERIOD_S:
+                hs.send()
+                last_send = now
+            self.poll(20)
+        return hs.peer
+
+    def say_goodbye(self, status: str) -> None:
+        """Tells the peer (and anyone listening) that this side stops, and why."""
+        if self.handshake is not None:
+            for _ in range(2):  # a datagram may be lost; the peer's timeout is the fallback
+                self.handshake.send(status=status)
 
     def poll(self, timeout_ms: int = 0) -> int:
         """Handles one message, waiting up to ``timeout_ms`` for it; returns 1 or 0."""
@@ -120,7 +318,7 @@ class Link:
         self.resends += bool(again)
 
     def take(self, wanted: dict[str, int]) -> dict | None:
-        """The messages ``{channel: stamp}`` if all have arrived (removed), else None."""
+        """The values ``{channel: stamp}`` if all have arrived (removed), else None."""
         if any(stamp not in self.inbox[name] for name, stamp in wanted.items()):
             return None
         return {name: self.inbox[name].pop(stamp) for name, stamp in wanted.items()}
@@ -133,7 +331,7 @@ class Link:
                 del box[stamp]
 
     def latest(self, name: str):
-        """The newest message on ``name`` not yet taken (older ones dropped), or None."""
+        """The newest value on ``name`` not yet taken (older ones dropped), or None."""
         box = self.inbox[name]
         if not box:
             return None

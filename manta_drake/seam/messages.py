@@ -111,6 +111,8 @@ def depth_image_from_message(msg: lcmt_image_array) -> ImageDepth32F:
         raise SeamError(f"depth image: pixel_format {img.pixel_format}, channel_type "
                         f"{img.channel_type}; expected DEPTH ({lcmt_image.PIXEL_FORMAT_DEPTH}) "
                         f"FLOAT32 ({lcmt_image.CHANNEL_TYPE_FLOAT32})")
+    if img.width < 1 or img.height < 1:
+        raise SeamError(f"depth image: {img.width} x {img.height} pixels")
     data = img.data
     if img.compression_method == lcmt_image.COMPRESSION_METHOD_ZLIB:
         data = zlib.decompress(data)

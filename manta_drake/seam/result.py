@@ -12,7 +12,14 @@ import numpy as np
 
 @dc.dataclass
 class SeamResult:
-    """What one side of a run did."""
+    """What one side of a run did.
+
+    Attributes:
+        incidents: channel -> kind -> how many messages were clipped, held, ignored or
+            skipped (``manta_drake.seam.errors.Incidents``).
+        stopped: why the run ended before its duration (the battery at its cut-off), or "".
+        run_id, peer_run_id: this side's and its peer's run ids (the handshake).
+    """
 
     who: str
     mode: str
@@ -22,6 +29,10 @@ class SeamResult:
     exchanges: int
     resends: int
     log: dict
+    incidents: dict = dc.field(default_factory=dict)
+    stopped: str = ""
+    run_id: str = ""
+    peer_run_id: str = ""
 
     @property
     def real_time_factor(self) -> float:
@@ -29,9 +40,11 @@ class SeamResult:
 
     def metrics(self) -> dict:
         return {"who": self.who, "mode": self.mode, "url": self.url,
+                "run_id": self.run_id, "peer_run_id": self.peer_run_id,
+                "status": "stopped" if self.stopped else "ok", "stopped": self.stopped,
                 "sim_time_s": self.sim_time_s, "wall_time_s": self.wall_time_s,
                 "real_time_factor": self.real_time_factor, "exchanges": self.exchanges,
-                "resends": self.resends}
+                "resends": self.resends, "incidents": self.incidents}
 
     def write(self, out_dir) -> pathlib.Path:
         """Writes ``<who>_log.npz`` and ``<who>_metrics.json`` into ``out_dir``."""
@@ -43,6 +56,12 @@ class SeamResult:
         return out
 
     def summary(self) -> str:
+        """One line: times, mode, exchanges, re-sends, and what was clipped, held, ignored or
+        skipped, and why the run stopped early, if it did."""
+        incidents = "; ".join(f"{name}: " + ", ".join(f"{n} {kind}" for kind, n in kinds.items())
+                              for name, kinds in self.incidents.items())
         return (f"{self.who}: {self.sim_time_s:.3f} s simulated in {self.wall_time_s:.2f} s "
                 f"(real-time factor {self.real_time_factor:.2f}), {self.mode}, "
-                f"{self.exchanges} exchanges, {self.resends} re-sends, over {self.url}")
+                f"{self.exchanges} exchanges, {self.resends} re-sends, over {self.url}"
+                + (f"; {incidents}" if incidents else "")
+                + (f"; stopped {self.stopped}" if self.stopped else ""))

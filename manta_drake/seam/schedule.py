@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses as dc
 
+from pydrake.systems.analysis import SimulatorStatus
+
 from manta_drake.seam.errors import SeamError
 from manta_drake.seam.messages import to_utime
 
@@ -52,9 +54,17 @@ def exchange_schedule(duration: float, periods: dict[str, float]) -> list[Exchan
     return [Exchange(t, tuple(sorted(due[t]))) for t in sorted(due)]
 
 
-def advance_to(simulator, t: float) -> None:
+def advance_to(simulator, t: float) -> str:
     """``simulator.AdvanceTo(t)`` unless the context is already at ``t``: AdvanceTo
     first handles the update events pending at the current time, so calling it at
-    ``t`` would run ``t``'s updates before the inputs for ``t`` are fixed."""
+    ``t`` would run ``t``'s updates before the inputs for ``t`` are fixed.
+
+    Returns:
+        "" or, when a System ended the run before ``t`` (the battery at its cut-off),
+        its reason.
+    """
     if t > simulator.get_context().get_time():
-        simulator.AdvanceTo(t)
+        status = simulator.AdvanceTo(t)
+        if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+            return status.message() or "a system ended the run"
+    return ""

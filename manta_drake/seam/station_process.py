@@ -1,6 +1,7 @@
 """The station alone, in its own process (``manta-drake station``): ``run_station``
-publishes the sensors and reads the controller's commands over LCM, in lockstep or on
-the wall clock."""
+shakes hands with the controller, publishes the sensors and reads the controller's
+commands over LCM (clipped to what the servos and the pump can do), in lockstep or on the
+wall clock."""
 
 from __future__ import annotations
 
@@ -9,8 +10,15 @@ import time
 import numpy as np
 
 from manta_drake.model.robot_params import NUM_JOINTS
-from manta_drake.seam.channels import CHANNEL_BY_NAME, CLOCK, fix_inputs, station_channels
-from manta_drake.seam.errors import SeamError, warn
+from manta_drake.seam.channels import (
+    CHANNEL_BY_NAME,
+    CLOCK,
+    fix_inputs,
+    station_channels,
+)
+from manta_drake.seam.errors import Incidents, PeerStopped, SeamError, warn
+from manta_drake.seam.handshake import failure_status, hello_for
+from manta_drake.seam.limits import Guard
 from manta_drake.seam.link import (
     DEFAULT_STARTUP_TIMEOUT_S,
     DEFAULT_TIMEOUT_S,
@@ -48,32 +56,74 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
                 progress: bool = False) -> SeamResult:
     """Runs the station of ``scenario`` alone against a controller over LCM.
 
+    It first shakes hands with the controller (``manta_drake.seam.handshake``: the same
+    duration and clock mode, one station and one controller on the URL). The commands it
+    receives pass ``Guard.for_station`` before they reach the servos and the pump: angles
+    and rates beyond the plant's joint limits are clipped, a non-finite value is replaced
+    by the last good command; each kind is named once per channel on stderr and all are
+    counted in the result (``incidents``).
+
     Args:
         scenario: a validated Scenario (its duration is the run's).
         url: the LCM URL (the controller must use the same).
         wall_clock: paced to real time with the latest command, instead of lockstep.
         timeout: lockstep: give up after this long without the awaited command [s].
-        startup_timeout: the same for the first command (the controller may start later).
+        startup_timeout: the same for the handshake and the first command (the controller
+            may start later).
         progress: print the simulated time on stderr every second of it.
 
     Returns:
         SeamResult; its log has ``t``, ``joint_angles``, ``joint_velocities`` (every
         plant step and the end, as the single diagram logs them), ``body_xyz``,
-        ``body_quat_wxyz``, and ``t_depth``/``depth`` as published.
+        ``body_quat_wxyz``, and ``t_<port>``/``<port>`` for every vector sensor as
+        published (``depth``, ``balloon_volume``, ``battery``, ``electrical_power``).
+        ``stopped`` says why it ended early when the scenario ended it (the battery at its
+        cut-off).
 
     Raises:
-        SeamError: the controller was silent for ``timeout`` s (lockstep).
+        SeamError: the handshake failed, or the controller was silent for ``timeout`` s
+            (lockstep).
     """
     station, handles = build_station(scenario)
     sends, reads = station_channels(station)
-    link = Link(url, reads, "station", lockstep=not wall_clock, sticky=(CLOCK.name,))
+    incidents = Incidents("station")
+    hello = hello_for("station", scenario, wall_clock, sends)
+    link = Link(url, reads, "station", lockstep=not wall_clock, sticky=(CLOCK.name,),
+                incidents=incidents, hello=hello)
     simulator = make_simulator(station, scenario)
     context = simulator.get_mutable_context()
     held = initial_commands(scenario)
+    guard = Guard.for_station(handles.plant_handles, held, incidents)
     for channel in reads:
         station.GetInputPort(channel.port).FixValue(context, held[channel.port])
     simulator.Initialize()
+    mode = "wall-clock" if wall_clock else "lockstep"
+    if progress:
+        warn(f"station: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
+             f"controller on {url}")
+    try:
+        peer = link.shake_hands(startup_timeout)
+        missing = [c.name for c in reads if c.name not in peer.channels]
+        if missing:
+            raise SeamError(f"station: {peer.describe()} does not publish {', '.join(missing)}, "
+                            "which this station reads (is the water on in its scenario?)")
+        result = _station_loop(scenario, simulator, station, handles, link, guard, sends, reads,
+                               wall_clock, timeout, startup_timeout, progress)
+    except PeerStopped as e:
+        raise SeamError(f"station: {e}") from None  # a controller has no reason to stop early
+    except BaseException as e:
+        link.say_goodbye(failure_status(e))
+        raise
+    link.say_goodbye(f"stopped {result.stopped}" if result.stopped else "finished")
+    result.run_id, result.peer_run_id = hello.run_id, peer.run_id
+    result.incidents = incidents.counts
+    return result
 
+
+def _station_loop(scenario, simulator, station, handles, link, guard, sends, reads, wall_clock,
+                  timeout, startup_timeout, progress) -> SeamResult:
+    """The station's exchanges, after the handshake (see ``run_station``)."""
+    context = simulator.get_mutable_context()
     schedule = exchange_schedule(scenario.duration,
                                  {c.name: c.period(scenario) for c in sends + reads})
     sending = {c.name for c in sends}
@@ -81,8 +131,10 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     body = _body_indices(handles)
     joint_port = station.GetOutputPort("measured_joint_state")
     state_port = station.GetOutputPort("plant_state")
+    logged = [c for c in sends if c.codec == "vector"]  # sensors logged as sent
     log = {"t": [], "joint_angles": [], "joint_velocities": [], "body_xyz": [],
-           "body_quat_wxyz": [], "t_depth": [], "depth": []}
+           "body_quat_wxyz": [], **{k: [] for c in logged for k in (f"t_{c.port}", c.port)}}
+    logged = {c.name for c in logged}
 
     def record(t):
         x = joint_port.Eval(context)
@@ -99,20 +151,25 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
              f"t = {context.get_time():.3f} s; waiting (gives up after {timeout:g} s)")
 
     def on_timeout(waited):
+        skipped = link.incidents.count(kind="malformed")
         return SeamError(
             f"station: no command for t = {context.get_time():.3f} s within {waited:.1f} s; "
             "is `manta-drake controller` running with the same scenario, --lcm URL and "
-            "--wall-clock setting?")
+            "--wall-clock setting?" + (f" ({skipped} malformed messages skipped)" if skipped
+                                       else ""))
 
     mode = "wall-clock" if wall_clock else "lockstep"
-    if progress:
-        warn(f"station: {scenario.name}, {mode}, waiting for the controller on {url}")
     wall_start = None
     last_command = time.monotonic()
     silent_warned = False
     next_progress = 1.0
+    stopped = ""
+    exchanges = 0
     for ex in schedule:
-        advance_to(simulator, ex.time)
+        stopped = advance_to(simulator, ex.time)
+        if stopped:  # the scenario's own end (the battery at its cut-off)
+            break
+        exchanges += 1
         if not wall_clock:
             link.advance_floor(ex.utime)
         for name in ex.channels:
@@ -120,9 +177,9 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
                 channel = CHANNEL_BY_NAME[name]
                 value = station.GetOutputPort(channel.port).Eval(context)
                 link.publish(name, CODECS[channel.codec].encode(ex.time, value), ex.utime)
-                if channel.port == "depth":
-                    log["t_depth"].append(ex.time)
-                    log["depth"].append(float(value[0]))
+                if name in logged:
+                    log[f"t_{channel.port}"].append(ex.time)
+                    log[channel.port].append(np.array(value, dtype=float))
         if CLOCK.name in ex.channels:
             record(ex.time)
         wanted = {name: ex.utime for name in ex.channels if name in reading}
@@ -131,7 +188,7 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
             got = link.wait_for(lambda wanted=wanted: link.take(wanted),
                                 timeout if started else startup_timeout,
                                 on_stale if started else (lambda waited: None), on_timeout)
-            fix_inputs(station, context, got)
+            fix_inputs(station, context, guard.screen(got, ex.time))
         elif wanted:  # wall clock: the newest command, whatever its stamp
             if wall_start is None:  # hold t = 0 until a controller is there
                 link.wait_for(lambda wanted=wanted: any(link.inbox[n] for n in wanted) or None,
@@ -139,7 +196,7 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
             link.drain()
             link.acknowledge_all()  # nothing is re-sent on the wall clock
             got = {name: msg for name in wanted if (msg := link.latest(name)) is not None}
-            fix_inputs(station, context, got)
+            fix_inputs(station, context, guard.screen(got, ex.time))
             if got:
                 last_command, silent_warned = time.monotonic(), False
             elif time.monotonic() - last_command > STALE_AFTER_S and not silent_warned:
@@ -155,9 +212,17 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         if progress and ex.time >= next_progress:
             warn(f"station: t = {ex.time:.1f} s")
             next_progress += 1.0
-    simulator.AdvanceTo(scenario.duration)
-    record(scenario.duration)
+    if not stopped:
+        stopped = advance_to(simulator, scenario.duration)
+    t_end = float(context.get_time())
+    if stopped:
+        stopped = f"at t = {t_end:.3f} s: {stopped}"
+        warn(f"station: stopped {stopped}")
+    record(t_end)
     wall = time.monotonic() - wall_start if wall_start is not None else 0.0
     arrays = {k: np.array(v) for k, v in log.items() if len(v)}
-    return SeamResult("station", mode, url, float(context.get_time()), wall, len(schedule),
-                      link.resends, arrays)
+    for c in sends:  # one value a sample: a 1-D array, as log.npz has the depth
+        if c.size == 1 and c.port in arrays:
+            arrays[c.port] = arrays[c.port].reshape(-1)
+    return SeamResult("station", mode, link.url, t_end, wall, exchanges, link.resends, arrays,
+                      stopped=stopped)

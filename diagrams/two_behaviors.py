@@ -2,7 +2,10 @@
 """Section 4.2: swim -> sink -> trot -> rise -> swim, driven by depth; the paper's Fig. 10.
 
 Writes the run's outputs and fig10_two_behaviors.png (joint outputs, Euler angles, depth,
-z_hat, with the behaviour phases shaded) into --out.
+z_hat, with the behaviour phases shaded and the time the hull is within the free-water margin
+of a wall hatched, "at a side wall") into --out. The swim's yaw carries the robot to the right
+side wall: within the margin from about 29.5 s, pressed against the wall from about 48 s to the
+end (metrics.json: near_wall_at_s, touched_wall).
 
 Usage: python diagrams/two_behaviors.py [--out out/two_behaviors] [--duration S] [--no-meshcat]
 """
@@ -22,7 +25,8 @@ def figures(result, scenario):
     path = result.out_dir / "fig10_two_behaviors.png"
     plots.fig_transition_run(result.log, result.metrics, path,
                              "Two behaviours: swim <-> trot by depth (cf. paper Fig. 10)",
-                             paper_windows=PAPER_WINDOWS)
+                             paper_windows=PAPER_WINDOWS,
+                             wall_margin=scenario.free_water_margin, wall_label="at a side wall")
     return [path]
 
 

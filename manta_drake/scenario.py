@@ -90,7 +90,7 @@ class ControllerConfig:
     mode:
       ``hold``  the joints hold the stance (X) of ``gait``; no oscillation.
       ``gait``  the CPG runs ``gait`` for the whole run.
-      ``transition``  the multifunctional controller chooses (later issues).
+      ``transition``  the multifunctional controller chooses the behaviour (Eqs. 9-15).
     """
 
     mode: str = "hold"

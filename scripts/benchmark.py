@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Real-time factors of the simulator, as interleaved rounds in one process (issue 13).
+"""Real-time factors of the simulator, as interleaved rounds in one process (docs/performance.md).
 
 Cases (no Meshcat, progress bars off):
 
@@ -15,13 +15,13 @@ Cases (no Meshcat, progress bars off):
   (b exact) the same with the water's forces at every step (``water.update_period: 0``);
   (c)       the closed loop with the camera: ``three_behaviors``;
   (b ref)   optional (``--reference``): (b) on the reference paths that
-            ``build_diagram`` offers, what the compiled paths replaced: the water's
+            ``build_diagram`` offers beside the compiled ones: the water's
             contract ports (per-body poses and velocities in, the force list out) and the
             CPG's numpy functions (``hydro_plant_state=False, compiled_cpg=False``); the
             water's maths stay compiled there (``build_diagram`` takes no choice of the
             water's backend: ``scripts/benchmark_hydro.py`` times the numpy maths);
   (c) plant SG  optional (``--camera-in-plant-scene``): (c) with the camera rendering in
-            the plant's SceneGraph, as before (its VTK poses move at every plant step);
+            the plant's SceneGraph (its VTK poses move at every plant step);
   (b) 2 ms, (c) 2 ms  optional (``--two-ms``): the plant and integrator at 2 ms.
 
 Every case's diagram is built once. A round makes a fresh context for every case at its

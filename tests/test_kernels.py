@@ -487,7 +487,7 @@ def test_kernels_cache_in_the_user_cache_when_the_package_folder_is_not_used(tmp
 @pytest.mark.slow
 def test_closed_loop_s_hat_same_with_the_camera_in_its_own_scene():
     """The wall in view while trotting toward it: the logged s_hat series with the camera in
-    its own SceneGraph against the camera in the plant's SceneGraph (as before)."""
+    its own SceneGraph against the camera in the plant's SceneGraph (camera_own_scene=False)."""
     from manta_drake.scenario import load_scenario
 
     def s_hat_series(own_scene: bool):

@@ -188,10 +188,10 @@ def test_rendered_pool_wall_near_and_far(tmp_path):
 
 
 def test_rendered_wall_is_kept_at_the_largest_supported_noise(tmp_path):
-    """At 12 mm of range noise and more the old detector lost the wall at 0.4-0.6 m (the
-    voxelised wall became a double sheet that failed the curvature guard); the depth median
-    filter and PCA-labelled leftovers keep it to the loader's bound (30 mm), and out of
-    range the noise does not make a wall up."""
+    """Without the depth median filter and the PCA labelling of leftover points, at 12 mm of
+    range noise and more the voxelised wall becomes a double sheet that fails the curvature
+    guard, and the wall is lost at 0.4-0.6 m; with them the detector keeps it to the loader's
+    bound (30 mm), and out of range the noise does not make a wall up."""
     from manta_drake.scenario import MAX_DEPTH_NOISE
 
     camera_x = 0.19

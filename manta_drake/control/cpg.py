@@ -159,7 +159,7 @@ class CpgOscillators(LeafSystem):
 
     The derivatives and outputs are computed by the compiled kernels of
     ``manta_drake.control.cpg_kernels`` (equal to this module's numpy functions to
-    1e-12); the Simulator integrates the state as before.
+    1e-12, ``compiled=False`` runs those); the Simulator integrates the state either way.
 
     Args:
         frequency_hz: f [Hz], finite and > 0 (None: ``gaits.DEFAULT_FREQUENCY_HZ``).

@@ -3,8 +3,8 @@
 ``cpg.py``'s numpy functions (``cpg_derivatives``, ``phase_rates``, ``joint_angles``,
 ``joint_rates``) stay the reference; ``CpgOscillators`` calls these kernels, which the
 tests hold equal to the reference to 1e-12. The Simulator integrates the 80 continuous
-states with RK2 as before: only the arithmetic inside each derivative evaluation moved,
-from a dozen numpy calls on 16-element arrays (~1 us each whatever the size) to one
+states with RK2 on either path: only the arithmetic inside each derivative evaluation
+differs, a dozen numpy calls on 16-element arrays (~1 us each whatever the size) against one
 compiled loop.
 
 The coupled pairs are packed once (``pack_pairs``) as rows [receiving oscillator i,

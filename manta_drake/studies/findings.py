@@ -338,20 +338,24 @@ def markdown_block(tallies, variant_tallies, stats, verdicts, source: str) -> st
     return "\n".join(lines)
 
 
-def write_markdown(path: pathlib.Path, block: str) -> None:
-    """Replaces the marked block of ``path`` (keeping the rest), or writes a new file."""
+def write_markdown(path: pathlib.Path, block: str,
+                   command: str = "manta-drake study findings") -> None:
+    """Replaces the marked block of ``path`` (keeping the rest), or writes a new file; a
+    changed page's stamp takes today's date and commit (``manta_drake.studies.stamp``)."""
+    from manta_drake.studies.stamp import stamp_line, write_stamped
+
     if path.exists():
         text = path.read_text()
         if MARK_BEGIN in text and MARK_END in text:
             head, rest = text.split(MARK_BEGIN, 1)
             tail = rest.split(MARK_END, 1)[1]
-            path.write_text(head + block + tail)
+            write_stamped(path, head + block + tail)
             return
         raise SystemExit(f"error: {path} exists but has no {MARK_BEGIN} ... {MARK_END} block; "
                          f"add the two markers where the table belongs, or choose another "
                          f"--out-md")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("# Findings of section 4.1 over the uncertainty band\n\n" + block + "\n")
+    write_stamped(path, "# Findings of section 4.1 over the uncertainty band\n\n"
+                  + stamp_line(f"`{command}`.") + "\n\n" + block + "\n")
 
 
 def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
@@ -772,7 +776,8 @@ def main(argv=None, prog=None) -> int:
     variant_tallies, _ = evaluate(points, VARIANTS)
     stats = gait_stats(points)
     write_markdown(pathlib.Path(args.out_md),
-                   markdown_block(tallies, variant_tallies, stats, verdicts, args.results))
+                   markdown_block(tallies, variant_tallies, stats, verdicts, args.results),
+                   f"manta-drake study findings --results {args.results}")
     plot(points, tallies, variant_tallies, pathlib.Path(args.out_fig))
     for t in list(tallies) + list(variant_tallies):
         print(f"{t.label:52s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "

@@ -1,0 +1,359 @@
+"""What README.md and docs/ say that can be checked against the code: the robot's size and
+mass at the zero pose (computed here from the plant's geometry), the scenario block's values
+(the dataclass defaults), the layout block's paths (the tree), and the report pages' stamps."""
+
+import dataclasses as dc
+import datetime
+import pathlib
+import re
+import subprocess
+
+import numpy as np
+import pytest
+import yaml
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+REPORTS = ("findings.md", "stance.md", "transitions.md", "performance.md")
+
+
+def _flat(text: str) -> str:
+    """The text with every run of whitespace (line breaks included) as one space."""
+    return " ".join(text.split())
+
+
+def _as_shown(shown: str, value: float) -> bool:
+    """Whether the number ``shown`` is ``value`` rounded to the digits shown."""
+    digits = len(shown.split(".")[1]) if "." in shown else 0
+    return abs(float(shown) - value) <= 0.5 * 10.0 ** -digits + 1e-9
+
+
+def _fenced_after(text: str, marker: str, lang: str = "") -> str:
+    """The first fenced block (```lang) after ``marker``."""
+    start = text.index(marker)
+    a = text.index(f"```{lang}\n", start) + len(f"```{lang}\n")
+    return text[a:text.index("```", a)]
+
+
+# --- the robot at the zero pose --------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def zero_pose():
+    """The robot's plant at q = 0 (the default context: no pool, default fin sweep)."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from manta_drake.model.plant import add_plant
+
+    builder = DiagramBuilder()
+    h = add_plant(builder, with_pool=False)
+    diagram = builder.Build()
+    context = h.plant.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    assert not np.any(h.plant.GetPositions(context, h.robot)[7:])  # every joint at zero
+    return h, context
+
+
+def _points_of(shape, X_WG) -> np.ndarray:
+    """Points of a shape whose axis-aligned box in the world is the shape's own: a box's eight
+    corners, an ellipsoid's or a sphere's extreme points along each world axis."""
+    kind = type(shape).__name__
+    R, p = X_WG.rotation().matrix(), X_WG.translation()
+    if kind == "Box":
+        half = np.array([shape.width(), shape.depth(), shape.height()]) / 2
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
+                            for sz in (-1, 1)]) * half
+        return corners @ R.T + p
+    if kind in ("Ellipsoid", "Sphere"):
+        axes = (np.array([shape.a(), shape.b(), shape.c()]) if kind == "Ellipsoid"
+                else np.full(3, shape.radius()))
+        # The support point of x^T (R A^-2 R^T) x = 1 in direction +-e_k: M e_k / |A R^T e_k|
+        # with M = R A^2 R^T.
+        M = R @ np.diag(axes ** 2) @ R.T
+        out = []
+        for k in range(3):
+            d = M[:, k] / np.sqrt(M[k, k])
+            out += [p + d, p - d]
+        return np.array(out)
+    raise AssertionError(f"a robot geometry of an unexpected shape: {kind}")
+
+
+def test_readme_and_design_give_the_models_zero_pose_size_and_mass(zero_pose):
+    from pydrake.geometry import Role
+
+    from manta_drake.model.kinematics import fin_tip_pose
+    from manta_drake.model.robot_params import LEGS
+
+    h, context = zero_pose
+    plant = h.plant
+    query = plant.get_geometry_query_input_port().Eval(context)
+    inspector = query.inspector()
+    points = []
+    for index in plant.GetBodyIndices(h.robot):
+        body = plant.get_body(index)
+        X_WB = plant.EvalBodyPoseInWorld(context, body)
+        for gid in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(index),
+                                           Role.kIllustration):
+            points.append(_points_of(inspector.GetShape(gid),
+                                     X_WB @ inspector.GetPoseInFrame(gid)))
+    points = np.vstack(points)
+    size = points.max(axis=0) - points.min(axis=0)  # L (x), W (y), H (z)
+    tips = np.array([fin_tip_pose(leg, np.zeros(4))[:3, 3] for leg in LEGS])
+    tip_span = np.ptp(tips[:, 1])
+    mass = sum(plant.get_body(i).default_mass() for i in plant.GetBodyIndices(h.robot))
+
+    readme = _flat(README.read_text())
+    box = re.search(r"zero-pose bounding box ([\d.]+) x ([\d.]+) x ([\d.]+) m", readme)
+    assert box, "README: no 'zero-pose bounding box L x W x H m'"
+    assert all(map(_as_shown, box.groups(), size)), (box.groups(), size)
+    tip = re.search(r"the fin tips' frames are ([\d.]+) m apart", readme)
+    assert tip and _as_shown(tip.group(1), tip_span), tip_span
+    total = re.search(r"Total mass ([\d.]+) kg", readme)
+    assert total and _as_shown(total.group(1), mass), mass
+
+    design = _flat((ROOT / "docs" / "design.md").read_text())
+    model = re.search(r"The model: ([\d.]+) kg; at the zero pose ([\d.]+) m x ([\d.]+) m x "
+                      r"([\d.]+) m \(the box around its geometry; the fin tips' frames "
+                      r"([\d.]+) m apart\)", design)
+    assert model, "docs/design.md, section 3: no 'The model: M kg; at the zero pose ...'"
+    assert _as_shown(model.group(1), mass)
+    assert all(map(_as_shown, model.groups()[1:4], size)), (model.groups(), size)
+    assert _as_shown(model.group(5), tip_span)
+
+
+# --- the scenario block -----------------------------------------------------------------------
+
+# Fields whose presence depends on the Drake version (SimulatorConfig's publish_every_time_step
+# exists in Drake 1.51, not in 1.58); the block leaves them out.
+VERSION_DEPENDENT = {"simulator.publish_every_time_step"}
+
+
+def _readme_scenario_block() -> dict:
+    return yaml.safe_load(_fenced_after(README.read_text(), "The sections, all optional",
+                                        "yaml"))
+
+
+def _leaves(tree: dict, prefix: str = "") -> dict:
+    """Dotted path -> value of every leaf (an empty mapping is a leaf)."""
+    out = {}
+    for key, value in tree.items():
+        path = f"{prefix}{key}"
+        if isinstance(value, dict) and value:
+            out.update(_leaves(value, path + "."))
+        else:
+            out[path] = value
+    return out
+
+
+def _default(path: str):
+    from manta_drake.scenario import Scenario
+
+    value = Scenario()
+    for part in path.split("."):
+        assert hasattr(value, part), f"README scenario block: {path} is not a Scenario field"
+        value = getattr(value, part)
+    return value
+
+
+def test_readme_scenario_block_shows_every_field_at_its_default():
+    from pydrake.common.yaml import yaml_dump_typed
+
+    from manta_drake.scenario import Scenario, load_scenario
+
+    block = _readme_scenario_block()
+    shown = _leaves(block)
+    for path, value in shown.items():
+        default = _default(path)
+        if dc.is_dataclass(default):
+            raise AssertionError(f"README scenario block: {path} is a section, not a value")
+        assert value == default, f"README scenario block: {path}: {value!r}, default {default!r}"
+    # Every field is shown: each top-level field, each field of a dataclass section, and every
+    # leaf of the typed dump (SimulatorConfig's fields).
+    scenario = Scenario()
+    for field in dc.fields(scenario):
+        assert field.name in block, f"README scenario block: no {field.name}"
+        section = getattr(scenario, field.name)
+        if dc.is_dataclass(section):
+            missing = {f.name for f in dc.fields(section)} - set(block[field.name] or {})
+            assert not missing, f"README scenario block: {field.name} lacks {sorted(missing)}"
+    dumped = _leaves(yaml.safe_load(yaml_dump_typed(scenario)))
+    missing = [p for p in dumped if p not in VERSION_DEPENDENT and p not in shown
+               and not any(s.startswith(p + ".") for s in shown)]
+    assert not missing, f"README scenario block lacks {missing}"
+    # And the block, loaded as a scenario, is the default scenario.
+    assert yaml_dump_typed(load_scenario(data=block)) == yaml_dump_typed(scenario)
+
+
+# --- the layout block -------------------------------------------------------------------------
+
+PATH_TOKEN = re.compile(r"^[\w*.-]+(/[\w*.-]+)*(/|\.(py|sdf|xml|yaml|csv|md|ipynb|toml))$")
+NAME_COLUMN = 15  # where the layout block's descriptions start
+
+
+def _without_parentheses(text: str) -> str:
+    while True:
+        stripped = re.sub(r"\([^()]*\)", "", text)
+        if stripped == text:
+            return text
+        text = stripped
+
+
+def layout_paths(block: str) -> list[str]:
+    """The paths the README's layout block names, relative to the repository.
+
+    Entries at column 0 are folders of the repository, entries indented by two spaces are in
+    the last such folder; a description (and its continuation lines) names files and folders
+    of the entry's folder (tokens ending in '/' or a file extension), and a subpackage's
+    description lists its modules as comma-separated names (``model/  robot_params,
+    kinematics (Eq. 1), ...``)."""
+    paths, top, entry = [], None, None
+    for line in block.splitlines():
+        if not line.strip():
+            continue
+        if not line.startswith(" "):
+            top, entry = line.split()[0], None
+            paths.append(top)
+            base, text = top, line[len(top):]
+        elif line.startswith("  ") and not line[2].isspace():
+            entry = line.split()[0]
+            paths.append(top + entry)
+            base, text = top, line[2 + len(entry):]
+        else:
+            assert line[:NAME_COLUMN].isspace(), f"layout block: unexpected line {line!r}"
+            base, text = top, line
+        tokens = [t.strip(".,;:`") for t in re.split(r"[\s,;()`]+", text)]
+        paths += [base + t for t in tokens if t and PATH_TOKEN.match(t)]
+        if entry and entry.endswith("/") and line.startswith(" "):
+            listed = _without_parentheses(text).rsplit(":", 1)[-1]
+            paths += [f"{top}{entry}{name.strip()}.py" for name in listed.split(",")
+                      if re.fullmatch(r"[a-z_][a-z0-9_]*", name.strip())]
+    return paths
+
+
+def test_layout_parser_on_a_small_block():
+    block = ("models/        data: a.sdf, scenarios/*.yaml\n"
+             "pkg/\n"
+             "  sub/         the Systems: one (Eq. 1), two,\n"
+             "               three\n"
+             "  m.py         run; n.py, other/: more\n")
+    assert layout_paths(block) == ["models/", "models/a.sdf", "models/scenarios/*.yaml",
+                                   "pkg/", "pkg/sub/", "pkg/sub/one.py", "pkg/sub/two.py",
+                                   "pkg/sub/three.py", "pkg/m.py", "pkg/n.py", "pkg/other/"]
+
+
+def test_every_path_of_the_readme_layout_exists():
+    block = _fenced_after(README.read_text(), "## Layout")
+    paths = layout_paths(block)
+    assert "manta_drake/model/kinematics.py" in paths and "models/manta.sdf" in paths
+    missing = [p for p in paths if not list(ROOT.glob(p.rstrip("/")))]
+    assert not missing, f"README's layout names paths that do not exist: {missing}"
+
+
+# --- the report pages' stamps -----------------------------------------------------------------
+
+STAMP = re.compile(r"^Made (\d{4}-\d{2}-\d{2}|unknown) at commit ([0-9a-f]{7,40}|unknown)\. "
+                   r"Regenerate with `[^`]+`")
+
+
+@pytest.mark.parametrize("page", REPORTS)
+def test_each_report_page_starts_with_its_stamp(page):
+    lines = (ROOT / "docs" / page).read_text().splitlines()
+    assert lines[0].startswith("# ") and lines[1] == "", f"docs/{page}: a title, then a blank"
+    paragraph = " ".join(lines[2:lines.index("", 2)])
+    stamp = STAMP.match(paragraph)
+    assert stamp, f"docs/{page}: line 3 is not 'Made DATE at commit HASH. Regenerate with ...'"
+    date, made_at = stamp.groups()
+    if date != "unknown":
+        assert datetime.date.fromisoformat(date) <= datetime.date.today()
+    inside = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--show-toplevel"],
+                            capture_output=True, text=True)
+    if made_at != "unknown" and inside.returncode == 0 \
+            and pathlib.Path(inside.stdout.strip()).resolve() == ROOT:
+        known = subprocess.run(["git", "-C", str(ROOT), "cat-file", "-e",
+                                f"{made_at}^{{commit}}"], capture_output=True)
+        assert known.returncode == 0, f"docs/{page}: the stamp's commit {made_at} is unknown"
+
+
+def test_a_regenerated_page_keeps_its_stamp_unless_its_text_changes(tmp_path, monkeypatch):
+    from manta_drake.studies import stamp
+
+    monkeypatch.setattr(stamp, "commit", lambda repo=None: "abc1234")
+    page = tmp_path / "page.md"
+    old = "# Title\n\nMade 2020-01-02 at commit 0123456. Regenerate with `x --y`.\n\n| 1 |\n"
+    page.write_text(old)
+    # The same text under any stamp: the file is not touched.
+    same = old.replace("2020-01-02", "unknown").replace("0123456", "unknown")
+    assert stamp.write_stamped(page, same) is False and page.read_text() == old
+    # Changed numbers: today's date and the commit, the rest of the stamp line kept.
+    assert stamp.write_stamped(page, same.replace("| 1 |", "| 2 |")) is True
+    today = datetime.date.today().isoformat()
+    assert page.read_text() == (f"# Title\n\nMade {today} at commit abc1234. Regenerate with "
+                                "`x --y`.\n\n| 2 |\n")
+    # A new page without a stamp line is written as given.
+    other = tmp_path / "other.md"
+    assert stamp.write_stamped(other, "# T\n\ntext\n") and other.read_text() == "# T\n\ntext\n"
+
+
+def test_the_commit_outside_a_git_checkout_is_unknown(tmp_path):
+    from manta_drake.studies.stamp import commit
+
+    assert commit(tmp_path) == "unknown"
+
+
+def test_the_stance_study_regenerates_its_page_byte_for_byte(tmp_path):
+    """``manta-drake study stance`` from the shipped table leaves docs/stance.md as it is
+    (the kinematics are recomputed; the dynamics come from the shipped table)."""
+    from manta_drake.studies import stance
+
+    page = tmp_path / "stance.md"
+    page.write_text((ROOT / "docs" / "stance.md").read_text())
+    assert stance.main(["--out-md", str(page), "--out-fig", str(tmp_path / "stance.png")]) == 0
+    assert page.read_text() == (ROOT / "docs" / "stance.md").read_text()
+
+
+# --- the two-behaviour run at the side wall ---------------------------------------------------
+
+def test_wall_spans_are_the_stretches_within_the_margin():
+    from manta_drake import plots
+
+    t = np.arange(0.0, 10.001, 0.5)
+    y = np.where(t < 4.0, 0.0, np.where(t < 7.0, -0.8, 0.0))  # the hull's y, 1 m from a side wall
+    log = {"t": t, "body_xyz": np.column_stack([np.zeros_like(t), y, np.full_like(t, -0.2)]),
+           "body_quat_wxyz": np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1))}
+    # Clearance 1 - 0.12 (the hull's half-width) = 0.88 m, then 0.08 m from 4 s to 6.5 s.
+    assert plots.wall_spans(log, 0.3) == [(4.0, 6.5)]
+    assert plots.wall_spans(log, 0.05) == []
+
+
+@pytest.mark.slow
+def test_two_behaviors_reaches_the_side_wall_when_the_readme_says(tmp_path):
+    """The README's account of two_behaviors at the right side wall, from a 70 s run: within
+    the free-water margin from ~29.5 s to the end, pressed against the wall (clearance under
+    1 cm) from ~48.4 s to the end."""
+    from manta_drake import metrics as M
+    from manta_drake import plots
+    from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import run
+
+    readme = _flat(README.read_text())
+    said = re.search(r"from ([\d.]+) s to the end of its 70 s the hull is within the ([\d.]+) m "
+                     r"free-water margin of that wall \(`near_wall_at_s` ([\d.]+)\).*?from "
+                     r"([\d.]+) s to 70 s the hull is pressed against it \(clearance under 1 cm",
+                     readme)
+    assert said, "README: the two-behaviour run's account at the side wall is missing"
+    near_s, margin, near_exact, pressed_s = map(float, said.groups())
+
+    s = load_scenario("two_behaviors", overrides={"visualization.meshcat": False})
+    assert s.free_water_margin == margin and s.duration == 70.0
+    result = run(s, tmp_path / "run", progress=False)
+    m, log = result.metrics, result.log
+    assert m["touched_wall"] is True and m["min_wall_clearance_m"] <= 0.01
+    assert abs(m["near_wall_at_s"] - near_exact) < 0.5 and abs(near_exact - near_s) <= 0.05
+    assert plots.wall_spans(log, margin) == [(m["near_wall_at_s"], pytest.approx(70.0))]
+    t, xyz = log["t"], log["body_xyz"]
+    clearance = M.wall_clearance(xyz, log["body_quat_wxyz"], DEFAULT_ROBOT.body_semi_axes,
+                                 DEFAULT_POOL.length / 2, DEFAULT_POOL.width / 2)
+    touching = t[clearance <= 0.01]
+    assert abs(touching[0] - pressed_s) < 0.5
+    late = t >= pressed_s + 1.0
+    assert np.all(clearance[late] < 0.02)  # pressed against it to the end
+    assert np.all(xyz[late, 1] < -0.7)  # the right side wall, y = -1 m

@@ -9,20 +9,19 @@ STAMP := $(VENV)/.installed
 OUT ?= out
 DOCS_OUT ?= docs/_build/html
 
-.PHONY: demo test setup clean syslibs models experiments benchmark docs
+.PHONY: demo test setup clean syslibs models experiments benchmark docs FORCE
 
 setup: syslibs $(STAMP)
 
 syslibs:
 	@bash scripts/ensure_syslibs.sh
 
-$(STAMP): pyproject.toml
-	@$(PYTHON) -c 'import sys; sys.exit(not (3, 11) <= sys.version_info[:2] <= (3, 13))' || { echo "error: $(PYTHON) is not a runnable Python 3.11, 3.12 or 3.13, which manta_drake needs (choose one with PYTHON=..., e.g. make test PYTHON=python3.12)" >&2; exit 1; }
-	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	@echo "installing manta_drake and its pinned dependencies into $(VENV) ..."
-	@$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test]" 2>&1 | grep -v "is ignored: it is neither" || true
-	@$(PY) -c "import pydrake, open3d, manta_drake" || { echo "error: the install into $(VENV) failed (see above)" >&2; exit 1; }
-	@touch $(STAMP)
+# The stamp holds the venv's Python version; the script skips what is done, and makes the
+# venv anew for another PYTHON.
+$(STAMP): FORCE
+	@bash scripts/bootstrap_venv.sh $(PYTHON) $(VENV)
+
+FORCE:
 
 demo: setup
 	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors

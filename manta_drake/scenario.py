@@ -590,12 +590,35 @@ def parse_set(items, option: str = "--set") -> dict:
     return out
 
 
+# SimulatorConfig fields a newer Drake removed, with the value that means what the newer
+# Drake does anyway: a scenario.yaml written under Drake 1.51 (every field dumped) loads
+# under 1.58, and a file that asks for the removed behaviour is told so.
+_REMOVED_SIMULATOR_FIELDS = {"publish_every_time_step": (False, "removed from Drake's "
+                             "SimulatorConfig in Drake 1.58, which this run uses: a run "
+                             "publishes at its publish periods only")}
+
+
+def _without_removed_simulator_fields(data: dict) -> dict:
+    simulator = data.get("simulator")
+    if not isinstance(simulator, dict):
+        return data
+    fields = schema_fields(SimulatorConfig) or {}
+    kept = dict(simulator)
+    for name, (harmless, why) in _REMOVED_SIMULATOR_FIELDS.items():
+        if name in kept and name not in fields:
+            if kept[name] is not harmless:
+                raise ScenarioError(f"simulator.{name}: {kept[name]!r}: {why}")
+            del kept[name]
+    return {**data, "simulator": kept}
+
+
 def _layer(base: Scenario, data, where: str) -> Scenario:
     """``data`` (a mapping) layered onto ``base`` with ``yaml_load_typed`` (fields it names
     replace the base's, maps merge, lists are replaced); the keys and types are checked
     first so that an error names the full dotted field."""
     if not data:
         return copy.deepcopy(base)
+    data = _without_removed_simulator_fields(data)
     check_keys(data, Scenario)
     try:
         text = yaml.safe_dump(data, sort_keys=False)

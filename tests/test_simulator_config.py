@@ -44,7 +44,8 @@ def test_the_default_simulator_section_is_the_same_under_both_drakes():
 
 
 def test_a_scenario_file_setting_the_field(tmp_path):
-    """Drake 1.51: a field like the others. Drake 1.58: refused in one line naming it."""
+    """Drake 1.51: a field like the others. Drake 1.58: true is refused in one line naming
+    it and saying why (false, what 1.58 does anyway, is dropped: see the next test)."""
     path = tmp_path / "s.yaml"
     path.write_text(f"simulator: {{{FIELD}: true}}\n")
     if BINDS_FIELD[DRAKE]:  # Drake 1.51
@@ -57,7 +58,27 @@ def test_a_scenario_file_setting_the_field(tmp_path):
             load_scenario(path)
         message = str(refused.value)
         assert "\n" not in message
-        assert message.startswith(f"{path}: scenario.simulator.{FIELD}: unknown key"), message
+        assert message.startswith(f"{path}: simulator.{FIELD}: True: removed from Drake's "
+                                  "SimulatorConfig in Drake 1.58"), message
         with pytest.raises(ScenarioError, match=rf"^simulator\.{FIELD}: scenario\.simulator "
                                                 rf"has no field '{FIELD}'"):
             load_scenario("stand", overrides={f"simulator.{FIELD}": False})
+
+
+def test_a_scenario_written_under_either_drake_loads_under_this_one():
+    """scenario.yaml dumps every SimulatorConfig field; Drake 1.51's has
+    publish_every_time_step: false. Under a Drake without the field that value (what the
+    newer Drake does anyway) is dropped, and true is refused naming the field."""
+    from manta_drake.config_io import ScenarioError
+    from manta_drake.scenario import load_scenario
+
+    has_field = hasattr(SimulatorConfig(), "publish_every_time_step")
+    s = load_scenario("stand", data={"simulator": {"publish_every_time_step": False}})
+    assert getattr(s.simulator, "publish_every_time_step", False) is False
+    if has_field:
+        on = load_scenario("stand", data={"simulator": {"publish_every_time_step": True}})
+        assert on.simulator.publish_every_time_step is True
+    else:
+        with pytest.raises(ScenarioError, match=r"simulator\.publish_every_time_step: True: "
+                                                r"removed from Drake's SimulatorConfig"):
+            load_scenario("stand", data={"simulator": {"publish_every_time_step": True}})

@@ -704,8 +704,8 @@ def _split_run(path, out, *args, wall_timeout=90.0):
 @pytest.mark.slow
 def test_split_run_matches_the_single_diagram(tmp_path):
     """5 s of swim -> trot with the station and the controller in two processes, lockstep
-    over udpm: the same joint angles as the single diagram (the issue asks 1e-6 rad; the
-    seam meets at Drake's own event times, so they are equal bit for bit)."""
+    over udpm: the same joint angles as the single diagram, bit for bit (the seam meets at
+    Drake's own event times, so nothing is rounded or resampled)."""
     path = _scenario_file(tmp_path)
     single, single_rtf = _single_run(path)
     station, controller, metrics = _split_run(path, tmp_path)

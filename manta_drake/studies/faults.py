@@ -77,6 +77,7 @@ import traceback
 
 import numpy as np
 
+from manta_drake.model.coefficients import RANGES, load_coefficients
 from manta_drake.scenario import coefficient_names
 
 # --- what is drawn -------------------------------------------------------------------------
@@ -131,6 +132,10 @@ POSITIVE_ENTRIES = ("water_density", "gravity", "body.sealed_volume", "body.seal
 
 OUTCOMES = ("ok", "refused", "build_failed", "sim_failed", "exception", "crashed", "timeout")
 EXPECTED_EXCEPTIONS = ("ScenarioError", "SimulationError")
+
+
+# The shipped coefficient file's constants that have physical ranges (coefficients.RANGES).
+_SHIPPED_CONSTANTS = {name: float(getattr(load_coefficients(), name).value) for name in RANGES}
 
 
 def _unit_vector(rng) -> list[float]:
@@ -188,6 +193,11 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
         volume, axes = scales.get("body.sealed_volume", 1.0), scales.get("body.sealed_semi_axes", 1.0)
         if abs(volume - axes**3) > 0.01 * volume:
             expect.append("water.coefficient_scales.body.sealed_volume")
+        # The physical constants have ranges (a pool of water on Earth): a scale that takes
+        # one outside them is refused.
+        for name, (lo, hi, _) in RANGES.items():
+            if name in scales and not lo <= _SHIPPED_CONSTANTS[name] * scales[name] <= hi:
+                expect.append(f"water.coefficient_scales.{name}")
     if rng.random() < P["coeff_scale_bad"]:
         scales = dict(o.get("water.coefficient_scales", {}))
         kind = rng.random()

@@ -87,9 +87,12 @@ def test_an_interrupted_load_replaces_the_earlier_runs_story(tmp_path):
 ])
 def test_a_signal_mid_run_writes_the_partial_log_and_why(tmp_path, sig, code, reason):
     out = tmp_path / "out"
+    # A shell that starts jobs in the background (as a CI runner may) hands them SIGINT
+    # ignored, and Python then keeps ignoring it: give the run the default disposition.
     process = subprocess.Popen(CLI + ["run", "two_behaviors", "--out", str(out),
                                       "--no-meshcat", "--quiet"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # Wait until the simulation is under way: the 'running' metrics.json is written when
     # the run starts, then the build takes about a second.
     deadline = time.monotonic() + 60

@@ -21,6 +21,8 @@ STUDIES = {
                "random scenarios with faults (docs/fault_campaign.md)"),
     "findings": ("manta_drake.studies.findings",
                  "section 4.1's findings over the band (docs/findings.md)"),
+    "energy": ("manta_drake.studies.energy",
+               "power, cost of transport and operation time over the band (docs/energy.md)"),
     "transitions": ("manta_drake.studies.transitions",
                     "transitions against baselines (docs/transitions.md)"),
     "stance": ("manta_drake.studies.stance",

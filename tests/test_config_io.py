@@ -67,3 +67,27 @@ def test_value_checks_accept_the_edges_and_numpy_scalars():
     check_in_range("f", np.float32(0.5), 0.0, 1.0, "[0, 1]")
     check_integer("n", np.int64(5), 0, 5)
     check_vector("v", [3.0, 4.0, 0.0], 3, bound=5.0)
+
+
+def test_closed_ends_take_their_edge_and_refuse_beyond_it():
+    check_in_range("f", 0.0, 0.0, 1.0, "[0, 1]")
+    with pytest.raises(ScenarioError, match=r"outside the allowed range \[0, 1\]"):
+        check_in_range("f", -1e-12, 0.0, 1.0, "[0, 1]")
+    with pytest.raises(ScenarioError, match=r"outside the allowed range \[0, 1\]"):
+        check_in_range("f", 1.0 + 1e-12, 0.0, 1.0, "[0, 1]")
+
+
+def test_optional_fields_take_none_or_their_type_and_a_true_union_is_not_narrowed():
+    import dataclasses as dc
+
+    from manta_drake.config_io import check_keys
+
+    @dc.dataclass
+    class Schema:
+        sweep: float | None = None
+        either: int | str = 0
+
+    check_keys({"sweep": None, "either": "x"}, Schema)
+    check_keys({"sweep": 12.5, "either": 3}, Schema)
+    with pytest.raises(ScenarioError, match=r"scenario\.sweep: expected a float, got 'ten'"):
+        check_keys({"sweep": "ten"}, Schema)

@@ -8,7 +8,6 @@ import os
 import re
 
 from manta_drake.config_io import ScenarioError
-from manta_drake.version import __version__
 
 
 class ClusterError(ScenarioError):

@@ -13,8 +13,10 @@ This module is the bottom layer: it imports nothing of the package.
 import dataclasses as dc
 import math
 import numbers
+import os
 import pathlib
 import re
+import tempfile
 import types
 import typing
 
@@ -219,3 +221,51 @@ def check_vector(field: str, value, n: int, bound: float = math.inf, unit: str =
         check_number(f"{field}[{i}]", v)
     if math.isfinite(bound) and math.sqrt(sum(v * v for v in value)) > bound:
         raise ScenarioError(f"{field}: {value!r} has magnitude above the allowed {bound}{unit}")
+
+
+# --- output folders --------------------------------------------------------------------------
+
+def check_writable_folder(out_dir, option: str = "--out", example: str = "out/run",
+                          error=ScenarioError, create: bool = False) -> pathlib.Path:
+    """Checks that an output folder can be written, before anything expensive starts; the
+    one check every command's ``--out`` goes through (runs, the seam's sides, sweeps,
+    calibrations), each adding what its own outputs need.
+
+    Refused: an empty path; a path that is a file or under one; a folder that cannot be
+    created or written (the permission bits and a real write: a read-only mount, root).
+    The folder is created if ``create``; otherwise the nearest existing folder must take it.
+
+    Raises:
+        error: one line naming the option, the folder and why.
+    """
+    if out_dir is None or not str(out_dir).strip():
+        raise error(f"{option}: an empty path; name an output folder (e.g. {example})")
+    out_dir = pathlib.Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise error(f"{option} {out_dir}: is a file, not a folder")
+    existing = out_dir
+    while not existing.exists():  # the nearest folder that exists must take the new ones
+        existing = existing.parent
+    if not existing.is_dir():
+        raise error(f"{option} {out_dir}: cannot be created ({existing} is a file)")
+    if create:
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise error(f"{option} {out_dir}: cannot be created ({e.strerror})") from None
+        existing = out_dir
+
+    def refuse(reason: str):
+        if existing == out_dir:
+            return error(f"{option} {out_dir}: cannot be written ({reason})")
+        return error(f"{option} {out_dir}: cannot be created ({existing} is not writable: "
+                     f"{reason})")
+
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise refuse("no write permission")
+    try:  # the permission bits do not tell everything (read-only mounts, root)
+        with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
+            pass
+    except OSError as e:
+        raise refuse(e.strerror) from None
+    return out_dir

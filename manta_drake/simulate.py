@@ -23,7 +23,6 @@ import os
 import pathlib
 import signal
 import sys
-import tempfile
 import threading
 import time
 
@@ -35,7 +34,7 @@ from pydrake.systems.primitives import RandomSource
 
 from manta_drake import metrics as M
 from manta_drake import plots
-from manta_drake.config_io import check_integer
+from manta_drake.config_io import check_integer, check_writable_folder
 from manta_drake.control.gaits import get_gait
 from manta_drake.control.transition import BEHAVIOURS
 from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, NUM_JOINTS
@@ -247,31 +246,7 @@ def check_output_folder(out_dir, inputs=(), create: bool = True) -> pathlib.Path
     Raises:
         OutputFolderError: one line naming the folder and why.
     """
-    if out_dir is None or not str(out_dir).strip():
-        raise OutputFolderError("--out: an empty path; name an output folder (e.g. out/run)")
-    out_dir = pathlib.Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise OutputFolderError(f"--out {out_dir}: is a file, not a folder")
-    existing = out_dir
-    while not existing.exists():  # the nearest folder that exists must take the new ones
-        existing = existing.parent
-    if not existing.is_dir():
-        raise OutputFolderError(f"--out {out_dir}: cannot be created ({existing} is a file)")
-    if create:
-        try:
-            out_dir.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise OutputFolderError(f"--out {out_dir}: cannot be created ({e.strerror})") \
-                from None
-        existing = out_dir
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise OutputFolderError(f"--out {out_dir}: {existing} is not writable")
-    try:  # the permission bits do not tell everything (read-only mounts, root)
-        with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
-            pass
-    except OSError as e:
-        raise OutputFolderError(f"--out {out_dir}: {existing} cannot be written "
-                                f"({e.strerror})") from None
+    out_dir = check_writable_folder(out_dir, "--out", "out/run", OutputFolderError, create)
     ours = {(out_dir / name).resolve() for name in OUTPUT_FILES}
     for path in inputs:
         if path is not None and pathlib.Path(path).resolve() in ours:

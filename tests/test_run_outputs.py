@@ -3,7 +3,6 @@ signal mid-run leaves the partial log and a metrics.json that says why, and no h
 staging folder or earlier run's file is left beside the new one."""
 
 import json
-import os
 import pathlib
 import signal
 import subprocess

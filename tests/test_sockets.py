@@ -6,7 +6,6 @@ import ipaddress
 import os
 
 import psutil
-import pytest
 
 from manta_drake.cluster import DEFAULT_DASHBOARD, dask_client
 

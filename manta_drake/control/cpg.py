@@ -30,7 +30,6 @@ Defaults and why:
   explicit Euler / RK2 at 1 ms.
 """
 
-import math
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem

@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import math
 import pathlib
-import tempfile
 
-from manta_drake.config_io import check_in_range
+from manta_drake.config_io import check_in_range, check_writable_folder
 from manta_drake.scenario import find_scenario, load_scenario
 from manta_drake.seam.controller_process import run_controller
 from manta_drake.seam.link import (
@@ -74,29 +73,7 @@ def check_out_folder(out_dir, inputs=(), create: bool = True) -> pathlib.Path:
     Raises:
         OutputFolderError: one line naming the folder and why.
     """
-    if out_dir is None or not str(out_dir).strip():
-        raise OutputFolderError("--out: an empty path; name an output folder (e.g. out/split)")
-    out_dir = pathlib.Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise OutputFolderError(f"--out {out_dir}: is a file, not a folder")
-    existing = out_dir
-    while not existing.exists():  # the nearest folder that exists must take the new ones
-        existing = existing.parent
-    if not existing.is_dir():
-        raise OutputFolderError(f"--out {out_dir}: cannot be created ({existing} is a file)")
-    if create:
-        try:
-            out_dir.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise OutputFolderError(f"--out {out_dir}: cannot be created ({e.strerror})") \
-                from None
-        existing = out_dir
-    try:  # the permission bits do not tell everything (read-only mounts, root)
-        with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
-            pass
-    except OSError as e:
-        what = "cannot be written" if existing == out_dir else "cannot be created"
-        raise OutputFolderError(f"--out {out_dir}: {what} ({existing}: {e.strerror})") from None
+    out_dir = check_writable_folder(out_dir, "--out", "out/split", OutputFolderError, create)
     ours = {(out_dir / name).resolve() for name in OUTPUT_FILES}
     for path in inputs:
         if pathlib.Path(path).resolve() in ours:

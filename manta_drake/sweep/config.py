@@ -7,14 +7,18 @@ from __future__ import annotations
 
 import dataclasses as dc
 import json
-import os
 import pathlib
-import tempfile
 import types
 import typing
 from typing import Any
 
-from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping, schema_fields
+from manta_drake.config_io import (
+    ScenarioError,
+    check_keys,
+    check_writable_folder,
+    load_yaml_mapping,
+    schema_fields,
+)
 from manta_drake.scenario import Scenario, check_override_key
 
 
@@ -186,24 +190,7 @@ def check_out_folder(out_dir, outputs=(), inputs=(), folders=(),
     Raises:
         SweepError: one line naming the option, the folder and why.
     """
-    if out_dir is None or not str(out_dir).strip():
-        raise SweepError(f"{option}: an empty path; name an output folder (e.g. out/sweep)")
-    out_dir = pathlib.Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise SweepError(f"{option} {out_dir}: is a file, not a folder")
-    existing = out_dir
-    while not existing.exists():  # the nearest folder that exists must take the new ones
-        existing = existing.parent
-    if not existing.is_dir():
-        raise SweepError(f"{option} {out_dir}: cannot be created ({existing} is a file)")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise SweepError(f"{option} {out_dir}: {existing} is not writable")
-    try:  # the permission bits do not tell everything (read-only mounts, root)
-        with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
-            pass
-    except OSError as e:
-        raise SweepError(f"{option} {out_dir}: {existing} cannot be written "
-                         f"({e.strerror})") from None
+    out_dir = check_writable_folder(out_dir, option, "out/sweep", SweepError)
     for name in outputs:
         target = out_dir / name
         if target.exists() and not target.is_file():

@@ -45,7 +45,6 @@ cycles: the mean of the window's first and second halves).
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses as dc
 import math
 import pathlib
@@ -53,7 +52,7 @@ import sys
 
 import numpy as np
 
-from manta_drake.studies.findings import _and, gait_of
+from manta_drake.studies.findings import Tally, _and, gait_of, read_results
 
 # ---------------------------------------------------------------------------------------------
 # The band (diagrams/sweeps/energy.yaml is ``band_rows()``)
@@ -463,31 +462,8 @@ def _band_order(key):
     return tuple(str(v) if isinstance(v, str) else float(v) for v in key)
 
 
-def read_results(path) -> list[dict]:
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
 # ---------------------------------------------------------------------------------------------
-# Evaluation
-
-
-@dc.dataclass
-class Tally:
-    key: str
-    label: str
-    criterion: str
-    holds: int = 0
-    fails: int = 0
-    undetermined: int = 0
-
-    @property
-    def total(self) -> int:
-        return self.holds + self.fails + self.undetermined
-
-    @property
-    def fraction(self) -> float:
-        return self.holds / self.total if self.total else math.nan
+# Evaluation (the findings study's Tally and results reader)
 
 
 def tally(points, findings=FINDINGS) -> list[Tally]:

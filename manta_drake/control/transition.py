@@ -15,7 +15,7 @@ the wall detection rate s_hat:
   endpoints for z_t = 1).
 * Eq. (11), option ``blend="linear"``: psi_d = (Theta_gait - Theta_swim) z_hat + Theta_swim.
 
-Where the printed paper contradicts its own text we follow the text (DESIGN.md):
+Where the printed paper contradicts its own text we follow the text (docs/design.md, section 6):
 
 (a) Eq. (12) prints w(s) = (1 + cos(pi s)) / 2, which gives *turning* when no wall is
     seen (s = 0); section 4.3 turns when a wall is detected. We use

@@ -48,10 +48,11 @@ from manta_drake.config_io import (
     parse_yaml,
     schema_fields,
 )
-from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS, get_gait
+from manta_drake.control.gait_files import gait_library
+from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
 from manta_drake.control.transition import check_parameters
 from manta_drake.control.vision import WallDetectorParams
-from manta_drake.model import MODELS_DIR, resolve_path
+from manta_drake.model import MODELS_DIR, PACKAGE_URL, resolve_path
 from manta_drake.model.actuators import load_actuators, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
@@ -99,6 +100,11 @@ class ControllerConfig:
     # legged gaits as printed, the swim mirrored) or ``mirrored`` (one mirror rule for
     # every gait; its stance needs robot.fin_sweep_deg 30, its default then; docs/stance.md).
     gait_reading: str = "paper"
+    # Gait files (manta_drake.control.gait_files) whose gaits join the shipped
+    # models/gaits.yaml, in order: paths relative to the scenario file that names them (to
+    # the working directory for --set and data), absolute, or package://manta_drake/...
+    # Loading makes them absolute. A name defined twice is an error naming both files.
+    gait_files: list[str] = dc.field(default_factory=list)
 
 
 @dc.dataclass
@@ -305,12 +311,26 @@ class Scenario:
         """The RobotParams of this scenario's geometry (model.robot_params)."""
         return robot_with_fin_sweep_deg(self.fin_sweep_deg())
 
+    def gaits(self):
+        """The gait library of this scenario (name -> GaitParams, read-only): the shipped
+        ``models/gaits.yaml`` and ``controller.gait_files`` under ``controller.gait_reading``."""
+        return gait_library(tuple(self.controller.gait_files), self.controller.gait_reading)
+
+    def gait(self, name: str):
+        """The gait ``name`` of this scenario's library; ScenarioError lists the known ones."""
+        library = self.gaits()
+        try:
+            return library[name]
+        except KeyError:
+            raise ScenarioError(f"unknown gait {name!r}; known gaits: "
+                                f"{', '.join(library)}") from None
+
     def initial_joint_angles(self) -> np.ndarray:
         """The initial joint angles (16, the plant's order): the stance X of
         ``initial_stance`` under ``controller.gait_reading``, or zeros."""
         if self.initial_stance == "zero":
             return np.zeros(NUM_JOINTS)
-        return get_gait(self.initial_stance, self.controller.gait_reading).X.ravel().copy()
+        return self.gait(self.initial_stance).X.ravel().copy()
 
     def _validate_actuators(self) -> None:
         """The ``actuators`` section: its file loads, its scales apply, its mode exists and
@@ -356,7 +376,14 @@ class Scenario:
             # Beyond +-60 deg the yaw joint's +-60 deg range cannot bring a fin to the side.
             check_in_range("robot.fin_sweep_deg", self.robot.fin_sweep_deg, -60.0, 60.0,
                       "[-60, 60] deg (or null: the gait reading's balanced sweep)")
-        gaits = READINGS[self.controller.gait_reading]
+        files = self.controller.gait_files
+        if not isinstance(files, list):
+            raise ScenarioError(f"controller.gait_files: expected a list of paths, got {files!r}")
+        for i, f in enumerate(files):
+            check_text(f"controller.gait_files[{i}]", f)
+            if not resolve_path(f).is_file():
+                raise ScenarioError(f"controller.gait_files[{i}]: gait file not found: {f}")
+        gaits = self.gaits()
         check_one_of("initial_stance", self.initial_stance, ("zero",) + tuple(gaits))
         problem = start_pose_problem(self.initial_pose.xyz, self.initial_pose.rpy_deg,
                                      self.initial_joint_angles(), self.fin_sweep_deg(),
@@ -630,6 +657,21 @@ def _layer(base: Scenario, data, where: str) -> Scenario:
         raise ScenarioError(" ".join(str(e).split())) from None
 
 
+def _anchor_gait_files(scenario: Scenario, data: dict, base_dir: pathlib.Path) -> None:
+    """Makes the gait files a layer named absolute: relative to ``base_dir`` (the scenario
+    file's folder, or the working directory), so the scenario means the same files wherever
+    it is run or written (scenario.yaml)."""
+    controller = data.get("controller") if isinstance(data, dict) else None
+    if not isinstance(controller, dict) or "gait_files" not in controller:
+        return
+    files = scenario.controller.gait_files
+    if isinstance(files, list):
+        scenario.controller.gait_files = [
+            f if not isinstance(f, str) or not f or f.startswith(PACKAGE_URL)
+            or pathlib.Path(f).is_absolute() else str((base_dir / f).resolve())
+            for f in files]
+
+
 def load_scenario(name_or_path=None, data=None, defaults: Scenario | None = None,
                   overrides: dict | None = None, validate: bool = True) -> Scenario:
     """Loads a scenario in layers, as the manipulation course's ``LoadScenario``, and
@@ -656,6 +698,7 @@ def load_scenario(name_or_path=None, data=None, defaults: Scenario | None = None
             scenario = _layer(scenario, file_data, str(path))
         except ScenarioError as e:
             raise ScenarioError(f"{prefix}{e}") from None
+        _anchor_gait_files(scenario, file_data, path.parent)
         if scenario.name == "unnamed":
             scenario.name = path.stem
     if data is not None:
@@ -665,8 +708,11 @@ def load_scenario(name_or_path=None, data=None, defaults: Scenario | None = None
             raise ScenarioError(f"scenario data: expected a mapping of scenario fields, got "
                                 f"{type(data).__name__}")
         scenario = _layer(scenario, data, "scenario data")
+        _anchor_gait_files(scenario, data, pathlib.Path.cwd())
     if overrides:
-        scenario = _layer(scenario, overrides_data(overrides), "overrides")
+        nested = overrides_data(overrides)
+        scenario = _layer(scenario, nested, "overrides")
+        _anchor_gait_files(scenario, nested, pathlib.Path.cwd())
     if not validate:
         return scenario
     try:

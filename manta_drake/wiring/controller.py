@@ -89,7 +89,7 @@ def initial_cpg_params(scenario: Scenario) -> np.ndarray:
         behaviours = (get_gait(name, reading).to_vector() for name in BEHAVIOURS)
         return target_params(z0, 0.0, *behaviours, scenario.transition.z_t,
                              scenario.transition.blend)
-    return get_gait(scenario.controller.gait, scenario.controller.gait_reading).to_vector()
+    return scenario.gait(scenario.controller.gait).to_vector()
 
 
 def balloon_schedule(scenario: Scenario) -> TrajectorySource:
@@ -200,7 +200,7 @@ def build_controller(scenario: Scenario, meshcat=None, *,
     if scenario.camera.enabled:
         s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
     if mode == "hold":
-        stance = get_gait(scenario.controller.gait, scenario.controller.gait_reading).X
+        stance = scenario.gait(scenario.controller.gait).X
         source = builder.AddNamedSystem("hold_stance", stance_ramp(
             scenario.initial_joint_angles(), stance.ravel()))
         builder.ExportOutput(source.get_output_port(), "desired_state")

@@ -14,6 +14,15 @@ the wall detection rate s_hat:
   z_t < 1 finishes the change at z_hat = z_t (the printed form only has pure
   endpoints for z_t = 1).
 * Eq. (11), option ``blend="linear"``: psi_d = (Theta_gait - Theta_swim) z_hat + Theta_swim.
+* ``blend="normalised"``: Eq. (12) with its two weights divided by their sum. As printed,
+  -sin(a) + cos(a) reaches sqrt(2) at half depth and the target leaves the range between
+  the gaits; the normalised blend is convex.
+
+The system blends by a behaviour tree (``manta_drake.control.behaviour_tree``): each node
+reads one estimate (depth, wall, flow, posture, low battery) and blends its children, gaits
+or other nodes. The default tree (``behaviour_tree.default_tree(blend, z_t)``) is the
+formula above, bit for bit: Eq. (12) is the tree root = blend(z_hat; swim, gait), gait =
+cosine(s_hat; trot, turning).
 
 Where the printed paper contradicts its own text we follow the text (docs/design.md, section 6):
 
@@ -41,14 +50,21 @@ the sinking).
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from manta_drake.control.behaviour_tree import (
+    MODALITIES,
+    BehaviourTree,
+    compile_tree,
+    default_tree,
+)
 from manta_drake.control.gaits import get_gait
+from manta_drake.model.robot_params import NUM_CPG_PARAMS
 
 # The behaviours Eq. (12) blends: swim (surface), and in the gait trot or turning (vision).
 BEHAVIOURS = ("swim", "trot", "turning")
-# Targets: Eq. (12) ("potential"), Eq. (11) ("linear"), or an abrupt switch at half depth
-# and half wall rate ("switch", a baseline). How psi follows its target: Eqs. (14)-(15)
+# Targets: Eq. (12) ("potential"), its convex form ("normalised"), Eq. (11) ("linear"), or an
+# abrupt switch at half depth and half wall rate ("switch", a baseline). How psi follows its target: Eqs. (14)-(15)
 # ("descent") or at once ("direct", the baselines).
-BLENDS = ("potential", "linear", "switch")
+BLENDS = ("potential", "normalised", "linear", "switch")
 FOLLOWS = ("descent", "direct")
 
 
@@ -86,18 +102,28 @@ def vision_weight(s_hat) -> float:
 
 def target_params(z_hat, s_hat, swim, trot, turning, z_t: float = 1.0,
                   blend: str = "potential") -> np.ndarray:
-    """psi_d of Eq. (12) (``blend="potential"``), Eq. (11) (``"linear"``) or an abrupt switch
-    (``"switch"``: the gait from z_hat >= z_t / 2, turning from w(s_hat) >= 1/2);
-    64-vectors in."""
-    w = vision_weight(s_hat)
+    """psi_d of Eq. (12) (``blend="potential"``), its convex form (``"normalised"``: the two
+    weights -sin(a), cos(a) divided by their sum), Eq. (11) (``"linear"``) or an abrupt
+    switch (``"switch"``: the gait from z_hat >= z_t / 2, turning from s_hat >= 1/2, where
+    w(s_hat) = 1/2); 64-vectors in. Non-finite z_hat or s_hat count as 0.
+
+    ``behaviour_tree.default_tree(blend, z_t)`` is this function as a tree, bit for bit.
+    """
+    s = float(np.clip(s_hat, 0.0, 1.0)) if np.isfinite(s_hat) else 0.0
+    w = vision_weight(s)
     z = float(np.clip(z_hat, 0.0, 1.0)) if np.isfinite(z_hat) else 0.0
     if blend == "switch":
-        gait = np.asarray(turning if w >= 0.5 else trot)
+        # s >= 1/2, not w(s) >= 1/2: w(1/2) rounds to 0.49999999999999994.
+        gait = np.asarray(turning if s >= 0.5 else trot)
         return np.array(gait if z >= 0.5 * z_t else swim, dtype=float)
     gait = w * np.asarray(turning) + (1.0 - w) * np.asarray(trot)
     if blend == "linear":
         return (gait - swim) * z + swim
     a = 0.5 * np.pi * (min(z / z_t, 1.0) - 1.0)
+    if blend == "normalised":
+        w_swim, w_gait = -np.sin(a), np.cos(a)
+        total = w_swim + w_gait
+        return (w_swim / total) * np.asarray(swim) + (w_gait / total) * gait
     return -np.sin(a) * np.asarray(swim) + np.cos(a) * gait
 
 
@@ -113,7 +139,7 @@ def descent_step(psi, psi_d, g: float, T: float, alpha: float) -> np.ndarray:
 
 
 class PotentialTransition(LeafSystem):
-    """Behaviour transition system: CPG parameters from depth and vision (Eqs. 11-15).
+    """Behaviour transition system: CPG parameters from the estimates (Eqs. 11-15).
 
     .. pydrake_system::
 
@@ -123,72 +149,123 @@ class PotentialTransition(LeafSystem):
         - s_hat
         output_ports:
         - cpg_params
+        - behaviour_weights
+
+    The input ports are the modalities the tree reads (``tree.modalities``, each of size 1,
+    named by the modality: ``z_hat``, ``s_hat``, ``flow_hat``, ``posture_hat``,
+    ``energy_hat``); the default tree's are the two above.
 
     * ``z_hat`` (1): estimated depth in [0, 1] (FuzzyDepthEstimator).
     * ``s_hat`` (1): wall detection rate in [0, 1] (WallDetector).
     * ``cpg_params`` (64): psi, the current CPG parameters (R, X, Phi, Phi'), a discrete
       state moved toward psi_d every ``period`` seconds by descent on Eq. (14)'s well.
+    * ``behaviour_weights`` (len(tree.leaves)): each leaf gait's weight in the last update's
+      target psi_d (``BehaviourTree.leaf_weights``; the default tree: swim, trot, turning),
+      a discrete state.
 
-    s_hat passes a first-order low-pass filter (``s_hat_time_constant``, a second discrete
-    state) before it enters Eq. (12). The camera's s_hat is a step signal at its frame rate.
-    A step of w(s) from 1 to 0 (or back) would put several Phi' parameters exactly opposite
-    their new target (turning Phi'[0, 3] = -pi against trot's 0), where Eq. (14)'s well is
-    flat, and they would never move. Filtered, psi_d sweeps continuously and psi follows.
-    z_hat comes from a continuous depth and is used as it is.
+    A modality with a time constant (``time_constants``; by default s_hat's,
+    ``s_hat_time_constant``) passes a first-order low-pass filter (a discrete state each,
+    starting at 0) before it enters the tree. The camera's s_hat is a step signal at its frame
+    rate. A step of w(s) from 1 to 0 (or back) would put several Phi' parameters exactly
+    opposite their new target (turning Phi'[0, 3] = -pi against trot's 0), where Eq. (14)'s
+    well is flat, and they would never move. Filtered, psi_d sweeps continuously and psi
+    follows. z_hat comes from a continuous depth and is used as it is.
 
-    Non-finite inputs are treated as z_hat = 0 / s_hat = 0 for that update.
+    Switch nodes hold their chosen child in a discrete state (``tree.num_switches``; starting
+    from the threshold rule at all estimates 0). Non-finite inputs are treated as 0 for that
+    update.
 
-    The three behaviours (``behaviours``: swim, trot, turning) are taken from the gait library
-    of ``gait_reading`` (``gaits.READINGS``: ``paper`` or ``mirrored``).
+    Without a ``tree`` the default tree of ``blend`` and ``z_t`` blends the three behaviours
+    ``behaviours`` (the surface, floor and wall gaits, by default swim, trot, turning) taken
+    from the gait library of ``gait_reading`` (``gaits.READINGS``: ``paper`` or ``mirrored``).
+    With a ``tree``, ``blend``, ``z_t``, ``behaviours`` and ``gait_reading`` are not used.
     """
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
                  alpha: float = 0.95, z_t: float = 1.0, blend: str = "potential",
                  follow: str = "descent",
                  initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0,
-                 gait_reading: str = "paper"):
+                 gait_reading: str = "paper", *, tree: BehaviourTree | None = None,
+                 time_constants: dict[str, float] | None = None):
         super().__init__()
         try:
             check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant, follow)
         except ValueError as e:
             raise ValueError(f"PotentialTransition.{e}") from None
-        # Exact discretisation of ds/dt = (s_hat - s) / tau over one period (1: no filter).
-        self.s_hat_gain = (1.0 - np.exp(-period / s_hat_time_constant)
-                           if s_hat_time_constant > 0 else 1.0)
+        if tree is None:
+            behaviours = tuple(behaviours)
+            if len(behaviours) != 3:
+                raise ValueError(f"PotentialTransition.behaviours: expected 3 gait names "
+                                 f"(surface, floor, wall), got {len(behaviours)}")
+            gaits = {b: get_gait(b, gait_reading).to_vector() for b in behaviours}
+            try:
+                tree = compile_tree(default_tree(blend, z_t, behaviours=behaviours), gaits)
+            except ValueError as e:
+                raise ValueError(f"PotentialTransition.behaviours: {e}") from None
+        elif not isinstance(tree, BehaviourTree):
+            raise ValueError(f"PotentialTransition.tree: expected a BehaviourTree "
+                             f"(behaviour_tree.compile_tree), got {type(tree).__name__}")
+        self.tree = tree
+        taus = {"s_hat": s_hat_time_constant, **(time_constants or {})}
+        for m, tau in taus.items():
+            if m not in MODALITIES:
+                raise ValueError(f"PotentialTransition.time_constants: {m!r} is not one of "
+                                 f"{', '.join(MODALITIES)}")
+            if not (isinstance(tau, (int, float)) and np.isfinite(tau) and tau >= 0):
+                raise ValueError(f"PotentialTransition.time_constants.{m}: {tau!r} must be a "
+                                 "finite number >= 0 (0: no filter)")
+        # Exact discretisation of dx/dt = (input - x) / tau over one period.
+        self.time_constants = {m: float(taus.get(m, 0.0)) for m in tree.modalities}
+        gains = {m: 1.0 - np.exp(-period / tau)
+                 for m, tau in self.time_constants.items() if tau > 0}
+        self.s_hat_gain = gains.get("s_hat", 1.0)
         self.period, self.g, self.T, self.alpha, self.z_t, self.blend = period, g, T, alpha, z_t, blend
         self.follow = follow
         self.max_step = alpha * g * T
-        self.swim, self.trot, self.turning = (get_gait(b, gait_reading).to_vector()
-                                              for b in behaviours)
-        initial = self.swim if initial_params is None else np.asarray(initial_params, dtype=float)
-        if initial.shape != self.swim.shape or not np.all(np.isfinite(initial)):
-            raise ValueError(f"PotentialTransition.initial_params: expected {self.swim.size} "
+        initial = (tree.gait_vectors[tree.leaves[0]] if initial_params is None
+                   else np.asarray(initial_params, dtype=float))
+        if initial.shape != (NUM_CPG_PARAMS,) or not np.all(np.isfinite(initial)):
+            raise ValueError(f"PotentialTransition.initial_params: expected {NUM_CPG_PARAMS} "
                              f"finite values (R, X, Phi, Phi'), got shape {initial.shape}")
         self._psi = self.DeclareDiscreteState(initial)
-        self._s_filtered = self.DeclareDiscreteState([0.0])  # no wall seen at the start
-        self._z_hat = self.DeclareVectorInputPort("z_hat", 1)
-        self._s_hat = self.DeclareVectorInputPort("s_hat", 1)
+        # One filter state per filtered modality, no signal seen at the start.
+        self._filters = {m: (self.DeclareDiscreteState([0.0]), gain) for m, gain in gains.items()}
+        self.filter_state_indices = {m: index for m, (index, _) in self._filters.items()}
+        zeros = dict.fromkeys(tree.modalities, 0.0)
+        switches = tree.initial_switch_state(zeros)
+        self._switches = self.DeclareDiscreteState(switches)
+        self._weights = self.DeclareDiscreteState(tree.leaf_weights(zeros, switches)[0])
+        self._inputs = {m: self.DeclareVectorInputPort(m, 1) for m in tree.modalities}
         self.DeclareStateOutputPort("cpg_params", self._psi)
+        self.DeclareStateOutputPort("behaviour_weights", self._weights)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
-    def target(self, z_hat: float, s_hat: float) -> np.ndarray:
-        """psi_d for these sensor values."""
-        s_hat = s_hat if np.isfinite(s_hat) else 0.0
-        return target_params(z_hat, s_hat, self.swim, self.trot, self.turning, self.z_t,
-                             self.blend)
+    def target(self, z_hat: float = 0.0, s_hat: float = 0.0, **values: float) -> np.ndarray:
+        """psi_d for these estimates (switches by the threshold rule, without memory);
+        ``values``: the tree's other modalities."""
+        return self.tree.target({"z_hat": z_hat, "s_hat": s_hat, **values})[0]
 
     def _update(self, context, discrete_state):
+        values = {}
+        for m, port in self._inputs.items():
+            x = port.Eval(context)[0]
+            x = x if np.isfinite(x) else 0.0
+            if m in self._filters:
+                index, gain = self._filters[m]
+                s = context.get_discrete_state(index).GetAtIndex(0)
+                x = s + gain * (x - s)
+                discrete_state.get_mutable_vector(index).SetAtIndex(0, x)
+            values[m] = x
+        held = context.get_discrete_state(self._switches).get_value()
+        psi_d, weights, held = self.tree.evaluate(values, held)
         psi = context.get_discrete_state(self._psi).get_value()
-        s = context.get_discrete_state(self._s_filtered).GetAtIndex(0)
-        s_hat = self._s_hat.Eval(context)[0]
-        s += self.s_hat_gain * ((s_hat if np.isfinite(s_hat) else 0.0) - s)
-        psi_d = self.target(self._z_hat.Eval(context)[0], s)
         if self.follow == "direct":  # the baselines: the target at once
             psi_next = psi_d
         else:
             psi_next = descent_step(psi, psi_d, self.g, self.T, self.alpha)
         discrete_state.get_mutable_vector(self._psi).SetFromVector(psi_next)
-        discrete_state.get_mutable_vector(self._s_filtered).SetAtIndex(0, s)
+        discrete_state.get_mutable_vector(self._switches).SetFromVector(held)
+        discrete_state.get_mutable_vector(self._weights).SetFromVector(weights)
 
     def set_params(self, context, psi) -> None:
         """Sets psi (64) in this system's context."""

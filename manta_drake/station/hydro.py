@@ -8,7 +8,9 @@ residual added mass), plus the cancellation of the weight of the added-mass body
 As Drake's ``multibody/plant/wing.h``: every parameter is fixed at construction (the
 kernels' arrays are packed once, in the constructor, and the parameters are read-only
 attributes), the only state is the Context's, and ``AddToBuilder`` adds the system and
-connects it to its plant.
+connects it to its plant. The water's current is fixed too, or, given a time-varying
+``CurrentSchedule`` (``manta_drake.station.current``), a fixed function of the Context's
+time, evaluated at each force evaluation.
 
 Two choices, both constructor arguments, none changing the forces (the tests hold every
 combination equal to 1e-12):
@@ -46,6 +48,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from manta_drake.model.coefficients import HydroCoefficients
 from manta_drake.model.robot_params import DEFAULT_ROBOT, RobotParams
 from manta_drake.station import water_kernels as K
+from manta_drake.station.current import CurrentSchedule
 from manta_drake.station.water import (
     balloon_wrench,
     build_elements,
@@ -139,6 +142,12 @@ class HydrodynamicForces(LeafSystem):
         params: the robot's geometry.
         current: the water's velocity in the world [m/s], 3 finite values of magnitude
             <= ``MAX_CURRENT``.
+        current_schedule: None (the current is ``current`` at all times) or a
+            ``CurrentSchedule``: the current as a function of the Context's time. A
+            constant schedule is packed once as the fixed current; a time-varying one is
+            evaluated at every force evaluation (``context.get_time()``; with
+            ``update_period`` > 0 at each update). ``current`` must then be left at its
+            default or equal the schedule's ``constant``.
         added_mass_iso: the isotropic added mass [kg] the plant carries in its mass matrix
             (None: split here from the coefficients).
         update_period: 0 (forces at every step) or the hold period [s], finite and >= 0.
@@ -155,7 +164,10 @@ class HydrodynamicForces(LeafSystem):
 
     rho = _fixed("rho", "Water density [kg/m^3].")
     g = _fixed("g", "Gravity [m/s^2].")
-    current = _fixed("current", "The water's velocity in the world (3,) [m/s].")
+    current = _fixed("current", "The water's velocity in the world (3,) [m/s]: at all "
+                     "times without a time-varying ``current_schedule``, else at t = 0.")
+    current_schedule = _fixed("current_schedule",
+                              "The CurrentSchedule given (or None): the current over time.")
     time_step = _fixed("time_step", "The plant's period [s].")
     update_period = _fixed("update_period", "0 (forces at every step) or the hold period [s].")
     inputs = _fixed("inputs", "The port set: 'contract' or 'plant_state'.")
@@ -183,7 +195,8 @@ class HydrodynamicForces(LeafSystem):
     def __init__(self, plant, robot, coeffs: HydroCoefficients, time_step: float,
                  params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
                  added_mass_iso: float | None = None, update_period: float = 0.0, *,
-                 inputs: str = "contract", backend: str = "compiled"):
+                 inputs: str = "contract", backend: str = "compiled",
+                 current_schedule: CurrentSchedule | None = None):
         super().__init__()
         if not (_is_real(time_step) and math.isfinite(time_step) and time_step > 0):
             raise ValueError(f"HydrodynamicForces.time_step: {time_step!r} must be a finite "
@@ -210,6 +223,19 @@ class HydrodynamicForces(LeafSystem):
             raise ValueError(f"HydrodynamicForces.current: |{current!r}| = "
                              f"{np.linalg.norm(current_array):.3g} m/s is outside the allowed "
                              f"range [0, {self.MAX_CURRENT}] m/s")
+        if current_schedule is not None:
+            if not isinstance(current_schedule, CurrentSchedule):
+                raise ValueError(f"HydrodynamicForces.current_schedule: {current_schedule!r} "
+                                 "must be None or a CurrentSchedule")
+            if np.any(current_array != 0.0) and not np.array_equal(
+                    current_array, current_schedule.constant):
+                raise ValueError(f"HydrodynamicForces.current: {current!r} differs from the "
+                                 "current_schedule's constant "
+                                 f"{current_schedule.constant.tolist()}: give one of the two")
+            current_array = current_schedule.at(0.0)
+        # A time-varying schedule: the current is written, per evaluation, into a copy of
+        # the kernels' parameter vector (see ``_current_now``).
+        self._varying = current_schedule is not None and not current_schedule.is_constant
         self._plant_state = inputs == "plant_state"
         self._compiled = backend == "compiled"
         self._nq, self._nv = plant.num_positions(), plant.num_velocities()
@@ -238,7 +264,8 @@ class HydrodynamicForces(LeafSystem):
                                   ("roll", "pitch", "yaw"), "kg m^2")
         self._fixed_values = {
             "rho": float(coeffs.water_density.value), "g": float(coeffs.gravity.value),
-            "current": _frozen(current_array), "time_step": float(time_step),
+            "current": _frozen(current_array), "current_schedule": current_schedule,
+            "time_step": float(time_step),
             "update_period": float(update_period), "inputs": inputs, "backend": backend,
             "body_indices": tuple(int(i) for i in body_index),
             "el": types.MappingProxyType({k: _frozen(v) for k, v in el.items()}),
@@ -262,6 +289,10 @@ class HydrodynamicForces(LeafSystem):
                                       self.pitch_max, self.pitch_pressure, self.added_mass_iso,
                                       self.current, self.balloon_mount,
                                       self.residual_added_mass, self.residual_added_inertia))
+        # The per-evaluation parameter vector of a time-varying current, and a view of its
+        # current's slot: ``current_at`` writes three floats into it, nothing is allocated.
+        self._prm_now = self._packed[3].copy()
+        self._current_slot = self._prm_now[K.P_CURRENT:K.P_CURRENT + 3]
         # Scratch force objects for the outputs (body and point fixed here): each output
         # calculation overwrites every force and set_value copies the list into the output
         # (a C++ vector), so nothing of one evaluation outlives it. Reusing them halves the
@@ -311,6 +342,7 @@ class HydrodynamicForces(LeafSystem):
                      params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
                      added_mass_iso: float | None = None, update_period: float = 0.0, *,
                      inputs: str = "contract", backend: str = "compiled",
+                     current_schedule: CurrentSchedule | None = None,
                      apply_as: str | None = None, name: str = "hydro") -> "HydrodynamicForces":
         """Adds a HydrodynamicForces to ``builder`` and connects it to ``plant``, as Drake's
         ``Wing.AddToBuilder``: its kinematics inputs from the plant's outputs (the state
@@ -321,7 +353,7 @@ class HydrodynamicForces(LeafSystem):
             builder: the DiagramBuilder holding ``plant``.
             plant, robot, coeffs, time_step, params, current, added_mass_iso: the
                 constructor's arguments.
-            update_period, inputs, backend: the constructor's arguments.
+            update_period, inputs, backend, current_schedule: the constructor's arguments.
             apply_as: ``"generalized_forces"`` (needs ``inputs="plant_state"``) into the
                 plant's ``applied_generalized_force``, ``"spatial_forces"`` into its
                 ``applied_spatial_force``, or None: generalized forces with the state
@@ -348,7 +380,7 @@ class HydrodynamicForces(LeafSystem):
                              f"needs inputs='plant_state', got inputs={inputs!r}")
         hydro = builder.AddNamedSystem(name, HydrodynamicForces(
             plant, robot, coeffs, time_step, params, current, added_mass_iso, update_period,
-            inputs=inputs, backend=backend))
+            inputs=inputs, backend=backend, current_schedule=current_schedule))
         if apply_as is None:
             apply_as = ("generalized_forces" if inputs == "plant_state" and update_period == 0
                         else "spatial_forces")
@@ -369,7 +401,7 @@ class HydrodynamicForces(LeafSystem):
     # -- the maths ------------------------------------------------------------------------------
 
     def compute(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                hull_alpha_W=None) -> np.ndarray:
+                hull_alpha_W=None, *, current=None) -> np.ndarray:
         """Spatial forces [tau_W, f_W] (per hydro body, about its origin) from kinematics,
         by this system's ``backend`` (``compute_compiled`` or ``compute_reference``).
 
@@ -379,16 +411,20 @@ class HydrodynamicForces(LeafSystem):
             balloon_volume: [m^3].
             hull_accel_W, hull_alpha_W: (3,) hull translational and angular acceleration
                 estimates for the residual added mass and inertia (None: not yet known).
+            current: (3,) the water's velocity in the world for this evaluation [m/s]
+                (None: the fixed ``current``).
         """
         if self._compiled:
             return self.compute_compiled(R, p, w, v, balloon_volume, hull_accel_W,
-                                         hull_alpha_W)
-        return self.compute_reference(R, p, w, v, balloon_volume, hull_accel_W, hull_alpha_W)
+                                         hull_alpha_W, current=current)
+        return self.compute_reference(R, p, w, v, balloon_volume, hull_accel_W, hull_alpha_W,
+                                      current=current)
 
     def compute_compiled(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                         hull_alpha_W=None) -> np.ndarray:
+                         hull_alpha_W=None, *, current=None) -> np.ndarray:
         """``compute`` by the numba kernel (``water_kernels.spatial_wrenches``)."""
-        elements, strips, damping, prm = self._packed
+        elements, strips, damping, _ = self._packed
+        prm = self._params_with(current)
         has_accel = hull_accel_W is not None
         accel = np.zeros(6)
         if has_accel:
@@ -399,12 +435,14 @@ class HydrodynamicForces(LeafSystem):
             float(balloon_volume), accel, has_accel, elements, strips, damping, prm)
 
     def compute_reference(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                          hull_alpha_W=None) -> np.ndarray:
+                          hull_alpha_W=None, *, current=None) -> np.ndarray:
         """``compute`` by the pure numpy functions of ``manta_drake.station.water``."""
+        if current is None:
+            current = self.current
         F, frac, body_frac = buoyancy_wrenches(R, p, self.el, self.rho, self.g)
         F[0] += balloon_wrench(R[0], p[0], self.balloon_mount, balloon_volume, self.rho, self.g)
-        F += damping_wrenches(R, w, v, self.current, self.d_lin, self.d_quad, body_frac)
-        r_s, fs = fin_strip_forces(R, w, v, self.current, self.el, frac, self.rho,
+        F += damping_wrenches(R, w, v, current, self.d_lin, self.d_quad, body_frac)
+        r_s, fs = fin_strip_forces(R, w, v, current, self.el, frac, self.rho,
                                    self.c_normal, self.c_friction, self.pitch_max,
                                    self.pitch_pressure)
         F += self._strip_to_body @ np.concatenate([cross(r_s, fs), fs], axis=1)
@@ -418,7 +456,8 @@ class HydrodynamicForces(LeafSystem):
 
     def compute_from_state(self, x, balloon_volume: float, t: float, v_prev) -> np.ndarray:
         """The spatial forces the system outputs at the plant state ``x`` = [q, v] and time
-        ``t`` (needs ``inputs="plant_state"``), by its ``backend``.
+        ``t`` (needs ``inputs="plant_state"``), by its ``backend``; a time-varying
+        ``current_schedule`` is read at ``t``.
 
         Args:
             x: (nq + nv,) the plant's state.
@@ -429,7 +468,8 @@ class HydrodynamicForces(LeafSystem):
         """
         self._require_plant_state("compute_from_state")
         return self._from_state(np.ascontiguousarray(x, dtype=float), float(balloon_volume),
-                                float(t), np.ascontiguousarray(v_prev, dtype=float))
+                                float(t), np.ascontiguousarray(v_prev, dtype=float),
+                                self._current_now(float(t)))
 
     def generalized_forces(self, x, F) -> np.ndarray:
         """J^T F at the plant state ``x`` (needs ``inputs="plant_state"``): the generalized
@@ -444,13 +484,32 @@ class HydrodynamicForces(LeafSystem):
             raise ValueError(f"HydrodynamicForces.{what}: needs inputs='plant_state' (the "
                              f"packed kinematic tree), this system has inputs={self.inputs!r}")
 
-    def _from_state(self, x, balloon_volume: float, t: float, v_prev) -> np.ndarray:
+    def _current_now(self, t: float):
+        """The current at time ``t`` when it varies (a view of the per-evaluation
+        parameter vector's slot, valid until the next call), else None: the fixed one."""
+        if not self._varying:
+            return None
+        return self.current_schedule.at(t, out=self._current_slot)
+
+    def _params_with(self, current) -> np.ndarray:
+        """The kernels' parameter vector with ``current`` (None: the packed one, as it is)."""
+        if current is None:
+            return self._packed[3]
+        if current is not self._current_slot:
+            self._current_slot[:] = current
+        return self._prm_now
+
+    def _from_state(self, x, balloon_volume: float, t: float, v_prev,
+                    current=None) -> np.ndarray:
         if self._compiled:  # one kernel call: kinematics, acceleration estimate, forces
+            elements, strips, damping, _ = self._packed
             return K.forces_from_state(x, self._nq, balloon_volume, t, v_prev, self._tree_i,
-                                       self._tree_f, *self._packed)
+                                       self._tree_f, elements, strips, damping,
+                                       self._params_with(current))
         R, p, w, v, _, _ = K.body_kinematics(x, self._nq, self._tree_i, self._tree_f)
         return self.compute_reference(R, p, w, v, balloon_volume,
-                                      *_hull_acceleration(v[0], w[0], t, v_prev))
+                                      *_hull_acceleration(v[0], w[0], t, v_prev),
+                                      current=current)
 
     # -- evaluation -----------------------------------------------------------------------------
 
@@ -472,11 +531,13 @@ class HydrodynamicForces(LeafSystem):
             balloon = 0.0
         t = context.get_time()
         v_prev = context.get_discrete_state(self._v_prev).get_value()
+        current = self._current_now(t)
         if self._plant_state:
-            F = self._from_state(self._state.Eval(context), balloon, t, v_prev)
+            F = self._from_state(self._state.Eval(context), balloon, t, v_prev, current)
         else:
             R, p, w, v = self._kinematics(context)
-            F = self.compute(R, p, w, v, balloon, *_hull_acceleration(v[0], w[0], t, v_prev))
+            F = self.compute(R, p, w, v, balloon, *_hull_acceleration(v[0], w[0], t, v_prev),
+                             current=current)
         if not math.isfinite(F.sum()):  # a NaN or inf anywhere makes the sum non-finite
             raise RuntimeError(
                 f"HydrodynamicForces: non-finite force at t = {t:.4f} s "

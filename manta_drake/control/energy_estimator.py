@@ -1,0 +1,121 @@
+"""Energy estimation from the battery monitor: a 0-1 estimate of low energy.
+
+The monitor (``battery``, 3) gives [state of charge in [0, 1], terminal voltage V,
+current A]. The state of charge is low-passed with the sampled first-order lag of
+``memberships.low_pass_step`` (time constant ``time_constant``) and the estimate is the
+falling ramp membership (the piecewise-linear kind of Eq. (9)) of the filtered charge::
+
+    energy_hat = 1 - clip((soc_hat - soc_low) / (soc_high - soc_low), 0, 1)
+
+1 at or below ``soc_low`` (low energy: a behaviour that saves power should take over), 0
+at or above ``soc_high``, linear between. The voltage and the current are not used: the
+state of charge is the monitor's own coulomb count, which the load's voltage sag (large
+while the servos push, gone when they rest) would only disturb.
+"""
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from manta_drake.config_io import check_in_range
+from manta_drake.control.memberships import lag_coefficient, low_pass_step, ramp_membership
+
+BATTERY_SIZE = 3  # [state of charge, terminal voltage V, current A]
+
+
+@dc.dataclass
+class EnergyEstimatorParams:
+    """The state-of-charge thresholds of ``energy_hat`` and the filter's time constant [s]."""
+
+    soc_low: float = 0.2  # energy_hat = 1 at or below this state of charge
+    soc_high: float = 0.4  # energy_hat = 0 at or above this state of charge
+    time_constant: float = 5.0  # of the state-of-charge low-pass (0: no filter)
+
+    def validate(self) -> "EnergyEstimatorParams":
+        """Checks every field's range; ValueError names the field and the allowed range."""
+        check_in_range("soc_low", self.soc_low, 0.0, 1.0, "[0, 1)", open_high=True)
+        check_in_range("soc_high", self.soc_high, self.soc_low, 1.0,
+                       f"(soc_low = {self.soc_low:g}, 1]", open_low=True)
+        check_in_range("time_constant", self.time_constant, 0.0, 1000.0,
+                       "[0, 1000] s (0: no filter)")
+        return self
+
+
+def energy_membership(soc, params: EnergyEstimatorParams):
+    """``energy_hat`` of states of charge ``soc``: 1 - the ramp from soc_low to soc_high."""
+    return 1.0 - ramp_membership(soc, params.soc_low, params.soc_high)
+
+
+class EnergyEstimator(LeafSystem):
+    """The filtered state of charge and its low-energy membership.
+
+    .. pydrake_system::
+
+        name: EnergyEstimator
+        input_ports:
+        - battery
+        output_ports:
+        - energy_hat
+        - soc_hat
+
+    * ``battery`` (3): [state of charge, terminal voltage V, current A]; may be NaN.
+    * ``energy_hat`` (1): in [0, 1], 1 - the ramp membership of ``soc_hat`` between
+      ``soc_low`` and ``soc_high`` (1: low energy).
+    * ``soc_hat`` (1): the filtered state of charge.
+
+    Discrete state (2): the filtered state of charge and whether it has seen a finite
+    reading (default: [1, 0], full and unseeded, so nothing reads low energy before the
+    first reading). Updated every ``period`` seconds from t = 0 with ``alpha = 1 -
+    exp(-period / time_constant)``; it starts at its first finite reading (an initialization
+    event reads the input when a Simulator initializes, so a consumer's first update already
+    sees it) and holds its value while its input is NaN or infinite. The outputs depend on
+    the state only.
+
+    Args:
+        params: ``EnergyEstimatorParams`` (None: the defaults).
+        period: the update period [s], in (0, 10] (the battery monitor's sample period).
+
+    Raises:
+        ValueError: naming the invalid field and its allowed range.
+    """
+
+    def __init__(self, params: EnergyEstimatorParams | None = None, period: float = 0.1):
+        super().__init__()
+        self.params = (params if params is not None else EnergyEstimatorParams()).validate()
+        check_in_range("EnergyEstimator.period", period, 0.0, 10.0, "(0, 10] s", open_low=True)
+        self.period = float(period)
+        self._alpha = lag_coefficient(self.period, self.params.time_constant)
+        self._state = self.DeclareDiscreteState([1.0, 0.0])
+        self._battery = self.DeclareVectorInputPort("battery", BATTERY_SIZE)
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("energy_hat", 1, self._calc_energy_hat,
+                                     prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("soc_hat", 1, self._calc_soc,
+                                     prerequisites_of_calc=xd)
+        # Seeds the filter from the first reading when a Simulator initializes, before any
+        # consumer's first update reads the estimate.
+        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
+        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
+
+    def _soc(self, context) -> float:
+        return float(context.get_discrete_state(self._state).GetAtIndex(0))
+
+    def _calc_soc(self, context, output):
+        output.SetAtIndex(0, self._soc(context))
+
+    def _calc_energy_hat(self, context, output):
+        output.SetAtIndex(0, float(energy_membership(self._soc(context), self.params)))
+
+    def _initialize(self, context, discrete_state):
+        self._step(context, discrete_state, 0.0)  # seeds unseeded channels, moves no other
+
+    def _update(self, context, discrete_state):
+        self._step(context, discrete_state, self._alpha)
+
+    def _step(self, context, discrete_state, alpha):
+        x = context.get_discrete_state(self._state).get_value()
+        soc = np.asarray(self._battery.Eval(context), dtype=float)[:1]
+        value, seeded = low_pass_step(x[:1], x[1:] > 0.5, soc, alpha)
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            [value[0], float(seeded[0])])

@@ -1,0 +1,146 @@
+"""Flow estimation from the head's flow sensor: a 0-1 estimate of the relative flow.
+
+The sensor (``flow_velocity``, 3) reads the water's velocity relative to the head, in the
+body frame (x forward, y left, z up) [m/s], with noise. The vector is low-passed channel by
+channel with the sampled first-order lag of ``memberships.low_pass_step`` (time constant
+``time_constant``; filtering the vector before taking a speed keeps the noise's
+magnitude out of the speed, which a filtered norm would average in), then reduced to one
+speed along ``axis``:
+
+* ``magnitude``: |v_hat|, the relative flow from any direction;
+* ``surge``: -v_hat_x, the component of the flow against the robot's heading: positive
+  when the water comes from ahead (a head current, or the robot's own forward swimming),
+  negative when it comes from behind;
+* ``sway``: |v_hat_y|, the side flow from either side.
+
+and the estimate is its ramp membership (the piecewise-linear kind of Eq. (9))::
+
+    flow_hat = clip((speed - speed_low) / (speed_high - speed_low), 0, 1)
+
+What it estimates is the *relative* flow: the sensor moves with the robot, so a robot
+swimming forward at 5 cm/s in still water reads 5 cm/s of flow from ahead, exactly as a
+robot holding station in a 5 cm/s current does. Nothing is subtracted (the robot's own
+speed over ground is not measured). For ``flow_hat`` to mean "a current", put
+``speed_low`` above the speed the robot moves at in still water in the behaviours where
+the estimate is used; with a standing robot (the seabed gaits) the reading is the current.
+"""
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from manta_drake.config_io import check_in_range, check_one_of
+from manta_drake.control.memberships import lag_coefficient, low_pass_step, ramp_membership
+
+AXES = ("magnitude", "surge", "sway")
+
+
+@dc.dataclass
+class FlowEstimatorParams:
+    """The speed thresholds of ``flow_hat`` [m/s], the filter's time constant [s] and the
+    speed's ``axis`` (one of ``AXES``; see the module docstring)."""
+
+    speed_low: float = 0.03  # flow_hat = 0 at or below this speed
+    speed_high: float = 0.08  # flow_hat = 1 at or above this speed
+    time_constant: float = 1.0  # of the velocity low-pass (0: no filter)
+    axis: str = "magnitude"
+
+    def validate(self) -> "FlowEstimatorParams":
+        """Checks every field's range; ValueError names the field and the allowed range."""
+        check_in_range("speed_low", self.speed_low, 0.0, 10.0, "[0, 10) m/s", open_high=True)
+        check_in_range("speed_high", self.speed_high, self.speed_low, 10.0,
+                       f"(speed_low = {self.speed_low:g}, 10] m/s", open_low=True)
+        check_in_range("time_constant", self.time_constant, 0.0, 100.0,
+                       "[0, 100] s (0: no filter)")
+        check_one_of("axis", self.axis, AXES)
+        return self
+
+
+def flow_speed(velocity, axis: str):
+    """The speed [m/s] along ``axis`` of relative water velocities ``velocity`` (..., 3)."""
+    v = np.asarray(velocity, dtype=float)
+    if axis == "magnitude":
+        return np.linalg.norm(v, axis=-1)
+    if axis == "surge":
+        return -v[..., 0]
+    if axis == "sway":
+        return np.abs(v[..., 1])
+    raise ValueError(f"axis: {axis!r} is not one of {', '.join(AXES)}")
+
+
+class FlowEstimator(LeafSystem):
+    """The filtered relative flow speed and its 0-1 membership.
+
+    .. pydrake_system::
+
+        name: FlowEstimator
+        input_ports:
+        - flow_velocity
+        output_ports:
+        - flow_hat
+        - flow_speed_hat
+
+    * ``flow_velocity`` (3): water velocity relative to the head, body frame [m/s]; any
+      entry may be NaN (dropout).
+    * ``flow_hat`` (1): in [0, 1], the ramp membership of ``flow_speed_hat`` between
+      ``speed_low`` and ``speed_high``.
+    * ``flow_speed_hat`` (1): the speed along ``axis`` of the filtered velocity [m/s]
+      (``surge`` is signed: negative with the water from behind).
+
+    Discrete state (6): the filtered velocity and whether each component has seen a finite
+    reading (default: zeros, still water and unseeded). Updated every ``period`` seconds
+    from t = 0 with ``alpha = 1 - exp(-period / time_constant)``; a component starts at its
+    first finite reading (an initialization event reads the input when a Simulator
+    initializes, so a consumer's first update already sees it) and holds its value while its
+    input is NaN or infinite. The outputs depend on the state only.
+
+    Args:
+        params: ``FlowEstimatorParams`` (None: the defaults).
+        period: the update period [s], in (0, 1] (the flow sensor's sample period).
+
+    Raises:
+        ValueError: naming the invalid field and its allowed range.
+    """
+
+    def __init__(self, params: FlowEstimatorParams | None = None, period: float = 0.02):
+        super().__init__()
+        self.params = (params if params is not None else FlowEstimatorParams()).validate()
+        check_in_range("FlowEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
+        self.period = float(period)
+        self._alpha = lag_coefficient(self.period, self.params.time_constant)
+        self._state = self.DeclareDiscreteState(np.zeros(6))
+        self._flow = self.DeclareVectorInputPort("flow_velocity", 3)
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("flow_hat", 1, self._calc_flow_hat,
+                                     prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("flow_speed_hat", 1, self._calc_speed,
+                                     prerequisites_of_calc=xd)
+        # Seeds the filter from the first reading when a Simulator initializes, before any
+        # consumer's first update reads the estimate.
+        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
+        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
+
+    def _speed(self, context) -> float:
+        v = context.get_discrete_state(self._state).get_value()[:3]
+        return float(flow_speed(v, self.params.axis))
+
+    def _calc_speed(self, context, output):
+        output.SetAtIndex(0, self._speed(context))
+
+    def _calc_flow_hat(self, context, output):
+        output.SetAtIndex(0, float(ramp_membership(self._speed(context), self.params.speed_low,
+                                                   self.params.speed_high)))
+
+    def _initialize(self, context, discrete_state):
+        self._step(context, discrete_state, 0.0)  # seeds unseeded channels, moves no other
+
+    def _update(self, context, discrete_state):
+        self._step(context, discrete_state, self._alpha)
+
+    def _step(self, context, discrete_state, alpha):
+        x = context.get_discrete_state(self._state).get_value()
+        sample = np.asarray(self._flow.Eval(context), dtype=float)
+        value, seeded = low_pass_step(x[:3], x[3:] > 0.5, sample, alpha)
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            np.concatenate([value, seeded.astype(float)]))

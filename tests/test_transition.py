@@ -165,3 +165,109 @@ def test_switch_baseline_is_abrupt_and_direct_follow_takes_the_target_at_once():
     np.testing.assert_array_equal(system.GetOutputPort("cpg_params").Eval(context), trot)
     with pytest.raises(ValueError, match="follow: 'jump' is not one of descent, direct"):
         PotentialTransition(follow="jump")
+
+
+# -- the transition blends by a behaviour tree ---------------------------------------------
+
+def _inputs(k):
+    """Varying estimates for update k: a sinking and rising depth, a wall seen on and off,
+    and now and then an out-of-range or non-finite sample."""
+    z = 0.5 + 0.6 * np.sin(0.013 * k)  # spans [-0.1, 1.1]
+    s = 1.0 if (k // 70) % 2 else 0.1 * np.cos(0.2 * k)
+    if k % 97 == 13:
+        z = np.nan
+    if k % 89 == 5:
+        s = np.inf
+    return z, s
+
+
+@pytest.mark.parametrize("blend, tau", [("potential", 1.0), ("potential", 0.3),
+                                        ("linear", 1.0), ("switch", 1.0), ("normalised", 0.5),
+                                        ("potential", 0.0)])
+def test_default_tree_reproduces_the_formula_path_bit_for_bit(blend, tau):
+    """An independent re-implementation of the transition's update with target_params and
+    descent_step (Eqs. 11-15 and the s_hat low-pass), against the system."""
+    z_t, period = 0.8, 0.02
+    system = PotentialTransition(period=period, z_t=z_t, blend=blend, s_hat_time_constant=tau)
+    context = system.CreateDefaultContext()
+    gain = 1.0 - np.exp(-period / tau) if tau > 0 else None
+    psi, s = SWIM.copy(), 0.0
+    for k in range(400):
+        z_hat, s_hat = _inputs(k)
+        system.GetInputPort("z_hat").FixValue(context, [z_hat])
+        system.GetInputPort("s_hat").FixValue(context, [s_hat])
+        context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+        x = s_hat if np.isfinite(s_hat) else 0.0
+        s = s + gain * (x - s) if gain is not None else x
+        psi = descent_step(psi, target_params(z_hat, s, SWIM, TROT, TURN, z_t, blend),
+                           system.g, system.T, system.alpha)
+        np.testing.assert_array_equal(system.GetOutputPort("cpg_params").Eval(context), psi,
+                                      err_msg=f"update {k}")
+
+
+def test_behaviour_weights_are_the_leaf_weights_of_the_last_target():
+    system = PotentialTransition()  # s_hat filtered with tau = 1 s
+    context = system.CreateDefaultContext()
+    assert system.num_input_ports() == 2
+    assert system.GetOutputPort("behaviour_weights").size() == 3
+    # before any update: the weights at z_hat = s_hat = 0, all swim
+    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
+                               [1.0, 0.0, 0.0], atol=1e-15)
+    system.GetInputPort("z_hat").FixValue(context, [0.4])
+    system.GetInputPort("s_hat").FixValue(context, [1.0])
+    for _ in range(10):
+        context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+    s = 1.0 - np.exp(-10 * 0.02)  # the filtered wall rate after 10 updates
+    w = (1 - np.cos(np.pi * s)) / 2
+    c, d = np.cos(np.pi * 0.4 / 2), np.sin(np.pi * 0.4 / 2)
+    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
+                               [c, d * (1 - w), d * w], atol=1e-12)
+
+
+def test_a_tree_of_other_modalities_sets_the_ports_filters_and_switch_memory():
+    from manta_drake.control.behaviour_tree import BlendNode, compile_tree
+
+    walk = GAITS["walk"].to_vector()
+    tree = compile_tree({
+        "root": BlendNode("energy_hat", "switch", ["moving", "swim"], threshold=0.5,
+                          hysteresis=0.4),
+        "moving": BlendNode("flow_hat", "linear", ["trot", "walk"]),
+    }, {"swim": SWIM, "trot": TROT, "walk": walk})
+    system = PotentialTransition(follow="direct", tree=tree,
+                                 time_constants={"flow_hat": 0.5})
+    assert [system.get_input_port(i).get_name() for i in range(system.num_input_ports())] == \
+        ["flow_hat", "energy_hat"]
+    assert system.tree is tree and set(system.filter_state_indices) == {"flow_hat"}
+    context = system.CreateDefaultContext()
+    assert tree.leaves == ("trot", "walk", "swim")  # depth first
+    # psi starts at the first leaf
+    np.testing.assert_array_equal(system.GetOutputPort("cpg_params").Eval(context), TROT)
+    system.GetInputPort("flow_hat").FixValue(context, [1.0])
+    held = []
+    for energy in (0.2, 0.6, 0.71, 0.5, 0.31, 0.29, 0.5):
+        system.GetInputPort("energy_hat").FixValue(context, [energy])
+        context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+        held.append(system.GetOutputPort("behaviour_weights").Eval(context)[2])  # swim's
+    # on at >= 0.7, off below 0.3, held in between
+    assert held == [0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0]
+    # flow_hat passed the 0.5 s low-pass for 7 updates; the target is linear in it
+    f = 1.0 - np.exp(-7 * 0.02 / 0.5)
+    np.testing.assert_allclose(system.GetOutputPort("cpg_params").Eval(context),
+                               (walk - TROT) * f + TROT, atol=1e-12)
+    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
+                               [1 - f, f, 0.0], atol=1e-12)
+    np.testing.assert_array_equal(system.target(flow_hat=0.0, energy_hat=1.0), SWIM)
+
+
+def test_tree_arguments_are_checked():
+    with pytest.raises(ValueError, match="PotentialTransition.tree: expected a BehaviourTree"):
+        PotentialTransition(tree={"root": None})
+    with pytest.raises(ValueError, match="PotentialTransition.time_constants: 'depth' is not"):
+        PotentialTransition(time_constants={"depth": 1.0})
+    with pytest.raises(ValueError, match=r"PotentialTransition.time_constants.z_hat: -1.0"):
+        PotentialTransition(time_constants={"z_hat": -1.0})
+    with pytest.raises(ValueError, match="PotentialTransition.behaviours: expected 3"):
+        PotentialTransition(behaviours=("swim", "trot"))
+    with pytest.raises(ValueError, match="PotentialTransition.blend: 'cubic' is not one of "
+                                         "potential, normalised, linear, switch"):
+        PotentialTransition(blend="cubic")

@@ -255,25 +255,20 @@ _PRIVATE = object()  # BehaviourTree is made by compile_tree only
 class BehaviourTree:
     """A checked behaviour tree (``compile_tree``); immutable.
 
-    Attributes:
-        modalities: the modalities the tree reads, in ``MODALITIES`` order.
-        leaves: the distinct gait names, in first-seen depth-first order.
-        gait_vectors: gait name -> its 64-vector (read-only), for every leaf.
-        num_switches: the number of switch nodes (the length of a switch state).
-        switch_nodes: their names, in depth-first order: switch_state[i] is the index of
-            the child ``switch_nodes[i]`` holds.
+    ``target`` and ``leaf_weights`` take the estimates (modality -> value) and the switches'
+    state and return the new state with the result: a switch with hysteresis remembers the
+    child it holds, so a caller stepping in time passes the state back at the next step.
     """
 
-    __slots__ = ("_nodes", "_vectors", "_leaves", "_modalities", "_switch_nodes", "_blend_nodes")
+    __slots__ = ("_blend_nodes", "_leaves", "_modalities", "_nodes", "_switch_nodes", "_vectors")
 
     def __init__(self, key, nodes: dict[str, BlendNode], vectors: dict[str, np.ndarray]):
         if key is not _PRIVATE:
             raise TypeError("BehaviourTree: build one with compile_tree(nodes, gaits)")
         index = {name: i for i, name in enumerate(nodes)}  # depth-first: the root is 0
-        compiled, leaves, switches = [], [], []
+        compiled, switches = [], []
         for name, node in nodes.items():
-            children = tuple((c in index, index[c] if c in index else c) for c in node.children)
-            leaves += [c for c in node.children if c not in index and c not in leaves]
+            children = tuple((c in index, index.get(c, c)) for c in node.children)
             n = len(children)
             compiled.append(_Node(
                 name, node.modality, node.weight, float(node.full_at), float(node.threshold),
@@ -281,6 +276,16 @@ class BehaviourTree:
                 len(switches) if node.weight == "switch" else -1))
             if node.weight == "switch":
                 switches.append(name)
+        leaves = []
+
+        def visit(name):  # the gaits in first-seen depth-first order
+            for child in nodes[name].children:
+                if child in index:
+                    visit(child)
+                elif child not in leaves:
+                    leaves.append(child)
+
+        visit(ROOT)
         set_ = object.__setattr__
         set_(self, "_nodes", tuple(compiled))
         set_(self, "_vectors", types.MappingProxyType({g: vectors[g] for g in leaves}))
@@ -297,22 +302,28 @@ class BehaviourTree:
 
     @property
     def modalities(self) -> tuple[str, ...]:
+        """The modalities the tree reads, in ``MODALITIES`` order."""
         return self._modalities
 
     @property
     def leaves(self) -> tuple[str, ...]:
+        """The distinct gait names, in first-seen depth-first order."""
         return self._leaves
 
     @property
     def gait_vectors(self) -> dict[str, np.ndarray]:
+        """Gait name -> its 64-vector (read-only), for every leaf."""
         return dict(self._vectors)
 
     @property
     def num_switches(self) -> int:
+        """The number of switch nodes (the length of a switch state)."""
         return len(self._switch_nodes)
 
     @property
     def switch_nodes(self) -> tuple[str, ...]:
+        """The switch nodes' names, depth first: switch_state[i] is the index of
+        the child ``switch_nodes[i]`` holds."""
         return self._switch_nodes
 
     @property
@@ -373,8 +384,8 @@ class BehaviourTree:
                 continue
             j = held[n.switch]
             if not (np.isfinite(j) and j == round(j) and 0 <= j < len(n.children)):
-                raise ValueError(f"switch_state[{n.switch}] ({n.name}): {j!r} is not a child "
-                                 f"index in 0..{len(n.children) - 1}")
+                raise ValueError(f"switch_state[{n.switch}] ({n.name}): {float(j)!r} is not a "
+                                 f"child index in 0..{len(n.children) - 1}")
             out[n.switch] = self._switch(n, xs[i], int(j), n.hysteresis)
         return out
 

@@ -145,15 +145,15 @@ class PotentialTransition(LeafSystem):
 
         name: PotentialTransition
         input_ports:
-        - z_hat
-        - s_hat
+        - z_hat (default tree)
+        - s_hat (default tree)
         output_ports:
         - cpg_params
         - behaviour_weights
 
-    The input ports are the modalities the tree reads (``tree.modalities``, each of size 1,
-    named by the modality: ``z_hat``, ``s_hat``, ``flow_hat``, ``posture_hat``,
-    ``energy_hat``); the default tree's are the two above.
+    The input ports vary with the tree: one per modality it reads (``tree.modalities``, each
+    of size 1, named by the modality: ``z_hat``, ``s_hat``, ``flow_hat``, ``posture_hat``,
+    ``energy_hat``). Drawn above are the default tree's, z_hat and s_hat.
 
     * ``z_hat`` (1): estimated depth in [0, 1] (FuzzyDepthEstimator).
     * ``s_hat`` (1): wall detection rate in [0, 1] (WallDetector).
@@ -179,6 +179,10 @@ class PotentialTransition(LeafSystem):
     ``behaviours`` (the surface, floor and wall gaits, by default swim, trot, turning) taken
     from the gait library of ``gait_reading`` (``gaits.READINGS``: ``paper`` or ``mirrored``).
     With a ``tree``, ``blend``, ``z_t``, ``behaviours`` and ``gait_reading`` are not used.
+    ``initial_params`` (64) is psi at t = 0; None: the tree's first leaf (the surface gait of
+    the default tree). ``time_constants`` (modality -> tau [s], 0: raw) overrides
+    ``{"s_hat": s_hat_time_constant}`` entry by entry; modalities the tree does not read are
+    ignored. ``filter_state_indices`` maps each filtered modality to its discrete state.
     """
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,

@@ -13,8 +13,16 @@ from manta_drake.control.energy_estimator import (
     EnergyEstimatorParams,
     energy_membership,
 )
-from manta_drake.control.flow_estimator import FlowEstimator, FlowEstimatorParams, flow_speed
-from manta_drake.control.memberships import lag_coefficient, low_pass_step, ramp_membership
+from manta_drake.control.flow_estimator import (
+    FlowEstimator,
+    FlowEstimatorParams,
+    flow_speed,
+)
+from manta_drake.control.memberships import (
+    lag_coefficient,
+    low_pass_step,
+    ramp_membership,
+)
 from manta_drake.control.posture import (
     PostureEstimator,
     PostureEstimatorParams,
@@ -168,7 +176,8 @@ def test_posture_estimator_follows_a_step_with_the_first_order_lag():
 
 def test_posture_estimator_starts_at_the_first_reading():
     """A constant IMU: the estimate is the reading from the first instant (the
-    initialization event), not a lag from zero, and stays there."""
+    initialization event, so another system's update at t = 0 reads it), not a lag from
+    zero, and stays there."""
     builder = DiagramBuilder()
     system = builder.AddSystem(PostureEstimator(period=T))
     reading = _imu(np.radians(20.0), np.radians(-4.0), np.radians(-120.0), 0.25)
@@ -177,6 +186,10 @@ def test_posture_estimator_starts_at_the_first_reading():
     simulator = Simulator(builder.Build())
     context = system.GetMyContextFromRoot(simulator.get_context())
     np.testing.assert_array_equal(system.GetOutputPort("attitude_hat").Eval(context), 0.0)
+    simulator.Initialize()  # the initialization event only, before the update at t = 0
+    assert simulator.get_num_discrete_updates() == 1
+    np.testing.assert_allclose(system.GetOutputPort("attitude_hat").Eval(context),
+                               reading[:3], rtol=1e-12)
     for t in (0.0, 0.3, 1.0):
         simulator.AdvanceTo(t)
         np.testing.assert_allclose(system.GetOutputPort("attitude_hat").Eval(context),

@@ -19,7 +19,11 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from manta_drake.config_io import check_in_range
-from manta_drake.control.memberships import lag_coefficient, low_pass_step, ramp_membership
+from manta_drake.control.memberships import (
+    lag_coefficient,
+    low_pass_step,
+    ramp_membership,
+)
 
 BATTERY_SIZE = 3  # [state of charge, terminal voltage V, current A]
 

@@ -7,11 +7,11 @@ channel with the sampled first-order lag of ``memberships.low_pass_step`` (time 
 magnitude out of the speed, which a filtered norm would average in), then reduced to one
 speed along ``axis``:
 
-* ``magnitude``: |v_hat|, the relative flow from any direction;
+* ``magnitude``: ``|v_hat|``, the relative flow from any direction;
 * ``surge``: -v_hat_x, the component of the flow against the robot's heading: positive
   when the water comes from ahead (a head current, or the robot's own forward swimming),
   negative when it comes from behind;
-* ``sway``: |v_hat_y|, the side flow from either side.
+* ``sway``: ``|v_hat_y|``, the side flow from either side.
 
 and the estimate is its ramp membership (the piecewise-linear kind of Eq. (9))::
 
@@ -31,7 +31,11 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from manta_drake.config_io import check_in_range, check_one_of
-from manta_drake.control.memberships import lag_coefficient, low_pass_step, ramp_membership
+from manta_drake.control.memberships import (
+    lag_coefficient,
+    low_pass_step,
+    ramp_membership,
+)
 
 AXES = ("magnitude", "surge", "sway")
 

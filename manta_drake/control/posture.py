@@ -26,7 +26,11 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from manta_drake.config_io import check_in_range
-from manta_drake.control.memberships import lag_coefficient, low_pass_step, ramp_membership
+from manta_drake.control.memberships import (
+    lag_coefficient,
+    low_pass_step,
+    ramp_membership,
+)
 
 IMU_SIZE = 9  # [roll, pitch, yaw] rad, [wx, wy, wz] rad/s, [fx, fy, fz] m/s^2
 # The IMU channels filtered, in the state's order: roll, pitch, yaw, wz.

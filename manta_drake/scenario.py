@@ -48,6 +48,7 @@ from manta_drake.config_io import (
     parse_yaml,
     schema_fields,
 )
+from manta_drake.control.behaviour_tree import BlendNode, compile_tree, default_tree
 from manta_drake.control.gait_files import gait_library
 from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
 from manta_drake.control.transition import check_parameters
@@ -156,6 +157,10 @@ class TransitionConfig:
     s_hat_time_constant: float = 1.0  # s, low-pass of the camera's step signal (0: none)
     # A behaviour counts as reached when every parameter is within this of it [rad].
     arrival_tolerance: float = 0.05
+    # The behaviours as a tree (manta_drake.control.behaviour_tree): node name -> BlendNode,
+    # the top node named root, each blending its children (nodes or gait names) by one
+    # modality. Empty: Eq. (12)'s tree from blend and z_t (Scenario.behaviour_nodes()).
+    tree: dict[str, BlendNode] = dc.field(default_factory=dict)
 
 
 @dc.dataclass
@@ -325,6 +330,22 @@ class Scenario:
             raise ScenarioError(f"unknown gait {name!r}; known gaits: "
                                 f"{', '.join(library)}") from None
 
+    def behaviour_nodes(self) -> dict:
+        """The behaviour tree's nodes: ``transition.tree``, or if empty Eq. (12)'s tree
+        for ``transition.blend`` and ``transition.z_t`` (swim, trot, turning)."""
+        tr = self.transition
+        return dict(tr.tree) if tr.tree else default_tree(tr.blend, tr.z_t)
+
+    def behaviour_tree(self):
+        """The compiled behaviour tree (``control.behaviour_tree.BehaviourTree``) over this
+        scenario's gait library."""
+        library = self.gaits()
+        try:
+            return compile_tree(self.behaviour_nodes(),
+                                {name: gait.to_vector() for name, gait in library.items()})
+        except ValueError as e:
+            raise ScenarioError(f"transition.{e}") from None
+
     def initial_joint_angles(self) -> np.ndarray:
         """The initial joint angles (16, the plant's order): the stance X of
         ``initial_stance`` under ``controller.gait_reading``, or zeros."""
@@ -412,6 +433,15 @@ class Scenario:
                   f"[time_step = {self.time_step}, 1] s")
         check_in_range("transition.arrival_tolerance", tr.arrival_tolerance, 0.0, math.pi,
                   "(0, pi] rad", open_low=True)
+        if not isinstance(tr.tree, dict):
+            raise ScenarioError(f"transition.tree: expected a mapping of node names to nodes, "
+                                f"got {tr.tree!r}")
+        if tr.tree and (tr.blend != "potential" or tr.z_t != 1.0):
+            field = "blend" if tr.blend != "potential" else "z_t"
+            raise ScenarioError(f"transition.{field}: {getattr(tr, field)!r} is set beside "
+                                "transition.tree; a tree gives each node's weight and full_at "
+                                "itself (blend and z_t shape the default tree only)")
+        self.behaviour_tree()  # every node's fields, children and gaits
         w = self.water
         check_boolean("water.enabled", w.enabled)
         if self.controller.mode == "transition" and not w.enabled:
@@ -554,7 +584,9 @@ def _walk_key(dotted: str):
         raise ScenarioError(f"{dotted!r}: not a dotted scenario key")
     parts = dotted.split(".")
     schema, path = Scenario, []
-    for i, part in enumerate(parts):
+    i = 0
+    while i < len(parts):
+        part = parts[i]
         fields = schema_fields(schema)
         if fields is None or part not in fields:
             where = ".".join(["scenario", *path])
@@ -563,6 +595,15 @@ def _walk_key(dotted: str):
         path.append(part)
         tp = fields[part]
         if typing.get_origin(tp) is dict and i + 1 < len(parts):
+            value_type = typing.get_args(tp)[1]
+            if dc.is_dataclass(value_type):
+                # A mapping of named sections (transition.tree.NODE.FIELD): the next part
+                # is the name, the rest a field of that section.
+                path.append(parts[i + 1])
+                if i + 2 == len(parts):
+                    return path, value_type, None
+                schema, i = value_type, i + 2
+                continue
             key = ".".join(parts[i + 1:])
             if ".".join(path) == _COEFFICIENT_SCALES and key not in coefficient_names():
                 raise ScenarioError(f"{dotted}: unknown coefficient {key!r}; allowed: "
@@ -572,6 +613,7 @@ def _walk_key(dotted: str):
             args = [a for a in typing.get_args(tp) if a is not type(None)]
             tp = args[0] if len(args) == 1 else tp
         schema = tp
+        i += 1
     return path, schema, None
 
 

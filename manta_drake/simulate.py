@@ -35,8 +35,6 @@ from pydrake.systems.primitives import RandomSource
 from manta_drake import metrics as M
 from manta_drake import plots
 from manta_drake.config_io import check_integer, check_writable_folder
-from manta_drake.control.gaits import get_gait
-from manta_drake.control.transition import BEHAVIOURS
 from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, NUM_JOINTS
 from manta_drake.scenario import Scenario, scenario_yaml
 from manta_drake.wiring.diagram import DiagramHandles, build_diagram, logger_data
@@ -163,8 +161,7 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
     if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
-        behaviours = {name: get_gait(name, scenario.controller.gait_reading).to_vector()
-                      for name in BEHAVIOURS}
+        behaviours = scenario.behaviour_tree().gait_vectors
         m["transitions"] = M.behaviour_transitions(
             log["t_cpg_params"], log["cpg_params"], behaviours,
             scenario.transition.arrival_tolerance)

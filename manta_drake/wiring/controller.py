@@ -55,12 +55,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from manta_drake.control.cpg import CpgOscillators, initial_state
 from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
 from manta_drake.control.depth_image_filter import DepthImageFilter
-from manta_drake.control.gaits import get_gait
-from manta_drake.control.transition import (
-    BEHAVIOURS,
-    PotentialTransition,
-    target_params,
-)
+from manta_drake.control.transition import PotentialTransition
 from manta_drake.control.vision import WallDetector
 from manta_drake.model.camera import camera_info
 from manta_drake.scenario import Scenario
@@ -71,6 +66,8 @@ class ControllerHandles:
     """Every system of a built controller by name."""
 
     systems: dict = dc.field(default_factory=dict)
+    # The 0-1 estimates a behaviour tree may read, beyond z_hat and s_hat: modality -> port.
+    estimates: dict = dc.field(default_factory=dict)
 
 
 def initial_sensor_depth(scenario: Scenario) -> float:
@@ -85,10 +82,10 @@ def initial_cpg_params(scenario: Scenario) -> np.ndarray:
         de = scenario.depth_estimator
         z0 = float(fuzzy_depth(initial_sensor_depth(scenario), de.floor_distance,
                                de.surface_depth)[1])
-        reading = scenario.controller.gait_reading
-        behaviours = (get_gait(name, reading).to_vector() for name in BEHAVIOURS)
-        return target_params(z0, 0.0, *behaviours, scenario.transition.z_t,
-                             scenario.transition.blend)
+        tree = scenario.behaviour_tree()
+        values = {m: 0.0 for m in tree.modalities}  # no wall, flow, tilt or low charge yet
+        values["z_hat"] = z0
+        return tree.target(values, tree.initial_switch_state(values))[0]
     return scenario.gait(scenario.controller.gait).to_vector()
 
 
@@ -162,17 +159,20 @@ def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, 
 
 def _add_transition(builder, scenario: Scenario, handles: ControllerHandles, s_hat):
     tr = scenario.transition
+    tree = scenario.behaviour_tree()
     transition = builder.AddNamedSystem("transition", PotentialTransition(
-        tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend, follow=tr.follow,
-        initial_params=initial_cpg_params(scenario),
-        s_hat_time_constant=tr.s_hat_time_constant,
-        gait_reading=scenario.controller.gait_reading))
-    builder.Connect(handles.systems["depth_estimator"].GetOutputPort("z_hat"),
-                    transition.GetInputPort("z_hat"))
+        tr.period, tr.g, tr.T, tr.alpha, follow=tr.follow,
+        initial_params=initial_cpg_params(scenario), tree=tree,
+        s_hat_time_constant=tr.s_hat_time_constant))
+    estimates = {"z_hat": handles.systems["depth_estimator"].GetOutputPort("z_hat")}
     if s_hat is None:  # no camera: no wall is ever seen
         s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
         builder.ExportOutput(s_hat, "s_hat")
-    builder.Connect(s_hat, transition.GetInputPort("s_hat"))
+    estimates["s_hat"] = s_hat
+    estimates.update(handles.estimates)
+    for modality in tree.modalities:  # Scenario.validate checked each has its sensor
+        builder.Connect(estimates[modality], transition.GetInputPort(modality))
+    builder.ExportOutput(transition.GetOutputPort("behaviour_weights"), "behaviour_weights")
     handles.systems["transition"] = transition
     return transition.GetOutputPort("cpg_params")
 

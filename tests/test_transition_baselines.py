@@ -129,3 +129,102 @@ def test_gait_changes_counts_chatter(tb):
     assert tb.gait_changes([None, "trot", "trot"], "swim") == 1
     assert tb.gait_changes(["swim", "trot", None, "swim", "trot"], "swim") == 3
     assert tb.gait_changes([None, None], "swim") == 0
+
+
+def _three_gaits():
+    from manta_drake.control.gaits import GAITS
+
+    return [GAITS[b].to_vector() for b in ("swim", "trot", "turning")]
+
+
+def _eq12(z, s, swim, trot, turning, z_t, normalise):
+    """Eq. (12) written out here (the text's w(s), a = pi/2 (min(z / z_t, 1) - 1)), with its
+    weights divided by their sum if ``normalise``."""
+    a = 0.5 * np.pi * (min(z / z_t, 1.0) - 1.0)
+    w = 0.5 * (1.0 - np.cos(np.pi * s))
+    w_swim, w_gait = -np.sin(a), np.cos(a)
+    if normalise:
+        w_swim, w_gait = w_swim / (w_swim + w_gait), w_gait / (w_swim + w_gait)
+    return w_swim * swim + w_gait * (w * turning + (1.0 - w) * trot)
+
+
+def _outside(x, lo, hi):
+    return float(np.maximum(np.maximum(lo - x, x - hi), 0.0).max())
+
+
+@pytest.mark.parametrize("z_t", [1.0, 0.6])
+def test_the_normalised_blend_commands_nothing_outside_the_gaits_range(tb, z_t):
+    from manta_drake.control.transition import target_params
+
+    gaits = _three_gaits()
+    stacked = np.array(gaits)
+    lo, hi = stacked.min(axis=0), stacked.max(axis=0)  # entrywise over swim, trot, turning
+    n = stacked.shape[1] // 4
+    R, X = np.abs(stacked[:, :n]), stacked[:, n : 2 * n]
+    j_lo, j_hi = (X - R).min(axis=0), (X + R).max(axis=0)  # what a locked CPG commands
+    z_grid, s_grid = np.linspace(0.0, 1.0, 201), np.linspace(0.0, 1.0, 11)
+    worst = {}
+    for blend in ("normalised", "potential"):
+        params = joints = 0.0
+        for z in z_grid:
+            for s in s_grid:
+                psi_d = target_params(z, s, *gaits, z_t, blend)
+                assert np.allclose(psi_d, _eq12(z, s, *gaits, z_t, blend == "normalised"),
+                                   rtol=0.0, atol=1e-12)
+                params = max(params, _outside(psi_d, lo, hi))
+                r, x = np.abs(psi_d[:n]), psi_d[n : 2 * n]
+                joints = max(joints, _outside(x - r, j_lo, np.inf),
+                             _outside(x + r, -np.inf, j_hi))
+        worst[blend] = (params, joints)
+    # Convex: inside up to round-off, every entry and the joints' envelope.
+    assert worst["normalised"][0] <= 1e-12 and worst["normalised"][1] <= 1e-12
+    # Eq. (12) as printed leaves both (its weights sum to sqrt 2 at z = z_t / 2).
+    assert worst["potential"][0] > 0.1 and worst["potential"][1] > 0.1
+    # At z = z_t / 2, s = 0, an entry on which swim and trot agree is scaled by sqrt 2.
+    mid = target_params(0.5 * z_t, 0.0, *gaits, z_t, "potential")
+    same = np.flatnonzero((gaits[0] == gaits[1]) & (gaits[0] != 0.0))
+    assert len(same)
+    assert np.allclose(mid[same], np.sqrt(2.0) * gaits[0][same])
+    # The study's measure agrees with this one on the same grid.
+    for blend, (params, joints) in worst.items():
+        got = tb.target_outside(blend, z_t, z_grid, s_grid)
+        assert got["params_rad"] == pytest.approx(params, abs=1e-12)
+        assert got["joints_rad"] == pytest.approx(joints, abs=1e-12)
+
+
+def test_the_normalised_blend_sits_between_swim_and_the_gait(tb):
+    # At z = 1/2 (z_t = 1) the two normalised weights are equal: the midpoint; at z = 1/3,
+    # a = -pi/3: weights sin(pi/3), cos(pi/3) over their sum.
+    from manta_drake.control.transition import target_params
+
+    swim, trot, turning = _three_gaits()
+    assert np.allclose(target_params(0.5, 0.0, swim, trot, turning, 1.0, "normalised"),
+                       0.5 * (swim + trot))
+    a, b = np.sin(np.pi / 3), np.cos(np.pi / 3)
+    assert np.allclose(target_params(1 / 3, 0.0, swim, trot, turning, 1.0, "normalised"),
+                       (a * swim + b * trot) / (a + b))
+
+
+def test_the_normalised_comparison_names_its_costs_and_gains(tb):
+    def row(method, transition, **values):
+        base = {"method": method, "transition": transition, "event_s": 10.0,
+                "window_s": [8.0, 22.0], "outside_gaits_deg": 0.0, "outside_steady_deg": 0.0,
+                "arrival_s": 3.0, "settle_params_s": 5.0, "settle_joints_s": 4.0,
+                "max_cmd_rate_rad_s": 3.0, "max_meas_vel_rad_s": 3.0, "peak_torque_nm": 4.0,
+                "pitch_exc_deg": 20.0, "roll_exc_deg": 15.0}
+        return {**base, **values}
+
+    rows = [row("potential/descent", "swim->trot", outside_gaits_deg=14.6),
+            row("normalised/descent", "swim->trot", arrival_s=3.5, peak_torque_nm=3.0),
+            row("potential/descent", "trot->swim", outside_gaits_deg=8.7),
+            row("normalised/descent", "trot->swim", settle_joints_s=None)]
+    text = "\n".join(tb.normalised_section(rows, 1.0))
+    costs = next(line for line in text.splitlines() if line.startswith("* What it costs"))
+    gains = next(line for line in text.splitlines() if line.startswith("* What it gains"))
+    assert "first arrival 0.50 s later (swim->trot)" in costs
+    assert "settle, joints not within the window for normalised (trot->swim)" in costs
+    assert "peak abs torque 1.00 N m smaller (swim->trot)" in gains
+    assert "pitch" not in costs + gains  # equal values are neither
+    assert "by at most 0.0 deg, Eq. (12)'s by 14.6 deg" in text
+    # Without a normalised run there is nothing to compare.
+    assert tb.normalised_section(rows[::2], 1.0) == []

@@ -2,19 +2,22 @@
 
 Runs the ``two_behaviors`` scenario (swim at the surface; the balloon deflates at 8 s, the
 robot sinks and the controller goes swim -> trot; it inflates at 38 s, trot -> swim) with
-three transition methods,
+four transition methods,
 
 * ``potential/descent``: the paper's, Eq. (12) target and Eqs. (14)-(15) descent;
+* ``normalised/descent``: Eq. (12)'s weights divided by their sum (a convex blend), the same
+  descent;
 * ``linear/direct``: Eq. (11)'s linear blend of the gaits by z_hat, followed at once;
 * ``switch/direct``: the gait changes abruptly when z_hat crosses 1/2 (z_t / 2),
 
 computes per method and per transition the metrics defined below from each run's log.npz,
-and writes the table and its explanation to docs/transitions.md and a figure to
-docs/figures/transition_baselines.png.
+measures how far each blend's target psi_d leaves the gaits' range over every estimate
+(``target_outside``, no run needed), and writes the tables and their explanation to
+docs/transitions.md and a figure to docs/figures/transition_baselines.png.
 
 Usage::
 
-    manta-drake study transitions               # 3 runs of 70 s, then the table
+    manta-drake study transitions               # 4 runs of 70 s, then the table
     manta-drake study transitions --reuse       # the table from the existing runs
     manta-drake study transitions --duration 20 # a quick check (writes into --out)
 
@@ -38,6 +41,7 @@ SCENARIO = "two_behaviors"
 # (label, transition.blend, transition.follow, folder)
 METHODS = (
     ("potential/descent", "potential", "descent", "potential_descent"),
+    ("normalised/descent", "normalised", "descent", "normalised_descent"),
     ("linear/direct", "linear", "direct", "linear_direct"),
     ("switch/direct", "switch", "direct", "switch_direct"),
 )
@@ -51,6 +55,9 @@ DEFAULT_OUT = "out/transition_baselines"
 DOC = ROOT / "docs" / "transitions.md"
 FIGURE = ROOT / "docs" / "figures" / "transition_baselines.png"
 COMMAND = "manta-drake study transitions"
+COLOURS = {"potential/descent": "C0", "normalised/descent": "C2", "linear/direct": "C1",
+           "switch/direct": "C3"}
+NUMBER_WORDS = {2: "two", 3: "three", 4: "four", 5: "five"}
 
 
 # ----------------------------------------------------------------------------------------
@@ -116,6 +123,45 @@ def gait_envelope(params):
     n = p.size // 4
     R, X = np.abs(p[:n]), p[n : 2 * n]
     return X - R, X + R
+
+
+def target_outside(blend: str, z_t: float = 1.0, z=None, s=None) -> dict:
+    """How far the target psi_d of ``blend`` (``transition.target_params``) leaves the range of
+    the behaviours it blends (swim, trot, turning), over the grid of estimates z_hat x s_hat
+    (default 401 x 21 points of [0, 1] each).
+
+    Returns a dict: ``params_rad``, the largest distance of any of the 64 entries of psi_d
+    outside [min, max] of that entry over the three gaits (raw values, phases not wrapped: a
+    blend mixes them raw); ``joints_rad``, the largest distance of the target's joint envelope
+    [X - |R|, X + |R|] (what a CPG locked to psi_d commands) outside [min (X - |R|),
+    max (X + |R|)] over the three gaits, per joint; with the (z_hat, s_hat) and the entry or
+    joint of each maximum (``params_at``, ``param``, ``joints_at``, ``joint``).
+    """
+    from manta_drake.control.gaits import GAITS
+    from manta_drake.control.transition import BEHAVIOURS, target_params
+
+    z = np.linspace(0.0, 1.0, 401) if z is None else np.asarray(z, dtype=float)
+    s = np.linspace(0.0, 1.0, 21) if s is None else np.asarray(s, dtype=float)
+    gaits = np.array([GAITS[b].to_vector() for b in BEHAVIOURS])
+    p_lo, p_hi = gaits.min(axis=0), gaits.max(axis=0)
+    envelopes = [gait_envelope(g) for g in gaits]
+    j_lo = np.min([lo for lo, _ in envelopes], axis=0)
+    j_hi = np.max([hi for _, hi in envelopes], axis=0)
+    best = {"params_rad": 0.0, "params_at": None, "param": None,
+            "joints_rad": 0.0, "joints_at": None, "joint": None}
+    for zi in z:
+        for si in s:
+            psi_d = target_params(zi, si, *gaits, z_t, blend)
+            ex = np.maximum(np.maximum(p_lo - psi_d, psi_d - p_hi), 0.0)
+            k = int(ex.argmax())
+            if ex[k] > best["params_rad"]:
+                best.update(params_rad=float(ex[k]), params_at=(float(zi), float(si)), param=k)
+            lo, hi = gait_envelope(psi_d)
+            ex = np.maximum(np.maximum(j_lo - lo, hi - j_hi), 0.0)
+            k = int(ex.argmax())
+            if ex[k] > best["joints_rad"]:
+                best.update(joints_rad=float(ex[k]), joints_at=(float(zi), float(si)), joint=k)
+    return best
 
 
 def settle_time(t, x, target, tol: float, start: float, end: float, angles: bool = True):
@@ -489,7 +535,6 @@ def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> Non
 
     from manta_drake.control.gaits import GAITS
 
-    colours = {"potential/descent": "C0", "linear/direct": "C1", "switch/direct": "C3"}
     # The joint shown: the one that leaves the two gaits' range the most in any run.
     worst = [r for r in rows if "outside_gaits_deg" in r]
     j = max(worst, key=lambda r: r["outside_gaits_deg"])["worst_joint"] if worst else 2
@@ -502,7 +547,7 @@ def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> Non
             t0 = row.get("event_s")
             if t0 is None:
                 continue
-            col = colours[label]
+            col = COLOURS[label]
             m = window_mask(log["t_command"], t0 - lead, t0 + HORIZON_S)
             tt = log["t_command"][m] - t0
             axes[0, c].plot(tt, log["commanded_joint_angles"][m, j], color=col, lw=0.8,
@@ -544,7 +589,8 @@ def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> Non
     for ax in axes[:, 0]:
         ax.legend(fontsize=7, loc="best")
     axes[2, 1].legend(fontsize=7, loc="best")
-    fig.suptitle(f"{SCENARIO}: the transitions of three methods", fontsize=12)
+    fig.suptitle(f"{SCENARIO}: the transitions of {NUMBER_WORDS[len(runs)]} methods",
+                 fontsize=12)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -573,6 +619,10 @@ def reading(rows: list[dict]) -> list[str]:
                 f"had that joint's amplitude R = {w['R']:.3f} and bias X = {w['X']:.3f} "
                 f"(X - |R| = {w['X'] - abs(w['R']):.3f}, X + |R| = {w['X'] + abs(w['R']):.3f}) "
                 f"with z_hat = {w['z_hat']:.2f}.")
+        descent = (" psi is still on its way, off the straight line between the gaits: "
+                   "Eq. (15)'s descent moves every parameter by at most alpha g T per update, "
+                   "so the parameters with the larger changes (the phases, up to pi) arrive "
+                   "last and meanwhile amplitude and bias combine as in neither gait.")
         if r.get("blend") == "potential":
             z = min(max(w["z_hat"], 0.0), 1.0)
             weights = np.cos(np.pi * z / 2) + np.sin(np.pi * z / 2)
@@ -583,11 +633,10 @@ def reading(rows: list[dict]) -> list[str]:
                          "while its bias already moves toward the trot's.")
             else:
                 text += (f" At that z_hat the target is a gait (Eq. (12)'s weights sum to "
-                         f"{weights:.2f}); psi is still on its way, off the straight line "
-                         "between the gaits: Eq. (15)'s descent moves every parameter by at "
-                         "most alpha g T per update, so the parameters with the larger changes "
-                         "(the phases, up to pi) arrive last and meanwhile amplitude and bias "
-                         "combine as in neither gait.")
+                         f"{weights:.2f});" + descent)
+        elif r.get("blend") == "normalised":
+            text += (" The target psi_d is a convex blend, inside the gaits' range at every "
+                     "z_hat (below);" + descent)
         out.append(text)
     surface = [r["z_hat_steady_range"][0] for r in rows
                if r["transition"] == "swim->trot" and "z_hat_steady_range" in r]
@@ -600,11 +649,12 @@ def reading(rows: list[dict]) -> list[str]:
         gaits = [GAITS[b].to_vector() for b in BEHAVIOURS]
         dev = {blend: float(np.abs(wrap(target_params(z_hi, 0.0, *gaits, 1.0, blend)
                                         - gaits[0])).max())
-               for blend in ("potential", "linear", "switch")}
+               for blend in ("potential", "normalised", "linear", "switch")}
         text = (f"* In steady swimming at the surface (the {STEADY_S:g} s windows) z_hat spans "
                 f"[{z_lo:.2f}, {z_hi:.2f}] (the sensor's depth varies as the robot swims). "
                 f"At z_hat = {z_hi:.2f} the target psi_d is up to {dev['potential']:.2f} rad "
-                f"from the swim gait with Eq. (12), {dev['linear']:.2f} rad with Eq. (11) and "
+                f"from the swim gait with Eq. (12), {dev['normalised']:.2f} rad with the "
+                f"normalised blend, {dev['linear']:.2f} rad with Eq. (11) and "
                 f"{dev['switch']:.2f} rad with the switch (threshold 1/2).")
         tol = SETTLE_FRACTION * np.abs(wrap(gaits[1] - gaits[0])).max()
         if min(dev["potential"], dev["linear"]) > tol:
@@ -613,6 +663,111 @@ def reading(rows: list[dict]) -> list[str]:
                      "parameters cannot settle in it; the first arrival shows when they "
                      "first reach the swim gait.")
         out.append(text)
+    return out
+
+
+def target_section(z_t: float) -> list[str]:
+    """The table of ``target_outside`` for each method's blend: how far the target alone
+    leaves the gaits' range, over every estimate."""
+    out = ["", "### The targets over every estimate (computed from the blends, no run)", "",
+           (f"psi_d of each blend (z_t = {z_t:g}) on a grid of 401 z_hat x 21 s_hat in [0, 1], "
+            "against the range of the three gaits it blends (swim, trot, turning): the largest "
+            "distance of any of its 64 entries outside [min, max] of that entry over the gaits, "
+            "and of its joint envelope [X - |R|, X + |R|] (what a CPG locked to psi_d commands) "
+            "outside [min (X - |R|), max (X + |R|)] over the gaits."), "",
+           ("| blend | psi_d entry outside (deg) | at z_hat, s_hat | joint envelope outside "
+            "(deg) | at z_hat, s_hat |"), "| --- | --- | --- | --- | --- |"]
+    for _, blend, _, _ in METHODS:
+        r = target_outside(blend, z_t)
+        # Below 1e-9 rad the distance is round-off of a convex blend at a gait's own extreme.
+        at = {k: f"{r[k][0]:.2f}, {r[k][1]:.2f}" if r[k] and r[k.replace("_at", "_rad")] > 1e-9
+              else "n/a" for k in ("params_at", "joints_at")}
+        out.append(f"| {blend} | {np.degrees(r['params_rad']):.1f} | {at['params_at']} | "
+                   f"{np.degrees(r['joints_rad']):.1f} | {at['joints_at']} |")
+    return out
+
+
+# What normalised_section compares: key, what, unit, format.
+COMPARED = (
+    ("outside_gaits_deg", "outside the two gaits' range (X -+ |R|)", "deg", "{:.1f}"),
+    ("outside_steady_deg", "outside the steady envelope", "deg", "{:.1f}"),
+    ("arrival_s", "first arrival", "s", "{:.2f}"),
+    ("settle_params_s", "settle, params", "s", "{:.2f}"),
+    ("settle_joints_s", "settle, joints", "s", "{:.2f}"),
+    ("max_cmd_rate_rad_s", "max cmd rate", "rad/s", "{:.2f}"),
+    ("max_meas_vel_rad_s", "max meas. vel", "rad/s", "{:.2f}"),
+    ("peak_torque_nm", "peak abs torque", "N m", "{:.2f}"),
+    ("pitch_exc_deg", "pitch exc.", "deg", "{:.1f}"),
+    ("roll_exc_deg", "roll exc.", "deg", "{:.1f}"),
+)
+TIME_KEYS = ("arrival_s", "settle_params_s", "settle_joints_s")
+SMOOTH_KEYS = ("max_cmd_rate_rad_s", "max_meas_vel_rad_s", "peak_torque_nm", "pitch_exc_deg",
+               "roll_exc_deg")
+
+
+def _shown(row: dict, key: str, spec: str):
+    """The value as the tables show it (a float rounded to ``spec``), None when missing."""
+    v = row.get(key)
+    if v is None or not np.isfinite(v):
+        return None
+    return float(spec.format(v))
+
+
+def normalised_section(rows: list[dict], z_t: float) -> list[str]:
+    """The normalised blend against Eq. (12) (both followed by the descent), transition by
+    transition, and what it costs or gains, all from the rows and ``target_outside``."""
+    new, ref = "normalised/descent", "potential/descent"
+    if not any(r["method"] == new for r in rows) or not any(r["method"] == ref for r in rows):
+        return []
+    out = ["", "### The normalised blend against Eq. (12) (computed from the runs)", ""]
+    costs, gains = [], []
+    for src, dst in TRANSITIONS:
+        name = f"{src}->{dst}"
+        n = next(r for r in rows if r["method"] == new and r["transition"] == name)
+        p = next(r for r in rows if r["method"] == ref and r["transition"] == name)
+        parts = []
+        for key, what, unit, spec in COMPARED:
+            a, b = _shown(n, key, spec), _shown(p, key, spec)
+            parts.append(f"{what} {fmt(n, key, spec)} {unit} (Eq. 12: {fmt(p, key, spec)})")
+            if key in TIME_KEYS and (a is None) != (b is None):
+                # One of them is still off at the window's end.
+                late = "normalised" if a is None else "Eq. (12)"
+                (costs if a is None else gains).append(
+                    f"{what} not within the window for {late} ({name})")
+                continue
+            if a is None or b is None or a == b or key not in TIME_KEYS + SMOOTH_KEYS:
+                continue
+            d = spec.format(abs(a - b))
+            kind = "later" if key in TIME_KEYS else "larger"
+            better = "earlier" if key in TIME_KEYS else "smaller"
+            (costs if a > b else gains).append(
+                f"{what} {d} {unit} {kind if a > b else better} ({name})")
+        out.append(f"* {name}: " + "; ".join(parts) + ".")
+    target = target_outside("normalised", z_t)
+    paper = target_outside("potential", z_t)
+    def largest(method):
+        values = [r["outside_gaits_deg"] for r in rows if r["method"] == method
+                  and np.isfinite(r.get("outside_gaits_deg", np.nan))]
+        return max(values) if values else float("nan")
+
+    run_n, run_p = largest(new), largest(ref)
+    text = (f"* In range: the normalised target never leaves the gaits' range (at most "
+            f"{np.degrees(target['params_rad']):.1f} deg on any entry and "
+            f"{np.degrees(target['joints_rad']):.1f} deg on the joint envelope, over every "
+            f"estimate; Eq. (12)'s target: {np.degrees(paper['params_rad']):.1f} and "
+            f"{np.degrees(paper['joints_rad']):.1f} deg). In these runs its commanded joints "
+            f"left the two gaits' range by at most {run_n:.1f} deg, Eq. (12)'s by "
+            f"{run_p:.1f} deg")
+    if run_n >= 0.05:
+        text += ("; what remains comes from the descent, not the target: psi follows a "
+                 "convex target off the straight line between the gaits (above).")
+    else:
+        text += "."
+    out.append(text)
+    out.append("* What it costs against Eq. (12): " + ("; ".join(costs) if costs else "nothing "
+               "measured here (no time and no smoothness measure is larger)") + ".")
+    out.append("* What it gains: " + ("; ".join(gains) if gains else "no time and no "
+               "smoothness measure is smaller") + ".")
     return out
 
 
@@ -637,10 +792,11 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
         top = max(v for v, _ in vals)
         return " = ".join(m for v, m in vals if v == top)
 
+    runs = NUMBER_WORDS[len(METHODS)]
     lines = [
         "# Transitions measured against baselines",
         "",
-        stamp_line(f"`{command}` (three runs of {duration:g} s, one after the other; "
+        stamp_line(f"`{command}` ({runs} runs of {duration:g} s, one after the other; "
                    "`--reuse` recomputes this page from the existing runs in `--out`, "
                    f"default `{DEFAULT_OUT}`)."),
         "Generated by `manta-drake study transitions`; do not edit by hand.",
@@ -648,19 +804,24 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
         f"The scenario `{SCENARIO}` (swim at the surface; the balloon is commanded to "
         + ", then ".join(f"fill {fill:g} at {time:g} s" for time, fill in f["commands"])
         + ": the robot sinks and the controller changes swim -> trot, then it rises, "
-        "trot -> swim) is run three times, changing only `transition.blend` and "
-        "`transition.follow`:",
+        f"trot -> swim) is run {NUMBER_WORDS[len(METHODS)]} times, changing only "
+        "`transition.blend` and `transition.follow`:",
         "",
         "* **potential/descent** (the paper's): the target psi_d of Eq. (12), "
         "psi_d = cos(pi z/2) Theta_swim + sin(pi z/2) Theta_trot (for z_t = 1; here "
         f"z_t = {f['z_t']:g}), followed by the "
         "CPG parameters psi through the descent on Eq. (14)'s potential (Eq. 15), at most "
-        f"{f['max_descent_step']:.3f} rad per {f['period_ms']:g} ms update;",
+        f"{f['max_descent_step']:.3f} rad per {f['period_ms']:g} ms update. Its two weights "
+        "sum to up to sqrt(2) = 1.41 (at z = 1/2), so the target is not a convex blend;",
+        "* **normalised/descent**: Eq. (12)'s two weights divided by their sum, "
+        "psi_d = (cos(pi z/2) Theta_swim + sin(pi z/2) Theta_trot) / (cos(pi z/2) + "
+        "sin(pi z/2)), a convex blend (`transition.blend: normalised`), followed by the same "
+        "descent;",
         "* **linear/direct**: Eq. (11), psi_d = (1 - z) Theta_swim + z Theta_trot, and "
         "psi = psi_d at once;",
         "* **switch/direct**: psi = Theta_trot when z_hat >= 1/2, Theta_swim below, at once.",
         "",
-        "In all three the CPG (Eq. 5) sits between psi and the joints: its amplitudes and "
+        f"In all {runs} the CPG (Eq. 5) sits between psi and the joints: its amplitudes and "
         f"biases follow R and X through critically damped second-order filters (a = {f['a']:g}, "
         f"b = {f['b']:g} 1/s) "
         "and its phases lock through the coupling, so even the switch does not step the joint "
@@ -673,7 +834,8 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
         "(clipped at the run's end; the lead catches a blend's partial moves while z_hat "
         "hovers before it commits). The rows *steady ... (ref.)* give the same motion "
         f"metrics over the steady parts of the two gaits (the {STEADY_S:g} s windows below; "
-        "the largest of the three runs): what the gaits themselves do, without a transition.",
+        f"the largest of the {runs} runs): what the gaits themselves do, without a "
+        "transition.",
         "",
         "* **event t0**: the start of the transition of the *target* psi_d, the same rule for "
         "every method: psi_d is recomputed from the logged z_hat with the method's blend, and "
@@ -737,12 +899,14 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
             f"{best('pitch_exc_deg', name)}; largest excursion outside the steady envelope: "
             f"{best('outside_steady_deg', name)}.")
     lines += reading(rows)
+    lines += target_section(f["z_t"])
+    lines += normalised_section(rows, f["z_t"])
     lines += ["", "Checks made by the script on these runs:", ""]
     lines += [f"* {k}: {v}" for k, v in checks.items()]
     lines += ["", f"![transitions]({rel_fig})", "",
               "The figure: around each transition (t - t0), the commanded angle of the joint "
               "that leaves the two gaits' range the most (grey: that range), the body pitch, "
-              "the largest joint torque of the 16 and z_hat, for the three methods.", ""]
+              f"the largest joint torque of the 16 and z_hat, for the {runs} methods.", ""]
     write_stamped(path, "\n".join(lines))
 
 
@@ -750,7 +914,7 @@ def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study transitions``); returns the exit status."""
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=None, help="folder of the three runs "
+    parser.add_argument("--out", default=None, help="folder of the runs "
                         f"(default {DEFAULT_OUT} in the repository)")
     parser.add_argument("--duration", type=float, default=None,
                         help="simulate only this many seconds (a quick check; the table and "

@@ -1,0 +1,352 @@
+"""Reading an optimisation spec: ``load_problem`` checks every field of the file and the
+command line's overrides, resolves the scenario, the start gait and every robustness and
+held-out point, and returns the ``Problem`` the run works on. Nothing is simulated; every
+refusal is one line naming the field (``optimize.free[1].tie[0]``) or the option."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import hashlib
+import json
+import math
+import pathlib
+import re
+import tempfile
+
+from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping
+from manta_drake.control.gait_files import RESERVED_NAMES
+from manta_drake.optimize.evaluate import candidate_overrides
+from manta_drake.optimize.objective import METRICS
+from manta_drake.optimize.parameters import (
+    ParameterSpace,
+    build_parameters,
+    candidate_gait_text,
+)
+from manta_drake.optimize.spec import (
+    Budget,
+    Constraint,
+    FreeEntry,
+    HeldOut,
+    Objective,
+    OptimizeError,
+    OptimizeSpec,
+    Robustness,
+    Term,
+)
+from manta_drake.scenario import Scenario, find_scenario, load_scenario, scenario_yaml
+from manta_drake.sweep.config import check_parameter_name
+from manta_drake.sweep.plan import apply_overrides
+
+ROOT = "optimize"
+# Fields of OptimizeSpec the loader sets, never the file.
+NOT_IN_FILE = ("folder", "path", "text_sha256")
+# Scenario keys the optimiser sets itself: refused in overrides and points.
+RESERVED_KEYS = {
+    "controller.gait": "the optimiser runs the candidate gait (the start gait is `gait`)",
+    "random_seed": "the seeds are robustness.seeds",
+    "duration": "use budget.duration (or --duration)",
+    "steady_after": "use budget.steady_after",
+}
+AGGREGATES = ("mean", "worst")
+MAX_GENERATIONS = 100_000
+MAX_POPULATION = 10_000
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+@dc.dataclass
+class Problem:
+    """A checked spec with what every evaluation starts from.
+
+    Attributes:
+        spec: the spec, command-line overrides applied.
+        base: the resolved base scenario (overrides, budget's duration and steady_after,
+            no Meshcat); every evaluation layers its candidate and point on it.
+        base_yaml: ``base`` as the text a worker loads.
+        space: the free parameters around the start gait.
+        set_stance: the X matrix is free, so each run starts in its candidate's stance.
+        sets: the ``--set`` overrides (also in ``base``).
+    """
+
+    spec: OptimizeSpec
+    base: Scenario
+    base_yaml: str
+    space: ParameterSpace
+    set_stance: bool
+    sets: dict = dc.field(default_factory=dict)
+
+    def identity(self) -> dict:
+        """What an output folder's evaluations depend on: a restart must match it. The
+        spec's content (not ``budget.generations``, which a restart may raise), the
+        resolved scenario and the seed."""
+        content = spec_content(self.spec)
+        content["budget"].pop("generations")
+        return {"spec": _sha(json.dumps(content, sort_keys=True, default=str)),
+                "scenario": _sha(self.base_yaml),
+                "population": self.spec.budget.population, "seed": self.spec.seed,
+                "parameters": self.space.names}
+
+
+def _sha(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def spec_content(spec: OptimizeSpec) -> dict:
+    """The spec's fields as plain data (not where it is)."""
+    data = dc.asdict(spec)
+    for key in NOT_IN_FILE:
+        data.pop(key)
+    return data
+
+
+def _build(data: dict, path: pathlib.Path, text: str) -> OptimizeSpec:
+    allowed = sorted(f.name for f in dc.fields(OptimizeSpec) if f.name not in NOT_IN_FILE)
+    for key in data:
+        if key not in allowed:
+            raise OptimizeError(f"{ROOT}.{key}: unknown key (a typo?); allowed keys: "
+                                f"{', '.join(allowed)}")
+    try:
+        check_keys(data, OptimizeSpec, ROOT)
+    except ScenarioError as e:
+        raise OptimizeError(str(e)) from None
+    obj = data.get("objective") or {}
+    return OptimizeSpec(
+        name=data.get("name") or path.stem,
+        description=data.get("description", ""),
+        scenario=data.get("scenario", ""),
+        gait=data.get("gait", ""),
+        overrides=dict(data.get("overrides") or {}),
+        free=[FreeEntry(**f) for f in data.get("free") or []],
+        objective=Objective(
+            terms=[Term(**t) for t in obj.get("terms") or []],
+            constraints=[Constraint(**c) for c in obj.get("constraints") or []],
+            **{k: v for k, v in obj.items() if k not in ("terms", "constraints")}),
+        robustness=Robustness(**(data.get("robustness") or {})),
+        held_out=HeldOut(**(data.get("held_out") or {})),
+        budget=Budget(**(data.get("budget") or {})),
+        seed=data.get("seed", 0),
+        folder=path.resolve().parent,
+        path=path.resolve(),
+        text_sha256=_sha(text),
+    )
+
+
+def load_problem(path, sets: dict | None = None, generations: int | None = None,
+                 population: int | None = None, duration: float | None = None,
+                 seed: int | None = None) -> Problem:
+    """Loads and checks an optimisation spec; simulates nothing.
+
+    Args:
+        path: the spec file.
+        sets: ``--set`` overrides (dotted scenario keys), layered over the spec's
+            ``overrides``.
+        generations, population, duration: replace the spec's ``budget`` entries.
+        seed: replaces the spec's ``seed``.
+
+    Raises:
+        OptimizeError: one line naming the field or option (module docstring).
+    """
+    path = pathlib.Path(path)
+    data, text = load_yaml_mapping(path, "optimisation spec", OptimizeError)
+    spec = _build(data, path, text)
+    budget = spec.budget
+    for option, field, value in (("--generations", "generations", generations),
+                                 ("--population", "population", population),
+                                 ("--duration", "duration", duration)):
+        if value is not None:
+            _check_budget_value(option, field, value)
+            setattr(budget, field, value)
+    if seed is not None:
+        _integer("--seed", seed, 0, 2**32 - 1)
+        spec.seed = seed
+    return validate(spec, dict(sets or {}))
+
+
+def _integer(where: str, value, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise OptimizeError(f"{where}: {value!r} is not an integer in the allowed range "
+                            f"[{lo}, {hi}]")
+
+
+def _number(where: str, value, lo: float, hi: float, text: str, open_low: bool = False) -> None:
+    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    if ok:
+        ok = (value > lo if open_low else value >= lo) and value <= hi
+    if not ok:
+        raise OptimizeError(f"{where}: {value!r} is outside the allowed range {text}")
+
+
+def _check_budget_value(where: str, field: str, value) -> None:
+    if field == "generations":
+        _integer(where, value, 1, MAX_GENERATIONS)
+    elif field == "population":
+        _integer(where, value, 2, MAX_POPULATION)
+    elif field == "sigma0":
+        _number(where, value, 0.0, 1.0, "(0, 1] (a fraction of each bound's width)",
+                open_low=True)
+    elif field == "duration":
+        if value is not None:
+            _number(where, value, 0.0, 3600.0, "(0, 3600] s", open_low=True)
+    elif field == "steady_after" and value is not None:
+        _number(where, value, 0.0, 3600.0, "[0, 3600] s")
+
+
+def _check_keys_of(point, where: str, setup: bool = False) -> None:
+    """The keys of overrides (``setup``: the scenario's own gait files and visualisation
+    may be set) or of a robustness or held-out point."""
+    if not isinstance(point, dict):
+        raise OptimizeError(f"{where}: expected a mapping of dotted scenario keys to values")
+    for key in point:
+        try:
+            check_parameter_name(key, {}, f"{where}.{key}")
+        except ScenarioError as e:
+            raise OptimizeError(str(e)) from None
+        if key in RESERVED_KEYS:
+            raise OptimizeError(f"{where}.{key}: set by the optimiser ({RESERVED_KEYS[key]})")
+        if not setup and (key == "controller.gait_files" or key.startswith("visualization.")):
+            raise OptimizeError(f"{where}.{key}: not a robustness parameter (set it in "
+                                "overrides)")
+
+
+def _seeds(seeds, where: str) -> None:
+    if not isinstance(seeds, list) or not seeds:
+        raise OptimizeError(f"{where}: expected a list of one or more seeds")
+    for i, s in enumerate(seeds):
+        _integer(f"{where}[{i}]", s, 0, 2**32 - 1)
+    if len(set(seeds)) != len(seeds):
+        raise OptimizeError(f"{where}: {seeds} names a seed twice")
+
+
+def _metric(name, where: str) -> None:
+    if name not in METRICS:
+        raise OptimizeError(f"{where}: {name!r} is not a metric; allowed: {', '.join(METRICS)}")
+
+
+def _scenario_path(spec: OptimizeSpec) -> pathlib.Path:
+    if not isinstance(spec.scenario, str) or not spec.scenario.strip():
+        raise OptimizeError(f"{ROOT}.scenario: name a scenario (a shipped name such as "
+                            "locomotion_walk, or a path relative to the spec file)")
+    candidate = spec.folder / spec.scenario
+    if candidate.is_file():
+        return candidate
+    try:
+        return find_scenario(spec.scenario)
+    except ScenarioError as e:
+        raise OptimizeError(f"{ROOT}.scenario: {e}") from None
+
+
+def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
+    """Checks a spec (every field, in file order) and resolves its scenario and points."""
+    sets = dict(sets or {})
+    if not isinstance(spec.name, str) or not _NAME.match(spec.name) \
+            or spec.name in RESERVED_NAMES:
+        raise OptimizeError(f"{ROOT}.name: {spec.name!r} is not a gait name (letters, digits "
+                            "and _, not starting with a digit; not 'zero')")
+    scenario_path = _scenario_path(spec)
+    _check_keys_of(spec.overrides, f"{ROOT}.overrides", setup=True)
+    _check_keys_of(sets, "--set", setup=True)
+    for field in ("generations", "population", "sigma0", "duration", "steady_after"):
+        _check_budget_value(f"{ROOT}.budget.{field}", field, getattr(spec.budget, field))
+    _integer(f"{ROOT}.seed", spec.seed, 0, 2**32 - 1)
+    # The base scenario: the file, the spec's overrides, --set, the budget's times.
+    extra = {**spec.overrides, **sets}
+    if spec.budget.duration is not None:
+        extra["duration"] = spec.budget.duration
+    if spec.budget.steady_after is not None:
+        extra["steady_after"] = spec.budget.steady_after
+    try:
+        base = apply_overrides(load_scenario(scenario_path), extra)
+    except ScenarioError as e:
+        where = "overrides, --set or budget" if extra else "scenario"
+        raise OptimizeError(f"{ROOT}.{where}: {' '.join(str(e).split())}") from None
+    base.visualization.meshcat = False
+    if base.controller.mode != "gait":
+        raise OptimizeError(f"{ROOT}.scenario: {scenario_path.name} has controller.mode "
+                            f"{base.controller.mode!r}; a gait is optimised with the CPG "
+                            "running it (set overrides: {controller.mode: gait})")
+    library = base.gaits()
+    if spec.gait not in library:
+        raise OptimizeError(f"{ROOT}.gait: {spec.gait!r} is not a gait of the scenario's "
+                            f"library; known gaits: {', '.join(library)}")
+    if spec.name in library:
+        raise OptimizeError(f"{ROOT}.name: {spec.name!r} is already a gait of the scenario's "
+                            "library; the result needs a name of its own")
+    parameters = build_parameters(spec.free, f"{ROOT}.free")
+    space = ParameterSpace(parameters, base.gait(spec.gait))
+    outside = space.outside_bounds()
+    if outside:
+        i, bound, text = outside[0]
+        raise OptimizeError(f"{ROOT}.free[{i}].{bound}: {text}; widen the bounds")
+    _validate_objective(spec.objective)
+    r = spec.robustness
+    if not isinstance(r.points, list):
+        raise OptimizeError(f"{ROOT}.robustness.points: expected a list of mappings")
+    _seeds(r.seeds, f"{ROOT}.robustness.seeds")
+    if r.aggregate not in AGGREGATES:
+        raise OptimizeError(f"{ROOT}.robustness.aggregate: {r.aggregate!r} is not one of "
+                            f"{', '.join(AGGREGATES)}")
+    if spec.held_out.seeds is not None:
+        _seeds(spec.held_out.seeds, f"{ROOT}.held_out.seeds")
+    set_stance = any(t.matrix == "X_deg" for p in parameters for t in p.targets)
+    problem = Problem(spec, base, scenario_yaml(base), space, set_stance, sets)
+    for group, points in (("robustness", r.points), ("held_out", spec.held_out.points)):
+        seen = set()
+        for i, point in enumerate(points):
+            where = f"{ROOT}.{group}.points[{i}]"
+            _check_keys_of(point, where)
+            text = json.dumps(point, sort_keys=True, default=str)
+            if text in seen:
+                raise OptimizeError(f"{where}: the same point twice")
+            seen.add(text)
+            _check_point(problem, point, where)
+    if not r.points:
+        _check_point(problem, {}, f"{ROOT}.gait")
+    return problem
+
+
+def _check_point(problem: Problem, point: dict, where: str) -> None:
+    """The start gait, as a candidate, resolves at ``point`` (values in range, the
+    candidate's stance accepted)."""
+    space = problem.space
+    text = candidate_gait_text(problem.spec.name, space.gait(space.start_vector()))
+    with tempfile.TemporaryDirectory(prefix="manta_opt_check_") as tmp:
+        gait_path = pathlib.Path(tmp) / "gait.yaml"
+        gait_path.write_text(text)
+        task = {"overrides": point, "gait_name": problem.spec.name, "seed": 0,
+                "set_stance": problem.set_stance}
+        try:
+            apply_overrides(problem.base, candidate_overrides(
+                task, gait_path, problem.base.controller.gait_files))
+        except ScenarioError as e:
+            raise OptimizeError(f"{where}: {' '.join(str(e).split())}") from None
+
+
+def _validate_objective(o: Objective) -> None:
+    where = f"{ROOT}.objective"
+    if not o.terms:
+        raise OptimizeError(f"{where}.terms: name at least one term, e.g. "
+                            "{metric: u, weight: -1.0}")
+    for i, t in enumerate(o.terms):
+        _metric(t.metric, f"{where}.terms[{i}].metric")
+        _number(f"{where}.terms[{i}].weight", t.weight, -1e9, 1e9, "[-1e9, 1e9]")
+        if t.weight == 0:
+            raise OptimizeError(f"{where}.terms[{i}].weight: 0 makes the term do nothing")
+    for i, c in enumerate(o.constraints):
+        w = f"{where}.constraints[{i}]"
+        _metric(c.metric, f"{w}.metric")
+        if c.min is None and c.max is None:
+            raise OptimizeError(f"{w}: give min, max or both")
+        for key in ("min", "max"):
+            value = getattr(c, key)
+            if value is not None:
+                _number(f"{w}.{key}", value, -1e9, 1e9, "[-1e9, 1e9]")
+        if c.min is not None and c.max is not None and c.min > c.max:
+            raise OptimizeError(f"{w}.min: {c.min!r} is above max ({c.max!r})")
+        if c.relative_to:
+            _metric(c.relative_to, f"{w}.relative_to")
+            if c.relative_to == c.metric:
+                raise OptimizeError(f"{w}.relative_to: {c.relative_to!r} is the metric itself")
+        if c.scale is not None:
+            _number(f"{w}.scale", c.scale, 0.0, 1e9, "(0, 1e9]", open_low=True)
+    _number(f"{where}.penalty_weight", o.penalty_weight, 0.0, 1e12, "(0, 1e12]", open_low=True)
+    _number(f"{where}.wall_cost", o.wall_cost, 0.0, 1e12, "[0, 1e12]")
+    _number(f"{where}.failed_cost", o.failed_cost, 0.0, 1e15, "(0, 1e15]", open_low=True)

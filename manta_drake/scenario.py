@@ -48,7 +48,12 @@ from manta_drake.config_io import (
     parse_yaml,
     schema_fields,
 )
+from manta_drake.control.balloon_rule import BalloonRuleParams
 from manta_drake.control.behaviour_tree import BlendNode, compile_tree, default_tree
+from manta_drake.control.energy_estimator import EnergyEstimatorParams
+from manta_drake.control.flow_estimator import FlowEstimatorParams
+from manta_drake.control.heading_hold import HeadingHoldParams
+from manta_drake.control.posture import PostureEstimatorParams
 from manta_drake.control.gait_files import gait_library
 from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
 from manta_drake.control.transition import check_parameters
@@ -58,6 +63,9 @@ from manta_drake.model.actuators import load_actuators, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
 from manta_drake.model.start_pose import start_pose_problem
+from manta_drake.station.current import CurrentPoint, CurrentSchedule
+from manta_drake.station.flow_sensor import FlowSensorParams
+from manta_drake.station.imu import ImuParams
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "find_scenario", "shipped_scenarios",
            "resolve_path", "set_override", "check_override_key", "scenario_yaml"]
@@ -171,6 +179,9 @@ class WaterConfig:
     enabled: bool = True
     coefficients: str = "package://manta_drake/hydrodynamics.yaml"
     current: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])  # m/s, world
+    # Time-keyed currents, e.g. [{time: 10, velocity: [0, 0.06, 0]}, ...]: linear between
+    # keys, the first key's before it and the last's after it; empty: ``current`` throughout.
+    current_schedule: list[CurrentPoint] = dc.field(default_factory=list)
     # 0: forces from the current state at every plant step (exact, no delay). > 0: computed
     # every update_period seconds and held (faster; one period of delay).
     update_period: float = 0.0
@@ -202,6 +213,9 @@ class BalloonConfig:
 
     initial_fill: float = 0.0
     schedule: list[BalloonCommand] = dc.field(default_factory=list)
+    # The fill from a modality's estimate instead of the clock (``rule.modality``: posture,
+    # flow or energy; empty: the schedule alone; manta_drake.control.balloon_rule).
+    rule: BalloonRuleParams = dc.field(default_factory=BalloonRuleParams)
 
 
 @dc.dataclass
@@ -298,6 +312,14 @@ class Scenario:
     depth_estimator: DepthEstimatorConfig = dc.field(default_factory=DepthEstimatorConfig)
     camera: CameraConfig = dc.field(default_factory=CameraConfig)
     wall_detector: WallDetectorParams = dc.field(default_factory=WallDetectorParams)
+    # The new modalities: station sensors and the controller's 0-1 estimates of them.
+    imu: ImuParams = dc.field(default_factory=ImuParams)
+    flow_sensor: FlowSensorParams = dc.field(default_factory=FlowSensorParams)
+    posture_estimator: PostureEstimatorParams = dc.field(default_factory=PostureEstimatorParams)
+    flow_estimator: FlowEstimatorParams = dc.field(default_factory=FlowEstimatorParams)
+    energy_estimator: EnergyEstimatorParams = dc.field(default_factory=EnergyEstimatorParams)
+    # Feedback from posture: the swim's heading held from the IMU (control.heading_hold).
+    heading_hold: HeadingHoldParams = dc.field(default_factory=HeadingHoldParams)
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     actuators: ActuatorsConfig = dc.field(default_factory=ActuatorsConfig)
@@ -345,6 +367,47 @@ class Scenario:
                                 {name: gait.to_vector() for name, gait in library.items()})
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
+
+    def current_schedule(self) -> CurrentSchedule:
+        """The water's current over time (``water.current``, ``water.current_schedule``)."""
+        return CurrentSchedule(self.water.current, self.water.current_schedule)
+
+    def _validate_modalities(self) -> None:
+        """The sensors, estimators, heading hold and balloon rule; and that every estimate
+        the behaviour tree or the balloon rule reads has its sensor."""
+        for section in ("posture_estimator", "flow_estimator", "energy_estimator",
+                        "heading_hold"):
+            try:
+                getattr(self, section).validate()
+            except ValueError as e:
+                raise ScenarioError(f"{section}.{e}") from None
+        for section in ("imu", "flow_sensor"):
+            try:
+                getattr(self, section).validate(section)
+            except ValueError as e:
+                raise ScenarioError(str(e)) from None
+        try:
+            self.balloon.rule.validate()
+        except ValueError as e:
+            raise ScenarioError(f"balloon.rule.{e}") from None
+        needs = {"posture_hat": ("imu.enabled", self.imu.enabled),
+                 "flow_hat": ("flow_sensor.enabled", self.flow_sensor.enabled and self.water.enabled),
+                 "energy_hat": ("actuators.enabled", self.actuators.enabled)}
+        used = {}
+        if self.controller.mode == "transition":
+            used.update({m: "transition.tree" for m in self.behaviour_tree().modalities})
+        rule = self.balloon.rule.modality
+        if rule:
+            used[f"{rule}_hat"] = "balloon.rule.modality"
+        if self.heading_hold.enabled:
+            used["posture_hat"] = "heading_hold.enabled"
+        for estimate, where in used.items():
+            if estimate in needs and not needs[estimate][1]:
+                raise ScenarioError(f"{where}: reads {estimate}, which needs "
+                                    f"{needs[estimate][0]}: true")
+        if self.heading_hold.enabled and self.controller.mode == "hold":
+            raise ScenarioError("heading_hold.enabled: true trims a CPG gait; controller.mode "
+                                "hold runs none (use gait or transition)")
 
     def initial_joint_angles(self) -> np.ndarray:
         """The initial joint angles (16, the plant's order): the stance X of
@@ -450,6 +513,10 @@ class Scenario:
         # A pool's current; beyond ~1 m/s the robot's 0.1 m/s swim means nothing and the
         # quadratic damping's stiffness needs a smaller step.
         check_vector("water.current", w.current, 3, bound=1.0, unit=" m/s")
+        try:
+            self.current_schedule()
+        except ValueError as e:
+            raise ScenarioError(str(e)) from None
         check_in_range("water.update_period", w.update_period, 0.0, 0.02, "[0, 0.02] s")
         check_text("water.coefficients", w.coefficients)
         if not isinstance(w.coefficient_scales, dict):
@@ -465,6 +532,7 @@ class Scenario:
                     message = "coefficient_scales." + message[len("coefficient_scales: "):]
                 raise ScenarioError(f"water.{message}") from None
         self._validate_actuators()
+        self._validate_modalities()
         check_in_range("balloon.initial_fill", self.balloon.initial_fill, 0.0, 1.0, "[0, 1]")
         last = -math.inf
         for i, cmd in enumerate(self.balloon.schedule):

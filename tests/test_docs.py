@@ -149,7 +149,8 @@ def test_the_builders_pages_draw_the_halves(html_out):
     assert station["inputs"] == ["desired_state", "balloon_command"]
     assert {"depth", "depth_image", "camera_pose", "measured_joint_state"} <= set(
         station["outputs"])
-    assert controller["inputs"] == ["depth", "depth_image", "camera_pose"]
+    assert controller["inputs"] == ["depth", "depth_image", "camera_pose", "imu", "flow_velocity",
+                                   "battery"]
     assert controller["outputs"][:2] == ["desired_state", "balloon_command"]
 
 

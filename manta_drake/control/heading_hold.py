@@ -67,6 +67,9 @@ class HeadingHoldParams:
     heading_deg: float | None = None  # target heading; None: the heading at the first update
     period: float = 0.02  # [s]
     turn_sign: int = 1  # +1: a larger left-fin amplitude turns right; -1 the reverse
+    # The behaviour-tree leaves (gait names) the hold trims; its share is their summed
+    # weight (behaviour_weights). A fixed gait (controller.mode: gait) is trimmed whole.
+    behaviours: list[str] = dc.field(default_factory=lambda: ["swim", "swim_printed"])
 
     def validate(self) -> "HeadingHoldParams":
         """Checks every field's type and range; ValueError names the field and the range."""
@@ -83,6 +86,9 @@ class HeadingHoldParams:
         check_number("turn_sign", self.turn_sign)
         if self.turn_sign not in (1, -1):
             raise ValueError(f"turn_sign: {self.turn_sign!r} is not +1 or -1")
+        if not isinstance(self.behaviours, list) or not all(
+                isinstance(b, str) and b for b in self.behaviours):
+            raise ValueError(f"behaviours: {self.behaviours!r} must be a list of gait names")
         return self
 
 

@@ -1,8 +1,8 @@
 """The controller: what runs on the robot, as one Diagram with the station's port names.
 
 ``build_controller(scenario)`` returns a Diagram that consumes only what the real
-robot's sensors give (the station's ``depth``, ``depth_image`` and ``camera_pose``)
-and commands the joints and the balloon.
+robot's sensors give (the station's ``depth``, ``depth_image``, ``camera_pose``, ``imu``,
+``flow_velocity`` and ``battery``) and commands the joints and the balloon.
 
 .. pydrake_system::
 
@@ -11,14 +11,26 @@ and commands the joints and the balloon.
     - depth (water on)
     - depth_image (camera on)
     - camera_pose (camera on)
+    - imu (imu on)
+    - flow_velocity (flow sensor on)
+    - battery (charge estimate read)
     output_ports:
     - desired_state
     - balloon_command
     - cpg_params (gait, transition)
     - joint_angles (gait, transition)
+    - behaviour_weights (transition)
+    - heading_trim (heading hold on)
     - h_hat (water on)
     - z_hat (water on)
     - s_hat (camera on or transition)
+    - attitude_hat (imu on)
+    - yaw_rate_hat (imu on)
+    - posture_hat (imu on)
+    - flow_speed_hat (flow sensor on)
+    - flow_hat (flow sensor on)
+    - soc_hat (charge estimate read)
+    - energy_hat (charge estimate read)
     - detector_status (camera on)
     - clusters (camera on)
     - best_clusters (camera on)
@@ -31,10 +43,18 @@ By ``scenario.controller.mode``:
   through ``FuzzyDepthEstimator`` (Eq. 9) to z_hat; the depth image through
   ``DepthImageFilter`` (a median filter), ``DepthImageToPointCloud`` and
   ``WallDetector`` (Eq. 10) to s_hat (0 without a
-  camera); ``PotentialTransition`` (Eqs. 11-15) turns both into the CPG's parameters.
+  camera); ``PotentialTransition`` (Eqs. 11-15) blends the behaviour tree's gaits
+  (``transition.tree``; by default Eq. 12's swim, trot and turning) by the estimates and
+  descends to the blend.
 
-In every mode the balloon follows the scenario's schedule (``balloon_command``, fill
-in [0, 1]); with water on, the depth estimator runs (and is logged) in every mode.
+The new modalities' estimators run whenever their sensor is on: ``PostureEstimator``
+(imu -> attitude_hat, yaw_rate_hat, posture_hat), ``FlowEstimator`` (flow_velocity ->
+flow_hat), ``EnergyEstimator`` (battery -> energy_hat, when a tree or the balloon rule reads
+it). ``HeadingHold`` (``heading_hold.enabled``) trims the CPG's parameters from the attitude
+estimate while the swim's leaves carry weight (``cpg_params`` is the behaviour's, before the
+trim). The balloon follows the scenario's schedule (``balloon_command``, fill in [0, 1]), or
+``balloon.rule`` on an estimate; with water on, the depth estimator runs (and is logged) in
+every mode.
 
 The scenario's start is the default context: the CPG starts from rest at the lock of
 its initial gait with its biases at the initial stance, the transition at the target
@@ -48,13 +68,19 @@ import dataclasses as dc
 import numpy as np
 from pydrake.perception import BaseField, DepthImageToPointCloud
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
+from pydrake.systems.primitives import ConstantVectorSource, MatrixGain, TrajectorySource
 from pydrake.systems.sensors import PixelType
 from pydrake.trajectories import PiecewisePolynomial
 
+from manta_drake.control.balloon_rule import MODALITIES as BALLOON_MODALITIES
+from manta_drake.control.balloon_rule import BalloonRule
 from manta_drake.control.cpg import CpgOscillators, initial_state
 from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
 from manta_drake.control.depth_image_filter import DepthImageFilter
+from manta_drake.control.energy_estimator import EnergyEstimator
+from manta_drake.control.flow_estimator import FlowEstimator
+from manta_drake.control.heading_hold import HeadingHold
+from manta_drake.control.posture import PostureEstimator
 from manta_drake.control.transition import PotentialTransition
 from manta_drake.control.vision import WallDetector
 from manta_drake.model.camera import camera_info
@@ -137,6 +163,71 @@ def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> Non
     handles.systems["depth_estimator"] = estimator
 
 
+def _add_estimators(builder, scenario: Scenario, handles: ControllerHandles) -> None:
+    """imu -> PostureEstimator, flow_velocity -> FlowEstimator (each when its sensor is on),
+    battery -> EnergyEstimator (when an estimate of the charge is read): their 0-1
+    estimates join ``handles.estimates``."""
+    def add(name, system, sensor, outputs):
+        builder.AddNamedSystem(name, system)
+        builder.ExportInput(system.GetInputPort(sensor), sensor)
+        for port in outputs:
+            builder.ExportOutput(system.GetOutputPort(port), port)
+        handles.systems[name] = system
+        handles.estimates[outputs[-1]] = system.GetOutputPort(outputs[-1])
+
+    if scenario.imu.enabled:
+        add("posture_estimator", PostureEstimator(scenario.posture_estimator), "imu",
+            ("attitude_hat", "yaw_rate_hat", "posture_hat"))
+    if scenario.flow_sensor.enabled and scenario.water.enabled:
+        add("flow_estimator", FlowEstimator(scenario.flow_estimator), "flow_velocity",
+            ("flow_speed_hat", "flow_hat"))
+    reads_charge = scenario.balloon.rule.modality == "energy" or (
+        scenario.controller.mode == "transition"
+        and "energy_hat" in scenario.behaviour_tree().modalities)
+    if scenario.actuators.enabled and reads_charge:
+        add("energy_estimator", EnergyEstimator(scenario.energy_estimator), "battery",
+            ("soc_hat", "energy_hat"))
+
+
+def _add_heading_hold(builder, scenario: Scenario, handles: ControllerHandles, params):
+    """cpg_params -> HeadingHold (the IMU's attitude estimate; the swim's share) -> the
+    trimmed parameters the CPG runs."""
+    hold = builder.AddNamedSystem("heading_hold", HeadingHold(scenario.heading_hold))
+    posture = handles.systems["posture_estimator"]
+    builder.Connect(params, hold.GetInputPort("cpg_params"))
+    builder.Connect(posture.GetOutputPort("attitude_hat"), hold.GetInputPort("attitude_hat"))
+    builder.Connect(posture.GetOutputPort("yaw_rate_hat"), hold.GetInputPort("yaw_rate_hat"))
+    if "transition" in handles.systems:
+        transition = handles.systems["transition"]
+        leaves = transition.tree.leaves
+        selector = np.array([[1.0 if leaf in scenario.heading_hold.behaviours else 0.0
+                              for leaf in leaves]])
+        share = builder.AddNamedSystem("swim_share", MatrixGain(selector)).get_output_port()
+        builder.Connect(transition.GetOutputPort("behaviour_weights"),
+                        builder.GetSubsystemByName("swim_share").get_input_port())
+    else:  # a fixed gait: trimmed whole
+        share = builder.AddNamedSystem("swim_share", ConstantVectorSource([1.0])).get_output_port()
+    builder.Connect(share, hold.GetInputPort("swim_share"))
+    builder.ExportOutput(hold.GetOutputPort("heading_trim"), "heading_trim")
+    handles.systems["heading_hold"] = hold
+    return hold.GetOutputPort("cpg_params")
+
+
+def _add_balloon(builder, scenario: Scenario, handles: ControllerHandles) -> None:
+    """The balloon's fill command: the schedule, or the rule on a modality's estimate."""
+    schedule = builder.AddNamedSystem("balloon_schedule", balloon_schedule(scenario))
+    rule = scenario.balloon.rule
+    if not rule.modality:
+        builder.ExportOutput(schedule.get_output_port(), "balloon_command")
+        return
+    system = builder.AddNamedSystem("balloon_rule", BalloonRule(rule))
+    builder.Connect(schedule.get_output_port(), system.GetInputPort("scheduled_fill"))
+    builder.Connect(handles.estimates[BALLOON_MODALITIES[rule.modality]],
+                    system.GetInputPort("modality"))
+    builder.ExportOutput(system.GetOutputPort("balloon_command"), "balloon_command")
+    handles.systems["balloon_rule"] = system
+
+
 def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, meshcat):
     """depth_image -> median filter -> point cloud (+ camera_pose) -> WallDetector (Eq. 10)."""
     cam = scenario.camera
@@ -199,6 +290,7 @@ def build_controller(scenario: Scenario, meshcat=None, *,
     s_hat = None
     if scenario.camera.enabled:
         s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
+    _add_estimators(builder, scenario, handles)
     if mode == "hold":
         stance = scenario.gait(scenario.controller.gait).X
         source = builder.AddNamedSystem("hold_stance", stance_ramp(
@@ -210,6 +302,9 @@ def build_controller(scenario: Scenario, meshcat=None, *,
                 initial_cpg_params(scenario))).get_output_port()  # the fixed gait
         else:
             params = _add_transition(builder, scenario, handles, s_hat)
+        builder.ExportOutput(params, "cpg_params")  # the behaviour's, before any trim
+        if scenario.heading_hold.enabled:
+            params = _add_heading_hold(builder, scenario, handles, params)
         c = scenario.cpg
         cpg = builder.AddNamedSystem("cpg", CpgOscillators(
             frequency_hz=c.frequency_hz, chain_weight=c.chain_weight, fcs_weight=c.fcs_weight,
@@ -217,14 +312,12 @@ def build_controller(scenario: Scenario, meshcat=None, *,
             initial_state=initial_state(initial_cpg_params(scenario),
                                         scenario.initial_joint_angles())))
         builder.Connect(params, cpg.GetInputPort("cpg_params"))
-        builder.ExportOutput(params, "cpg_params")
         builder.ExportOutput(cpg.GetOutputPort("joint_angles"), "joint_angles")
         builder.ExportOutput(cpg.GetOutputPort("desired_state"), "desired_state")
         handles.systems["cpg"] = cpg
     else:
         raise ValueError(f"controller.mode: {mode!r} is not one of hold, gait, transition")
-    schedule = builder.AddNamedSystem("balloon_schedule", balloon_schedule(scenario))
-    builder.ExportOutput(schedule.get_output_port(), "balloon_command")
+    _add_balloon(builder, scenario, handles)
     controller = builder.Build()
     controller.set_name("controller")
     return controller, handles

@@ -39,6 +39,18 @@ _LOGGED = (
     ("controller", "s_hat", lambda s: 1.0 / s.camera.rate_hz if s.camera.enabled
      else max(s.log_period, 0.01)),
     ("controller", "detector_status", lambda s: 1.0 / s.camera.rate_hz),
+    # The new modalities (each only when its half has the port).
+    ("station", "imu", lambda s: max(s.log_period, 1.0 / s.imu.rate_hz)),
+    ("station", "flow_velocity", lambda s: max(s.log_period, 1.0 / s.flow_sensor.rate_hz)),
+    ("controller", "attitude_hat", lambda s: max(s.log_period, 0.02)),
+    ("controller", "posture_hat", lambda s: max(s.log_period, 0.02)),
+    ("controller", "flow_hat", lambda s: max(s.log_period, 0.02)),
+    ("controller", "flow_speed_hat", lambda s: max(s.log_period, 0.02)),
+    ("controller", "energy_hat", lambda s: max(s.log_period, 0.1)),
+    ("controller", "soc_hat", lambda s: max(s.log_period, 0.1)),
+    ("controller", "behaviour_weights", lambda s: s.transition.period),
+    ("controller", "heading_trim", lambda s: max(s.log_period, s.heading_hold.period)),
+    ("controller", "balloon_command", lambda s: max(s.log_period, 0.01)),
 )
 
 

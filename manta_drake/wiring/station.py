@@ -21,6 +21,8 @@ station in another process (over LCM) or the robot itself.
     - joint_torque
     - joint_mechanical_power (actuators on)
     - balloon_volume (water on)
+    - imu (imu on)
+    - flow_velocity (flow sensor on)
     - plant_state
     - query_object
 
@@ -44,6 +46,13 @@ Outputs, what the robot's sensors give:
   ``actuators.stop_when_empty``).
 * ``electrical_power`` (1) [W]: what the servos and the computers draw (``ServoPower``,
   parameters in ``models/actuators.yaml``).
+
+* ``imu`` (9): [roll, pitch, yaw] rad, [wx, wy, wz] rad/s (body frame), [fx, fy, fz] m/s^2
+  (specific force, body frame) of the hull's AHRS, with white noise and a per-run bias
+  (``ImuSensor``, ``imu.enabled``).
+* ``flow_velocity`` (3) [m/s]: the water's velocity relative to the head in the body frame
+  (``FlowVelocitySensor``, ``flow_sensor.enabled``; the current of ``water.current`` and
+  ``water.current_schedule``), noisy.
 
 and, for logging and visualisation only (a controller must not read them):
 
@@ -107,7 +116,9 @@ from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
+from manta_drake.station.flow_sensor import add_flow_sensor
 from manta_drake.station.hydro import HydrodynamicForces
+from manta_drake.station.imu import add_imu
 from manta_drake.station.pressure import PressureSensor
 from manta_drake.station.render_poses import add_camera_scene
 from manta_drake.station.servo_power import ServoPower
@@ -160,6 +171,8 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles,
     hydro = HydrodynamicForces.AddToBuilder(
         builder, plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
         current=scenario.water.current, added_mass_iso=ph.added_mass_iso,
+        current_schedule=None if scenario.current_schedule().is_constant
+        else scenario.current_schedule(),
         update_period=scenario.water.update_period,
         inputs="plant_state" if hydro_plant_state else "contract", name="hydro")
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
@@ -245,6 +258,22 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     handles.systems.update(joint_torque_hold=hold, servo_power=servos, battery=battery)
 
 
+def _add_modalities(builder, scenario: Scenario, handles: StationHandles) -> None:
+    """The IMU and the flow-velocity sensor on the hull, with their Drake noise sources
+    (added after every other random source, so that a scenario without them draws the
+    same noise as before they existed)."""
+    plant, body = handles.plant, handles.plant_handles.body
+    if scenario.imu.enabled:
+        imu = add_imu(builder, plant, body, scenario.imu)
+        builder.ExportOutput(imu.GetOutputPort("imu"), "imu")
+        handles.systems["imu"] = imu
+    if scenario.flow_sensor.enabled and scenario.water.enabled:
+        flow = add_flow_sensor(builder, plant, body, scenario.flow_sensor,
+                               scenario.current_schedule())
+        builder.ExportOutput(flow.GetOutputPort("flow_velocity"), "flow_velocity")
+        handles.systems["flow_sensor"] = flow
+
+
 def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool = True,
                   camera_own_scene: bool = True) -> tuple[Diagram, StationHandles]:
     """Builds the station of ``scenario`` (see the module docstring for its ports).
@@ -293,6 +322,7 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
         _add_camera(builder, scenario, handles, camera_own_scene)
     if scenario.actuators.enabled:
         _add_power(builder, scenario, handles)
+    _add_modalities(builder, scenario, handles)
     if meshcat is not None:
         params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
         handles.systems["visualizer"] = MeshcatVisualizer.AddToBuilder(

@@ -77,9 +77,11 @@ class Problem:
     def identity(self) -> dict:
         """What an output folder's evaluations depend on: a restart must match it. The
         spec's content (not ``budget.generations``, which a restart may raise), the
-        resolved scenario and the seed."""
+        resolved scenario, the population and the seed."""
         content = spec_content(self.spec)
-        content["budget"].pop("generations")
+        for key in ("generations", "population"):  # generations may change; population
+            content["budget"].pop(key)               # and seed are compared apart
+        content.pop("seed")
         return {"spec": _sha(json.dumps(content, sort_keys=True, default=str)),
                 "scenario": _sha(self.base_yaml),
                 "population": self.spec.budget.population, "seed": self.spec.seed,
@@ -276,6 +278,10 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     if outside:
         i, bound, text = outside[0]
         raise OptimizeError(f"{ROOT}.free[{i}].{bound}: {text}; widen the bounds")
+    off = space.off_ties()
+    if off:
+        i, field, text = off[0]
+        raise OptimizeError(f"{ROOT}.free[{i}].{field}: {text}")
     _validate_objective(spec.objective)
     r = spec.robustness
     if not isinstance(r.points, list):

@@ -41,6 +41,7 @@ class Target:
     row: int
     col: int
     sign: float
+    field: str = "entry"  # what in the spec's free entry sets it: entry or tie[j]
 
     def label(self) -> str:
         cols = LEG_ROWS if self.matrix == "Phi_prime_deg" else JOINT_COLUMNS
@@ -149,10 +150,10 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
             if (tm, tr, tc) == (matrix, r, c):
                 raise OptimizeError(f"{where}.tie[{j}]: {text!r} is the entry itself; a tie "
                                     "names another entry")
-            targets.append(Target(tm, tr, tc, float(sign)))
+            targets.append(Target(tm, tr, tc, float(sign), f"tie[{j}]"))
         for j, t in enumerate(list(targets)):  # Phi' antisymmetry: [l, k] = -[k, l]
             if t.matrix == "Phi_prime_deg":
-                partner = Target(t.matrix, t.col, t.row, -t.sign)
+                partner = Target(t.matrix, t.col, t.row, -t.sign, t.field)
                 if any((p.matrix, p.row, p.col) == (partner.matrix, partner.row, partner.col)
                        for p in targets):
                     raise OptimizeError(f"{where}.tie: {partner.label()} follows {t.label()} as "
@@ -247,9 +248,26 @@ class ParameterSpace:
         out = []
         for i, (p, v) in enumerate(zip(self.parameters, self.start_vector())):
             if not p.low <= v <= p.high:
-                out.append((i, "low" if v < p.low else "high",
-                            f"the start gait has {p.entry} = {v:g} deg, outside [low, high] "
-                            f"= [{p.low:g}, {p.high:g}]"))
+                text = (f"the start gait has {p.entry} = {v:g} deg, outside [low, high] = "
+                        f"[{p.low:g}, {p.high:g}]")
+                out.append((i, "low" if v < p.low else "high", text))
+        return out
+
+    def off_ties(self) -> list[tuple[int, str, str]]:
+        """Entries the start gait does not give as their parameter sets them (a tied entry
+        not ``sign`` times the entry, a Phi_prime partner not its negative): the search
+        could not start at the start gait. (parameter index, the spec's field, text)."""
+        out = []
+        for i, p in enumerate(self.parameters):
+            first = p.targets[0]
+            value = self.start_degrees[first.matrix][first.row, first.col]
+            for t in p.targets[1:]:
+                have = self.start_degrees[t.matrix][t.row, t.col]
+                if abs(have - t.sign * value) > 1e-9:
+                    text = (f"the start gait has {t.label()} = {have:g} deg, not "
+                            f"{t.sign:+g} x {first.label()} = {t.sign * value:g} deg; the "
+                            "search could not start at the start gait")
+                    out.append((i, t.field, text))
         return out
 
 

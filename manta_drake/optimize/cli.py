@@ -1,0 +1,91 @@
+"""``manta-drake optimize SPEC.yaml --out DIR`` (``manta_drake.cli`` dispatches here).
+
+Exit status: 0 when ``best_gait.yaml`` is written; 1 when the search ran but no candidate's
+simulations all ran (every candidate refused or failed: no gait file; ``history.csv`` says
+why); 2 when the input is refused (one line naming the file or option and the field;
+nothing simulated)."""
+
+from __future__ import annotations
+
+import sys
+
+from manta_drake.cluster import (
+    add_cluster_arguments,
+    check_cluster_arguments,
+    cluster_client,
+)
+from manta_drake.optimize.loading import load_problem
+from manta_drake.optimize.run import FOLDERS, OUTPUTS, run_optimization
+from manta_drake.scenario import parse_set
+from manta_drake.sweep.config import check_out_folder
+
+# Exit status of a search that gives no gait.
+NO_GAIT = 1
+
+
+def add_optimize_parser(subparsers) -> None:
+    """Adds ``manta-drake optimize``."""
+    p = subparsers.add_parser(
+        "optimize", help="design a gait by CMA-ES on a Dask cluster (docs/optimize.md)",
+        description="Searches the spec's free gait entries with CMA-ES, every generation's "
+                    "simulations in parallel on Dask; writes DIR/best_gait.yaml, "
+                    "DIR/history.csv, DIR/convergence.png, DIR/summary.json and the best "
+                    "gait's re-run in DIR/best_run/. The same command again continues from "
+                    "DIR/state.pkl. Exit status 1 when no candidate ran, 2 when the input "
+                    "is refused.")
+    p.add_argument("spec", help="optimisation spec YAML file (docs/optimize.md)")
+    p.add_argument("--out", required=True, help="output folder (a restart continues there)")
+    add_cluster_arguments(p)
+    p.add_argument("--generations", type=int, metavar="G",
+                   help="generations in all (replaces budget.generations; may be raised "
+                        "on a restart)")
+    p.add_argument("--population", type=int, metavar="P",
+                   help="candidates per generation (replaces budget.population)")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help="simulated seconds per evaluation (replaces budget.duration)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a field of the spec's scenario, e.g. --set "
+                        "contact.friction=0.7 (repeatable)")
+    p.add_argument("--seed", type=int, metavar="N", help="CMA-ES's seed (replaces seed)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def optimize_main(args) -> int:
+    """``manta-drake optimize``: check the options, load (errors are one line), search,
+    print the result; the exit status as the module says."""
+    check_cluster_arguments(args)
+    # Before the load and the search: a search never ends by finding it cannot write.
+    check_out_folder(args.out, OUTPUTS, [args.spec], folders=FOLDERS)
+    problem = load_problem(args.spec, parse_set(args.set), generations=args.generations,
+                           population=args.population, duration=args.duration, seed=args.seed)
+    with cluster_client(args) as client:
+        result = run_optimization(problem, args.out, client, progress=not args.quiet)
+    print(f"\n  {result.name}: cost {result.start_cost:.4g} (start) -> {result.best_cost:.4g} "
+          f"(generation {result.best_generation}, candidate {result.best_candidate}); "
+          f"stopped: {result.stop}")
+    for name, x0, x in zip(result.names, result.start_degrees, result.best_degrees):
+        print(f"  {name:<28} {x0:9.3f} -> {x:9.3f} deg")
+    n = result.generations
+    print(f"  {n} generation{'s' if n != 1 else ''}, {result.evaluations} simulations in the "
+          f"history ({result.simulated} run now, {result.reused} reused), "
+          f"{result.wall_time_s:.1f} s")
+    if result.best_run is not None:
+        r = result.best_run
+        print(f"  best gait re-run: {r['status']}, u {_f(r.get('u'))} m/s, v {_f(r.get('v'))} "
+              f"m/s, yaw rate {_f(r.get('yaw_rate'))} deg/s, cost {r['cost']:.4g}")
+    for r in result.held_out:
+        print(f"  held out {r['overrides']} seed {r['seed']}: {r['status']}, cost "
+              f"{r['cost']:.4g}")
+    print(f"  gait:    {result.best_gait_file or 'none written'}")
+    print(f"  history: {result.history_file}")
+    print(f"  figure:  {result.figure}")
+    print(f"  summary: {result.summary_file}")
+    if result.best_gait_file is None:
+        print(f"manta-drake: optimize {result.name}: no candidate's simulations all ran; "
+              f"see {result.history_file}", file=sys.stderr)
+        return NO_GAIT
+    return 0
+
+
+def _f(value) -> str:
+    return "-" if value is None else f"{value:.4g}"

@@ -1,0 +1,81 @@
+"""``convergence.png``: the cost per generation (best so far, the generation's best and
+median) and every free parameter's trajectory (each candidate a dot, the best so far a
+line), from the search rows of ``history.csv``."""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+
+def candidate_table(problem, rows: list[dict]) -> list[dict]:
+    """One entry per told candidate: generation, candidate, cost, parameters [deg], failed
+    (its cost includes a failed simulation's ``failed_cost``)."""
+    failed_cost = problem.spec.objective.failed_cost
+    seen: dict[tuple, dict] = {}
+    for r in rows:
+        if r.get("kind") != "search" or r.get("candidate_cost") is None:
+            continue
+        key = (r["generation"], r["candidate"])
+        entry = seen.setdefault(key, {"generation": r["generation"], "candidate": r["candidate"],
+                                      "cost": r["candidate_cost"], "failed": False,
+                                      "degrees": [r[n] for n in problem.space.names]})
+        entry["failed"] |= r["cost"] >= failed_cost
+    return sorted(seen.values(), key=lambda e: (e["generation"], e["candidate"]))
+
+
+def write_convergence_figure(path: pathlib.Path, problem, rows: list[dict]) -> pathlib.Path:
+    """Writes convergence.png (module docstring); the parameters are drawn as the fraction
+    of their bounds (0: low, 1: high) so that all share one axis."""
+    table = candidate_table(problem, rows)
+    space = problem.space
+    fig = Figure(figsize=(10, 7.5))
+    ax_cost, ax_x = fig.subplots(2, 1, sharex=True)
+    if table:
+        gens = sorted({e["generation"] for e in table})
+        best_so_far, gen_best, gen_median, failed = [], [], [], []
+        running = np.inf
+        best_x = []
+        best_entry = None
+        for g in gens:
+            mine = [e for e in table if e["generation"] == g]
+            good = [e["cost"] for e in mine if not e["failed"]]
+            failed.append(len(mine) - len(good))
+            gen_best.append(min(good) if good else np.nan)
+            gen_median.append(float(np.median(good)) if good else np.nan)
+            top = min(mine, key=lambda e: e["cost"])
+            if top["cost"] < running:
+                running, best_entry = top["cost"], top
+            best_so_far.append(running)
+            best_x.append(space.to_unit(best_entry["degrees"]))
+        ax_cost.plot(gens, best_so_far, "o-", color="tab:blue", label="best so far")
+        ax_cost.plot(gens, gen_best, ".", color="tab:green", label="generation's best")
+        ax_cost.plot(gens, gen_median, "s--", ms=3, color="tab:orange",
+                     label="generation's median")
+        for g, n in zip(gens, failed):
+            if n:
+                ax_cost.annotate(f"{n} failed", (g, 1.0), xycoords=("data", "axes fraction"),
+                                 ha="center", va="top", fontsize=7, color="tab:red")
+        ax_cost.legend(fontsize=8)
+        best_x = np.array(best_x)
+        colors = [f"C{i % 10}" for i in range(len(space.names))]
+        for i, name in enumerate(space.names):
+            xs = [e["generation"] for e in table]
+            ys = [space.to_unit(e["degrees"])[i] for e in table]
+            ax_x.plot(xs, ys, ".", ms=3, alpha=0.35, color=colors[i])
+            ax_x.plot(gens, best_x[:, i], "o-", ms=3, lw=1.5, color=colors[i],
+                      label=f"{name} [{space.low[i]:g}, {space.high[i]:g}] deg")
+        ax_x.legend(fontsize=7, loc="best")
+    ax_cost.set(ylabel="candidate cost", title=f"{problem.spec.name}: cost per generation "
+                f"({problem.spec.robustness.aggregate} over each candidate's simulations)")
+    ax_x.set(xlabel="generation", ylabel="parameter, fraction of its bounds", ylim=(-0.05, 1.05),
+             title="free parameters (dots: candidates; lines: the best so far)")
+    ax_x.xaxis.set_major_locator(MaxNLocator(integer=True))
+    for ax in (ax_cost, ax_x):
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    return path

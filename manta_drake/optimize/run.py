@@ -1,0 +1,618 @@
+"""``run_optimization``: CMA-ES over the free parameters, each generation's simulations run
+in parallel on Dask (one task per candidate and robustness point and seed), restartable.
+
+The loop, per generation: ask CMA-ES for the population (generation 1's first candidate is
+the start gait itself, injected), save the state (``state.pkl``: the CMA object and the
+asked candidates), simulate every (candidate, point, seed) not already in ``history.csv``,
+write each result as it comes (its folder and the table, atomically), aggregate each
+candidate's costs, tell CMA-ES, keep the logs of the best candidate so far only, save the
+state again. Then the best gait is re-run at the scenario as it is (``best_run/``, with its
+figures) and at the held-out points (``held_out/``), and ``best_gait.yaml``,
+``convergence.png`` and ``summary.json`` are written.
+
+A restart (the same spec and options, the same ``--out``) loads ``state.pkl`` and goes on:
+an interrupted generation asks nothing new (its candidates are in the state) and reuses
+every simulation the table holds; a finished one goes to the next generation, up to the
+(possibly raised) ``--generations``. The random numbers CMA-ES draws are its own
+(``numpy.random.default_rng(seed)``, pickled with it), so a run interrupted and restarted
+asks exactly the candidates of one that was not.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import datetime
+import io
+import json
+import math
+import os
+import pathlib
+import pickle
+import subprocess
+import sys
+import time
+import uuid
+
+import numpy as np
+
+from manta_drake.optimize.evaluate import simulate_candidate
+from manta_drake.optimize.history import (
+    HISTORY,
+    evaluation_folder,
+    evaluation_key,
+    finite_or_none,
+    read_history,
+    write_evaluation,
+    write_history,
+)
+from manta_drake.optimize.loading import Problem, load_problem
+from manta_drake.optimize.objective import (
+    METRICS,
+    aggregate,
+    constraint_violation,
+    score,
+)
+from manta_drake.optimize.parameters import candidate_gait_text
+from manta_drake.optimize.spec import OptimizeError
+from manta_drake.simulate import interrupts_as_exceptions
+from manta_drake.sweep.config import check_out_folder
+from manta_drake.sweep.results import is_infrastructure_error
+from manta_drake.sweep.runner import ATTEMPTS
+
+# What run_optimization writes in its output folder (files, then folders).
+OUTPUTS = ("best_gait.yaml", HISTORY, "convergence.png", "summary.json", "state.pkl")
+FOLDERS = ("evaluations", "best_run", "held_out")
+STATE = "state.pkl"
+STATE_FORMAT = 1
+
+
+class _Normal:
+    """CMA-ES's normal samples from a generator of its own (``randn`` option): seeded by
+    the spec, pickled with the CMA object, so a restart draws what the first run would."""
+
+    def __init__(self, seed: int):
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, *shape):
+        return self.rng.standard_normal(shape)
+
+
+@dc.dataclass
+class OptimizationResult:
+    """What ``run_optimization`` returns."""
+
+    name: str
+    names: list[str]  # the free parameters
+    start_degrees: np.ndarray
+    best_degrees: np.ndarray
+    start_cost: float
+    best_cost: float
+    best_generation: int
+    best_candidate: int
+    best_ok: bool  # every simulation of the best candidate ran (its gait file is written)
+    generations: int  # generations told
+    evaluations: int  # search simulations in the history
+    simulated: int  # simulations run by this call (search and final)
+    reused: int  # search simulations taken from the history
+    stop: str  # why the search ended
+    wall_time_s: float  # this call
+    out_dir: pathlib.Path
+    best_gait_file: pathlib.Path | None = None
+    history_file: pathlib.Path | None = None
+    figure: pathlib.Path | None = None
+    summary_file: pathlib.Path | None = None
+    held_out: list = dc.field(default_factory=list)  # rows of the held-out re-check
+    best_run: dict | None = None  # the row of the best gait's re-run
+
+
+def check_optimize_out(problem: Problem, out_dir) -> pathlib.Path:
+    """Checks the output folder before anything runs: writable, none of ``OUTPUTS`` a
+    folder or over the spec or its scenario, none of ``FOLDERS`` a file."""
+    inputs = [problem.spec.path]
+    return check_out_folder(out_dir, OUTPUTS, inputs, folders=FOLDERS)
+
+
+def source_version() -> str:
+    """``git <HEAD>`` of the checkout this package runs from, else ``manta_drake
+    <version>``."""
+    from manta_drake.version import __version__
+
+    repo = pathlib.Path(__file__).resolve().parents[2]
+    try:
+        top = subprocess.run(["git", "-C", str(repo), "rev-parse", "--show-toplevel"],
+                             capture_output=True, text=True, timeout=10, check=False)
+        if top.returncode == 0 and pathlib.Path(top.stdout.strip()).resolve() == repo:
+            head = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"],
+                                  capture_output=True, text=True, timeout=10, check=False)
+            if head.returncode == 0 and head.stdout.strip():
+                return f"git {head.stdout.strip()}"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return f"manta_drake {__version__}"
+
+
+def _atomic_pickle(path: pathlib.Path, obj) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as f:
+        pickle.dump(obj, f)
+    os.replace(tmp, path)
+
+
+def load_state(out_dir: pathlib.Path, problem: Problem) -> dict | None:
+    """The saved state of an optimisation in ``out_dir``, or None if there is none.
+
+    Raises:
+        OptimizeError: the state is unreadable or belongs to another spec or options.
+    """
+    path = out_dir / STATE
+    if not path.is_file():
+        return None
+    try:
+        with open(path, "rb") as f:
+            state = pickle.load(f)
+    except Exception as e:  # a truncated or foreign file
+        raise OptimizeError(f"--out {out_dir}: {STATE} cannot be read ({type(e).__name__}); "
+                            "use another --out (or delete the folder)") from None
+    if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
+        raise OptimizeError(f"--out {out_dir}: {STATE} is not an optimisation state of this "
+                            "version; use another --out")
+    mine, theirs = problem.identity(), state.get("identity", {})
+    different = [k for k in mine if mine[k] != theirs.get(k)]
+    if different:
+        what = ", ".join(f"{k} ({theirs.get(k)} there, {mine[k]} now)"
+                         if k in ("population", "seed") else k for k in different)
+        raise OptimizeError(f"--out {out_dir}: holds an optimisation of another spec or "
+                            f"options (different {what}); run with what it was started with "
+                            "(only --generations may change) or use another --out")
+    return state
+
+
+class _Table:
+    """Rewrites history.csv while simulations finish, as often as it is cheap: at most once
+    per ``min_interval`` s and at most a tenth of the time (``sweep.runner``'s rule: a table
+    rewritten after every simulation would cost the square of the simulations); ``force``
+    at the end of every generation and on the way out."""
+
+    def __init__(self, path: pathlib.Path, names, min_interval: float = 1.0):
+        self.path, self.names, self.min_interval = path, list(names), min_interval
+        self.last, self.cost = -math.inf, 0.0
+
+    def write(self, rows: list[dict], force: bool = False) -> None:
+        now = time.monotonic()
+        if not force and now - self.last < max(self.min_interval, 10 * self.cost):
+            return
+        write_history(self.path, self.names, rows)
+        self.last = time.monotonic()
+        self.cost = self.last - now
+
+
+class _Runner:
+    """Runs batches of simulations (one task each, or one after another in this process)
+    and hands each result to ``done`` as it finishes; a task lost with its worker is
+    submitted again up to ``sweep.runner.ATTEMPTS`` times."""
+
+    def __init__(self, client, evaluate, bar):
+        self.client, self.evaluate, self.bar = client, evaluate, bar
+        self.token = uuid.uuid4().hex[:8]  # task keys of this call only
+        self.simulated = 0
+
+    def run(self, jobs: list[dict], done) -> None:
+        if self.client is None:
+            for job in jobs:
+                try:
+                    outcome = self.evaluate(job["task"])
+                except Exception as e:  # an evaluator's raise is the candidate's failure
+                    outcome = {"status": "error",
+                               "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
+                self._finish(job, outcome, done)
+            return
+        from distributed import as_completed
+
+        pending = as_completed()
+        futures: dict = {}
+
+        def submit(job, attempt: int) -> None:
+            future = self.client.submit(self.evaluate, job["task"], pure=False,
+                                        key=f"manta-opt-{job['key']}-{self.token}-a{attempt}")
+            futures[future] = (job, attempt)
+            pending.add(future)
+
+        try:
+            for job in jobs:
+                submit(job, 1)
+            for future in pending:
+                job, attempt = futures.pop(future)
+                try:
+                    outcome = future.result()
+                except Exception as e:
+                    outcome = e
+                future.release()
+                if isinstance(outcome, Exception):
+                    lost = is_infrastructure_error(outcome)
+                    if lost and attempt < ATTEMPTS:
+                        submit(job, attempt + 1)  # a dead worker is not the candidate's fault
+                        continue
+                    reason = f"{type(outcome).__name__}: {' '.join(str(outcome).split())}"
+                    outcome = {"status": "lost" if lost else "error", "reason": (
+                        f"lost to the cluster in {attempt} attempts: {reason}" if lost
+                        else reason)}
+                self._finish(job, outcome, done)
+        finally:
+            if futures:  # interrupted: nothing of this call keeps running on the cluster
+                self.client.cancel(list(futures))
+
+    def _finish(self, job, outcome, done) -> None:
+        if not isinstance(outcome, dict):
+            outcome = {"status": "error",
+                       "reason": f"the evaluator returned {type(outcome).__name__}, not a dict"}
+        self.simulated += 1
+        done(job, outcome)
+        if self.bar is not None:
+            self.bar.update(1)
+
+
+def run_optimization(problem, out_dir, client=None, evaluate=None,
+                     progress: bool = True) -> OptimizationResult:
+    """Runs (or continues) the optimisation and writes its outputs (module docstring).
+
+    Args:
+        problem: a ``Problem`` (``load_problem``) or the path of a spec file.
+        out_dir: the output folder; an optimisation there is continued.
+        client: a ``distributed.Client`` (each simulation a task), or None: in this process.
+        evaluate: what simulates one task (``evaluate.simulate_candidate``, the default);
+            another function of a task dict that returns ``{"status", "metrics", ...}``
+            makes the same machinery optimise something cheaper (tests, benchmarks). On a
+            cluster it must be picklable.
+        progress: a tqdm bar counting simulations.
+
+    Returns:
+        The result; ``best_gait_file`` is None when the best candidate's simulations did not
+        all run (every candidate failed).
+
+    Raises:
+        OptimizeError: the output folder cannot take the outputs, or holds an optimisation
+            of another spec (before any simulation).
+    """
+    import cma
+
+    if not isinstance(problem, Problem):
+        problem = load_problem(problem)
+    spec, space = problem.spec, problem.space
+    out_dir = check_optimize_out(problem, out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    evaluate = evaluate or simulate_candidate
+    started = time.perf_counter()
+    identity = problem.identity()
+    points, seeds = spec.points(), list(spec.robustness.seeds)
+    budget = spec.budget
+    state = load_state(out_dir, problem)
+    rows = {r["key"]: r for r in read_history(out_dir / HISTORY) if r.get("kind") == "search"}
+    if state is None:
+        es = cma.CMAEvolutionStrategy(
+            list(space.to_unit(space.start_vector())), budget.sigma0,
+            {"bounds": [0.0, 1.0], "popsize": budget.population, "seed": spec.seed + 1,
+             "randn": _Normal(spec.seed), "verbose": -9, "verb_log": 0, "verb_disp": 0})
+        # Generation 1's first candidate is the start gait itself: its cost is the one to
+        # beat. CMA-ES works on a genotype the bound handler maps into [0, 1]; the inverse
+        # map gives the genotype of the start (a start on a bound too).
+        es.inject([es.boundary_handler.inverse(space.to_unit(space.start_vector()))],
+                  force=True)
+        state = {"format": STATE_FORMAT, "identity": identity, "es": es, "generation": 0,
+                 "pending": None, "best": None, "wall_time_s": 0.0}
+    per_candidate = len(points) * len(seeds)
+    # The search's simulations, then the best gait's re-run and its held-out re-checks.
+    total = (max(budget.generations, state["generation"]) * budget.population * per_candidate
+             + 1 + len(spec.held_out.points) * len(spec.held_out_seeds()))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=total, initial=min(len(rows), total), unit="sim", file=sys.stderr,
+                   desc=f"optimizing {spec.name}", dynamic_ncols=True)
+    runner = _Runner(client, evaluate, bar)
+    reused = 0
+    scenario_sha = identity["scenario"]
+
+    def save_state() -> None:
+        state["wall_time_s"] = state.get("wall_time_s", 0.0) + (time.perf_counter() - clock[0])
+        clock[0] = time.perf_counter()
+        _atomic_pickle(out_dir / STATE, state)
+
+    clock = [started]
+
+    def jobs_of(generation: int, candidates) -> list[dict]:
+        out = []
+        for c, unit in enumerate(candidates):
+            # The injected start (module docstring) in its exact degrees, not through the
+            # unit cube's round-off: its entries are the start gait's to the bit.
+            degrees = space.start_vector() if (generation, c) == (1, 0) \
+                else space.to_degrees(unit)
+            gait_text = candidate_gait_text(spec.name, space.gait(degrees))
+            for p, point in enumerate(points):
+                for seed in seeds:
+                    out.append(_job(problem, scenario_sha, "search", generation, c, p, point,
+                                    seed, degrees, gait_text, keep_log=True))
+        return out
+
+    table = _Table(out_dir / HISTORY, space.names)
+
+    def record(job: dict, outcome: dict) -> None:
+        row = _row(problem, job, outcome)
+        write_evaluation(out_dir / row["folder"], job["task"]["gait_text"],
+                         _record(row, outcome, space), outcome.get("log_npz"))
+        rows[row["key"]] = row
+        table.write(list(rows.values()) + final_rows)
+
+    final_rows: list[dict] = [r for r in read_history(out_dir / HISTORY)
+                              if r.get("kind") != "search"]
+    stop = ""
+    try:
+        with interrupts_as_exceptions():
+            while True:
+                if state["pending"] is None:
+                    if state["generation"] >= budget.generations:
+                        n = budget.generations
+                        stop = f"{n} generation{'s' if n != 1 else ''}"
+                        break
+                    cma_stop = state["es"].stop()
+                    if cma_stop:
+                        stop = "CMA-ES: " + ", ".join(f"{k} {v}" for k, v in cma_stop.items())
+                        break
+                    state["pending"] = [np.asarray(x, dtype=float) for x in state["es"].ask()]
+                    state["generation"] += 1
+                    save_state()
+                generation = state["generation"]
+                jobs = jobs_of(generation, state["pending"])
+                todo = list({j["key"]: j for j in jobs if j["key"] not in rows
+                             or rows[j["key"]]["status"] == "lost"}.values())
+                reused += sum(1 for j in jobs if j["key"] in rows
+                              and rows[j["key"]]["status"] != "lost")
+                runner.run(todo, record)
+                costs = []
+                for c in range(len(state["pending"])):
+                    mine = [rows[j["key"]] for j in jobs if j["candidate"] == c]
+                    costs.append(aggregate([r["cost"] for r in mine],
+                                           spec.robustness.aggregate))
+                    for r in mine:
+                        r["candidate_cost"] = costs[-1]
+                state["es"].tell(state["pending"], costs)
+                previous = state["best"]
+                c_best = int(np.argmin(costs))
+                if previous is None or costs[c_best] < previous["cost"]:
+                    state["best"] = {
+                        "generation": generation, "candidate": c_best,
+                        "unit": list(map(float, state["pending"][c_best])),
+                        "degrees": list(map(float, space.to_degrees(state["pending"][c_best]))),
+                        "cost": costs[c_best],
+                        "keys": [j["key"] for j in jobs if j["candidate"] == c_best]}
+                _prune_logs(out_dir, rows, state["best"])
+                table.write(list(rows.values()) + final_rows, force=True)
+                state["pending"] = None
+                save_state()
+            final_rows = _final_stage(problem, out_dir, state["best"], runner, scenario_sha)
+    finally:
+        # Every simulation finished so far is in the table, also after Ctrl-C.
+        table.write(list(rows.values()) + final_rows, force=True)
+        if bar is not None:
+            bar.close()
+    save_state()
+    return _finish(problem, out_dir, state, rows, final_rows, runner.simulated, reused, stop,
+                   time.perf_counter() - started)
+
+
+def _job(problem: Problem, scenario_sha: str, kind: str, generation: int, candidate: int,
+         p: int, point: dict, seed: int, degrees, gait_text: str, keep_log: bool) -> dict:
+    names = problem.space.names
+    key = evaluation_key(scenario_sha, names, degrees, point, seed)
+    parameters = {n: float(v) for n, v in zip(names, degrees)}
+    task = {"key": key, "scenario_yaml": problem.base_yaml, "gait_name": problem.spec.name,
+            "gait_text": gait_text, "overrides": point, "seed": int(seed),
+            "set_stance": problem.set_stance, "keep_log": keep_log, "parameters": parameters}
+    return {"key": key, "kind": kind, "generation": generation, "candidate": candidate,
+            "point": p, "seed": int(seed), "overrides": point, "degrees": list(map(float, degrees)),
+            "task": task}
+
+
+def _row(problem: Problem, job: dict, outcome: dict) -> dict:
+    """A history row of one finished simulation (the cost from its metrics)."""
+    space, spec = problem.space, problem.spec
+    values = {m: finite_or_none((outcome.get("metrics") or {}).get(m)) for m in METRICS}
+    values["distance_from_start_gait"] = space.distance_from_start(job["degrees"])
+    status = str(outcome.get("status", "error"))
+    reason = " ".join(str(outcome.get("reason", "") or "").split())
+    touched = bool(outcome.get("touched_wall", False))
+    s = score(spec.objective, status, values, touched, reason)
+    row = {k: job[k] for k in ("key", "kind", "generation", "candidate", "point", "seed")}
+    row.update(zip(space.names, job["degrees"]))
+    row.update(values)
+    row.update(objective=finite_or_none(s.objective), penalty=s.penalty, cost=s.cost,
+               candidate_cost=None, status=status, reason=s.reason if status == "ok" else reason,
+               touched_wall=touched, wall_time_s=finite_or_none(outcome.get("wall_time_s")),
+               worker=str(outcome.get("worker", "")),
+               overrides=json.dumps(job["overrides"], sort_keys=True),
+               folder=evaluation_folder(job["kind"], job["generation"], job["candidate"],
+                                        job["point"], job["seed"]))
+    return row
+
+
+def _record(row: dict, outcome: dict, space) -> dict:
+    """An evaluation's metrics.json: the run's own metrics, then what the optimiser made
+    of them."""
+    record = dict(outcome.get("run") or {})
+    record.update(status=row["status"], reason=row["reason"])
+    record["optimize"] = {k: row[k] for k in ("key", "kind", "generation", "candidate",
+                                              "point", "seed", "objective", "penalty", "cost",
+                                              "worker")}
+    record["optimize"]["parameters_deg"] = {n: row[n] for n in space.names}
+    record["optimize"]["overrides"] = json.loads(row["overrides"])
+    record["optimize"]["metrics"] = {m: row[m] for m in METRICS}
+    return record
+
+
+def _prune_logs(out_dir: pathlib.Path, rows: dict, best: dict | None) -> None:
+    """Removes the log of every search simulation but the best candidate's (the logs are
+    the bulk of the folder: megabytes a simulation)."""
+    keep = set(best["keys"]) if best else set()
+    for key, row in rows.items():
+        if key not in keep:
+            (out_dir / row["folder"] / "log.npz").unlink(missing_ok=True)
+
+
+def _final_stage(problem: Problem, out_dir: pathlib.Path, best: dict, runner: _Runner,
+                 scenario_sha: str) -> list[dict]:
+    """The best gait re-run at the scenario as it is (with its figures) and at every
+    held-out point and seed; their rows."""
+    from manta_drake import plots
+
+    spec, space = problem.spec, problem.space
+    degrees = np.asarray(best["degrees"])
+    gait_text = candidate_gait_text(spec.name, space.gait(degrees))
+    jobs = [_job(problem, scenario_sha, "best", best["generation"], best["candidate"], 0, {},
+                 spec.robustness.seeds[0], degrees, gait_text, keep_log=True)]
+    for p, point in enumerate(spec.held_out.points):
+        for seed in spec.held_out_seeds():
+            jobs.append(_job(problem, scenario_sha, "held_out", best["generation"],
+                             best["candidate"], p, dict(point), seed, degrees, gait_text,
+                             keep_log=False))
+    out: list[dict] = []
+
+    def done(job, outcome) -> None:
+        row = _row(problem, job, outcome)
+        folder = out_dir / row["folder"]
+        write_evaluation(folder, gait_text, _record(row, outcome, space),
+                         outcome.get("log_npz"))
+        if job["kind"] == "best" and outcome.get("log_npz"):
+            with np.load(io.BytesIO(outcome["log_npz"])) as npz:
+                log = {k: npz[k] for k in npz.files}
+            plots.write_run_plots(log, folder, title=f"{spec.name} (best)")
+        out.append(row)
+
+    for name in ("joints.png", "states.png", "trajectory.png"):
+        (out_dir / "best_run" / name).unlink(missing_ok=True)  # never an earlier best's
+    runner.run(jobs, done)
+    return out
+
+
+def _candidate_rows(rows: dict, generation: int, candidate: int) -> list[dict]:
+    return [r for r in rows.values()
+            if (r["generation"], r["candidate"]) == (generation, candidate)]
+
+
+def term_values(problem: Problem, rows: list[dict]) -> dict:
+    """Each term's and constraint's mean value over a candidate's simulations that ran."""
+    o = problem.spec.objective
+    ok = [r for r in rows if r["status"] == "ok"]
+
+    def mean(metric):
+        vals = [r[metric] for r in ok if r.get(metric) is not None]
+        return float(np.mean(vals)) if vals else None
+
+    terms = [{"metric": t.metric, "weight": t.weight, "value": mean(t.metric),
+              "contribution": None if mean(t.metric) is None else t.weight * mean(t.metric)}
+             for t in o.terms]
+    constraints = []
+    for c in o.constraints:
+        violated = sum(1 for r in ok if r.get(c.metric) is not None
+                       and (not c.relative_to or r.get(c.relative_to) is not None)
+                       and constraint_violation(c, r)[0] > 0)
+        constraints.append({"metric": c.metric, "min": c.min, "max": c.max,
+                            "relative_to": c.relative_to or None, "value": mean(c.metric),
+                            "violated_in": violated, "simulations": len(ok)})
+    return {"terms": terms, "constraints": constraints,
+            "mean_penalty": float(np.mean([r["penalty"] for r in ok])) if ok else None,
+            "simulations": len(rows), "ok": len(ok)}
+
+
+def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
+            final_rows: list[dict], simulated: int, reused: int, stop: str,
+            wall_time: float) -> OptimizationResult:
+    from manta_drake.optimize.figure import write_convergence_figure
+
+    spec, space = problem.spec, problem.space
+    best = state["best"]
+    start_rows = _candidate_rows(rows, 1, 0)
+    start_cost = start_rows[0]["candidate_cost"] if start_rows else math.nan
+    best_rows = _candidate_rows(rows, best["generation"], best["candidate"])
+    best_ok = bool(best_rows) and all(r["status"] == "ok" for r in best_rows)
+    result = OptimizationResult(
+        name=spec.name, names=space.names, start_degrees=space.start_vector(),
+        best_degrees=np.asarray(best["degrees"]), start_cost=float(start_cost),
+        best_cost=float(best["cost"]), best_generation=best["generation"],
+        best_candidate=best["candidate"], best_ok=best_ok,
+        generations=state["generation"] - (state["pending"] is not None),
+        evaluations=len(rows), simulated=simulated, reused=reused,
+        stop=stop or "done", wall_time_s=wall_time, out_dir=out_dir,
+        held_out=[r for r in final_rows if r["kind"] == "held_out"],
+        best_run=next((r for r in final_rows if r["kind"] == "best"), None))
+    (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
+    if best_ok:
+        result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
+    result.history_file = out_dir / HISTORY
+    result.figure = write_convergence_figure(out_dir / "convergence.png", problem,
+                                             list(rows.values()))
+    summary = {
+        "name": spec.name, "spec": str(spec.path), "spec_sha256": spec.text_sha256,
+        "scenario": spec.scenario, "start_gait": spec.gait, "source": source_version(),
+        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "parameters": [{"name": p.name, "entry": p.entry, "low": p.low, "high": p.high,
+                        "sets": [t.label() for t in p.targets]} for p in space.parameters],
+        "start": {"cost": result.start_cost,
+                  "degrees": dict(zip(space.names, map(float, result.start_degrees))),
+                  **term_values(problem, start_rows)},
+        "best": {"cost": result.best_cost, "generation": result.best_generation,
+                 "candidate": result.best_candidate, "ok": best_ok,
+                 "degrees": dict(zip(space.names, map(float, result.best_degrees))),
+                 "entries": [{"entry": e, "start": s, "best": b}
+                             for e, s, b in space.changed_entries(result.best_degrees)],
+                 **term_values(problem, best_rows)},
+        "best_run": _final_summary(result.best_run),
+        "held_out": [_final_summary(r) for r in result.held_out],
+        "generations": result.generations, "population": spec.budget.population,
+        "points": len(spec.points()), "seeds": list(spec.robustness.seeds),
+        "aggregate": spec.robustness.aggregate,
+        "evaluations": result.evaluations, "simulated_now": simulated, "reused_now": reused,
+        "stop": result.stop, "wall_time_s": wall_time,
+        "wall_time_total_s": state.get("wall_time_s", 0.0),
+        "best_gait": str(result.best_gait_file) if result.best_gait_file else None,
+    }
+    result.summary_file = out_dir / "summary.json"
+    tmp = out_dir / ".summary.json.tmp"
+    tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    os.replace(tmp, result.summary_file)
+    return result
+
+
+def _final_summary(row: dict | None) -> dict | None:
+    if row is None:
+        return None
+    return {"overrides": json.loads(row["overrides"]), "seed": row["seed"],
+            "status": row["status"], "reason": row["reason"], "cost": row["cost"],
+            "metrics": {m: row[m] for m in METRICS}, "folder": row["folder"]}
+
+
+def write_best_gait(path: pathlib.Path, problem: Problem,
+                    result: OptimizationResult) -> pathlib.Path:
+    """best_gait.yaml: a gait file holding the best gait under the result's name, with its
+    provenance."""
+    spec, space = problem.spec, problem.space
+    provenance = {
+        "made_by": "manta-drake optimize",
+        "spec": str(spec.path), "spec_sha256": spec.text_sha256,
+        "source": source_version(),
+        "scenario": spec.scenario, "start_gait": spec.gait,
+        "objective_value": result.best_cost, "start_objective_value": result.start_cost,
+        "generation": result.best_generation, "candidate": result.best_candidate,
+        "evaluations": result.evaluations,
+        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "parameters_deg": {n: float(v) for n, v in zip(space.names, result.best_degrees)},
+    }
+    header = (f"The gait {spec.name} found by `manta-drake optimize` from {spec.gait} "
+              f"({spec.scenario}); use it with controller.gait_files: [this file].")
+    text = candidate_gait_text(spec.name, space.gait(result.best_degrees),
+                               description=" ".join(spec.description.split())
+                               or f"optimised from {spec.gait}",
+                               provenance=provenance, header=header)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,487 @@
+"""manta-drake optimize: the spec's checks, free entries to gaits, the cost, CMA-ES through
+the run loop on a real Dask cluster (a cheap quadratic with a known minimum injected as the
+evaluator), restarts, failed candidates, a tiny real optimisation of a shipped spec and the
+command against a separately started scheduler and worker."""
+
+import json
+import math
+import pathlib
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from manta_drake.cli import main
+from manta_drake.cluster import dask_client
+from manta_drake.control.gait_files import load_gait_file
+from manta_drake.optimize import (
+    METRICS,
+    Constraint,
+    Objective,
+    OptimizeError,
+    Term,
+    aggregate,
+    build_parameters,
+    evaluation_key,
+    joint_limit_margin_deg,
+    load_problem,
+    read_history,
+    run_optimization,
+    score,
+    simulate_candidate,
+)
+from manta_drake.optimize.evaluate import worker_name
+from manta_drake.optimize.parameters import (
+    ParameterSpace,
+    candidate_gait_text,
+    parse_entry,
+)
+from manta_drake.optimize.spec import FreeEntry
+from manta_drake.scenario import load_scenario
+from manta_drake.simulate import run
+
+REPO = pathlib.Path(__file__).resolve().parents[1]
+SHIPPED = sorted((REPO / "diagrams" / "optimize").glob("*.yaml"))
+VENV_BIN = pathlib.Path(sys.executable).parent
+
+# A spec over the walk: the four yaw amplitudes tied (the right fins' with sign -1, as the
+# walk has them: 20, -20, 20, -20) and one layer-2 phase bias (its partner follows as the
+# negative). The quadratic's minimum (TARGET) is inside the bounds and away from the start
+# (20, 270).
+QUADRATIC_SPEC = """\
+scenario: locomotion_walk
+gait: walk
+name: quadratic
+free:
+  - {entry: "R_deg[fl, yaw]", low: 0, high: 30,
+     tie: ["R_deg[fr, yaw]", "R_deg[rl, yaw]", "R_deg[rr, yaw]"], tie_signs: [-1, 1, -1]}
+  - {entry: "Phi_prime_deg[fl, fr]", low: 180, high: 360}
+objective:
+  terms: [{metric: u, weight: -1.0}]
+robustness:
+  points: [{}, {contact.friction: 0.6}]
+budget: {generations: 3, population: 6, sigma0: 0.3}
+seed: 3
+"""
+TARGET = {"R_deg.fl.yaw": 7.5, "Phi_prime_deg.fl.fr": 300.0}
+WIDTH = {"R_deg.fl.yaw": 30.0, "Phi_prime_deg.fl.fr": 180.0}
+
+
+def quadratic(task, fail_above=None, raise_below=None):
+    """The cheap evaluator: u = -sum(((x - target) / width)^2), the same at every point;
+    status failed above ``fail_above`` (yaw amplitude), a raise below ``raise_below``
+    (phase)."""
+    x = task["parameters"]
+    if raise_below is not None and x["Phi_prime_deg.fl.fr"] < raise_below:
+        raise ValueError(f"phase {x['Phi_prime_deg.fl.fr']:.1f} below {raise_below}")
+    if fail_above is not None and x["R_deg.fl.yaw"] > fail_above:
+        return {"status": "failed", "reason": "simulation failed at t = 0.5 s: diverged",
+                "metrics": {}, "worker": worker_name()}
+    u = -sum(((x[k] - TARGET[k]) / WIDTH[k]) ** 2 for k in TARGET)
+    return {"status": "ok", "metrics": {"u": u}, "worker": worker_name(),
+            "wall_time_s": time.time()}  # a stamp: a row simulated again would differ
+
+
+def quadratic_evaluator(**kwargs):
+    """A closure (pickled by value to the workers, which cannot import this module)."""
+    def evaluate(task):
+        return quadratic(task, **kwargs)
+    return evaluate
+
+
+def write(path: pathlib.Path, text: str) -> pathlib.Path:
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A real LocalCluster of two worker processes (the cluster helper's --workers 2)."""
+    with dask_client(workers=2) as c:
+        yield c
+
+
+# --- the spec ---------------------------------------------------------------------------------
+
+BASE = """\
+scenario: locomotion_walk
+gait: walk
+free:
+  - {entry: "R_deg[fl, pitch]", low: 0, high: 30}
+objective:
+  terms: [{metric: u, weight: -1.0}]
+"""
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda s: s + "budgit: {generations: 2}\n",
+     "optimize.budgit: unknown key (a typo?); allowed keys: budget,"),
+    (lambda s: s.replace("R_deg[fl, pitch]", "R_deg[fx, pitch]"),
+     "optimize.free[0].entry: 'R_deg[fx, pitch]': row 'fx' is not one of fl, fr, rl, rr"),
+    (lambda s: s.replace("R_deg[fl, pitch]", "R_deg[fl, twist]"),
+     "optimize.free[0].entry: 'R_deg[fl, twist]': column 'twist' is not a joint"),
+    (lambda s: s.replace("R_deg[fl, pitch]", "R_deg fl pitch"),
+     "optimize.free[0].entry: 'R_deg fl pitch' is not an entry; expected MATRIX[row, column]"),
+    (lambda s: s.replace("low: 0, high: 30", "low: 30, high: 0"),
+     "optimize.free[0].low: 30.0 must be below high (0.0)"),
+    (lambda s: s.replace("low: 0, high: 30", "low: 20, high: 30"),
+     "optimize.free[0].low: the start gait has R_deg[fl, pitch] = 15 deg, outside"),
+    (lambda s: s.replace("metric: u,", "metric: speeed,"),
+     "optimize.objective.terms[0].metric: 'speeed' is not a metric; allowed: u, v,"),
+    (lambda s: s.replace("high: 30}", "high: 30, tie: ['R_deg[fl, pitch]']}"),
+     "optimize.free[0].tie[0]: 'R_deg[fl, pitch]' is the entry itself"),
+    (lambda s: s.replace("high: 30}", "high: 30, tie: ['R_deg[fr, pitch]'], tie_signs: [2]}"),
+     "optimize.free[0].tie_signs[0]: 2 is not +1 or -1"),
+    (lambda s: s.replace('"R_deg[fl, pitch]", low: 0, high: 30',
+                         '"Phi_prime_deg[fl, fr]", low: 0, high: 300, '
+                         'tie: ["Phi_prime_deg[fr, fl]"]'),
+     ("optimize.free[0].tie: Phi_prime_deg[fr, fl] follows Phi_prime_deg[fl, fr] as its "
+      "negative automatically")),
+    (lambda s: s.replace('objective:', '  - {entry: "R_deg[rr, yaw]", low: -30, high: 0, '
+                         'tie: ["R_deg[fl, pitch]"]}\nobjective:'),
+     "optimize.free[1].tie: R_deg[fl, pitch] is already set by optimize.free[0]"),
+    (lambda s: s.replace("high: 30}", "high: 30, tie: ['R_deg[fr, pitch]'], tie_signs: [-1]}"),
+     "optimize.free[0].tie[0]: the start gait has R_deg[fr, pitch] = 15 deg, not -1 x"),
+    (lambda s: s + "robustness: {points: [{contact.friction: -1}]}\n",
+     "optimize.robustness.points[0]: contact.friction: -1.0 is outside the allowed range"),
+    (lambda s: s + "robustness: {points: [{random_seed: 4}]}\n",
+     "optimize.robustness.points[0].random_seed: set by the optimiser"),
+    (lambda s: s.replace("terms:", "constraints: [{metric: abs_v, min: 2, relative_to: abs_v}]"
+                         "\n  terms:"),
+     "optimize.objective.constraints[0].relative_to: 'abs_v' is the metric itself"),
+    (lambda s: s + "budget: {population: 1}\n",
+     "optimize.budget.population: 1 is not an integer in the allowed range [2, 10000]"),
+    (lambda s: s + "name: walk\n", "optimize.name: 'walk' is already a gait of the scenario"),
+])
+def test_spec_errors_are_one_line_naming_the_field(tmp_path, edit, message):
+    path = write(tmp_path / "spec.yaml", edit(BASE))
+    with pytest.raises(OptimizeError) as info:
+        load_problem(path)
+    text = str(info.value)
+    assert "\n" not in text
+    assert text.startswith(message), text
+
+
+def test_cli_refuses_a_bad_spec_in_one_line_before_any_run(tmp_path, capsys):
+    path = write(tmp_path / "spec.yaml", BASE.replace("R_deg[fl, pitch]", "R_deg[fx, pitch]"))
+    assert main(["optimize", str(path), "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "optimize.free[0].entry" in err
+    assert not (tmp_path / "o").exists()
+    assert main(["optimize", str(write(tmp_path / "ok.yaml", BASE)), "--out",
+                 str(tmp_path / "o"), "--workers", "0", "--population", "1"]) == 2
+    assert "--population: 1 is not an integer" in capsys.readouterr().err
+
+
+def test_every_shipped_spec_validates():
+    names = {p.stem for p in SHIPPED}
+    assert {"straight_swim", "true_crab", "fast_walk", "efficient_gait"} <= names
+    for path in SHIPPED:
+        problem = load_problem(path)
+        assert problem.spec.name == path.stem
+        assert problem.base.controller.mode == "gait"
+        assert problem.space.outside_bounds() == []
+
+
+# --- entries, ties and gaits ------------------------------------------------------------------
+
+def test_parse_entry_rows_columns_and_phi_prime_legs():
+    assert parse_entry("R_deg[fr, pitch]", "e") == ("R_deg", 1, 2)
+    assert parse_entry(" X_deg[ rr ,yaw ] ", "e") == ("X_deg", 3, 0)
+    assert parse_entry("Phi_prime_deg[rl, fl]", "e") == ("Phi_prime_deg", 2, 0)
+    with pytest.raises(OptimizeError, match="column 'pitch' is not a leg-fin"):
+        parse_entry("Phi_prime_deg[fl, pitch]", "e")
+    with pytest.raises(OptimizeError, match="roll2 column is unused"):
+        parse_entry("Phi_deg[fl, roll2]", "e")
+
+
+def test_ties_signs_and_phi_prime_antisymmetry_set_the_gait():
+    """Each parameter sets its entry, its ties times their signs and the transposed
+    Phi_prime entries as negatives; everything else stays the start gait's to the bit."""
+    start = load_scenario("locomotion_walk").gait("walk")  # R yaw 20, -20, 20, -20
+    params = build_parameters([
+        FreeEntry("R_deg[fl, yaw]", 0, 30, ["R_deg[fr, yaw]", "R_deg[rl, yaw]"], [-1, 1]),
+        FreeEntry("Phi_prime_deg[fl, rl]", 0, 360, ["Phi_prime_deg[fr, rr]"], [-1])])
+    space = ParameterSpace(params, start)
+    np.testing.assert_array_equal(space.start_vector(), [20.0, 180.0])
+    assert space.off_ties() == []
+    gait = space.gait([12.0, 200.0])
+    want_r = start.R.copy()
+    want_r[0, 0], want_r[1, 0], want_r[2, 0] = np.radians([12.0, -12.0, 12.0])
+    np.testing.assert_allclose(gait.R, want_r, rtol=0, atol=1e-15)
+    assert gait.R[3, 0] == start.R[3, 0]  # rr not tied
+    want_p = start.Phi_prime.copy()
+    want_p[0, 2], want_p[2, 0] = np.radians([200.0, -200.0])
+    want_p[1, 3], want_p[3, 1] = np.radians([-200.0, 200.0])
+    np.testing.assert_allclose(gait.Phi_prime, want_p, rtol=0, atol=1e-15)
+    assert np.array_equal(gait.X, start.X) and np.array_equal(gait.Phi, start.Phi)
+    # RMS over the seven entries set: three yaw amplitudes 8 deg each, four phases 20 deg.
+    assert space.distance_from_start([12.0, 200.0]) == pytest.approx(
+        math.sqrt((3 * 8**2 + 4 * 20**2) / 7))
+    same = space.gait(space.start_vector())
+    assert all(np.array_equal(getattr(same, f), getattr(start, f))
+               for f in ("R", "X", "Phi", "Phi_prime"))
+    # A tie the start gait is not on (fr's yaw is -20, not +20) cannot start there.
+    off = ParameterSpace(build_parameters([FreeEntry("R_deg[fl, yaw]", 0, 30,
+                                                     ["R_deg[fr, yaw]"])]), start)
+    message = ("the start gait has R_deg[fr, yaw] = -20 deg, not +1 x R_deg[fl, yaw] = 20 "
+               "deg; the search could not start at the start gait")
+    assert off.off_ties() == [(0, "tie[0]", message)]
+
+
+# --- the cost ---------------------------------------------------------------------------------
+
+def test_cost_terms_quadratic_penalties_wall_and_failures():
+    o = Objective(terms=[Term("abs_v", -1.0), Term("distance_from_start_gait", 0.01)],
+                  constraints=[Constraint("abs_v", min=2.0, relative_to="abs_u", scale=0.01),
+                               Constraint("abs_yaw_rate", max=1.0)],
+                  penalty_weight=100.0, wall_cost=50.0, failed_cost=1e6)
+    values = {"abs_v": 0.03, "abs_u": 0.02, "abs_yaw_rate": 1.5,
+              "distance_from_start_gait": 4.0}
+    s = score(o, "ok", values)
+    # -0.03 + 0.04; |v| >= 2|u| short by 0.01 (scale 0.01): 100; yaw over by 0.5 (scale 1): 25
+    assert s.objective == pytest.approx(0.01)
+    assert s.penalty == pytest.approx(100.0 + 25.0)
+    assert s.cost == pytest.approx(125.01)
+    assert "abs_v 0.03 < 2 abs_u" in s.reason and "abs_yaw_rate 1.5 > 1" in s.reason
+    assert score(o, "ok", values, touched_wall=True).cost == pytest.approx(175.01)
+    assert score(o, "failed", values, reason="diverged").cost == 1e6
+    missing = score(o, "ok", {**values, "abs_u": None})
+    assert missing.cost == 1e6 and "no value of abs_u" in missing.reason
+    assert aggregate([1.0, 3.0, 8.0], "mean") == 4.0
+    assert aggregate([1.0, 3.0, 8.0], "worst") == 8.0
+
+
+def test_joint_limit_margin_counts_measured_and_commanded_angles():
+    limits = np.array([[-1.0, 1.0], [-0.5, 2.0]])
+    log = {"joint_angles": np.array([[0.2, 0.0], [0.9, 1.0]]),
+           "commanded_joint_angles": np.array([[0.0, 1.9], [0.0, 0.0]])}
+    # measured: 1 - 0.9 = 0.1; commanded: 2.0 - 1.9 = 0.1 ... the smallest of all is 0.1
+    assert joint_limit_margin_deg(log, limits) == pytest.approx(math.degrees(0.1))
+    log["commanded_joint_angles"][0, 0] = 1.2  # beyond the limit: negative
+    assert joint_limit_margin_deg(log, limits) == pytest.approx(math.degrees(-0.2))
+
+
+def test_evaluation_key_is_what_defines_a_simulation():
+    k = evaluation_key("abc", ["a", "b"], [1.0, 2.0], {"x": 1, "y": 2}, 0)
+    assert k == evaluation_key("abc", ["a", "b"], [1.0 + 1e-14, 2.0], {"y": 2, "x": 1}, 0)
+    assert k != evaluation_key("abc", ["a", "b"], [1.0, 2.0], {"x": 1, "y": 2}, 1)
+    assert k != evaluation_key("abd", ["a", "b"], [1.0, 2.0], {"x": 1, "y": 2}, 0)
+    assert k != evaluation_key("abc", ["a", "b"], [1.0, 2.001], {"x": 1, "y": 2}, 0)
+
+
+def test_a_candidate_the_scenario_refuses_is_a_result_not_a_raise(tmp_path):
+    """X free: each run starts in the candidate's stance; one that puts the fins into the
+    floor is refused by the scenario's start-pose check, before anything is built."""
+    text = BASE.replace("R_deg[fl, pitch]", "X_deg[fl, roll1]").replace("low: 0, high: 30",
+                                                                        "low: -90, high: 0")
+    problem = load_problem(write(tmp_path / "s.yaml", text))
+    assert problem.set_stance
+    space = problem.space
+    gait = space.gait([-90.0])
+    task = {"key": "k", "scenario_yaml": problem.base_yaml, "gait_name": problem.spec.name,
+            "gait_text": candidate_gait_text(problem.spec.name, gait), "overrides": {},
+            "seed": 0, "set_stance": True, "keep_log": False, "parameters": {}}
+    out = simulate_candidate(task)
+    assert out["status"] == "refused"
+    assert out["reason"].startswith("initial_pose:"), out["reason"]
+
+
+# --- the search on a cluster ------------------------------------------------------------------
+
+def test_cma_es_finds_the_known_minimum_on_a_local_cluster(tmp_path, client):
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC)
+    problem = load_problem(spec, generations=25, population=8)
+    result = run_optimization(problem, tmp_path / "out", client=client,
+                              evaluate=quadratic_evaluator(), progress=False)
+    best = dict(zip(result.names, result.best_degrees))
+    assert best["R_deg.fl.yaw"] == pytest.approx(7.5, abs=0.3)
+    assert best["Phi_prime_deg.fl.fr"] == pytest.approx(300.0, abs=2.0)
+    assert result.best_cost < 1e-3 < result.start_cost
+    # The start cost is the start gait's: ((20 - 7.5) / 30)^2 + ((270 - 300) / 180)^2.
+    assert result.start_cost == pytest.approx((12.5 / 30) ** 2 + (1 / 6) ** 2)
+    rows = read_history(tmp_path / "out" / "history.csv")
+    search = [r for r in rows if r["kind"] == "search"]
+    assert len(search) == 25 * 8 * 2
+    workers = set(client.scheduler_info()["workers"])
+    assert {r["worker"] for r in search} <= workers and len({r["worker"] for r in search}) == 2
+    # The gait file holds the best gait: ties with their signs, Phi' antisymmetric.
+    entry = load_gait_file(tmp_path / "out" / "best_gait.yaml")["quadratic"]
+    yaw, phase = np.radians(best["R_deg.fl.yaw"]), np.radians(best["Phi_prime_deg.fl.fr"])
+    np.testing.assert_allclose(entry.matrices["R"][:, 0], [yaw, -yaw, yaw, -yaw], atol=1e-10)
+    np.testing.assert_allclose([entry.matrices["Phi_prime"][0, 1],
+                                entry.matrices["Phi_prime"][1, 0]], [phase, -phase], atol=1e-10)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["best"]["cost"] == result.best_cost and summary["evaluations"] == 400
+    assert (tmp_path / "out" / "convergence.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_restart_reuses_done_generations_and_an_interrupted_one(tmp_path):
+    """2 generations, then the same folder with --generations 3: only generation 3 runs.
+    Then a run interrupted inside generation 3 and restarted: the simulations done before
+    the interrupt are reused, and the history equals the uninterrupted run's."""
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC)
+    out = tmp_path / "out"
+    first = run_optimization(load_problem(spec, generations=2), out,
+                             evaluate=quadratic_evaluator(), progress=False)
+    assert first.simulated == 2 * 6 * 2 + 1  # the search, then the best gait's re-run
+    rows2 = {r["key"]: r for r in read_history(out / "history.csv") if r["kind"] == "search"}
+    second = run_optimization(load_problem(spec, generations=3), out,
+                              evaluate=quadratic_evaluator(), progress=False)
+    assert second.simulated == 6 * 2 + 1 and second.reused == 0
+    rows3 = [r for r in read_history(out / "history.csv") if r["kind"] == "search"]
+    assert sorted({r["generation"] for r in rows3}) == [1, 2, 3]
+    assert len(rows3) == 3 * 6 * 2
+    for r in rows3:  # generations 1-2 not simulated again: their rows (and stamps) unchanged
+        if r["generation"] <= 2:
+            assert r == rows2[r["key"]]
+
+    calls = []
+
+    def interrupting(task):
+        calls.append(1)
+        if len(calls) == 2 * 6 * 2 + 5:
+            raise KeyboardInterrupt
+        return quadratic(task)
+
+    broken = tmp_path / "broken"
+    with pytest.raises(KeyboardInterrupt):
+        run_optimization(load_problem(spec, generations=3), broken, evaluate=interrupting,
+                         progress=False)
+    partial = read_history(broken / "history.csv")
+    assert len(partial) == 2 * 6 * 2 + 4  # every finished simulation is in the table
+    resumed = run_optimization(load_problem(spec, generations=3), broken,
+                               evaluate=quadratic_evaluator(), progress=False)
+    assert resumed.reused == 4 and resumed.simulated == 6 * 2 - 4 + 1
+
+    def place(path):
+        return sorted((r["generation"], r["candidate"], r["point"], r["R_deg.fl.yaw"],
+                       r["Phi_prime_deg.fl.fr"], r["cost"])
+                      for r in read_history(path) if r["kind"] == "search")
+
+    assert place(broken / "history.csv") == place(out / "history.csv")
+    np.testing.assert_array_equal(resumed.best_degrees, second.best_degrees)
+    # Another population is another optimisation: refused, naming what differs.
+    with pytest.raises(OptimizeError, match=r"different population \(6 there, 4 now\)"):
+        run_optimization(load_problem(spec, population=4), out,
+                         evaluate=quadratic_evaluator(), progress=False)
+
+
+def test_failed_and_raising_candidates_are_penalised_rows(tmp_path, client):
+    """Above 22 deg of yaw amplitude the evaluator returns status failed, below 240 deg of
+    phase it raises: each such simulation is a row with its reason and the objective's
+    failed_cost, and the search completes with a best outside both regions."""
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC.replace("sigma0: 0.3",
+                                                                     "sigma0: 0.6"))
+    result = run_optimization(load_problem(spec, generations=4), tmp_path / "out",
+                              client=client, progress=False,
+                              evaluate=quadratic_evaluator(fail_above=22.0, raise_below=240.0))
+    rows = [r for r in read_history(tmp_path / "out" / "history.csv") if r["kind"] == "search"]
+    failed = [r for r in rows if r["R_deg.fl.yaw"] > 22 and r["Phi_prime_deg.fl.fr"] >= 240]
+    raised = [r for r in rows if r["Phi_prime_deg.fl.fr"] < 240]
+    assert failed and raised
+    for r in failed:
+        assert r["status"] == "failed" and r["reason"].endswith("diverged")
+        assert r["cost"] == 1e6
+    for r in raised:
+        assert r["status"] == "error" and r["reason"].startswith("ValueError: phase")
+        assert r["reason"].endswith("below 240.0")
+        assert r["cost"] == 1e6
+    assert all(r["status"] == "ok" for r in rows if r not in failed and r not in raised)
+    assert result.best_ok and result.best_cost < 1e6
+    best = dict(zip(result.names, result.best_degrees))
+    assert best["R_deg.fl.yaw"] <= 22 and best["Phi_prime_deg.fl.fr"] >= 240
+    assert result.generations == 4
+
+
+# --- real simulations ---------------------------------------------------------------------------
+
+def test_tiny_real_run_of_a_shipped_spec(tmp_path, capsys):
+    """straight_swim with 4 candidates, 1 generation, 2 s simulations on --workers 2."""
+    spec = REPO / "diagrams" / "optimize" / "straight_swim.yaml"
+    out = tmp_path / "out"
+    start = time.perf_counter()
+    code = main(["optimize", str(spec), "--out", str(out), "--workers", "2", "--population",
+                 "4", "--generations", "1", "--duration", "2", "--quiet"])
+    wall = time.perf_counter() - start
+    assert code == 0, capsys.readouterr().err
+    problem = load_problem(spec)
+    n_points = len(problem.spec.points())
+    rows = read_history(out / "history.csv")
+    search = [r for r in rows if r["kind"] == "search"]
+    assert len(search) == 4 * n_points
+    assert all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+    start_rows = [r for r in search if r["candidate"] == 0]
+    assert all(r["distance_from_start_gait"] == 0.0 for r in start_rows)  # the start gait
+    assert {r["kind"] for r in rows} == {"search", "best", "held_out"}
+    # The logs of the best candidate only.
+    logs = sorted(p.parent.name for p in (out / "evaluations").rglob("log.npz"))
+    summary = json.loads((out / "summary.json").read_text())
+    c = summary["best"]["candidate"]
+    assert logs == [f"c{c:03d}-p{p}-s0" for p in range(n_points)]
+    for name in ("joints.png", "trajectory.png", "log.npz", "metrics.json", "gait.yaml"):
+        assert (out / "best_run" / name).is_file()
+    assert (out / "convergence.png").read_bytes()[:4] == b"\x89PNG"
+    # best_gait.yaml: a gait file whose gait runs.
+    gait_file = out / "best_gait.yaml"
+    entries = load_gait_file(gait_file)
+    assert list(entries) == ["straight_swim"]
+    best = summary["best"]["degrees"]
+    np.testing.assert_allclose(np.degrees(entries["straight_swim"].matrices["Phi_prime"][0, 1]),
+                               best["Phi_prime_deg.fl.fr"], atol=1e-8)
+    scenario = load_scenario("locomotion_swim", overrides={
+        "controller.gait_files": [str(gait_file)], "controller.gait": "straight_swim",
+        "duration": 0.3, "visualization.meshcat": False})
+    assert run(scenario, tmp_path / "rerun", progress=False,
+               write_outputs=False).metrics["status"] == "ok"
+    print(f"tiny straight_swim run: {wall:.1f} s")
+
+
+def test_the_command_against_a_running_scheduler(tmp_path, capsys):
+    """A `dask scheduler` and one `dask worker --nthreads 1` on 127.0.0.1 (random ports),
+    then `manta-drake optimize --scheduler`: every simulation ran on that worker."""
+    scheduler_file = tmp_path / "scheduler.json"
+    procs = []
+    try:
+        procs.append(subprocess.Popen(
+            [str(VENV_BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", "0",
+             "--no-dashboard", "--scheduler-file", str(scheduler_file)],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        deadline = time.monotonic() + 60
+        while not scheduler_file.is_file() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        time.sleep(0.2)
+        address = json.loads(scheduler_file.read_text())["address"]
+        procs.append(subprocess.Popen(
+            [str(VENV_BIN / "dask"), "worker", address, "--nthreads", "1", "--host",
+             "127.0.0.1", "--no-dashboard", "--name", "opt-test-worker"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=REPO))
+        from distributed import Client
+
+        with Client(address, timeout="30s") as c:
+            c.wait_for_workers(1, timeout=60)
+            worker_address = next(iter(c.scheduler_info()["workers"]))
+        spec = write(tmp_path / "walk.yaml", BASE + "budget: {duration: 1.5}\n")
+        code = main(["optimize", str(spec), "--out", str(tmp_path / "out"), "--scheduler",
+                     address, "--population", "2", "--generations", "1", "--quiet"])
+        assert code == 0, capsys.readouterr().err
+        rows = read_history(tmp_path / "out" / "history.csv")
+        assert len([r for r in rows if r["kind"] == "search"]) == 2
+        assert {r["worker"] for r in rows} == {worker_address}
+        assert all(r["status"] == "ok" for r in rows)
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_metric_names_are_documented():
+    text = (REPO / "docs" / "optimize.md").read_text()
+    for name in METRICS:
+        assert f"`{name}`" in text, name

@@ -6,8 +6,9 @@
     manta-drake controller SCENARIO.yaml --lcm URL   (manta_drake.seam)
     manta-drake sweep SWEEP.yaml --out DIR           (manta_drake.sweep)
     manta-drake calibrate CALIBRATION.yaml --out DIR (manta_drake.calibrate)
+    manta-drake optimize SPEC.yaml --out DIR         (manta_drake.optimize)
 
-Each of the last four lives in its own package, which provides ``add_<command>_parser(sub)``
+Each of the last five lives in its own package, which provides ``add_<command>_parser(sub)``
 (adds its subparser) and ``<command>_main(args) -> int``; see ``EXTENSIONS``.
 
 Errors are printed as one line (no traceback) and exit with status 2.
@@ -164,6 +165,8 @@ EXTENSIONS = {
     "calibrate": ("manta_drake.calibrate",
                   "fit hydrodynamic coefficients to measured runs on Dask (Sim2Real; "
                   "docs/sweeps.md)"),
+    "optimize": ("manta_drake.optimize",
+                 "design a gait by CMA-ES on a Dask cluster (docs/optimize.md)"),
     "study": ("manta_drake.studies", "run a study that regenerates a report of docs/"),
 }
 

@@ -224,6 +224,8 @@ def test_the_normalised_comparison_names_its_costs_and_gains(tb):
     assert "first arrival 0.50 s later (swim->trot)" in costs
     assert "settle, joints not within the window for normalised (trot->swim)" in costs
     assert "peak abs torque 1.00 N m smaller (swim->trot)" in gains
+    assert "in range, outside the two gaits' range (X -+ |R|) 14.6 deg smaller" in gains
+    assert "in smoothness, nothing" in costs and "in range, nothing" in costs
     assert "pitch" not in costs + gains  # equal values are neither
     assert "by at most 0.0 deg, Eq. (12)'s by 14.6 deg" in text
     # Without a normalised run there is nothing to compare.

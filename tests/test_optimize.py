@@ -463,7 +463,7 @@ def test_the_command_against_a_running_scheduler(tmp_path, capsys):
         with Client(address, timeout="30s") as c:
             c.wait_for_workers(1, timeout=60)
             worker_address = next(iter(c.scheduler_info()["workers"]))
-        spec = write(tmp_path / "walk.yaml", BASE + "budget: {duration: 1.5}\n")
+        spec = write(tmp_path / "remote_walk.yaml", BASE + "budget: {duration: 1.5}\n")
         code = main(["optimize", str(spec), "--out", str(tmp_path / "out"), "--scheduler",
                      address, "--population", "2", "--generations", "1", "--quiet"])
         assert code == 0, capsys.readouterr().err

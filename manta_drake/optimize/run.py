@@ -102,6 +102,9 @@ class OptimizationResult:
     figure: pathlib.Path | None = None
     summary_file: pathlib.Path | None = None
     held_out: list = dc.field(default_factory=list)  # rows of the held-out re-check
+    # Per generation run by any call: its wall time (ask to saved state), simulations run
+    # and reused, the longest and the summed simulation wall times (on the workers).
+    timings: list = dc.field(default_factory=list)
     best_run: dict | None = None  # the row of the best gait's re-run
 
 
@@ -349,6 +352,7 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
     try:
         with interrupts_as_exceptions():
             while True:
+                t_generation, resumed = time.perf_counter(), state["pending"] is not None
                 if state["pending"] is None:
                     if state["generation"] >= budget.generations:
                         n = budget.generations
@@ -382,12 +386,18 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
                     state["best"] = {
                         "generation": generation, "candidate": c_best,
                         "unit": list(map(float, state["pending"][c_best])),
-                        "degrees": list(map(float, space.to_degrees(state["pending"][c_best]))),
+                        "degrees": next(j["degrees"] for j in jobs if j["candidate"] == c_best),
                         "cost": costs[c_best],
                         "keys": [j["key"] for j in jobs if j["candidate"] == c_best]}
                 _prune_logs(out_dir, rows, state["best"])
                 table.write(list(rows.values()) + final_rows, force=True)
                 state["pending"] = None
+                walls = [rows[j["key"]]["wall_time_s"] or 0.0 for j in todo]
+                state.setdefault("timings", []).append({
+                    "generation": generation, "wall_s": time.perf_counter() - t_generation,
+                    "simulated": len(todo), "reused": len(jobs) - len(todo),
+                    "longest_simulation_s": max(walls, default=0.0),
+                    "sum_simulation_s": float(sum(walls)), "resumed": resumed})
                 save_state()
             final_rows = _final_stage(problem, out_dir, state["best"], runner, scenario_sha)
     finally:
@@ -543,7 +553,8 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
         evaluations=len(rows), simulated=simulated, reused=reused,
         stop=stop or "done", wall_time_s=wall_time, out_dir=out_dir,
         held_out=[r for r in final_rows if r["kind"] == "held_out"],
-        best_run=next((r for r in final_rows if r["kind"] == "best"), None))
+        best_run=next((r for r in final_rows if r["kind"] == "best"), None),
+        timings=list(state.get("timings", [])))
     (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
     if best_ok:
         result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
@@ -572,6 +583,7 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
         "aggregate": spec.robustness.aggregate,
         "evaluations": result.evaluations, "simulated_now": simulated, "reused_now": reused,
         "stop": result.stop, "wall_time_s": wall_time,
+        "generation_timings": result.timings,
         "wall_time_total_s": state.get("wall_time_s", 0.0),
         "best_gait": str(result.best_gait_file) if result.best_gait_file else None,
     }

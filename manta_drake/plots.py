@@ -133,10 +133,19 @@ def wall_spans(log: dict, margin: float) -> list:
     return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
 
 
+# The 0-1 estimates a behaviour tree reads, as fig_transition_run labels them.
+ESTIMATES = (("z_hat", "z_hat (depth)"), ("s_hat", "s_hat (wall)"), ("flow_hat", "flow_hat (flow)"),
+             ("posture_hat", "posture_hat (tilt)"), ("energy_hat", "energy_hat (low charge)"))
+
+
 def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",),
-                       paper_windows=(), wall_margin=None, wall_label="near a wall"):
-    """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth, z_hat and s_hat over
-    time, with the behaviour phases shaded (grey: a behaviour held, orange: a transition).
+                       paper_windows=(), wall_margin=None, wall_label="near a wall",
+                       leaves=None):
+    """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth and every modality
+    estimate in the log (z_hat, s_hat, flow_hat, posture_hat, energy_hat) over time, with the
+    behaviour phases shaded (grey: a behaviour held, orange: a transition). ``leaves``: the
+    behaviour tree's gait names; given, a last panel draws their weights
+    (``behaviour_weights``).
 
     ``paper_windows``: (label, start_s, end_s) of the paper's transitions, drawn as dashed
     purple brackets on every panel so the run can be compared with the printed figure.
@@ -145,9 +154,12 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
     t, tc = log["t"], log["t_command"]
     spans = behaviour_spans(metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
     walls = wall_spans(log, wall_margin) if wall_margin is not None and len(t) else []
+    estimates = [(key, label) for key, label in ESTIMATES if key in log]
     rows = [("joint outputs [deg]", "joints"), ("Euler angles [deg]", "euler"),
-            ("depth [m]", "depth"), ("z_hat, s_hat", "sensing")]
-    fig = Figure(figsize=(11, 10))
+            ("depth [m]", "depth"), ("estimates (0-1)", "sensing")]
+    if leaves is not None and "behaviour_weights" in log:
+        rows.append(("behaviour weights", "weights"))
+    fig = Figure(figsize=(11, 2.5 * len(rows)))
     axes = fig.subplots(len(rows), 1, sharex=True)
     for ax, (ylabel, kind) in zip(axes, rows):
         for start, end, label in spans:
@@ -187,13 +199,19 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
                 ax.plot(log["t_depth"], log["depth"][:, 0], lw=0.8, label="pressure sensor (head)")
             ax.invert_yaxis()
             ax.legend(fontsize=8)
+        elif kind == "weights":
+            for i, leaf in enumerate(leaves):
+                ax.plot(log["t_behaviour_weights"], log["behaviour_weights"][:, i], label=leaf)
+            ax.set_ylim(-0.05, 1.45)  # Eq. (12)'s weights sum to up to 1.41
+            ax.legend(ncol=len(leaves), fontsize=8)
         else:
-            if "z_hat" in log:
-                ax.plot(log["t_z_hat"], log["z_hat"][:, 0], label="z_hat (depth)")
-            if "s_hat" in log:
-                ax.step(log["t_s_hat"], log["s_hat"][:, 0], where="post", label="s_hat (wall)")
+            for key, label in estimates:
+                if key == "s_hat":  # the camera's step signal
+                    ax.step(log["t_s_hat"], log["s_hat"][:, 0], where="post", label=label)
+                else:
+                    ax.plot(log[f"t_{key}"], log[key][:, 0], label=label)
             ax.set_ylim(-0.05, 1.05)
-            ax.legend(fontsize=8)
+            ax.legend(fontsize=8, ncol=len(estimates))
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")

@@ -358,3 +358,40 @@ def test_two_behaviors_reaches_the_side_wall_when_the_readme_says(tmp_path):
     late = t >= pressed_s + 1.0
     assert np.all(clearance[late] < 0.02)  # pressed against it to the end
     assert np.all(xyz[late, 1] < -0.7)  # the right side wall, y = -1 m
+
+
+# --- the README's gait file and behaviour tree, run as written --------------------------------
+
+def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
+    """The two files of "Gaits, behaviours and modalities as data", written where the README
+    says, run by its commands (shortened to 3 s); the user's gait is the trot with 25 deg yaw
+    amplitudes, and the tree's nodes are the README's."""
+    import json
+    import sys
+
+    from manta_drake.scenario import load_scenario
+
+    text = README.read_text()
+    (tmp_path / "my_gaits.yaml").write_text(_fenced_after(text, "`my_gaits.yaml`:", "yaml"))
+    (tmp_path / "my_scenario.yaml").write_text(
+        _fenced_after(text, "`my_scenario.yaml` beside it", "yaml"))
+    s = load_scenario(tmp_path / "my_scenario.yaml")
+    np.testing.assert_allclose(np.degrees(s.gait("long_trot").R[:, 0]), [25, -25, 25, -25])
+    np.testing.assert_array_equal(s.gait("long_trot").X, s.gait("trot").X)
+    tree = s.behaviour_tree()
+    assert tree.leaves == ("swim", "long_trot", "walk")
+    assert tree.modalities == ("z_hat", "posture_hat")
+    start = text.index(".venv/bin/manta-drake run my_scenario.yaml --out out/mine --no-meshcat")
+    commands = text[start:text.index("```", start)].replace("\\\n", " ")
+    assert commands.count("manta-drake run") == 2
+    for line, out in zip([c for c in commands.splitlines() if c.strip()], ("out/mine", "out/mine2")):
+        argv = line.split()[1:] + ["--set", "duration=3", "--quiet"]
+        assert argv[0] == "run" and argv[1] == "my_scenario.yaml"
+        done = subprocess.run([sys.executable, "-m", "manta_drake.cli", *argv], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+        metrics = json.loads((tmp_path / out / "metrics.json").read_text())
+        assert metrics["status"] == "ok" and metrics["sim_time_s"] == pytest.approx(3.0)
+    layered = yaml.safe_load((tmp_path / "out/mine2/scenario.yaml").read_text())
+    assert layered["transition"]["tree"]["root"]["weight"] == "potential"
+    assert layered["transition"]["tree"]["floor"]["threshold"] == 0.3

@@ -168,11 +168,13 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles,
     # AddToBuilder's default force port: generalized forces when they are computed at every
     # step (one vector instead of 17 force objects), the held list otherwise (cached between
     # updates, mapped to joint torques in C++ at each step).
+    current = scenario.current_schedule()
     hydro = HydrodynamicForces.AddToBuilder(
         builder, plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
-        current=scenario.water.current, added_mass_iso=ph.added_mass_iso,
-        current_schedule=None if scenario.current_schedule().is_constant
-        else scenario.current_schedule(),
+        # A schedule that never changes is its one current (packed once, no per-step lookup).
+        current=current.at(0.0) if current.is_constant else current.constant,
+        added_mass_iso=ph.added_mass_iso,
+        current_schedule=None if current.is_constant else current,
         update_period=scenario.water.update_period,
         inputs="plant_state" if hydro_plant_state else "contract", name="hydro")
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))

@@ -1,0 +1,103 @@
+"""The new modalities in the whole diagram: the shipped scenarios are what they say, the flow
+sensor reads the current the water model applies, the IMU's heading hold straightens the
+swim, the charge estimate drives the behaviour tree, and a tree written out as Eq. (12) runs
+the paper's scenario to the last bit."""
+
+import numpy as np
+import pytest
+
+from manta_drake.control.behaviour_tree import default_tree
+from manta_drake.scenario import load_scenario
+from manta_drake.simulate import random_sources, run
+from manta_drake.wiring.diagram import build_diagram
+
+QUIET = {"visualization.meshcat": False}
+
+
+def test_shipped_modality_scenarios_are_what_they_say():
+    hold = load_scenario("swim_heading_hold")
+    assert hold.imu.enabled and hold.heading_hold.enabled and hold.controller.gait == "swim"
+    assert load_scenario("two_behaviors_heading_hold").balloon.schedule == \
+        load_scenario("two_behaviors").balloon.schedule
+    four = load_scenario("four_behaviors")
+    tree = four.behaviour_tree()
+    assert tree.leaves == ("swim", "trot", "walk", "rest")
+    assert set(tree.modalities) == {"z_hat", "flow_hat", "energy_hat"}
+    np.testing.assert_array_equal(four.gait("rest").R, 0.0)  # the scenario's own gait file
+    np.testing.assert_array_equal(four.gait("rest").X, four.gait("swim").X)
+    assert four.balloon.rule.modality == "flow"
+    assert not four.current_schedule().is_constant
+
+
+def test_sensors_add_their_noise_sources_after_the_old_ones():
+    """A scenario without the new sensors has the random sources it had before them, in the
+    same order (so it draws the same noise); the sensors add theirs at the end."""
+    base = load_scenario("two_behaviors", overrides=QUIET)
+    more = load_scenario("two_behaviors", overrides={**QUIET, "imu.enabled": True,
+                                                     "flow_sensor.enabled": True})
+    old = [s.get_name() for s in random_sources(build_diagram(base)[0])]
+    new = [s.get_name() for s in random_sources(build_diagram(more)[0])]
+    assert new[:len(old)] == old
+    assert new[len(old):] == ["imu_noise", "imu_bias", "flow_sensor_noise"]
+
+
+def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_path):
+    short = {**QUIET, "duration": 2.0}
+    plain = run(load_scenario("two_behaviors", overrides=short), tmp_path / "a", progress=False)
+    tree = {name: vars(node) for name, node in default_tree().items()}
+    written = run(load_scenario("two_behaviors", overrides=short, data={"transition": {"tree": tree}}),
+                  tmp_path / "b", progress=False)
+    for key in ("joint_angles", "body_xyz", "cpg_params", "behaviour_weights"):
+        np.testing.assert_array_equal(plain.log[key], written.log[key])
+
+
+def test_flow_sensor_reads_the_current_on_the_floor(tmp_path):
+    """four_behaviors starts on the floor in a 0.1 m/s cross current: the sensor's reading is
+    R^T (current - v_head) (computed here from the logged hull state), with its noise's
+    spread; the flow estimate is high and the balloon rule keeps the balloon empty."""
+    s = load_scenario("four_behaviors", overrides={**QUIET, "duration": 4.0})
+    r = run(s, tmp_path, progress=False)
+    log = r.log
+    # A logger at the sensor's sample time publishes before that time's update: each logged
+    # value is the sample taken one period earlier (the first, the sensor's initial value).
+    period = 1.0 / s.flow_sensor.rate_hz
+    t = log["t_flow_velocity"][2:]
+    k = np.searchsorted(log["t"], t - period - 1e-9)
+    p_head = np.array(s.flow_sensor.position)
+    from scipy.spatial.transform import Rotation
+
+    q = log["body_quat_wxyz"][k]
+    R = Rotation.from_quat(np.c_[q[:, 1:], q[:, :1]])
+    v_head = log["body_v_world"][k] + np.cross(log["body_w_world"][k], R.apply(p_head))
+    expected = R.inv().apply(np.array([0.0, 0.1, 0.0]) - v_head)
+    error = log["flow_velocity"][2:] - expected
+    sigma = s.flow_sensor.noise_std
+    assert np.abs(error.mean(axis=0)).max() < 4 * sigma / np.sqrt(len(t))
+    assert error.std(axis=0) == pytest.approx(np.full(3, sigma), rel=0.25)
+    assert log["flow_hat"][-1, 0] > 0.3  # rising through its 4 s filter, never below the band
+    np.testing.assert_array_equal(log["balloon_command"], 0.0)  # schedule, then the rule
+
+
+def test_heading_hold_straightens_the_swim(tmp_path):
+    """The swim with the printed Phi'_swim lag turns right; held by the IMU it keeps its
+    heading (8 s runs; the full measurement is swim_heading_hold's metrics)."""
+    yaw = {}
+    for enabled in (False, True):
+        s = load_scenario("swim_heading_hold", overrides={**QUIET, "duration": 8.0,
+                                                          "heading_hold.enabled": enabled})
+        r = run(s, tmp_path / str(enabled), progress=False)
+        yaw[enabled] = r.metrics["final_body_rpy_deg"][2]
+        if enabled:
+            assert np.abs(r.log["heading_trim"]).max() > 0.0
+    assert yaw[False] < -15.0
+    assert abs(yaw[True]) < 0.25 * abs(yaw[False])
+
+
+def test_the_charge_estimate_drives_the_tree(tmp_path):
+    """Started below the reserve, four_behaviors' tree goes to its rest gait at once."""
+    s = load_scenario("four_behaviors", overrides={**QUIET, "duration": 1.0,
+                                                   "actuators.initial_soc": 0.21})
+    r = run(s, tmp_path, progress=False)
+    rest = s.behaviour_tree().leaves.index("rest")
+    assert r.log["energy_hat"][-1, 0] == 1.0
+    np.testing.assert_allclose(r.log["behaviour_weights"][-1], np.eye(4)[rest], atol=1e-12)

@@ -396,6 +396,26 @@ def test_failed_and_raising_candidates_are_penalised_rows(tmp_path, client):
     assert result.generations == 4
 
 
+def test_runs_without_the_objectives_metric_give_no_gait(tmp_path):
+    """Every simulation runs but gives no u (as a run too short for a steady window does):
+    each is `unscored` at failed_cost, and no gait file is written."""
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC)
+    (tmp_path / "out").mkdir()
+    write(tmp_path / "out" / "best_gait.yaml", "an earlier run's\n")
+
+    def no_u(task):
+        return {"status": "ok", "metrics": {"v": 0.01}}
+
+    result = run_optimization(load_problem(spec, generations=1), tmp_path / "out",
+                              evaluate=no_u, progress=False)
+    rows = read_history(tmp_path / "out" / "history.csv")
+    assert {r["status"] for r in rows} == {"unscored"}
+    assert {r["reason"] for r in rows} == {"no value of u"}
+    assert {r["cost"] for r in rows} == {1e6}
+    assert not result.best_ok and result.best_gait_file is None
+    assert not (tmp_path / "out" / "best_gait.yaml").exists()
+
+
 # --- real simulations ---------------------------------------------------------------------------
 
 def test_tiny_real_run_of_a_shipped_spec(tmp_path, capsys):
@@ -413,6 +433,7 @@ def test_tiny_real_run_of_a_shipped_spec(tmp_path, capsys):
     search = [r for r in rows if r["kind"] == "search"]
     assert len(search) == 4 * n_points
     assert all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+    assert all(r["u"] is not None and r["abs_yaw_rate"] is not None for r in rows)
     start_rows = [r for r in search if r["candidate"] == 0]
     assert all(r["distance_from_start_gait"] == 0.0 for r in start_rows)  # the start gait
     assert {r["kind"] for r in rows} == {"search", "best", "held_out"}
@@ -463,14 +484,14 @@ def test_the_command_against_a_running_scheduler(tmp_path, capsys):
         with Client(address, timeout="30s") as c:
             c.wait_for_workers(1, timeout=60)
             worker_address = next(iter(c.scheduler_info()["workers"]))
-        spec = write(tmp_path / "remote_walk.yaml", BASE + "budget: {duration: 1.5}\n")
+        spec = write(tmp_path / "remote_walk.yaml", BASE + "budget: {duration: 2.0}\n")
         code = main(["optimize", str(spec), "--out", str(tmp_path / "out"), "--scheduler",
                      address, "--population", "2", "--generations", "1", "--quiet"])
         assert code == 0, capsys.readouterr().err
         rows = read_history(tmp_path / "out" / "history.csv")
         assert len([r for r in rows if r["kind"] == "search"]) == 2
         assert {r["worker"] for r in rows} == {worker_address}
-        assert all(r["status"] == "ok" for r in rows)
+        assert all(r["status"] == "ok" and r["cost"] < 0 for r in rows)  # cost -u: it walks
     finally:
         for p in reversed(procs):
             p.terminate()

@@ -64,6 +64,9 @@ OUTPUTS = ("best_gait.yaml", HISTORY, "convergence.png", "summary.json", "state.
 FOLDERS = ("evaluations", "best_run", "held_out")
 STATE = "state.pkl"
 STATE_FORMAT = 1
+# Status of a simulation that ran to its end without a metric the objective needs (no steady
+# window for a mean velocity, no speed for a cost of transport): costed failed_cost.
+UNSCORED = "unscored"
 
 
 class _Normal:
@@ -432,6 +435,9 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     reason = " ".join(str(outcome.get("reason", "") or "").split())
     touched = bool(outcome.get("touched_wall", False))
     s = score(spec.objective, status, values, touched, reason)
+    if s.failed and status == "ok":
+        # The run ran, but without a metric the objective needs: no score, no gait.
+        status, reason = UNSCORED, s.reason
     row = {k: job[k] for k in ("key", "kind", "generation", "candidate", "point", "seed")}
     row.update(zip(space.names, job["degrees"]))
     row.update(values)

@@ -128,16 +128,29 @@ def test_channel_table_matches_the_ports_and_the_docs():
     from manta_drake.scenario import load_scenario
     from manta_drake.wiring.station import build_station
 
-    scenario = load_scenario("three_behaviors", {"duration": 1.0})
-    station, _ = build_station(scenario)
-    controller, _ = build_controller(scenario)
-    for channel in seam.CHANNELS:  # every channel is a port of its sender
-        sender = station if channel.sender == "station" else controller
-        assert sender.HasOutputPort(channel.port), channel.name
+    halves = {}
+    for name in ("three_behaviors", "four_behaviors"):
+        scenario = load_scenario(name, {"duration": 1.0})
+        halves[name] = build_station(scenario)[0], build_controller(scenario)[0]
+    for channel in seam.CHANNELS:  # every channel is a port of its sender (camera or not)
+        assert any((station if channel.sender == "station" else controller).HasOutputPort(
+            channel.port) for station, controller in halves.values()), channel.name
+    station, controller = halves["three_behaviors"]
     sends, reads = seam.controller_channels(controller)
     assert {c.port for c in reads} == {"measured_joint_state", "depth", "depth_image",
                                        "camera_pose"}
     assert {c.port for c in sends} == {"desired_state", "balloon_command"}
+    # The new modalities: the IMU, the flow sensor and the battery are the controller's
+    # inputs; every vector channel's size is its port's.
+    station, controller = halves["four_behaviors"]
+    sends, reads = seam.controller_channels(controller)
+    assert {c.port for c in reads} == {"measured_joint_state", "depth", "imu", "flow_velocity",
+                                       "battery"}
+    for c in seam.station_channels(station)[0]:
+        if c.codec == "vector":
+            assert station.GetOutputPort(c.port).size() == c.size, c.name
+            if controller.HasInputPort(c.port):
+                assert controller.GetInputPort(c.port).size() == c.size, c.name
     docs = (REPO / "docs" / "lcm.md").read_text()
     assert seam.channel_table_markdown() in docs, "docs/lcm.md: paste channel_table_markdown()"
 
@@ -147,9 +160,62 @@ def test_controller_commands_do_not_depend_directly_on_the_sensors():
     from manta_drake.wiring.controller import build_controller
     from manta_drake.scenario import load_scenario
 
-    controller, _ = build_controller(load_scenario("three_behaviors"))
-    sends, reads = seam.controller_channels(controller)
-    assert not seam.has_feedthrough(controller, reads, sends)
+    for name in ("three_behaviors", "four_behaviors", "swim_heading_hold"):
+        controller, _ = build_controller(load_scenario(name))
+        sends, reads = seam.controller_channels(controller)
+        assert not seam.has_feedthrough(controller, reads, sends), name
+
+
+def test_the_battery_crosses_where_the_controller_reads_the_charge_at_its_estimators_period():
+    """``reads_battery`` is build_controller's choice (the energy model on, and energy_hat
+    read by the tree or the balloon rule); the channel then comes at the energy estimator's
+    own period (its j x 0.1 s are not all on the 10 ms grid: 3 x 0.1 s is after the plant's
+    step at 0.3 s), else every 10 ms for monitoring."""
+    from manta_drake.scenario import load_scenario
+    from manta_drake.wiring.controller import build_controller
+
+    energy_rule = {"balloon.rule.modality": "energy", "balloon.rule.threshold": 0.5}
+    cases = [("four_behaviors", {}, True), ("swim_heading_hold", energy_rule, True),
+             ("swim_heading_hold", {}, False), ("two_behaviors", {}, False),
+             ("swim_heading_hold", {**energy_rule, "actuators.enabled": False}, None)]
+    battery = seam.CHANNEL_BY_NAME["MANTA_BATTERY"]
+    for name, changes, expected in cases:
+        try:
+            scenario = load_scenario(name, {"duration": 1.0}, overrides=changes)
+        except ValueError as e:  # energy_hat without the energy model is refused at load
+            assert expected is None and "needs actuators.enabled: true" in str(e), e
+            continue
+        controller, handles = build_controller(scenario)
+        assert seam.reads_battery(scenario) is controller.HasInputPort("battery") is expected
+        if expected:
+            period = handles.systems["energy_estimator"].period
+            assert period == seam.ENERGY_ESTIMATOR_PERIOD_S == battery.period(scenario) == 0.1
+        else:
+            assert battery.period(scenario) == 0.01
+    assert 3 * 0.1 not in seam.sample_times(0.01, 1.0) and 3 * 0.1 > 300 * 0.001
+    assert all(j * 0.02 in seam.sample_times(0.01, 75.0) for j in range(3750))
+
+
+def test_every_periodic_reader_of_a_sensor_reads_at_exchange_times():
+    """The posture, flow and energy estimators read at times the seam exchanges their
+    channels, so in lockstep each reads the single diagram's value; an IMU at 30 Hz under a
+    posture estimator at 20 ms would not (the controller says so when it starts)."""
+    from manta_drake.scenario import load_scenario
+    from manta_drake.wiring.controller import build_controller
+
+    for name in ("four_behaviors", "swim_heading_hold", "two_behaviors_heading_hold",
+                 "three_behaviors"):
+        scenario = load_scenario(name, {"duration": 75.0})
+        controller = seam.controller_with_tick(build_controller(scenario)[0], scenario.time_step)
+        assert seam.unexchanged_reads(controller, scenario) == [], name
+    scenario = load_scenario("swim_heading_hold", {"duration": 1.0},
+                             overrides={"imu.rate_hz": 30.0})
+    lines = seam.unexchanged_reads(build_controller(scenario)[0], scenario)
+    assert len(lines) == 1 and lines[0].startswith(
+        "posture_estimator reads imu every 0.02 s, MANTA_IMU comes every 0.0333333 s: "), lines
+    missed = [j * 0.02 for j in range(50) if j * 0.02 not in seam.sample_times(1 / 30, 1.0)]
+    assert lines[0].endswith(f"{len(missed)} of its reads (the first at t = {missed[0]!r} s) "
+                             "fall between the exchanges")
 
 
 class _Recorder(LeafSystem):
@@ -588,6 +654,9 @@ def test_controller_ignores_readings_outside_their_physical_range(capsys):
 
     def step(link, ex):  # the station: publish what is due, then wait for the command
         link.advance_floor(ex.utime)
+        if ex.time == 0.0:  # first, what the controller's initialization reads
+            link.publish(depth.name, seam.vector_message(seam.BEFORE_START_TIME, [0.05]),
+                         seam.BEFORE_START_UTIME)
         for name in ex.channels:
             if name == seam.CLOCK.name:
                 msg = seam.joint_state_message(ex.time, held["desired_state"])
@@ -627,6 +696,90 @@ def test_controller_ignores_readings_outside_their_physical_range(capsys):
     np.testing.assert_array_equal(result.log["t_battery"], np.arange(10) * 0.01)
     soc = result.log["battery"][:, 0]
     assert np.isnan(soc[3]) and np.all(soc[np.arange(10) != 3] == 0.9)
+
+
+def test_controller_screens_imu_readings_and_its_posture_estimator_holds_through_them(capsys):
+    """A roll of 7 rad and a yaw rate of 100 rad/s are beyond the IMU's range: read as
+    dropped values, as a NaN yaw is, through which the posture estimator holds those channels
+    (unscreened, the roll would pull roll_hat toward wrap(7) = 0.72 rad); a specific force of
+    1000 m/s^2 is dropped too; a good roll of 0.2 rad moves roll_hat as the lag's closed
+    form says. One line per kind; all counted."""
+    from manta_drake.scenario import load_scenario
+
+    scenario = load_scenario("swim_heading_hold", {"duration": 0.1})
+    url = unique_url()
+    h = scenario.time_step
+    depth = seam.CHANNEL_BY_NAME["MANTA_DEPTH"]
+    imu = seam.CHANNEL_BY_NAME["MANTA_IMU"]
+    desired = seam.CHANNEL_BY_NAME["MANTA_DESIRED_JOINT_STATE"]
+    periods = {seam.CLOCK.name: h, depth.name: 0.02, imu.name: 0.01}
+    schedule = seam.exchange_schedule(0.1, periods)
+    base = np.array([0.1, 0.05, 0.3, 0.0, 0.0, 0.2, 0.0, 0.0, 9.81])
+
+    def reading(t):  # what the scripted IMU sends at t (ms)
+        x = base.copy()
+        ms = round(t * 1000)
+        if ms >= 60:
+            x[0] = 0.2
+        if ms == 20:
+            x[0] = 7.0
+        elif ms == 40:
+            x[5], x[2] = 100.0, np.nan
+        elif ms == 60:
+            x[6] = 1e3
+        return x
+
+    def step(link, ex):  # the station: publish what is due, then wait for the command
+        link.advance_floor(ex.utime)
+        if ex.time == 0.0:  # first, what the controller's initialization reads
+            link.publish(depth.name, seam.vector_message(seam.BEFORE_START_TIME, [0.05]),
+                         seam.BEFORE_START_UTIME)
+            link.publish(imu.name, seam.vector_message(seam.BEFORE_START_TIME, base),
+                         seam.BEFORE_START_UTIME)
+        for name in ex.channels:
+            if name == seam.CLOCK.name:
+                msg = seam.joint_state_message(ex.time, held["desired_state"])
+            elif name == depth.name:
+                msg = seam.vector_message(ex.time, [0.05])
+            else:
+                msg = seam.vector_message(ex.time, reading(ex.time))
+            link.publish(name, msg, ex.utime)
+        if seam.CLOCK.name in ex.channels:
+            link.wait_for(lambda: link.take({desired.name: ex.utime}), 30, lambda _: None,
+                          lambda _: seam.SeamError(f"no command for {ex.time}"))
+
+    held = seam.initial_commands(scenario)
+    hello = seam.Hello("station", "fakeimu0", "swim_heading_hold", 0.1, h, "lockstep",
+                       tuple(periods))
+    peer = _ScriptedPeer(url, hello, [desired], step, schedule, sticky=(seam.CLOCK.name,))
+    result = seam.run_controller(scenario, url, timeout=10, startup_timeout=60)
+    peer.thread.join(10)
+    assert peer.error is None, peer.error
+    assert result.incidents == {imu.name: {"ignored": 3, "dropout": 1}}
+    err = _err_lines(capsys.readouterr())
+    assert err == [
+        ("controller: MANTA_IMU: at t = 0.020 s: imu roll 7 rad beyond +-3.142: ignored (read "
+         "as dropped readings; the posture estimator holds them) (further ignored messages on "
+         "MANTA_IMU are counted, not shown)"),
+        ("controller: MANTA_IMU: at t = 0.040 s: imu wz 100 rad/s beyond +-35: ignored (read "
+         "as dropped readings; the posture estimator holds them); imu yaw NaN (dropped "
+         "readings): the posture estimator holds them (further ignored/dropout messages on "
+         "MANTA_IMU are counted, not shown)")], err
+    # Logged before each step's updates: the estimator's update at 0.02 s shows from 0.021 s.
+    t = result.log["t_command"]
+    roll, pitch, yaw = result.log["attitude_hat"].T
+    yaw_rate = result.log["yaw_rate_hat"][:, 0]
+    # Seeded from the readings (the angles wrapped into (-pi, pi], to the last bit or so),
+    # then unchanged: roll held through the 7 rad of 0.02 s, yaw through the NaN and the yaw
+    # rate through the 100 rad/s of 0.04 s.
+    for values, first, until in ((roll, 0.1, 0.06), (pitch, 0.05, 1.0), (yaw, 0.3, 1.0),
+                                 (yaw_rate, 0.2, 1.0)):
+        assert values[0] == pytest.approx(first, abs=1e-15)
+        np.testing.assert_array_equal(values[t <= until], values[0])
+    tau = scenario.posture_estimator.time_constant
+    for after, samples in ((0.06, 1), (0.08, 2)):  # a step of 0.1 rad, j samples later
+        k = np.flatnonzero(t > after + 1e-9)[0]
+        assert roll[k] == pytest.approx(0.2 - 0.1 * np.exp(-samples * 0.02 / tau), abs=1e-15)
 
 
 # ---------------------------------------------------------------------------------------
@@ -758,6 +911,99 @@ def test_split_run_with_camera_meets_drakes_off_grid_camera_times(tmp_path):
     np.testing.assert_array_equal(controller["detector_status"][steps[ok]],
                                   single["detector_status"][ok])
     assert single["s_hat"].max() > 0.9  # the wall was seen: the camera path was used
+
+
+def _shipped_single_run(name, duration):
+    """``_single_run`` of a shipped scenario, shortened, without its Meshcat (a visualizer's
+    publish events every 1/64 s split the CPG's integration steps: ~1e-15 rad)."""
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import extract_log, make_simulator
+    from manta_drake.wiring.diagram import build_diagram
+
+    scenario = load_scenario(name, {"duration": duration})
+    scenario.visualization.meshcat = False
+    diagram, handles = build_diagram(scenario)
+    simulator = make_simulator(diagram, scenario)
+    simulator.Initialize()
+    start = time.perf_counter()
+    simulator.AdvanceTo(scenario.duration)
+    wall = time.perf_counter() - start
+    return extract_log(handles, simulator.get_context()), scenario.duration / wall
+
+
+def _assert_split_is_single(name, duration, tmp_path, estimates, sensors):
+    """The split run of the shipped ``name`` for ``duration`` s against the single diagram:
+    every joint angle, body position and command equal; the controller's ``estimates`` (at
+    every command) equal the single diagram's at its log times; the station's ``sensors``,
+    as sent, equal the single diagram's signals. Returns (station, controller, metrics,
+    single)."""
+    from manta_drake.scenario import find_scenario
+
+    single, single_rtf = _shipped_single_run(name, duration)
+    station, controller, metrics = _split_run(find_scenario(name), tmp_path, "--duration",
+                                              str(duration))
+    np.testing.assert_array_equal(station["t"], single["t"])
+    err = np.abs(station["joint_angles"] - single["joint_angles"]).max()
+    assert err == 0.0, f"joint angles differ by {err:.3g} rad"
+    np.testing.assert_array_equal(station["body_xyz"], single["body_xyz"])
+    n = len(controller["t_command"])
+    assert n == round(duration / 1e-3)
+    np.testing.assert_array_equal(controller["commanded_joint_angles"],
+                                  single["commanded_joint_angles"][:n])
+    for port in estimates:
+        # Both logged before the updates at their times: the step at or before each log time.
+        steps = np.floor(single[f"t_{port}"] / 1e-3 + 1e-9).astype(int)
+        ok = steps < n
+        np.testing.assert_array_equal(controller[port][steps[ok]].reshape(ok.sum(), -1),
+                                      single[port][ok].reshape(ok.sum(), -1), err_msg=port)
+    for port in sensors:
+        t_sent = station[f"t_{port}"]
+        np.testing.assert_array_equal(t_sent, seam.sample_times(
+            seam.CHANNEL_BY_NAME[f"MANTA_{port.upper()}"].period(
+                _loaded(name, duration)), duration), err_msg=port)
+        k = np.searchsorted(single[f"t_{port}"], t_sent, side="left")  # the first log >= u
+        np.testing.assert_array_equal(station[port].reshape(len(k), -1), single[port][k],
+                                      err_msg=port)
+    assert metrics["incidents"] == {}
+    print(f"{name} {duration:g} s: split real-time factor {metrics['real_time_factor']:.2f}, "
+          f"single {single_rtf:.2f}, re-sends {metrics['resends']}")
+    return station, controller, metrics, single
+
+
+def _loaded(name, duration):
+    from manta_drake.scenario import load_scenario
+
+    return load_scenario(name, {"duration": duration})
+
+
+@pytest.mark.slow
+def test_split_run_with_the_imu_heading_hold_matches_the_single_diagram(tmp_path):
+    """2 s of swim_heading_hold (the IMU's 9 values every 10 ms, the heading hold trimming
+    the swim) in two processes: the single diagram bit for bit. The posture estimator seeds
+    itself at initialization from what the single diagram's initialization reads, the IMU
+    before its own initialization (all zeros): the station sends that first."""
+    station, controller, _, single = _assert_split_is_single(
+        "swim_heading_hold", 2.0, tmp_path, ("attitude_hat", "posture_hat", "heading_trim",
+                                             "cpg_params", "z_hat"), ("imu", "depth"))
+    assert np.abs(single["heading_trim"]).max() > 0.01  # the IMU's path steered the swim
+    np.testing.assert_array_equal(controller["attitude_hat"][0], 0.0)
+    assert np.abs(station["imu"][0, :3]).max() > 1e-3  # the first reading is not zero
+
+
+@pytest.mark.slow
+def test_split_run_of_four_behaviors_matches_the_single_diagram(tmp_path):
+    """2 s of four_behaviors: the IMU, the flow sensor and the battery all cross (the battery
+    at the energy estimator's 100 ms, off the 10 ms grid at 0.30000000000000004 s ...), the
+    tree and the balloon rule read their estimates: the single diagram bit for bit."""
+    station, controller, _, _ = _assert_split_is_single(
+        "four_behaviors", 2.0, tmp_path,
+        ("attitude_hat", "heading_trim", "flow_speed_hat", "flow_hat", "soc_hat", "energy_hat",
+         "behaviour_weights", "cpg_params", "balloon_command"),
+        ("imu", "flow_velocity", "battery", "depth"))
+    assert station["t_battery"][3] == 0.30000000000000004 and len(station["t_battery"]) == 20
+    # Each path carried something: the charge fell, the flow estimate rose, the trim acted.
+    assert np.ptp(controller["soc_hat"]) > 1e-5 and controller["flow_hat"].max() > 0.1
+    assert np.abs(controller["heading_trim"]).max() > 0.01
 
 
 @pytest.mark.slow

@@ -296,3 +296,66 @@ def test_incidents_name_each_kind_once_per_channel_and_count_all(capsys):
         "station: B: z not finite (further held messages on B are counted, not shown)"]
     assert incidents.counts == {"A": {"held": 1001, "clipped": 1}, "B": {"held": 1}}
     assert incidents.count(kind="held") == 1002 and incidents.count("A") == 1002
+
+
+def test_imu_readings_outside_the_parts_full_scale_are_dropped_value_by_value():
+    """Attitude within +-pi, body rates within 35 rad/s (2000 deg/s), specific force within
+    160 m/s^2 (16 g), each value on its own: one beyond its bound (or +-inf) becomes NaN and
+    is counted ``ignored``; a NaN passes (the sensor's dropout) and is counted ``dropout``;
+    a good reading is passed on as the very same array."""
+    from manta_drake.seam import SensorRanges, screen_imu
+
+    ranges = SensorRanges()
+    good = np.array([np.pi, -np.pi / 2, -np.pi, 35.0, -35.0, 0.1, 160.0, -160.0, 9.81])
+    same, problems = screen_imu(good, ranges)
+    assert same is good and problems == []  # the bounds themselves are readings
+    x = good.copy()
+    x[0] = np.nextafter(np.pi, 4.0)  # just past +pi
+    x[4] = -35.001
+    x[6] = np.inf
+    x[2], x[8] = np.nan, np.nan
+    safe, problems = screen_imu(x, ranges)
+    expected = good.copy()
+    expected[[0, 2, 4, 6, 8]] = np.nan
+    np.testing.assert_array_equal(safe, expected)
+    assert [kind for kind, _ in problems] == ["ignored", "dropout"]
+    assert problems[0][1] == ("imu roll 3.142 rad beyond +-3.142, wy -35 rad/s beyond +-35, fx "
+                              "inf m/s^2 beyond +-160: ignored (read as dropped readings; the "
+                              "posture estimator holds them)")
+    assert problems[1][1] == ("imu yaw, fz NaN (dropped readings): the posture estimator holds "
+                              "them")
+    only_nan = np.r_[np.nan, good[1:]]
+    value, problems = screen_imu(only_nan, ranges)
+    assert value is only_nan and [kind for kind, _ in problems] == ["dropout"]
+
+
+def test_flow_readings_beyond_5_m_s_per_axis_are_dropped():
+    from manta_drake.seam import SensorRanges, screen_flow_velocity
+
+    ranges = SensorRanges()
+    good = np.array([-5.0, 5.0, 0.02])
+    assert screen_flow_velocity(good, ranges) == (good, [])
+    safe, problems = screen_flow_velocity(np.array([5.5, -np.inf, np.nan]), ranges)
+    assert np.isnan(safe).all()
+    ignored = ("flow velocity u 5.5 m/s beyond +-5, v -inf m/s beyond +-5: ignored (read as "
+               "dropped readings; the flow estimator holds them)")
+    assert problems == [
+        ("ignored", ignored),
+        ("dropout", "flow velocity w NaN (dropped readings): the flow estimator holds them")]
+
+
+def test_a_battery_the_controller_reads_is_a_dropped_reading_when_out_of_range():
+    """The same range as for the logged battery; the line says what becomes of it."""
+    from manta_drake.seam import SensorRanges, screen_battery
+
+    read = SensorRanges.for_scenario(load_scenario("four_behaviors"))
+    logged = SensorRanges.for_scenario(_scenario("locomotion_swim", duration=0.1))
+    assert read.battery_read and not logged.battery_read
+    assert read.battery_voltage == logged.battery_voltage == pytest.approx(4 * 4.35)
+    good = np.array([0.5, 15.0, 2.0])
+    assert screen_battery(good, read) == (good, [])
+    held = "read as a dropped reading; the energy estimator holds its estimate"
+    for ranges, action in ((read, held), (logged, "logged as NaN")):
+        value, problems = screen_battery(np.array([1.5, 15.0, 2.0]), ranges)
+        assert np.isnan(value).all()
+        assert problems == [("ignored", f"state of charge 1.5 outside [0, 1]: ignored ({action})")]

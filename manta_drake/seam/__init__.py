@@ -29,7 +29,10 @@ Two ways to run:
   waits for the sensors stamped tau and fixes them before it advances past tau. So
   the controller runs up to ``MAX_LEAD_STEPS`` steps ahead (it watches the station's
   clock channel) and the two processes work at the same time. A ``PlantStepTick``
-  gives the controller's RK2 steps the single diagram's end points.
+  gives the controller's RK2 steps the single diagram's end points. First of all the
+  station sends its sensors' values from before its initialization (stamped
+  ``BEFORE_START_UTIME``): the controller initializes on them, as the single diagram's
+  initialization events read the state from before initialization.
 * **wall clock** (``--wall-clock``, both sides): the station runs paced to real time
   with the latest command (from the first one on), the controller on its own wall
   clock with the latest sensor messages, as on the robot.
@@ -58,11 +61,15 @@ from manta_drake.seam.channels import (
     CHANNEL_BY_NAME,
     CHANNELS,
     CLOCK,
+    ENERGY_ESTIMATOR_PERIOD_S,
     Channel,
+    battery_period,
     channel_table_markdown,
     controller_channels,
     monitor_channels,
+    reads_battery,
     station_channels,
+    unexchanged_reads,
 )
 from manta_drake.seam.cli import (
     add_controller_parser,
@@ -74,6 +81,7 @@ from manta_drake.seam.cli import (
 )
 from manta_drake.seam.controller_process import (
     MAX_LEAD_STEPS,
+    MONITORED_OUTPUTS,
     has_feedthrough,
     run_controller,
 )
@@ -92,7 +100,10 @@ from manta_drake.seam.limits import (
     JointLimits,
     SensorRanges,
     screen_balloon_command,
+    screen_battery,
     screen_depth,
+    screen_flow_velocity,
+    screen_imu,
     screen_joint_command,
 )
 from manta_drake.seam.link import (
@@ -120,10 +131,18 @@ from manta_drake.seam.messages import (
 )
 from manta_drake.seam.plant_step_tick import PlantStepTick, controller_with_tick
 from manta_drake.seam.result import SeamResult
-from manta_drake.seam.schedule import Exchange, exchange_schedule, sample_times
+from manta_drake.seam.schedule import (
+    BEFORE_START_TIME,
+    BEFORE_START_UTIME,
+    Exchange,
+    exchange_schedule,
+    sample_times,
+)
 from manta_drake.seam.station_process import initial_commands, run_station
 
 __all__ = [
+    "BEFORE_START_TIME",
+    "BEFORE_START_UTIME",
     "CHANNELS",
     "CHANNEL_BY_NAME",
     "CLOCK",
@@ -131,8 +150,10 @@ __all__ = [
     "DEFAULT_STARTUP_TIMEOUT_S",
     "DEFAULT_TIMEOUT_S",
     "DEFAULT_URL",
+    "ENERGY_ESTIMATOR_PERIOD_S",
     "HANDSHAKE_CHANNEL",
     "MAX_LEAD_STEPS",
+    "MONITORED_OUTPUTS",
     "QUEUE_CAPACITY",
     "RESEND_PERIOD_S",
     "STALE_AFTER_S",
@@ -152,6 +173,7 @@ __all__ = [
     "SensorRanges",
     "add_controller_parser",
     "add_station_parser",
+    "battery_period",
     "channel_table_markdown",
     "check_options",
     "check_out_folder",
@@ -173,15 +195,20 @@ __all__ = [
     "monitor_channels",
     "pose_from_message",
     "pose_message",
+    "reads_battery",
     "run_controller",
     "run_station",
     "sample_times",
     "screen_balloon_command",
+    "screen_battery",
     "screen_depth",
+    "screen_flow_velocity",
+    "screen_imu",
     "screen_joint_command",
     "station_channels",
     "station_main",
     "to_utime",
+    "unexchanged_reads",
     "vector_from_message",
     "vector_message",
 ]

@@ -5,9 +5,18 @@ reads, and how a received message reaches its input port."""
 from __future__ import annotations
 
 import dataclasses as dc
+import inspect
 from collections.abc import Callable
 
+from pydrake.systems.framework import Diagram
+
+from manta_drake.control.energy_estimator import EnergyEstimator
 from manta_drake.seam.messages import CODECS
+from manta_drake.seam.schedule import sample_times
+
+# The period of the controller's EnergyEstimator, the battery's only reader: its default,
+# which build_controller uses (a test reads the built controller's and compares).
+ENERGY_ESTIMATOR_PERIOD_S = inspect.signature(EnergyEstimator).parameters["period"].default
 
 
 @dc.dataclass(frozen=True)
@@ -46,6 +55,28 @@ class Channel:
         return CODECS[self.codec].lcm_type
 
 
+def reads_battery(scenario) -> bool:
+    """Whether the controller of ``scenario`` has a ``battery`` input: the energy model is on
+    and the behaviour tree or the balloon rule reads the charge estimate ``energy_hat``
+    (build_controller's condition; a test compares it with the built controllers)."""
+    if not scenario.actuators.enabled:
+        return False
+    return scenario.balloon.rule.modality == "energy" or (
+        scenario.controller.mode == "transition"
+        and "energy_hat" in scenario.behaviour_tree().modalities)
+
+
+def battery_period(scenario) -> float:
+    """The battery channel's period: the energy estimator's (100 ms) when the controller reads
+    the battery; else max(``time_step``, 10 ms), for monitoring. Why not always 10 ms: the
+    estimator's events at j x 0.1 s are not all on the 10 ms grid (3 x 0.1 =
+    0.30000000000000004 s, after the plant's step at 0.3 s), so it would read a sample one
+    plant step old there."""
+    if reads_battery(scenario):
+        return ENERGY_ESTIMATOR_PERIOD_S
+    return max(scenario.time_step, 0.01)
+
+
 CHANNELS = (
     Channel("MANTA_MEASURED_JOINT_STATE", "measured_joint_state", "station", "joint_state",
             lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
@@ -60,13 +91,23 @@ CHANNELS = (
     Channel("MANTA_CAMERA_POSE", "camera_pose", "station", "pose",
             lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
             "the camera's pose X_WC (on the robot: IMU attitude + pressure depth); camera on"),
+    Channel("MANTA_IMU", "imu", "station", "vector",
+            lambda s: 1.0 / s.imu.rate_hz, "1 / `imu.rate_hz` (10 ms)",
+            "the AHRS's roll, pitch, yaw [rad], body rates [rad/s] and body specific force "
+            "[m/s^2] (9 values, NaN on a dropout); imu on", size=9),
+    Channel("MANTA_FLOW_VELOCITY", "flow_velocity", "station", "vector",
+            lambda s: 1.0 / s.flow_sensor.rate_hz, "1 / `flow_sensor.rate_hz` (20 ms)",
+            "the water's velocity past the head probe, body frame [m/s] (3 values, NaN on a "
+            "dropout); flow sensor and water on", size=3),
     Channel("MANTA_BALLOON_VOLUME", "balloon_volume", "station", "vector",
             lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
             "balloon volume [m^3], for monitoring (the controller logs it); water on", size=1),
     Channel("MANTA_BATTERY", "battery", "station", "vector",
-            lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
-            "the pack's state of charge (0-1), terminal voltage [V] and current [A] (3 values), "
-            "for monitoring (the controller logs it); actuators on", size=3),
+            battery_period, "the energy estimator's (100 ms) where the controller reads it, "
+            "else max(`time_step`, 10 ms)",
+            "the pack's state of charge (0-1), terminal voltage [V] and current [A] (3 values): "
+            "the energy estimator's input where a behaviour tree or the balloon rule reads "
+            "`energy_hat`, else for monitoring (the controller logs it); actuators on", size=3),
     Channel("MANTA_ELECTRICAL_POWER", "electrical_power", "station", "vector",
             lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
             "what the servos and the computers draw [W] (1 value), for monitoring (the "
@@ -117,6 +158,42 @@ def monitor_channels(controller, published) -> list[Channel]:
     one of the controller's inputs."""
     return [c for c in CHANNELS if c.sender == "station" and c.name in set(published)
             and not c.clock and not controller.HasInputPort(c.port)]
+
+
+def _readers(system, port_index) -> list:
+    """The leaf systems that the input port ``port_index`` of ``system`` feeds."""
+    if not isinstance(system, Diagram):
+        return [system]
+    return [leaf for sub, i in system.GetInputPortLocators(port_index)
+            for leaf in _readers(sub, i)]
+
+
+def unexchanged_reads(controller, scenario) -> list[str]:
+    """The controller's periodic readers of a sensor channel (a leaf system with a ``period``
+    attribute, as the estimators have) whose event times in [0, duration) are not all sample
+    times of the channel: in lockstep each would read, at those times, the sample of the last
+    exchange before them, not the single diagram's. One line each; empty: none.
+
+    A reader at 20 ms on a 10 ms channel is fine (2 x 0.01 is 0.02 to the bit, so every
+    j x 0.02 is a 2j x 0.01); one at 100 ms on a 10 ms channel is not (3 x 0.1 is
+    0.30000000000000004, 30 x 0.01 is 0.3)."""
+    lines = []
+    for c in CHANNELS:
+        if c.sender != "station" or c.clock or not controller.HasInputPort(c.port):
+            continue
+        period = c.period(scenario)
+        exchanged = set(sample_times(period, scenario.duration))
+        index = controller.GetInputPort(c.port).get_index()
+        for leaf in _readers(controller, index):
+            every = getattr(leaf, "period", None)
+            if not isinstance(every, float):
+                continue
+            missing = [t for t in sample_times(every, scenario.duration) if t not in exchanged]
+            if missing:
+                lines.append(f"{leaf.get_name()} reads {c.port} every {every:g} s, {c.name} "
+                             f"comes every {period:g} s: {len(missing)} of its reads (the "
+                             f"first at t = {missing[0]!r} s) fall between the exchanges")
+    return lines
 
 
 def fix_inputs(system, context, got: dict) -> None:

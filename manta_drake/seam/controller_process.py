@@ -15,6 +15,7 @@ from manta_drake.seam.channels import (
     controller_channels,
     fix_inputs,
     monitor_channels,
+    unexchanged_reads,
 )
 from manta_drake.seam.errors import Incidents, PeerStopped, SeamError, warn
 from manta_drake.seam.handshake import failure_status, hello_for
@@ -30,13 +31,23 @@ from manta_drake.seam.link import (
 from manta_drake.seam.messages import CODECS, to_utime
 from manta_drake.seam.plant_step_tick import controller_with_tick
 from manta_drake.seam.result import SeamResult
-from manta_drake.seam.schedule import advance_to, exchange_schedule, sample_times
+from manta_drake.seam.schedule import (
+    BEFORE_START_UTIME,
+    advance_to,
+    exchange_schedule,
+    sample_times,
+)
 from manta_drake.simulate import make_simulator
 from manta_drake.wiring.controller import build_controller
 
 # How far (plant steps) the lockstep controller may run ahead of the station: enough to
 # overlap the two processes' work, few enough messages in flight for the sockets.
 MAX_LEAD_STEPS = 4
+# The controller's outputs logged at every command (those it has): what it decided and the
+# estimates it decided on.
+MONITORED_OUTPUTS = ("cpg_params", "z_hat", "s_hat", "detector_status", "behaviour_weights",
+                     "heading_trim", "attitude_hat", "yaw_rate_hat", "posture_hat",
+                     "flow_speed_hat", "flow_hat", "soc_hat", "energy_hat", "balloon_command")
 
 
 class StationLog:
@@ -86,7 +97,7 @@ class StationLog:
         for c in self.channels:
             logged = self._stamps_logged(c)
             for stamp in sorted(self.link.monitored[c.name]):
-                if logged is None or stamp > logged:
+                if stamp > BEFORE_START_UTIME and (logged is None or stamp > logged):
                     self._take(c, stamp)
                     logged = stamp
                 else:
@@ -119,7 +130,11 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     sensors: ``build_controller`` has no direct feedthrough; with one it would wait
     first), then waits for the sensors due at tau and fixes them before advancing past
     tau. So it runs ahead of the station, at most ``MAX_LEAD_STEPS`` plant steps (it
-    watches the station's clock channel), and the station rarely waits.
+    watches the station's clock channel), and the station rarely waits. It initializes
+    on the station's sensor values from before the station's initialization (stamped
+    ``BEFORE_START_UTIME``), as the single diagram does, and says on stderr if one of its
+    periodic readers reads a sensor between that sensor's exchanges
+    (``unexchanged_reads``: the run would then differ from the single diagram).
 
     Every reading passes ``Guard.for_controller`` first: one outside its physical range
     is treated as a dropped reading (NaN depth: the estimator holds), a non-finite or
@@ -139,8 +154,10 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
 
     Returns:
         SeamResult; its log has ``t_command`` and ``commanded_joint_angles`` (the
-        desired angles sent at every plant step) and, where the controller has them,
-        ``cpg_params``, ``z_hat``, ``s_hat``, ``detector_status`` at the same times; and
+        desired angles sent at every plant step) and, where the controller has them, the
+        ``MONITORED_OUTPUTS`` (``cpg_params``, ``z_hat``, ``s_hat``, ``detector_status``,
+        ``behaviour_weights``, ``heading_trim``, the posture, flow and charge estimates,
+        ``balloon_command``) at the same times; and
         ``t_<port>``, ``<port>`` of the station's channels it has no port for
         (``balloon_volume``, ``battery``, ``electrical_power``), as received.
 
@@ -160,11 +177,13 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     guard = Guard.for_controller(scenario, incidents)
     simulator = make_simulator(controller, scenario)
     context = simulator.get_mutable_context()
-    monitors = [p for p in ("cpg_params", "z_hat", "s_hat", "detector_status")
-                if controller.HasOutputPort(p)]
+    monitors = [p for p in MONITORED_OUTPUTS if controller.HasOutputPort(p)]
     log = {"t_command": [], "commanded_joint_angles": [], **{p: [] for p in monitors}}
     mode = "wall-clock" if wall_clock else "lockstep"
     state = {"last_t": 0.0}
+    if not wall_clock:  # a reader between exchanges: the split run is not the single diagram
+        for line in unexchanged_reads(controller, scenario):
+            warn(f"controller: {line}; this lockstep run will differ from the single diagram")
 
     def command(t: float) -> None:
         for channel in sends:
@@ -265,6 +284,12 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
                       timeout, on_stale, on_timeout)
         command(ex.time)
 
+    # What its initialization events read: the station's sensors before its initialization.
+    before_start = {name: BEFORE_START_UTIME for name in inputs}
+    if before_start:
+        got = link.wait_for(lambda: link.take(before_start), startup_timeout,
+                            lambda waited: None, on_timeout)
+        fix_inputs(controller, context, guard.screen(got, 0.0))
     for ex in schedule:
         first = wall_start is None
         if not first:
@@ -280,10 +305,11 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
             got = link.wait_for(lambda wanted=wanted: link.take(wanted),
                                 startup_timeout if first else timeout,
                                 (lambda waited: None) if first else on_stale, on_timeout)
-            fix_inputs(controller, context, guard.screen(got, ex.time))
-        if first:  # every input has its value now
+        if first:  # on the values from before the station's initialization
             simulator.Initialize()
             wall_start = time.monotonic()
+        if wanted:
+            fix_inputs(controller, context, guard.screen(got, ex.time))
         if commands_due and (first or wait_first):
             publish(ex)
         if progress and ex.time >= next_progress:

@@ -19,7 +19,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.sensors import ImageDepth32F
 
 from manta_drake.model.robot_params import JOINT_NAMES, JOINTS_PER_LEG, RobotParams
-from manta_drake.seam.channels import CHANNEL_BY_NAME
+from manta_drake.seam.channels import CHANNEL_BY_NAME, reads_battery
 from manta_drake.seam.errors import Incidents
 
 # A measured angle this far past a mechanical stop, or a rate this many times the servos'
@@ -32,6 +32,19 @@ RATE_READING_FACTOR = 5.0
 DEPTH_RANGE_M = (-1.0, 300.0)
 # The highest charge voltage of any lithium cell (LiHV, 4.35 V): no pack of n cells reads more.
 MAX_CELL_VOLTAGE_V = 4.35
+# The IMU's readings: an AHRS reports roll and yaw in (-pi, pi] and pitch in [-pi/2, pi/2]
+# (noise added, roll and yaw wrapped again); the widest full scales of MEMS parts (BNO055,
+# BMI088, ICM-42688 class), 2000 deg/s = 34.9 rad/s and 16 g = 156.9 m/s^2, rounded up. A
+# reading beyond them is no motion the part can measure: a corrupt message.
+IMU_ATTITUDE_RANGE_RAD = math.pi
+IMU_RATE_RANGE_RAD_S = 35.0
+IMU_SPECIFIC_FORCE_RANGE_M_S2 = 160.0
+IMU_NAMES = ("roll", "pitch", "yaw", "wx", "wy", "wz", "fx", "fy", "fz")
+IMU_UNITS = ("rad",) * 3 + ("rad/s",) * 3 + ("m/s^2",) * 3
+# The flow probe's reading per axis [m/s]: the robot swims at about 0.1 m/s and a tank's or a
+# harbour's current is well below 1 m/s; a small pitot or hot-film probe's full scale.
+FLOW_RANGE_M_S = 5.0
+FLOW_NAMES = ("u", "v", "w")
 ROTATION_TOLERANCE = 1e-6  # max |R^T R - I| of a rotation matrix read from a message
 
 
@@ -139,6 +152,11 @@ class SensorRanges:
         battery_current: |current| [A]: the pack's short-circuit current OCV / R_int
             (inf without a resistance).
         power: |electrical power| [W]: OCV x the short-circuit current.
+        imu: per IMU value, the bound of its magnitude (9: roll, pitch, yaw pi rad; body
+            rates ``IMU_RATE_RANGE_RAD_S``; specific force ``IMU_SPECIFIC_FORCE_RANGE_M_S2``).
+        flow: |flow velocity| per axis [m/s]: ``FLOW_RANGE_M_S``.
+        battery_read: the controller reads the battery (its energy estimator), rather than
+            only logging it.
     """
 
     depth: tuple[float, float] = DEPTH_RANGE_M
@@ -148,6 +166,10 @@ class SensorRanges:
     battery_voltage: float = math.inf
     battery_current: float = math.inf
     power: float = math.inf
+    imu: tuple[float, ...] = ((IMU_ATTITUDE_RANGE_RAD,) * 3 + (IMU_RATE_RANGE_RAD_S,) * 3
+                              + (IMU_SPECIFIC_FORCE_RANGE_M_S2,) * 3)
+    flow: float = FLOW_RANGE_M_S
+    battery_read: bool = False
 
     @classmethod
     def for_scenario(cls, scenario) -> SensorRanges:
@@ -167,7 +189,8 @@ class SensorRanges:
                    image_max=2.0 * scenario.camera.max_range,
                    image_size=(scenario.camera.width, scenario.camera.height),
                    battery_voltage=voltage,
-                   battery_current=current, power=power)
+                   battery_current=current, power=power,
+                   battery_read=reads_battery(scenario))
 
 
 def _outside(value: float, lo: float, hi: float) -> bool:
@@ -252,8 +275,51 @@ def screen_pose(X: RigidTransform, last):
     return last, [("held", f"camera pose {why}: {action}")]
 
 
+def _screen_components(value, bounds, names, units, what: str, holder: str):
+    """A vector reading screened value by value, as ``screen_depth`` screens the depth: a NaN
+    is the sensor's dropped value (passed on, counted as ``dropout``); +-inf or beyond its
+    bound (|value| <= bound) becomes NaN (``ignored``), a dropped value too, through which
+    ``holder`` holds that channel's estimate. Returns (value, problems)."""
+    x = np.asarray(value, dtype=float)
+    bounds = np.asarray(bounds, dtype=float)
+    dropped = np.isnan(x)
+    with np.errstate(invalid="ignore"):
+        wrong = ~dropped & ~(np.abs(x) <= bounds)
+    if not (dropped.any() or wrong.any()):
+        return value, []
+    problems = []
+    if wrong.any():
+        items = [f"{names[i]} {x[i]:.4g} {units[i]} beyond +-{bounds[i]:.4g}"
+                 for i in np.flatnonzero(wrong)]
+        text = (f"{what} {_listing(items)}: ignored (read as dropped readings; {holder} "
+                "holds them)")
+        problems.append(("ignored", text))
+        x = np.where(wrong, np.nan, x)
+    if dropped.any():
+        items = [names[i] for i in np.flatnonzero(dropped)]
+        text = f"{what} {_listing(items)} NaN (dropped readings): {holder} holds them"
+        problems.append(("dropout", text))
+    return x, problems
+
+
+def screen_imu(value, ranges: SensorRanges):
+    """An IMU reading [roll, pitch, yaw, wx, wy, wz, fx, fy, fz]: value by value, a NaN passes
+    (a dropped value, counted); +-inf or beyond ``ranges.imu`` becomes NaN, which the
+    posture estimator holds through channel by channel."""
+    return _screen_components(value, ranges.imu, IMU_NAMES, IMU_UNITS, "imu",
+                              "the posture estimator")
+
+
+def screen_flow_velocity(value, ranges: SensorRanges):
+    """A flow velocity [u, v, w] (body frame): as ``screen_imu``, with +-``ranges.flow`` per
+    axis and the flow estimator holding."""
+    return _screen_components(value, (ranges.flow,) * 3, FLOW_NAMES, ("m/s",) * 3,
+                              "flow velocity", "the flow estimator")
+
+
 def screen_battery(value, ranges: SensorRanges):
-    """[state of charge, voltage, current]: out of range -> NaN (logged as not read)."""
+    """[state of charge, voltage, current]: out of range or NaN -> NaN: logged as not read,
+    or, where the controller reads it, a dropped reading its energy estimator holds through."""
     soc, volts, amps = (float(v) for v in value)
     wrong = []
     if _outside(soc, 0.0, 1.0):
@@ -264,7 +330,9 @@ def screen_battery(value, ranges: SensorRanges):
         wrong.append(f"current {amps:.4g} A beyond +-{ranges.battery_current:.4g}")
     if not wrong:
         return value, []
-    return np.full(3, np.nan), [("ignored", f"{'; '.join(wrong)}: ignored (logged as NaN)")]
+    action = ("read as a dropped reading; the energy estimator holds its estimate"
+              if ranges.battery_read else "logged as NaN")
+    return np.full(3, np.nan), [("ignored", f"{'; '.join(wrong)}: ignored ({action})")]
 
 
 def screen_power(value, ranges: SensorRanges):
@@ -307,6 +375,8 @@ class Guard:
             "measured_joint_state": lambda x, last: screen_joint_reading(x, last, ranges),
             "depth_image": lambda x, last: screen_depth_image(x, ranges),
             "camera_pose": screen_pose,
+            "imu": lambda x, last: screen_imu(x, ranges),
+            "flow_velocity": lambda x, last: screen_flow_velocity(x, ranges),
             "battery": lambda x, last: screen_battery(x, ranges),
             "electrical_power": lambda x, last: screen_power(x, ranges)}, {})
 

@@ -10,6 +10,15 @@ from pydrake.systems.analysis import SimulatorStatus
 from manta_drake.seam.errors import SeamError
 from manta_drake.seam.messages import to_utime
 
+# Lockstep: the stamp of the station's sensor values from before its Simulator initializes,
+# one microsecond before t = 0. In the single diagram every initialization event reads the
+# state from before initialization (as all updates at a time read the state from before
+# them), so an estimator that seeds itself from its sensor at initialization sees the
+# sensor's output before the sensor's own initialization; the controller alone gets these
+# values for its Initialize, and t = 0's for its first updates.
+BEFORE_START_UTIME = -1
+BEFORE_START_TIME = BEFORE_START_UTIME / 1e6
+
 
 def sample_times(period: float, duration: float) -> list[float]:
     """The times of a periodic event (offset 0) in [0, duration), bit for bit as Drake's

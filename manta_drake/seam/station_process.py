@@ -28,7 +28,12 @@ from manta_drake.seam.link import (
 )
 from manta_drake.seam.messages import CODECS
 from manta_drake.seam.result import SeamResult
-from manta_drake.seam.schedule import advance_to, exchange_schedule
+from manta_drake.seam.schedule import (
+    BEFORE_START_TIME,
+    BEFORE_START_UTIME,
+    advance_to,
+    exchange_schedule,
+)
 from manta_drake.simulate import make_simulator
 from manta_drake.wiring.station import build_station
 
@@ -61,7 +66,9 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     receives pass ``Guard.for_station`` before they reach the servos and the pump: angles
     and rates beyond the plant's joint limits are clipped, a non-finite value is replaced
     by the last good command; each kind is named once per channel on stderr and all are
-    counted in the result (``incidents``).
+    counted in the result (``incidents``). In lockstep it first sends each sensor's value
+    from before its ``Simulator.Initialize`` (stamped ``BEFORE_START_UTIME``), what the
+    single diagram's initialization events read.
 
     Args:
         scenario: a validated Scenario (its duration is the run's).
@@ -96,6 +103,11 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     guard = Guard.for_station(handles.plant_handles, held, incidents)
     for channel in reads:
         station.GetInputPort(channel.port).FixValue(context, held[channel.port])
+    # Lockstep: the sensors before initialization, encoded now (the messages copy the values),
+    # for the controller's initialization events (``BEFORE_START_UTIME``).
+    before_start = {} if wall_clock else {
+        c.name: CODECS[c.codec].encode(BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(
+            context)) for c in sends if not c.clock}
     simulator.Initialize()
     mode = "wall-clock" if wall_clock else "lockstep"
     if progress:
@@ -108,7 +120,7 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
             raise SeamError(f"station: {peer.describe()} does not publish {', '.join(missing)}, "
                             "which this station reads (is the water on in its scenario?)")
         result = _station_loop(scenario, simulator, station, handles, link, guard, sends, reads,
-                               wall_clock, timeout, startup_timeout, progress)
+                               wall_clock, timeout, startup_timeout, progress, before_start)
     except PeerStopped as e:
         raise SeamError(f"station: {e}") from None  # a controller has no reason to stop early
     except BaseException as e:
@@ -121,8 +133,9 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
 
 
 def _station_loop(scenario, simulator, station, handles, link, guard, sends, reads, wall_clock,
-                  timeout, startup_timeout, progress) -> SeamResult:
-    """The station's exchanges, after the handshake (see ``run_station``)."""
+                  timeout, startup_timeout, progress, before_start) -> SeamResult:
+    """The station's exchanges, after the handshake (see ``run_station``); ``before_start``:
+    channel -> its message stamped ``BEFORE_START_UTIME``, sent first (lockstep)."""
     context = simulator.get_mutable_context()
     schedule = exchange_schedule(scenario.duration,
                                  {c.name: c.period(scenario) for c in sends + reads})
@@ -172,6 +185,9 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
         exchanges += 1
         if not wall_clock:
             link.advance_floor(ex.utime)
+        if wall_start is None:  # before t = 0's samples, in stamp order
+            for name, msg in before_start.items():
+                link.publish(name, msg, BEFORE_START_UTIME)
         for name in ex.channels:
             if name in sending:
                 channel = CHANNEL_BY_NAME[name]

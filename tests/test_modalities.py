@@ -101,3 +101,16 @@ def test_the_charge_estimate_drives_the_tree(tmp_path):
     rest = s.behaviour_tree().leaves.index("rest")
     assert r.log["energy_hat"][-1, 0] == 1.0
     np.testing.assert_allclose(r.log["behaviour_weights"][-1], np.eye(4)[rest], atol=1e-12)
+
+
+def test_estimators_start_from_the_robots_pose_not_from_zero(tmp_path):
+    """Yawed 90 deg at the start, the posture estimate starts at 90 deg (the IMU holds the
+    reading at rest in the start pose before its first sample) and the heading hold keeps
+    that heading, instead of swinging the robot round to 0."""
+    s = load_scenario("swim_heading_hold", overrides={
+        **QUIET, "duration": 3.0, "initial_pose.rpy_deg": [0.0, 0.0, 90.0],
+        "initial_pose.xyz": [0.0, 0.0, -0.045]})
+    r = run(s, tmp_path, progress=False)
+    assert r.log["attitude_hat"][0, 2] == pytest.approx(np.pi / 2, abs=1e-9)
+    assert r.metrics["final_body_rpy_deg"][2] == pytest.approx(90.0, abs=8.0)  # not 0
+    assert np.abs(r.log["heading_trim"][:, 0]).max() < 0.1

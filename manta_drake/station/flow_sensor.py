@@ -120,8 +120,14 @@ class FlowVelocitySensor(LeafSystem):
         self._velocities = self.DeclareAbstractInputPort(
             "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate())
         self._noise = self.DeclareVectorInputPort("noise", 3)
-        self._reading = self.DeclareDiscreteState(3)
-        self._true = self.DeclareDiscreteState(3)
+        # Before its first sample the sensor holds the noiseless reading of the body at rest
+        # in the plant's default pose in the current at t = 0: what an estimator initialised
+        # on it starts from.
+        X_WB = plant.EvalBodyPoseInWorld(plant.CreateDefaultContext(), body)
+        zero = np.zeros(3)
+        at_rest = flow_velocity(X_WB.rotation().matrix(), zero, zero, self.p_BS, current.at(0.0))
+        self._reading = self.DeclareDiscreteState(at_rest)
+        self._true = self.DeclareDiscreteState(at_rest)
         self.DeclareStateOutputPort("flow_velocity", self._reading)
         self.DeclareStateOutputPort("flow_velocity_true", self._true)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._sample)

@@ -203,13 +203,22 @@ class ImuSensor(LeafSystem):
             plant.get_body_spatial_accelerations_output_port().Allocate())
         self._noise = self.DeclareVectorInputPort("noise", 9)
         self._bias_in = self.DeclareVectorInputPort("bias", 9)
-        self._reading = self.DeclareDiscreteState(9)
-        self._true = self.DeclareDiscreteState(9)
+        # Before its first sample the sensor holds the noiseless reading of the body at rest
+        # in the plant's default pose: what an estimator initialised on it starts from.
+        at_rest = self.rest_reading(plant, body)
+        self._reading = self.DeclareDiscreteState(at_rest)
+        self._true = self.DeclareDiscreteState(at_rest)
         self._bias = self.DeclareDiscreteState(9)  # the run's bias sample, latched
         self.DeclareStateOutputPort("imu", self._reading)
         self.DeclareStateOutputPort("imu_true", self._true)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._sample)
         self.DeclareInitializationDiscreteUpdateEvent(self._reset)
+
+    def rest_reading(self, plant, body) -> np.ndarray:
+        """(9,) the noiseless reading of ``body`` at rest in ``plant``'s default pose."""
+        X_WB = plant.EvalBodyPoseInWorld(plant.CreateDefaultContext(), body)
+        zero = np.zeros(3)
+        return imu_true_reading(X_WB.rotation().matrix(), zero, zero, zero, self.p_BS, self.g_W)
 
     def true_reading(self, context) -> np.ndarray:
         """(9,) the noiseless reading at ``context`` (``imu_true_reading``)."""

@@ -29,6 +29,9 @@ STUDIES = {
                "both gait readings on both fin sweeps (docs/stance.md)"),
     "readings": ("manta_drake.studies.readings",
                  "the gaits under readings of Eqs. (6)-(8) (docs/design.md)"),
+    "behaviours": ("manta_drake.studies.behaviours",
+                   "the heading hold and four_behaviors against the paper's runs "
+                   "(docs/behaviours.md)"),
     "wall-noise": ("manta_drake.studies.wall_noise",
                    "s_hat against depth noise (docs/figures/s_hat_vs_noise.png)"),
 }

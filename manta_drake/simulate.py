@@ -391,9 +391,10 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         out_dir: output folder (created).
         inputs: the files the run was made from (the scenario file): refused as outputs.
         prepare: a callable ``prepare(handles, context)`` that changes the diagram's default
-            context (the scenario's start) before the run, e.g. a study's gait given as data
-            (``manta_drake.studies.explicit_gait``). The folder's ``scenario.yaml`` then
-            does not describe the run alone: it is not written.
+            context (the scenario's start) before the run, e.g. a perturbed start state. The
+            folder's ``scenario.yaml`` then does not describe the run alone: it is not
+            written. (A gait given as data needs none: ``studies.explicit_gait`` writes it as
+            a gait file the scenario names.)
         progress: show a progress bar on stderr (only when stderr is a terminal).
         write_outputs: write plots and the recording (tests may skip them).
 

@@ -248,14 +248,15 @@ def _short(name: str, duration: float = 0.2):
                                           "visualization.meshcat": False})
 
 
-def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_alone():
-    """start_with_gait: the controller commands the given gait's parameters and its stance
-    (r = 0: theta = chi = X, at rest), the plant's joints start there, and the library still
-    holds its own gait."""
+def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_alone(tmp_path):
+    """scenario_with_gait: the controller commands the given gait's parameters and its stance
+    (r = 0: theta = chi = X, at rest), the plant's joints start there, the gait file holds it,
+    and the library still holds its own gait."""
     import numpy as np
 
+    from manta_drake.control.gait_files import load_gait_file
     from manta_drake.control.gaits import GAITS, MIRROR_SIGNS, GaitParams
-    from manta_drake.studies.explicit_gait import start_with_gait
+    from manta_drake.studies.explicit_gait import scenario_with_gait
     from manta_drake.wiring.diagram import build_diagram
 
     trot = GAITS["trot"]
@@ -263,9 +264,12 @@ def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_al
     X = trot.X.copy()
     X[[1, 3]] = MIRROR_SIGNS * X[[0, 2]]  # right fins mirror the left ones
     variant = GaitParams(trot.R, X, trot.Phi, trot.Phi_prime)
-    diagram, handles = build_diagram(_short("locomotion_trot"))
+    s = scenario_with_gait(_short("locomotion_trot"), variant, tmp_path, "trot, mirrored X")
+    assert s.controller.gait == s.initial_stance == "given_trot_mirrored_X"
+    written = load_gait_file(tmp_path / "given_gait.yaml")["given_trot_mirrored_X"]
+    np.testing.assert_array_equal(GaitParams(**written.matrices).to_vector(), variant.to_vector())
+    diagram, handles = build_diagram(s)
     context = diagram.CreateDefaultContext()
-    start_with_gait(handles, context, variant)
     controller = handles.controller.GetMyContextFromRoot(context)
     np.testing.assert_array_equal(
         handles.controller.GetOutputPort("cpg_params").Eval(controller), variant.to_vector())
@@ -277,6 +281,7 @@ def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_al
     q = [plant.GetJointByName(n, ph.robot).get_angle(pc) for n in ph.joint_names]
     np.testing.assert_allclose(q, X.ravel(), atol=1e-12)
     np.testing.assert_array_equal(GAITS["trot"].to_vector(), library_trot)
+    assert "given_trot_mirrored_X" not in GAITS
     assert not np.allclose(variant.X, trot.X)
 
 

@@ -1,76 +1,72 @@
 """Runs of a gait given as data: a study's variant of a library gait (another reading of the
 printed matrices, a phase bias removed) that has no name in the package's gait library.
 
-A scenario names its gait (``controller.gait``, ``initial_stance``), and its diagram is
-built for that one. ``start_with_gait`` makes a context of that diagram the start of the
-same run with another ``GaitParams``: the controller's fixed CPG targets (the numeric
-parameter of its ``gait_params`` source), the CPG's state at the new gait's lock with its
-biases at the stance, and the plant's joints at the stance. The stance's start pose is
-checked as ``Scenario.validate`` checks the scenario's. ``simulate.run`` (with
-``prepare=``) then runs from that context what a diagram built for the gait would run: the
-package's gait library is read, never changed.
+``scenario_with_gait`` writes the ``GaitParams`` into a gait file (``control.gait_files``) in
+a folder of the run and returns the scenario that names it (``controller.gait_files``,
+``controller.gait``, ``initial_stance``), checked as every scenario is (the start pose
+against the gait's stance included). The run is then an ordinary run of that scenario: its
+``scenario.yaml`` reproduces it, and the package's gait library is never changed.
 """
 
 from __future__ import annotations
 
+import pathlib
+import re
+
 import numpy as np
 
-from manta_drake.control.cpg import initial_state
-from manta_drake.model.start_pose import start_pose_problem
-from manta_drake.scenario import ScenarioError
+from manta_drake.control.gait_files import write_gait_file
+from manta_drake.control.gait_params import GaitParams
+from manta_drake.scenario import load_scenario
 from manta_drake.simulate import run
 
-
-def check_start(scenario, stance, stance_name: str = "given") -> None:
-    """Raises ScenarioError if the scenario's start pose does not fit the joint angles
-    ``stance`` (4x4), as ``Scenario.validate`` checks the stance it names."""
-    problem = start_pose_problem(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg,
-                                 stance, scenario.fin_sweep_deg(), stance_name)
-    if problem:
-        raise ScenarioError(f"initial_pose: {problem}")
+GAIT_FILE = "given_gait.yaml"
 
 
-def start_with_gait(handles, context, gait, stance=None) -> None:
-    """Makes ``context`` the start of a run with ``gait`` instead of the scenario's gait.
+def gait_name_for(label: str) -> str:
+    """A gait name for ``label`` (e.g. "swim, mirror_left" -> "given_swim_mirror_left"): a
+    prefix no library gait has, then the label's letters and digits."""
+    return "given_" + (re.sub(r"[^A-Za-z0-9]+", "_", str(label)).strip("_") or "gait")
 
-    Args:
-        handles: the DiagramHandles of ``build_diagram`` for a scenario whose
-            ``controller.mode`` is ``gait``.
-        context: a root context of that diagram (changed in place).
-        gait: the GaitParams the CPG runs.
-        stance: the joint angles at the start (4x4; default ``gait.X``).
+
+def scenario_with_gait(scenario, gait: GaitParams, folder, label: str = "gait",
+                       stance=None):
+    """``scenario`` running ``gait`` (from rest in its stance, or in ``stance``, 4x4).
+
+    Writes ``folder/given_gait.yaml`` and returns the validated scenario that adds it to
+    ``controller.gait_files`` and names its gait in ``controller.gait`` and
+    ``initial_stance``. A separate ``stance`` is a second gait of the file (the gait's
+    matrices with X = stance) that only ``initial_stance`` names.
 
     Raises:
-        ValueError: the diagram's controller runs no fixed gait.
+        ScenarioError: the start pose does not fit the stance (as ``Scenario.validate``
+            checks it), or the scenario is otherwise refused.
     """
-    controller = handles.controller
-    if "cpg" not in handles.systems or not controller.HasSubsystemNamed("gait_params"):
-        raise ValueError("start_with_gait: the controller runs no fixed gait "
-                         "(controller.mode must be gait)")
-    params = gait.to_vector()
-    q0 = np.ravel(gait.X if stance is None else stance)
-    source = controller.GetSubsystemByName("gait_params")
-    source.get_mutable_source_value(source.GetMyMutableContextFromRoot(context)) \
-        .SetFromVector(params)
-    cpg = handles.systems["cpg"]
-    cpg.GetMyMutableContextFromRoot(context).SetContinuousState(initial_state(params, q0))
-    plant, robot = handles.plant, handles.plant_handles.robot
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    for name, q in zip(handles.plant_handles.joint_names, q0):
-        plant.GetJointByName(name, robot).set_angle(plant_context, q)
+    folder = pathlib.Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    name = gait_name_for(label)
+    gaits = {name: gait}
+    start = name
+    if stance is not None and not np.array_equal(np.asarray(stance, dtype=float), gait.X):
+        start = f"{name}_stance"
+        gaits[start] = GaitParams(gait.R, np.asarray(stance, dtype=float), gait.Phi,
+                                  gait.Phi_prime)
+    path = write_gait_file(folder / GAIT_FILE, gaits,
+                           description=f"a gait given as data: {label}")
+    files = list(scenario.controller.gait_files) + [str(path.resolve())]
+    return load_scenario(defaults=scenario, overrides={
+        "controller.gait_files": files, "controller.gait": name, "initial_stance": start})
 
 
-def run_with_gait(scenario, gait, out_dir, stance=None, gait_name: str = "given") -> dict:
-    """Simulates ``scenario`` with ``gait`` (see ``start_with_gait``) through
-    ``simulate.run`` and returns its metrics; ``out_dir`` gets the run's ``log.npz``,
-    ``metrics.json`` and plots (no ``scenario.yaml``: the scenario names another gait).
+def run_with_gait(scenario, gait: GaitParams, out_dir, stance=None,
+                  gait_name: str = "given") -> dict:
+    """Simulates ``scenario`` with ``gait`` (``scenario_with_gait``, its gait file in
+    ``out_dir``) through ``simulate.run`` and returns its metrics; ``out_dir`` gets the run's
+    outputs, its ``scenario.yaml`` naming the gait file.
 
     Raises:
         ScenarioError: the start pose does not fit the gait's stance.
         SimulationError: the simulation failed (the log and metrics.json are written first).
     """
-    stance = np.asarray(gait.X if stance is None else stance, dtype=float)
-    check_start(scenario, stance, gait_name)
-    result = run(scenario, out_dir, progress=False,
-                 prepare=lambda handles, context: start_with_gait(handles, context, gait, stance))
-    return result.metrics
+    s = scenario_with_gait(scenario, gait, out_dir, gait_name, stance)
+    return run(s, out_dir, progress=False).metrics

@@ -490,8 +490,8 @@ DIAGNOSTIC_GAITS = {"swim_no_phase_lag": swim_without_phase_lag}
 
 def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     """Simulates ``scenario`` (with the GaitParams ``gait`` instead of the one it names, if
-    given; ``explicit_gait.start_with_gait``) and samples it every ``period`` s (see the
-    section comment).
+    given; ``explicit_gait.scenario_with_gait``, its gait file in a temporary folder) and
+    samples it every ``period`` s (see the section comment).
 
     Returns a dict: numpy arrays ``t``, ``xyz`` (N, 3), ``quat_wxyz`` (N, 4), ``yaw`` (N,),
     ``v_world`` (N, 3), ``hydro`` (N, 3, 3): the world force [N] of the hull's damping, the
@@ -504,14 +504,18 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
 
     from manta_drake.simulate import make_simulator
     from manta_drake.station import water as W
-    from manta_drake.studies.explicit_gait import check_start, start_with_gait
+    from manta_drake.studies.explicit_gait import scenario_with_gait
     from manta_drake.wiring.diagram import build_diagram
 
-    diagram, h = build_diagram(scenario)
-    context = diagram.CreateDefaultContext()
     if gait is not None:
-        check_start(scenario, gait.X)
-        start_with_gait(h, context, gait)
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as folder:  # read while the diagram is built
+            scenario = scenario_with_gait(scenario, gait, folder, "sampled")
+            diagram, h = build_diagram(scenario)
+    else:
+        diagram, h = build_diagram(scenario)
+    context = diagram.CreateDefaultContext()
     sim = make_simulator(diagram, scenario, context)
     root = sim.get_mutable_context()
     plant = h.plant

@@ -4,8 +4,8 @@ Eqs. (6)-(8) cannot all be read with one sign convention (docs/design.md, sectio
 This study runs every locomotion scenario (12 s, mean over 6-12 s, free water) with its
 gait and stance taken from one reading at a time, so the choice in ``gaits.py`` rests on
 numbers. A reading is data (``READINGS``: a gait name to its ``GaitParams``, built from the
-package's library, which is read and never changed); each run starts from a context that
-holds the reading's gait (``explicit_gait``):
+package's library, which is read and never changed); each run names the reading's gait in
+a gait file of its own folder (``explicit_gait``):
 
 * ``printed``: every matrix exactly as printed, rows fl, fr, rl, rr (``swim_printed`` for
   the swim);

@@ -159,3 +159,24 @@ def test_set_items_parse_as_yaml_and_name_the_option():
         parse_set(["duration=[1"])
     with pytest.raises(ScenarioError, match=r"--set x: expected KEY=VALUE"):
         parse_set(["x"])
+
+
+def test_tree_nodes_are_settable_and_sweepable_by_dotted_keys():
+    """transition.tree.NODE.FIELD is a scenario key (sweeps and --set use these): a field of
+    a node merges into the scenario's tree, a misspelt field is refused naming the node's
+    fields, and the result is checked as a tree."""
+    from manta_drake.scenario import check_override_key
+
+    four = load_scenario("four_behaviors")
+    check_override_key("transition.tree.floor.threshold")
+    with pytest.raises(ScenarioError, match=r"scenario\.transition\.tree\.floor has no field "
+                                            r"'thresold'; allowed: children, full_at"):
+        check_override_key("transition.tree.floor.thresold")
+    s = load_scenario(defaults=four, overrides={"transition.tree.floor.threshold": 0.3,
+                                                "transition.tree.floor.modality": "posture_hat"})
+    assert s.transition.tree["floor"].threshold == 0.3
+    assert s.transition.tree["floor"].children == four.transition.tree["floor"].children
+    assert s.transition.tree["root"] == four.transition.tree["root"]
+    assert "posture_hat" in s.behaviour_tree().modalities
+    with pytest.raises(ScenarioError, match=r"transition\.tree\.floor\.threshold: 1\.5"):
+        load_scenario(defaults=four, overrides={"transition.tree.floor.threshold": 1.5})

@@ -202,3 +202,31 @@ def test_scenario_refuses_a_missing_or_unknown_gait(tmp_path):
         load_scenario("locomotion_trot", overrides={"controller.gait_files": [str(tmp_path / "x.yaml")]})
     with pytest.raises(ScenarioError, match=r"controller\.gait: 'slow_trot' is not one of"):
         load_scenario("locomotion_trot", overrides={"controller.gait": "slow_trot"})
+
+
+def test_the_finest_simple_fraction_still_converts_to_the_constants_double():
+    # 0.55 deg = pi * 11 / 3600, the largest denominator the rule takes; the plain formula
+    # d * pi / 180 gives a different last bit there.
+    assert GF.degrees_to_radians([0.55])[0] == PI * 11 / 3600
+    assert 0.55 * PI / 180 != PI * 11 / 3600
+
+
+def test_written_degrees_snap_to_whole_only_within_1e9():
+    # 7e-10 deg from a whole number is written as the whole number; 1.2e-9 deg away it is
+    # not, or the file would no longer read back to within 1e-9 deg.
+    near, far = GF.radians_to_degrees(np.radians(np.array([[10 + 7e-10, 10 + 1.2e-9, 0, 0]] * 4)))[0][:2]
+    assert near == 10 and isinstance(near, int)
+    assert abs(far - (10 + 1.2e-9)) <= 1e-9 and far != 10
+
+
+def test_entries_up_to_720_degrees_are_accepted(tmp_path):
+    text = "gaits:\n  g: {base: trot, Phi_deg: [[720, -720, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]}\n"
+    g = GF.gait_entries([_file(tmp_path, text)])["g"]
+    assert g.matrices["Phi"][0, 0] == 4 * PI and g.matrices["Phi"][0, 1] == -4 * PI
+    with pytest.raises(ScenarioError, match=r"720\.5 is outside"):
+        GF.gait_entries([_file(tmp_path, text.replace("720,", "720.5,"), "b.yaml")])
+
+
+def test_a_missing_gait_file_is_one_line(tmp_path):
+    with pytest.raises(ScenarioError, match=rf"gait file not found: {tmp_path / 'x.yaml'}"):
+        GF.gait_entries([tmp_path / "x.yaml"])

@@ -358,3 +358,23 @@ def test_every_weight_function_compiles():
         tree = compile_tree({"root": BlendNode("posture_hat", weight, ["A", "B"])}, RANDOM)
         assert tree.leaf_weights({"posture_hat": 1.0})[0] == pytest.approx([0.0, 1.0])
         assert tree.leaf_weights({"posture_hat": 0.0})[0] == pytest.approx([1.0, 0.0])
+
+
+def test_hysteresis_band_may_touch_0_and_1():
+    """threshold +- hysteresis/2 = [0, 0.5] and [0.5, 1] are inside [0, 1]: accepted. With the
+    off edge at 0 a switch once on never turns off (x < 0 cannot happen); with the on edge
+    at 1 it turns on only at full x."""
+    low = compile_tree({"root": BlendNode("z_hat", "switch", ["A", "B"], threshold=0.25,
+                                          hysteresis=0.5)}, RANDOM)
+    held = low.initial_switch_state({"z_hat": 0.5})
+    assert held[0] == 1.0
+    for z in (0.3, 0.1, 0.0, -1.0, np.nan):
+        _, held = low.target({"z_hat": z}, held)
+        assert held[0] == 1.0, z
+    high = compile_tree({"root": BlendNode("z_hat", "switch", ["A", "B"], threshold=0.75,
+                                           hysteresis=0.5)}, RANDOM)
+    held = np.zeros(1)
+    for z, expected in ((0.9, 0.0), (np.nextafter(1.0, 0.0), 0.0), (1.0, 1.0), (0.6, 1.0),
+                        (0.49, 0.0)):
+        _, held = high.target({"z_hat": z}, held)
+        assert held[0] == expected, z

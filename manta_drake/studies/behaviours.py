@@ -133,6 +133,15 @@ def page(metrics: dict, out: pathlib.Path) -> str:
     swim, held = m["locomotion_swim"], m["swim_heading_hold"]
     four = m["four_behaviors"]
     behaviours = sorted({b for t in four["transitions"] for b in (t["from"], t["to"])})
+    from manta_drake.scenario import load_scenario
+
+    spec = load_scenario("four_behaviors")
+    keys = spec.water.current_schedule
+    strong = [k.time for k in keys if np.linalg.norm(k.velocity) > 0]
+    on_until, off_at = max(strong), min(k.time for k in keys if k.time > max(strong))
+    speed_now = max(np.linalg.norm(k.velocity) for k in keys)
+    rule, est = spec.balloon.rule, spec.energy_estimator
+    soc0 = spec.actuators.initial_soc
     lines = [
         "# Behaviours and modalities as data",
         "",
@@ -254,13 +263,14 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "",
         "## A fourth behaviour from new modalities: four_behaviors",
         "",
-        "The robot starts on the floor in a 0.1 m/s cross current (to its left; 0-16 s, then "
-        "down to 0 by 18 s). The tree: `root` blends `active` and the gait `rest` (a gait file "
+        f"The robot starts on the floor in a {speed_now:g} m/s cross current (to its left; "
+        f"0-{on_until:g} s, then down to 0 by {off_at:g} s). The tree: `root` blends `active` and the gait `rest` (a gait file "
         "beside the scenario: no oscillation, the swim's stance) by `energy_hat` (cosine); "
         "`active` blends swim and `floor` by `z_hat` (Eq. 12's potential); `floor` switches "
         "between trot and walk by `flow_hat` (hysteresis 0.6). `balloon.rule` keeps the balloon "
-        "empty while `flow_hat` is high and fills it when it is low, from 8 s on. The battery "
-        "starts at 22.9 % with its reserve at 22.35-22.45 %.",
+        f"empty while `flow_hat` is high and fills it when it is low, from {rule.after:g} s on. "
+        f"The battery starts at {100 * soc0:g} % with its reserve at "
+        f"{100 * est.soc_low:g}-{100 * est.soc_high:g} %.",
         "",
         "| change | s | driven by |",
         "| --- | --- | --- |",
@@ -276,26 +286,33 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "| t s | z_hat | flow_hat | energy_hat | balloon command |",
         "| --- | --- | --- | --- | --- |",
     ]
-    for t, z, f, e, b in _estimates_at(out, (4.0, 12.0, 20.0, 24.0, 30.0, 50.0, 65.0)):
+    for t, z, f, e, b in _estimates_at(out, (4.0, on_until, off_at + 4.0, off_at + 8.0, 30.0,
+                                             50.0, 65.0)):
         lines.append(f"| {t:.0f} | {z:.2f} | {f:.2f} | {e:.2f} | {b:.0f} |")
     energy = four.get("energy", {})
     log = np.load(out / "four_behaviors" / "log.npz")
     t, speed = log["t_flow_speed_hat"], log["flow_speed_hat"][:, 0]
     xy = log["body_xyz"][:, 1]
-    lo_in, hi_in = speed[(t >= 8) & (t <= 16)].min(), speed[(t >= 8) & (t <= 16)].max()
-    drift = (np.interp(16.0, log["t"], xy) - np.interp(8.0, log["t"], xy)) / 8.0
+    # From the balloon rule's start to the current's end: on the floor, walking, in the current.
+    a, b = rule.after, on_until
+    lo_in, hi_in = speed[(t >= a) & (t <= b)].min(), speed[(t >= a) & (t <= b)].max()
+    drift = (np.interp(b, log["t"], xy) - np.interp(a, log["t"], xy)) / (b - a)
+    tz, z = log["t_z_hat"], log["z_hat"][:, 0]
+    z_low = z[tz <= 5.0].min()
     lines += [
         "",
-        f"The current drags the walking robot along the floor at {drift:.3f} m/s (8-16 s; its "
-        f"feet hold it only partly), so the filtered flow speed reads {lo_in:.3f}-{hi_in:.3f} m/s "
-        "in the 0.1 m/s current, above the thresholds (0.02-0.05 m/s); a 4 s filter averages "
-        "the walk's own sway over its 2 s cycle. Drifting at the surface the robot could not see a steady current at all; "
+        f"The current drags the walking robot along the floor at {drift:.3f} m/s ({a:g}-{b:g} s; "
+        f"its feet hold it only partly), so the filtered flow speed reads {lo_in:.3f}-{hi_in:.3f} "
+        f"m/s in the {speed_now:g} m/s current, above the thresholds "
+        f"({spec.flow_estimator.speed_low:g}-{spec.flow_estimator.speed_high:g} m/s); a "
+        f"{spec.flow_estimator.time_constant:g} s filter averages the walk's own sway over its "
+        "2 s cycle. Drifting at the surface the robot could not see a steady current at all; "
         "that is why the decision to leave the floor waits for the current to stop, not for it "
-        "to start. In the first 5 s the robot settles on its feet and z_hat dips below 1, which "
-        "gives the swim a share of the target before the walk takes over.",
+        f"to start. While the robot settles on its feet (the first 5 s) z_hat dips to "
+        f"{z_low:.2f}, which gives the swim a share of the target for a moment.",
         "",
         f"Energy: {energy.get('mean_electrical_power_w', float('nan')):.1f} W mean, the charge "
-        f"from 22.9 % to {100 * energy.get('battery_soc_end', float('nan')):.2f} %.",
+        f"from {100 * soc0:g} % to {100 * energy.get('battery_soc_end', float('nan')):.2f} %.",
         "",
         "![four_behaviors](figures/four_behaviors.png)",
         "",

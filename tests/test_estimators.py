@@ -348,3 +348,36 @@ def test_every_parameter_error_names_the_field_and_range(make, message):
 def test_systems_check_at_construction(make, message):
     with pytest.raises(ValueError, match=message):
         make()
+
+
+def test_flow_estimator_ports_and_default_period():
+    """The ports are the documented sizes, and the default update period is the flow
+    sensor's default sample period (1 / 50 Hz), so each reading is filtered once."""
+    from manta_drake.station.flow_sensor import FlowSensorParams
+    system = FlowEstimator()
+    assert system.GetInputPort("flow_velocity").size() == 3
+    assert system.GetOutputPort("flow_hat").size() == 1
+    assert system.GetOutputPort("flow_speed_hat").size() == 1
+    assert system.period == pytest.approx(1.0 / FlowSensorParams().rate_hz, rel=1e-15)
+    assert system.GetUniquePeriodicDiscreteUpdateAttribute().period_sec() == system.period
+
+
+@pytest.mark.parametrize("good", [
+    {"speed_low": 9.99, "speed_high": 10.0}, {"time_constant": 100.0}, {"time_constant": 0.0},
+])
+def test_flow_parameter_edges_pass(good):
+    FlowEstimatorParams(**good).validate()
+    FlowEstimator(period=1.0)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: FlowEstimatorParams(speed_low=10.0, speed_high=10.0).validate(),
+     r"speed_low: 10.0 is outside the allowed range \[0, 10\) m/s"),
+    (lambda: FlowEstimatorParams(speed_high=12.0).validate(), r"speed_high: 12.0 is outside"),
+    (lambda: FlowEstimatorParams(time_constant=120.0).validate(),
+     r"time_constant: 120.0 is outside"),
+    (lambda: FlowEstimator(period=1.2), r"FlowEstimator.period: 1.2 is outside"),
+])
+def test_flow_parameters_just_past_the_edges_are_refused(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()

@@ -276,3 +276,36 @@ def test_every_parameter_error_names_the_field_and_range(change, message):
         dc.replace(HeadingHoldParams(), **change).validate()
     with pytest.raises(ValueError, match=message):
         HeadingHold(dc.replace(HeadingHoldParams(), **change))
+
+
+def test_default_gains_ask_for_about_9_percent_at_10_degrees():
+    """The documented starting point: with the default gains a 10 deg heading error asks for
+    ~9 % more flapping on one side (kp e = 0.5 x 0.1745 = 0.087, plus one update of the
+    small integral action)."""
+    p = HeadingHoldParams().validate()
+    e = np.radians(10.0)
+    _, u = heading_trim_step(0.0, e, 0.0, 0.0, p)
+    assert 0.085 < u < 0.095
+    assert u == pytest.approx(p.kp * e + p.ki * e * p.period, rel=1e-12)
+
+
+def test_swim_share_input_is_clipped_to_0_1_before_it_weights_the_integral():
+    """A share of 3 counts as 1 (the integral grows by e T, not 3 e T); a negative share
+    as 0 (the integral is frozen and the input passes unchanged)."""
+    e = 0.1
+    for share, integral in ((3.0, e * T), (1.0, e * T), (-0.5, 0.0)):
+        system = HeadingHold(_params(ki=1.0, heading_deg=0.0))
+        context = system.CreateDefaultContext()
+        _update(system, context, yaw=e, share=share)
+        assert context.get_discrete_state_vector().GetAtIndex(0) == pytest.approx(integral,
+                                                                                  abs=1e-15)
+    assert system.GetOutputPort("cpg_params").Eval(context).tobytes() == SWIM.tobytes()
+
+
+@pytest.mark.parametrize("heading", [-180.0, 180.0])
+def test_heading_edges_pass_and_wrap_to_the_same_target(heading):
+    """-180 and 180 deg are both allowed and are one heading: the target pi, in (-pi, pi]."""
+    context = HeadingHold(_params(heading_deg=heading)).CreateDefaultContext()
+    assert context.get_discrete_state_vector().GetAtIndex(1) == pytest.approx(np.pi, rel=1e-15)
+    with pytest.raises(ValueError, match=r"heading_deg: -190.0 is outside the allowed range"):
+        _params(heading_deg=-190.0)

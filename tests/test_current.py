@@ -249,3 +249,15 @@ def test_hydro_rejects_a_bad_schedule_argument():
     hydro = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, current=(0.2, 0.0, 0.0),
                                current_schedule=CurrentSchedule([0.2, 0.0, 0.0], RAMP))
     np.testing.assert_array_equal(hydro.current, [0.0, 0.0, 0.0])  # the schedule at t = 0
+
+
+def test_every_component_interpolates_from_nonzero_keys():
+    """Keys whose three components all differ and none is zero, so each component's own
+    index and its own key values are used (before, between and after the keys)."""
+    points = [CurrentPoint(2.0, [0.1, -0.2, 0.3]), CurrentPoint(6.0, [-0.3, 0.2, 0.5])]
+    s = CurrentSchedule(points=points)
+    for t, expected in ((0.0, [0.1, -0.2, 0.3]), (3.0, [0.0, -0.1, 0.35]),
+                        (5.0, [-0.2, 0.1, 0.45]), (8.0, [-0.3, 0.2, 0.5])):
+        np.testing.assert_allclose(s.at(t), expected, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(current_at(t, s.times, s.velocities), expected, rtol=0,
+                                   atol=1e-15)

@@ -506,3 +506,13 @@ def test_metric_names_are_documented():
     text = (REPO / "docs" / "optimize.md").read_text()
     for name in METRICS:
         assert f"`{name}`" in text, name
+
+
+def test_provenance_names_the_spec_inside_the_checkout_relatively(tmp_path):
+    """A shipped result's provenance must mean the same file on another machine."""
+    from manta_drake.optimize.run import REPO, spec_path_text
+
+    assert spec_path_text(REPO / "diagrams" / "optimize" / "true_crab.yaml") == \
+        "diagrams/optimize/true_crab.yaml"
+    outside = tmp_path / "spec.yaml"
+    assert spec_path_text(outside) == str(outside.resolve())

@@ -60,6 +60,11 @@ def write_convergence_figure(path: pathlib.Path, problem, rows: list[dict]) -> p
                 ax_cost.annotate(f"{n} failed", (g, 1.0), xycoords=("data", "axes fraction"),
                                  ha="center", va="top", fontsize=7, color="tab:red")
         ax_cost.legend(fontsize=8)
+        # Penalties make costs span decades (a constraint met ends a 1e4 plateau): symlog
+        # shows both the plateau and the last steps, linear within +-1.
+        finite = np.abs(np.array([c for c in gen_median + best_so_far if np.isfinite(c)]))
+        if len(finite) and finite.max() > 100 * max(1.0, finite.min()):
+            ax_cost.set_yscale("symlog", linthresh=1.0)
         best_x = np.array(best_x)
         colors = [f"C{i % 10}" for i in range(len(space.names))]
         for i, name in enumerate(space.names):

@@ -109,6 +109,7 @@ class OptimizationResult:
     # and reused, the longest and the summed simulation wall times (on the workers).
     timings: list = dc.field(default_factory=list)
     best_run: dict | None = None  # the row of the best gait's re-run
+    source: str = ""  # source_version() when this call started
 
 
 def check_optimize_out(problem: Problem, out_dir) -> pathlib.Path:
@@ -118,23 +119,37 @@ def check_optimize_out(problem: Problem, out_dir) -> pathlib.Path:
     return check_out_folder(out_dir, OUTPUTS, inputs, folders=FOLDERS)
 
 
+REPO = pathlib.Path(__file__).resolve().parents[2]  # the checkout this package runs from
+
+
 def source_version() -> str:
-    """``git <HEAD>`` of the checkout this package runs from, else ``manta_drake
-    <version>``."""
+    """``git <HEAD>`` of the checkout this package runs from (``+ modified`` when a tracked
+    file differs from it), else ``manta_drake <version>``. Taken when a run starts."""
     from manta_drake.version import __version__
 
-    repo = pathlib.Path(__file__).resolve().parents[2]
     try:
-        top = subprocess.run(["git", "-C", str(repo), "rev-parse", "--show-toplevel"],
+        top = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--show-toplevel"],
                              capture_output=True, text=True, timeout=10, check=False)
-        if top.returncode == 0 and pathlib.Path(top.stdout.strip()).resolve() == repo:
-            head = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"],
+        if top.returncode == 0 and pathlib.Path(top.stdout.strip()).resolve() == REPO:
+            head = subprocess.run(["git", "-C", str(REPO), "rev-parse", "HEAD"],
                                   capture_output=True, text=True, timeout=10, check=False)
             if head.returncode == 0 and head.stdout.strip():
-                return f"git {head.stdout.strip()}"
+                dirty = subprocess.run(["git", "-C", str(REPO), "diff", "--quiet", "HEAD",
+                                        "--", "manta_drake", "models"],
+                                       capture_output=True, timeout=10, check=False)
+                return f"git {head.stdout.strip()}" + (" + modified" if dirty.returncode else "")
     except (OSError, subprocess.SubprocessError):
         pass
     return f"manta_drake {__version__}"
+
+
+def spec_path_text(path) -> str:
+    """The spec's path as provenance says it: relative to the checkout when inside it."""
+    path = pathlib.Path(path).resolve()
+    try:
+        return str(path.relative_to(REPO))
+    except ValueError:
+        return str(path)
 
 
 def _atomic_pickle(path: pathlib.Path, obj) -> None:
@@ -288,6 +303,7 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
     out_dir.mkdir(parents=True, exist_ok=True)
     evaluate = evaluate or simulate_candidate
     started = time.perf_counter()
+    source = source_version()  # the code this run is made with, not the code at its end
     identity = problem.identity()
     points, seeds = spec.points(), list(spec.robustness.seeds)
     budget = spec.budget
@@ -410,7 +426,7 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
             bar.close()
     save_state()
     return _finish(problem, out_dir, state, rows, final_rows, runner.simulated, reused, stop,
-                   time.perf_counter() - started)
+                   time.perf_counter() - started, source=source)
 
 
 def _job(problem: Problem, scenario_sha: str, kind: str, generation: int, candidate: int,
@@ -541,7 +557,7 @@ def term_values(problem: Problem, rows: list[dict]) -> dict:
 
 def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
             final_rows: list[dict], simulated: int, reused: int, stop: str,
-            wall_time: float) -> OptimizationResult:
+            wall_time: float, source: str = "") -> OptimizationResult:
     from manta_drake.optimize.figure import write_convergence_figure
 
     spec, space = problem.spec, problem.space
@@ -560,7 +576,7 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
         stop=stop or "done", wall_time_s=wall_time, out_dir=out_dir,
         held_out=[r for r in final_rows if r["kind"] == "held_out"],
         best_run=next((r for r in final_rows if r["kind"] == "best"), None),
-        timings=list(state.get("timings", [])))
+        timings=list(state.get("timings", [])), source=source)
     (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
     if best_ok:
         result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
@@ -568,8 +584,8 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
     result.figure = write_convergence_figure(out_dir / "convergence.png", problem,
                                              list(rows.values()))
     summary = {
-        "name": spec.name, "spec": str(spec.path), "spec_sha256": spec.text_sha256,
-        "scenario": spec.scenario, "start_gait": spec.gait, "source": source_version(),
+        "name": spec.name, "spec": spec_path_text(spec.path), "spec_sha256": spec.text_sha256,
+        "scenario": spec.scenario, "start_gait": spec.gait, "source": source,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "parameters": [{"name": p.name, "entry": p.entry, "low": p.low, "high": p.high,
                         "sets": [t.label() for t in p.targets]} for p in space.parameters],
@@ -615,8 +631,8 @@ def write_best_gait(path: pathlib.Path, problem: Problem,
     spec, space = problem.spec, problem.space
     provenance = {
         "made_by": "manta-drake optimize",
-        "spec": str(spec.path), "spec_sha256": spec.text_sha256,
-        "source": source_version(),
+        "spec": spec_path_text(spec.path), "spec_sha256": spec.text_sha256,
+        "source": result.source,
         "scenario": spec.scenario, "start_gait": spec.gait,
         "objective_value": result.best_cost, "start_objective_value": result.start_cost,
         "generation": result.best_generation, "candidate": result.best_candidate,

@@ -29,7 +29,7 @@ import time
 import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorStatus
-from pydrake.systems.framework import Diagram
+from pydrake.systems.framework import Diagram, EventStatus
 from pydrake.systems.primitives import RandomSource
 
 from manta_drake import metrics as M
@@ -352,6 +352,30 @@ def interrupts_as_exceptions():
 
 
 @contextlib.contextmanager
+def _signals_flagged():
+    """While inside, SIGINT, SIGTERM and SIGHUP only append their name to the yielded list.
+    An exception raised by a handler in the middle of a pybind11 call (converting an argument,
+    say) comes out as that call's TypeError, not as the interruption, so while the Simulator
+    steps Python systems the signal is noted and acted on between steps (a monitor ends the
+    step loop, the caller raises ``RunInterrupted``)."""
+    pending: list = []
+    if threading.current_thread() is not threading.main_thread():
+        yield pending
+        return
+
+    def note(signum, frame):
+        pending.append(signal.Signals(signum).name)
+
+    previous = {sig: signal.signal(sig, note)
+                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield pending
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+@contextlib.contextmanager
 def _signals_deferred():
     """While inside, SIGINT, SIGTERM and SIGHUP are held; the first one is raised on exit."""
     if threading.current_thread() is not threading.main_thread():
@@ -441,24 +465,31 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
     bar = _progress(scenario.duration, progress and sys.stderr.isatty())
     wall_start = time.perf_counter()
     try:
-        simulator.Initialize()
-        # Chunk ends on the plant's step grid (an end between two steps would add a tiny
-        # integrator step and change the run at round-off level); the last one is exactly
-        # the duration.
-        n_steps = max(1, int(round(scenario.duration / scenario.time_step)))
-        n_chunks = max(1, min(200, int(np.ceil(scenario.duration / 0.05))))
-        for k in range(1, n_chunks + 1):
-            t_next = (scenario.duration if k == n_chunks
-                      else round(k * n_steps / n_chunks) * scenario.time_step)
-            status = simulator.AdvanceTo(t_next)
-            if bar is not None:
-                bar.update(root_context.get_time() - bar.n)
-            if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
-                # A System ended the run (the battery at its cut-off): the run stops there
-                # and says why, rather than going on.
-                failure = {"time_s": float(root_context.get_time()),
-                           "reason": status.message() or "a system ended the run"}
-                break
+        with _signals_flagged() as signals:
+            # Between steps: a signal noted while a step ran ends the loop here.
+            simulator.set_monitor(lambda c: EventStatus.ReachedTermination(diagram, "signal")
+                                  if signals else EventStatus.Succeeded())
+            simulator.Initialize()
+            # Chunk ends on the plant's step grid (an end between two steps would add a
+            # tiny integrator step and change the run at round-off level); the last one is
+            # exactly the duration.
+            n_steps = max(1, int(round(scenario.duration / scenario.time_step)))
+            n_chunks = max(1, min(200, int(np.ceil(scenario.duration / 0.05))))
+            for k in range(1, n_chunks + 1):
+                t_next = (scenario.duration if k == n_chunks
+                          else round(k * n_steps / n_chunks) * scenario.time_step)
+                status = simulator.AdvanceTo(t_next)
+                if signals:
+                    raise RunInterrupted(signals[0])
+                if bar is not None:
+                    bar.update(root_context.get_time() - bar.n)
+                if status.reason() == \
+                        SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+                    # A System ended the run (the battery at its cut-off): the run stops
+                    # there and says why, rather than going on.
+                    failure = {"time_s": float(root_context.get_time()),
+                               "reason": status.message() or "a system ended the run"}
+                    break
     except KeyboardInterrupt as e:
         interrupted = e if isinstance(e, RunInterrupted) else RunInterrupted("SIGINT")
         failure = {"time_s": float(root_context.get_time()), "reason": interrupted.reason}

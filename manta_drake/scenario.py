@@ -372,6 +372,16 @@ class Scenario:
         """The water's current over time (``water.current``, ``water.current_schedule``)."""
         return CurrentSchedule(self.water.current, self.water.current_schedule)
 
+    def reads_charge_estimate(self) -> bool:
+        """Whether the controller estimates the battery's charge (``EnergyEstimator``, a
+        ``battery`` input): the energy model is on and the behaviour tree (transition mode)
+        or the balloon rule reads ``energy_hat``."""
+        if not self.actuators.enabled:
+            return False
+        return self.balloon.rule.modality == "energy" or (
+            self.controller.mode == "transition"
+            and "energy_hat" in self.behaviour_tree().modalities)
+
     def _validate_modalities(self) -> None:
         """The sensors, estimators, heading hold and balloon rule; and that every estimate
         the behaviour tree or the balloon rule reads has its sensor."""

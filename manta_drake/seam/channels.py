@@ -58,12 +58,8 @@ class Channel:
 def reads_battery(scenario) -> bool:
     """Whether the controller of ``scenario`` has a ``battery`` input: the energy model is on
     and the behaviour tree or the balloon rule reads the charge estimate ``energy_hat``
-    (build_controller's condition; a test compares it with the built controllers)."""
-    if not scenario.actuators.enabled:
-        return False
-    return scenario.balloon.rule.modality == "energy" or (
-        scenario.controller.mode == "transition"
-        and "energy_hat" in scenario.behaviour_tree().modalities)
+    (``Scenario.reads_charge_estimate``, the condition build_controller uses)."""
+    return scenario.reads_charge_estimate()
 
 
 def battery_period(scenario) -> float:

@@ -181,10 +181,7 @@ def _add_estimators(builder, scenario: Scenario, handles: ControllerHandles) -> 
     if scenario.flow_sensor.enabled and scenario.water.enabled:
         add("flow_estimator", FlowEstimator(scenario.flow_estimator), "flow_velocity",
             ("flow_speed_hat", "flow_hat"))
-    reads_charge = scenario.balloon.rule.modality == "energy" or (
-        scenario.controller.mode == "transition"
-        and "energy_hat" in scenario.behaviour_tree().modalities)
-    if scenario.actuators.enabled and reads_charge:
+    if scenario.reads_charge_estimate():
         add("energy_estimator", EnergyEstimator(scenario.energy_estimator), "battery",
             ("soc_hat", "energy_hat"))
 

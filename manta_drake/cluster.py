@@ -4,6 +4,7 @@ studies): ``--scheduler ADDRESS`` connects to a running cluster, ``--workers N``
 process without Dask."""
 
 import contextlib
+import dataclasses as dc
 import os
 import re
 
@@ -141,3 +142,101 @@ def cluster_client(args):
         return dask_client(args.scheduler, args.workers,
                            getattr(args, "dashboard", DEFAULT_DASHBOARD))
     return contextlib.nullcontext()
+
+
+# --- tasks a dead worker took with it ---------------------------------------------------------
+
+# Exceptions of the cluster, not of a task: distributed raises them from a task's result when
+# the worker running (or holding) the task died or the connection to it closed.
+INFRASTRUCTURE_ERRORS = ("KilledWorker", "CommClosedError", "StreamClosedError",
+                         "FutureCancelledError", "CancelledError")
+# Attempts of one task on the cluster before it counts as lost. Each attempt is itself
+# rescheduled by distributed after a worker's death up to
+# ``distributed.scheduler.allowed-failures`` times, so a task that kills every worker it
+# starts on costs (1 + allowed-failures) x ATTEMPTS workers before it is given up.
+ATTEMPTS = 3
+
+
+def is_infrastructure_error(error) -> bool:
+    """Whether an exception is the cluster's, not the task's: one of
+    ``INFRASTRUCTURE_ERRORS`` or any ``OSError`` (distributed's connection errors are; the
+    many-run commands' tasks return their own failures, never raise them). Given a reason
+    ``"Name: text"`` of a record, only the names count."""
+    if isinstance(error, str):
+        return error.split(":", 1)[0].strip() in INFRASTRUCTURE_ERRORS
+    return isinstance(error, OSError) or type(error).__name__ in INFRASTRUCTURE_ERRORS
+
+
+@dc.dataclass(frozen=True)
+class TaskFailure:
+    """A task whose result was an exception on the client's side: the cluster's on every
+    one of ``attempts`` (``lost``), or another one at once."""
+
+    error: BaseException
+    attempts: int
+    lost: bool
+
+    def reason(self) -> str:
+        """One line: ``Name: text``, after ``lost to the cluster in N attempts: `` if lost."""
+        text = f"{type(self.error).__name__}: {' '.join(str(self.error).split())}"
+        return f"lost to the cluster in {self.attempts} attempts: {text}" if self.lost else text
+
+
+def completed_resubmitting_lost(client, function, jobs, argument, key, window=None):
+    """Runs ``function(argument(job))`` as one task per job and yields ``(job, outcome)`` as
+    each finishes: the function's return, or a ``TaskFailure``. A task the cluster lost
+    (``is_infrastructure_error``) is submitted again, up to ``ATTEMPTS`` times, each attempt
+    with a key of its own (``key(job)`` + ``-aN``: the scheduler may still hold a lost
+    attempt's key).
+
+    Args:
+        client: a ``distributed.Client``.
+        function: what a task runs (picklable).
+        jobs: an iterable of jobs, read as tasks are submitted.
+        argument: job -> the task's argument.
+        key: job -> the stem of its task keys.
+        window: None: every job at once; else a callable giving the most tasks in flight
+            (asked each time, since a cluster may gain workers).
+
+    Tasks still running when the caller stops iterating (an interrupt) are cancelled.
+    """
+    from distributed import as_completed
+
+    pending = as_completed()
+    futures: dict = {}  # future -> (job, attempt)
+    jobs = iter(jobs)
+    none_left = object()
+
+    def submit(job, attempt: int) -> None:
+        future = client.submit(function, argument(job), pure=False,
+                               key=f"{key(job)}-a{attempt}")
+        futures[future] = (job, attempt)
+        pending.add(future)
+
+    def fill() -> None:
+        while window is None or len(futures) < window():
+            job = next(jobs, none_left)
+            if job is none_left:
+                return
+            submit(job, 1)
+
+    try:
+        fill()
+        for future in pending:
+            job, attempt = futures.pop(future)
+            try:
+                outcome = future.result()
+            except Exception as e:
+                outcome = e
+            future.release()
+            if isinstance(outcome, Exception):
+                lost = is_infrastructure_error(outcome)
+                if lost and attempt < ATTEMPTS:
+                    submit(job, attempt + 1)  # a dead worker is not the task's failure
+                    continue
+                outcome = TaskFailure(outcome, attempt, lost)
+            yield job, outcome
+            fill()
+    finally:
+        if futures:  # stopped early: nothing of this call keeps running on the cluster
+            client.cancel(list(futures))

@@ -16,8 +16,7 @@ from manta_drake.calibrate.measured import load_measured
 from manta_drake.calibrate.residuals import target_residuals, trajectory_residuals
 from manta_drake.calibrate.run import simulate_trajectory
 from manta_drake.calibrate.scenarios import experiment_scenario, parameter_scales, scenario_text
-from manta_drake.sweep.results import is_infrastructure_error
-from manta_drake.sweep.runner import ATTEMPTS
+from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
 
 
 class Evaluator:
@@ -25,7 +24,7 @@ class Evaluator:
 
     Every (point, experiment) is one task; results are cached by point, so the optimiser's
     repeated points cost nothing. A task the cluster lost (its worker died) is submitted
-    again, up to ``sweep.runner.ATTEMPTS`` times. ``history`` records every evaluated point.
+    again, up to ``cluster.ATTEMPTS`` times. ``history`` records every evaluated point.
     """
 
     def __init__(self, config: CalibrationConfig, client=None, progress: bool = True):
@@ -79,33 +78,13 @@ class Evaluator:
                 results[(x, i)] = simulate_trajectory(text)
                 self._tick()
         else:
-            from distributed import as_completed
-
-            pending = as_completed()
-            futures: dict = {}
-
-            def submit(job, attempt: int) -> None:
-                # A key per attempt: the scheduler may still hold a lost attempt's key.
-                future = self.client.submit(simulate_trajectory, job[2], pure=False,
-                                            key=f"manta-cal-{_digest(job[2])}-a{attempt}")
-                futures[future] = (job, attempt)
-                pending.add(future)
-
-            for job in jobs:
-                submit(job, 1)
-            for future in pending:
-                job, attempt = futures.pop(future)
-                try:
-                    outcome = future.result()
-                except Exception as e:  # simulate_trajectory returns failures: the cluster's
-                    outcome = e
-                future.release()
-                if isinstance(outcome, Exception):
-                    if is_infrastructure_error(outcome) and attempt < ATTEMPTS:
-                        submit(job, attempt + 1)  # a lost worker is no failed simulation
-                        continue
+            # simulate_trajectory returns its failures: an exception is the cluster's.
+            for job, outcome in completed_resubmitting_lost(
+                    self.client, simulate_trajectory, jobs, lambda job: job[2],
+                    lambda job: f"manta-cal-{_digest(job[2])}"):
+                if isinstance(outcome, TaskFailure):
                     outcome = {"status": "error",
-                               "reason": f"{type(outcome).__name__}: {outcome}"}
+                               "reason": f"{type(outcome.error).__name__}: {outcome.error}"}
                 results[job[:2]] = outcome
                 self._tick()
         self.simulations += len(jobs)

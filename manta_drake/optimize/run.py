@@ -20,6 +20,7 @@ asks exactly the candidates of one that was not.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses as dc
 import datetime
 import io
@@ -56,8 +57,7 @@ from manta_drake.optimize.parameters import candidate_gait_text
 from manta_drake.optimize.spec import OptimizeError
 from manta_drake.simulate import interrupts_as_exceptions
 from manta_drake.sweep.config import check_out_folder
-from manta_drake.sweep.results import is_infrastructure_error
-from manta_drake.sweep.runner import ATTEMPTS
+from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
 
 # What run_optimization writes in its output folder (files, then folders).
 OUTPUTS = ("best_gait.yaml", HISTORY, "convergence.png", "summary.json", "state.pkl")
@@ -210,7 +210,7 @@ class _Table:
 class _Runner:
     """Runs batches of simulations (one task each, or one after another in this process)
     and hands each result to ``done`` as it finishes; a task lost with its worker is
-    submitted again up to ``sweep.runner.ATTEMPTS`` times."""
+    submitted again up to ``cluster.ATTEMPTS`` times."""
 
     def __init__(self, client, evaluate, bar):
         self.client, self.evaluate, self.bar = client, evaluate, bar
@@ -227,40 +227,15 @@ class _Runner:
                                "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
                 self._finish(job, outcome, done)
             return
-        from distributed import as_completed
-
-        pending = as_completed()
-        futures: dict = {}
-
-        def submit(job, attempt: int) -> None:
-            future = self.client.submit(self.evaluate, job["task"], pure=False,
-                                        key=f"manta-opt-{job['key']}-{self.token}-a{attempt}")
-            futures[future] = (job, attempt)
-            pending.add(future)
-
-        try:
-            for job in jobs:
-                submit(job, 1)
-            for future in pending:
-                job, attempt = futures.pop(future)
-                try:
-                    outcome = future.result()
-                except Exception as e:
-                    outcome = e
-                future.release()
-                if isinstance(outcome, Exception):
-                    lost = is_infrastructure_error(outcome)
-                    if lost and attempt < ATTEMPTS:
-                        submit(job, attempt + 1)  # a dead worker is not the candidate's fault
-                        continue
-                    reason = f"{type(outcome).__name__}: {' '.join(str(outcome).split())}"
-                    outcome = {"status": "lost" if lost else "error", "reason": (
-                        f"lost to the cluster in {attempt} attempts: {reason}" if lost
-                        else reason)}
+        # Closed at once when interrupted: nothing of this call keeps running on the cluster.
+        with contextlib.closing(completed_resubmitting_lost(
+                self.client, self.evaluate, jobs, lambda job: job["task"],
+                lambda job: f"manta-opt-{job['key']}-{self.token}")) as finished:
+            for job, outcome in finished:
+                if isinstance(outcome, TaskFailure):  # the evaluator's raise, or the cluster's
+                    outcome = {"status": "lost" if outcome.lost else "error",
+                               "reason": outcome.reason()}
                 self._finish(job, outcome, done)
-        finally:
-            if futures:  # interrupted: nothing of this call keeps running on the cluster
-                self.client.cancel(list(futures))
 
     def _finish(self, job, outcome, done) -> None:
         if not isinstance(outcome, dict):

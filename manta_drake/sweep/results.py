@@ -11,6 +11,7 @@ import json
 import os
 import pathlib
 
+from manta_drake.cluster import INFRASTRUCTURE_ERRORS, is_infrastructure_error  # noqa: F401
 from manta_drake.sweep.config import RunSpec, SweepError
 
 # Statuses of a run that is done: a restart skips it (``--rerun-failed`` runs the ones that
@@ -18,20 +19,6 @@ from manta_drake.sweep.config import RunSpec, SweepError
 # dropped) after every attempt, is not done: a restart runs it again.
 DONE_STATUSES = ("ok", "invalid", "failed", "error")
 LOST = "lost"
-# Exceptions of the cluster, not of a run: distributed raises them from a task's result
-# when the worker running (or holding) the task died or the connection to it closed.
-INFRASTRUCTURE_ERRORS = ("KilledWorker", "CommClosedError", "StreamClosedError",
-                         "FutureCancelledError", "CancelledError")
-
-
-def is_infrastructure_error(error) -> bool:
-    """Whether an exception is the cluster's, not the run's: one of
-    ``INFRASTRUCTURE_ERRORS`` or any ``OSError`` (distributed's connection errors are; a
-    task's own errors never reach the client as exceptions, ``simulate_run`` returns them).
-    Given a reason ``"Name: text"`` of a record, only the names count."""
-    if isinstance(error, str):
-        return error.split(":", 1)[0].strip() in INFRASTRUCTURE_ERRORS
-    return isinstance(error, OSError) or type(error).__name__ in INFRASTRUCTURE_ERRORS
 
 
 def _atomic_write(path: pathlib.Path, data: bytes) -> None:

@@ -12,12 +12,13 @@ import pathlib
 import sys
 import time
 
+from manta_drake.cluster import ATTEMPTS  # noqa: F401 (the sweep's API: sweep.ATTEMPTS)
+from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
 from manta_drake.sweep.config import RunSpec, SweepConfig, check_out_folder
 from manta_drake.sweep.figure import write_summary_figure
 from manta_drake.sweep.plan import load_base, parameter_names, resolve_run, run_specs
 from manta_drake.sweep.results import (
     LOST,
-    is_infrastructure_error,
     read_done,
     table_rows,
     write_run,
@@ -25,11 +26,6 @@ from manta_drake.sweep.results import (
 )
 from manta_drake.sweep.run import simulate_run
 
-# Attempts of one run on the cluster before it counts as lost. Each attempt is itself
-# rescheduled by distributed after a worker's death up to
-# ``distributed.scheduler.allowed-failures`` times, so a run that kills every worker it
-# starts on costs (1 + allowed-failures) x ATTEMPTS workers before it is given up.
-ATTEMPTS = 3
 # The files and folder a sweep writes in its --out folder.
 OUTPUTS = ("results.csv", "summary.png")
 
@@ -159,43 +155,13 @@ def _run_on_cluster(client, runs, finish, simulated: list[str]) -> None:
     """Submits the runs a window at a time (the scheduler holds each task's scenario text:
     a few per worker thread keep every worker busy without holding the whole sweep), and
     submits a run again when the cluster lost it."""
-    from distributed import as_completed
-
-    pending = as_completed()
-    futures: dict = {}  # future -> (spec, attempt)
-
-    def submit(spec: RunSpec, attempt: int) -> None:
-        # A key per attempt: the scheduler may still hold the lost attempt's key.
-        future = client.submit(simulate_run, spec.scenario_yaml, pure=False,
-                               key=f"manta-run-{spec.run_id}-a{attempt}")
-        futures[future] = (spec, attempt)
-        pending.add(future)
-
-    def fill() -> None:
-        # Asked each time: a cluster may gain workers while the sweep runs.
-        window = max(16, 4 * sum(client.nthreads().values()))
-        while len(futures) < window:
-            spec = next(runs, None)
-            if spec is None:
-                return
-            submit(spec, 1)
-
-    fill()
-    for future in pending:
-        spec, attempt = futures.pop(future)
-        try:
-            outcome = future.result()
-        except Exception as e:  # simulate_run returns every failure: this is the cluster's
-            outcome = e
-        future.release()
-        if isinstance(outcome, Exception):
-            lost = is_infrastructure_error(outcome)
-            if lost and attempt < ATTEMPTS:
-                submit(spec, attempt + 1)  # a dead worker is not the run's result
-                continue
-            reason = f"{type(outcome).__name__}: {' '.join(str(outcome).split())}"
-            outcome = {"metrics": {"status": LOST if lost else "error", "reason": (
-                f"lost to the cluster in {attempt} attempts: {reason}" if lost else reason)}}
+    # simulate_run returns every failure of a run: an exception is the cluster's.
+    for spec, outcome in completed_resubmitting_lost(
+            client, simulate_run, runs, lambda spec: spec.scenario_yaml,
+            lambda spec: f"manta-run-{spec.run_id}",
+            window=lambda: max(16, 4 * sum(client.nthreads().values()))):
+        if isinstance(outcome, TaskFailure):
+            outcome = {"metrics": {"status": LOST if outcome.lost else "error",
+                                   "reason": outcome.reason()}}
         finish(spec, outcome)
         simulated.append(spec.run_id)
-        fill()

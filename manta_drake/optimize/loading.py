@@ -13,7 +13,7 @@ import pathlib
 import re
 import tempfile
 
-from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping
+from manta_drake.config_io import ScenarioError, load_yaml_mapping
 from manta_drake.control.gait_files import RESERVED_NAMES
 from manta_drake.optimize.evaluate import candidate_overrides
 from manta_drake.optimize.objective import METRICS
@@ -34,7 +34,7 @@ from manta_drake.optimize.spec import (
     Term,
 )
 from manta_drake.scenario import Scenario, find_scenario, load_scenario, scenario_yaml
-from manta_drake.sweep.config import check_parameter_name
+from manta_drake.sweep.config import check_config_keys, check_parameter_name
 from manta_drake.sweep.plan import apply_overrides
 
 ROOT = "optimize"
@@ -101,15 +101,7 @@ def spec_content(spec: OptimizeSpec) -> dict:
 
 
 def _build(data: dict, path: pathlib.Path, text: str) -> OptimizeSpec:
-    allowed = sorted(f.name for f in dc.fields(OptimizeSpec) if f.name not in NOT_IN_FILE)
-    for key in data:
-        if key not in allowed:
-            raise OptimizeError(f"{ROOT}.{key}: unknown key (a typo?); allowed keys: "
-                                f"{', '.join(allowed)}")
-    try:
-        check_keys(data, OptimizeSpec, ROOT)
-    except ScenarioError as e:
-        raise OptimizeError(str(e)) from None
+    check_config_keys(data, OptimizeSpec, ROOT, NOT_IN_FILE, OptimizeError)
     obj = data.get("objective") or {}
     return OptimizeSpec(
         name=data.get("name") or path.stem,

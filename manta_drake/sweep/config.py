@@ -88,18 +88,20 @@ class RunSpec:
     invalid_reason: str = ""
 
 
-def check_config_keys(data: dict, schema, root: str) -> None:
-    """Checks a sweep or calibration file's keys and types against its dataclass; the
-    ``folder`` field is set by the loader, never by the file. SweepError names the path."""
-    allowed = sorted(f.name for f in dc.fields(schema) if f.name != "folder")
+def check_config_keys(data: dict, schema, root: str, not_in_file=("folder",),
+                      error=SweepError) -> None:
+    """Checks a many-run file's keys and types against its dataclass (a sweep, calibration
+    or optimisation spec); the ``not_in_file`` fields are set by the loader, never by the
+    file. ``error`` (SweepError) names the path."""
+    allowed = sorted(f.name for f in dc.fields(schema) if f.name not in not_in_file)
     for key in data:
         if key not in allowed:
-            raise SweepError(f"{root}.{key}: unknown key (a typo?); allowed keys: "
-                             f"{', '.join(allowed)}")
+            raise error(f"{root}.{key}: unknown key (a typo?); allowed keys: "
+                        f"{', '.join(allowed)}")
     try:
         check_keys(data, schema, root)
     except ScenarioError as e:
-        raise SweepError(str(e)) from None
+        raise error(str(e)) from None
 
 
 def read_yaml_mapping(path, what: str) -> dict:

@@ -789,20 +789,10 @@ def write_markdown(path: pathlib.Path, block: str,
                    command: str = "manta-drake study energy") -> None:
     """Replaces the marked block of ``path`` (keeping the rest), or writes a new file; a
     changed page's stamp takes today's date and commit (``manta_drake.studies.stamp``)."""
-    from manta_drake.studies.stamp import stamp_line, write_stamped
+    from manta_drake.studies.stamp import replace_marked_block
 
-    if path.exists():
-        text = path.read_text()
-        if MARK_BEGIN in text and MARK_END in text:
-            head, rest = text.split(MARK_BEGIN, 1)
-            tail = rest.split(MARK_END, 1)[1]
-            write_stamped(path, head + block + tail)
-            return
-        raise SystemExit(f"error: {path} exists but has no {MARK_BEGIN} ... {MARK_END} block; "
-                         f"add the two markers where the tables belong, or choose another "
-                         f"--out-md")
-    write_stamped(path, "# Energy over the uncertainty band\n\n"
-                  + stamp_line(f"`{command}`.") + "\n\n" + block + "\n")
+    replace_marked_block(path, block, MARK_BEGIN, MARK_END,
+                         new_page=("Energy over the uncertainty band", command))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -62,3 +62,38 @@ def write_stamped(path: pathlib.Path, text: str) -> bool:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
     return True
+
+
+def replace_marked_block(path: pathlib.Path, block: str, begin: str, end: str,
+                         new_page: tuple[str, str] | None = None,
+                         what: str = "the tables") -> None:
+    """Replaces the block of ``path`` between the markers ``begin`` and ``end`` (which
+    ``block`` carries itself), keeping the rest, through ``write_stamped``.
+
+    Args:
+        path: the page.
+        block: the new block, markers included.
+        begin, end: the markers.
+        new_page: (title, command): a missing page is written as the title, its stamp (to
+            be regenerated with ``command``) and the block; None: a missing page is refused.
+        what: what the markers hold, for the error ("the tables").
+
+    Raises:
+        SystemExit: the page has no such block (or is missing and ``new_page`` is None).
+    """
+    path = pathlib.Path(path)
+    if new_page is not None and not path.exists():
+        title, command = new_page
+        write_stamped(path, f"# {title}\n\n" + stamp_line(f"`{command}`.") + "\n\n" + block
+                      + "\n")
+        return
+    text = path.read_text() if path.exists() else ""
+    if begin not in text or end not in text:
+        if new_page is not None:
+            raise SystemExit(f"error: {path} exists but has no {begin} ... {end} block; add "
+                             f"the two markers where {what} belong, or choose another "
+                             "--out-md")
+        raise SystemExit(f"error: {path} has no {begin} ... {end} block; add the two "
+                         f"markers where {what} belong")
+    head, rest = text.split(begin, 1)
+    write_stamped(path, head + block + rest.split(end, 1)[1])

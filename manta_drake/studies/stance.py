@@ -179,14 +179,9 @@ def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
 def write_markdown(path: pathlib.Path, block: str) -> None:
     """Replaces the marked block of ``path``; a changed page's stamp takes today's date and
     commit (``manta_drake.studies.stamp``)."""
-    from manta_drake.studies.stamp import write_stamped
+    from manta_drake.studies.stamp import replace_marked_block
 
-    text = path.read_text() if path.exists() else ""
-    if MARK_BEGIN not in text or MARK_END not in text:
-        raise SystemExit(f"error: {path} has no {MARK_BEGIN} ... {MARK_END} block; add the two "
-                         f"markers where the tables belong")
-    head, rest = text.split(MARK_BEGIN, 1)
-    write_stamped(path, head + block + rest.split(MARK_END, 1)[1])
+    replace_marked_block(path, block, MARK_BEGIN, MARK_END)
 
 
 def plot(dyn: list[dict], path: pathlib.Path) -> None:

@@ -1,0 +1,183 @@
+"""Flapping-foil physics of a fin strip, as pure maths (modified strip theory).
+
+A strip is a 2-D section of a thin plate: chord ``c``, area ``A``, unit normal ``n``, unit
+chord direction ``c_hat`` (to the geometric leading edge), pitching about its mid-chord.
+The terms follow DeLaurier's modified strip theory of flapping wings (DeLaurier 1993,
+"An aerodynamic model for flapping-wing flight", Aeronaut. J. 97:125-130), which keeps
+the terms a quasi-steady cross-flow model lacks:
+
+* **circulatory normal force** of attached flow, N = -1/2 rho A a U w_eff, from the
+  normal velocity ``w`` of the three-quarter-chord point (Pistolesi's point: evaluating
+  the downwash there gives the pitching plate's *rotational circulation*, Sane &
+  Dickinson 2002's C_rot = pi (3/4 - x0_hat) with x0_hat = 1/2 for a mid-chord axis);
+  ``a`` is the lift slope, 2 pi in 2-D (``helmbold_lift_slope`` for a finite plate);
+* **leading-edge suction** of attached flow, S = +1/2 rho A a eta_s w_eff^2 along the
+  leading edge that faces the flow: the force that makes a plunging plate's thrust
+  (Garrick 1936); eta_s the suction efficiency (1 for a sharp-edged plate in theory);
+* **Wagner's lag** of the circulation behind the downwash, in R. T. Jones's two-pole
+  approximation of Wagner's function, Phi(s) = 1 - 0.165 e^(-0.0455 s) - 0.335 e^(-0.3 s)
+  with s = 2 U t / c (``wagner_step``); its harmonic response is Jones's approximation
+  of Theodorsen's C(k) (``jones_theodorsen``, ``theodorsen``);
+* **separated cross-flow normal force** past stall, -1/2 rho A C_dcf |w| w, blended
+  with the attached terms by the geometric angle of attack (``attached_fraction``);
+* **skin friction** on the in-plane velocity, -1/2 rho A C_f |v_t| v_t.
+
+The strips' added mass (the reactive force of the water the plate accelerates, rho pi
+c^2 / 4 per span) is not a force here: it acts through the mass matrix (added-mass
+bodies), with the velocity-dependent part of Kirchhoff's equations from
+``kirchhoff_plate_correction``.
+
+Every function takes (N, 3) arrays of world-frame vectors (one row a strip) or scalars,
+and none needs a plant; the tests check each against its closed form.
+"""
+
+import numpy as np
+
+# R. T. Jones's approximation of Wagner's indicial function (NACA Report 681, 1940):
+# Phi(s) = 1 - sum A_i exp(-b_i s), s = 2 U t / c (distance travelled in half-chords).
+WAGNER_A = (0.165, 0.335)
+WAGNER_B = (0.0455, 0.3)
+
+
+def theodorsen(k):
+    """Theodorsen's function C(k) = H1(k) / (H1(k) + i H0(k)) (Hankel functions of the
+    second kind), k = omega b / U the reduced frequency on the half-chord b
+    (Theodorsen 1935, NACA Report 496). C(0) = 1, C(inf) = 1/2."""
+    from scipy.special import hankel2
+
+    k = np.asarray(k, dtype=float)
+    h1, h0 = hankel2(1, k), hankel2(0, k)
+    return h1 / (h1 + 1j * h0)
+
+
+def jones_theodorsen(k):
+    """The harmonic response of Jones's two-pole Wagner function: the C(k) the strip
+    model's lag reproduces, 1 - sum A_i i k / (i k + b_i)."""
+    k = np.asarray(k, dtype=float)
+    return 1.0 - sum(a * 1j * k / (1j * k + b) for a, b in zip(WAGNER_A, WAGNER_B))
+
+
+def garrick_plunge_thrust(rho, half_chord, omega, heave_amplitude, speed):
+    """Mean thrust per span of a flat plate plunging h = h0 sin(omega t) in a stream U,
+    inviscid and small-amplitude (Garrick 1936, NACA Report 567):
+    T' = pi rho b omega^2 h0^2 (F^2 + G^2), with C(k) = F + i G at k = omega b / U."""
+    k = omega * half_chord / speed
+    c = theodorsen(k)
+    return np.pi * rho * half_chord * omega**2 * heave_amplitude**2 * abs(c) ** 2
+
+
+def helmbold_lift_slope(aspect_ratio):
+    """Lift slope [1/rad] of a thin plate of aspect ratio AR in attached flow, Helmbold's
+    formula a = 2 pi AR / (2 + sqrt(AR^2 + 4)) (Helmbold 1942; within a few % of lifting-
+    surface theory for AR 1-6); 2 pi as AR -> inf."""
+    ar = np.asarray(aspect_ratio, dtype=float)
+    return 2.0 * np.pi * ar / (2.0 + np.sqrt(ar * ar + 4.0))
+
+
+def wagner_step(x, w, speed, chord, dt):
+    """One step of the circulation lag: the states x (N, 2) after ``dt`` with the normal
+    velocity w (N,) and the strip speed U (N,) held over the step (exact for that).
+
+    x_i' = -lambda_i x_i + A_i lambda_i w, lambda_i = 2 b_i U / c, so
+    x_i(t + dt) = x_i e^(-lambda_i dt) + A_i w (1 - e^(-lambda_i dt)): stable for any dt.
+    """
+    lam = 2.0 * np.asarray(WAGNER_B)[None, :] * (np.asarray(speed) / np.asarray(chord))[:, None]
+    decay = np.exp(-lam * dt)
+    return x * decay + np.asarray(WAGNER_A)[None, :] * np.asarray(w)[:, None] * (1.0 - decay)
+
+
+def effective_normal_velocity(x, w):
+    """The lagged normal velocity the circulation sees, w_eff = (1 - A1 - A2) w + x1 + x2
+    (half of a step at once, Wagner's Phi(0) = 1/2; all of it in steady flow)."""
+    return (1.0 - sum(WAGNER_A)) * np.asarray(w) + np.asarray(x).sum(axis=1)
+
+
+def attached_fraction(alpha, stall_angle, width):
+    """Share of attached flow at the geometric angle of attack alpha in [0, pi/2]:
+    1 / (1 + exp((alpha - alpha_stall) / width)), a smooth switch from the attached
+    terms to the separated cross-flow force."""
+    return 1.0 / (1.0 + np.exp((np.asarray(alpha) - stall_angle) / width))
+
+
+def strip_kinematics(v_mid, omega, normal, chord_dir, span_dir, chord):
+    """The 2-D flow of each strip: the velocity of its three-quarter-chord point relative
+    to the water in the chord-normal plane and its parts.
+
+    Args:
+        v_mid: (N, 3) mid-chord velocity relative to the water; omega: (N, 3) angular
+            velocity of the plate; normal, chord_dir, span_dir: (N, 3) unit vectors;
+            chord: (N,) chord lengths.
+
+    Returns:
+        dict with ``w`` (N,) normal velocity at 3/4 chord, ``u`` (N,) chordwise velocity
+        (positive towards the geometric leading edge), ``speed`` (N,) in-plane speed,
+        ``alpha`` (N,) geometric angle of attack in [0, pi/2], ``lead`` (N, 3) the unit
+        chord direction of the edge facing the flow, ``v_t`` (N, 3) the velocity along the
+        plate (chordwise and spanwise) for skin friction.
+    """
+    u_mid = (v_mid * chord_dir).sum(axis=1)
+    lead = np.where(u_mid[:, None] < 0.0, -chord_dir, chord_dir)
+    # The 3/4-chord point lies a quarter chord behind the mid-chord, away from the flow.
+    r = -0.25 * np.asarray(chord)[:, None] * lead
+    v34 = v_mid + np.cross(omega, r)
+    w = (v34 * normal).sum(axis=1)
+    u = (v34 * chord_dir).sum(axis=1)
+    speed = np.hypot(w, u)
+    alpha = np.arctan2(np.abs(w), np.abs(u))
+    v_t = v_mid - (v_mid * normal).sum(axis=1)[:, None] * normal
+    return {"w": w, "u": u, "speed": speed, "alpha": alpha, "lead": lead, "v_t": v_t}
+
+
+def strip_forces(kin, w_eff, normal, area, rho, lift_slope, suction_efficiency,
+                 cross_flow_coefficient, friction_coefficient, stall_angle, stall_width):
+    """Circulatory, suction, separated and friction forces (N, 3) on strips.
+
+    F = f [-1/2 rho A a U w_eff n + 1/2 rho A a eta_s w_eff^2 l]
+        + (1 - f) [-1/2 rho A C_dcf |w| w n] - 1/2 rho A C_f |v_t| v_t,
+    with f = ``attached_fraction(alpha)``, l the leading edge facing the flow and U the
+    in-plane speed of the three-quarter-chord point (``strip_kinematics``).
+    """
+    half_rho_a = 0.5 * rho * np.asarray(area)
+    f = attached_fraction(kin["alpha"], stall_angle, stall_width)
+    w = kin["w"]
+    normal_force = (f * (-half_rho_a * lift_slope * kin["speed"] * w_eff)
+                    + (1.0 - f) * (-half_rho_a * cross_flow_coefficient * np.abs(w) * w))
+    suction = f * half_rho_a * lift_slope * suction_efficiency * w_eff * w_eff
+    v_t = kin["v_t"]
+    friction = -(half_rho_a * friction_coefficient * np.linalg.norm(v_t, axis=1))[:, None] * v_t
+    return normal_force[:, None] * normal + suction[:, None] * kin["lead"] + friction
+
+
+def kirchhoff_plate_force(mass, normal, v_rel, a_rel, omega):
+    """Kirchhoff's force and moment on a thin plate whose only added mass is ``mass`` along
+    its normal (potential flow; Lamb 1932, art. 124; Fossen 2011 eq. 6.50), about the
+    point whose velocity relative to the water is v_rel and acceleration a_rel:
+
+        F = -m (d/dt q) n - m q (omega x n),  T = -m q (v_rel x n),  q = v_rel . n,
+
+    with d/dt q = a_rel . n + v_rel . (omega x n). World-frame (N, 3) rows. The reference
+    the mass-matrix part plus ``kirchhoff_plate_correction`` must add up to."""
+    n_dot = np.cross(omega, normal)
+    q = (v_rel * normal).sum(axis=1)
+    q_dot = (a_rel * normal).sum(axis=1) + (v_rel * n_dot).sum(axis=1)
+    force = -(mass * q_dot)[:, None] * normal - (mass * q)[:, None] * n_dot
+    torque = -(mass * q)[:, None] * np.cross(v_rel, normal)
+    return force, torque
+
+
+def kirchhoff_plate_correction(mass, normal, v_rel, v_slider_rel, omega):
+    """The velocity-dependent part of Kirchhoff's plate force that a mass ``mass`` riding
+    the plate on a joint free in the plate's plane does not give (``kirchhoff_plate_force``
+    minus the slider's reaction -m (a_slider . n) n), as a force and moment (N, 3) on the
+    plate at the slider's point:
+
+        F = -m (v_slider_rel . n_dot) n - m q n_dot,  T = -m q (v_rel x n),
+
+    with n_dot = omega x n, q = v_rel . n. It holds velocities only (no acceleration), so
+    an explicit step of it stays stable where an explicit -m a does not."""
+    n_dot = np.cross(omega, normal)
+    q = (v_rel * normal).sum(axis=1)
+    s = (v_slider_rel * n_dot).sum(axis=1)
+    force = -(mass * s)[:, None] * normal - (mass * q)[:, None] * n_dot
+    torque = -(mass * q)[:, None] * np.cross(v_rel, normal)
+    return force, torque

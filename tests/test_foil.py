@@ -1,0 +1,181 @@
+"""The fin strip's flapping-foil terms against their closed forms (no plant)."""
+
+import numpy as np
+import pytest
+
+from manta_drake.station.foil import (
+    WAGNER_A,
+    WAGNER_B,
+    attached_fraction,
+    effective_normal_velocity,
+    garrick_plunge_thrust,
+    helmbold_lift_slope,
+    jones_theodorsen,
+    kirchhoff_plate_correction,
+    kirchhoff_plate_force,
+    strip_forces,
+    strip_kinematics,
+    theodorsen,
+    wagner_step,
+)
+
+RHO = 1000.0
+X, Y, Z = np.eye(3)
+
+
+def test_theodorsen_against_the_published_table():
+    """F and G of Theodorsen (1935, NACA Report 496), as tabulated by Bisplinghoff,
+    Ashley & Halfman (1955, table 5-1)."""
+    table = {0.1: (0.8319, -0.1723), 0.2: (0.7276, -0.1886), 0.5: (0.5979, -0.1507),
+             1.0: (0.5394, -0.1003)}
+    for k, (f, g) in table.items():
+        c = theodorsen(k)
+        assert (c.real, c.imag) == pytest.approx((f, g), abs=1.5e-4), k
+    assert theodorsen(1e-6).real == pytest.approx(1.0, abs=1e-4)
+    assert abs(theodorsen(1e4) - 0.5) < 1e-4
+
+
+def test_jones_approximation_is_within_two_percent_of_theodorsen():
+    k = np.geomspace(0.02, 10.0, 60)
+    assert np.max(np.abs(jones_theodorsen(k) - theodorsen(k))) < 0.02
+
+
+def test_wagner_step_response_is_jones_indicial_function_for_any_step_size():
+    """w steps from 0 to 1 at t = 0: w_eff(t) = Phi(s) = 1 - sum A_i exp(-b_i s),
+    s = 2 U t / c, whatever the steps taken to get there."""
+    U, c = 0.4, 0.12
+    rng = np.random.default_rng(3)
+    x, t = np.zeros((1, 2)), 0.0
+    for dt in rng.uniform(1e-4, 0.05, 40):
+        x = wagner_step(x, np.ones(1), np.full(1, U), np.full(1, c), dt)
+        t += dt
+        s = 2 * U * t / c
+        phi = 1 - sum(a * np.exp(-b * s) for a, b in zip(WAGNER_A, WAGNER_B))
+        assert effective_normal_velocity(x, np.ones(1))[0] == pytest.approx(phi, rel=1e-12)
+    assert effective_normal_velocity(np.zeros((1, 2)), np.ones(1))[0] == 0.5  # Phi(0)
+
+
+def test_harmonic_response_of_the_lag_is_its_frequency_response():
+    """Driven by w = sin(omega t), the lag settles to |C| sin(omega t + arg C) with
+    C = jones_theodorsen(k), k = omega c / (2 U): a time-domain run against the
+    frequency-domain formula (one strip per k)."""
+    k = np.array([0.3, 1.0, 3.0])
+    c, dt = np.full(3, 0.12), 1e-3
+    omega = np.full(3, 2 * np.pi)  # 1 Hz; U sets k
+    U = omega * c / (2 * k)
+    t = np.arange(0.0, 80.0, dt)  # the slowest lag (k = 3) decays as exp(-t / 10.5 s)
+    x, out = np.zeros((3, 2)), np.empty((len(t), 3))
+    for i, ti in enumerate(t):
+        out[i] = effective_normal_velocity(x, np.sin(omega * ti))
+        x = wagner_step(x, np.sin(omega * (ti + 0.5 * dt)), U, c, dt)  # held over the step
+    tail = t > t[-1] - 10.0
+    basis = np.column_stack([np.sin(2 * np.pi * t[tail]), np.cos(2 * np.pi * t[tail])])
+    fit = np.linalg.lstsq(basis, out[tail], rcond=None)[0]
+    np.testing.assert_allclose(fit[0] + 1j * fit[1], jones_theodorsen(k), atol=3e-3)
+
+
+def _plunge_mean_thrust(k, U=0.3, c=0.12, h0=0.002, cycles=30, steps=400):
+    """The strip model of a 2-D plate plunging h0 sin(omega t) at speed U, attached flow,
+    inviscid: its mean thrust per span over the last 10 cycles."""
+    omega = 2 * U * k / c
+    dt = 2 * np.pi / omega / steps
+    x = np.zeros((1, 2))
+    thrust = []
+    for i in range(cycles * steps):
+        t = i * dt
+        v = np.array([[U, 0.0, h0 * omega * np.cos(omega * t)]])
+        kin = strip_kinematics(v, np.zeros((1, 3)), Z[None], X[None], Y[None], np.full(1, c))
+        w_eff = effective_normal_velocity(x, kin["w"])
+        f = strip_forces(kin, w_eff, Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, 1.17, 0.0,
+                         np.pi / 2, 1e-3)
+        thrust.append(f[0, 0])
+        x = wagner_step(x, kin["w"], kin["speed"], np.full(1, c), dt)
+    return np.mean(thrust[-10 * steps:]), omega
+
+
+@pytest.mark.parametrize("k", [0.5, 1.0, 2.0])
+def test_plunging_plate_thrust_is_garricks(k):
+    """Small-amplitude pure plunge: Garrick's (1936) inviscid thrust pi rho b omega^2 h0^2
+    |C(k)|^2. With the C(k) of Jones's lag the time-domain strip model gives it to 0.5 %;
+    against Theodorsen's exact C(k) Jones's approximation is 1.5-4.1 % low in |C|^2 over
+    these k (4.1 % at k = 1)."""
+    U, c, h0 = 0.3, 0.12, 0.002
+    mean, omega = _plunge_mean_thrust(k, U, c, h0)
+    garrick = garrick_plunge_thrust(RHO, c / 2, omega, h0, U)
+    with_jones = garrick / abs(theodorsen(k)) ** 2 * abs(jones_theodorsen(k)) ** 2
+    assert mean == pytest.approx(with_jones, rel=0.005)
+    assert mean == pytest.approx(garrick, rel=0.045)
+    assert mean < np.pi * RHO * c / 2 * omega**2 * h0**2  # the lag always costs thrust
+
+
+def test_pitching_about_mid_chord_gives_sane_and_dickinsons_rotational_force():
+    """Translating at zero incidence and pitching at rate q about the mid-chord: the
+    normal force per span is C_rot rho U c^2 q with C_rot = pi (3/4 - 1/2) for a 2-D
+    plate (Sane & Dickinson 2002, eq. 5; Fung 1969)."""
+    U, c, q = 0.5, 0.1, 0.4
+    omega = np.array([[0.0, q, 0.0]])  # nose (+x) down: the 3/4-chord point rises
+    kin = strip_kinematics(np.array([[U, 0.0, 0.0]]), omega, Z[None], X[None], Y[None],
+                           np.full(1, c))
+    assert kin["w"][0] == pytest.approx(0.25 * c * q)
+    f = strip_forces(kin, kin["w"], Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, 1.17, 0.0,
+                     np.pi / 2, 1e-3)
+    assert abs(f[0, 2]) == pytest.approx(np.pi * 0.25 * RHO * U * c * c * q, rel=1e-3)
+
+
+def test_broadside_motion_is_the_cross_flow_drag_and_stall_blends_smoothly():
+    w, c, cd = 0.4, 0.1, 1.17
+    kin = strip_kinematics(np.array([[0.0, 0.0, w]]), np.zeros((1, 3)), Z[None], X[None],
+                           Y[None], np.full(1, c))
+    assert kin["alpha"][0] == pytest.approx(np.pi / 2)
+    f = strip_forces(kin, kin["w"], Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, cd, 0.0,
+                     np.radians(15), np.radians(3))
+    np.testing.assert_allclose(f[0], [0.0, 0.0, -0.5 * RHO * c * cd * w * w], rtol=1e-6,
+                               atol=1e-8)
+    alpha = np.radians([0.0, 15.0, 90.0])
+    share = attached_fraction(alpha, np.radians(15), np.radians(3))
+    assert share[0] > 0.99 and share[1] == 0.5 and share[2] < 1e-9
+
+
+def test_skin_friction_opposes_the_in_plane_velocity():
+    v = np.array([[0.3, 0.4, 0.0]])
+    kin = strip_kinematics(v, np.zeros((1, 3)), Z[None], X[None], Y[None], np.full(1, 0.1))
+    f = strip_forces(kin, kin["w"], Z[None], np.full(1, 0.05), RHO, 2 * np.pi, 1.0, 1.17,
+                     0.01, np.radians(15), np.radians(3))
+    np.testing.assert_allclose(f[0], -0.5 * RHO * 0.05 * 0.01 * 0.5 * v[0], atol=1e-12)
+
+
+def test_helmbold_slope_limits():
+    """2 pi for an infinite span; pi AR / 2 for a slender plate (R. T. Jones 1946)."""
+    assert helmbold_lift_slope(1e6) == pytest.approx(2 * np.pi, rel=1e-5)
+    assert helmbold_lift_slope(1e-3) == pytest.approx(np.pi * 1e-3 / 2, rel=1e-3)
+
+
+def test_kirchhoff_steady_translation_has_no_force_and_munks_moment():
+    """A plate gliding at incidence alpha in still water: no force (d'Alembert), and the
+    moment m U^2 sin(alpha) cos(alpha) that turns it broadside (Munk)."""
+    m, U, alpha = 2.0, 0.5, np.radians(20)
+    v = np.array([[U * np.cos(alpha), 0.0, -U * np.sin(alpha)]])
+    force, torque = kirchhoff_plate_force(np.full(1, m), Z[None], v, np.zeros((1, 3)),
+                                          np.zeros((1, 3)))
+    np.testing.assert_allclose(force, 0.0, atol=1e-15)
+    assert np.linalg.norm(torque) == pytest.approx(m * U * U * np.sin(alpha) * np.cos(alpha))
+
+
+def test_slider_reaction_plus_correction_is_kirchhoffs_force():
+    """The added-mass body rides the plate free in its plane: its reaction on the plate is
+    -m (a_slider . n) n with a_slider . n = d/dt(v . n) - v_slider . n_dot. With the
+    correction the sum is Kirchhoff's force, for any slider velocity."""
+    rng = np.random.default_rng(7)
+    n = rng.normal(size=(20, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    v, a, omega, v_slider = (rng.normal(size=(20, 3)) for _ in range(4))
+    v_slider -= (v_slider * n).sum(axis=1)[:, None] * n
+    v_slider += (v * n).sum(axis=1)[:, None] * n  # same normal velocity as the plate
+    m = rng.uniform(0.1, 3.0, 20)
+    n_dot = np.cross(omega, n)
+    q_dot = (a * n).sum(axis=1) + (v * n_dot).sum(axis=1)
+    reaction = -(m * (q_dot - (v_slider * n_dot).sum(axis=1)))[:, None] * n
+    f_corr, t_corr = kirchhoff_plate_correction(m, n, v, v_slider, omega)
+    f_ref, t_ref = kirchhoff_plate_force(m, n, v, a, omega)
+    np.testing.assert_allclose(reaction + f_corr, f_ref, atol=1e-12)
+    np.testing.assert_allclose(t_corr, t_ref, atol=1e-12)

@@ -179,3 +179,36 @@ def test_slider_reaction_plus_correction_is_kirchhoffs_force():
     f_ref, t_ref = kirchhoff_plate_force(m, n, v, a, omega)
     np.testing.assert_allclose(reaction + f_corr, f_ref, atol=1e-12)
     np.testing.assert_allclose(t_corr, t_ref, atol=1e-12)
+
+
+def test_compiled_strip_wrenches_and_lag_equal_the_numpy_reference():
+    from scipy.spatial.transform import Rotation
+
+    from manta_drake.station import foil, foil_kernels as FK
+
+    rng = np.random.default_rng(11)
+    nb, ns, ne = 5, 12, 15
+    R = Rotation.random(nb, random_state=3).as_matrix()
+    w, v = rng.normal(size=(nb, 3)), rng.normal(size=(nb, 3)) * 0.5
+    normal = np.tile(X, (ns, 1))
+    chord_dir = np.where(rng.uniform(size=(ns, 1)) < 0.5, Y, -Y)
+    strips = {"body": rng.integers(0, nb, ns), "element": rng.integers(0, ne, ns),
+              "p": rng.normal(size=(ns, 3)) * 0.1, "normal": normal, "chord_dir": chord_dir,
+              "span_dir": np.tile(Z, (ns, 1)), "area": rng.uniform(0.001, 0.01, ns),
+              "chord": rng.uniform(0.08, 0.15, ns)}
+    params = {"rho": RHO, "lift_slope": 3.2, "suction_efficiency": 0.8,
+              "cross_flow_coefficient": 1.17, "friction_coefficient": 0.015,
+              "stall_angle": np.radians(15), "stall_width": np.radians(3)}
+    current = np.array([0.1, -0.05, 0.02])
+    frac, lag = rng.uniform(size=ne), rng.normal(size=(ns, 2)) * 0.1
+    S, w34, speed = foil.strip_wrenches(R, w, v, current, strips, frac, lag, params)
+    packed = FK.pack_strips(strips["body"], strips["element"], strips["p"], normal, chord_dir,
+                            strips["span_dir"], strips["area"], strips["chord"])
+    prm = FK.pack_foil_params(*params.values(), current)
+    S_k, w34_k, speed_k = FK.strip_wrenches(R, w, v, packed, frac, lag, prm)
+    np.testing.assert_allclose(S_k, S, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(w34_k, w34, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(speed_k, speed, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(FK.lag_step(lag, w34, speed, packed, 1e-3),
+                               wagner_step(lag, w34, speed, strips["chord"], 1e-3),
+                               rtol=1e-12, atol=1e-15)

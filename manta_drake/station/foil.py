@@ -181,3 +181,38 @@ def kirchhoff_plate_correction(mass, normal, v_rel, v_slider_rel, omega):
     force = -(mass * s)[:, None] * normal - (mass * q)[:, None] * n_dot
     torque = -(mass * q)[:, None] * np.cross(v_rel, normal)
     return force, torque
+
+
+def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict):
+    """Every strip's force from its body's pose and velocity, summed per body: the numpy
+    reference of ``foil_kernels.strip_wrenches``.
+
+    Args:
+        R, w, v: (nb, 3, 3), (nb, 3), (nb, 3) body orientations, angular and origin
+            velocities in the world; current: (3,) the water's velocity.
+        strips: ``body``, ``element`` (ns,) ints, ``p``, ``normal``, ``chord_dir``,
+            ``span_dir`` (ns, 3) in the body frame, ``area``, ``chord`` (ns,).
+        frac: (ne,) submerged fraction of each volume element (scales its strip).
+        lag: (ns, 2) Wagner states.
+        params: ``rho``, ``lift_slope``, ``suction_efficiency``, ``cross_flow_coefficient``,
+            ``friction_coefficient``, ``stall_angle``, ``stall_width``.
+
+    Returns:
+        (S (nb, 6) [tau_W, f_W] about each body origin, w34 (ns,), speed (ns,)).
+    """
+    b = strips["body"]
+    Rs = R[b]
+    rot = lambda x: np.matmul(Rs, x[:, :, None])[:, :, 0]  # noqa: E731
+    r = rot(strips["p"])
+    n = rot(strips["normal"])
+    v_mid = v[b] + np.cross(w[b], r) - current
+    kin = strip_kinematics(v_mid, w[b], n, rot(strips["chord_dir"]), rot(strips["span_dir"]),
+                           strips["chord"])
+    w_eff = effective_normal_velocity(lag, kin["w"])
+    f = strip_forces(kin, w_eff, n, strips["area"], params["rho"], params["lift_slope"],
+                     params["suction_efficiency"], params["cross_flow_coefficient"],
+                     params["friction_coefficient"], params["stall_angle"],
+                     params["stall_width"])
+    f = f * np.asarray(frac)[strips["element"]][:, None]
+    to_body = np.eye(len(R))[:, b]
+    return to_body @ np.concatenate([np.cross(r, f), f], axis=1), kin["w"], kin["speed"]

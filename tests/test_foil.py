@@ -13,6 +13,7 @@ from manta_drake.station.foil import (
     jones_theodorsen,
     kirchhoff_plate_correction,
     kirchhoff_plate_force,
+    prescribed_motion_forces,
     strip_forces,
     strip_kinematics,
     theodorsen,
@@ -79,18 +80,17 @@ def _plunge_mean_thrust(k, U=0.3, c=0.12, h0=0.002, cycles=30, steps=400):
     inviscid: its mean thrust per span over the last 10 cycles."""
     omega = 2 * U * k / c
     dt = 2 * np.pi / omega / steps
-    x = np.zeros((1, 2))
-    thrust = []
-    for i in range(cycles * steps):
-        t = i * dt
-        v = np.array([[U, 0.0, h0 * omega * np.cos(omega * t)]])
-        kin = strip_kinematics(v, np.zeros((1, 3)), Z[None], X[None], Y[None], np.full(1, c))
-        w_eff = effective_normal_velocity(x, kin["w"])
-        f = strip_forces(kin, w_eff, Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, 1.17, 0.0,
-                         np.pi / 2, 1e-3)
-        thrust.append(f[0, 0])
-        x = wagner_step(x, kin["w"], kin["speed"], np.full(1, c), dt)
-    return np.mean(thrust[-10 * steps:]), omega
+    t = np.arange(cycles * steps) * dt
+    nt = len(t)
+    v = np.zeros((nt, 1, 3))
+    v[:, 0, 0], v[:, 0, 2] = U, h0 * omega * np.cos(omega * t)
+    axes = [np.broadcast_to(e, (nt, 1, 3)) for e in (Z, X, Y)]
+    params = {"rho": RHO, "lift_slope": 2 * np.pi, "suction_efficiency": 1.0,
+              "cross_flow_coefficient": 1.17, "friction_coefficient": 0.0,
+              "stall_angle": np.pi / 2, "stall_width": 1e-3}
+    f = prescribed_motion_forces(dt, v, np.zeros((nt, 1, 3)), *axes, np.full(1, c),
+                                 np.full(1, c), params)
+    return f[-10 * steps:, 0, 0].mean(), omega
 
 
 @pytest.mark.parametrize("k", [0.5, 1.0, 2.0])

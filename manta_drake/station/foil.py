@@ -216,3 +216,32 @@ def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict):
     f = f * np.asarray(frac)[strips["element"]][:, None]
     to_body = np.eye(len(R))[:, b]
     return to_body @ np.concatenate([np.cross(r, f), f], axis=1), kin["w"], kin["speed"]
+
+
+def prescribed_motion_forces(dt, v_mid, omega, normal, chord_dir, span_dir, area, chord,
+                             params: dict):
+    """The strip model driven by a prescribed motion (no plant): the forces on each strip
+    at each time step, the Wagner lag integrated along (the same terms and order as a
+    simulation step: forces from the states, then ``wagner_step`` over ``dt``).
+
+    Args:
+        dt: the time step [s] of the series.
+        v_mid, omega, normal, chord_dir, span_dir: (nt, ns, 3) each strip's mid-chord
+            velocity relative to the water, angular velocity and unit axes, per step.
+        area, chord: (ns,).
+        params: as ``strip_wrenches``'s.
+
+    Returns:
+        (nt, ns, 3) forces [N] in the world.
+    """
+    nt, ns = v_mid.shape[:2]
+    lag = np.zeros((ns, 2))
+    out = np.empty((nt, ns, 3))
+    for i in range(nt):
+        kin = strip_kinematics(v_mid[i], omega[i], normal[i], chord_dir[i], span_dir[i], chord)
+        out[i] = strip_forces(kin, effective_normal_velocity(lag, kin["w"]), normal[i], area,
+                              params["rho"], params["lift_slope"], params["suction_efficiency"],
+                              params["cross_flow_coefficient"], params["friction_coefficient"],
+                              params["stall_angle"], params["stall_width"])
+        lag = wagner_step(lag, kin["w"], kin["speed"], chord, dt)
+    return out

@@ -5,7 +5,14 @@ rigid-body-valid part of its added rotational inertia (a massive body welded to 
 ``manta_drake.model.plant``); ``HydrodynamicForces`` applies the residual explicitly as
 -M_res a from the previous step's acceleration. Both sides take the split from here, so
 the model layer builds the plant without the station.
+
+The fin plates' added mass rides each plate as a body on a planar joint
+(``fin_plates``, ``plate_added_mass``): the joint locks the normal, so the body's mass
+acts along the plate's normal only, in the mass matrix (stable at any ratio to the
+plate's own mass, where an explicit -m a is not).
 """
+
+import dataclasses as dc
 
 import numpy as np
 
@@ -67,3 +74,65 @@ def check_explicit_added_mass(residual, effective, axes=("surge", "sway", "heave
                 f"the robot's effective {unit} {limit:.3g} on that axis (rigid + implicit "
                 "added): the explicit term would oscillate and diverge. Put more of the added "
                 "mass into the mass matrix or reduce it.")
+
+
+# --- the fin plates' added mass as bodies ------------------------------------------------------
+
+@dc.dataclass(frozen=True)
+class FinPlate:
+    """One fin plate in its link's frame: where its added-mass body rides.
+
+    The plate's normal is the link's x axis (``model_sdf.fin_plate_geometry``); the frame
+    ``R_LF`` has columns (chord, span, normal): x along the chord, y along the span
+    outward, z along the normal, so a planar joint in it leaves the plate's normal
+    locked and its plane free.
+    """
+
+    name: str  # "proximal" | "distal"
+    link: int  # the leg's link carrying it: 3 (after pitch) | 4 (after roll2)
+    center: tuple  # in the link frame [m]
+    chord: float  # [m]
+    span: float  # [m]
+    R_LF: tuple  # 3x3, rows of the rotation link <- plate frame
+
+    @property
+    def normal(self) -> np.ndarray:
+        """The plate's normal in the link frame."""
+        return np.asarray(self.R_LF)[:, 2]
+
+
+def fin_plates(params) -> tuple[FinPlate, FinPlate]:
+    """The proximal and distal plates of a leg-fin (the same on every leg)."""
+    from manta_drake.model.model_sdf import fin_plate_geometry
+
+    g = fin_plate_geometry(params)
+    e = np.eye(3)
+    # Link 3: chord y, span +z; link 4: chord z, span -y; normal x on both.
+    proximal = FinPlate("proximal", 3, tuple(map(float, g["proximal"]["center"])), params.proximal_chord,
+                        params.d3, tuple(map(tuple, np.column_stack([e[1], e[2], e[0]]).tolist())))
+    distal = FinPlate("distal", 4, tuple(map(float, g["distal"]["center"])), params.distal_chord,
+                      params.dE, tuple(map(tuple, np.column_stack([e[2], -e[1], e[0]]).tolist())))
+    return proximal, distal
+
+
+def plate_added_mass(chord: float, span: float, rho: float, factor: float) -> tuple:
+    """A rectangular plate's added mass moving along its normal and its added inertia in
+    its own frame (chord, span, normal axes) about its centre.
+
+    m = K rho pi c^2 / 4 s (the 2-D strip of Lewis (PNA 1989) times the 3-D factor K);
+    rotating about its chord line the strips' heave mass gives m s^2 / 12, about its span
+    line (pitching about mid-chord) K rho pi c^4 / 128 s; about the normal a thin plate
+    moves no water, but a rigid body's moments must satisfy the triangle inequality, so
+    the normal moment is the sum of the two (it rides a free rotation of the planar joint
+    and couples to nothing).
+
+    Returns:
+        (mass [kg], (I_chord, I_span, I_normal) [kg m^2]).
+    """
+    if not (chord > 0 and span > 0 and rho > 0 and factor > 0):
+        raise ValueError(f"plate_added_mass: chord {chord!r}, span {span!r}, rho {rho!r} and "
+                         f"factor {factor!r} must be > 0")
+    mass = factor * rho * np.pi * chord**2 / 4.0 * span
+    i_chord = mass * span**2 / 12.0
+    i_span = factor * rho * np.pi * chord**4 / 128.0 * span
+    return float(mass), (float(i_chord), float(i_span), float(i_chord + i_span))

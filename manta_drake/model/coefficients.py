@@ -149,6 +149,7 @@ class FinHydro:
     passive_pitch_max_deg: Scalar = dc.field(default_factory=Scalar)
     passive_pitch_reference_pressure: Scalar = dc.field(default_factory=Scalar)  # Pa
     hinge_added_inertia: Vector = dc.field(default_factory=Vector)  # (yaw, roll1, pitch, roll2)
+    added_mass_factor: Vector = dc.field(default_factory=Vector)  # 3-D K (proximal, distal)
 
 
 @dc.dataclass

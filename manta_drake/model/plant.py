@@ -20,15 +20,23 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
     MultibodyPlantConfig,
 )
-from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+from pydrake.math import RotationMatrix
+from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake.model import package_map
-from manta_drake.model.added_mass import split_added_inertia, split_added_mass
+from manta_drake.model.added_mass import (
+    fin_plates,
+    plate_added_mass,
+    split_added_inertia,
+    split_added_mass,
+)
 from manta_drake.model.model_sdf import robot_sdf
-from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES, JOINTS_PER_LEG
+from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES, JOINTS_PER_LEG, LEGS
 
 ROBOT_URL = "package://manta_drake/manta.sdf"
+FIN_ADDED_MASS = ("hinge", "bodies")
+FIN_ADDED_MASS_INSTANCE = "manta_fin_added_mass"
 POOL_URL = "package://manta_drake/pool.sdf"
 
 
@@ -60,6 +68,7 @@ def add_plant(
     weld_body: RigidTransform | None = None,
     hydro=None,
     robot_params=None,
+    fin_added_mass: str = "hinge",
 ) -> PlantHandles:
     """Adds the robot (and pool) to ``builder`` and finalizes the plant.
 
@@ -78,7 +87,15 @@ def add_plant(
             each fin's added inertia about its hinge as the actuator's rotor inertia.
         robot_params: RobotParams of another geometry than the shipped model's
             (``manta.sdf`` is ``DEFAULT_ROBOT``); its SDFormat is generated here.
+        fin_added_mass: where the fins' added mass goes (with ``hydro``): ``"hinge"``, each
+            fin's added inertia about its hinges at the zero pose as the actuators' rotor
+            inertia (joint-diagonal: nothing of it reaches the hull); ``"bodies"``, a body
+            per plate on a planar joint (``add_fin_added_mass_bodies``: its mass acts along
+            the plate's normal on every body of the tree, at every pose).
     """
+    if fin_added_mass not in FIN_ADDED_MASS:
+        raise ValueError(f"fin_added_mass: {fin_added_mass!r} is not one of "
+                         f"{', '.join(FIN_ADDED_MASS)}")
     if not time_step > 0:
         raise ValueError(f"time_step: {time_step} must be > 0 (the plant is discrete)")
     config = MultibodyPlantConfig(
@@ -101,8 +118,12 @@ def add_plant(
     if weld_body is not None:
         plant.WeldFrames(plant.world_frame(), body.body_frame(), weld_body)
     iso = _add_hydro_inertia(plant, robot, body, hydro) if hydro is not None else 0.0
+    bodies = hydro is not None and fin_added_mass == "bodies"
+    if bodies:
+        add_fin_added_mass_bodies(plant, robot, robot_params or DEFAULT_ROBOT,
+                                  hydro.water_density.value, hydro.fins.added_mass_factor.value)
     plant.Finalize()
-    if hydro is not None:
+    if hydro is not None and not bodies:
         _set_hinge_added_inertia(plant, robot, hydro.fins.hinge_added_inertia.value)
     actuated = tuple(
         plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(robot)
@@ -123,6 +144,47 @@ def _add_hydro_inertia(plant, robot, body, hydro) -> float:
     p_BoBcm = body.default_com()
     plant.WeldFrames(body.body_frame(), added.body_frame(), RigidTransform(p_BoBcm))
     return iso
+
+
+def add_fin_added_mass_bodies(plant, robot, params, rho: float, factors) -> list:
+    """Adds each fin plate's added mass as a body on a planar joint at the plate's centre
+    (before Finalize), in the model instance ``FIN_ADDED_MASS_INSTANCE`` with gravity off
+    (added mass has no weight).
+
+    The joint's frame has z along the plate's normal (``FinPlate.R_LF``): the body moves
+    with the plate along the normal and turns with it about the plate's in-plane axes, so
+    its mass ``plate_added_mass`` acts in the mass matrix along the normal, and its moments
+    about the chord and span lines are the plate's added inertia; in the plate's plane it
+    is free (a thin plate moves no water edgewise). ``HydrodynamicForces`` keeps it centred
+    with a force on it alone (which the joint does not pass on) and adds the velocity
+    terms of Kirchhoff's equations.
+
+    Args:
+        factors: the 3-D factor K of the proximal and distal plates.
+
+    Returns:
+        The planar joints, leg by leg (proximal, distal).
+    """
+    factors = [float(f) for f in factors]
+    if len(factors) != 2 or not all(f > 0 for f in factors):
+        raise ValueError(f"fins.added_mass_factor: {factors!r} must be 2 numbers > 0 (the "
+                         "proximal and the distal plate's 3-D factor)")
+    instance = plant.AddModelInstance(FIN_ADDED_MASS_INSTANCE)
+    joints = []
+    for leg in LEGS:
+        for plate, factor in zip(fin_plates(params), factors):
+            mass, (i_chord, i_span, i_normal) = plate_added_mass(plate.chord, plate.span, rho,
+                                                                 factor)
+            name = f"{leg}_{plate.name}_added_mass"
+            link = plant.GetBodyByName(f"{leg}_link{plate.link}", robot)
+            frame = plant.AddFrame(FixedOffsetFrame(
+                f"{name}_frame", link.body_frame(),
+                RigidTransform(RotationMatrix(np.array(plate.R_LF)), np.array(plate.center))))
+            body = plant.AddRigidBody(name, instance, SpatialInertia.MakeFromCentralInertia(
+                mass, np.zeros(3), RotationalInertia(i_chord, i_span, i_normal)))
+            joints.append(plant.AddJoint(PlanarJoint(name, frame, body.body_frame())))
+    plant.mutable_gravity_field().set_enabled(instance, False)
+    return joints
 
 
 def _set_hinge_added_inertia(plant, robot, hinge) -> None:

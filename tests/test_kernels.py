@@ -535,3 +535,40 @@ def test_kernels_with_the_hull_welded_to_the_world(rng):
         np.zeros(3), h.plant.world_frame(), h.plant.world_frame()).T @ row
         for row, i in zip(F, hydro.body_indices))
     np.testing.assert_allclose(tau, expected, rtol=1e-12, atol=1e-12)
+
+
+def test_kinematics_and_jacobians_with_planar_joints_equal_the_plant(rng):
+    """The fins' added-mass bodies ride planar joints: the packed tree's forward
+    kinematics and J^T F of every body (the robot's and theirs) against the plant's."""
+    from manta_drake.model.plant import FIN_ADDED_MASS_INSTANCE
+
+    coeffs = copy.deepcopy(COEFFS)
+    coeffs.fins.added_mass_factor.value = [0.68, 0.64]
+    h = add_plant(DiagramBuilder(), hydro=coeffs, fin_added_mass="bodies")
+    plant = h.plant
+    bodies = [plant.GetBodyByName(n, h.robot).index() for n in hydro_body_names()]
+    bodies += list(plant.GetBodyIndices(plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)))
+    tree_i, tree_f = WK.pack_tree(plant, bodies)
+    assert (tree_i[:, 1] == WK.PLANAR).sum() == 8
+    context = plant.CreateDefaultContext()
+    for _ in range(5):
+        plant.SetPositions(context, rng.normal(size=plant.num_positions()))
+        plant.SetVelocities(context, rng.normal(size=plant.num_velocities()))
+        x = plant.GetPositionsAndVelocities(context)
+        R, p, w, v, axis_W, origin_W = WK.body_kinematics(x, plant.num_positions(), tree_i,
+                                                          tree_f)
+        F = rng.normal(scale=20.0, size=(len(bodies), 6))
+        expected = np.zeros(plant.num_velocities())
+        for k, index in enumerate(bodies):
+            body = plant.get_body(index)
+            X, V = body.EvalPoseInWorld(context), body.EvalSpatialVelocityInWorld(context)
+            np.testing.assert_allclose(R[k], X.rotation().matrix(), rtol=0, atol=1e-12)
+            np.testing.assert_allclose(p[k], X.translation(), rtol=0, atol=1e-12)
+            np.testing.assert_allclose(w[k], V.rotational(), rtol=0, atol=1e-12)
+            np.testing.assert_allclose(v[k], V.translational(), rtol=0, atol=1e-12)
+            J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV,
+                                                  body.body_frame(), np.zeros(3),
+                                                  plant.world_frame(), plant.world_frame())
+            expected += J.T @ F[k]
+        got = WK.generalized_forces(F, p, axis_W, origin_W, tree_i, plant.num_velocities())
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-11)

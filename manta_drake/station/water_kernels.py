@@ -9,9 +9,9 @@ the reference makes a few hundred of them per evaluation).
 Three kernels, fed by plain arrays that ``pack_*`` builds once:
 
 * ``body_kinematics``: the hydro bodies' poses and spatial velocities, and each revolute
-  joint's world axis and origin, from the plant's state vector [q, v] (forward
-  kinematics of the tree: quaternion floating base, revolute joints, welds), so the
-  wrapper reads one vector instead of the plant's per-body Python objects.
+  or planar joint's world axes and origin, from the plant's state vector [q, v] (forward
+  kinematics of the tree: quaternion floating base, revolute and planar joints, welds),
+  so the wrapper reads one vector instead of the plant's per-body Python objects.
 * ``spatial_wrenches``: every term of ``HydrodynamicForces.compute_reference`` summed per
   body as rows [tau_W, f_W] about the body origin (buoyancy, balloon, damping, blade
   elements, added-mass weight cancellation, residual added mass).
@@ -36,7 +36,7 @@ import numpy as np
 from manta_drake.jit import njit
 
 # Joint types in the packed tree.
-WELD, REVOLUTE, QUATERNION_FLOATING = 0, 1, 2
+WELD, REVOLUTE, QUATERNION_FLOATING, PLANAR = 0, 1, 2, 3
 
 # Layout of the packed scalar parameters (``pack_params``).
 P_RHO, P_G, P_CN, P_CF, P_PITCH_MAX, P_PITCH_P, P_ISO = range(7)
@@ -84,8 +84,8 @@ def pack_tree(plant, body_indices) -> tuple[np.ndarray, np.ndarray]:
 
     Raises:
         ValueError: a body's parent is neither the world nor an earlier hydro body, or its
-            inboard joint is not a weld, a revolute joint or a quaternion floating joint
-            (the kernels handle those only; ``HydrodynamicForces`` with
+            inboard joint is not a weld, a revolute or planar joint or a quaternion floating
+            joint (the kernels handle those only; ``HydrodynamicForces`` with
             ``inputs="contract"`` handles any plant).
     """
     rows = {int(b): k for k, b in enumerate(body_indices)}
@@ -106,11 +106,12 @@ def pack_tree(plant, body_indices) -> tuple[np.ndarray, np.ndarray]:
         if parent != world and rows.get(parent, nb) >= k:
             raise ValueError(f"hydro body {body.name()}: its parent {joint.parent_body().name()} "
                              "is not an earlier hydro body (the compiled path needs the tree)")
-        kind = {"weld": WELD, "revolute": REVOLUTE,
+        kind = {"weld": WELD, "revolute": REVOLUTE, "planar": PLANAR,
                 "quaternion_floating": QUATERNION_FLOATING}.get(joint.type_name())
         if kind is None:
             raise ValueError(f"hydro body {body.name()}: joint type {joint.type_name()!r} is not "
-                             "supported by the compiled path (weld, revolute, quaternion_floating)")
+                             "supported by the compiled path (weld, revolute, planar, "
+                             "quaternion_floating)")
         X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
         X_MC = joint.frame_on_child().GetFixedPoseInBodyFrame().inverse()
         if kind == WELD:  # a weld's own fixed X_FM folds into the parent's offset
@@ -143,17 +144,20 @@ def body_kinematics(x, nq, tree_i, tree_f):
     """Forward kinematics of the packed tree from the plant's state x = [q, v].
 
     Returns:
-        (R (nb, 3, 3), p (nb, 3), w (nb, 3), v (nb, 3), axis_W (nb, 3), origin_W (nb, 3)):
+        (R (nb, 3, 3), p (nb, 3), w (nb, 3), v (nb, 3), axis_W (nb, 9), origin_W (nb, 3)):
         body orientations, origins, angular velocities and origin velocities in the world,
-        and each body's inboard revolute joint's unit axis and origin Fo in the world
-        (zero for other joints). Same composition as Drake's: X_WB = X_WP X_PF X_FM(q) X_MB.
+        and each body's inboard joint's axes and origin Mo in the world: for a revolute
+        joint its unit axis (columns 0-2) and Fo = Mo; for a planar joint the joint frame
+        F's z, x and y axes (columns 0-2, 3-5, 6-8) and Mo (zero for other joints). Same
+        composition as Drake's: X_WB = X_WP X_PF X_FM(q) X_MB; a planar joint's
+        q = [x, y, theta] (translation in F, rotation about F's z), v = their rates.
     """
     nb = tree_i.shape[0]
     R = np.empty((nb, 3, 3))
     p = np.empty((nb, 3))
     w = np.empty((nb, 3))
     v = np.empty((nb, 3))
-    axis_W = np.zeros((nb, 3))
+    axis_W = np.zeros((nb, 9))
     origin_W = np.zeros((nb, 3))
     R_WF = np.empty((3, 3))
     R_FM = np.empty((3, 3))
@@ -226,13 +230,36 @@ def body_kinematics(x, nq, tree_i, tree_f):
             for i in range(3):
                 axis_W[b, i] = R_WF[i, 0] * a0 + R_WF[i, 1] * a1 + R_WF[i, 2] * a2
             wJ0, wJ1, wJ2 = axis_W[b, 0] * rate, axis_W[b, 1] * rate, axis_W[b, 2] * rate
+        elif kind == PLANAR:
+            tx, ty, theta = x[qs], x[qs + 1], x[qs + 2]
+            vx, vy, rate = x[nq + vs], x[nq + vs + 1], x[nq + vs + 2]
+            c, s = np.cos(theta), np.sin(theta)
+            R_FM[0, 0], R_FM[0, 1], R_FM[0, 2] = c, -s, 0.0
+            R_FM[1, 0], R_FM[1, 1], R_FM[1, 2] = s, c, 0.0
+            R_FM[2, 0], R_FM[2, 1], R_FM[2, 2] = 0.0, 0.0, 1.0
+            _mul33(R_WF, R_FM, R_WM)
+            for i in range(3):
+                axis_W[b, i] = R_WF[i, 2]
+                axis_W[b, 3 + i] = R_WF[i, 0]
+                axis_W[b, 6 + i] = R_WF[i, 1]
+            # Mo = Fo + R_WF [x, y, 0], moving with the parent and along F.
+            d0 = R_WF[0, 0] * tx + R_WF[0, 1] * ty
+            d1 = R_WF[1, 0] * tx + R_WF[1, 1] * ty
+            d2 = R_WF[2, 0] * tx + R_WF[2, 1] * ty
+            origin_W[b, 0] += d0
+            origin_W[b, 1] += d1
+            origin_W[b, 2] += d2
+            vF0 += (wP1 * d2 - wP2 * d1) + R_WF[0, 0] * vx + R_WF[0, 1] * vy
+            vF1 += (wP2 * d0 - wP0 * d2) + R_WF[1, 0] * vx + R_WF[1, 1] * vy
+            vF2 += (wP0 * d1 - wP1 * d0) + R_WF[2, 0] * vx + R_WF[2, 1] * vy
+            wJ0, wJ1, wJ2 = axis_W[b, 0] * rate, axis_W[b, 1] * rate, axis_W[b, 2] * rate
         else:  # weld
             for i in range(3):
                 for j in range(3):
                     R_WM[i, j] = R_WF[i, j]
             wJ0 = wJ1 = wJ2 = 0.0
         _mul33(R_WM, R_MC, R[b])
-        for i in range(3):  # Mo = Fo for both joint types
+        for i in range(3):  # origin_W is Mo (= Fo but for a planar joint)
             p[b, i] = origin_W[b, i] + (R_WM[i, 0] * tree_f[b, 21] + R_WM[i, 1] * tree_f[b, 22]
                                         + R_WM[i, 2] * tree_f[b, 23])
         w[b, 0], w[b, 1], w[b, 2] = wP0 + wJ0, wP1 + wJ1, wP2 + wJ2
@@ -242,7 +269,7 @@ def body_kinematics(x, nq, tree_i, tree_f):
         v[b, 0] = vF0 + w[b, 1] * d2 - w[b, 2] * d1
         v[b, 1] = vF1 + w[b, 2] * d0 - w[b, 0] * d2
         v[b, 2] = vF2 + w[b, 0] * d1 - w[b, 1] * d0
-        if kind != REVOLUTE:
+        if kind == WELD:
             axis_W[b, 0] = axis_W[b, 1] = axis_W[b, 2] = 0.0
     return R, p, w, v, axis_W, origin_W
 
@@ -421,6 +448,16 @@ def generalized_forces(F, p, axis_W, origin_W, tree_i, nv):
             tau[vs] = (axis_W[b, 0] * (t0 + (d1 * f2 - d2 * f1))
                        + axis_W[b, 1] * (t1 + (d2 * f0 - d0 * f2))
                        + axis_W[b, 2] * (t2 + (d0 * f1 - d1 * f0)))
+        elif kind == PLANAR:
+            # [f . x_F, f . y_F, torque about Mo . z_F].
+            d0 = p[b, 0] - origin_W[b, 0]
+            d1 = p[b, 1] - origin_W[b, 1]
+            d2 = p[b, 2] - origin_W[b, 2]
+            tau[vs] = axis_W[b, 3] * f0 + axis_W[b, 4] * f1 + axis_W[b, 5] * f2
+            tau[vs + 1] = axis_W[b, 6] * f0 + axis_W[b, 7] * f1 + axis_W[b, 8] * f2
+            tau[vs + 2] = (axis_W[b, 0] * (t0 + (d1 * f2 - d2 * f1))
+                           + axis_W[b, 1] * (t1 + (d2 * f0 - d0 * f2))
+                           + axis_W[b, 2] * (t2 + (d0 * f1 - d1 * f0)))
         elif kind == QUATERNION_FLOATING:
             tau[vs], tau[vs + 1], tau[vs + 2] = t0, t1, t2
             tau[vs + 3], tau[vs + 4], tau[vs + 5] = f0, f1, f2

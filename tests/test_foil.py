@@ -212,3 +212,67 @@ def test_compiled_strip_wrenches_and_lag_equal_the_numpy_reference():
     np.testing.assert_allclose(FK.lag_step(lag, w34, speed, packed, 1e-3),
                                wagner_step(lag, w34, speed, strips["chord"], 1e-3),
                                rtol=1e-12, atol=1e-15)
+
+
+def _one_plate(U=0.4, alpha=np.radians(25)):
+    """A plate (row 0, normal z) gliding at incidence alpha, its added-mass body (row 1)
+    centred and aligned on it, in still water."""
+    from manta_drake.station.foil import added_mass_body_wrenches  # noqa: F401
+
+    R = np.stack([np.eye(3), np.eye(3)])
+    p = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    vel = np.array([U * np.cos(alpha), 0.0, -U * np.sin(alpha)])
+    v = np.stack([vel, vel])
+    bodies = {"body": np.array([1]), "plate": np.array([0]), "mass": np.array([2.0]),
+              "inertia_normal": np.array([0.01]), "R_PF": np.eye(3)[None],
+              "p_PF": np.zeros((1, 3))}
+    return R, p, np.zeros((2, 3)), v, bodies
+
+
+def test_added_mass_body_adds_munks_moment_and_no_force_in_steady_glide():
+    from manta_drake.station.foil import added_mass_body_wrenches
+
+    U, alpha, m = 0.4, np.radians(25), 2.0
+    R, p, w, v, bodies = _one_plate(U, alpha)
+    F, q = added_mass_body_wrenches(R, p, w, v, np.zeros(3), bodies, np.ones(1),
+                                    np.array([np.nan]), 20.0, 1.0)
+    np.testing.assert_allclose(F[0, 3:], 0.0, atol=1e-14)
+    assert np.linalg.norm(F[0, :3]) == pytest.approx(m * U * U * np.sin(alpha) * np.cos(alpha))
+    np.testing.assert_allclose(F[1], 0.0, atol=1e-14)  # centred, aligned: no centring force
+    assert q[0] == pytest.approx(-U * np.sin(alpha))
+
+
+def test_added_mass_body_emerged_share_and_centring():
+    from manta_drake.station.foil import added_mass_body_wrenches
+
+    m, s, a_n, omega_c = 2.0, 0.3, 1.5, 20.0
+    R, p, w, v, bodies = _one_plate(0.0, 0.0)
+    p[1] = [0.01, -0.02, 0.0]  # the body 1 cm, -2 cm off the plate's centre, in its plane
+    F, _ = added_mass_body_wrenches(R, p, w, v, np.zeros(3), bodies, np.full(1, s),
+                                    np.array([a_n]), omega_c, 1.0)
+    np.testing.assert_allclose(F[0, 3:], [0.0, 0.0, (1 - s) * m * a_n], atol=1e-14)
+    np.testing.assert_allclose(F[0, :3], np.cross(p[1], [0.0, 0.0, (1 - s) * m * a_n]),
+                               atol=1e-14)
+    np.testing.assert_allclose(F[1, 3:], -m * omega_c**2 * p[1], atol=1e-12)
+
+
+def test_compiled_added_mass_body_wrenches_equal_the_numpy_reference():
+    from scipy.spatial.transform import Rotation
+
+    from manta_drake.station import foil, foil_kernels as FK
+
+    rng = np.random.default_rng(5)
+    nb, nm = 7, 3
+    R = Rotation.random(nb, random_state=8).as_matrix()
+    p, w, v = (rng.normal(size=(nb, 3)) for _ in range(3))
+    bodies = {"body": np.array([4, 5, 6]), "plate": np.array([1, 2, 2]),
+              "mass": rng.uniform(0.5, 3.0, nm), "inertia_normal": rng.uniform(0.001, 0.01, nm),
+              "R_PF": Rotation.random(nm, random_state=9).as_matrix(),
+              "p_PF": rng.normal(size=(nm, 3)) * 0.1}
+    frac, a_n = rng.uniform(size=nm), np.array([0.7, np.nan, -1.2])
+    current = np.array([0.1, 0.0, -0.05])
+    F, q = foil.added_mass_body_wrenches(R, p, w, v, current, bodies, frac, a_n, 20.0, 0.9)
+    packed = FK.pack_added_mass_bodies(*bodies.values())
+    F_k, q_k = FK.added_mass_body_wrenches(R, p, w, v, current, packed, frac, a_n, 20.0, 0.9)
+    np.testing.assert_allclose(F_k, F, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(q_k, q, rtol=1e-12, atol=1e-14)

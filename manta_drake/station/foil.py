@@ -245,3 +245,60 @@ def prescribed_motion_forces(dt, v_mid, omega, normal, chord_dir, span_dir, area
                               params["stall_angle"], params["stall_width"])
         lag = wagner_step(lag, kin["w"], kin["speed"], chord, dt)
     return out
+
+
+def added_mass_body_wrenches(R, p, w, v, current, bodies: dict, plate_fraction, a_normal,
+                             centring_frequency: float, centring_damping: float):
+    """The forces that complete the fins' added-mass bodies (``model.plant``'s planar-joint
+    bodies, one per plate), as wrench rows to add, and each body's normal velocity.
+
+    * On each body alone, a spring-damper that keeps it at its plate's centre and its
+      frame aligned, k = m omega_c^2, c = 2 zeta m omega_c (and I_n for the rotation
+      about the normal): the planar joint passes none of it to the plate.
+    * On each plate at the body's point, Kirchhoff's velocity terms
+      (``kirchhoff_plate_correction``), scaled by the plate's submerged fraction s.
+    * On each plate, the emerged share of the body's reaction given back,
+      +(1 - s) m (a . n) n, from the body's normal acceleration ``a_normal`` estimated
+      over the last step (NaN: not yet known, nothing applied): a plate in air moves no
+      water. Explicit, so stable while (1 - s) m stays below the plate's effective mass
+      with the body (m + the plate's own): always, as s >= 0.
+
+    Args:
+        R, p, w, v: (nb, 3, 3), (nb, 3) x 3 poses and velocities of all bodies (world).
+        current: (3,) the water's velocity.
+        bodies: ``body``, ``plate`` (nm,) rows of each added-mass body and its plate,
+            ``mass``, ``inertia_normal`` (nm,), ``R_PF`` (nm, 3, 3) and ``p_PF`` (nm, 3)
+            the joint frame on the plate.
+        plate_fraction: (nm,) the plate's submerged fraction.
+        a_normal: (nm,) a . n of each body [m/s^2] or NaN.
+        centring_frequency: omega_c [rad/s]; centring_damping: zeta.
+
+    Returns:
+        (F (nb, 6) rows [tau_W, f_W] about each body origin, q (nm,) v_body . n).
+    """
+    plate, body = bodies["plate"], bodies["body"]
+    m, i_n = bodies["mass"], bodies["inertia_normal"]
+    R_WF = np.matmul(R[plate], bodies["R_PF"])
+    origin = p[plate] + np.matmul(R[plate], bodies["p_PF"][:, :, None])[:, :, 0]
+    n = R_WF[:, :, 2]
+    p_s, v_s = p[body], v[body]
+    r_plate = p_s - p[plate]
+    v_point = v[plate] + np.cross(w[plate], r_plate)
+    to_F = lambda x: np.matmul(np.swapaxes(R_WF, 1, 2), x[:, :, None])[:, :, 0]  # noqa: E731
+    offset, drift = to_F(p_s - origin), to_F(v_s - v_point)
+    M = np.matmul(np.swapaxes(R_WF, 1, 2), R[body])
+    theta = np.arctan2(M[:, 1, 0], M[:, 0, 0])
+    theta_rate = ((w[body] - w[plate]) * n).sum(axis=1)
+    k, c = centring_frequency**2, 2.0 * centring_damping * centring_frequency
+    f_F = np.zeros_like(offset)
+    f_F[:, :2] = -(m[:, None] * (k * offset[:, :2] + c * drift[:, :2]))
+    tau = -(i_n * (k * theta + c * theta_rate))[:, None] * n
+    F = np.zeros((len(R), 6))
+    np.add.at(F, body, np.concatenate([tau, np.matmul(R_WF, f_F[:, :, None])[:, :, 0]], axis=1))
+    s = np.asarray(plate_fraction, dtype=float)
+    f_c, t_c = kirchhoff_plate_correction(m, n, v_point - current, v_s - current, w[plate])
+    emerged = np.where(np.isnan(a_normal), 0.0, (1.0 - s) * m * np.nan_to_num(a_normal))
+    f_plate = s[:, None] * f_c + emerged[:, None] * n
+    t_plate = s[:, None] * t_c + np.cross(r_plate, f_plate)
+    np.add.at(F, plate, np.concatenate([t_plate, f_plate], axis=1))
+    return F, (v_s * n).sum(axis=1)

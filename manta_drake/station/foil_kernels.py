@@ -128,3 +128,79 @@ def lag_step(lag, w34, speed, strips, dt):
         out[k, 0] = lag[k, 0] * e1 + _A1 * w34[k] * (1.0 - e1)
         out[k, 1] = lag[k, 1] * e2 + _A2 * w34[k] * (1.0 - e2)
     return out
+
+
+def pack_added_mass_bodies(body, plate, mass, inertia_normal, R_PF, p_PF) -> np.ndarray:
+    """The added-mass bodies as one float table: [body, plate, m, I_n, R_PF (9, row-major),
+    p_PF (3)] per row."""
+    table = np.column_stack([body, plate, mass, inertia_normal,
+                             np.asarray(R_PF).reshape(-1, 9), p_PF])
+    return np.ascontiguousarray(table, dtype=float)
+
+
+@njit(cache=True)
+def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_normal,
+                             centring_frequency, centring_damping):
+    """``foil.added_mass_body_wrenches`` compiled: (F (nb, 6), q (nm,))."""
+    nb, nm = R.shape[0], bodies.shape[0]
+    F = np.zeros((nb, 6))
+    q = np.empty(nm)
+    k = centring_frequency * centring_frequency
+    c = 2.0 * centring_damping * centring_frequency
+    R_WF = np.empty((3, 3))
+    for j in range(nm):
+        s_row, b = int(bodies[j, 0]), int(bodies[j, 1])
+        m, i_n = bodies[j, 2], bodies[j, 3]
+        R_PF = bodies[j, 4:13].reshape(3, 3)
+        for a in range(3):
+            for e in range(3):
+                R_WF[a, e] = R[b, a, 0] * R_PF[0, e] + R[b, a, 1] * R_PF[1, e] + R[b, a, 2] * R_PF[2, e]
+        o0, o1, o2 = _rot(R[b], bodies[j, 13], bodies[j, 14], bodies[j, 15])
+        o0, o1, o2 = p[b, 0] + o0, p[b, 1] + o1, p[b, 2] + o2
+        n0, n1, n2 = R_WF[0, 2], R_WF[1, 2], R_WF[2, 2]
+        r0, r1, r2 = p[s_row, 0] - p[b, 0], p[s_row, 1] - p[b, 1], p[s_row, 2] - p[b, 2]
+        wb0, wb1, wb2 = w[b, 0], w[b, 1], w[b, 2]
+        vp0 = v[b, 0] + (wb1 * r2 - wb2 * r1)
+        vp1 = v[b, 1] + (wb2 * r0 - wb0 * r2)
+        vp2 = v[b, 2] + (wb0 * r1 - wb1 * r0)
+        vs0, vs1, vs2 = v[s_row, 0], v[s_row, 1], v[s_row, 2]
+        d0, d1, d2 = p[s_row, 0] - o0, p[s_row, 1] - o1, p[s_row, 2] - o2
+        u0, u1, u2 = vs0 - vp0, vs1 - vp1, vs2 - vp2
+        # Centring, in F's x and y, on the body alone.
+        fx = -m * (k * (R_WF[0, 0] * d0 + R_WF[1, 0] * d1 + R_WF[2, 0] * d2)
+                   + c * (R_WF[0, 0] * u0 + R_WF[1, 0] * u1 + R_WF[2, 0] * u2))
+        fy = -m * (k * (R_WF[0, 1] * d0 + R_WF[1, 1] * d1 + R_WF[2, 1] * d2)
+                   + c * (R_WF[0, 1] * u0 + R_WF[1, 1] * u1 + R_WF[2, 1] * u2))
+        # The body's rotation about the normal relative to F: M = R_WF^T R_body.
+        m00 = R_WF[0, 0] * R[s_row, 0, 0] + R_WF[1, 0] * R[s_row, 1, 0] + R_WF[2, 0] * R[s_row, 2, 0]
+        m10 = R_WF[0, 1] * R[s_row, 0, 0] + R_WF[1, 1] * R[s_row, 1, 0] + R_WF[2, 1] * R[s_row, 2, 0]
+        theta = np.arctan2(m10, m00)
+        rate = (w[s_row, 0] - wb0) * n0 + (w[s_row, 1] - wb1) * n1 + (w[s_row, 2] - wb2) * n2
+        tq = -i_n * (k * theta + c * rate)
+        F[s_row, 0] += tq * n0
+        F[s_row, 1] += tq * n1
+        F[s_row, 2] += tq * n2
+        F[s_row, 3] += R_WF[0, 0] * fx + R_WF[0, 1] * fy
+        F[s_row, 4] += R_WF[1, 0] * fx + R_WF[1, 1] * fy
+        F[s_row, 5] += R_WF[2, 0] * fx + R_WF[2, 1] * fy
+        # Kirchhoff's velocity terms on the plate (foil.kirchhoff_plate_correction).
+        nd0, nd1, nd2 = wb1 * n2 - wb2 * n1, wb2 * n0 - wb0 * n2, wb0 * n1 - wb1 * n0
+        e0, e1, e2 = vp0 - current[0], vp1 - current[1], vp2 - current[2]
+        qr = e0 * n0 + e1 * n1 + e2 * n2
+        sv = (vs0 - current[0]) * nd0 + (vs1 - current[1]) * nd1 + (vs2 - current[2]) * nd2
+        frac = plate_fraction[j]
+        an = a_normal[j]
+        emerged = 0.0 if np.isnan(an) else (1.0 - frac) * m * an
+        f0 = frac * (-m * sv * n0 - m * qr * nd0) + emerged * n0
+        f1 = frac * (-m * sv * n1 - m * qr * nd1) + emerged * n1
+        f2 = frac * (-m * sv * n2 - m * qr * nd2) + emerged * n2
+        # -m q (v x n), scaled, plus the moment of the force at the body's point.
+        c0, c1, c2 = e1 * n2 - e2 * n1, e2 * n0 - e0 * n2, e0 * n1 - e1 * n0
+        F[b, 0] += -frac * m * qr * c0 + (r1 * f2 - r2 * f1)
+        F[b, 1] += -frac * m * qr * c1 + (r2 * f0 - r0 * f2)
+        F[b, 2] += -frac * m * qr * c2 + (r0 * f1 - r1 * f0)
+        F[b, 3] += f0
+        F[b, 4] += f1
+        F[b, 5] += f2
+        q[j] = vs0 * n0 + vs1 * n1 + vs2 * n2
+    return F, q

@@ -154,7 +154,8 @@ def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_norm
         R_PF = bodies[j, 4:13].reshape(3, 3)
         for a in range(3):
             for e in range(3):
-                R_WF[a, e] = R[b, a, 0] * R_PF[0, e] + R[b, a, 1] * R_PF[1, e] + R[b, a, 2] * R_PF[2, e]
+                R_WF[a, e] = (R[b, a, 0] * R_PF[0, e] + R[b, a, 1] * R_PF[1, e]
+                              + R[b, a, 2] * R_PF[2, e])
         o0, o1, o2 = _rot(R[b], bodies[j, 13], bodies[j, 14], bodies[j, 15])
         o0, o1, o2 = p[b, 0] + o0, p[b, 1] + o1, p[b, 2] + o2
         n0, n1, n2 = R_WF[0, 2], R_WF[1, 2], R_WF[2, 2]
@@ -172,8 +173,9 @@ def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_norm
         fy = -m * (k * (R_WF[0, 1] * d0 + R_WF[1, 1] * d1 + R_WF[2, 1] * d2)
                    + c * (R_WF[0, 1] * u0 + R_WF[1, 1] * u1 + R_WF[2, 1] * u2))
         # The body's rotation about the normal relative to F: M = R_WF^T R_body.
-        m00 = R_WF[0, 0] * R[s_row, 0, 0] + R_WF[1, 0] * R[s_row, 1, 0] + R_WF[2, 0] * R[s_row, 2, 0]
-        m10 = R_WF[0, 1] * R[s_row, 0, 0] + R_WF[1, 1] * R[s_row, 1, 0] + R_WF[2, 1] * R[s_row, 2, 0]
+        Rs = R[s_row]
+        m00 = R_WF[0, 0] * Rs[0, 0] + R_WF[1, 0] * Rs[1, 0] + R_WF[2, 0] * Rs[2, 0]
+        m10 = R_WF[0, 1] * Rs[0, 0] + R_WF[1, 1] * Rs[1, 0] + R_WF[2, 1] * Rs[2, 0]
         theta = np.arctan2(m10, m00)
         rate = (w[s_row, 0] - wb0) * n0 + (w[s_row, 1] - wb1) * n1 + (w[s_row, 2] - wb2) * n2
         tq = -i_n * (k * theta + c * rate)

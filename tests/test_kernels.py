@@ -572,3 +572,48 @@ def test_kinematics_and_jacobians_with_planar_joints_equal_the_plant(rng):
             expected += J.T @ F[k]
         got = WK.generalized_forces(F, p, axis_W, origin_W, tree_i, plant.num_velocities())
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-11)
+
+
+def test_foil_model_gives_the_same_forces_on_every_port_set_and_backend():
+    """The foil model (strips with Wagner states, the added-mass bodies with their velocity
+    sample) on one random state with its discrete state set: the four (inputs, backend)
+    variants' spatial forces agree to 1e-12 of the largest."""
+    rng = np.random.default_rng(5)
+    q, v = rng.uniform(-1, 1, 16), None
+    forces = []
+    for inputs, backend in VARIANTS:
+        builder = DiagramBuilder()
+        h = add_plant(builder, hydro=COEFFS, fin_added_mass="bodies")
+        hydro = HydrodynamicForces.AddToBuilder(
+            builder, h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
+            current=(0.05, 0.02, 0.0), inputs=inputs, backend=backend, fin_model="foil",
+            apply_as="spatial_forces")
+        diagram = builder.Build()
+        context = diagram.CreateDefaultContext()
+        plant_context = h.plant.GetMyMutableContextFromRoot(context)
+        set_initial_state(h, plant_context, body_pose([0.1, 0.2, -0.05], [10, 20, 30]), q)
+        if v is None:
+            v = rng.normal(scale=0.5, size=h.plant.num_velocities())
+            lag = rng.normal(scale=0.05, size=hydro.GetMyContextFromRoot(context)
+                             .get_discrete_state(hydro._lag).size())
+            prev = np.r_[rng.normal(scale=0.1, size=8), 0.0]
+        h.plant.SetVelocities(plant_context, v)
+        hydro_context = hydro.GetMyMutableContextFromRoot(context)
+        hydro_context.get_mutable_discrete_state(hydro._lag).SetFromVector(lag)
+        hydro_context.get_mutable_discrete_state(hydro._am_prev).SetFromVector(prev)
+        context.SetTime(0.001)
+        hydro.GetInputPort("balloon_volume").FixValue(hydro_context, [1e-3])
+        out = hydro.GetOutputPort("spatial_forces").Eval(hydro_context)
+        forces.append(np.array([f.F_Bq_W.get_coeffs() for f in out]))
+    assert forces[0].shape == (NB + 8, 6)
+    for F in forces[1:]:
+        np.testing.assert_allclose(F, forces[0], rtol=0, atol=1e-12 * np.abs(forces[0]).max())
+
+
+def test_foil_model_needs_the_added_mass_bodies():
+    builder = DiagramBuilder()
+    h = add_plant(builder, hydro=COEFFS)
+    with pytest.raises(ValueError, match="fin_model: 'foil' needs the fins' added-mass bodies"):
+        HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, fin_model="foil")
+    with pytest.raises(ValueError, match="fin_model: 'wing' must be one of"):
+        HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, fin_model="wing")

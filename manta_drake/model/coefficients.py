@@ -150,6 +150,10 @@ class FinHydro:
     passive_pitch_reference_pressure: Scalar = dc.field(default_factory=Scalar)  # Pa
     hinge_added_inertia: Vector = dc.field(default_factory=Vector)  # (yaw, roll1, pitch, roll2)
     added_mass_factor: Vector = dc.field(default_factory=Vector)  # 3-D K (proximal, distal)
+    lift_slope: Scalar = dc.field(default_factory=Scalar)  # 1/rad, attached flow
+    suction_efficiency: Scalar = dc.field(default_factory=Scalar)  # leading-edge suction share
+    stall_angle_deg: Scalar = dc.field(default_factory=Scalar)  # attached -> separated
+    stall_width_deg: Scalar = dc.field(default_factory=Scalar)  # width of that blend
 
 
 @dc.dataclass
@@ -216,7 +220,8 @@ def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoeffici
 # entries that must be whole numbers.
 POSITIVE = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
             "links.servo_volume", "fins.strips_per_plate", "fins.normal_force_coefficient",
-            "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate")
+            "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate",
+            "fins.added_mass_factor", "fins.lift_slope", "fins.stall_width_deg")
 INTEGER = ("fins.strips_per_plate",)
 SEALED_VOLUME_TOLERANCE = 0.01  # relative: body.sealed_volume against 4/3 pi abc
 # Physical ranges of the constants: a pool of water on Earth. Fresh water is 997 kg/m^3 at
@@ -226,7 +231,7 @@ RANGES = {"water_density": (900.0, 1300.0, "kg/m^3"), "gravity": (9.7, 9.9, "m/s
 SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
          "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
          "links.linear_damping": 6, "links.quadratic_damping": 6,
-         "fins.hinge_added_inertia": 4, "balloon.mount_point": 3}
+         "fins.hinge_added_inertia": 4, "fins.added_mass_factor": 2, "balloon.mount_point": 3}
 
 
 def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -> None:

@@ -33,6 +33,11 @@ and none needs a plant; the tests check each against its closed form.
 
 import numpy as np
 
+# The fins' models of HydrodynamicForces (``water.fin_model``): the quasi-steady cross-flow
+# normal force of ``manta_drake.station.water``, or this module's flapping-foil strips with
+# the fins' added mass as bodies.
+FIN_MODELS = ("cross_flow", "foil")
+
 # R. T. Jones's approximation of Wagner's indicial function (NACA Report 681, 1940):
 # Phi(s) = 1 - sum A_i exp(-b_i s), s = 2 U t / c (distance travelled in half-chords).
 WAGNER_A = (0.165, 0.335)
@@ -302,3 +307,17 @@ def added_mass_body_wrenches(R, p, w, v, current, bodies: dict, plate_fraction, 
     t_plate = s[:, None] * t_c + np.cross(r_plate, f_plate)
     np.add.at(F, plate, np.concatenate([t_plate, f_plate], axis=1))
     return F, (v_s * n).sum(axis=1)
+
+
+def added_mass_normal_acceleration(R, w, v, bodies: dict, q_prev, t_prev: float, t: float):
+    """Each added-mass body's normal acceleration a . n = d/dt (v . n) - v . (omega x n)
+    over the last step, from its normal velocity ``q_prev`` at ``t_prev`` (the plate's
+    angular velocity turns n); NaN where no earlier sample exists (t_prev < 0 or not
+    before t)."""
+    body, plate = bodies["body"], bodies["plate"]
+    n = R[body][:, :, 2]
+    q = (v[body] * n).sum(axis=1)
+    if not 0.0 <= t_prev < t - 1e-12:
+        return np.full(len(body), np.nan)
+    n_dot = np.cross(w[plate], n)
+    return (q - q_prev) / (t - t_prev) - (v[body] * n_dot).sum(axis=1)

@@ -206,3 +206,55 @@ def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_norm
         F[b, 5] += f2
         q[j] = vs0 * n0 + vs1 * n1 + vs2 * n2
     return F, q
+
+
+@njit(cache=True)
+def added_mass_normal_acceleration(R, w, v, bodies, q_prev, t_prev, t):
+    """``foil.added_mass_normal_acceleration`` compiled."""
+    nm = bodies.shape[0]
+    a = np.empty(nm)
+    known = 0.0 <= t_prev < t - 1e-12
+    for j in range(nm):
+        s, b = int(bodies[j, 0]), int(bodies[j, 1])
+        n0, n1, n2 = R[s, 0, 2], R[s, 1, 2], R[s, 2, 2]
+        if not known:
+            a[j] = np.nan
+            continue
+        q = v[s, 0] * n0 + v[s, 1] * n1 + v[s, 2] * n2
+        wb0, wb1, wb2 = w[b, 0], w[b, 1], w[b, 2]
+        nd0, nd1, nd2 = wb1 * n2 - wb2 * n1, wb2 * n0 - wb0 * n2, wb0 * n1 - wb1 * n0
+        a[j] = (q - q_prev[j]) / (t - t_prev) - (v[s, 0] * nd0 + v[s, 1] * nd1 + v[s, 2] * nd2)
+    return a
+
+
+@njit(cache=True)
+def add_foil_forces(F, R, p, w, v, frac, current, t, strips, prm, lag, bodies, weights,
+                    prev, centring_frequency, centring_damping):
+    """The foil model's terms added to the water's other forces F (``spatial_wrenches``,
+    whose element fractions ``frac`` it filled): the strips' forces, and the added-mass
+    bodies' (their plates' submerged fraction the mean of the plate's strips' elements,
+    ``weights`` (nm, ne); their normal acceleration from ``prev`` = [q (nm), t])."""
+    fp = prm.copy()
+    fp[F_CURRENT:F_CURRENT + 3] = current
+    S, _, _ = strip_wrenches(R, w, v, strips, frac, lag, fp)
+    nm = bodies.shape[0]
+    a_n = added_mass_normal_acceleration(R, w, v, bodies, prev[:nm], prev[nm], t)
+    A, _ = added_mass_body_wrenches(R, p, w, v, current, bodies, weights @ frac, a_n,
+                                    centring_frequency, centring_damping)
+    return F + S + A
+
+
+@njit(cache=True)
+def foil_state_step(R, w, v, current, strips, prm, lag, bodies, dt):
+    """The foil model's discrete state after one period ``dt``: the strips' Wagner states
+    (``lag_step``) and each added-mass body's normal velocity v . n (its next ``prev``)."""
+    fp = prm.copy()
+    fp[F_CURRENT:F_CURRENT + 3] = current
+    ones = np.ones(int(strips[:, 1].max()) + 1 if strips.shape[0] else 0)
+    _, w34, speed = strip_wrenches(R, w, v, strips, ones, lag, fp)
+    nm = bodies.shape[0]
+    q = np.empty(nm)
+    for j in range(nm):
+        s = int(bodies[j, 0])
+        q[j] = v[s, 0] * R[s, 0, 2] + v[s, 1] * R[s, 1, 2] + v[s, 2] * R[s, 2, 2]
+    return lag_step(lag, w34, speed, strips, dt), q

@@ -46,7 +46,10 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from manta_drake.model.coefficients import HydroCoefficients
+from manta_drake.model.plant import FIN_ADDED_MASS_INSTANCE
 from manta_drake.model.robot_params import DEFAULT_ROBOT, RobotParams
+from manta_drake.station import foil
+from manta_drake.station import foil_kernels as FK
 from manta_drake.station import water_kernels as K
 from manta_drake.station.current import CurrentSchedule
 from manta_drake.station.water import (
@@ -64,6 +67,7 @@ from manta_drake.station.water import (
 )
 
 INPUTS = ("contract", "plant_state")
+FIN_MODELS = foil.FIN_MODELS
 BACKENDS = ("compiled", "numpy")
 APPLY_AS = ("spatial_forces", "generalized_forces")
 
@@ -161,6 +165,10 @@ class HydrodynamicForces(LeafSystem):
     """
 
     MAX_CURRENT = 2.0  # m/s: far above any pool's current; larger is a units mistake
+    # The added-mass bodies' centring (omega_c [rad/s], zeta): a numerical choice that acts
+    # on those bodies alone, so it moves none of the robot's forces; fast enough that a
+    # body stays within millimetres of its plate's centre, slow against 1/time_step.
+    CENTRING = (20.0, 1.0)
 
     rho = _fixed("rho", "Water density [kg/m^3].")
     g = _fixed("g", "Gravity [m/s^2].")
@@ -196,7 +204,8 @@ class HydrodynamicForces(LeafSystem):
                  params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
                  added_mass_iso: float | None = None, update_period: float = 0.0, *,
                  inputs: str = "contract", backend: str = "compiled",
-                 current_schedule: CurrentSchedule | None = None):
+                 current_schedule: CurrentSchedule | None = None,
+                 fin_model: str = "cross_flow"):
         super().__init__()
         if not (_is_real(time_step) and math.isfinite(time_step) and time_step > 0):
             raise ValueError(f"HydrodynamicForces.time_step: {time_step!r} must be a finite "
@@ -211,6 +220,13 @@ class HydrodynamicForces(LeafSystem):
         if not (isinstance(backend, str) and backend in BACKENDS):
             raise ValueError(f"HydrodynamicForces.backend: {backend!r} must be one of "
                              f"{', '.join(map(repr, BACKENDS))}")
+        if not (isinstance(fin_model, str) and fin_model in FIN_MODELS):
+            raise ValueError(f"HydrodynamicForces.fin_model: {fin_model!r} must be one of "
+                             f"{', '.join(map(repr, FIN_MODELS))}")
+        self._foil = fin_model == "foil"
+        if self._foil and not plant.HasModelInstanceNamed(FIN_ADDED_MASS_INSTANCE):
+            raise ValueError("HydrodynamicForces.fin_model: 'foil' needs the fins' added-mass "
+                             "bodies in the plant (add_plant(..., fin_added_mass='bodies'))")
         try:
             current_array = np.asarray(current, dtype=float)
         except (TypeError, ValueError):
@@ -240,14 +256,19 @@ class HydrodynamicForces(LeafSystem):
         self._compiled = backend == "compiled"
         self._nq, self._nv = plant.num_positions(), plant.num_velocities()
         names = hydro_body_names()
-        nb = len(names)
         body_index = [plant.GetBodyByName(n, robot).index() for n in names]
+        added = _added_mass_bodies(plant, body_index) if self._foil else None
+        if added is not None:
+            body_index += added["index"]
+        nb = len(body_index)  # the hydro bodies, then the fins' added-mass bodies
         el = build_elements(coeffs, params)
         # Sums of element rows into body rows as matrix products (faster than np.add.at).
         el["elem_to_body"] = np.eye(nb)[:, el["body"]]
         b, links = coeffs.body, coeffs.links
-        d_lin = np.tile(links.linear_damping.value, (nb, 1))
-        d_quad = np.tile(links.quadratic_damping.value, (nb, 1))
+        d_lin = np.zeros((nb, 6))
+        d_quad = np.zeros((nb, 6))
+        d_lin[:len(names)] = links.linear_damping.value
+        d_quad[:len(names)] = links.quadratic_damping.value
         d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
         if added_mass_iso is None:
             added_mass_iso, residual_added_mass = split_added_mass(
@@ -279,10 +300,14 @@ class HydrodynamicForces(LeafSystem):
             "residual_added_mass": _frozen(residual_added_mass),
             "residual_added_inertia": _frozen(residual_added_inertia),
             "effective_mass": mass, "effective_inertia": _frozen(inertia),
+            "fin_model": fin_model,
         }
         self._strip_to_body = _frozen(np.eye(nb)[:, el["strip_body"]])
         # The kernels' arrays, once: (elements, strips, damping, parameters).
         elements, strips = K.pack_elements(el)
+        if self._foil:  # the strips are the foil model's: none for the cross-flow terms
+            strips = np.zeros((0, strips.shape[1]))
+            self._pack_foil(coeffs, el, added)
         self._packed = (elements, strips,
                         np.ascontiguousarray(np.hstack([d_lin, d_quad]), dtype=float),
                         K.pack_params(self.rho, self.g, self.c_normal, self.c_friction,
@@ -297,12 +322,16 @@ class HydrodynamicForces(LeafSystem):
         # calculation overwrites every force and set_value copies the list into the output
         # (a C++ vector), so nothing of one evaluation outlives it. Reusing them halves the
         # output's cost (measured: 19 against 38 us for 17 new objects per call).
-        self._forces = [ExternallyAppliedSpatialForce() for _ in names]
+        self._forces = [ExternallyAppliedSpatialForce() for _ in body_index]
         for force, index in zip(self._forces, body_index):
             force.body_index = index
             force.p_BoBq_B = np.zeros(3)
         # The hull's (v_W, w_W, t) at the last two updates; t = -1 marks "none yet".
         self._v_prev = self.DeclareDiscreteState(np.tile(np.r_[np.zeros(6), -1.0], 2))
+        if self._foil:  # the strips' Wagner lag; the added-mass bodies' [v . n, t]
+            self._lag = self.DeclareDiscreteState(self._foil_packed["lag0"].ravel())
+            self._am_prev = self.DeclareDiscreteState(self._foil_packed["prev0"])
+        self._fin_period = self.time_step if self.update_period == 0.0 else self.update_period
         if self._plant_state:
             self._tree_i, self._tree_f = K.pack_tree(plant, body_index)
             # Where the hull's [w_W, v_W] sit in the state (a floating hull), else None.
@@ -337,13 +366,44 @@ class HydrodynamicForces(LeafSystem):
             # Held forces start from the initial state, not from zero.
             self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
 
+    def _pack_foil(self, coeffs: HydroCoefficients, el: dict, added: dict) -> None:
+        """The foil model's arrays, once: strips, parameters, added-mass bodies (the
+        kernels' tables and the numpy reference's dicts) and the plates' fraction weights."""
+        fins = coeffs.fins
+        params = {"rho": self.rho, "lift_slope": float(fins.lift_slope.value),
+                  "suction_efficiency": float(fins.suction_efficiency.value),
+                  "cross_flow_coefficient": self.c_normal,
+                  "friction_coefficient": self.c_friction,
+                  "stall_angle": float(np.radians(fins.stall_angle_deg.value)),
+                  "stall_width": float(np.radians(fins.stall_width_deg.value))}
+        strips = {"body": el["strip_body"], "element": el["strip_element"], "p": el["strip_p"],
+                  "normal": el["strip_n"], "chord_dir": el["strip_c"], "span_dir": el["strip_s"],
+                  "area": el["strip_area"], "chord": el["strip_chord"]}
+        bodies = {k: added[k] for k in ("body", "plate", "mass", "inertia_normal", "R_PF",
+                                        "p_PF")}
+        # A plate's submerged fraction: the mean of its strips' elements' (equal volumes).
+        weights = np.zeros((len(bodies["body"]), len(el["volume"])))
+        for j, plate in enumerate(bodies["plate"]):
+            elements = el["strip_element"][el["strip_body"] == plate]
+            weights[j, elements] = 1.0 / len(elements)
+        self._foil_reference_args = types.MappingProxyType(
+            {"strips": strips, "params": params, "bodies": bodies})
+        self._foil_packed = types.MappingProxyType({
+            "strips": FK.pack_strips(*strips.values()),
+            "params": FK.pack_foil_params(*params.values(), self.current),
+            "bodies": FK.pack_added_mass_bodies(*bodies.values()),
+            "weights": np.ascontiguousarray(weights),
+            "lag0": _frozen(np.zeros((len(el["strip_body"]), 2))),
+            "prev0": _frozen(np.r_[np.zeros(len(bodies["body"])), -1.0])})
+
     @staticmethod
     def AddToBuilder(builder, plant, robot, coeffs: HydroCoefficients, time_step: float,
                      params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
                      added_mass_iso: float | None = None, update_period: float = 0.0, *,
                      inputs: str = "contract", backend: str = "compiled",
                      current_schedule: CurrentSchedule | None = None,
-                     apply_as: str | None = None, name: str = "hydro") -> "HydrodynamicForces":
+                     apply_as: str | None = None, name: str = "hydro",
+                     fin_model: str = "cross_flow") -> "HydrodynamicForces":
         """Adds a HydrodynamicForces to ``builder`` and connects it to ``plant``, as Drake's
         ``Wing.AddToBuilder``: its kinematics inputs from the plant's outputs (the state
         vector, or the body poses and spatial velocities, as ``inputs`` says) and its forces
@@ -380,7 +440,8 @@ class HydrodynamicForces(LeafSystem):
                              f"needs inputs='plant_state', got inputs={inputs!r}")
         hydro = builder.AddNamedSystem(name, HydrodynamicForces(
             plant, robot, coeffs, time_step, params, current, added_mass_iso, update_period,
-            inputs=inputs, backend=backend, current_schedule=current_schedule))
+            inputs=inputs, backend=backend, current_schedule=current_schedule,
+            fin_model=fin_model))
         if apply_as is None:
             apply_as = ("generalized_forces" if inputs == "plant_state" and update_period == 0
                         else "spatial_forces")
@@ -401,7 +462,8 @@ class HydrodynamicForces(LeafSystem):
     # -- the maths ------------------------------------------------------------------------------
 
     def compute(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                hull_alpha_W=None, *, current=None) -> np.ndarray:
+                hull_alpha_W=None, *, current=None, t: float = 0.0,
+                fin_state=None) -> np.ndarray:
         """Spatial forces [tau_W, f_W] (per hydro body, about its origin) from kinematics,
         by this system's ``backend`` (``compute_compiled`` or ``compute_reference``).
 
@@ -413,39 +475,61 @@ class HydrodynamicForces(LeafSystem):
                 estimates for the residual added mass and inertia (None: not yet known).
             current: (3,) the water's velocity in the world for this evaluation [m/s]
                 (None: the fixed ``current``).
+            t: the time [s] (the foil model's added-mass bodies difference their velocity
+                against the state's sample).
+            fin_state: the foil model's discrete state (``lag`` (ns, 2), ``prev`` (nm + 1)),
+                None: at rest, nothing known yet.
         """
         if self._compiled:
             return self.compute_compiled(R, p, w, v, balloon_volume, hull_accel_W,
-                                         hull_alpha_W, current=current)
+                                         hull_alpha_W, current=current, t=t,
+                                         fin_state=fin_state)
         return self.compute_reference(R, p, w, v, balloon_volume, hull_accel_W, hull_alpha_W,
-                                      current=current)
+                                      current=current, t=t, fin_state=fin_state)
 
     def compute_compiled(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                         hull_alpha_W=None, *, current=None) -> np.ndarray:
-        """``compute`` by the numba kernel (``water_kernels.spatial_wrenches``)."""
+                         hull_alpha_W=None, *, current=None, t: float = 0.0,
+                         fin_state=None) -> np.ndarray:
+        """``compute`` by the numba kernels (``water_kernels.spatial_wrenches``, and
+        ``foil_kernels.add_foil_forces`` for the foil model)."""
         elements, strips, damping, _ = self._packed
         prm = self._params_with(current)
         has_accel = hull_accel_W is not None
         accel = np.zeros(6)
         if has_accel:
             accel[:3], accel[3:] = hull_accel_W, hull_alpha_W
-        return K.spatial_wrenches(
-            np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(p, dtype=float),
-            np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(v, dtype=float),
-            float(balloon_volume), accel, has_accel, elements, strips, damping, prm)
+        R, p, w, v = (np.ascontiguousarray(a, dtype=float) for a in (R, p, w, v))
+        frac = np.empty(len(elements))
+        F = K.spatial_wrenches(R, p, w, v, float(balloon_volume), accel, has_accel, elements,
+                               strips, damping, prm, frac)
+        return self._add_foil_compiled(F, R, p, w, v, frac, prm, t, fin_state)
+
+    def _add_foil_compiled(self, F, R, p, w, v, frac, prm, t: float, fin_state):
+        if not self._foil:
+            return F
+        lag, prev = self._fin_state_or_rest(fin_state)
+        f = self._foil_packed
+        return FK.add_foil_forces(F, R, p, w, v, frac, prm[K.P_CURRENT:K.P_CURRENT + 3],
+                                  float(t), f["strips"], f["params"], lag, f["bodies"],
+                                  f["weights"], prev, *self.CENTRING)
 
     def compute_reference(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                          hull_alpha_W=None, *, current=None) -> np.ndarray:
-        """``compute`` by the pure numpy functions of ``manta_drake.station.water``."""
+                          hull_alpha_W=None, *, current=None, t: float = 0.0,
+                          fin_state=None) -> np.ndarray:
+        """``compute`` by the pure numpy functions of ``manta_drake.station.water`` (and
+        ``manta_drake.station.foil`` for the foil model)."""
         if current is None:
             current = self.current
         F, frac, body_frac = buoyancy_wrenches(R, p, self.el, self.rho, self.g)
         F[0] += balloon_wrench(R[0], p[0], self.balloon_mount, balloon_volume, self.rho, self.g)
         F += damping_wrenches(R, w, v, current, self.d_lin, self.d_quad, body_frac)
-        r_s, fs = fin_strip_forces(R, w, v, current, self.el, frac, self.rho,
-                                   self.c_normal, self.c_friction, self.pitch_max,
-                                   self.pitch_pressure)
-        F += self._strip_to_body @ np.concatenate([cross(r_s, fs), fs], axis=1)
+        if self._foil:
+            F += self._foil_reference(R, p, w, v, current, frac, t, fin_state)
+        else:
+            r_s, fs = fin_strip_forces(R, w, v, current, self.el, frac, self.rho,
+                                       self.c_normal, self.c_friction, self.pitch_max,
+                                       self.pitch_pressure)
+            F += self._strip_to_body @ np.concatenate([cross(r_s, fs), fs], axis=1)
         # The isotropic added mass is in the mass matrix: cancel its weight.
         F[0, 5] += self.added_mass_iso * self.g
         if hull_accel_W is not None:
@@ -454,7 +538,29 @@ class HydrodynamicForces(LeafSystem):
                                                self.residual_added_inertia, body_frac[0])
         return F
 
-    def compute_from_state(self, x, balloon_volume: float, t: float, v_prev) -> np.ndarray:
+    def _foil_reference(self, R, p, w, v, current, frac, t: float, fin_state) -> np.ndarray:
+        """The foil model's strip and added-mass-body forces by the numpy functions."""
+        lag, prev = self._fin_state_or_rest(fin_state)
+        f = self._foil_reference_args
+        S, _, _ = foil.strip_wrenches(R, w, v, current, f["strips"], frac, lag, f["params"])
+        bodies = f["bodies"]
+        nm = len(bodies["body"])
+        a_n = foil.added_mass_normal_acceleration(R, w, v, bodies, prev[:nm], prev[nm], t)
+        A, _ = foil.added_mass_body_wrenches(R, p, w, v, current, bodies,
+                                             self._foil_packed["weights"] @ frac, a_n,
+                                             *self.CENTRING)
+        return S + A
+
+    def _fin_state_or_rest(self, fin_state):
+        """(lag, prev) of ``fin_state``, or at rest (zero lag, no earlier sample)."""
+        if fin_state is None:
+            return self._foil_packed["lag0"], self._foil_packed["prev0"]
+        lag, prev = fin_state
+        return (np.ascontiguousarray(lag, dtype=float).reshape(-1, 2),
+                np.ascontiguousarray(prev, dtype=float))
+
+    def compute_from_state(self, x, balloon_volume: float, t: float, v_prev,
+                           fin_state=None) -> np.ndarray:
         """The spatial forces the system outputs at the plant state ``x`` = [q, v] and time
         ``t`` (needs ``inputs="plant_state"``), by its ``backend``; a time-varying
         ``current_schedule`` is read at ``t``.
@@ -465,11 +571,12 @@ class HydrodynamicForces(LeafSystem):
             t: the time [s].
             v_prev: (14,) the velocity samples of the discrete state: two [v_W (3),
                 w_W (3), t] of the hull, newest first (t < 0: none).
+            fin_state: the foil model's discrete state, as ``compute``'s.
         """
         self._require_plant_state("compute_from_state")
         return self._from_state(np.ascontiguousarray(x, dtype=float), float(balloon_volume),
                                 float(t), np.ascontiguousarray(v_prev, dtype=float),
-                                self._current_now(float(t)))
+                                self._current_now(float(t)), fin_state)
 
     def generalized_forces(self, x, F) -> np.ndarray:
         """J^T F at the plant state ``x`` (needs ``inputs="plant_state"``): the generalized
@@ -500,16 +607,19 @@ class HydrodynamicForces(LeafSystem):
         return self._prm_now
 
     def _from_state(self, x, balloon_volume: float, t: float, v_prev,
-                    current=None) -> np.ndarray:
+                    current=None, fin_state=None) -> np.ndarray:
         if self._compiled:  # one kernel call: kinematics, acceleration estimate, forces
             elements, strips, damping, _ = self._packed
-            return K.forces_from_state(x, self._nq, balloon_volume, t, v_prev, self._tree_i,
-                                       self._tree_f, elements, strips, damping,
-                                       self._params_with(current))
+            prm = self._params_with(current)
+            frac = np.empty(len(elements))
+            F, R, p, w, v = K.forces_from_state(x, self._nq, balloon_volume, t, v_prev,
+                                                self._tree_i, self._tree_f, elements, strips,
+                                                damping, prm, frac)
+            return self._add_foil_compiled(F, R, p, w, v, frac, prm, t, fin_state)
         R, p, w, v, _, _ = K.body_kinematics(x, self._nq, self._tree_i, self._tree_f)
         return self.compute_reference(R, p, w, v, balloon_volume,
                                       *_hull_acceleration(v[0], w[0], t, v_prev),
-                                      current=current)
+                                      current=current, t=t, fin_state=fin_state)
 
     # -- evaluation -----------------------------------------------------------------------------
 
@@ -532,12 +642,14 @@ class HydrodynamicForces(LeafSystem):
         t = context.get_time()
         v_prev = context.get_discrete_state(self._v_prev).get_value()
         current = self._current_now(t)
+        fin_state = self._fin_state(context)
         if self._plant_state:
-            F = self._from_state(self._state.Eval(context), balloon, t, v_prev, current)
+            F = self._from_state(self._state.Eval(context), balloon, t, v_prev, current,
+                                 fin_state)
         else:
             R, p, w, v = self._kinematics(context)
             F = self.compute(R, p, w, v, balloon, *_hull_acceleration(v[0], w[0], t, v_prev),
-                             current=current)
+                             current=current, t=t, fin_state=fin_state)
         if not math.isfinite(F.sum()):  # a NaN or inf anywhere makes the sum non-finite
             raise RuntimeError(
                 f"HydrodynamicForces: non-finite force at t = {t:.4f} s "
@@ -573,6 +685,39 @@ class HydrodynamicForces(LeafSystem):
         discrete_state.get_mutable_vector(self._held).SetFromVector(F.ravel())
         self._store_velocity(context, discrete_state)
 
+    def _fin_state(self, context):
+        """The foil model's (lag, prev) in ``context``, or None (the cross-flow model)."""
+        if not self._foil:
+            return None
+        return (context.get_discrete_state(self._lag).get_value(),
+                context.get_discrete_state(self._am_prev).get_value())
+
+    def _step_fin_state(self, context, discrete_state, dt: float) -> None:
+        """Advances the foil model's discrete state by one period ``dt`` from the state in
+        ``context``: the strips' Wagner lag and the added-mass bodies' normal velocity."""
+        if not self._foil:
+            return
+        R, p, w, v = (np.ascontiguousarray(a) for a in self._kinematics(context))
+        lag, _ = self._fin_state(context)
+        t = context.get_time()
+        current = self._current_now(t)
+        current = self.current if current is None else current
+        f = self._foil_packed
+        lag = np.ascontiguousarray(lag).reshape(-1, 2)
+        if self._compiled:
+            lag_next, q = FK.foil_state_step(R, w, v, np.ascontiguousarray(current, dtype=float),
+                                             f["strips"], f["params"], lag, f["bodies"], dt)
+        else:
+            ref = self._foil_reference_args
+            _, w34, speed = foil.strip_wrenches(R, w, v, current, ref["strips"],
+                                                np.ones(len(self.el["volume"])), lag,
+                                                ref["params"])
+            lag_next = foil.wagner_step(lag, w34, speed, ref["strips"]["chord"], dt)
+            body = ref["bodies"]["body"]
+            q = (v[body] * R[body][:, :, 2]).sum(axis=1)
+        discrete_state.get_mutable_vector(self._lag).SetFromVector(lag_next.ravel())
+        discrete_state.get_mutable_vector(self._am_prev).SetFromVector(np.r_[q, t])
+
     def _store_velocity(self, context, discrete_state):
         """Shifts the hull's velocity samples: [now, the newest before]."""
         samples = discrete_state.get_mutable_vector(self._v_prev).get_mutable_value()
@@ -588,6 +733,7 @@ class HydrodynamicForces(LeafSystem):
             V = self._velocities.Eval(context)[self.body_indices[0]]
             samples[:3], samples[3:6] = V.translational(), V.rotational()
         samples[6] = context.get_time()
+        self._step_fin_state(context, discrete_state, self._fin_period)
 
 
 def _hull_acceleration(v_hull, w_hull, t: float, v_prev):
@@ -612,3 +758,27 @@ def _is_real(value) -> bool:
     """A real number (not a bool, string or array)."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
         value, (bool, np.bool_))
+
+
+def _added_mass_bodies(plant, hydro_bodies) -> dict:
+    """The fins' added-mass bodies of ``plant`` (``model.plant.add_fin_added_mass_bodies``):
+    their BodyIndex values and, as rows of the force system's body list (the hydro bodies
+    first, then these), each one's row, its plate's row, mass, moment about the plate's
+    normal and joint frame on the plate."""
+    instance = plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)
+    rows = {int(b): k for k, b in enumerate(hydro_bodies)}
+    joints = [plant.get_joint(j) for j in plant.GetJointIndices(instance)]
+    out = {"index": [], "body": [], "plate": [], "mass": [], "inertia_normal": [], "R_PF": [],
+           "p_PF": []}
+    for k, joint in enumerate(joints):
+        body = joint.child_body()
+        X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
+        out["index"].append(body.index())
+        out["body"].append(len(hydro_bodies) + k)
+        out["plate"].append(rows[int(joint.parent_body().index())])
+        out["mass"].append(body.default_mass())
+        out["inertia_normal"].append(
+            body.default_rotational_inertia().CopyToFullMatrix3()[2, 2])
+        out["R_PF"].append(X_PF.rotation().matrix())
+        out["p_PF"].append(X_PF.translation())
+    return {k: (v if k == "index" else np.array(v)) for k, v in out.items()}

@@ -144,6 +144,8 @@ class _Elements:
     strip_n: list = dc.field(default_factory=list)
     strip_area: list = dc.field(default_factory=list)
     strip_c: list = dc.field(default_factory=list)  # unit chord direction, to the leading edge
+    strip_s: list = dc.field(default_factory=list)  # unit span direction, outward
+    strip_chord: list = dc.field(default_factory=list)  # chord length [m]
     strip_element: list = dc.field(default_factory=list)  # its volume element
 
 
@@ -189,6 +191,8 @@ def build_elements(coeffs: HydroCoefficients, params: RobotParams = DEFAULT_ROBO
                 e.strip_p.append(centre)
                 e.strip_n.append([1.0, 0.0, 0.0])
                 e.strip_c.append(np.eye(3)[chord_axis] * chord_sign)
+                e.strip_s.append(direction)
+                e.strip_chord.append(chord)
                 e.strip_area.append(chord * ds)
     arrays = {f.name: np.array(getattr(e, f.name), dtype=float) for f in dc.fields(e)}
     for name in ("body", "strip_body", "strip_element"):
@@ -243,7 +247,10 @@ def buoyancy_wrenches(R, p, elements, rho: float, g: float):
     if to_body is None:
         to_body = np.eye(nb)[:, el["body"]]
     body_volume = to_body @ el["volume"]
-    return to_body @ elem, frac, (to_body @ (el["volume"] * frac)) / body_volume
+    submerged = to_body @ (el["volume"] * frac)
+    body_fraction = np.divide(submerged, body_volume, out=np.zeros_like(submerged),
+                              where=body_volume > 0)  # no volume (added-mass bodies): 0
+    return to_body @ elem, frac, body_fraction
 
 
 def balloon_wrench(R_hull, p_hull, mount_B, volume: float, rho: float, g: float):

@@ -293,7 +293,7 @@ def _submersion(p0, p1, p2, R, A0, A1, A2):
 
 @njit(cache=True)
 def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements, strips,
-                     damping, prm):
+                     damping, prm, frac):
     """``HydrodynamicForces.compute_reference`` compiled: (nb, 6) rows [tau_W, f_W].
 
     Args:
@@ -302,13 +302,13 @@ def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements
         hull_accel: (6,) [a_W, alpha_W] of the hull, used when ``has_accel``.
         elements, strips: ``pack_elements``; damping: (nb, 12) [d_lin, d_quad];
         prm: ``pack_params``.
+        frac: (ne,) filled with each volume element's submerged fraction.
     """
     nb = R.shape[0]
     ne = elements.shape[0]
     ns = strips.shape[0]
     rho, g = prm[P_RHO], prm[P_G]
     F = np.zeros((nb, 6))
-    frac = np.empty(ne)
     body_volume = np.zeros(nb)
     body_submerged = np.zeros(nb)
     # Buoyancy of each volume element (water.buoyancy_wrenches).
@@ -329,7 +329,10 @@ def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements
         F[b, 5] += lift
         body_volume[b] += volume
         body_submerged[b] += volume * fe
-    body_frac = body_submerged / body_volume
+    body_frac = np.zeros(nb)  # bodies without a volume (the added-mass bodies): 0
+    for b in range(nb):
+        if body_volume[b] > 0.0:
+            body_frac[b] = body_submerged[b] / body_volume[b]
     # The balloon (water.balloon_wrench).
     if balloon_volume > 1e-9:
         radius = (3.0 * balloon_volume / (4.0 * np.pi)) ** (1.0 / 3.0)
@@ -510,11 +513,13 @@ def hull_acceleration(v_hull, w_hull, t, v_prev):
 
 @njit(cache=True)
 def forces_from_state(x, nq, balloon_volume, t, v_prev, tree_i, tree_f, elements, strips,
-                      damping, prm):
+                      damping, prm, frac):
     """``spatial_wrenches`` from the plant's state x = [q, v] in one call (kinematics, the
     hull's acceleration estimate from ``v_prev`` as in ``hull_acceleration``, forces):
-    one crossing from Python instead of three."""
+    one crossing from Python instead of three. Returns (F, R, p, w, v): the forces and
+    the kinematics they came from."""
     R, p, w, v, axis_W, origin_W = body_kinematics(x, nq, tree_i, tree_f)
     accel, known = hull_acceleration(v[0], w[0], t, v_prev)
-    return spatial_wrenches(R, p, w, v, balloon_volume, accel, known, elements, strips,
-                            damping, prm)
+    F = spatial_wrenches(R, p, w, v, balloon_volume, accel, known, elements, strips,
+                         damping, prm, frac)
+    return F, R, p, w, v

@@ -3,8 +3,11 @@ the run loop on a real Dask cluster (a cheap quadratic with a known minimum inje
 evaluator), restarts, failed candidates, a tiny real optimisation of a shipped spec and the
 command against a separately started scheduler and worker."""
 
+import csv
+import io
 import json
 import math
+import os
 import pathlib
 import subprocess
 import sys
@@ -15,6 +18,7 @@ import pytest
 
 from manta_drake.cli import main
 from manta_drake.cluster import dask_client
+from manta_drake.config_io import short_repr
 from manta_drake.control.gait_files import load_gait_file
 from manta_drake.optimize import (
     METRICS,
@@ -41,6 +45,7 @@ from manta_drake.optimize.parameters import (
 from manta_drake.optimize.spec import FreeEntry
 from manta_drake.scenario import load_scenario
 from manta_drake.simulate import run
+from manta_drake.sweep.config import SweepError
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 SHIPPED = sorted((REPO / "diagrams" / "optimize").glob("*.yaml"))
@@ -161,7 +166,7 @@ def test_spec_errors_are_one_line_naming_the_field(tmp_path, edit, message):
         load_problem(path)
     text = str(info.value)
     assert "\n" not in text
-    assert text.startswith(message), text
+    assert text.startswith(f"{path}: {message}"), text
 
 
 def test_cli_refuses_a_bad_spec_in_one_line_before_any_run(tmp_path, capsys):
@@ -363,6 +368,16 @@ def test_restart_reuses_done_generations_and_an_interrupted_one(tmp_path):
 
     assert place(broken / "history.csv") == place(out / "history.csv")
     np.testing.assert_array_equal(resumed.best_degrees, second.best_degrees)
+    # The saved states (plain JSON: what CMA-ES was told) equal an uninterrupted run's.
+    straight = tmp_path / "straight"
+    run_optimization(load_problem(spec, generations=3), straight,
+                     evaluate=quadratic_evaluator(), progress=False)
+    states = [json.loads((d / "state.json").read_text()) for d in (out, broken, straight)]
+    assert len(states[2]["generations"]) == 3 and states[2]["pending"] is None
+    for key in ("generations", "generator", "identity"):
+        assert states[0][key] == states[1][key] == states[2][key], key
+    assert place(straight / "history.csv") == place(out / "history.csv")
+    assert not any((d / "state.pkl").exists() for d in (out, broken, straight))
     # Another population is another optimisation: refused, naming what differs.
     with pytest.raises(OptimizeError, match=r"different population \(6 there, 4 now\)"):
         run_optimization(load_problem(spec, population=4), out,
@@ -414,6 +429,270 @@ def test_runs_without_the_objectives_metric_give_no_gait(tmp_path):
     assert {r["cost"] for r in rows} == {1e6}
     assert not result.best_ok and result.best_gait_file is None
     assert not (tmp_path / "out" / "best_gait.yaml").exists()
+
+
+# --- what a restart reads back: state.json, history.csv, never a pickle ------------------------
+
+class _Planted:
+    """A pickle whose loading creates ``marker`` (what a planted state.pkl could do)."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def _counting():
+    calls = []
+
+    def evaluate(task):
+        calls.append(task["key"])
+        return quadratic(task)
+    return evaluate, calls
+
+
+def test_a_planted_state_pkl_is_refused_and_never_unpickled(tmp_path, capsys):
+    import pickle
+
+    payload = pickle.dumps(_Planted(tmp_path / "proof"))
+    pickle.loads(payload)  # the payload is live: loading it runs its code
+    assert (tmp_path / "proof").is_file()
+    marker = tmp_path / "marker"
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "state.pkl").write_bytes(pickle.dumps(_Planted(marker)))
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC)
+    assert main(["optimize", str(spec), "--out", str(out), "--workers", "0", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    assert f"{out / 'state.pkl'} is the restart state of an earlier version, a pickle, and " \
+           "is no longer read (unpickling runs whatever code the file names" in err
+    evaluate, calls = _counting()
+    with pytest.raises(OptimizeError, match="no longer read"):
+        run_optimization(load_problem(spec, generations=1), out, evaluate=evaluate,
+                         progress=False)
+    assert not marker.exists() and calls == []
+    assert sorted(p.name for p in out.iterdir()) == ["state.pkl"]  # nothing simulated
+
+
+def test_a_search_without_its_state_asks_again_what_the_table_holds(tmp_path):
+    """The advice of the refusal above: with the state deleted, the search starts again,
+    asks the same candidates and simulates none the table holds."""
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC)
+    out = tmp_path / "out"
+    run_optimization(load_problem(spec, generations=2), out, evaluate=quadratic_evaluator(),
+                     progress=False)
+    (out / "state.json").unlink()
+    again = run_optimization(load_problem(spec, generations=2), out,
+                             evaluate=quadratic_evaluator(), progress=False)
+    assert again.reused == 2 * 6 * 2 and again.simulated == 1  # the best gait's re-run only
+
+
+@pytest.fixture(scope="module")
+def one_generation(tmp_path_factory):
+    """A finished one-generation search of the quadratic: its folder's files."""
+    folder = tmp_path_factory.mktemp("one")
+    spec = write(folder / "quadratic.yaml", QUADRATIC_SPEC)
+    run_optimization(load_problem(spec, generations=1), folder / "out",
+                     evaluate=quadratic_evaluator(), progress=False)
+    return {"spec": QUADRATIC_SPEC, "state": (folder / "out" / "state.json").read_text(),
+            "history": (folder / "out" / "history.csv").read_text()}
+
+
+def _edit_state(edit):
+    def apply(text):
+        data = json.loads(text)
+        edit(data)
+        return json.dumps(data)
+    return apply
+
+
+def _first_candidate_nudged(data):
+    x = data["generations"][0]["candidates"][1]
+    x[0] = float(np.nextafter(x[0], 2.0))  # one bit
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda t: t[:len(t) // 2], "not an optimisation state (not JSON: "),
+    (lambda t: "[1, 2]", "not an optimisation state this version writes (its root is a list"),
+    (_edit_state(lambda d: d.update(format=1)), "(format 1; this version writes 2)"),
+    (_edit_state(lambda d: d.update(kind="pickle")), "(kind 'pickle', not "),
+    (_edit_state(lambda d: d.update(extra=1)), "(unknown key 'extra')"),
+    (_edit_state(lambda d: d.pop("generator")), "(no generator)"),
+    (_edit_state(lambda d: d["generations"][0]["candidates"].pop()),
+     "(generations[0].candidates is not 6 lists of 2 finite numbers)"),
+    (_edit_state(lambda d: d["generations"][0]["costs"].__setitem__(0, "cheap")),
+     "(generations[0].costs is not a list of 6 numbers)"),
+    (_edit_state(lambda d: d.update(timings=[{"generation": 1}])),
+     "(timings[0] is not {generation, wall_s,"),
+    (_edit_state(lambda d: d.update(wall_time_s=-1)), "(wall_time_s -1 is not a time >= 0)"),
+    (_edit_state(lambda d: d["identity"].update(population=8)),
+     "holds an optimisation of another spec or options (different population (8 there, "),
+    (_edit_state(_first_candidate_nudged),
+     "does not replay: generation 1's candidates differ from the saved ones (written with "
+     "cma "),
+    (_edit_state(lambda d: d["generator"]["state"].update(state=1)),
+     "does not replay: the normal generator ends in another state than the saved one"),
+])
+def test_a_bad_state_json_is_refused_in_one_line_before_any_simulation(
+        tmp_path, one_generation, make, message):
+    out = tmp_path / "out"
+    out.mkdir()
+    write(out / "state.json", make(one_generation["state"]))
+    write(out / "history.csv", one_generation["history"])
+    spec = write(tmp_path / "quadratic.yaml", one_generation["spec"])
+    evaluate, calls = _counting()
+    with pytest.raises(OptimizeError) as info:
+        run_optimization(load_problem(spec, generations=2), out, evaluate=evaluate,
+                         progress=False)
+    text = str(info.value)
+    assert "\n" not in text and message in text, text
+    assert str(out) in text
+    assert calls == [] and not (out / "evaluations" / "g0002").exists()
+
+
+def test_a_state_json_too_large_or_not_a_file_is_never_read(tmp_path, one_generation):
+    from manta_drake.optimize.state import state_limit
+
+    spec = write(tmp_path / "quadratic.yaml", one_generation["spec"])
+    problem = load_problem(spec, generations=2)
+    out = tmp_path / "out"
+    out.mkdir()
+    limit = state_limit(problem)
+    assert limit < 16 << 20  # the bound of this small spec
+    with open(out / "state.json", "wb") as f:
+        f.truncate(limit + 1)  # sparse: never read
+    with pytest.raises(OptimizeError, match=rf"state.json: {limit + 1} bytes, more than the "
+                                            rf"{limit} a state of this spec takes"):
+        run_optimization(problem, out, evaluate=quadratic_evaluator(), progress=False)
+    (out / "state.json").unlink()
+    os.mkfifo(out / "state.json")  # opening it would block: refused unopened
+    with pytest.raises(SweepError, match=f"--out {out}: {out / 'state.json'} is a "):
+        run_optimization(problem, out, evaluate=quadratic_evaluator(), progress=False)
+
+
+def _history_with(text: str, line: int, column: str, value: str) -> str:
+    rows = list(csv.reader(io.StringIO(text)))
+    rows[line - 1][rows[0].index(column)] = value
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerows(rows)
+    return buffer.getvalue()
+
+
+@pytest.mark.parametrize("column, value, message", [
+    ("folder", "../../victim", "line 2: folder '../../victim' is not "
+                               "'evaluations/g0001/c000-p0-s0', the folder of its place"),
+    ("cost", "cheap", "line 2: cost 'cheap' is not valid"),
+    ("generation", "-1", "line 2: generation '-1' is not valid (a negative integer)"),
+    ("kind", "mine", "line 2: kind 'mine' is not one of search, best, held_out"),
+    ("key", "../x", "line 2: key '../x' is not 16 hex digits"),
+])
+def test_a_bad_history_row_is_refused_and_no_file_outside_is_touched(
+        tmp_path, one_generation, column, value, message):
+    """The search deletes logs in the folders the table names: a planted row must not make
+    it delete one outside the output folder."""
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "log.npz").write_bytes(b"a user's log")
+    out = tmp_path / "a" / "out"
+    out.mkdir(parents=True)
+    write(out / "state.json", one_generation["state"])
+    write(out / "history.csv", _history_with(one_generation["history"], 2, column, value))
+    spec = write(tmp_path / "quadratic.yaml", one_generation["spec"])
+    evaluate, calls = _counting()
+    with pytest.raises(OptimizeError) as info:
+        run_optimization(load_problem(spec, generations=2), out, evaluate=evaluate,
+                         progress=False)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(f"{out / 'history.csv'}: {message}"), text
+    assert calls == [] and (victim / "log.npz").read_bytes() == b"a user's log"
+
+
+def test_a_history_too_large_is_refused_unread(tmp_path, one_generation):
+    from manta_drake.optimize.run import history_limit
+
+    spec = write(tmp_path / "quadratic.yaml", one_generation["spec"])
+    problem = load_problem(spec, generations=2)
+    out = tmp_path / "out"
+    out.mkdir()
+    limit = history_limit(problem, 1)
+    with open(out / "history.csv", "wb") as f:
+        f.truncate(limit + 1)
+    with pytest.raises(OptimizeError, match=rf"history.csv: {limit + 1} bytes, more than the "
+                                            rf"{limit} this spec's search writes"):
+        run_optimization(problem, out, evaluate=quadratic_evaluator(), progress=False)
+
+
+# --- budgets and scenarios refused at load ------------------------------------------------------
+
+@pytest.mark.parametrize("budget, message", [
+    ("{duration: 1.5, steady_after: 1.0}",
+     "optimize.budget: duration 1.5 s and steady_after 1 s leave a steady window of 0.75 s "
+     "(from steady_after, at most half the run, to its end), under the 1 s the objective's u "
+     "needs: every simulation would be unscored; set duration to at least 2 s"),
+    ("{duration: 1.2, steady_after: 0.5}",
+     "optimize.budget: duration 1.2 s and steady_after 0.5 s leave a steady window of 0.7 s"),
+    ("{duration: 1.5}",
+     "optimize.budget: duration 1.5 s and steady_after 6 s (the scenario's) leave a steady "
+     "window of 0.75 s"),
+])
+def test_a_budget_without_a_steady_window_is_refused_before_any_simulation(
+        tmp_path, capsys, budget, message):
+    from manta_drake.simulate import MIN_STEADY_WINDOW
+
+    assert MIN_STEADY_WINDOW == 1.0  # the window the messages above quote
+    spec = write(tmp_path / "spec.yaml", BASE + f"budget: {budget}\n")
+    out = tmp_path / "out"
+    start = time.perf_counter()
+    assert main(["optimize", str(spec), "--out", str(out), "--workers", "0", "--quiet"]) == 2
+    assert time.perf_counter() - start < 20  # refused at load: not one simulation
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and f"{spec}: {message}" in err, err
+    assert not out.exists()
+
+
+def test_a_steady_window_of_exactly_the_minimum_and_an_objective_without_one_pass(tmp_path):
+    """duration 2 s after steady_after 5 s: the window is the run's second half, 1 s; an
+    objective of power alone needs no window at all."""
+    ok = write(tmp_path / "ok.yaml", BASE + "budget: {duration: 2.0, steady_after: 5.0}\n")
+    assert load_problem(ok).base.duration == 2.0
+    power = write(tmp_path / "power.yaml", BASE.replace("metric: u,", "metric: mean_power_w,")
+                  + "budget: {duration: 0.5}\n")
+    assert load_problem(power).base.duration == 0.5
+
+
+def _relative(target: pathlib.Path, folder: pathlib.Path) -> str:
+    return os.path.relpath(target, folder)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda d: _relative(pathlib.Path("/etc/passwd"), d),
+     "({}) is not a scenario file: the scenario file's root must be a mapping, got str"),
+    (lambda d: write(d / "broken.yaml", "duration: [\n").name,
+     "({}) is not a scenario file: not valid YAML: "),
+    (lambda d: write(d / "bad.yaml", "duration: -1\n").name,
+     "({}): duration: -1.0 is outside the allowed range (0, 3600] s"),
+    (lambda d: "no_such_scenario", "is neither a file (relative to {}) nor a shipped scenario; "
+                                   "shipped scenarios: "),
+    (lambda d: "x" * 5000, "is not a path ("),
+])
+def test_the_scenario_line_names_the_spec_and_scenario_and_what_is_wrong(
+        tmp_path, capsys, make, message):
+    if not pathlib.Path("/etc/passwd").is_file():
+        pytest.skip("no /etc/passwd")
+    folder = tmp_path / "a" / "b"
+    folder.mkdir(parents=True)
+    scenario = make(folder)
+    spec = write(folder / "spec.yaml", BASE.replace("locomotion_walk", scenario)
+                 + "budget: {duration: 3.0}\n")  # overrides present: not blamed
+    assert main(["optimize", str(spec), "--out", str(tmp_path / "out"), "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    named = f"{spec}: optimize.scenario: {short_repr(scenario)} "
+    resolved = (folder / scenario).resolve() if "neither" not in message else folder
+    assert named + message.format(resolved) in err, err
+    assert "overrides, --set or budget" not in err and len(err) < 600
 
 
 # --- real simulations ---------------------------------------------------------------------------

@@ -25,24 +25,28 @@ constraints. docs/optimize.md has the full format; in short::
 Outputs in ``--out DIR``: ``best_gait.yaml`` (a gait file with the best gait under the
 result's name and its provenance), ``history.csv`` (every simulation: where it was, the
 parameters in degrees, the metrics, the cost and its parts, the status and reason, the wall
-time and worker), ``convergence.png``, ``summary.json``, ``state.pkl`` (the CMA object: a
-restart continues from it), ``evaluations/gNNNN/cCCC-pP-sS/`` (each simulation's candidate
-gait file and metrics.json; the log only for the best candidate so far), ``best_run/`` (the
-best gait re-run at the scenario as it is, with its joints, states and trajectory figures)
-and ``held_out/`` (its re-check at the held-out points).
+time and worker), ``convergence.png``, ``summary.json``, ``state.json`` (what CMA-ES was
+told, as plain JSON: a restart rebuilds CMA-ES from it), ``evaluations/gNNNN/cCCC-pP-sS/``
+(each simulation's candidate gait file and metrics.json; the log only for the best
+candidate so far), ``best_run/`` (the best gait re-run at the scenario as it is, with its
+joints, states and trajectory figures) and ``held_out/`` (its re-check at the held-out
+points).
 
 Checked before any simulation, each refused with one line naming the field: the spec's keys
 and types, the entries (``R_deg[fx, pitch]``: no row fx), bounds (low < high, the start
 value inside), ties (not to the entry itself, one sign each, no entry set twice), the
-metrics, the constraints, the points (each resolved on the scenario), the budget and the
-output folder. A candidate the scenario refuses, a failed simulation or a missing metric
-is a row with its status and reason, costed ``objective.failed_cost``; the search goes on.
+metrics, the constraints, the points (each resolved on the scenario), the budget (its runs'
+steady window long enough for the objective's metrics) and the output folder (with the
+``state.json`` and ``history.csv`` a restart reads back). A candidate the scenario refuses,
+a failed simulation or a missing metric is a row with its status and reason, costed
+``objective.failed_cost``; the search goes on.
 
 The package, one module per step: ``spec`` (the file's dataclasses, ``OptimizeError``),
 ``loading`` (``load_problem``), ``parameters`` (entries, ties, the unit cube and gaits),
 ``objective`` (the metrics, the cost), ``evaluate`` (one simulation on a worker),
-``history`` (``history.csv``, keys, evaluation folders), ``run`` (``run_optimization``),
-``figure`` (``convergence.png``) and ``cli``.
+``history`` (``history.csv``, keys, evaluation folders), ``state`` (``state.json``, the
+restart state, replayed), ``run`` (``run_optimization``), ``figure`` (``convergence.png``)
+and ``cli``.
 """
 
 from manta_drake.optimize.cli import add_optimize_parser, optimize_main
@@ -72,7 +76,6 @@ from manta_drake.optimize.run import (
     FOLDERS,
     OUTPUTS,
     OptimizationResult,
-    load_state,
     run_optimization,
     write_best_gait,
 )
@@ -87,6 +90,7 @@ from manta_drake.optimize.spec import (
     Robustness,
     Term,
 )
+from manta_drake.optimize.state import STATE, load_state
 
 __all__ = [
     # the spec
@@ -99,8 +103,8 @@ __all__ = [
     # simulations and records
     "simulate_candidate", "HISTORY", "evaluation_key", "history_columns", "read_history",
     # the search
-    "run_optimization", "OptimizationResult", "load_state", "write_best_gait", "OUTPUTS",
-    "FOLDERS",
+    "run_optimization", "OptimizationResult", "load_state", "STATE", "write_best_gait",
+    "OUTPUTS", "FOLDERS",
     # the command line
     "add_optimize_parser", "optimize_main",
 ]

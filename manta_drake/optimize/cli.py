@@ -31,7 +31,7 @@ def add_optimize_parser(subparsers) -> None:
                     "simulations in parallel on Dask; writes DIR/best_gait.yaml, "
                     "DIR/history.csv, DIR/convergence.png, DIR/summary.json and the best "
                     "gait's re-run in DIR/best_run/. The same command again continues from "
-                    "DIR/state.pkl. Exit status 1 when no candidate ran, 2 when the input "
+                    "DIR/state.json. Exit status 1 when no candidate ran, 2 when the input "
                     "is refused.")
     p.add_argument("spec", help="optimisation spec YAML file (docs/optimize.md)")
     p.add_argument("--out", required=True, help="output folder (a restart continues there)")

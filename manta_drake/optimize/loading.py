@@ -1,7 +1,8 @@
 """Reading an optimisation spec: ``load_problem`` checks every field of the file and the
 command line's overrides, resolves the scenario, the start gait and every robustness and
 held-out point, and returns the ``Problem`` the run works on. Nothing is simulated; every
-refusal is one line naming the field (``optimize.free[1].tie[0]``) or the option."""
+refusal is one line naming the spec file and the field (``spec.yaml: optimize.free[1].tie[0]:
+...``) or the option."""
 
 from __future__ import annotations
 
@@ -13,10 +14,10 @@ import pathlib
 import re
 import tempfile
 
-from manta_drake.config_io import ScenarioError, load_yaml_mapping
+from manta_drake.config_io import ScenarioError, load_yaml_mapping, short_repr
 from manta_drake.control.gait_files import RESERVED_NAMES
 from manta_drake.optimize.evaluate import candidate_overrides
-from manta_drake.optimize.objective import METRICS
+from manta_drake.optimize.objective import METRICS, STEADY_METRICS, needed_metrics
 from manta_drake.optimize.parameters import (
     ParameterSpace,
     build_parameters,
@@ -34,6 +35,7 @@ from manta_drake.optimize.spec import (
     Term,
 )
 from manta_drake.scenario import Scenario, find_scenario, load_scenario, scenario_yaml
+from manta_drake.simulate import MIN_STEADY_WINDOW
 from manta_drake.sweep.config import check_config_keys, check_parameter_name
 from manta_drake.sweep.plan import apply_overrides
 
@@ -137,10 +139,21 @@ def load_problem(path, sets: dict | None = None, generations: int | None = None,
         seed: replaces the spec's ``seed``.
 
     Raises:
-        OptimizeError: one line naming the field or option (module docstring).
+        OptimizeError: one line naming the spec file and the field, or the option (module
+            docstring).
     """
     path = pathlib.Path(path)
     data, text = load_yaml_mapping(path, "optimisation spec", OptimizeError)
+    try:
+        return _load(path, data, text, sets, generations, population, duration, seed)
+    except OptimizeError as e:
+        if str(e).startswith(f"{ROOT}."):  # a field of the file: name the file
+            raise OptimizeError(f"{path}: {e}") from None
+        raise
+
+
+def _load(path: pathlib.Path, data: dict, text: str, sets, generations, population,
+          duration, seed) -> Problem:
     spec = _build(data, path, text)
     budget = spec.budget
     for option, field, value in (("--generations", "generations", generations),
@@ -216,16 +229,67 @@ def _metric(name, where: str) -> None:
 
 
 def _scenario_path(spec: OptimizeSpec) -> pathlib.Path:
+    """The scenario file the spec names (relative to the spec's folder, or shipped)."""
+    where = f"{ROOT}.scenario"
     if not isinstance(spec.scenario, str) or not spec.scenario.strip():
-        raise OptimizeError(f"{ROOT}.scenario: name a scenario (a shipped name such as "
+        raise OptimizeError(f"{where}: name a scenario (a shipped name such as "
                             "locomotion_walk, or a path relative to the spec file)")
     candidate = spec.folder / spec.scenario
-    if candidate.is_file():
-        return candidate
     try:
+        if candidate.is_file():
+            return candidate
         return find_scenario(spec.scenario)
     except ScenarioError as e:
-        raise OptimizeError(f"{ROOT}.scenario: {e}") from None
+        raise OptimizeError(f"{where}: {short_repr(spec.scenario)} is neither a file "
+                            f"(relative to {spec.folder}) nor a shipped scenario; "
+                            f"{_after_path(str(e), spec.scenario)}") from None
+    except (OSError, ValueError) as e:  # a name too long for a path, a NUL byte
+        raise OptimizeError(f"{where}: {short_repr(spec.scenario)} is not a path "
+                            f"({short_repr(' '.join(str(e).split()), 60)})") from None
+
+
+def _after_path(message: str, path) -> str:
+    """A scenario message without its leading path (the caller names the file)."""
+    message = " ".join(message.split())
+    for prefix in (f"{path}: ", f"scenario file not found: {path} "):
+        if message.startswith(prefix):
+            return message[len(prefix):].strip("() ")
+    return message
+
+
+def _load_scenario_file(spec: OptimizeSpec, path: pathlib.Path) -> Scenario:
+    """The scenario the spec names, alone; the file and then its content checked, each
+    refusal naming ``scenario``, what the spec says and the file it resolved to."""
+    named = f"{ROOT}.scenario: {short_repr(spec.scenario)} ({path.resolve()})"
+    try:
+        load_yaml_mapping(path, "scenario")
+    except ScenarioError as e:
+        raise OptimizeError(f"{named} is not a scenario file: {_after_path(str(e), path)}") \
+            from None
+    try:
+        return load_scenario(path)
+    except ScenarioError as e:
+        raise OptimizeError(f"{named}: {_after_path(str(e), path)}") from None
+
+
+def _check_steady_window(spec: OptimizeSpec, base: Scenario) -> None:
+    """The runs' steady window (``simulate.run``'s: from steady_after, at most half the
+    run, to its end) at least ``MIN_STEADY_WINDOW`` long when the objective needs one of its
+    metrics: else every simulation would be unscored."""
+    steady = [m for m in needed_metrics(spec.objective) if m in STEADY_METRICS]
+    duration, after = base.duration, base.steady_after
+    window = duration - min(after, 0.5 * duration)
+    if not steady or window >= MIN_STEADY_WINDOW:
+        return
+    source = ["" if getattr(spec.budget, f) is not None else " (the scenario's)"
+              for f in ("duration", "steady_after")]
+    need = min(after + MIN_STEADY_WINDOW, 2 * MIN_STEADY_WINDOW)
+    raise OptimizeError(
+        f"{ROOT}.budget: duration {duration:g} s{source[0]} and steady_after {after:g} "
+        f"s{source[1]} leave a steady window of {window:g} s (from steady_after, at most half "
+        f"the run, to its end), under the {MIN_STEADY_WINDOW:g} s the objective's "
+        f"{steady[0]} needs: every simulation would be unscored; set duration to at least "
+        f"{need:g} s")
 
 
 def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
@@ -247,11 +311,12 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
         extra["duration"] = spec.budget.duration
     if spec.budget.steady_after is not None:
         extra["steady_after"] = spec.budget.steady_after
+    scenario = _load_scenario_file(spec, scenario_path)
     try:
-        base = apply_overrides(load_scenario(scenario_path), extra)
+        base = apply_overrides(scenario, extra)
     except ScenarioError as e:
-        where = "overrides, --set or budget" if extra else "scenario"
-        raise OptimizeError(f"{ROOT}.{where}: {' '.join(str(e).split())}") from None
+        raise OptimizeError(f"{ROOT}.overrides, --set or budget: "
+                            f"{' '.join(str(e).split())}") from None
     base.visualization.meshcat = False
     if base.controller.mode != "gait":
         raise OptimizeError(f"{ROOT}.scenario: {scenario_path.name} has controller.mode "
@@ -275,6 +340,7 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
         i, field, text = off[0]
         raise OptimizeError(f"{ROOT}.free[{i}].{field}: {text}")
     _validate_objective(spec.objective)
+    _check_steady_window(spec, base)
     r = spec.robustness
     if not isinstance(r.points, list):
         raise OptimizeError(f"{ROOT}.robustness.points: expected a list of mappings")

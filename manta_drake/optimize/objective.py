@@ -45,6 +45,11 @@ METRICS = {
                                 "(entries, ties, Phi_prime partners) from the start gait",
 }
 
+# The metrics of the run's steady window (simulate.MIN_STEADY_WINDOW long at least): a run
+# without one gives none of them.
+STEADY_METRICS = ("u", "v", "abs_u", "abs_v", "speed", "yaw_rate", "abs_yaw_rate",
+                  "cot_electrical", "cot_mechanical")
+
 # Status of a simulation that ran to its end; anything else costs failed_cost.
 OK = "ok"
 

@@ -2,20 +2,21 @@
 in parallel on Dask (one task per candidate and robustness point and seed), restartable.
 
 The loop, per generation: ask CMA-ES for the population (generation 1's first candidate is
-the start gait itself, injected), save the state (``state.pkl``: the CMA object and the
-asked candidates), simulate every (candidate, point, seed) not already in ``history.csv``,
-write each result as it comes (its folder and the table, atomically), aggregate each
-candidate's costs, tell CMA-ES, keep the logs of the best candidate so far only, save the
-state again. Then the best gait is re-run at the scenario as it is (``best_run/``, with its
+the start gait itself, injected), save the state (``state.json``, module ``state``: the
+candidates and costs told so far and the asked ones), simulate every (candidate, point,
+seed) not already in ``history.csv``, write each result as it comes (its folder and the
+table, atomically), aggregate each candidate's costs, tell CMA-ES, keep the logs of the
+best candidate so far only, save the state again. Then the best gait is re-run at the scenario as it is (``best_run/``, with its
 figures) and at the held-out points (``held_out/``), and ``best_gait.yaml``,
 ``convergence.png`` and ``summary.json`` are written.
 
-A restart (the same spec and options, the same ``--out``) loads ``state.pkl`` and goes on:
-an interrupted generation asks nothing new (its candidates are in the state) and reuses
-every simulation the table holds; a finished one goes to the next generation, up to the
-(possibly raised) ``--generations``. The random numbers CMA-ES draws are its own
-(``numpy.random.default_rng(seed)``, pickled with it), so a run interrupted and restarted
-asks exactly the candidates of one that was not.
+A restart (the same spec and options, the same ``--out``) loads ``state.json``, rebuilds
+CMA-ES by replaying its asks and tells (each replayed candidate checked against the saved
+one, bit for bit) and goes on: an interrupted generation asks nothing new (its candidates
+are in the state) and reuses every simulation the table holds; a finished one goes to the
+next generation, up to the (possibly raised) ``--generations``. The random numbers CMA-ES
+draws are its own (``numpy.random.default_rng(seed)``, replayed with it), so a run
+interrupted and restarted asks exactly the candidates of one that was not.
 """
 
 from __future__ import annotations
@@ -28,7 +29,6 @@ import json
 import math
 import os
 import pathlib
-import pickle
 import subprocess
 import sys
 import time
@@ -39,10 +39,13 @@ import numpy as np
 from manta_drake.optimize.evaluate import simulate_candidate
 from manta_drake.optimize.history import (
     HISTORY,
+    HISTORY_SLACK_BYTES,
+    MAX_ROW_BYTES,
     evaluation_folder,
     evaluation_key,
     finite_or_none,
     read_history,
+    short_reason,
     write_evaluation,
     write_history,
 )
@@ -54,30 +57,23 @@ from manta_drake.optimize.objective import (
     score,
 )
 from manta_drake.optimize.parameters import candidate_gait_text
-from manta_drake.optimize.spec import OptimizeError
+from manta_drake.optimize.state import (
+    STATE,
+    SearchState,
+    load_state,
+    new_search,
+    save_state,
+)
 from manta_drake.simulate import interrupts_as_exceptions
 from manta_drake.sweep.config import check_out_folder
 from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
 
 # What run_optimization writes in its output folder (files, then folders).
-OUTPUTS = ("best_gait.yaml", HISTORY, "convergence.png", "summary.json", "state.pkl")
+OUTPUTS = ("best_gait.yaml", HISTORY, "convergence.png", "summary.json", STATE)
 FOLDERS = ("evaluations", "best_run", "held_out")
-STATE = "state.pkl"
-STATE_FORMAT = 1
 # Status of a simulation that ran to its end without a metric the objective needs (no steady
 # window for a mean velocity, no speed for a cost of transport): costed failed_cost.
 UNSCORED = "unscored"
-
-
-class _Normal:
-    """CMA-ES's normal samples from a generator of its own (``randn`` option): seeded by
-    the spec, pickled with the CMA object, so a restart draws what the first run would."""
-
-    def __init__(self, seed: int):
-        self.rng = np.random.default_rng(seed)
-
-    def __call__(self, *shape):
-        return self.rng.standard_normal(shape)
 
 
 @dc.dataclass
@@ -150,42 +146,6 @@ def spec_path_text(path) -> str:
         return str(path.relative_to(REPO))
     except ValueError:
         return str(path)
-
-
-def _atomic_pickle(path: pathlib.Path, obj) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "wb") as f:
-        pickle.dump(obj, f)
-    os.replace(tmp, path)
-
-
-def load_state(out_dir: pathlib.Path, problem: Problem) -> dict | None:
-    """The saved state of an optimisation in ``out_dir``, or None if there is none.
-
-    Raises:
-        OptimizeError: the state is unreadable or belongs to another spec or options.
-    """
-    path = out_dir / STATE
-    if not path.is_file():
-        return None
-    try:
-        with open(path, "rb") as f:
-            state = pickle.load(f)
-    except Exception as e:  # a truncated or foreign file
-        raise OptimizeError(f"--out {out_dir}: {STATE} cannot be read ({type(e).__name__}); "
-                            "use another --out (or delete the folder)") from None
-    if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
-        raise OptimizeError(f"--out {out_dir}: {STATE} is not an optimisation state of this "
-                            "version; use another --out")
-    mine, theirs = problem.identity(), state.get("identity", {})
-    different = [k for k in mine if mine[k] != theirs.get(k)]
-    if different:
-        what = ", ".join(f"{k} ({theirs.get(k)} there, {mine[k]} now)"
-                         if k in ("population", "seed") else k for k in different)
-        raise OptimizeError(f"--out {out_dir}: holds an optimisation of another spec or "
-                            f"options (different {what}); run with what it was started with "
-                            "(only --generations may change) or use another --out")
-    return state
 
 
 class _Table:
@@ -266,11 +226,11 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
         all run (every candidate failed).
 
     Raises:
-        OptimizeError: the output folder cannot take the outputs, or holds an optimisation
-            of another spec (before any simulation).
+        OptimizeError: the output folder cannot take the outputs, holds an optimisation of
+            another spec, a ``state.json`` or ``history.csv`` that is malformed or does not
+            replay, or an earlier version's ``state.pkl`` (never opened); before any
+            simulation.
     """
-    import cma
-
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
     spec, space = problem.spec, problem.space
@@ -282,40 +242,7 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
     identity = problem.identity()
     points, seeds = spec.points(), list(spec.robustness.seeds)
     budget = spec.budget
-    state = load_state(out_dir, problem)
-    rows = {r["key"]: r for r in read_history(out_dir / HISTORY) if r.get("kind") == "search"}
-    if state is None:
-        es = cma.CMAEvolutionStrategy(
-            list(space.to_unit(space.start_vector())), budget.sigma0,
-            {"bounds": [0.0, 1.0], "popsize": budget.population, "seed": spec.seed + 1,
-             "randn": _Normal(spec.seed), "verbose": -9, "verb_log": 0, "verb_disp": 0})
-        # Generation 1's first candidate is the start gait itself: its cost is the one to
-        # beat. CMA-ES works on a genotype the bound handler maps into [0, 1]; the inverse
-        # map gives the genotype of the start (a start on a bound too).
-        es.inject([es.boundary_handler.inverse(space.to_unit(space.start_vector()))],
-                  force=True)
-        state = {"format": STATE_FORMAT, "identity": identity, "es": es, "generation": 0,
-                 "pending": None, "best": None, "wall_time_s": 0.0}
-    per_candidate = len(points) * len(seeds)
-    # The search's simulations, then the best gait's re-run and its held-out re-checks.
-    total = (max(budget.generations, state["generation"]) * budget.population * per_candidate
-             + 1 + len(spec.held_out.points) * len(spec.held_out_seeds()))
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, initial=min(len(rows), total), unit="sim", file=sys.stderr,
-                   desc=f"optimizing {spec.name}", dynamic_ncols=True)
-    runner = _Runner(client, evaluate, bar)
-    reused = 0
     scenario_sha = identity["scenario"]
-
-    def save_state() -> None:
-        state["wall_time_s"] = state.get("wall_time_s", 0.0) + (time.perf_counter() - clock[0])
-        clock[0] = time.perf_counter()
-        _atomic_pickle(out_dir / STATE, state)
-
-    clock = [started]
 
     def jobs_of(generation: int, candidates) -> list[dict]:
         out = []
@@ -331,6 +258,32 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
                                     seed, degrees, gait_text, keep_log=True))
         return out
 
+    state = load_state(out_dir, problem) or new_search(problem)
+    for generation, (candidates, costs) in enumerate(state.told, start=1):
+        state.best = _better(state.best, generation, costs, jobs_of(generation, candidates))
+    history = read_history(out_dir / HISTORY, space.names,
+                           max_bytes=history_limit(problem, state.generation))
+    rows = {r["key"]: r for r in history if r["kind"] == "search"}
+    final_rows: list[dict] = [r for r in history if r["kind"] != "search"]
+    per_candidate = len(points) * len(seeds)
+    # The search's simulations, then the best gait's re-run and its held-out re-checks.
+    total = (max(budget.generations, state.generation) * budget.population * per_candidate
+             + 1 + len(spec.held_out.points) * len(spec.held_out_seeds()))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=total, initial=min(len(rows), total), unit="sim", file=sys.stderr,
+                   desc=f"optimizing {spec.name}", dynamic_ncols=True)
+    runner = _Runner(client, evaluate, bar)
+    reused = 0
+    clock = [started]
+
+    def save() -> None:
+        state.wall_time_s += time.perf_counter() - clock[0]
+        clock[0] = time.perf_counter()
+        save_state(out_dir, state, identity)
+
     table = _Table(out_dir / HISTORY, space.names)
 
     def record(job: dict, outcome: dict) -> None:
@@ -340,68 +293,81 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
         rows[row["key"]] = row
         table.write(list(rows.values()) + final_rows)
 
-    final_rows: list[dict] = [r for r in read_history(out_dir / HISTORY)
-                              if r.get("kind") != "search"]
     stop = ""
     try:
         with interrupts_as_exceptions():
             while True:
-                t_generation, resumed = time.perf_counter(), state["pending"] is not None
-                if state["pending"] is None:
-                    if state["generation"] >= budget.generations:
+                t_generation, resumed = time.perf_counter(), state.pending is not None
+                if state.pending is None:
+                    if state.generation >= budget.generations:
                         n = budget.generations
                         stop = f"{n} generation{'s' if n != 1 else ''}"
                         break
-                    cma_stop = state["es"].stop()
+                    cma_stop = state.stop()
                     if cma_stop:
                         stop = "CMA-ES: " + ", ".join(f"{k} {v}" for k, v in cma_stop.items())
                         break
-                    state["pending"] = [np.asarray(x, dtype=float) for x in state["es"].ask()]
-                    state["generation"] += 1
-                    save_state()
-                generation = state["generation"]
-                jobs = jobs_of(generation, state["pending"])
+                    state.ask()
+                    save()
+                generation = state.generation
+                jobs = jobs_of(generation, state.pending)
                 todo = list({j["key"]: j for j in jobs if j["key"] not in rows
                              or rows[j["key"]]["status"] == "lost"}.values())
                 reused += sum(1 for j in jobs if j["key"] in rows
                               and rows[j["key"]]["status"] != "lost")
                 runner.run(todo, record)
                 costs = []
-                for c in range(len(state["pending"])):
+                for c in range(len(state.pending)):
                     mine = [rows[j["key"]] for j in jobs if j["candidate"] == c]
                     costs.append(aggregate([r["cost"] for r in mine],
                                            spec.robustness.aggregate))
                     for r in mine:
                         r["candidate_cost"] = costs[-1]
-                state["es"].tell(state["pending"], costs)
-                previous = state["best"]
-                c_best = int(np.argmin(costs))
-                if previous is None or costs[c_best] < previous["cost"]:
-                    state["best"] = {
-                        "generation": generation, "candidate": c_best,
-                        "unit": list(map(float, state["pending"][c_best])),
-                        "degrees": next(j["degrees"] for j in jobs if j["candidate"] == c_best),
-                        "cost": costs[c_best],
-                        "keys": [j["key"] for j in jobs if j["candidate"] == c_best]}
-                _prune_logs(out_dir, rows, state["best"])
+                state.tell(costs)
+                state.best = _better(state.best, generation, costs, jobs)
+                _prune_logs(out_dir, rows, state.best)
                 table.write(list(rows.values()) + final_rows, force=True)
-                state["pending"] = None
                 walls = [rows[j["key"]]["wall_time_s"] or 0.0 for j in todo]
-                state.setdefault("timings", []).append({
+                state.timings.append({
                     "generation": generation, "wall_s": time.perf_counter() - t_generation,
                     "simulated": len(todo), "reused": len(jobs) - len(todo),
                     "longest_simulation_s": max(walls, default=0.0),
                     "sum_simulation_s": float(sum(walls)), "resumed": resumed})
-                save_state()
-            final_rows = _final_stage(problem, out_dir, state["best"], runner, scenario_sha)
+                save()
+            final_rows = _final_stage(problem, out_dir, state.best, runner, scenario_sha)
     finally:
         # Every simulation finished so far is in the table, also after Ctrl-C.
         table.write(list(rows.values()) + final_rows, force=True)
         if bar is not None:
             bar.close()
-    save_state()
+    save()
     return _finish(problem, out_dir, state, rows, final_rows, runner.simulated, reused, stop,
                    time.perf_counter() - started, source=source)
+
+
+def _better(best: dict | None, generation: int, costs: list, jobs: list[dict]) -> dict | None:
+    """The best candidate after a told generation: its best candidate if it costs less than
+    ``best`` (the earlier one on a tie), else ``best``."""
+    c_best = int(np.argmin(costs))
+    if best is not None and not costs[c_best] < best["cost"]:
+        return best
+    mine = [j for j in jobs if j["candidate"] == c_best]
+    return {"generation": generation, "candidate": c_best, "degrees": mine[0]["degrees"],
+            "cost": float(costs[c_best]), "keys": [j["key"] for j in mine]}
+
+
+def history_limit(problem: Problem, generations: int) -> int:
+    """The largest history.csv the search of ``max(generations, budget.generations)``
+    generations writes [bytes]: its rows (search, best re-run, held out), each at most
+    ``MAX_ROW_BYTES`` and its point's overrides."""
+    spec = problem.spec
+    points = spec.points()
+    search = (max(generations, spec.budget.generations) * spec.budget.population
+              * len(points) * len(spec.robustness.seeds))
+    final = 1 + len(spec.held_out.points) * len(spec.held_out_seeds())
+    longest = max(len(json.dumps(p, sort_keys=True, default=str))
+                  for p in [*points, *spec.held_out.points])
+    return HISTORY_SLACK_BYTES + (search + final) * (MAX_ROW_BYTES + 2 * longest)
 
 
 def _job(problem: Problem, scenario_sha: str, kind: str, generation: int, candidate: int,
@@ -422,8 +388,8 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     space, spec = problem.space, problem.spec
     values = {m: finite_or_none((outcome.get("metrics") or {}).get(m)) for m in METRICS}
     values["distance_from_start_gait"] = space.distance_from_start(job["degrees"])
-    status = str(outcome.get("status", "error"))
-    reason = " ".join(str(outcome.get("reason", "") or "").split())
+    status = short_reason(outcome.get("status", "error"))[:80]
+    reason = short_reason(outcome.get("reason", ""))
     touched = bool(outcome.get("touched_wall", False))
     s = score(spec.objective, status, values, touched, reason)
     if s.failed and status == "ok":
@@ -433,9 +399,10 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     row.update(zip(space.names, job["degrees"]))
     row.update(values)
     row.update(objective=finite_or_none(s.objective), penalty=s.penalty, cost=s.cost,
-               candidate_cost=None, status=status, reason=s.reason if status == "ok" else reason,
+               candidate_cost=None, status=status,
+               reason=short_reason(s.reason) if status == "ok" else reason,
                touched_wall=touched, wall_time_s=finite_or_none(outcome.get("wall_time_s")),
-               worker=str(outcome.get("worker", "")),
+               worker=short_reason(outcome.get("worker", ""))[:200],
                overrides=json.dumps(job["overrides"], sort_keys=True),
                folder=evaluation_folder(job["kind"], job["generation"], job["candidate"],
                                         job["point"], job["seed"]))
@@ -530,13 +497,13 @@ def term_values(problem: Problem, rows: list[dict]) -> dict:
             "simulations": len(rows), "ok": len(ok)}
 
 
-def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
+def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: dict,
             final_rows: list[dict], simulated: int, reused: int, stop: str,
             wall_time: float, source: str = "") -> OptimizationResult:
     from manta_drake.optimize.figure import write_convergence_figure
 
     spec, space = problem.spec, problem.space
-    best = state["best"]
+    best = state.best
     start_rows = _candidate_rows(rows, 1, 0)
     start_cost = start_rows[0]["candidate_cost"] if start_rows else math.nan
     best_rows = _candidate_rows(rows, best["generation"], best["candidate"])
@@ -546,12 +513,12 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
         best_degrees=np.asarray(best["degrees"]), start_cost=float(start_cost),
         best_cost=float(best["cost"]), best_generation=best["generation"],
         best_candidate=best["candidate"], best_ok=best_ok,
-        generations=state["generation"] - (state["pending"] is not None),
+        generations=len(state.told),
         evaluations=len(rows), simulated=simulated, reused=reused,
         stop=stop or "done", wall_time_s=wall_time, out_dir=out_dir,
         held_out=[r for r in final_rows if r["kind"] == "held_out"],
         best_run=next((r for r in final_rows if r["kind"] == "best"), None),
-        timings=list(state.get("timings", [])), source=source)
+        timings=list(state.timings), source=source)
     (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
     if best_ok:
         result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
@@ -581,7 +548,7 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: dict, rows: dict,
         "evaluations": result.evaluations, "simulated_now": simulated, "reused_now": reused,
         "stop": result.stop, "wall_time_s": wall_time,
         "generation_timings": result.timings,
-        "wall_time_total_s": state.get("wall_time_s", 0.0),
+        "wall_time_total_s": state.wall_time_s,
         "best_gait": str(result.best_gait_file) if result.best_gait_file else None,
     }
     result.summary_file = out_dir / "summary.json"

@@ -8,6 +8,10 @@ the Systems' ``.. pydrake_system::`` port blocks as diagrams.
 import pathlib
 import sys
 
+# A build writes only into its output and cache folders: no __pycache__ in docs/_ext or the
+# package (``make docs DOCS_OUT=/elsewhere`` leaves the checkout as it was).
+sys.dont_write_bytecode = True
+
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "_ext"))
 sys.path.insert(0, str(HERE.parent))  # document the working tree's package

@@ -6,12 +6,14 @@ import html.parser
 import importlib
 import importlib.util
 import inspect
+import os
 import pathlib
 import pkgutil
 import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 import yaml
 from pydrake.systems.framework import Diagram, LeafSystem
@@ -24,11 +26,17 @@ GROUPS = ("station", "control")
 
 
 def sphinx_build(source: pathlib.Path, out: pathlib.Path, builder: str = "html"):
-    """Runs Sphinx as ``make docs`` does: warnings are errors."""
+    """Runs Sphinx as ``make docs`` does: warnings are errors; Python as a user runs it (free
+    to write bytecode)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     return subprocess.run(
         [sys.executable, "-m", "sphinx", "-b", builder, "-E", "-W", "--keep-going", "-q",
          "-d", str(out.parent / f"doctrees-{builder}"), str(source), str(out)],
-        capture_output=True, text=True, timeout=600, cwd=ROOT)
+        capture_output=True, text=True, timeout=600, cwd=ROOT, env=env)
+
+
+EXT_CACHE = DOCS / "_ext" / "__pycache__"
+EXT_CACHE_BEFORE = EXT_CACHE.exists()  # at collection, before any build of this module
 
 
 @pytest.fixture(scope="module")
@@ -38,6 +46,24 @@ def html_out(tmp_path_factory):
     assert result.returncode == 0, f"sphinx failed:\n{result.stdout}\n{result.stderr}"
     assert "WARNING" not in result.stderr and "ERROR" not in result.stderr, result.stderr
     return out
+
+
+def test_a_build_writes_nothing_into_the_checkout(html_out):
+    """docs/conf.py writes no bytecode (docs/_ext/__pycache__), and ``make docs`` puts Sphinx's
+    cache beside DOCS_OUT: in docs/_build by default, outside the checkout when DOCS_OUT is."""
+    assert EXT_CACHE_BEFORE or not EXT_CACHE.exists(), "the build wrote docs/_ext/__pycache__"
+    assert (html_out.parent / "doctrees-html").is_dir()
+
+    def sphinx_line(*args):
+        done = subprocess.run(["make", "-n", "docs", *args], cwd=ROOT, capture_output=True,
+                              text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        return next(line for line in done.stdout.splitlines() if "-m sphinx" in line)
+
+    outside = sphinx_line("DOCS_OUT=/tmp/site/html")
+    assert outside.endswith(" -d /tmp/site/doctrees docs /tmp/site/html"), outside
+    default = sphinx_line()
+    assert default.endswith(f" -d {ROOT}/docs/_build/doctrees docs docs/_build/html"), default
 
 
 class DiagramParser(html.parser.HTMLParser):
@@ -230,8 +256,8 @@ def _tiny_project(folder: pathlib.Path, body: str) -> pathlib.Path:
     source = folder / "src"
     source.mkdir()
     (source / "conf.py").write_text(
-        f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\n"
-        "extensions = ['pydrake_system']\n")
+        "import sys\nsys.dont_write_bytecode = True\n"
+        f"sys.path.insert(0, {str(DOCS / '_ext')!r})\nextensions = ['pydrake_system']\n")
     (source / "index.rst").write_text("Ports\n=====\n\n" + textwrap.dedent(body))
     return source
 
@@ -291,3 +317,73 @@ def test_labels_are_escaped_and_notes_split():
     svg = ext.render_svg("A<B", ["x (optional)"], ["y&z"])
     assert "A&lt;B" in svg and "y&amp;z" in svg and "<B" not in svg
     assert 'data-port="x"' in svg and "(optional)" in svg
+
+
+# --- docs/gaits.md ------------------------------------------------------------------------
+
+GAITS_PAGE = DOCS / "gaits.md"
+
+
+def _yaml_blocks(page: pathlib.Path) -> list[str]:
+    """The page's fenced YAML blocks, in order."""
+    text = page.read_text(encoding="utf-8")
+    return [part.split("```", 1)[0] for part in text.split("```yaml\n")[1:]]
+
+
+def test_the_gait_page_is_linked_where_the_gait_file_format_is_named():
+    assert GAITS_PAGE.is_file()
+    assert "](gaits.md)" in (DOCS / "index.md").read_text()
+    assert "](docs/gaits.md)" in (ROOT / "README.md").read_text()
+    header = (ROOT / "models" / "gaits.yaml").read_text().split("\ngaits:")[0]
+    named = [word.strip("`.,;:()") for word in header.split() if word.startswith(("docs/",
+                                                                                "manta_drake/"))]
+    assert "docs/gaits.md" in named
+    assert all((ROOT / path).exists() for path in named), named
+
+
+def test_the_gait_pages_example_loads_as_written(tmp_path):
+    """The page's ``my_gaits.yaml`` and ``my_scenario.yaml``, written side by side: the wider
+    trot takes the trot's other matrices, the second gait the wider trot's with the walk's
+    phases, and the page's second command (``--set controller.gait=wide_walk``) resolves."""
+    from manta_drake.control.gaits import GAITS
+    from manta_drake.scenario import load_scenario
+
+    _, gait_file, scenario_file = _yaml_blocks(GAITS_PAGE)
+    (tmp_path / "my_gaits.yaml").write_text(gait_file)
+    (tmp_path / "my_scenario.yaml").write_text(scenario_file)
+    s = load_scenario(tmp_path / "my_scenario.yaml")
+    wide, walk = s.gait("wide_trot"), s.gait("wide_walk")
+    np.testing.assert_allclose(np.degrees(wide.R[:, 0]), [30, -30, 30, -30])
+    for field in ("X", "Phi", "Phi_prime"):
+        np.testing.assert_array_equal(getattr(wide, field), getattr(GAITS["trot"], field))
+    np.testing.assert_array_equal(walk.Phi_prime, GAITS["walk"].Phi_prime)
+    np.testing.assert_array_equal(walk.R, wide.R)
+    assert s.controller.gait_files == [str(tmp_path / "my_gaits.yaml")]
+    text = GAITS_PAGE.read_text()
+    assert "--set controller.gait=wide_walk" in text
+    again = load_scenario(tmp_path / "my_scenario.yaml",
+                          overrides={"controller.gait": "wide_walk"})
+    assert again.controller.gait == "wide_walk"
+
+
+def test_the_gait_pages_limits_are_the_codes():
+    """The keys, the degree bound and the joints' ranges the page gives are the loader's and
+    the robot's."""
+    import math
+    import re
+
+    from manta_drake.control import gait_files as G
+    from manta_drake.model.robot_params import DEFAULT_ROBOT
+
+    text = " ".join(GAITS_PAGE.read_text().split())
+    keys = re.search(r"A gait's keys: (.*?); nothing else", text).group(1)
+    assert re.findall(r"`(\w+)`", keys) == list(G.GAIT_KEYS)
+    assert f"within +-{G.MAX_DEGREES:g} deg" in text
+    shown = re.search(r"the joints' ranges \(yaw \+-(\d+), roll1 \+-(\d+), pitch \+-(\d+), "
+                      r"roll2 \+-(\d+) deg\)", text)
+    assert shown, "docs/gaits.md: the joints' ranges are not given"
+    for value, (lo, hi) in zip(shown.groups(), DEFAULT_ROBOT.position_limits):
+        assert float(value) == pytest.approx(math.degrees(hi)) == pytest.approx(-math.degrees(lo))
+    keeps = re.search(r"`mirror_keep`: a list of (.*?)\. \*", text.split("## The limits")[1])
+    assert keeps and all(f"`{m}`" in keeps.group(1) for m in G.MIRRORED_MATRICES)
+    assert all(c in keeps.group(1) for c in G.JOINT_COLUMNS)

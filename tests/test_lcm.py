@@ -854,6 +854,20 @@ def _split_run(path, out, *args, wall_timeout=90.0):
             json.loads((out / "station_metrics.json").read_text()))
 
 
+def test_a_lockstep_run_without_dropouts_reports_none(tmp_path):
+    """0.1 s of the station and the controller in two processes, lockstep over udpm, with a
+    pressure sensor that drops nothing: the controller names and counts no dropout (the
+    station's depth from before its first sample, NaN, is no dropped reading), and its depth
+    estimate is finite from the first command on."""
+    path = _scenario_file(tmp_path, duration=0.1)
+    _, controller, _ = _split_run(path, tmp_path)
+    err = (tmp_path / "controller.err").read_text()
+    assert "dropout" not in err and "MANTA_DEPTH" not in err, err
+    assert json.loads((tmp_path / "controller_metrics.json").read_text())["incidents"] == {}
+    assert len(controller["z_hat"]) == len(controller["t_command"]) == 100
+    assert np.all(np.isfinite(controller["z_hat"]))
+
+
 @pytest.mark.slow
 def test_split_run_matches_the_single_diagram(tmp_path):
     """5 s of swim -> trot with the station and the controller in two processes, lockstep

@@ -359,3 +359,31 @@ def test_a_battery_the_controller_reads_is_a_dropped_reading_when_out_of_range()
         value, problems = screen_battery(np.array([1.5, 15.0, 2.0]), ranges)
         assert np.isnan(value).all()
         assert problems == [("ignored", f"state of charge 1.5 outside [0, 1]: ignored ({action})")]
+
+
+def test_the_stations_reading_before_its_first_sample_is_no_dropout(capsys):
+    """The station sends the controller its sensors as they are before its initialization
+    (what the single diagram's initialization events read): the pressure sensor has not
+    sampled yet and holds NaN. Screened as such (``before_start``) it passes on unreported;
+    the same NaN at a sample time is a dropped reading, named and counted, and a value out of
+    range before the start is still ignored."""
+    from manta_drake.seam import Incidents
+    from manta_drake.seam.limits import Guard
+
+    scenario = _scenario("two_behaviors")
+    assert scenario.pressure_sensor.dropout_rate == 0.0
+    station, _ = build_station(scenario)
+    before = station.GetOutputPort("depth").Eval(station.CreateDefaultContext())
+    assert np.isnan(before[0])  # what station_process sends stamped BEFORE_START_UTIME
+
+    incidents = Incidents("controller")
+    guard = Guard.for_controller(scenario, incidents)
+    got = guard.screen({"MANTA_DEPTH": before}, 0.0, before_start=True)
+    assert np.isnan(got["MANTA_DEPTH"][0])  # passed on: the estimator starts as in one diagram
+    assert incidents.counts == {} and capsys.readouterr().err == ""
+    guard.screen({"MANTA_DEPTH": np.array([np.nan])}, 0.02)
+    assert incidents.counts == {"MANTA_DEPTH": {"dropout": 1}}
+    assert "at t = 0.020 s: depth NaN (a dropped reading)" in capsys.readouterr().err
+    got = guard.screen({"MANTA_DEPTH": np.array([-1e6])}, 0.0, before_start=True)
+    assert np.isnan(got["MANTA_DEPTH"][0])
+    assert incidents.counts == {"MANTA_DEPTH": {"dropout": 1, "ignored": 1}}

@@ -801,3 +801,55 @@ def test_energy_block_becomes_energy_columns_in_the_documented_order(tmp_path):
     assert table[0]["energy.cost_of_transport"] == "3.1"
     assert table[0]["energy.electrical_energy_j"] == "80.25"
     assert table[1]["energy.cost_of_transport"] == "" and table[1]["status"] == "invalid"
+
+
+# --- the summary figure -----------------------------------------------------------------------
+
+def _figure_rows():
+    """A gait sweep over two bases (the second runs only the walk) and a numeric parameter;
+    one failed run."""
+    rows = []
+    for base, gait, u in (("locomotion_swim", "swim", 0.09), ("locomotion_swim", "trot", 0.06),
+                          ("locomotion_trot", "walk", 0.07)):
+        for seed in (0, 1):
+            rows.append({"run_id": f"{base}-{gait}-{seed}", "base": base, "seed": seed,
+                         "controller.gait": gait, "cpg.frequency_hz": 0.4 + 0.2 * seed,
+                         "status": "ok", "u": u + 0.001 * seed, "v": 0.0,
+                         "yaw_rate_deg_s": 1.0})
+    rows.append({"run_id": "bad", "base": "locomotion_swim", "seed": 0,
+                 "controller.gait": "crab", "cpg.frequency_hz": 0.4, "status": "failed",
+                 "u": None, "v": None, "yaw_rate_deg_s": None})
+    return rows
+
+
+def test_the_summary_figure_labels_categories_and_says_what_was_swept():
+    import matplotlib.pyplot as plt
+
+    from manta_drake.sweep.figure import summary_figure
+
+    fig = summary_figure(_figure_rows(), ["controller.gait", "cpg.frequency_hz"], "gaits")
+    try:
+        axes = np.array(fig.axes[:9]).reshape(3, 3)
+        title = fig._suptitle.get_text()
+        assert title.startswith("gaits: 6 runs ok, 1 not ok")
+        assert ("swept: controller.gait in {swim, trot, walk, crab}; cpg.frequency_hz in "
+                "{0.4, 0.6}; base locomotion_swim, locomotion_trot; seeds 0, 1") in title
+        # The box column: one box per base, named in full.
+        assert [t.get_text() for t in axes[0, 0].get_xticklabels()] == [
+            "locomotion_swim", "locomotion_trot"]
+        assert axes[0, 0].get_title() == "per base scenario"
+        # The gait axis: every gait a labelled position, the same for every base.
+        for row in axes:
+            assert [t.get_text() for t in row[1].get_xticklabels()] == [
+                "swim", "trot", "walk", "crab"]
+        assert axes[0, 1].get_title() == "against controller.gait"
+        assert axes[2, 1].get_xlabel() == "controller.gait"
+        swim_base, trot_base = axes[0, 1].get_lines()
+        np.testing.assert_array_equal(swim_base.get_xdata(), [0, 0, 1, 1])
+        np.testing.assert_allclose(swim_base.get_ydata(), [0.09, 0.091, 0.06, 0.061])
+        np.testing.assert_array_equal(trot_base.get_xdata(), [2, 2])  # walk: position 2
+        # A numeric parameter stays a numeric axis.
+        np.testing.assert_allclose(axes[0, 2].get_lines()[0].get_xdata(), [0.4, 0.6, 0.4, 0.6])
+        assert axes[2, 2].get_xlabel() == "cpg.frequency_hz"
+    finally:
+        plt.close(fig)

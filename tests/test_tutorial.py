@@ -1,6 +1,7 @@
 """docs/tutorial.ipynb: committed without outputs, and executed (nbclient, in a temporary
 working directory) it runs every step: the runs, the changed field, the gait given as data
-and the four-run sweep on a local Dask cluster, with the results the physics says."""
+and the four-run sweep on a local Dask cluster, with the results the physics says, each
+speed averaged over whole CPG cycles (at least two)."""
 
 import csv
 import json
@@ -44,6 +45,13 @@ def _metrics(folder: pathlib.Path) -> dict:
     return json.loads((folder / "metrics.json").read_text())
 
 
+def _assert_whole_cycles(window, frequency_hz: float, at_least: int) -> None:
+    """The steady window spans a whole number (at least ``at_least``) of CPG cycles."""
+    cycles = (window[1] - window[0]) * frequency_hz
+    assert cycles >= at_least and cycles == pytest.approx(round(cycles), abs=1e-9), \
+        (window, frequency_hz, cycles)
+
+
 def _scenario(folder: pathlib.Path) -> dict:
     return yaml.safe_load((folder / "scenario.yaml").read_text())
 
@@ -53,7 +61,8 @@ def test_the_runs_and_the_changed_field(executed):
     _, out = executed
     still, against = _metrics(out / "swim"), _metrics(out / "swim_current")
     for m in (still, against):
-        assert m["status"] == "ok" and m["sim_time_s"] == pytest.approx(4.0)
+        assert m["status"] == "ok" and m["sim_time_s"] == pytest.approx(6.0)
+        _assert_whole_cycles(m["steady_window_s"], 0.5, at_least=2)
     assert _scenario(out / "swim")["water"]["current"] == [0.0, 0.0, 0.0]
     assert _scenario(out / "swim_current")["water"]["current"] == [-0.03, 0.0, 0.0]
     # 3 cm/s of head current takes roughly that off the speed over the ground
@@ -92,7 +101,9 @@ def test_the_sweep_table(executed):
         assert resolved["cpg"]["frequency_hz"] == float(row[freq])
         assert resolved["water"]["coefficient_scales"] == {"body.linear_damping":
                                                            float(row[damping])}
-        assert resolved["duration"] == 4.0
+        assert resolved["duration"] == 7.0
+        window = (float(row["steady_start_s"]), float(row["steady_end_s"]))
+        _assert_whole_cycles(window, float(row[freq]), at_least=2)
 
 
 @pytest.mark.slow

@@ -289,7 +289,7 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
     if before_start:
         got = link.wait_for(lambda: link.take(before_start), startup_timeout,
                             lambda waited: None, on_timeout)
-        fix_inputs(controller, context, guard.screen(got, 0.0))
+        fix_inputs(controller, context, guard.screen(got, 0.0, before_start=True))
     for ex in schedule:
         first = wall_start is None
         if not first:

@@ -380,12 +380,15 @@ class Guard:
             "battery": lambda x, last: screen_battery(x, ranges),
             "electrical_power": lambda x, last: screen_power(x, ranges)}, {})
 
-    def screen_one(self, channel, value, t: float):
-        """The value of one message on ``channel`` to use (None: drop it)."""
+    def screen_one(self, channel, value, t: float, before_start: bool = False):
+        """The value of one message on ``channel`` to use (None: drop it); ``before_start``:
+        see ``screen``."""
         screen = self._screens.get(channel.port)
         if screen is None:
             return value
         value, problems = screen(value, self.last.get(channel.port))
+        if before_start:  # a sensor that has not sampled yet has dropped nothing
+            problems = [p for p in problems if p[0] != "dropout"]
         if problems:
             self.incidents.report(channel.name, [kind for kind, _ in problems],
                                   f"at t = {t:.3f} s: " + "; ".join(text for _, text in problems))
@@ -393,12 +396,18 @@ class Guard:
             self.last[channel.port] = value
         return value
 
-    def screen(self, got: dict, t: float) -> dict:
+    def screen(self, got: dict, t: float, before_start: bool = False) -> dict:
         """``got`` (channel name -> value) with each value screened; a pose that cannot be
-        used yet drops its camera frame (the depth image of the same exchange: all NaN)."""
+        used yet drops its camera frame (the depth image of the same exchange: all NaN).
+
+        ``before_start``: ``got`` holds the station's sensors from before its initialization
+        (lockstep's first values, stamped ``BEFORE_START_UTIME``). A NaN there is a sensor
+        that has not taken its first sample (the pressure sensor's state before its
+        initialization), not a dropped reading: passed on as it is, without a report. Values
+        outside their range are still screened and reported."""
         out = {}
         for name, value in got.items():
-            value = self.screen_one(CHANNEL_BY_NAME[name], value, t)
+            value = self.screen_one(CHANNEL_BY_NAME[name], value, t, before_start)
             if value is not None:
                 out[name] = value
         if "MANTA_CAMERA_POSE" in got and "MANTA_CAMERA_POSE" not in out:

@@ -3,11 +3,20 @@ calibration fits, read strictly (``load_measured``) and written (``write_measure
 
 from __future__ import annotations
 
+import array
 import csv
+import math
 import pathlib
 
 import numpy as np
 
+from manta_drake.config_io import (
+    MAX_MEASURED_CSV_BYTES,
+    MB,
+    check_file_size,
+    short_repr,
+    short_text,
+)
 from manta_drake.sweep.config import SweepError
 
 TRAJECTORY_COLUMNS = ("x", "y", "z", "yaw")
@@ -17,6 +26,10 @@ def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
                   duration: float | None = None) -> dict:
     """A measured trajectory CSV as arrays ``t`` and the named columns.
 
+    The file is at most ``config_io.MAX_MEASURED_CSV_BYTES`` (checked before reading) and
+    is read row by row into arrays: the memory is the arrays' (8 bytes a value), not the
+    text's.
+
     Args:
         path: the CSV file (UTF-8 text; ``#`` lines are comments).
         columns: the columns besides ``t`` that must be there.
@@ -25,8 +38,8 @@ def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
             simulation cannot be compared where it does not reach); None: not checked.
 
     Raises:
-        SweepError: one line naming ``where`` and the file: missing, not a text file, a
-            missing or repeated column, a row of the wrong length, non-numeric or
+        SweepError: one line naming ``where`` and the file: missing, too large, not a text
+            file, a missing or repeated column, a row of the wrong length, non-numeric or
             non-finite values, times that are negative, do not increase or go beyond
             ``duration``.
     """
@@ -34,66 +47,82 @@ def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
     if not path.is_file():
         raise SweepError(f"{where}: file not found: {path}")
     try:
-        text = path.read_text(encoding="utf-8")
+        check_file_size(path, MAX_MEASURED_CSV_BYTES, "measured CSV", SweepError)
+        with open(path, encoding="utf-8", newline="") as f:
+            out = _read_columns(f, path, ("t", *columns))
+    except SweepError as e:
+        raise SweepError(f"{where}: {e}") from None
     except UnicodeDecodeError:
         raise SweepError(f"{where}: {path}: not a UTF-8 text (CSV) file") from None
     except OSError as e:
         raise SweepError(f"{where}: {path}: cannot be read: {e.strerror}") from None
-    if "\0" in text:
-        raise SweepError(f"{where}: {path}: not a text (CSV) file (it holds NUL bytes)")
-    lines = [line for line in text.splitlines() if line.strip()
-             and not line.lstrip().startswith("#")]
-    rows = list(csv.reader(lines))
-    header = [c.strip() for c in rows[0]] if rows else []
-    for col in ("t", *columns):
-        if col not in header:
-            raise SweepError(f"{where}: {path} has no column {col!r} (header: "
-                             f"{', '.join(header) or 'none'})")
-    repeated = sorted({c for c in header if header.count(c) > 1})
-    if repeated:
-        raise SweepError(f"{where}: {path}: column {repeated[0]!r} appears twice in the header")
-    for i, row in enumerate(rows[1:]):
-        if len(row) != len(header):
-            raise SweepError(f"{where}: {path}: data row {i + 1} has {len(row)} fields, the "
-                             f"header {len(header)}")
-    out = {}
-    for col in ("t", *columns):
-        j = header.index(col)
-        try:
-            out[col] = np.array([float(r[j]) for r in rows[1:]], dtype=float)
-        except (ValueError, IndexError):
-            bad = next(i for i, r in enumerate(rows[1:]) if not _is_number(r, j))
-            raise SweepError(f"{where}: {path}: data row {bad + 1}: column {col} is missing "
-                             "or not a number") from None
-    for col, values in out.items():
-        if not np.all(np.isfinite(values)):
-            bad = int(np.flatnonzero(~np.isfinite(values))[0])
-            raise SweepError(f"{where}: {path}: data row {bad + 1}: column {col} is "
-                             f"{float(values[bad])!r}, not a finite number")
-    t = [float(v) for v in out["t"]]  # plain floats: the messages print them as written
+    t = out["t"]
     if len(t) < 2:
         raise SweepError(f"{where}: {path}: t must increase, with at least two samples "
                          f"(got {len(t)})")
     if np.any(np.diff(t) <= 0):
         bad = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
         raise SweepError(f"{where}: {path}: t must increase, with at least two samples "
-                         f"(data row {bad + 1}: {t[bad]!r} s after {t[bad - 1]!r} s)")
+                         f"(data row {bad + 1}: {float(t[bad])!r} s after "
+                         f"{float(t[bad - 1])!r} s)")
     if t[0] < 0:
-        raise SweepError(f"{where}: {path}: t starts at {t[0]!r} s; times are seconds from "
-                         "the start of the run (allowed: t >= 0)")
+        raise SweepError(f"{where}: {path}: t starts at {float(t[0])!r} s; times are seconds "
+                         "from the start of the run (allowed: t >= 0)")
     if duration is not None and t[-1] > duration + 1e-9:
-        raise SweepError(f"{where}: {path}: t ends at {t[-1]!r} s, after the run's end "
+        raise SweepError(f"{where}: {path}: t ends at {float(t[-1])!r} s, after the run's end "
                          f"(duration {duration!r} s; allowed: 0 <= t <= {duration!r}); "
                          "shorten the data or set the experiment's overrides: {duration: ...}")
     return out
 
 
-def _is_number(row, j) -> bool:
+def _data_lines(f, path: pathlib.Path):
+    """The file's lines but blank and ``#`` ones; NUL bytes and a file grown past the limit
+    (after its size was checked) are refused."""
+    read = 0
+    for line in f:
+        read += len(line)
+        if read > MAX_MEASURED_CSV_BYTES:
+            raise SweepError(f"{path}: the file grew past the {MAX_MEASURED_CSV_BYTES / MB:g} MB "
+                             "limit for measured CSV files")
+        if "\0" in line:
+            raise SweepError(f"{path}: not a text (CSV) file (it holds NUL bytes)")
+        if line.strip() and not line.lstrip().startswith("#"):
+            yield line
+
+
+def _read_columns(f, path: pathlib.Path, names: tuple) -> dict:
+    """The ``names`` columns of a measured CSV as float arrays, checked row by row."""
+    reader = csv.reader(_data_lines(f, path))
     try:
-        float(row[j])
-        return True
-    except (ValueError, IndexError):
-        return False
+        header = [c.strip() for c in next(reader, [])]
+        for col in names:
+            if col not in header:
+                raise SweepError(f"{path} has no column {short_repr(col)} (header: "
+                                 f"{short_text(', '.join(header), 80) or 'none'})")
+        repeated = sorted({c for c in header if header.count(c) > 1})
+        if repeated:
+            raise SweepError(f"{path}: column {short_repr(repeated[0])} appears twice in the "
+                             "header")
+        index = [header.index(col) for col in names]
+        values = {col: array.array("d") for col in names}
+        for i, row in enumerate(reader, start=1):
+            if len(row) != len(header):
+                raise SweepError(f"{path}: data row {i} has {len(row)} fields, the header "
+                                 f"{len(header)}")
+            for col, j in zip(names, index):
+                try:
+                    v = float(row[j])
+                except ValueError:
+                    raise SweepError(f"{path}: data row {i}: column {col} is missing or not "
+                                     "a number") from None
+                if not math.isfinite(v):
+                    raise SweepError(f"{path}: data row {i}: column {col} is {v!r}, not a "
+                                     "finite number")
+                values[col].append(v)
+    except csv.Error as e:
+        raise SweepError(f"{path}: line {reader.line_num}: not valid CSV: "
+                         f"{short_text(str(e), 80)}") from None
+    return {col: np.frombuffer(a, dtype=float) for col, a in values.items()}
 
 
 def write_measured(path, data: dict, comment: str = "") -> None:

@@ -46,7 +46,7 @@ from fractions import Fraction
 import numpy as np
 import yaml
 
-from manta_drake.config_io import ScenarioError, load_yaml_mapping
+from manta_drake.config_io import ScenarioError, load_yaml_mapping, short_repr
 from manta_drake.control.gait_params import GaitParams, mirror_right_fins
 from manta_drake.model import MODELS_DIR, resolve_path
 from manta_drake.model.robot_params import GAIT_SHAPE
@@ -110,19 +110,20 @@ def _matrix(value, where: str) -> np.ndarray:
     shape_text = ("expected 4 rows (fl, fr, rl, rr) of 4 numbers (yaw, roll1, pitch, roll2) "
                   "in degrees")
     if not isinstance(value, list) or len(value) != GAIT_SHAPE[0]:
-        got = f"{len(value)} rows" if isinstance(value, list) else repr(value)
+        got = f"{len(value)} rows" if isinstance(value, list) else short_repr(value)
         raise ScenarioError(f"{where}: {shape_text}, got {got}")
     for i, row in enumerate(value):
         if not isinstance(row, list) or len(row) != GAIT_SHAPE[1]:
-            got = f"{len(row)} numbers" if isinstance(row, list) else repr(row)
+            got = f"{len(row)} numbers" if isinstance(row, list) else short_repr(row)
             raise ScenarioError(f"{where}[{LEG_ROWS[i]}]: {shape_text}, got {got}")
         for j, x in enumerate(row):
             if isinstance(x, bool) or not isinstance(x, (int, float)):
-                raise ScenarioError(f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: {x!r} is "
-                                    "not a number")
+                raise ScenarioError(f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: "
+                                    f"{short_repr(x)} is not a number")
             if not math.isfinite(x) or abs(x) > MAX_DEGREES:
-                raise ScenarioError(f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: {x!r} is "
-                                    f"outside [-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg")
+                raise ScenarioError(f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: "
+                                    f"{short_repr(x)} is outside "
+                                    f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg")
     return degrees_to_radians(value)
 
 
@@ -137,7 +138,8 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
         raise ScenarioError(f"{source}: expected a mapping with a 'gaits' key")
     for key in data:
         if key not in FILE_KEYS:
-            raise ScenarioError(f"{source}: unknown key {key!r}; allowed: {', '.join(FILE_KEYS)}")
+            raise ScenarioError(f"{source}: unknown key {short_repr(key)}; allowed: "
+                                f"{', '.join(FILE_KEYS)}")
     gaits = data.get("gaits")
     if not isinstance(gaits, dict) or not gaits:
         raise ScenarioError(f"{source}: gaits: expected a mapping of gait names to gaits")
@@ -145,10 +147,11 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
         raise ScenarioError(f"{source}: provenance: expected a mapping")
     out: dict[str, GaitEntry] = {}
     for name, spec in gaits.items():
-        where = f"{source}: gaits.{name}"
         if not isinstance(name, str) or not _NAME.match(name) or name in RESERVED_NAMES:
-            raise ScenarioError(f"{source}: gaits: {name!r} is not a gait name (letters, "
-                                "digits and _, not starting with a digit; not 'zero')")
+            raise ScenarioError(f"{source}: gaits: {short_repr(name)} is not a gait name "
+                                "(letters, digits and _, not starting with a digit; not "
+                                "'zero')")
+        where = f"{source}: gaits.{name}"
         if name in known:
             raise ScenarioError(f"{where}: the name is already defined in "
                                 f"{known[name].source}; gait names must be unique")
@@ -156,14 +159,18 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
             raise ScenarioError(f"{where}: expected a mapping with {', '.join(MATRICES)}")
         for key in spec:
             if key not in GAIT_KEYS:
-                raise ScenarioError(f"{where}: unknown key {key!r}; allowed: "
+                raise ScenarioError(f"{where}: unknown key {short_repr(key)}; allowed: "
                                     f"{', '.join(GAIT_KEYS)}")
         base = spec.get("base")
         matrices = {}
         if base is not None:
+            if not isinstance(base, str):
+                raise ScenarioError(f"{where}.base: {short_repr(base)}: expected the name of a "
+                                    "gait defined before it")
             parent = out.get(base) or known.get(base)
             if parent is None:
-                raise ScenarioError(f"{where}.base: {base!r} is not a gait defined before it")
+                raise ScenarioError(f"{where}.base: {short_repr(base)} is not a gait defined "
+                                    "before it")
             matrices.update(parent.matrices)
         for m in MATRICES:
             if m in spec:
@@ -173,7 +180,7 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
                                     "base gait to take the missing ones from)")
         keep = spec.get("mirror_keep", [])
         if not isinstance(keep, list) or any(k not in MIRROR_KEEPS for k in keep):
-            raise ScenarioError(f"{where}.mirror_keep: {keep!r}: expected a list of "
+            raise ScenarioError(f"{where}.mirror_keep: {short_repr(keep)}: expected a list of "
                                 f"{', '.join(MIRRORED_MATRICES)} or MATRIX.COLUMN with a "
                                 f"column of {', '.join(JOINT_COLUMNS)}")
         description = spec.get("description", "")
@@ -238,7 +245,8 @@ def _library(stamps: tuple, reading: str):
     elif reading == "mirrored":
         lib = {n: GaitParams(**mirrored_matrices(e)) for n, e in entries.items()}
     else:
-        raise ScenarioError(f"controller.gait_reading: {reading!r} is not one of paper, mirrored")
+        raise ScenarioError(f"controller.gait_reading: {short_repr(reading)} is not one of "
+                            "paper, mirrored")
     return types.MappingProxyType(lib)
 
 

@@ -278,7 +278,7 @@ def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None) 
     path = pathlib.Path(path)
     where = f"{field} = {path}" if field else str(path)
     try:
-        text = read_text_file(path)
+        text = read_text_file(path, what="coefficients")
         data = parse_yaml(text)
         if not isinstance(data, dict):
             raise ScenarioError("must be a mapping of coefficient sections (water_density, "

@@ -8,7 +8,7 @@ import json
 import math
 import pathlib
 
-from manta_drake.config_io import ScenarioError, check_integer, schema_fields
+from manta_drake.config_io import ScenarioError, check_integer, schema_fields, short_repr
 from manta_drake.scenario import Scenario, check_override_key
 from manta_drake.sweep.config import (
     DERIVED,
@@ -90,7 +90,7 @@ def validate_sweep(config: SweepConfig) -> None:
     if not config.base:
         raise SweepError("sweep.base: name at least one base scenario")
     if len(set(config.base)) != len(config.base):
-        raise SweepError(f"sweep.base: duplicate base scenarios in {config.base}")
+        raise SweepError(f"sweep.base: duplicate base scenarios in {short_repr(config.base)}")
     files: dict[pathlib.Path, str] = {}
     for base in config.base:
         try:
@@ -105,9 +105,9 @@ def validate_sweep(config: SweepConfig) -> None:
         raise SweepError("sweep.seeds: name at least one seed")
     for i, seed in enumerate(config.seeds):
         if not 0 <= seed < 2**32:
-            raise SweepError(f"sweep.seeds[{i}]: {seed} is outside [0, 2^32)")
+            raise SweepError(f"sweep.seeds[{i}]: {short_repr(seed)} is outside [0, 2^32)")
     if len(set(config.seeds)) != len(config.seeds):
-        raise SweepError(f"sweep.seeds: duplicate seeds in {config.seeds}")
+        raise SweepError(f"sweep.seeds: duplicate seeds in {short_repr(config.seeds)}")
     for name, keys in config.links.items():
         if "." in name or name in DERIVED or name in (schema_fields(Scenario) or {}):
             raise SweepError(f"sweep.links.{name}: a link's name must not contain '.' nor be "
@@ -149,7 +149,7 @@ def validate_sweep(config: SweepConfig) -> None:
             if len(bounds) != 2 or not all(math.isfinite(b) for b in bounds) \
                     or bounds[0] > bounds[1]:
                 raise SweepError(f"sweep.random.uniform.{name}: expected [low, high] with "
-                                 f"low <= high, got {bounds}")
+                                 f"low <= high, got {short_repr(bounds)}")
     varied = set(parameter_names(config))
     for name in config.fixed:
         if name in varied:
@@ -188,8 +188,9 @@ def _check_distinct_values(name: str, values: list, links: dict) -> None:
         if key in seen:
             same = "the same value" if json.dumps(seen[key]) == json.dumps(value) else \
                 "the same value once typed as the scenario field"
-            raise SweepError(f"sweep.grid.{name}: duplicate values in {values}: "
-                             f"{seen[key]!r} and {value!r} are {same}; give each value once")
+            raise SweepError(f"sweep.grid.{name}: duplicate values in {short_repr(values)}: "
+                             f"{short_repr(seen[key])} and {short_repr(value)} are {same}; give "
+                             "each value once")
         seen[key] = value
 
 

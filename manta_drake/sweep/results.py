@@ -12,6 +12,7 @@ import os
 import pathlib
 
 from manta_drake.cluster import INFRASTRUCTURE_ERRORS, is_infrastructure_error  # noqa: F401
+from manta_drake.config_io import MAX_YAML_BYTES, read_csv_table
 from manta_drake.sweep.config import RunSpec, SweepError
 
 # Statuses of a run that is done: a restart skips it (``--rerun-failed`` runs the ones that
@@ -60,12 +61,16 @@ def read_done(run_dir: pathlib.Path) -> dict | None:
 
     Done: ``metrics.json`` holds one of ``DONE_STATUSES`` and the log it says the run wrote
     is there (a record written before ``run.log_npz`` existed: an ``ok`` run has a log).
-    Not done: no or a broken ``metrics.json``, status ``lost`` (or ``error`` from one of
-    ``INFRASTRUCTURE_ERRORS``: the cluster failed, not the run), or a missing log.
+    Not done: no or a broken ``metrics.json`` (or one larger than ``MAX_YAML_BYTES``: a
+    record is a few kB), status ``lost`` (or ``error`` from one of ``INFRASTRUCTURE_ERRORS``:
+    the cluster failed, not the run), or a missing log.
     """
+    metrics = run_dir / "metrics.json"
     try:
-        record = json.loads((run_dir / "metrics.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        if metrics.stat().st_size > MAX_YAML_BYTES:  # not a record a run writes
+            return None
+        record = json.loads(metrics.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
     if not isinstance(record, dict) or record.get("status") not in DONE_STATUSES:
         return None
@@ -176,15 +181,7 @@ def read_table(path) -> list[dict]:
     """The results CSV as a list of dicts of strings.
 
     Raises:
-        SweepError: the file is missing, unreadable or not UTF-8 text (one line naming it).
+        SweepError: the file is missing, unreadable, larger than
+            ``config_io.MAX_TABLE_CSV_BYTES`` or not UTF-8 CSV text (one line naming it).
     """
-    path = pathlib.Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise SweepError(f"{path}: not a UTF-8 text (CSV) file") from None
-    except OSError as e:
-        raise SweepError(f"{path}: cannot be read: {e.strerror}") from None
-    if "\0" in text:
-        raise SweepError(f"{path}: not a text (CSV) file (it holds NUL bytes)")
-    return list(csv.DictReader(io.StringIO(text, newline="")))
+    return read_csv_table(path, SweepError, "results CSV")

@@ -144,3 +144,17 @@ def test_every_parameter_error_names_the_field_and_range(change, message):
 def test_period_is_checked_at_construction():
     with pytest.raises(ValueError, match=r"BalloonRule.period: 0.0 is outside .*\(0, 1\] s"):
         BalloonRule(period=0.0)
+
+
+@pytest.mark.parametrize("field, value", [("fill_above", 1.0), ("fill_below", 0.0),
+                                          ("threshold", 0.3), ("hysteresis", 0.1),
+                                          ("after", 5.0)])
+def test_a_rule_parameter_without_a_modality_is_refused(field, value):
+    """Without a modality the schedule alone commands the balloon: a rule parameter set there
+    would be ignored, so it is refused naming the field; with a modality it is the rule's."""
+    with pytest.raises(ValueError, match=rf"^{field}: {value} is set but the rule's modality "
+                                         r"is empty .*set modality to one of posture, flow"):
+        BalloonRuleParams(**{field: value}).validate()
+    assert getattr(BalloonRuleParams(modality="energy", **{field: value}).validate(),
+                   field) == value
+    BalloonRuleParams().validate()  # the defaults: no rule

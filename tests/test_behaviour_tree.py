@@ -301,6 +301,11 @@ def _tree(**changes):
     return nodes
 
 
+def _switch(**fields):
+    """The default tree with its gait node a switch with these fields."""
+    return _tree(gait={"weight": "switch", **fields})
+
+
 ERRORS = [
     (_tree(gait={"weight": "cubic"}),
      "tree.gait.weight: 'cubic' is not one of potential, cosine, linear, normalised, switch"),
@@ -325,15 +330,23 @@ ERRORS = [
     (_tree(root={"full_at": 0.0}), "tree.root.full_at: 0.0 is not a finite number in (0, 1]"),
     (_tree(root={"full_at": 1.5}), "tree.root.full_at: 1.5 is not a finite number in (0, 1]"),
     (_tree(root={"full_at": np.nan}), "tree.root.full_at: nan is not a finite number"),
-    (_tree(gait={"threshold": -0.1}), "tree.gait.threshold: -0.1 is not a finite number in [0, 1]"),
-    (_tree(gait={"threshold": 1.1}), "tree.gait.threshold: 1.1 is not a finite number in [0, 1]"),
-    (_tree(gait={"threshold": np.inf}), "tree.gait.threshold: inf is not a finite number"),
-    (_tree(gait={"hysteresis": 1.0}), "tree.gait.hysteresis: 1.0 is not a finite number in [0, 1)"),
-    (_tree(gait={"hysteresis": -0.1}), "tree.gait.hysteresis: -0.1 is not a finite number"),
-    (_tree(gait={"threshold": 0.9, "hysteresis": 0.4}),
+    (_switch(threshold=-0.1), "tree.gait.threshold: -0.1 is not a finite number in [0, 1]"),
+    (_switch(threshold=1.1), "tree.gait.threshold: 1.1 is not a finite number in [0, 1]"),
+    (_switch(threshold=np.inf), "tree.gait.threshold: inf is not a finite number"),
+    (_switch(hysteresis=1.0), "tree.gait.hysteresis: 1.0 is not a finite number in [0, 1)"),
+    (_switch(hysteresis=-0.1), "tree.gait.hysteresis: -0.1 is not a finite number"),
+    (_switch(threshold=0.9, hysteresis=0.4),
      "tree.gait.hysteresis: threshold 0.9 +- hysteresis/2 = [0.7, 1.1] is not inside [0, 1]"),
-    (_tree(gait={"threshold": 0.1, "hysteresis": 0.4}),
+    (_switch(threshold=0.1, hysteresis=0.4),
      "tree.gait.hysteresis: threshold 0.1 +- hysteresis/2 = [-0.1, 0.3] is not inside [0, 1]"),
+    # only a switch reads threshold and hysteresis: set on another weight, refused
+    (_tree(gait={"threshold": 0.5}), "tree.gait.threshold: 0.5 is set on a cosine node, which "
+     "ignores it (only switch reads threshold and hysteresis): leave it out"),
+    (_tree(root={"hysteresis": 0.0}), "tree.root.hysteresis: 0.0 is set on a potential node"),
+    (_tree(root={"weight": "linear", "threshold": 0.3}), "tree.root.threshold: 0.3 is set on a "
+     "linear node"),
+    (_tree(root={"weight": "normalised", "threshold": 0.3}), "tree.root.threshold: 0.3 is set "
+     "on a normalised node"),
     ({"root": {"modality": "z_hat"}}, "tree.root: expected a BlendNode, got dict"),
 ]
 

@@ -42,12 +42,15 @@ def test_sensors_add_their_noise_sources_after_the_old_ones():
 
 
 def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_path):
+    """three_behaviors (the paper's run with the camera: a written tree reading s_hat needs
+    it) with Eq. (12)'s tree written out runs as with the default tree, bit for bit."""
     short = {**QUIET, "duration": 2.0}
-    plain = run(load_scenario("two_behaviors", overrides=short), tmp_path / "a", progress=False)
+    plain = run(load_scenario("three_behaviors", overrides=short), tmp_path / "a", progress=False)
     tree = {name: vars(node) for name, node in default_tree().items()}
-    written = run(load_scenario("two_behaviors", overrides=short, data={"transition": {"tree": tree}}),
+    written = run(load_scenario("three_behaviors", overrides=short,
+                                data={"transition": {"tree": tree}}),
                   tmp_path / "b", progress=False)
-    for key in ("joint_angles", "body_xyz", "cpg_params", "behaviour_weights"):
+    for key in ("joint_angles", "body_xyz", "cpg_params", "behaviour_weights", "s_hat"):
         np.testing.assert_array_equal(plain.log[key], written.log[key])
 
 

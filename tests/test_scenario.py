@@ -180,3 +180,38 @@ def test_tree_nodes_are_settable_and_sweepable_by_dotted_keys():
     assert "posture_hat" in s.behaviour_tree().modalities
     with pytest.raises(ScenarioError, match=r"transition\.tree\.floor\.threshold: 1\.5"):
         load_scenario(defaults=four, overrides={"transition.tree.floor.threshold": 1.5})
+
+
+def test_heading_hold_behaviours_are_gaits_and_one_is_a_leaf_of_the_tree():
+    """The hold's behaviours name gaits of the scenario's library (its own gait files'
+    too); in transition mode one must be a leaf of the tree or the hold never engages, and
+    behaviours that are gaits but not leaves (swim_printed beside swim) are allowed."""
+    four = load_scenario("four_behaviors")
+    assert "swim_printed" not in four.behaviour_tree().leaves  # the default list still loads
+    rest = load_scenario(defaults=four, overrides={"heading_hold.behaviours": ["rest"]})
+    assert rest.heading_hold.behaviours == ["rest"]  # a gait of the scenario's own file
+    with pytest.raises(ScenarioError, match=r"heading_hold\.behaviours: \['crab'\] names none "
+                                            r"of the behaviour tree's gaits.*allowed: swim, "
+                                            r"trot, walk, rest$"):
+        load_scenario(defaults=four, overrides={"heading_hold.behaviours": ["crab"]})
+    with pytest.raises(ScenarioError, match=r"heading_hold\.behaviours\[1\]: 'rset' is not a "
+                                            r"gait; allowed: .*, rest$"):
+        load_scenario(defaults=four, overrides={"heading_hold.behaviours": ["swim", "rset"]})
+    # a fixed gait is trimmed whole: any gait of the library names it
+    hold = load_scenario("swim_heading_hold", overrides={"heading_hold.behaviours": ["crab"]})
+    assert hold.controller.mode == "gait"
+
+
+def test_a_zero_current_beside_a_schedule_is_no_constant():
+    """water.current and water.current_schedule are exclusive, and the zero current (the
+    default) is no constant: a schedule with it loads, with any other current it is refused."""
+    four = load_scenario("four_behaviors")
+    zero = load_scenario(defaults=four, overrides={"water.current": [0.0, 0.0, 0.0]})
+    assert not zero.current_schedule().is_constant
+    with pytest.raises(ScenarioError, match=r"water\.current: \[0\.0, 0\.0, 0\.001\] is set "
+                                            r"beside water\.current_schedule; they are "
+                                            r"exclusive"):
+        load_scenario(defaults=four, overrides={"water.current": [0.0, 0.0, 0.001]})
+    cleared = load_scenario(defaults=four, overrides={"water.current": [0.0, 0.05, 0.0],
+                                                      "water.current_schedule": []})
+    assert cleared.current_schedule().is_constant

@@ -26,7 +26,7 @@ import dataclasses as dc
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.config_io import check_in_range, check_one_of
+from manta_drake.config_io import check_in_range, check_one_of, short_repr
 
 # The estimates a rule may follow, and the controller ports that carry them.
 MODALITIES = {"posture": "posture_hat", "flow": "flow_hat", "energy": "energy_hat"}
@@ -35,7 +35,9 @@ NONE, ABOVE, BELOW = 0.0, 1.0, -1.0  # the decision state's values
 
 @dc.dataclass
 class BalloonRuleParams:
-    """The rule (see the module docstring); ``modality`` empty: no rule, the schedule only."""
+    """The rule (see the module docstring); ``modality`` empty: no rule, the schedule only,
+    and every other field left at its default (a rule's parameters without a modality would
+    be ignored)."""
 
     modality: str = ""  # "" or one of MODALITIES
     fill_above: float = 0.0  # balloon fill once the estimate rose above threshold + h/2
@@ -56,6 +58,15 @@ class BalloonRuleParams:
             raise ValueError(f"hysteresis: {self.hysteresis!r} puts the band threshold -+ "
                              f"hysteresis/2 = [{lo:g}, {hi:g}] outside [0, 1]")
         check_in_range("after", self.after, 0.0, 1e6, "[0, 1e6] s")
+        if not self.modality:
+            default = BalloonRuleParams()
+            for f in dc.fields(self):
+                value = getattr(self, f.name)
+                if f.name != "modality" and value != getattr(default, f.name):
+                    raise ValueError(f"{f.name}: {short_repr(value)} is set but the rule's "
+                                     "modality is empty (no rule: the schedule alone); set "
+                                     f"modality to one of {', '.join(MODALITIES)} or leave "
+                                     f"{f.name} out")
         return self
 
 

@@ -20,6 +20,9 @@ c0, c1 are blended by weights (w0, w1) of x:
   threshold - hysteresis / 2, and in between the child chosen before (hysteresis 0: no
   memory, child 1 exactly from x >= threshold).
 
+Every weight reads ``full_at``; only ``switch`` reads ``threshold`` and ``hysteresis`` (unset:
+0.5 and 0), and a node of another weight that sets either is refused.
+
 The target is w0 c0 + w1 c1 (for ``linear`` computed as (c1 - c0) x + c0, for ``switch``
 the chosen child), the way ``transition.target_params`` computes Eqs. (11)-(12): the
 default trees (``default_tree``) give its targets bit for bit.
@@ -49,12 +52,17 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from manta_drake.config_io import short_repr
 from manta_drake.model.robot_params import NUM_CPG_PARAMS
 
 WEIGHT_FUNCTIONS = ("potential", "cosine", "linear", "normalised", "switch")
 # Each a 0-1 estimate: depth, wall detection rate, flow, posture, low battery.
 MODALITIES = ("z_hat", "s_hat", "flow_hat", "posture_hat", "energy_hat")
 ROOT = "root"
+# The most nodes on a path from the root to a gait: the shipped trees are 3 deep.
+MAX_TREE_DEPTH = 32
+# The fields only a switch reads, and their values when a switch leaves them unset.
+SWITCH_DEFAULTS = {"threshold": 0.5, "hysteresis": 0.0}
 # The gait names Eq. (12) blends: the surface gait, the floor gait, the floor gait at a wall.
 DEFAULT_BEHAVIOURS = ("swim", "trot", "turning")
 
@@ -69,17 +77,24 @@ class BlendNode:
         children: names of other nodes or of gaits (leaves), at least 2.
         full_at: the modality value at which the blend is complete, in (0, 1]
             (for ``potential`` Eq. 12's z_t).
-        threshold: ``switch``: child 1 from x >= threshold, in [0, 1].
-        hysteresis: ``switch``: child 1 from x >= threshold + hysteresis / 2, child 0 below
-            threshold - hysteresis / 2, in [0, 1) (0: no memory).
+        threshold: ``switch`` only: child 1 from x >= threshold, in [0, 1]; None (unset):
+            0.5.
+        hysteresis: ``switch`` only: child 1 from x >= threshold + hysteresis / 2, child 0
+            below threshold - hysteresis / 2, in [0, 1) (0: no memory); None (unset): 0.
     """
 
     modality: str = "z_hat"
     weight: str = "potential"
     children: list[str] = dataclasses.field(default_factory=list)
     full_at: float = 1.0
-    threshold: float = 0.5
-    hysteresis: float = 0.0
+    threshold: float | None = None
+    hysteresis: float | None = None
+
+
+def switch_parameters(node: BlendNode) -> tuple[float, float]:
+    """(threshold, hysteresis) of a switch node, the defaults where unset."""
+    return tuple(SWITCH_DEFAULTS[name] if getattr(node, name) is None else getattr(node, name)
+                 for name in ("threshold", "hysteresis"))
 
 
 def potential_weights(x: float) -> tuple[float, float]:
@@ -153,7 +168,7 @@ def _number(where: str, value, lo: float, hi: float, interval: str, open_hi: boo
     ok = (np.isfinite(v) and (v > lo if open_lo else v >= lo)
           and (v < hi if open_hi else v <= hi) and not isinstance(value, bool))
     if not ok:
-        raise ValueError(f"{where}: {value!r} is not a finite number in {interval}")
+        raise ValueError(f"{where}: {short_repr(value)} is not a finite number in {interval}")
     return v
 
 
@@ -162,10 +177,10 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping) -> None:
     if not isinstance(node, BlendNode):
         raise ValueError(f"{where}: expected a BlendNode, got {type(node).__name__}")
     if node.modality not in MODALITIES:
-        raise ValueError(f"{where}.modality: {node.modality!r} is not one of "
+        raise ValueError(f"{where}.modality: {short_repr(node.modality)} is not one of "
                          f"{', '.join(MODALITIES)}")
     if node.weight not in WEIGHT_FUNCTIONS:
-        raise ValueError(f"{where}.weight: {node.weight!r} is not one of "
+        raise ValueError(f"{where}.weight: {short_repr(node.weight)} is not one of "
                          f"{', '.join(WEIGHT_FUNCTIONS)}")
     if not isinstance(node.children, (list, tuple)):
         raise ValueError(f"{where}.children: expected a list of node or gait names, got "
@@ -175,15 +190,23 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping) -> None:
     for k, child in enumerate(node.children):
         at = f"{where}.children[{k}]"
         if not isinstance(child, str):
-            raise ValueError(f"{at}: {child!r} is not a name (of a node or a gait)")
+            raise ValueError(f"{at}: {short_repr(child)} is not a name (of a node or a gait)")
         if child in nodes and child in gaits:
-            raise ValueError(f"{at}: {child!r} is both a node and a gait; rename one")
+            raise ValueError(f"{at}: {short_repr(child)} is both a node and a gait; rename one")
         if child not in nodes and child not in gaits:
-            raise ValueError(f"{at}: {child!r} is neither a node nor a gait "
+            raise ValueError(f"{at}: {short_repr(child)} is neither a node nor a gait "
                              f"(gaits: {', '.join(gaits)})")
     _number(f"{where}.full_at", node.full_at, 0.0, 1.0, "(0, 1]", open_lo=True)
-    threshold = _number(f"{where}.threshold", node.threshold, 0.0, 1.0, "[0, 1]")
-    h = _number(f"{where}.hysteresis", node.hysteresis, 0.0, 1.0, "[0, 1)", open_hi=True)
+    if node.weight != "switch":
+        for field in SWITCH_DEFAULTS:
+            if getattr(node, field) is not None:
+                raise ValueError(f"{where}.{field}: {short_repr(getattr(node, field))} is set on "
+                                 f"a {node.weight} node, which ignores it (only switch reads "
+                                 f"{' and '.join(SWITCH_DEFAULTS)}): leave it out")
+        return
+    threshold, h = switch_parameters(node)
+    threshold = _number(f"{where}.threshold", threshold, 0.0, 1.0, "[0, 1]")
+    h = _number(f"{where}.hysteresis", h, 0.0, 1.0, "[0, 1)", open_hi=True)
     lo, hi = threshold - 0.5 * h, threshold + 0.5 * h
     if lo < 0.0 or hi > 1.0:
         raise ValueError(f"{where}.hysteresis: threshold {threshold:g} +- hysteresis/2 = "
@@ -191,25 +214,44 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping) -> None:
 
 
 def _depth_first(nodes: Mapping[str, BlendNode]) -> list[str]:
-    """Node names in first-seen depth-first order from the root; refuses a cycle."""
-    seen, order, path = set(), [], []
-
-    def visit(name):
-        path.append(name)
-        seen.add(name)
-        order.append(name)
-        for child in nodes[name].children:
-            if child not in nodes:
-                continue
-            if child in path:
-                cycle = path[path.index(child):] + [child]
-                raise ValueError(f"tree.{' -> '.join(cycle)}: a cycle")
-            if child not in seen:
-                visit(child)
-        path.pop()
-
-    visit(ROOT)
+    """Node names in first-seen depth-first order from the root; refuses a cycle and a tree
+    more than ``MAX_TREE_DEPTH`` nodes deep (its longest path from the root, shared subtrees
+    included). Iterative: a tree of any depth is refused without recursion, and every
+    recursive walk of a compiled tree is at most ``MAX_TREE_DEPTH`` deep."""
+    order, path, height = [ROOT], [ROOT], {}  # height: nodes on the longest path below
+    pending = [iter(nodes[ROOT].children)]
+    while pending:
+        child = next(pending[-1], None)
+        if child is None:  # every child of path[-1] done
+            pending.pop()
+            name = path.pop()
+            height[name] = 1 + max((height[c] for c in nodes[name].children if c in nodes),
+                                   default=0)
+            if len(path) + height[name] > MAX_TREE_DEPTH:
+                _refuse_depth(nodes, path + [name], height)
+            continue
+        if child not in nodes or child in height:
+            continue
+        if child in path:
+            cycle = path[path.index(child):] + [child]
+            raise ValueError(f"tree.{' -> '.join(cycle)}: a cycle")
+        if len(path) == MAX_TREE_DEPTH:
+            _refuse_depth(nodes, path + [child], height)
+        order.append(child)
+        path.append(child)
+        pending.append(iter(nodes[child].children))
     return order
+
+
+def _refuse_depth(nodes: Mapping[str, BlendNode], path: list, height: dict) -> None:
+    """Raises the depth error naming the node at level ``MAX_TREE_DEPTH + 1`` of a longest
+    path through ``path`` (followed down by ``height``)."""
+    while len(path) <= MAX_TREE_DEPTH:
+        below = [c for c in nodes[path[-1]].children if c in height]
+        path.append(max(below, key=height.get))
+    raise ValueError(f"tree.{path[MAX_TREE_DEPTH]}: {MAX_TREE_DEPTH + 1} nodes deep from "
+                     f"root ({' -> '.join(path[:3])} -> ...); a tree may be at most "
+                     f"{MAX_TREE_DEPTH} nodes deep")
 
 
 def compile_tree(nodes: Mapping[str, BlendNode],
@@ -270,18 +312,21 @@ class BehaviourTree:
         for name, node in nodes.items():
             children = tuple((c in index, index.get(c, c)) for c in node.children)
             n = len(children)
+            threshold, hysteresis = switch_parameters(node)
             compiled.append(_Node(
-                name, node.modality, node.weight, float(node.full_at), float(node.threshold),
-                float(node.hysteresis), children, tuple(k / (n - 1) for k in range(n)),
+                name, node.modality, node.weight, float(node.full_at), float(threshold),
+                float(hysteresis), children, tuple(k / (n - 1) for k in range(n)),
                 len(switches) if node.weight == "switch" else -1))
             if node.weight == "switch":
                 switches.append(name)
-        leaves = []
+        leaves, visited = [], set()
 
         def visit(name):  # the gaits in first-seen depth-first order
+            visited.add(name)  # a shared subtree once: its gaits are in leaves already
             for child in nodes[name].children:
                 if child in index:
-                    visit(child)
+                    if child not in visited:
+                        visit(child)
                 elif child not in leaves:
                     leaves.append(child)
 

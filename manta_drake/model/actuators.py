@@ -22,7 +22,7 @@ import pathlib
 import numpy as np
 from pydrake.common.yaml import yaml_load_typed
 
-from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping
+from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping, short_repr
 from manta_drake.model import MODELS_DIR, resolve_path
 
 DEFAULT_ACTUATORS_FILE = MODELS_DIR / "actuators.yaml"
@@ -129,6 +129,22 @@ class ActuatorParams:
 # state-of-charge grid must run from 0 to 1.
 NOT_SCALABLE = ("battery.packs", "battery.cells_per_pack", "battery.ocv_soc")
 
+# The factors a scale may apply, [lo, hi]: a band about the file's value for sensitivity
+# studies and calibration, not another robot (above 10 it is another servo, battery or
+# computer: edit the file). 0 switches a term off where the entry may be 0 (the standby
+# current, a resistance); where an entry must stay positive or at most 1 (an efficiency, the
+# cut-off charge), check_actuators refuses the scaled value. Tighter for the voltages, which
+# the cell chemistry fixes: x0.5-1.5 of a LiPo cell's 2.65-4.10 V spans the other lithium
+# cells (LiFePO4 3.2 V, LTO 2.4 V nominal against LiPo's 3.7 V), and the servo's supply is
+# that battery's bus.
+SCALE_RANGE = (0.0, 10.0)
+SCALE_RANGES = {"servo.supply_voltage": (0.5, 1.5), "battery.ocv_cell_voltage": (0.5, 1.5)}
+
+
+def scale_range(name: str) -> tuple[float, float]:
+    """The factors ``[lo, hi]`` a scale of entry ``name`` may apply."""
+    return SCALE_RANGES.get(name, SCALE_RANGE)
+
 
 def scalable_names() -> tuple[str, ...]:
     """Dotted names of the entries a scale may multiply (the numeric ones but
@@ -224,8 +240,9 @@ def load_actuators(path=DEFAULT_ACTUATORS_FILE, field: str | None = None) -> Act
 def scale_actuators(params: ActuatorParams, scales: dict) -> ActuatorParams:
     """A copy of ``params`` with named numeric entries multiplied, e.g.
     ``{"servo.winding_resistance": 1.2}``; each scaled entry's ``source`` says so. Unknown
-    names, non-numeric entries and non-finite or negative factors raise ValueError naming
-    the entry; a scaled set that breaks a check (an efficiency above 1) is refused."""
+    names, non-numeric entries, non-finite or negative factors and factors outside the
+    entry's ``scale_range`` raise ValueError naming the entry; a scaled set that breaks a
+    check (an efficiency above 1) is refused."""
     result = copy.deepcopy(params)
     entries = dict(result.entries())
     allowed = scalable_names()
@@ -235,7 +252,11 @@ def scale_actuators(params: ActuatorParams, scales: dict) -> ActuatorParams:
                              f"{', '.join(allowed)}")
         if isinstance(factor, bool) or not (isinstance(factor, (int, float))
                                              and np.isfinite(factor) and factor >= 0):
-            raise ValueError(f"scales.{name}: {factor!r} must be a finite number >= 0")
+            raise ValueError(f"scales.{name}: {short_repr(factor)} must be a finite number >= 0")
+        lo, hi = scale_range(name)
+        if not lo <= factor <= hi:
+            raise ValueError(f"scales.{name}: {short_repr(factor)} is outside the allowed range "
+                             f"[{lo:g}, {hi:g}] (a factor on the file's value)")
         entry = entries[name]
         if isinstance(entry, Table):
             entry.value = {k: float(v) * factor for k, v in entry.value.items()}

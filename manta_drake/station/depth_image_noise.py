@@ -1,9 +1,17 @@
 """The depth sensor's range along each ray, range noise and pixel dropout on a depth image."""
 
+import math
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
-from pydrake.systems.sensors import ImageDepth32F
+from pydrake.systems.sensors import CameraInfo, ImageDepth32F
+
+from manta_drake.config_io import check_in_range, check_integer
+
+# The largest image side the system takes [px]: two width x height noise vectors are
+# allocated with it (4096 x 4096: 2 x 134 MB); a depth camera's is at most 1280.
+MAX_IMAGE_SIDE = 4096
 
 
 def ray_scale(width: int, height: int, fx: float, fy: float, cx: float, cy: float) -> np.ndarray:
@@ -68,28 +76,43 @@ class DepthImageNoise(LeafSystem):
     ``max_range`` along their ray are out of range (+inf) before the noise
     (``beyond_ray_range``); the renderer's own depth range (along the axis, never shorter
     for those pixels) stays as it is.
+
+    Args:
+        width, height: the image's size [px], whole numbers in [1, MAX_IMAGE_SIDE].
+        noise_std: the range noise's standard deviation [m], >= 0.
+        dropout_rate: the probability of a dropped pixel, in [0, 1].
+        max_range: the range along each ray [m], > 0, or None (no range limit); given
+            together with ``camera_info``.
+        camera_info: the camera's ``CameraInfo`` (of the image's size), or None.
+
+    Raises:
+        ValueError: one line naming the argument and what is allowed.
     """
 
     def __init__(self, width: int, height: int, noise_std: float = 0.0,
                  dropout_rate: float = 0.0, max_range: float | None = None,
                  camera_info=None):
         super().__init__()
+        check_integer("DepthImageNoise.width", width, 1, MAX_IMAGE_SIDE)
+        check_integer("DepthImageNoise.height", height, 1, MAX_IMAGE_SIDE)
+        width, height = int(width), int(height)
+        check_in_range("DepthImageNoise.noise_std", noise_std, 0.0, math.inf, "[0, inf) m")
+        check_in_range("DepthImageNoise.dropout_rate", dropout_rate, 0.0, 1.0, "[0, 1]")
         if (max_range is None) != (camera_info is None):
             raise ValueError("DepthImageNoise: max_range and camera_info go together")
-        self.max_range = None if max_range is None else float(max_range)
-        if self.max_range is not None:
-            if not (np.isfinite(self.max_range) and self.max_range > 0):
-                raise ValueError(f"DepthImageNoise.max_range: {max_range} must be > 0")
+        if max_range is not None:
+            check_in_range("DepthImageNoise.max_range", max_range, 0.0, math.inf,
+                           "(0, inf) m", open_low=True)
+            if not isinstance(camera_info, CameraInfo):
+                raise ValueError(f"DepthImageNoise.camera_info: expected a CameraInfo, got "
+                                 f"{type(camera_info).__name__}")
             if (camera_info.width(), camera_info.height()) != (width, height):
                 raise ValueError(f"DepthImageNoise.camera_info: {camera_info.width()}x"
                                  f"{camera_info.height()} is not the image's {width}x{height}")
             self._ray_scale = ray_scale(width, height, camera_info.focal_x(),
                                         camera_info.focal_y(), camera_info.center_x(),
                                         camera_info.center_y())
-        if not (np.isfinite(noise_std) and noise_std >= 0):
-            raise ValueError(f"DepthImageNoise.noise_std: {noise_std} must be >= 0")
-        if not 0.0 <= dropout_rate <= 1.0:
-            raise ValueError(f"DepthImageNoise.dropout_rate: {dropout_rate} is outside [0, 1]")
+        self.max_range = None if max_range is None else float(max_range)
         self.noise_std, self.dropout_rate = float(noise_std), float(dropout_rate)
         model = AbstractValue.Make(ImageDepth32F(width, height))
         self._input = self.DeclareAbstractInputPort("depth_image", model)

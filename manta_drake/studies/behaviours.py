@@ -13,14 +13,17 @@ Usage: manta-drake study behaviours [--out out/behaviours] [--workers N | --sche
 
 from __future__ import annotations
 
-import argparse
 import json
 import pathlib
 import shutil
 
 import numpy as np
 
-from manta_drake.cluster import add_cluster_arguments, cluster_client
+from manta_drake.cluster import (
+    add_cluster_arguments,
+    check_cluster_arguments,
+    cluster_client,
+)
 from manta_drake.studies import REPO
 from manta_drake.studies.stamp import stamp_line, write_stamped
 
@@ -169,7 +172,9 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "## Behaviours as a tree",
         "",
         "`transition.tree` maps node names to `{modality, weight, children, full_at, threshold, "
-        "hysteresis}`; the top node is `root`, a child is a node or a gait. A node's coordinate "
+        "hysteresis}` (`threshold` and `hysteresis` a switch's only: another node that sets "
+        "either is refused); the top node is `root`, a child is a node or a gait. A node's "
+        "coordinate "
         "is x = min(clip(m, 0, 1) / full_at, 1) of its modality m and its weight function one of:",
         "",
         "| weight | w0 (first child), w1 (second) | |",
@@ -322,13 +327,18 @@ def page(metrics: dict, out: pathlib.Path) -> str:
 
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study behaviours``); returns the exit status."""
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    from manta_drake.config_io import check_writable_folder
+    from manta_drake.studies.options import StudyParser
+
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/behaviours"),
                         help="where the runs go (default out/behaviours)")
     parser.add_argument("--reuse", action="store_true",
                         help="reuse runs already in --out (their metrics.json and log.npz)")
     add_cluster_arguments(parser)
     args = parser.parse_args(argv)
+    check_cluster_arguments(args)  # every option before a cluster or a run starts
+    check_writable_folder(args.out, "--out", example="out/behaviours")
     metrics = _runs(args)
     figures = REPO / "docs" / "figures"
     figures.mkdir(parents=True, exist_ok=True)

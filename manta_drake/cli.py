@@ -11,15 +11,21 @@
 Each of the last five lives in its own package, which provides ``add_<command>_parser(sub)``
 (adds its subparser) and ``<command>_main(args) -> int``; see ``EXTENSIONS``.
 
-Errors are printed as one line (no traceback) and exit with status 2.
+Errors are printed as one line (no traceback) and exit with status 2. Ctrl-C, SIGTERM and
+SIGHUP are turned into exceptions before anything slow is imported: one line, exit status
+128 + the signal, and for ``run`` a metrics.json that says so (``manta_drake.run_folder``).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import pathlib
+import shutil
 import signal
 import sys
+import tempfile
 
 
 def print_metrics(metrics: dict, out_dir) -> None:
@@ -45,6 +51,8 @@ def print_metrics(metrics: dict, out_dir) -> None:
             elif value is None:
                 value = "-"
             print(f"  {key:<28} {value}")
+    if metrics.get("note"):  # why a metric above is missing
+        print(f"  {'':<28} ({metrics['note']})")
     energy = metrics.get("energy") or {}
     for key in energy_keys:
         if key in energy:
@@ -64,32 +72,108 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  recording: open {(out_dir / 'recording.html').resolve()} in a browser")
 
 
-def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True,
-                  settings=()):
-    """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
-    KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it."""
-    from manta_drake.scenario import find_scenario, load_scenario, parse_set
-    from manta_drake.simulate import (
-        check_output_folder,
-        interrupts_as_exceptions,
-        run,
-        write_interrupted_start,
+@contextlib.contextmanager
+def _stderr_held(received):
+    """While inside, what is written to the standard error (by compiled code too) is held in
+    a temporary file and written out on exit, unless the block was interrupted
+    (``received`` is the list of ``interrupts_as_exceptions``): a library's report of the
+    import a signal broke into (pydrake's "Could not initialize pydrake" and a traceback)
+    would only bury the one line that says the run was interrupted."""
+    from manta_drake.run_folder import (
+        interruption,
+        signals_deferred,
+        signals_flagged,
+        stop_if_signalled,
     )
 
-    path = find_scenario(scenario_path)
-    overrides = parse_set(list(settings))
-    if duration is not None:
-        overrides["duration"] = duration
-    if no_meshcat:
-        overrides["visualization.meshcat"] = False
-    check_output_folder(out, inputs=[path], create=False)  # before the slower load and build
-    with interrupts_as_exceptions():
+    with signals_flagged() as pending:  # a signal now is raised once the restore is due
+        sys.stderr.flush()
         try:
-            scenario = load_scenario(path, overrides=overrides)
-        except KeyboardInterrupt as e:
-            write_interrupted_start(check_output_folder(out, inputs=[path]), path.stem, e)
-            raise
-        return run(scenario, out, progress=progress, inputs=[path]), scenario
+            saved = os.dup(2)
+        except OSError:  # no standard error to hold
+            saved = None
+        if saved is not None:
+            held = tempfile.TemporaryFile()
+            os.dup2(held.fileno(), 2)
+    if saved is None:
+        stop_if_signalled(pending)
+        yield
+        return
+    interrupted = False
+    try:
+        stop_if_signalled(pending)
+        yield
+    except BaseException as e:
+        interrupted = interruption(e, received) is not None
+        raise
+    finally:
+        with signals_deferred():
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            if not (interrupted or received):
+                held.seek(0)
+                shutil.copyfileobj(held, sys.stderr.buffer)
+                sys.stderr.flush()
+            held.close()
+
+
+# The options of `run` that set a scenario field, and the field.
+_OPTION_FIELDS = {"--duration": "duration", "--no-meshcat": "visualization.meshcat"}
+
+
+def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True,
+                  settings=(), received=()):
+    """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
+    KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it.
+
+    Before the slow imports the output folder is checked and marked ``running``
+    (``run_folder.starting_run``): an interrupt from then on leaves a metrics.json that
+    says so; ``received`` is the list of ``interrupts_as_exceptions`` (a signal's exception
+    that an import turned into another error is still the interruption)."""
+    from manta_drake.run_folder import starting_run, stop_if_signalled
+
+    given = pathlib.Path(scenario_path)  # a shipped scenario's name is never in the folder
+    with starting_run(out, given.stem, [given] if given.is_file() else [],
+                      received) as out_dir:
+        with _stderr_held(received):
+            from manta_drake.scenario import find_scenario
+            from manta_drake.simulate import run
+
+        path = find_scenario(scenario_path)
+        options = {}
+        if duration is not None:
+            options["duration"] = duration
+        if no_meshcat:
+            options["visualization.meshcat"] = False
+        scenario = _scenario(path, settings, options)
+        stop_if_signalled(received)
+        return run(scenario, out_dir, progress=progress, inputs=[path]), scenario
+
+
+def _scenario(path, settings, options: dict):
+    """The scenario file with the ``--set`` values and then the options' fields
+    (``options``: dotted key -> value) layered on it. A ``--set`` value an option replaces
+    is still checked (the file with every ``--set`` value must load), so a bad value never
+    passes unseen."""
+    from manta_drake.scenario import ScenarioError, load_scenario, parse_set, with_overrides
+
+    overrides = parse_set(list(settings))
+    replaced = {key: option for key in overrides for option, field in _OPTION_FIELDS.items()
+                if field in options and (field == key or field.startswith(key + "."))}
+    if not replaced:
+        return load_scenario(path, overrides={**overrides, **options})
+    try:
+        scenario = load_scenario(path, overrides=overrides)
+    except ScenarioError as e:
+        # An error of the file or of another value is told as usual; else it is the
+        # replaced value's.
+        kept = {key: value for key, value in overrides.items() if key not in replaced}
+        load_scenario(path, overrides={**kept, **options})
+        key, option = next(iter(replaced.items()))
+        raise ScenarioError(f"--set {key}: {str(e).removeprefix(f'{path}: ')} (checked "
+                            f"although {option} replaces it)") from None
+    return with_overrides(scenario, options)
 
 
 _SET_HELP = ("override a scenario field, e.g. --set contact.friction=0.6 or --set "
@@ -120,14 +204,20 @@ def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) ->
                         help=_SET_HELP)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     args = parser.parse_args()
-    try:
-        result, scenario = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
-                                         settings=args.set)
-        figures = after_run(result, scenario) if after_run else []
-    except Exception as e:  # one clear line; --debug for the traceback
-        if args.debug:
-            raise
-        return _error(e)
+    from manta_drake.run_folder import interruption, interrupts_as_exceptions
+
+    with interrupts_as_exceptions() as received:
+        try:
+            result, scenario = _load_and_run(args.scenario, args.out, args.duration,
+                                             args.no_meshcat, settings=args.set,
+                                             received=received)
+            figures = after_run(result, scenario) if after_run else []
+        except (KeyboardInterrupt, Exception) as e:  # one clear line; --debug: the traceback
+            if interruption(e, received):
+                return _interrupted(interruption(e, received))
+            if args.debug:
+                raise
+            return _error(e)
     print_metrics(result.metrics, result.out_dir)
     for path in figures or []:
         print(f"  figure: {path}")
@@ -146,9 +236,9 @@ def _list() -> int:
     return 0
 
 
-def _run(args) -> int:
+def _run(args, received=()) -> int:
     result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
-                              progress=not args.quiet, settings=args.set)
+                              progress=not args.quiet, settings=args.set, received=received)
     print_metrics(result.metrics, result.out_dir)
     return 0
 
@@ -223,21 +313,29 @@ def _interrupted(e: KeyboardInterrupt) -> int:
 
 
 def main(argv=None) -> int:
+    # First, before any slow import (a command's module, pydrake): Ctrl-C, SIGTERM and
+    # SIGHUP from here on end the command with one line and, for `run`, the output
+    # folder's story (run_folder.interrupts_as_exceptions).
+    from manta_drake.run_folder import interruption, interrupts_as_exceptions
+
     argv = sys.argv[1:] if argv is None else list(argv)
-    try:  # building the parser imports the command's module: Ctrl-C may come here too
-        args = _parser(argv).parse_args(argv)
-    except KeyboardInterrupt as e:
-        return _interrupted(e)
-    try:
-        if args.command in EXTENSIONS:
-            return getattr(_extension(args.command), f"{args.command}_main")(args)
-        return _list() if args.command == "list" else _run(args)
-    except KeyboardInterrupt as e:
-        return _interrupted(e)
-    except Exception as e:  # one clear line; --debug for the traceback
-        if args.debug:
+    with interrupts_as_exceptions() as received:
+        try:  # building the parser imports the command's module: a signal may come here too
+            args = _parser(argv).parse_args(argv)
+        except (KeyboardInterrupt, Exception) as e:
+            if interruption(e, received):  # Ctrl-C, or the import a signal broke into
+                return _interrupted(interruption(e, received))
             raise
-        return _error(e)
+        try:
+            if args.command in EXTENSIONS:
+                return getattr(_extension(args.command), f"{args.command}_main")(args)
+            return _list() if args.command == "list" else _run(args, received)
+        except (KeyboardInterrupt, Exception) as e:  # one clear line; --debug: the traceback
+            if interruption(e, received):  # a signal, e.g. pydrake's ImportError for Ctrl-C
+                return _interrupted(interruption(e, received))
+            if args.debug:
+                raise
+            return _error(e)
 
 
 if __name__ == "__main__":

@@ -18,8 +18,40 @@ def rotations(quat_wxyz: np.ndarray) -> Rotation:
 
 
 def euler_rpy(quat_wxyz: np.ndarray) -> np.ndarray:
-    """Roll, pitch, yaw [rad] (extrinsic x-y-z, Drake's RollPitchYaw), (N, 3)."""
-    return rotations(quat_wxyz).as_euler("xyz")
+    """Roll, pitch, yaw [rad] of Drake's RollPitchYaw (R = Rz(yaw) Ry(pitch) Rx(roll)), (N, 3),
+    defined for every orientation, the pitch in [-pi/2, pi/2], roll and yaw in [-pi, pi].
+
+    Drake's algorithm (``math/roll_pitch_yaw.cc``, after Mitiguy), vectorised: the pitch from
+    the rotation matrix, atan2(-R20, sqrt((R00^2 + R10^2 + R21^2 + R22^2) / 2)); roll and yaw
+    from the quaternion's half angles, roll = zA - zB and yaw = zA + zB with
+    zA = atan2(x + z, w - y) and zB = atan2(z - x, w + y), which stay accurate up to the
+    gimbal lock. At the lock (pitch +-90 deg) only yaw - roll (pitch +90) or yaw + roll
+    (pitch -90) is determined (mod 2 pi); the half angle that vanishes there counts as 0,
+    which splits it evenly: yaw = -roll at +90 deg, yaw = roll at -90 deg (as Drake's
+    ``RollPitchYaw``). No angle there is a 0/0.
+    """
+    q = np.asarray(quat_wxyz, dtype=float).reshape(-1, 4)
+    w, x, y, z = (q / np.linalg.norm(q, axis=1, keepdims=True)).T
+    r00 = 1 - 2 * (y * y + z * z)
+    r10 = 2 * (x * y + w * z)
+    r20 = 2 * (x * z - w * y)
+    r21 = 2 * (y * z + w * x)
+    r22 = 1 - 2 * (x * x + y * y)
+    pitch = np.arctan2(-r20, np.sqrt((r00 ** 2 + r10 ** 2 + r21 ** 2 + r22 ** 2) / 2))
+    eps = np.finfo(float).eps
+
+    def half(sine, cosine):
+        singular = (np.abs(sine) <= eps) & (np.abs(cosine) <= eps)
+        return np.where(singular, 0.0, np.arctan2(sine, cosine))
+
+    z_a, z_b = half(x + z, w - y), half(z - x, w + y)  # each in [-pi, pi]
+    return np.stack([_wrap_once(z_a - z_b), pitch, _wrap_once(z_a + z_b)], axis=1)
+
+
+def _wrap_once(angle: np.ndarray) -> np.ndarray:
+    """An angle in [-2 pi, 2 pi] moved into [-pi, pi]."""
+    return np.where(angle > np.pi, angle - 2 * np.pi,
+                    np.where(angle < -np.pi, angle + 2 * np.pi, angle))
 
 
 def velocity_in_body(quat_wxyz: np.ndarray, v_world: np.ndarray) -> np.ndarray:
@@ -49,6 +81,22 @@ def free_water_end(t, clearance, margin: float) -> float | None:
     """The first time the clearance drops below ``margin``, or None if it never does."""
     near = np.flatnonzero(np.asarray(clearance) < margin)
     return float(t[near[0]]) if len(near) else None
+
+
+def short_window_note(start: float, end: float, min_window: float, sim_time: float,
+                      near_wall_at: float | None, margin: float) -> str:
+    """Why a run's steady window [start, end] [s] (shorter than ``min_window``) gives no
+    mean velocity, naming only the causes that happened: the hull came within ``margin``
+    [m] of a wall at ``near_wall_at`` [s] (None: it never did; the window ends there), and
+    the run ended at ``sim_time`` [s], less than ``min_window`` after the window's start."""
+    causes = []
+    if near_wall_at is not None:
+        causes.append(f"the hull came within {margin} m of a wall at {near_wall_at:.2f} s")
+    if sim_time - start < min_window:
+        causes.append(f"the run ended at {sim_time:.2f} s")
+    why = f" ({'; '.join(causes)})" if causes else ""
+    return (f"steady window {start:.2f}-{end:.2f} s is shorter than {min_window} s{why}: "
+            "no mean velocity")
 
 
 def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float,
@@ -224,10 +272,15 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
     empty = np.flatnonzero(battery[:, 0] <= cutoff_soc) if len(battery) else []
     if len(empty):
         out["battery_cutoff_at_s"] = float(t_b[empty[0]])
-    if steady_window is None or mean_velocity is None:
-        out["cost_of_transport_note"] = "no steady window (no mean velocity)"
+    if steady_window is None:
+        out["cost_of_transport_note"] = "no steady window: no cost of transport"
         return out
     start, end = steady_window
+    if mean_velocity is None:
+        out["cost_of_transport_note"] = (f"no mean velocity over the steady window "
+                                         f"{start:.2f}-{end:.2f} s (the run's note says why): "
+                                         "no cost of transport")
+        return out
     e_steady, t_steady = _step_integral(t_p, power, start, end)
     m_steady, t_steady_m = _step_integral(t_m, mech, start, end)
     if t_steady <= 0 or t_steady_m <= 0:

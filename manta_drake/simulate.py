@@ -15,15 +15,11 @@ written, and the exception is re-raised as ``SimulationError``.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses as dc
-import json
 import math
 import os
 import pathlib
-import signal
 import sys
-import threading
 import time
 
 import numpy as np
@@ -34,8 +30,27 @@ from pydrake.systems.primitives import RandomSource
 
 from manta_drake import metrics as M
 from manta_drake import plots
-from manta_drake.config_io import check_integer, check_writable_folder
+from manta_drake.config_io import check_integer
 from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, NUM_JOINTS
+from manta_drake.run_folder import (  # noqa: F401 (also the names callers import from here)
+    OUTPUT_FILES,
+    SCENARIO_HEADER,
+    OutputFolderError,
+    RunInterrupted,
+    SimulationError,
+    check_output_folder,
+    interrupted_failure,
+    interruption,
+    interrupts_as_exceptions,
+    remove_outputs,
+    running_metrics,
+    signals_deferred,
+    signals_flagged,
+    stop_if_signalled,
+    write_atomic,
+    write_interrupted_start,
+    write_metrics,
+)
 from manta_drake.scenario import Scenario, scenario_yaml
 from manta_drake.wiring.diagram import DiagramHandles, build_diagram, logger_data
 
@@ -47,10 +62,6 @@ LOG_KEYS = (
 
 # Shortest steady window [s] over which a mean velocity is reported.
 MIN_STEADY_WINDOW = 1.0
-
-
-class SimulationError(RuntimeError):
-    """The simulation failed; ``out_dir`` still holds the log up to the failure."""
 
 
 @dc.dataclass
@@ -154,9 +165,8 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         else:
             m["mean_velocity_body"] = None
             m["yaw_rate_deg_s"] = None
-            m["note"] = (f"steady window {start:.1f}-{end:.1f} s is shorter than "
-                         f"{MIN_STEADY_WINDOW} s (the hull came within "
-                         f"{scenario.free_water_margin} m of a wall): no mean velocity")
+            m["note"] = M.short_window_note(start, end, MIN_STEADY_WINDOW, sim_time, near,
+                                            scenario.free_water_margin)
         m["distance_m"] = M.horizontal_distance(xyz)
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
@@ -221,180 +231,34 @@ def make_simulator(diagram, scenario: Scenario, context=None, seed: int | None =
     return simulator
 
 
-# The files a run writes (and the only ones it removes from an old output folder).
-OUTPUT_FILES = ("scenario.yaml", "recording.html", "log.npz", "metrics.json", "joints.png",
-                "states.png", "trajectory.png")
-SCENARIO_HEADER = ("# The resolved scenario of this run (every field, overrides applied); run it "
-                   "again\n# with: manta-drake run scenario.yaml --out DIR\n")
-
-
-class OutputFolderError(SimulationError):
-    """The output folder cannot take a run's files; raised before anything is built."""
-
-
-def check_output_folder(out_dir, inputs=(), create: bool = True) -> pathlib.Path:
-    """Checks that a run can write its files into ``out_dir`` without losing anything, before
-    anything expensive starts; creates the folder if ``create``.
-
-    Refused: an empty path; a path that is a file, or under one; a folder that cannot be
-    created or written; a folder holding one of ``inputs`` (a run never overwrites its own
-    input) or a ``scenario.yaml`` that no run wrote (a user's own file).
-
-    Raises:
-        OutputFolderError: one line naming the folder and why.
-    """
-    out_dir = check_writable_folder(out_dir, "--out", "out/run", OutputFolderError, create)
-    ours = {(out_dir / name).resolve() for name in OUTPUT_FILES}
-    for path in inputs:
-        if path is not None and pathlib.Path(path).resolve() in ours:
-            raise OutputFolderError(
-                f"--out {out_dir}: the run would overwrite its own input {path}; choose "
-                "another output folder")
-    existing = out_dir / "scenario.yaml"
-    if existing.is_file():
-        try:
-            head = existing.read_text(encoding="utf-8", errors="replace")[:len(SCENARIO_HEADER)]
-        except OSError:
-            head = ""
-        if head != SCENARIO_HEADER:
-            raise OutputFolderError(
-                f"--out {out_dir}: holds a scenario.yaml that no run wrote; a run would "
-                "replace it: choose another output folder")
-    return out_dir
-
-
 def _write_scenario(scenario: Scenario, folder: pathlib.Path) -> None:
     """The run's resolved scenario (every field, overrides applied): ``load_scenario`` on it
     runs the same simulation again."""
-    _write_atomic(folder / "scenario.yaml", SCENARIO_HEADER + scenario_yaml(scenario))
-
-
-def _write_atomic(path: pathlib.Path, text: str) -> None:
-    """Writes ``text`` to ``path`` through a temporary file in the same folder and a rename,
-    so a reader (or a kill) never sees half a file."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
-def _write_metrics(out_dir: pathlib.Path, metrics: dict) -> None:
-    _write_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+    write_atomic(folder / "scenario.yaml", SCENARIO_HEADER + scenario_yaml(scenario))
 
 
 def _start_outputs(scenario: Scenario, out_dir: pathlib.Path,
                    write_scenario: bool = True) -> None:
     """Removes our own outputs of an earlier run in ``out_dir`` (so no stale recording or
     metrics stays beside this run's) and writes this run's scenario and a ``metrics.json``
-    that says it is running: a run killed outright (SIGKILL, power) leaves that story, not
-    the previous run's."""
-    for name in OUTPUT_FILES:
-        (out_dir / name).unlink(missing_ok=True)
+    that says it is running (``stage: build``): a run killed outright (SIGKILL, power)
+    leaves that story, not the previous run's."""
+    remove_outputs(out_dir)
     if write_scenario:
         _write_scenario(scenario, out_dir)
-    _write_metrics(out_dir, {
-        "scenario": scenario.name, "status": "running",
-        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "note": "written when the run started; a run that ends replaces it, so this one is "
-                "still running or was killed"})
+    write_metrics(out_dir, running_metrics(scenario.name, "build"))
 
 
 def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseException,
-                        reason: str | None = None) -> None:
-    _write_metrics(out_dir, {"scenario": scenario.name, "status": "failed",
-                             "failure": {"stage": "build", "time_s": 0.0,
-                                         "reason": reason or f"{type(error).__name__}: {error}"}})
-
-
-def write_interrupted_start(out_dir: pathlib.Path, name: str, error: KeyboardInterrupt) -> None:
-    """A run interrupted while its scenario was loaded (before ``run``): the folder's earlier
-    outputs go and a metrics.json says the run never started and why."""
-    for file in OUTPUT_FILES:
-        (out_dir / file).unlink(missing_ok=True)
-    reason = error.reason if isinstance(error, RunInterrupted) else "interrupted (Ctrl-C)"
-    _write_metrics(out_dir, {"scenario": name, "status": "failed",
-                             "failure": {"stage": "load", "time_s": 0.0, "reason": reason}})
-
-
-class RunInterrupted(KeyboardInterrupt):
-    """The run was interrupted by a signal: Ctrl-C (SIGINT), SIGTERM or SIGHUP."""
-
-    def __init__(self, signal_name: str = "SIGINT"):
-        super().__init__(signal_name)
-        self.signal_name = signal_name
-
-    @property
-    def reason(self) -> str:
-        return "interrupted (Ctrl-C)" if self.signal_name == "SIGINT" else \
-            f"terminated ({self.signal_name})"
-
-
-@contextlib.contextmanager
-def interrupts_as_exceptions():
-    """While inside: SIGTERM and SIGHUP raise ``RunInterrupted`` like Ctrl-C does, so a run
-    stopped by a service manager, ``kill`` or a closed terminal still writes its partial log
-    and a metrics.json saying why. Only in the main thread (signals go there); restored on
-    exit."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
+                        stop: RunInterrupted | None = None) -> None:
+    """The story of a run whose build failed, or was interrupted (``stop``)."""
+    if stop is not None:
+        write_metrics(out_dir, {"scenario": scenario.name, "status": "interrupted",
+                                "failure": interrupted_failure("build", 0.0, stop)})
         return
-
-    def handler(signum, frame):
-        raise RunInterrupted(signal.Signals(signum).name)
-
-    previous = {}
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        previous[sig] = signal.signal(sig, handler)
-    try:
-        yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
-
-
-@contextlib.contextmanager
-def _signals_flagged():
-    """While inside, SIGINT, SIGTERM and SIGHUP only append their name to the yielded list.
-    An exception raised by a handler in the middle of a pybind11 call (converting an argument,
-    say) comes out as that call's TypeError, not as the interruption, so while the Simulator
-    steps Python systems the signal is noted and acted on between steps (a monitor ends the
-    step loop, the caller raises ``RunInterrupted``)."""
-    pending: list = []
-    if threading.current_thread() is not threading.main_thread():
-        yield pending
-        return
-
-    def note(signum, frame):
-        pending.append(signal.Signals(signum).name)
-
-    previous = {sig: signal.signal(sig, note)
-                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
-    try:
-        yield pending
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
-
-
-@contextlib.contextmanager
-def _signals_deferred():
-    """While inside, SIGINT, SIGTERM and SIGHUP are held; the first one is raised on exit."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    pending = []
-
-    def hold(signum, frame):
-        pending.append(signal.Signals(signum).name)
-
-    previous = {sig: signal.signal(sig, hold)
-                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
-    try:
-        yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
-    if pending:
-        raise RunInterrupted(pending[0])
+    write_metrics(out_dir, {"scenario": scenario.name, "status": "failed",
+                            "failure": {"stage": "build", "time_s": 0.0,
+                                        "reason": f"{type(error).__name__}: {error}"}})
 
 
 def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True,
@@ -406,9 +270,10 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     saying ``running`` is written, so a folder never mixes two runs. Whatever happens,
     ``out_dir`` ends with a metrics.json that says so: a build failure (``status: failed``,
     ``stage: build``), a failure part-way (the log up to it, the time and the reason),
-    Ctrl-C, SIGTERM or SIGHUP (the partial log, ``reason: interrupted (Ctrl-C)`` or
-    ``terminated (SIGTERM)``, then ``RunInterrupted``, a KeyboardInterrupt, is re-raised).
-    Every file is written whole (a temporary file and a rename), metrics.json last.
+    Ctrl-C, SIGTERM or SIGHUP (``status: interrupted``, the partial log, the ``signal`` and
+    ``reason: interrupted (Ctrl-C)`` or ``terminated (SIGTERM)``, then ``RunInterrupted``, a
+    KeyboardInterrupt, is re-raised). Every file is written whole (a temporary file and a
+    rename), metrics.json last; a signal while they are written waits until they are.
 
     Args:
         scenario: a validated Scenario.
@@ -432,40 +297,58 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         RunInterrupted: interrupted; the partial log and metrics.json are written first.
     """
     out_dir = check_output_folder(out_dir, inputs)
-    with interrupts_as_exceptions():
-        return _run(scenario, out_dir, progress, write_outputs, prepare)
+    with interrupts_as_exceptions() as received:
+        return _run(scenario, out_dir, progress, write_outputs, prepare, received)
 
 
-def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
-         write_outputs: bool, prepare) -> RunResult:
-    _start_outputs(scenario, out_dir, write_scenario=prepare is None)
+def _start_recording(handles: DiagramHandles, scenario: Scenario) -> None:
+    """Meshcat's camera and the recording (if visualisation is on)."""
+    if handles.meshcat is None:
+        return
+    # Look at the robot from inside the pool (the walls hide it from outside).
+    p0 = np.asarray(scenario.initial_pose.xyz, dtype=float)
+    handles.meshcat.SetCameraPose(camera_in_world=p0 + [-0.8, -0.75, 0.45], target_in_world=p0)
+    handles.meshcat.SetProperty("/Grid", "visible", False)
+    handles.visualizer.StartRecording(set_transforms_while_recording=False)
+
+
+def _build(scenario: Scenario, out_dir: pathlib.Path, prepare, received):
+    """The folder's earlier outputs replaced by this run's start, the diagram, its context
+    and the Simulator; a failure or a signal here leaves the build's story."""
     try:
+        with signals_deferred():
+            _start_outputs(scenario, out_dir, write_scenario=prepare is None)
         diagram, handles = build_diagram(scenario)
         context = diagram.CreateDefaultContext()
         if prepare is not None:
             prepare(handles, context)
         simulator = make_simulator(diagram, scenario, context)
-    except KeyboardInterrupt as e:
-        reason = e.reason if isinstance(e, RunInterrupted) else "interrupted (Ctrl-C)"
-        _write_failed_build(scenario, out_dir, e, reason)
-        raise
-    except Exception as e:
-        _write_failed_build(scenario, out_dir, e)
+        _start_recording(handles, scenario)
+    except (KeyboardInterrupt, Exception) as e:
+        stop = interruption(e, received)  # a signal inside a pybind11 call: its TypeError
+        with signals_deferred():
+            _write_failed_build(scenario, out_dir, e, stop)
+        if stop is e:
+            raise
+        if stop is not None:
+            raise stop from e
         raise SimulationError(f"{scenario.name}: building the diagram failed: "
                               f"{type(e).__name__}: {e} (metrics.json in {out_dir})") from e
-    root_context = simulator.get_mutable_context()
-    if handles.meshcat is not None:
-        # Look at the robot from inside the pool (the walls hide it from outside).
-        p0 = np.asarray(scenario.initial_pose.xyz, dtype=float)
-        handles.meshcat.SetCameraPose(camera_in_world=p0 + [-0.8, -0.75, 0.45], target_in_world=p0)
-        handles.meshcat.SetProperty("/Grid", "visible", False)
-        handles.visualizer.StartRecording(set_transforms_while_recording=False)
+    return diagram, handles, simulator
 
-    failure, interrupted = None, False
+
+def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
+         write_outputs: bool, prepare, received) -> RunResult:
+    diagram, handles, simulator = _build(scenario, out_dir, prepare, received)
+    root_context = simulator.get_mutable_context()
+    failure, interrupted = None, None
     bar = _progress(scenario.duration, progress and sys.stderr.isatty())
     wall_start = time.perf_counter()
-    try:
-        with _signals_flagged() as signals:
+    # From the first step until the story is written a signal only notes its name: while
+    # the Simulator steps it ends the step loop (at the next step); afterwards it waits
+    # until the files are written, then the interruption goes on.
+    with signals_flagged() as signals:
+        try:
             # Between steps: a signal noted while a step ran ends the loop here.
             simulator.set_monitor(lambda c: EventStatus.ReachedTermination(diagram, "signal")
                                   if signals else EventStatus.Succeeded())
@@ -479,8 +362,7 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
                 t_next = (scenario.duration if k == n_chunks
                           else round(k * n_steps / n_chunks) * scenario.time_step)
                 status = simulator.AdvanceTo(t_next)
-                if signals:
-                    raise RunInterrupted(signals[0])
+                stop_if_signalled(signals)
                 if bar is not None:
                     bar.update(root_context.get_time() - bar.n)
                 if status.reason() == \
@@ -490,48 +372,81 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
                     failure = {"time_s": float(root_context.get_time()),
                                "reason": status.message() or "a system ended the run"}
                     break
-    except KeyboardInterrupt as e:
-        interrupted = e if isinstance(e, RunInterrupted) else RunInterrupted("SIGINT")
-        failure = {"time_s": float(root_context.get_time()), "reason": interrupted.reason}
-    except (Exception, SystemExit) as e:  # keep the log of what happened up to the failure
-        # SystemExit: a Drake abort surfacing in Python; it must not end the process
-        # without the log.
-        failure = {"time_s": float(root_context.get_time()), "reason": f"{type(e).__name__}: {e}"}
-    finally:
-        if bar is not None:
-            bar.close()
-    wall_time = time.perf_counter() - wall_start
+        except KeyboardInterrupt as e:
+            interrupted = interruption(e)
+            failure = interrupted_failure("simulation", root_context.get_time(), interrupted)
+        except (Exception, SystemExit) as e:  # keep the log of what happened up to the failure
+            # SystemExit: a Drake abort surfacing in Python; it must not end the process
+            # without the log.
+            failure = {"time_s": float(root_context.get_time()),
+                       "reason": f"{type(e).__name__}: {e}"}
+        finally:
+            if bar is not None:
+                bar.close()
+        wall_time = time.perf_counter() - wall_start
+        try:
+            log, metrics = _finish(scenario, handles, diagram, root_context, wall_time,
+                                   failure, interrupted)
+        except Exception as e:  # the story still says how the run ended
+            _write_failed_metrics(scenario, out_dir, root_context.get_time(), e, interrupted)
+            if interrupted:
+                raise interrupted from e
+            raise SimulationError(f"{scenario.name}: the run's log or metrics failed: "
+                                  f"{type(e).__name__}: {e} (metrics.json in {out_dir})") from e
+        _write_outputs(scenario, out_dir, handles, log, metrics,
+                       write_outputs and not interrupted)
+    if interrupted:
+        raise interrupted
+    stop_if_signalled(signals)  # a signal after the last step: the story was written first
+    if metrics["status"] == "failed":
+        failure = metrics["failure"]
+        raise SimulationError(
+            f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "
+            f"{failure['reason']} (partial log in {out_dir})"
+        )
+    return RunResult(metrics, out_dir, log, handles, root_context)
 
+
+def _write_failed_metrics(scenario: Scenario, out_dir: pathlib.Path, time_s: float,
+                          error: Exception, interrupted) -> None:
+    """The story of a run whose log or metrics could not be computed (``stage: metrics``),
+    or, if a signal had stopped it, of that interruption."""
+    failure = (interrupted_failure("simulation", time_s, interrupted) if interrupted else
+               {"stage": "metrics", "time_s": float(time_s),
+                "reason": f"{type(error).__name__}: {error}"})
+    write_metrics(out_dir, {"scenario": scenario.name,
+                            "status": "interrupted" if interrupted else "failed",
+                            "failure": failure})
+
+
+def _finish(scenario: Scenario, handles: DiagramHandles, diagram, root_context,
+            wall_time: float, failure: dict | None, interrupted) -> tuple[dict, dict]:
+    """The run's log and metrics, with its status (``ok``, ``failed`` or ``interrupted``)."""
     log = extract_log(handles, root_context)
     log["sim_time"] = np.array(root_context.get_time())
     metrics = compute_metrics(scenario, log, wall_time)
     if failure is None and "body_xyz" in log and not np.all(np.isfinite(log["body_xyz"])):
         failure = {"time_s": float(log["t"][np.argmax(~np.isfinite(log["body_xyz"]).any(1))]),
                    "reason": "non-finite body state"}
-    metrics["status"] = "failed" if failure else "ok"
+    metrics["status"] = "interrupted" if interrupted else "failed" if failure else "ok"
     if failure:
         metrics["failure"] = {"stage": "simulation", **failure}
-    elif not interrupted:
+    else:
         metrics["max_penetration_m"] = max_penetration(handles, diagram, root_context)
+    return log, metrics
 
-    # A second signal while the files are written must not cut them short: the story is
-    # written whole, then the interruption goes on.
-    with _signals_deferred():
-        tmp_log = out_dir / ".log.npz.tmp.npz"
-        np.savez_compressed(tmp_log, **log)
-        os.replace(tmp_log, out_dir / "log.npz")
-        if write_outputs and not interrupted:
-            plots.write_run_plots(log, out_dir, title=scenario.name)
-            if handles.visualizer is not None:
-                handles.visualizer.StopRecording()
-                handles.visualizer.PublishRecording()
-                _write_atomic(out_dir / "recording.html", handles.meshcat.StaticHtml())
-        _write_metrics(out_dir, metrics)  # last: its presence says the others are complete
-    if interrupted:
-        raise interrupted
-    if failure:
-        raise SimulationError(
-            f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "
-            f"{failure['reason']} (partial log in {out_dir})"
-        )
-    return RunResult(metrics, out_dir, log, handles, root_context)
+
+def _write_outputs(scenario: Scenario, out_dir: pathlib.Path, handles: DiagramHandles,
+                   log: dict, metrics: dict, plots_and_recording: bool) -> None:
+    """The log, the plots and the recording, then metrics.json (last: its presence says
+    the others are complete)."""
+    tmp_log = out_dir / ".log.npz.tmp.npz"
+    np.savez_compressed(tmp_log, **log)
+    os.replace(tmp_log, out_dir / "log.npz")
+    if plots_and_recording:
+        plots.write_run_plots(log, out_dir, title=scenario.name)
+        if handles.visualizer is not None:
+            handles.visualizer.StopRecording()
+            handles.visualizer.PublishRecording()
+            write_atomic(out_dir / "recording.html", handles.meshcat.StaticHtml())
+    write_metrics(out_dir, metrics)

@@ -138,3 +138,16 @@ def test_help_and_run_import_only_what_they_need():
                             capture_output=True, text=True, timeout=120).stdout
     for command in ("run", "list", "station", "controller", "sweep", "calibrate", "study"):
         assert command in listed
+
+
+def test_an_option_replaces_a_checked_set_value_and_keeps_its_other_fields():
+    """--duration and --no-meshcat are layered after the --set values: they win over them,
+    and a --set of the whole section keeps its other fields."""
+    from manta_drake.cli import _scenario
+    from manta_drake.scenario import find_scenario
+
+    s = _scenario(find_scenario("stand"),
+                  ["visualization={meshcat: true, recording_fps: 20}", "duration=5"],
+                  {"duration": 0.3, "visualization.meshcat": False})
+    assert s.duration == 0.3 and s.visualization.meshcat is False
+    assert s.visualization.recording_fps == 20.0

@@ -80,3 +80,129 @@ def test_an_excursion_that_returns_is_no_transition_and_wrapping_is_on_the_torus
     # -pi and pi are the same angle: progress 1 at b written either way.
     np.testing.assert_allclose(transition_progress(np.array([[-np.pi, -np.pi / 2]]), a, b), 1.0)
     np.testing.assert_allclose(transition_progress(np.array([a]), a, b), 0.0)
+
+
+# --- the note says only what happened ----------------------------------------------------------
+
+def _still_log(duration, x=0.0):
+    """A hull at rest at x (m) along the pool's axis, logged every 10 ms for ``duration`` s."""
+    t = np.arange(0.0, duration + 1e-9, 0.01)
+    q = _yaw_quats(0 * t)
+    xyz = np.stack([0 * t + x, 0 * t, -0.05 + 0 * t], axis=1)
+    return {"t": t, "body_xyz": xyz, "body_quat_wxyz": q, "body_rpy": M.euler_rpy(q)}
+
+
+def test_a_short_run_far_from_the_walls_is_told_short_not_near_a_wall():
+    """1.2 s in mid-pool (0.88 m from a side wall): the window 0.6-1.2 s is short because the
+    run ended, and the note says that and nothing about a wall."""
+    m = compute_metrics(Scenario(steady_after=2.0), _still_log(1.2), 1.0)
+    assert m["near_wall_at_s"] is None and m["min_wall_clearance_m"] == pytest.approx(0.88)
+    assert m["steady_window_s"] == pytest.approx([0.6, 1.2])
+    assert m["note"] == ("steady window 0.60-1.20 s is shorter than 1.0 s (the run ended at "
+                         "1.20 s): no mean velocity")
+    assert "wall" not in m["note"]
+
+
+def test_a_wall_approach_is_named_with_its_time():
+    """Swimming at 0.1 m/s from x = 7.0 - 0.19 - 0.3 - 0.25 toward the end wall at 7.5 m
+    (clearance 0.3 m reached at 2.5 s... with a 20 s run the window 2.0-2.5 s is short
+    only because of the wall, so the run's length is not named."""
+    t = np.arange(0.0, 20.0, 0.01)
+    x0 = 7.5 - 0.19 - 0.3 - 0.25
+    log = _still_log(19.99)
+    log["body_xyz"][:, 0] = np.minimum(x0 + 0.1 * t, 7.5 - 0.19)
+    m = compute_metrics(Scenario(steady_after=2.0), log, 1.0)
+    assert m["near_wall_at_s"] == pytest.approx(2.5, abs=0.011)
+    near = m["near_wall_at_s"]
+    assert m["note"] == (f"steady window 2.00-{near:.2f} s is shorter than 1.0 s (the hull "
+                         f"came within 0.3 m of a wall at {near:.2f} s): no mean velocity")
+    # Both causes at once: a 1.2 s run that also reaches the wall at 0.9 s.
+    both = M.short_window_note(0.6, 0.9, 1.0, 1.2, 0.9, 0.3)
+    assert both == ("steady window 0.60-0.90 s is shorter than 1.0 s (the hull came within "
+                    "0.3 m of a wall at 0.90 s; the run ended at 1.20 s): no mean velocity")
+
+
+def test_the_energy_notes_name_what_is_missing():
+    t = np.arange(0.0, 1.201, 0.01)
+    log = {"t_electrical_power": t, "electrical_power": 30.0 + 0 * t[:, None],
+           "t_joint_mechanical_power": t, "joint_mechanical_power": np.ones((len(t), 16)),
+           "t_battery": t, "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1))}
+    short = M.energy_metrics(log, 8.4, 50.0, 0.2, [0.6, 1.2], None)
+    assert short["cost_of_transport"] is None
+    assert short["cost_of_transport_note"] == ("no mean velocity over the steady window "
+                                               "0.60-1.20 s (the run's note says why): no "
+                                               "cost of transport")
+    none = M.energy_metrics(log, 8.4, 50.0, 0.2, None, None)
+    assert none["cost_of_transport_note"] == "no steady window: no cost of transport"
+    assert none["mean_electrical_power_w"] == pytest.approx(30.0)
+
+
+# --- Euler angles through the gimbal lock ------------------------------------------------------
+
+def _quat_rpy(roll, pitch, yaw):
+    """The quaternion (w, x, y, z) of Rz(yaw) Ry(pitch) Rx(roll), by the half-angle product
+    qz * qy * qx written out (the closed form, independent of the code under test)."""
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    return np.array([cy * cp * cr + sy * sp * sr, cy * cp * sr - sy * sp * cr,
+                     cy * sp * cr + sy * cp * sr, sy * cp * cr - cy * sp * sr])
+
+
+def _wrapped(a):
+    return np.angle(np.exp(1j * np.asarray(a)))
+
+
+@pytest.mark.parametrize("roll, yaw", [(0.3, 0.5), (2.9, -2.8), (-1.0, 3.0), (0.0, 0.0)])
+def test_euler_angles_at_the_gimbal_lock_keep_the_determined_combination(roll, yaw):
+    """At pitch +90 deg Rz(y) Ry(90) Rx(r) depends on y - r only, at -90 deg on y + r: the
+    angles must give back that combination (no 0/0, no warning), split as Drake does
+    (yaw = -roll at +90, yaw = roll at -90)."""
+    import warnings
+
+    q = np.array([_quat_rpy(roll, np.pi / 2, yaw), _quat_rpy(roll, -np.pi / 2, yaw)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rpy = M.euler_rpy(q)
+    up, down = rpy
+    assert up[1] == pytest.approx(np.pi / 2, abs=1e-7)
+    assert down[1] == pytest.approx(-np.pi / 2, abs=1e-7)
+    assert _wrapped(up[2] - up[0] - (yaw - roll)) == pytest.approx(0.0, abs=1e-7)
+    assert _wrapped(down[2] + down[0] - (yaw + roll)) == pytest.approx(0.0, abs=1e-7)
+    assert up[2] == pytest.approx(-up[0], abs=1e-12) and down[2] == pytest.approx(down[0])
+    # The angles given back describe the same orientation (the closed form again).
+    np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", q, [_quat_rpy(*a) for a in rpy])),
+                               1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("offset", [1e-3, 1e-6])
+def test_euler_angles_near_the_gimbal_lock_are_the_true_ones(offset):
+    """Just short of the lock every angle is still determined, and recovered."""
+    for pitch in (np.pi / 2 - offset, -np.pi / 2 + offset):
+        rpy = M.euler_rpy(_quat_rpy(0.3, pitch, -2.0)[None])[0]
+        np.testing.assert_allclose(rpy, [0.3, pitch, -2.0], atol=1e-15 / offset + 1e-9)
+
+
+def test_euler_angles_match_drakes_roll_pitch_yaw_everywhere():
+    """Random orientations, and orientations at and near the lock, against Drake's own
+    RollPitchYaw (an independent implementation)."""
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RollPitchYaw
+
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(300, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    lock = [_quat_rpy(r, p, y) for r, y in rng.uniform(-3, 3, (20, 2))
+            for p in (np.pi / 2, -np.pi / 2, np.pi / 2 - 1e-8)]
+    q = np.vstack([q, lock])
+    expected = np.array([RollPitchYaw(Quaternion(x / np.linalg.norm(x))).vector() for x in q])
+    np.testing.assert_allclose(M.euler_rpy(q), expected, atol=1e-9)
+
+
+def test_yaw_rate_of_a_robot_nearly_on_its_nose_is_its_turn():
+    """Pitched 0.01 deg short of -90 (nose down), rolled 20 deg and turning about the
+    world's vertical at 10 deg/s: the yaw rate is 10 deg/s."""
+    t = np.arange(0.0, 3.0, 0.01)
+    pitch = -np.pi / 2 + np.radians(0.01)
+    q = np.array([_quat_rpy(np.radians(20.0), pitch, yaw) for yaw in np.radians(10.0) * t])
+    assert M.yaw_rate_deg_s(t, q, 0.0) == pytest.approx(10.0, abs=1e-6)

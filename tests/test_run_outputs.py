@@ -72,10 +72,70 @@ def test_an_interrupted_load_replaces_the_earlier_runs_story(tmp_path):
     run(_stand(), out, progress=False, write_outputs=False)
     write_interrupted_start(out, "stand", RunInterrupted("SIGTERM"))
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["status"] == "failed"
+    assert metrics["status"] == "interrupted"
     assert metrics["failure"] == {"stage": "load", "time_s": 0.0,
-                                  "reason": "terminated (SIGTERM)"}
+                                  "reason": "terminated (SIGTERM)", "signal": "SIGTERM"}
     assert not (out / "log.npz").exists()
+
+
+def _wait_for_mark(out: pathlib.Path, stage: str, timeout: float) -> float:
+    """Waits until ``out/metrics.json`` says ``running`` at ``stage``; the time it did."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            metrics = json.loads((out / "metrics.json").read_text())
+        except (OSError, ValueError):
+            metrics = {}
+        if metrics.get("status") == "running" and metrics.get("stage") == stage:
+            return time.monotonic()
+        time.sleep(0.01)
+    raise AssertionError(f"{out}: no 'running' mark of stage {stage} in {timeout} s")
+
+
+def _old_ok_run(out: pathlib.Path) -> None:
+    """A folder as an earlier, finished run left it: its scenario.yaml, log and ok story."""
+    from manta_drake.simulate import SCENARIO_HEADER
+
+    out.mkdir(parents=True)
+    (out / "scenario.yaml").write_text(SCENARIO_HEADER + "duration: 0.3\n")
+    (out / "log.npz").write_bytes(b"old")
+    (out / "metrics.json").write_text(json.dumps({"scenario": "stand", "status": "ok"}))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
+@pytest.mark.parametrize("after", [0.2, 1.3])
+def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(
+        tmp_path, sig, after):
+    """Signalled 0.2 s or 1.3 s after it started (still importing pydrake and loading the
+    scenario), `manta-drake run` prints one line, exits with 128 + the signal and leaves a
+    metrics.json that says it was interrupted by that signal, not the earlier run's ok,
+    and none of the earlier run's files."""
+    out = tmp_path / "out"
+    _old_ok_run(out)
+    started = time.monotonic()
+    process = subprocess.Popen(CLI + ["run", "stand", "--out", str(out), "--duration", "0.3",
+                                      "--no-meshcat", "--quiet"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    # The mark comes within about 0.1 s of the start (later on a loaded machine: then the
+    # signal follows it at once).
+    marked = _wait_for_mark(out, "load", timeout=30)
+    time.sleep(max(0.0, started + after - marked))
+    process.send_signal(sig)
+    _, err = process.communicate(timeout=60)
+    reason = "interrupted (Ctrl-C)" if sig == signal.SIGINT else f"terminated ({sig.name})"
+    assert process.returncode == 128 + sig, err
+    word = "interrupted" if sig == signal.SIGINT else "terminated"
+    assert err.strip().splitlines() == [f"manta-drake: {word} ({sig.name})"], err
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "interrupted", metrics
+    assert metrics["failure"]["signal"] == sig.name and metrics["failure"]["reason"] == reason
+    # Still loading, or (on a fast machine at 1.3 s) building or simulating the 0.3 s.
+    assert metrics["failure"]["stage"] in ("load", "build", "simulation")
+    if metrics["failure"]["stage"] != "simulation":
+        assert not (out / "log.npz").exists()
+    else:
+        assert (out / "log.npz").read_bytes() != b"old"
 
 
 @pytest.mark.slow
@@ -92,21 +152,17 @@ def test_a_signal_mid_run_writes_the_partial_log_and_why(tmp_path, sig, code, re
                                       "--no-meshcat", "--quiet"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    # Wait until the simulation is under way: the 'running' metrics.json is written when
-    # the run starts, then the build takes about a second.
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        if (out / "metrics.json").is_file() and \
-                json.loads((out / "metrics.json").read_text())["status"] == "running":
-            break
-        time.sleep(0.05)
+    # Wait until the simulation is under way: the 'running' metrics.json of stage 'build'
+    # is written when the run has loaded its scenario, then the build takes about a second.
+    _wait_for_mark(out, "build", timeout=60)
     time.sleep(2.0)
     process.send_signal(sig)
     _, err = process.communicate(timeout=60)
     assert process.returncode == code, err
     assert len(err.strip().splitlines()) == 1, err
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["status"] == "failed" and metrics["failure"]["reason"] == reason
+    assert metrics["status"] == "interrupted" and metrics["failure"]["reason"] == reason
+    assert metrics["failure"]["signal"] == sig.name
     # On a loaded machine the signal may still find the run building its diagram: the
     # story then says so; once simulating, the partial log ends where the run stopped.
     assert metrics["failure"]["stage"] in ("build", "simulation")
@@ -140,3 +196,86 @@ def test_a_run_that_empties_the_battery_stops_and_says_so(tmp_path):
 
     log = np.load(tmp_path / "out" / "log.npz")
     assert log["t"][-1] == pytest.approx(stop, abs=2e-3)
+
+
+def test_an_import_error_while_a_signal_is_pending_is_the_interruption(tmp_path, monkeypatch,
+                                                                       capsys):
+    """pydrake's module initialisation turns the exception of a signal's handler into
+    ImportError("initialization failed"): `manta-drake run` still says it was terminated,
+    and so does the folder."""
+    import os
+
+    import manta_drake.cli as cli
+
+    def import_broken_by_a_signal(*args):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(10)  # the handler raises here
+        except KeyboardInterrupt:
+            raise ImportError("initialization failed") from None
+        raise AssertionError("the signal was not turned into an exception")
+
+    out = tmp_path / "out"
+    _old_ok_run(out)
+    monkeypatch.setattr(cli, "_scenario", import_broken_by_a_signal)
+    assert cli.main(["run", "stand", "--out", str(out)]) == 128 + signal.SIGTERM
+    assert capsys.readouterr().err.strip().splitlines() == ["manta-drake: terminated (SIGTERM)"]
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "interrupted"
+    assert metrics["failure"] == {"stage": "load", "time_s": 0.0,
+                                  "reason": "terminated (SIGTERM)", "signal": "SIGTERM"}
+    assert not (out / "log.npz").exists() and not (out / "scenario.yaml").exists()
+
+
+def test_a_bad_input_leaves_the_folder_as_it_was(tmp_path, capsys):
+    """The folder is marked running before the scenario is loaded; a scenario that fails its
+    checks puts it back: the earlier run's files and story stay, a new folder is not left."""
+    from manta_drake.cli import main
+
+    out = tmp_path / "out"
+    _old_ok_run(out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert main(["run", "stand", "--out", str(out), "--set", "contact.friction=9"]) == 2
+    assert "contact.friction: 9.0 is outside" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    fresh = tmp_path / "new" / "deeper"
+    assert main(["run", "stand", "--out", str(fresh), "--set", "contact.frction=1"]) == 2
+    assert not (tmp_path / "new").exists()
+
+
+def test_ignored_signals_stay_ignored():
+    """Under `nohup` (SIGHUP ignored) a closed terminal must not stop the run; the others
+    still raise."""
+    import os
+
+    from manta_drake.simulate import interrupts_as_exceptions
+
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with interrupts_as_exceptions() as received:
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.05)
+            assert received == [] and signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            with pytest.raises(RunInterrupted, match="SIGTERM"):
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(10)
+            assert received == ["SIGTERM"]
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+
+
+def test_metrics_that_cannot_be_computed_leave_a_failed_story_not_running(tmp_path,
+                                                                          monkeypatch):
+    import manta_drake.simulate as simulate
+
+    def broken(*args):
+        raise ValueError("no samples")
+
+    monkeypatch.setattr(simulate, "compute_metrics", broken)
+    with pytest.raises(simulate.SimulationError, match="log or metrics failed: ValueError"):
+        run(_stand(0.05), tmp_path / "out", progress=False, write_outputs=False)
+    metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert metrics["status"] == "failed"
+    assert metrics["failure"] == {"stage": "metrics", "time_s": pytest.approx(0.05),
+                                  "reason": "ValueError: no samples"}

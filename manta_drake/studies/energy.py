@@ -48,7 +48,6 @@ import argparse
 import dataclasses as dc
 import math
 import pathlib
-import sys
 
 import numpy as np
 
@@ -1036,12 +1035,42 @@ def check_logs(sweep_dir: pathlib.Path) -> dict:
     return out
 
 
+# The columns of the sweep's results.csv the report reads (``energy.transport_speed_m_s``
+# may be missing: |(u, v)| stands in), and the one ``--check-logs`` reads.
+RESULTS_COLUMNS = ("base", *PARAMS, "status", "u", "v", "steady_start_s", "steady_end_s",
+                   "near_wall_at_s", "touched_wall", "energy.steady_electrical_power_w",
+                   "energy.steady_mechanical_power_w", "energy.cost_of_transport",
+                   "energy.cost_of_transport_mechanical", "energy.operation_time_h",
+                   "energy.mean_electrical_power_w")
+LOGS_COLUMNS = ("run_id",)
+
+
+def check_arguments(args) -> None:
+    """Every option before anything is read; raises ScenarioError naming it."""
+    from manta_drake.config_io import check_writable_folder
+    from manta_drake.studies.options import check_output_file, check_results_csv
+
+    if args.check_logs is not None:
+        check_results_csv("--check-logs", args.check_logs / "results.csv", LOGS_COLUMNS,
+                          hint=" (DIR is the output folder of `manta-drake sweep "
+                               "diagrams/sweeps/energy.yaml`)")
+        return
+    check_results_csv("--results", args.results, RESULTS_COLUMNS,
+                      hint=f"; run `manta-drake sweep diagrams/sweeps/energy.yaml --out "
+                           f"{pathlib.Path(args.results).parent}` or use --results "
+                           f"{SHIPPED_RESULTS}")
+    check_output_file("--out-md", args.out_md)
+    check_writable_folder(args.out_fig_dir, "--out-fig-dir", example="docs/figures")
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study energy``); returns the exit status."""
-    p = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter,
-                                epilog="Without a fresh sweep, use the table shipped in the "
-                                       f"repository: --results {SHIPPED_RESULTS}")
+    from manta_drake.studies.options import StudyParser
+
+    p = StudyParser(prog=prog, description=__doc__.split("\n\n")[0],
+                    formatter_class=argparse.RawDescriptionHelpFormatter,
+                    epilog="Without a fresh sweep, use the table shipped in the "
+                           f"repository: --results {SHIPPED_RESULTS}")
     p.add_argument("--results", default=DEFAULT_RESULTS,
                    help=f"results.csv of the energy sweep (default {DEFAULT_RESULTS}; the "
                         f"shipped copy: {SHIPPED_RESULTS})")
@@ -1054,15 +1083,11 @@ def main(argv=None, prog=None) -> int:
                    help="instead of the report: read DIR/runs/*/log.npz of the sweep and print "
                         "how steady each run's window power is")
     args = p.parse_args(argv)
+    check_arguments(args)
     if args.check_logs is not None:
         check_logs(args.check_logs)
         return 0
     results = pathlib.Path(args.results)
-    if not results.exists():
-        print(f"error: {results} does not exist; run `manta-drake sweep "
-              f"diagrams/sweeps/energy.yaml --out {results.parent}` or use "
-              f"--results {SHIPPED_RESULTS}", file=sys.stderr)
-        return 2
     table = read_table(read_results(results))
     write_markdown(pathlib.Path(args.out_md), markdown_block(table, args.results),
                    f"manta-drake study energy --results {args.results}")

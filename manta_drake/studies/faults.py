@@ -61,7 +61,6 @@ wall); 0 otherwise. docs/fault_campaign.md describes the summary.
 
 from __future__ import annotations
 
-import argparse
 import collections
 import copy
 import csv
@@ -77,8 +76,10 @@ import traceback
 
 import numpy as np
 
+from manta_drake.config_io import check_in_range, check_integer, check_writable_folder
 from manta_drake.model.coefficients import RANGES, load_coefficients
-from manta_drake.scenario import coefficient_names
+from manta_drake.scenario import MAX_DURATION_S, MAX_RANDOM_SEED, coefficient_names
+from manta_drake.studies.options import StudyParser, needs
 
 # --- what is drawn -------------------------------------------------------------------------
 
@@ -108,6 +109,11 @@ P = {
     "time_step": 0.35, "time_step_bad": 0.02,
     "friction": 0.15, "update_period": 0.2, "balloon": 0.15, "gait_swap": 0.1,
 }
+# Each run's duration [s] when --duration does not fix it, and the earliest time of a drawn
+# balloon command (the command's time is drawn in [BALLOON_COMMAND_AFTER_S, duration], so a
+# duration below it leaves no time to draw from).
+DURATION_RANGE_S = (2.0, 4.0)
+BALLOON_COMMAND_AFTER_S = 0.3
 STARTS = {"none": 0.50, "tilted": 0.18, "upside_down": 0.08, "near_wall": 0.12,
           "inside_wall": 0.04, "below_floor": 0.04, "above_surface": 0.04}
 
@@ -154,7 +160,8 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
     Args:
         rng: the campaign's numpy Generator (every draw comes from it, in a fixed order).
         run: the run's index.
-        duration: every run's duration [s]; None: drawn in [2, 4].
+        duration: every run's duration [s] (at least ``BALLOON_COMMAND_AFTER_S``); None:
+            drawn in ``DURATION_RANGE_S``.
         coeff_names: the dotted coefficient names a scale may name.
         bases: the loaded base Scenario of each name in ``BASES``.
     """
@@ -164,7 +171,7 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
     o: dict = {}
     faults: list[str] = []
     expect: list[str] = []
-    dur = _r(duration if duration is not None else rng.uniform(2.0, 4.0), 3)
+    dur = _r(duration if duration is not None else rng.uniform(*DURATION_RANGE_S), 3)
     o["name"] = f"fault_{run:04d}_{base}"
     o["duration"] = dur
     o["random_seed"] = int(rng.integers(0, 2**31 - 1))
@@ -307,7 +314,7 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
         faults.append("update_period")
     if water and rng.random() < P["balloon"]:
         o["balloon.initial_fill"] = _r(rng.uniform(0.0, 1.0), 4)
-        o["balloon.schedule"] = [{"time": _r(rng.uniform(0.3, dur), 3),
+        o["balloon.schedule"] = [{"time": _r(rng.uniform(BALLOON_COMMAND_AFTER_S, dur), 3),
                                   "fill": _r(rng.uniform(0.0, 1.0), 4)}]
         faults.append("balloon")
     return {"run": run, "base": base, "faults": faults, "expect_refused": expect,
@@ -939,19 +946,54 @@ def write_outputs(rows: list[dict], summary: dict, out_dir) -> None:
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
 
 
+# The command line's ranges. Runs are numbered in four digits (run_NNNN). A run's worker
+# imports Drake and builds the run's diagram before it simulates: the slowest run of the
+# 1000-run campaign of docs/fault_campaign.md took 26 s, so a timeout below 30 s would kill
+# healthy runs; a day is the longest a run may take.
+MAX_RUNS = 10_000
+RUN_TIMEOUT_RANGE_S = (30.0, 86400.0)
+
+
+def check_arguments(args) -> None:
+    """Every option of the command line in its range (before anything is drawn or run);
+    raises ScenarioError (ClusterError for the cluster's options) naming the option."""
+    from manta_drake.cluster import check_cluster_arguments
+
+    check_integer("--runs", args.runs, 1, MAX_RUNS)
+    check_integer("--seed", args.seed, 0, MAX_RANDOM_SEED)
+    if args.duration is not None:
+        check_in_range("--duration", args.duration, BALLOON_COMMAND_AFTER_S, MAX_DURATION_S,
+                       f"[{BALLOON_COMMAND_AFTER_S:g}, {MAX_DURATION_S:g}] s (a drawn balloon "
+                       f"command comes at {BALLOON_COMMAND_AFTER_S:g} s or later)")
+    lo, hi = RUN_TIMEOUT_RANGE_S
+    check_in_range("--run-timeout", args.run_timeout, lo, hi, f"[{lo:g}, {hi:g}] s")
+    needs("--strict", args.strict, "--check", args.check,
+          "it adds the must-refuse and start-contact checks to --check's")
+    for i in args.inject_crash:
+        check_integer(f"--inject-crash (a run index of --runs {args.runs})", i, 0,
+                      args.runs - 1)
+    check_cluster_arguments(args)
+    check_writable_folder(args.out, "--out", example="out/fault_campaign")
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study faults``); returns the exit status."""
-    from manta_drake.cluster import add_cluster_arguments, check_cluster_arguments
+    from manta_drake.cluster import add_cluster_arguments
 
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n")[0])
-    ap.add_argument("--runs", type=int, default=300)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default="out/fault_campaign")
+    ap = StudyParser(prog=prog, description=__doc__.split("\n")[0])
+    ap.add_argument("--runs", type=int, default=300,
+                    help=f"how many runs (1 to {MAX_RUNS}; default 300)")
+    ap.add_argument("--seed", type=int, default=0,
+                    help="the seed of numpy.random.default_rng the runs are drawn from")
+    ap.add_argument("--out", default="out/fault_campaign", help="output folder")
     add_cluster_arguments(ap)  # --workers 0: in this process, without crash isolation
     ap.add_argument("--duration", type=float, default=None,
-                    help="every run's duration [s] (default: drawn in [2, 4])")
+                    help="every run's duration [s], at least "
+                         f"{BALLOON_COMMAND_AFTER_S:g} (default: drawn in "
+                         f"[{DURATION_RANGE_S[0]:g}, {DURATION_RANGE_S[1]:g}])")
     ap.add_argument("--run-timeout", type=float, default=600.0,
-                    help="kill a run after this many wall seconds (recorded as a timeout)")
+                    help="kill a run after this many wall seconds (recorded as a timeout; "
+                         f"{RUN_TIMEOUT_RANGE_S[0]:g} to {RUN_TIMEOUT_RANGE_S[1]:g})")
     ap.add_argument("--check", action="store_true",
                     help="exit 1 on a crash, timeout, silent NaN or unexpected exception type")
     ap.add_argument("--strict", action="store_true",
@@ -959,13 +1001,10 @@ def main(argv=None, prog=None) -> int:
     ap.add_argument("--inject-crash", type=int, action="append", default=[],
                     help="(harness self-test) segfault the worker of this run index")
     args = ap.parse_args(argv)
-    if args.runs < 1:
-        ap.error("--runs must be >= 1")
-    check_cluster_arguments(args)
+    check_arguments(args)
     specs = draw_specs(args.runs, args.seed, args.duration)
     for i in args.inject_crash:
-        if 0 <= i < len(specs):
-            specs[i]["inject_crash"] = True
+        specs[i]["inject_crash"] = True
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "specs.json").write_text(json.dumps(specs, indent=1) + "\n")

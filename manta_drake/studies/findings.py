@@ -41,12 +41,10 @@ single band points; one at a time, about 5 min) and writes ``DIR/diagnostics.jso
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses as dc
 import math
 import pathlib
 import statistics
-import sys
 import textwrap
 
 # ---------------------------------------------------------------------------------------------
@@ -227,8 +225,11 @@ def band_points(rows) -> dict:
 
 
 def read_results(path) -> list[dict]:
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+    """The findings sweep's results.csv as rows of strings (at most
+    ``config_io.MAX_TABLE_CSV_BYTES``; ScenarioError naming the file otherwise)."""
+    from manta_drake.config_io import read_csv_table
+
+    return read_csv_table(path, what="results CSV")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -736,12 +737,48 @@ def diagnose(out_dir: pathlib.Path, names=None) -> dict:
     return done
 
 
+# The columns of the sweep's results.csv the report reads.
+RESULTS_COLUMNS = ("base", *BAND_KEYS, "status", "u", "v", "yaw_rate_deg_s", "steady_start_s",
+                   "steady_end_s")
+
+
+def check_arguments(args) -> None:
+    """Every option before anything is read or run; raises ScenarioError naming it."""
+    from manta_drake.config_io import ScenarioError, check_writable_folder
+    from manta_drake.studies.options import (
+        check_figure_file,
+        check_names,
+        check_output_file,
+        check_results_csv,
+        needs,
+    )
+
+    needs("--only", args.only is not None, "--diagnose", args.diagnose is not None,
+          "it chooses the diagnostic runs")
+    if args.diagnose is not None:
+        if args.only is not None:
+            if not args.only:
+                raise ScenarioError("--only: name at least one of "
+                                    f"{', '.join(DIAGNOSTIC_RUNS)}")
+            check_names("--only", ",".join(args.only), tuple(DIAGNOSTIC_RUNS))
+        check_writable_folder(args.diagnose, "--diagnose", example="out/findings_diagnostics")
+        return
+    check_results_csv("--results", args.results, RESULTS_COLUMNS,
+                      hint=f"; run `manta-drake sweep diagrams/sweeps/findings.yaml --out "
+                           f"{pathlib.Path(args.results).parent}` or use --results "
+                           f"{SHIPPED_RESULTS}")
+    check_output_file("--out-md", args.out_md)
+    check_figure_file("--out-fig", args.out_fig)
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study findings``); returns the exit status."""
-    p = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter,
-                                epilog="Without a fresh sweep, use the table shipped in the "
-                                       f"repository: --results {SHIPPED_RESULTS}")
+    from manta_drake.studies.options import StudyParser
+
+    p = StudyParser(prog=prog, description=__doc__.split("\n\n")[0],
+                    formatter_class=argparse.RawDescriptionHelpFormatter,
+                    epilog="Without a fresh sweep, use the table shipped in the "
+                           f"repository: --results {SHIPPED_RESULTS}")
     p.add_argument("--results", default=DEFAULT_RESULTS,
                    help=f"results.csv of the findings sweep (default {DEFAULT_RESULTS}; "
                         f"the shipped copy: {SHIPPED_RESULTS})")
@@ -755,16 +792,12 @@ def main(argv=None, prog=None) -> int:
     p.add_argument("--only", nargs="*", help="with --diagnose: only these runs "
                    f"({', '.join(DIAGNOSTIC_RUNS)})")
     args = p.parse_args(argv)
+    check_arguments(args)
     if args.diagnose is not None:
         diagnose(args.diagnose, args.only)
         return 0
 
     results = pathlib.Path(args.results)
-    if not results.exists():
-        print(f"error: {results} does not exist; run `manta-drake sweep "
-              f"diagrams/sweeps/findings.yaml --out {results.parent}` or use "
-              f"--results {SHIPPED_RESULTS}", file=sys.stderr)
-        return 2
     points = band_points(read_results(results))
     tallies, verdicts = evaluate(points)
     variant_tallies, _ = evaluate(points, VARIANTS)

@@ -27,7 +27,6 @@ OUT/readings.md, with a figure of the swims' paths (OUT/swim_paths.png).
 
 from __future__ import annotations
 
-import argparse
 import pathlib
 
 import numpy as np
@@ -82,6 +81,15 @@ READINGS = {
 }
 
 
+def run_overrides(duration: float, fin_sweep_deg: float | None = None) -> dict:
+    """The overrides of a run's locomotion scenario (``run_reading``)."""
+    overrides = {"visualization.meshcat": False, "duration": duration,
+                 "steady_after": duration / 2}
+    if fin_sweep_deg is not None:
+        overrides["robot.fin_sweep_deg"] = fin_sweep_deg
+    return overrides
+
+
 def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float,
                 fin_sweep_deg: float | None = None, readings=READINGS) -> dict:
     """One locomotion scenario with its gait and stance under ``reading`` (and the fins'
@@ -95,33 +103,59 @@ def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float,
         fin_sweep_deg: ``robot.fin_sweep_deg`` of the run (None: the scenario's).
         readings: reading -> (gait name -> GaitParams).
     """
-    overrides = {"visualization.meshcat": False, "duration": duration,
-                 "steady_after": duration / 2}
-    if fin_sweep_deg is not None:
-        overrides["robot.fin_sweep_deg"] = fin_sweep_deg
-    s = load_scenario(f"locomotion_{gait}", overrides=overrides)
+    s = load_scenario(f"locomotion_{gait}", overrides=run_overrides(duration, fin_sweep_deg))
     # The locomotion scenarios start in the stance of the gait they run.
     return run_with_gait(s, readings[reading](gait), out, gait_name=f"{gait}, {reading}")
 
 
+def shortest_duration() -> float:
+    """The shortest run [s] whose second half (the means' window) is long enough for a mean
+    velocity (``simulate.MIN_STEADY_WINDOW``)."""
+    from manta_drake.simulate import MIN_STEADY_WINDOW
+
+    return 2.0 * MIN_STEADY_WINDOW
+
+
+def check_arguments(args) -> tuple[list[str], list[str]]:
+    """Every option before anything is run; returns the readings and the gaits; raises
+    ScenarioError naming the option."""
+    from manta_drake.config_io import ScenarioError, check_in_range, check_writable_folder
+    from manta_drake.scenario import MAX_DURATION_S
+    from manta_drake.studies.options import check_names
+
+    lo = shortest_duration()
+    check_in_range("--duration", args.duration, lo, MAX_DURATION_S,
+                   f"[{lo:g}, {MAX_DURATION_S:g}] s (the means are over the second half)")
+    readings = check_names("--readings", args.readings, tuple(READINGS))
+    gaits = check_names("--gaits", args.gaits, GAITS)
+    if args.fin_sweep is not None:  # the scenarios' own check of robot.fin_sweep_deg
+        for gait in gaits:
+            try:
+                load_scenario(f"locomotion_{gait}",
+                              overrides=run_overrides(args.duration, args.fin_sweep))
+            except ScenarioError as e:
+                raise ScenarioError(f"--fin-sweep {args.fin_sweep:g}: {e}") from None
+    check_writable_folder(args.out, "--out", example="out/gait_readings")
+    return readings, gaits
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study readings``); returns the exit status."""
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    from manta_drake.studies.options import StudyParser
+
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/gait_readings"))
-    parser.add_argument("--duration", type=float, default=12.0)
-    parser.add_argument("--readings", default=",".join(READINGS))
-    parser.add_argument("--gaits", default=",".join(GAITS))
+    parser.add_argument("--duration", type=float, default=12.0,
+                        help="each run's duration [s] (the means are over its second half)")
+    parser.add_argument("--readings", default=",".join(READINGS),
+                        help=f"comma-separated, of {', '.join(READINGS)}")
+    parser.add_argument("--gaits", default=",".join(GAITS),
+                        help=f"comma-separated, of {', '.join(GAITS)}")
     parser.add_argument("--fin-sweep", type=float, default=None, metavar="DEG",
                         help="robot.fin_sweep_deg of every run (default: the scenario's, 10); "
                              "docs/stance.md balances each reading's stance")
     args = parser.parse_args(argv)
-    readings, gaits = args.readings.split(","), args.gaits.split(",")
-    for r in readings:
-        if r not in READINGS:
-            parser.error(f"--readings: {r!r} is not one of {', '.join(READINGS)}")
-    for g in gaits:
-        if g not in GAITS:
-            parser.error(f"--gaits: {g!r} is not one of {', '.join(GAITS)}")
+    readings, gaits = check_arguments(args)
     rows = []
     for reading in readings:
         for gait in gaits:
@@ -129,8 +163,12 @@ def main(argv=None, prog=None) -> int:
                 continue
             out = args.out / f"{reading}_{gait}"
             m = run_reading(reading, gait, out, args.duration, args.fin_sweep)
+            # No mean velocity (the hull came near a wall before the window was long
+            # enough): NaN in the table.
             u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
-            row = (reading, gait, u, v, m["yaw_rate_deg_s"], m["min_wall_clearance_m"])
+            yaw = m["yaw_rate_deg_s"]
+            row = (reading, gait, u, v, float("nan") if yaw is None else yaw,
+                   m["min_wall_clearance_m"])
             rows.append(row)
             print("%-13s %-8s u %+.3f  v %+.3f m/s  yaw %+6.2f deg/s  clearance %.2f m"
                   % row, flush=True)

@@ -26,12 +26,12 @@ figure ``--out-fig``.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import pathlib
 
 import numpy as np
 
+from manta_drake.config_io import read_csv_table
 from manta_drake.control.gaits import get_gait
 from manta_drake.model.kinematics import fin_tips_xy, support_diagonal_offsets
 from manta_drake.model.robot_params import robot_with_fin_sweep_deg
@@ -105,8 +105,7 @@ def kinematics_rows() -> list[dict]:
 def table_from_sweep(sweep_out: pathlib.Path) -> list[dict]:
     """The dynamics table from a sweep's results.csv and its runs' logs."""
     rows = []
-    with open(sweep_out / "results.csv", newline="") as f:
-        results = list(csv.DictReader(f))
+    results = read_csv_table(sweep_out / "results.csv", what="results CSV")
     for r in results:
         run = sweep_out / "runs" / r["run_id"]
         s = load_scenario(run / "scenario.yaml")  # the run's resolved scenario
@@ -137,9 +136,8 @@ def write_table(rows: list[dict], path: pathlib.Path) -> None:
 
 
 def read_table(path: pathlib.Path) -> list[dict]:
-    with open(path, newline="") as f:
-        return [{k: (v if k in ("gait_reading", "gait") else float(v)) for k, v in r.items()}
-                for r in csv.DictReader(f)]
+    return [{k: (v if k in ("gait_reading", "gait") else float(v)) for k, v in r.items()}
+            for r in read_csv_table(path, what="table CSV")]
 
 
 def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
@@ -228,24 +226,49 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
     fig.savefig(path, dpi=120)
 
 
+# The columns of the stance sweep's results.csv that ``table_from_sweep`` reads.
+SWEEP_COLUMNS = ("run_id", "base", "status", "reason", "u", "v", "yaw_rate_deg_s",
+                 "steady_start_s", "steady_end_s")
+
+
+def check_arguments(args) -> None:
+    """Every option before anything is read or computed; raises ScenarioError naming it."""
+    from manta_drake.studies.options import (
+        check_figure_file,
+        check_output_file,
+        check_results_csv,
+    )
+
+    if args.sweep_out is not None:
+        check_results_csv("--sweep-out", args.sweep_out / "results.csv", SWEEP_COLUMNS,
+                          hint=" (DIR is the output folder of `manta-drake sweep "
+                               "diagrams/sweeps/stance.yaml`)")
+        check_output_file("--table", args.table)
+    else:
+        check_results_csv("--table", args.table, COLUMNS,
+                          hint="; run the sweep and pass --sweep-out")
+    check_output_file("--out-md", args.out_md)
+    check_figure_file("--out-fig", args.out_fig)
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study stance``); returns the exit status."""
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    from manta_drake.studies.options import StudyParser
+
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--sweep-out", type=pathlib.Path,
                         help="output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`")
     parser.add_argument("--table", type=pathlib.Path,
-                        default=ROOT / "diagrams/sweeps/data/stance_table.csv")
+                        default=ROOT / "diagrams/sweeps/data/stance_table.csv",
+                        help="the dynamics table: read (written with --sweep-out)")
     parser.add_argument("--out-md", type=pathlib.Path, default=ROOT / "docs/stance.md")
     parser.add_argument("--out-fig", type=pathlib.Path, default=ROOT / "docs/figures/stance.png")
     args = parser.parse_args(argv)
+    check_arguments(args)
     if args.sweep_out is not None:
-        if not (args.sweep_out / "results.csv").exists():
-            parser.error(f"--sweep-out: no results.csv in {args.sweep_out}")
         dyn = table_from_sweep(args.sweep_out)
         write_table(dyn, args.table)
         print(f"wrote {args.table}")
-    elif not args.table.exists():
-        parser.error(f"--table: {args.table} not found; run the sweep and pass --sweep-out")
     else:
         dyn = read_table(args.table)
     try:

@@ -946,10 +946,42 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
     write_stamped(path, "\n".join(lines))
 
 
+def shortest_duration() -> float:
+    """The shortest ``--duration`` [s] that measures a transition: the run reaches the first
+    balloon command and the window of HORIZON_S after it."""
+    from manta_drake.scenario import load_scenario
+
+    return balloon_times(load_scenario(SCENARIO))[0] + HORIZON_S
+
+
+def check_arguments(args, out: pathlib.Path, doc: pathlib.Path, fig_path: pathlib.Path) -> None:
+    """Every option before anything is simulated; raises ScenarioError naming it."""
+    from manta_drake.config_io import check_in_range, check_writable_folder
+    from manta_drake.scenario import MAX_DURATION_S
+    from manta_drake.studies.options import (
+        check_figure_file,
+        check_output_file,
+        check_run_folders,
+    )
+
+    if args.duration is not None:
+        lo = shortest_duration()
+        check_in_range("--duration", args.duration, lo, MAX_DURATION_S,
+                       f"[{lo:g}, {MAX_DURATION_S:g}] s (the first balloon command of "
+                       f"{SCENARIO} and the {HORIZON_S:g} s window after it)")
+    check_writable_folder(out, "--out", example=DEFAULT_OUT)
+    if args.reuse:
+        check_run_folders("--out", out, [folder for *_, folder in METHODS])
+    check_output_file("--doc", doc)
+    check_figure_file("--figure", fig_path)
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study transitions``); returns the exit status."""
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    from manta_drake.studies.options import StudyParser
+
+    parser = StudyParser(prog=prog, description=__doc__.split("\n\n")[0],
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default=None, help="folder of the runs "
                         f"(default {DEFAULT_OUT} in the repository)")
     parser.add_argument("--duration", type=float, default=None,
@@ -967,6 +999,7 @@ def main(argv=None, prog=None) -> int:
     doc = pathlib.Path(args.doc) if args.doc else (out / "transitions.md" if quick else DOC)
     fig_path = (pathlib.Path(args.figure) if args.figure
                 else (out / "transition_baselines.png" if quick else FIGURE))
+    check_arguments(args, out, doc, fig_path)
     if not args.reuse:
         simulate_all(out, args.duration)
 

@@ -9,19 +9,20 @@ range of s_hat per noise level and distance, and writes docs/figures/s_hat_vs_no
 Usage: manta-drake study wall-noise [--seeds 8] [--out docs/figures/s_hat_vs_noise.png]
 """
 
-import argparse
 import pathlib
 
 import numpy as np
 from pydrake.perception import BaseField, DepthImageToPointCloud
 from pydrake.systems.sensors import ImageDepth32F, PixelType
 
+from manta_drake.config_io import check_integer
 from manta_drake.control.vision import detect, median_filter_depth
 from manta_drake.model.camera import camera_info
 from manta_drake.scenario import load_scenario
 from manta_drake.simulate import make_simulator
 from manta_drake.station.depth_image_noise import noisy_depth
 from manta_drake.studies import REPO as ROOT
+from manta_drake.studies.options import StudyParser, check_figure_file
 from manta_drake.wiring.diagram import build_diagram
 
 NOISE_MM = (0, 2.5, 5, 7.5, 10, 12.5, 15, 17.5, 20, 22.5, 25, 27.5, 30)
@@ -67,12 +68,21 @@ def s_hat_samples(s, image, X_WC, noise_std: float, seeds) -> np.ndarray:
     return np.array(out)
 
 
+# Each seed is one noisy frame per noise level and distance (78 frames of about 7 ms each
+# through the filter and the detector): 1000 seeds take some ten minutes.
+MAX_SEEDS = 1000
+
+
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study wall-noise``); returns the exit status."""
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=8)
-    parser.add_argument("--out", default=str(ROOT / "docs" / "figures" / "s_hat_vs_noise.png"))
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=8,
+                        help=f"noise seeds per noise level and distance (1 to {MAX_SEEDS})")
+    parser.add_argument("--out", default=str(ROOT / "docs" / "figures" / "s_hat_vs_noise.png"),
+                        help="the figure")
     args = parser.parse_args(argv)
+    check_integer("--seeds", args.seeds, 1, MAX_SEEDS)  # before any frame is rendered
+    check_figure_file("--out", args.out)
     # Imported here, with the file-only backend: importing the study (``--help``) needs no
     # plotting, and a figure file needs no display.
     import matplotlib

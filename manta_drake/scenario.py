@@ -47,6 +47,7 @@ from manta_drake.config_io import (
     load_yaml_mapping,
     parse_yaml,
     schema_fields,
+    short_repr,
 )
 from manta_drake.control.balloon_rule import BalloonRuleParams
 from manta_drake.control.behaviour_tree import BlendNode, compile_tree, default_tree
@@ -65,6 +66,7 @@ from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
 from manta_drake.model.start_pose import start_pose_problem
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
 from manta_drake.station.flow_sensor import FlowSensorParams
+from manta_drake.station.foil import FIN_MODELS
 from manta_drake.station.imu import ImuParams
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "find_scenario", "shipped_scenarios",
@@ -181,6 +183,7 @@ class WaterConfig:
     current: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])  # m/s, world
     # Time-keyed currents, e.g. [{time: 10, velocity: [0, 0.06, 0]}, ...]: linear between
     # keys, the first key's before it and the last's after it; empty: ``current`` throughout.
+    # Exclusive with a non-zero ``current`` (a schedule replaces the constant).
     current_schedule: list[CurrentPoint] = dc.field(default_factory=list)
     # 0: forces from the current state at every plant step (exact, no delay). > 0: computed
     # every update_period seconds and held (faster; one period of delay).
@@ -188,6 +191,11 @@ class WaterConfig:
     # Multipliers of named coefficients of the file, e.g. {body.linear_damping: 1.3}
     # (sweeps and calibration; see manta_drake.model.coefficients.scale_coefficients).
     coefficient_scales: dict[str, float] = dc.field(default_factory=dict)
+    # The fins' hydrodynamics (docs/design.md): "cross_flow", the quasi-steady normal
+    # force with passive pitch and the hinges' zero-pose added inertia; "foil", the
+    # flapping-foil strip model (circulation, suction, Wagner lag, stall) with the fins'
+    # added mass as bodies on the plates (manta_drake.station.foil).
+    fin_model: str = "cross_flow"
 
 
 @dc.dataclass
@@ -267,8 +275,8 @@ class ActuatorsConfig:
 
     enabled: bool = True
     file: str = "package://manta_drake/actuators.yaml"
-    # Multipliers of named numeric entries of the file, e.g. {servo.winding_resistance: 1.2}
-    # (see manta_drake.model.actuators.scale_actuators).
+    # Multipliers of named numeric entries of the file, e.g. {servo.winding_resistance: 1.2},
+    # each in [0, 10] (see manta_drake.model.actuators.scale_actuators and SCALE_RANGE).
     scales: dict[str, float] = dc.field(default_factory=dict)
     # The Jetson's power mode, one of the file's electronics.jetson_power modes; None: the
     # file's electronics.jetson_mode.
@@ -400,12 +408,17 @@ class Scenario:
             self.balloon.rule.validate()
         except ValueError as e:
             raise ScenarioError(f"balloon.rule.{e}") from None
+        self._validate_water_users()
         needs = {"posture_hat": ("imu.enabled", self.imu.enabled),
                  "flow_hat": ("flow_sensor.enabled", self.flow_sensor.enabled and self.water.enabled),
-                 "energy_hat": ("actuators.enabled", self.actuators.enabled)}
+                 "energy_hat": ("actuators.enabled", self.actuators.enabled),
+                 "s_hat": ("camera.enabled", self.camera.enabled)}
         used = {}
         if self.controller.mode == "transition":
-            used.update({m: "transition.tree" for m in self.behaviour_tree().modalities})
+            # Eq. (12)'s default tree reads s_hat = 0 without a camera (the paper's runs
+            # without a wall); a tree the scenario writes needs the camera for s_hat.
+            used.update({m: "transition.tree" for m in self.behaviour_tree().modalities
+                         if self.transition.tree or m != "s_hat"})
         rule = self.balloon.rule.modality
         if rule:
             used[f"{rule}_hat"] = "balloon.rule.modality"
@@ -418,6 +431,37 @@ class Scenario:
         if self.heading_hold.enabled and self.controller.mode == "hold":
             raise ScenarioError("heading_hold.enabled: true trims a CPG gait; controller.mode "
                                 "hold runs none (use gait or transition)")
+        self._validate_heading_hold_behaviours()
+
+    def _validate_water_users(self) -> None:
+        """The balloon rule acts and the flow sensor reads through the water: refused with
+        the water off (the rule would command a balloon that lifts nothing, the sensor read
+        a current that is not there)."""
+        if self.water.enabled:
+            return
+        if self.balloon.rule.modality:
+            raise ScenarioError(f"balloon.rule.modality: {short_repr(self.balloon.rule.modality)}"
+                                " needs water.enabled: true (the balloon acts through the "
+                                "water's buoyancy)")
+        if self.flow_sensor.enabled:
+            raise ScenarioError("flow_sensor.enabled: true needs water.enabled: true (the "
+                                "sensor reads the water's velocity)")
+
+    def _validate_heading_hold_behaviours(self) -> None:
+        """``heading_hold.behaviours`` are gaits of the library, and in transition mode with
+        the hold on at least one is a gait of the behaviour tree (else it never engages)."""
+        hold = self.heading_hold
+        gaits = self.gaits()
+        for i, name in enumerate(hold.behaviours):
+            if name not in gaits:
+                raise ScenarioError(f"heading_hold.behaviours[{i}]: {short_repr(name)} is not a "
+                                    f"gait; allowed: {', '.join(gaits)}")
+        if hold.enabled and self.controller.mode == "transition":
+            leaves = self.behaviour_tree().leaves
+            if not any(name in leaves for name in hold.behaviours):
+                raise ScenarioError(f"heading_hold.behaviours: {short_repr(hold.behaviours)} "
+                                    "names none of the behaviour tree's gaits, so the hold "
+                                    f"would never engage; allowed: {', '.join(leaves)}")
 
     def initial_joint_angles(self) -> np.ndarray:
         """The initial joint angles (16, the plant's order): the stance X of
@@ -435,7 +479,7 @@ class Scenario:
         check_text("actuators.file", a.file)
         if not isinstance(a.scales, dict):
             raise ScenarioError(f"actuators.scales: expected a mapping, got {a.scales!r}")
-        params = load_actuators(resolve_path(a.file), "actuators.file")
+        params = load_actuators(resolve_path(a.file, "actuators.file"), "actuators.file")
         try:
             params = scale_actuators(params, a.scales)
         except ValueError as e:
@@ -455,14 +499,15 @@ class Scenario:
         ScenarioError naming the field, the value and the allowed range."""
         check_text("name", self.name)
         check_text("description", self.description, allow_empty=True)
-        check_in_range("duration", self.duration, 0.0, 3600.0, "(0, 3600] s", open_low=True)
+        check_in_range("duration", self.duration, 0.0, MAX_DURATION_S,
+                       f"(0, {MAX_DURATION_S:g}] s", open_low=True)
         # Below 0.1 ms a run takes hours (1e-7 s is an effective hang); above 10 ms the
         # contact and the CPG's RK2 lose accuracy.
         check_in_range("time_step", self.time_step, 1e-4, 0.01, "[0.0001, 0.01] s")
         check_one_of("discrete_contact_approximation", self.discrete_contact_approximation,
                 ("sap", "lagged", "similar", "tamsi"))
         check_in_range("contact.friction", self.contact.friction, 0.0, 2.0, "(0, 2]", open_low=True)
-        check_integer("random_seed", self.random_seed, 0, 2**32 - 1)
+        check_integer("random_seed", self.random_seed, 0, MAX_RANDOM_SEED)
         check_vector("initial_pose.xyz", self.initial_pose.xyz, 3)
         check_vector("initial_pose.rpy_deg", self.initial_pose.rpy_deg, 3, bound=360.0)
         check_one_of("controller.gait_reading", self.controller.gait_reading, tuple(READINGS))
@@ -475,7 +520,7 @@ class Scenario:
             raise ScenarioError(f"controller.gait_files: expected a list of paths, got {files!r}")
         for i, f in enumerate(files):
             check_text(f"controller.gait_files[{i}]", f)
-            if not resolve_path(f).is_file():
+            if not resolve_path(f, f"controller.gait_files[{i}]").is_file():
                 raise ScenarioError(f"controller.gait_files[{i}]: gait file not found: {f}")
         gaits = self.gaits()
         check_one_of("initial_stance", self.initial_stance, ("zero",) + tuple(gaits))
@@ -527,13 +572,21 @@ class Scenario:
             self.current_schedule()
         except ValueError as e:
             raise ScenarioError(str(e)) from None
+        if w.current_schedule and any(v != 0.0 for v in w.current):
+            raise ScenarioError(f"water.current: {short_repr(w.current)} is set beside "
+                                "water.current_schedule; they are exclusive (the schedule "
+                                "replaces the constant: make it a key of the schedule, or clear "
+                                "the schedule with water.current_schedule: [])")
         check_in_range("water.update_period", w.update_period, 0.0, 0.02, "[0, 0.02] s")
+        check_one_of("water.fin_model", w.fin_model, FIN_MODELS)
         check_text("water.coefficients", w.coefficients)
+        # The URL is checked with the water off too (the file is read only with it on).
+        coefficients = resolve_path(w.coefficients, "water.coefficients")
         if not isinstance(w.coefficient_scales, dict):
             raise ScenarioError(f"water.coefficient_scales: expected a mapping, got "
                                 f"{w.coefficient_scales!r}")
         if w.enabled or w.coefficient_scales:  # scales are checked even with water off
-            coeffs = load_coefficients(resolve_path(w.coefficients), "water.coefficients")
+            coeffs = load_coefficients(coefficients, "water.coefficients")
             try:
                 scale_coefficients(coeffs, w.coefficient_scales)
             except ValueError as e:
@@ -614,6 +667,10 @@ class Scenario:
 # Largest depth-image range noise the sensor model supports [m]: beyond ~30 mm at the 0.8 m
 # underwater range the point cloud no longer resolves the 4 cm voxels the detector works on.
 MAX_DEPTH_NOISE = 0.03
+# The longest run [s] and the largest random seed a scenario takes (the studies' options
+# that set them are checked against the same bounds).
+MAX_DURATION_S = 3600.0
+MAX_RANDOM_SEED = 2**32 - 1
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
 
@@ -726,14 +783,21 @@ def overrides_data(overrides: dict) -> dict:
 
 def parse_set(items, option: str = "--set") -> dict:
     """``--set KEY=VALUE`` items as ``{dotted key: value}`` (each value parsed as YAML:
-    numbers, lists, null, ...); one-line errors naming the option and the key."""
+    numbers, lists, null, ...); one-line errors naming the option and the key. A key given
+    twice is refused (no value is silently dropped unchecked)."""
+    from manta_drake.config_io import short_text
+
     out = {}
     for item in items or []:
         key, sep, value = str(item).partition("=")
         key = key.strip()
         if not sep or not key:
-            raise ScenarioError(f"{option} {item}: expected KEY=VALUE, e.g. duration=2")
-        out[key] = parse_yaml(value, f"{option} {key}")
+            raise ScenarioError(f"{option} {short_text(str(item), 60)}: expected KEY=VALUE, "
+                                "e.g. duration=2")
+        if key in out:
+            raise ScenarioError(f"{option} {short_text(key, 60)}: given twice; give each key "
+                                "once")
+        out[key] = parse_yaml(value, f"{option} {short_text(key, 60)}")
     return out
 
 

@@ -395,3 +395,104 @@ def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
     layered = yaml.safe_load((tmp_path / "out/mine2/scenario.yaml").read_text())
     assert layered["transition"]["tree"]["root"]["weight"] == "potential"
     assert layered["transition"]["tree"]["floor"]["threshold"] == 0.3
+
+
+# --- a run's outputs: every log array and metrics key is in the README ------------------------
+
+def _readme_section(heading: str) -> str:
+    """The README's text under ``heading`` up to the next heading."""
+    text = README.read_text()
+    start = text.index(f"\n{heading}\n") + len(heading) + 2
+    end = re.search(r"\n#{2,3} ", text[start:])
+    return text[start:start + end.start()] if end else text[start:]
+
+
+def _table_rows(section: str) -> list[list[str]]:
+    """The cells of each body row of the Markdown table in ``section`` (``\\|`` is text)."""
+    rows = []
+    for line in section.splitlines():
+        if line.startswith("| ") and not line.startswith("| ---"):
+            rows.append([c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]])
+    return rows[1:]  # the header row
+
+
+def _names(cell: str) -> list[str]:
+    return re.findall(r"`([^`]+)`", cell)
+
+
+@pytest.fixture(scope="module")
+def short_runs(tmp_path_factory):
+    """Two real short runs of four_behaviors (every sensor, the energy model, the tree and the
+    heading hold) with the camera on: one that ends ok (0.3 s), and one whose battery starts at
+    its cut-off, so it fails and writes its ``failure``; plus the ``running`` metrics.json that
+    a run writes when it starts. Returns (log.npz arrays, [metrics.json of each], running)."""
+    import json
+
+    from manta_drake.scenario import load_scenario
+    from manta_drake.simulate import SimulationError, run
+
+    base = {"visualization.meshcat": False, "camera.enabled": True, "duration": 0.3}
+    out = tmp_path_factory.mktemp("runs")
+    run(load_scenario("four_behaviors", overrides=base), out / "ok", progress=False,
+        write_outputs=False)
+    running = {}
+
+    def read_running(handles, context):
+        running.update(json.loads((out / "failed" / "metrics.json").read_text()))
+
+    with pytest.raises(SimulationError, match="battery empty"):
+        run(load_scenario("four_behaviors", overrides={**base, "actuators.initial_soc": 0.20001}),
+            out / "failed", progress=False, write_outputs=False, prepare=read_running)
+    with np.load(out / "ok" / "log.npz") as log:
+        arrays = {name: log[name] for name in log.files}
+    metrics = [json.loads((out / name / "metrics.json").read_text()) for name in ("ok", "failed")]
+    return arrays, metrics, running
+
+
+def test_the_readme_lists_every_log_array_with_its_times_and_columns(short_runs):
+    from manta_drake.simulate import LOG_KEYS
+    from manta_drake.wiring.diagram import _LOGGED
+
+    arrays = short_runs[0]
+    rows = _table_rows(_readme_section("### `log.npz`"))
+    listed = {}  # array -> (its times, its columns cell)
+    for name, times, columns, _ in rows:
+        (key,), stamp = _names(name), _names(times)
+        listed[key] = (stamp[0] if stamp else None, columns)
+    missing = sorted(k for k in arrays if k not in listed
+                     and k not in {v[0] for v in listed.values()})
+    assert not missing, f"README's log.npz table lacks {missing}"
+    # Every array listed is one a run can write (nothing stale), with the times it has.
+    logged = {port for _, port, _ in _LOGGED} - {"plant_state", "desired_state"}
+    possible = set(LOG_KEYS) | logged | {"sim_time"}
+    assert set(listed) <= possible, sorted(set(listed) - possible)
+    for key, (times, columns) in listed.items():
+        expected = ("t_command" if key == "commanded_joint_angles"
+                    else None if key in ("t", "sim_time") else "t" if key in LOG_KEYS
+                    else f"t_{key}")
+        assert times == expected, f"README log.npz: {key}'s times are {times}, not {expected}"
+        if key in arrays and times:
+            assert len(arrays[times]) == len(arrays[key]), key
+        count = re.match(r"(\d+)\b", columns)
+        if key in arrays and count:  # the number of columns the README gives
+            assert arrays[key].shape[1:] == (int(count.group(1)),), (key, arrays[key].shape)
+
+
+def test_the_readme_lists_every_metrics_key(short_runs):
+    _, metrics, running = short_runs
+    rows = {tuple(_names(row[0])): row[1] for row in _table_rows(
+        _readme_section("### `metrics.json`"))}
+    listed = {name for names in rows for name in names}
+    written = {k for m in metrics for k in m} | {f"energy.{k}" for m in metrics
+                                                 for k in m.get("energy", {})}
+    assert "failure" in metrics[1] and "max_penetration_m" in metrics[0]
+    missing = sorted(written - listed)
+    assert not missing, f"README's metrics.json table lacks {missing}"
+    assert listed <= written, f"README lists keys no run wrote: {sorted(listed - written)}"
+
+    def row_of(key):
+        return next(text for names, text in rows.items() if key in names)
+
+    assert set(metrics[1]["failure"]) <= set(_names(row_of("failure")))
+    assert running["status"] == "running"
+    assert set(running) - {"scenario", "status"} <= set(_names(row_of("status")))

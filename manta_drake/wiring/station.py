@@ -176,7 +176,8 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles,
         added_mass_iso=ph.added_mass_iso,
         current_schedule=None if current.is_constant else current,
         update_period=scenario.water.update_period,
-        inputs="plant_state" if hydro_plant_state else "contract", name="hydro")
+        inputs="plant_state" if hydro_plant_state else "contract", name="hydro",
+        fin_model=scenario.water.fin_model)
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
 
     ps = scenario.pressure_sensor
@@ -303,9 +304,11 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     if scenario.water.enabled:
         coeffs = scale_coefficients(load_coefficients(resolve_path(scenario.water.coefficients)),
                                     scenario.water.coefficient_scales)
+    foil = scenario.water.fin_model == "foil"
     plant_handles = add_plant(builder, time_step=scenario.time_step,
                               discrete_contact_approximation=scenario.discrete_contact_approximation,
-                              hydro=coeffs, robot_params=scenario.robot_params())
+                              hydro=coeffs, robot_params=scenario.robot_params(),
+                              fin_added_mass="bodies" if foil else "hinge")
     set_contact_friction(plant_handles, scenario.contact.friction)
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant

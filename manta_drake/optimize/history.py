@@ -145,8 +145,10 @@ def _refused(path, what: str) -> OptimizeError:
                          "--out, or delete the file to simulate again)")
 
 
-def _read_text(path: pathlib.Path, max_bytes: int | None) -> str | None:
-    """A regular file's UTF-8 text (None if absent), read with at most ``max_bytes``."""
+def read_bounded(path: pathlib.Path, limit: float, too_large) -> bytes | None:
+    """A regular file's bytes (None if absent), at most ``limit`` of them read even if the
+    file grows; ``too_large(size)`` is the OptimizeError for a file over the limit. The one
+    reader of what a search reads back from its folder (history.csv, state.json)."""
     try:
         info = path.stat()
     except FileNotFoundError:
@@ -155,18 +157,26 @@ def _read_text(path: pathlib.Path, max_bytes: int | None) -> str | None:
         raise OptimizeError(f"{path}: cannot be read: {e.strerror}") from None
     if not stat.S_ISREG(info.st_mode):
         raise OptimizeError(f"{path}: not a regular file; use another --out")
-    limit = math.inf if max_bytes is None else max_bytes
     if info.st_size > limit:
-        raise _refused(path, f"{info.st_size} bytes, more than the {max_bytes} this spec's "
-                             "search writes in its generations (raise --generations to "
-                             "those it ran)")
+        raise too_large(info.st_size)
     try:
         with open(path, "rb") as f:
-            raw = f.read() if max_bytes is None else f.read(max_bytes + 1)
+            raw = f.read() if math.isinf(limit) else f.read(int(limit) + 1)
     except OSError as e:
         raise OptimizeError(f"{path}: cannot be read: {e.strerror}") from None
     if len(raw) > limit:
-        raise _refused(path, f"more than {max_bytes} bytes")
+        raise too_large(len(raw))
+    return raw
+
+
+def _read_text(path: pathlib.Path, max_bytes: int | None) -> str | None:
+    """A regular file's UTF-8 text (None if absent), read with at most ``max_bytes``."""
+    limit = math.inf if max_bytes is None else max_bytes
+    raw = read_bounded(path, limit, lambda size: _refused(
+        path, f"{size} bytes, more than the {max_bytes} this spec's search writes in its "
+              "generations (raise --generations to those it ran)"))
+    if raw is None:
+        return None
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError:

@@ -24,11 +24,11 @@ import json
 import math
 import os
 import pathlib
-import stat
 
 import numpy as np
 
 from manta_drake.config_io import short_repr
+from manta_drake.optimize.history import read_bounded
 from manta_drake.optimize.spec import OptimizeError
 
 STATE = "state.json"
@@ -170,23 +170,10 @@ def load_state(out_dir, problem) -> SearchState | None:
 
 def _read(path: pathlib.Path, limit: int):
     """The parsed JSON of ``path`` (None if absent), read with at most ``limit`` bytes."""
-    try:
-        info = path.stat()
-    except FileNotFoundError:
+    raw = read_bounded(path, limit,
+                       lambda size: OptimizeError(_too_large(path, size, limit)))
+    if raw is None:
         return None
-    except OSError as e:
-        raise OptimizeError(f"{path}: cannot be read: {e.strerror}") from None
-    if not stat.S_ISREG(info.st_mode):
-        raise OptimizeError(f"{path}: not a regular file; use another --out")
-    if info.st_size > limit:
-        raise OptimizeError(_too_large(path, info.st_size, limit))
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(limit + 1)
-    except OSError as e:
-        raise OptimizeError(f"{path}: cannot be read: {e.strerror}") from None
-    if len(raw) > limit:
-        raise OptimizeError(_too_large(path, len(raw), limit))
     try:
         return json.loads(raw)
     except (ValueError, RecursionError) as e:

@@ -1,0 +1,499 @@
+"""The fin strips' flapping-foil model against a published heaving-pitching foil experiment:
+``python -m manta_drake.studies.validation.foil_data --out DIR``.
+
+**The data** (``models/reference/heaving_pitching_foil.yaml``, its ``data`` block, curated by hand
+with its exact source): thrust coefficient C_T and efficiency eta against the Strouhal number of
+a NACA0012 foil heaving h = h0 sin(wt) and pitching theta = theta0 sin(wt + psi) about the
+third-chord point in a water tunnel, h0/c = 0.75, psi = 90 deg, the pitch amplitude set at each
+Strouhal number for a maximum angle of attack of 15 deg (the MIT experiments: Read, Hover &
+Triantafyllou 2003, J. Fluids Struct. 17:163-183; Schouveiler, Hover & Triantafyllou 2005,
+J. Fluids Struct. 20:949-959), as digitized from Pan, Dong, Zhu & Yue 2012 (J. Fluid Mech.
+698:446-467, their figure 9) by the authors of the public Julia code ``wagenhoffer/Puffer``
+(``test/pan_comparisons.jl``). The YAML records why no other data set was used (only figures, or
+unverifiable quotations, were reachable).
+
+**The model**: one strip of ``station/foil.py`` (DeLaurier's modified strip theory: the
+circulatory normal force from the three-quarter-chord downwash with lift slope a, the
+leading-edge suction with efficiency eta_s, Wagner's lag in Jones's form, the separated
+cross-flow force past the stall blend, skin friction), unit span and the experiment's chord,
+driven by the same kinematics through ``foil.prescribed_motion_forces`` (the mid-chord velocity
+relative to the water, the angular velocity theta_dot and the plate's axes at each step). The
+foil swims at U along -x through still water (the tunnel's stream +U x); theta > 0 lifts the
+leading edge; the kinematic angle of attack at the pivot alpha(t) = atan(h_dot / U) - theta(t)
+is the experiments' (Puffer's script: alpha_max = max_t |alpha^h + theta|, alpha^h =
+-atan(h_dot / U)), and theta0 is solved from alpha_max on the feathering branch. The mean thrust
+(-F_x) of the last whole cycle gives C_T = T / (1/2 rho U^2 c s); the power is the one the
+heave-pitch drive delivers, P = -F . v_tunnel of the mid-chord point where the model applies its
+force, C_P = P / (1/2 rho U^3 c s), eta = C_T / C_P. Enough cycles run for the Wagner lag's slow
+pole (b = 0.0455 per half-chord travelled) to die out: at least ``MIN_TRAVEL`` half-chords.
+
+The added-mass force of a plate (``foil.kirchhoff_plate_force``, -d/dt of its impulse) has no
+mean over a periodic motion, nor does its power: the strip model's mean thrust and power are
+its circulatory, suction, separated and friction terms alone, as in the simulator.
+
+Cases: the shipped ``fins:`` parameters of ``models/hydrodynamics.yaml`` (lift slope 3.1, the
+Helmbold value of the robot's own fin) and the 2-D lift slope 2 pi (the experiment's foil is
+nominally 2-D), each with the share of every term in the mean thrust (the forces are linear in
+eta_s, C_dcf and C_f with the kinematics and the lag fixed, so each share is exact), and the
+sensitivity to each parameter over its band as stated in hydrodynamics.yaml (the shipped values
+are never tuned to the data); Garrick's small-amplitude plunge as the sanity rows. Acceptance:
+model C_T within +-30 % of the data.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+from manta_drake.config_io import ScenarioError
+from manta_drake.station import foil
+from manta_drake.studies import REPO
+from manta_drake.studies.options import StudyParser
+from manta_drake.studies.validation import PAGE_PATH, render_template, round_floats
+from manta_drake.studies.validation.vortex_lattice import cycle_means
+
+SECTION = "foil-data"
+COMMAND = "manta-drake study validation --section foil-data --out DIR"
+YAML_PATH = REPO / "models" / "reference" / "heaving_pitching_foil.yaml"
+TEMPLATE = "foil_data.md.j2"
+
+RHO = 1000.0  # kg/m^3 (C_T, C_P and eta of the model do not depend on it)
+SPEED = 0.4  # m/s: Re = U c / nu = 4e4 at the 0.1 m chord (the model is Re-free: C_f is fixed)
+STEPS_PER_CYCLE = 200
+MIN_TRAVEL = 150.0  # half-chords travelled before the last cycle: Wagner's slow pole e^-6.8
+MIN_CYCLES = 6
+ACCEPT = 0.30  # |model C_T / data C_T - 1| <= 30 %
+GARRICK_TOL = 0.05
+# Garrick's sanity rows: small-amplitude pure plunge, attached flow, a = 2 pi, eta_s = 1, no
+# friction, at reduced frequencies k = omega c / (2 U) spanning the data's (0.4-0.9).
+GARRICK_H0C = 0.05
+GARRICK_K = (0.3, math.pi / 4.0, math.pi / 2.0)
+
+# The bands of models/hydrodynamics.yaml's ``fins:`` sources (lift_slope "band 3.1-4.3",
+# suction_efficiency "band 0.5-1.0", stall_angle_deg "band 10-25 deg", stall_width_deg "band
+# 1-5 deg"); each end is one sensitivity case, the other parameters held.
+BANDS = {"lift_slope": (3.1, 4.3), "suction_efficiency": (0.5, 1.0),
+         "stall_angle_deg": (10.0, 25.0), "stall_width_deg": (1.0, 5.0)}
+# Diagnostic cases (not bands): which term or switch makes the difference.
+DIAGNOSTICS = {
+    "attached (no stall)": {"stall_angle_deg": 180.0},
+    "no friction": {"friction_coefficient": 0.0},
+}
+BASES = ("shipped", "2d")
+BASE_LABELS = {"shipped": "shipped (a = 3.1)", "2d": "2-D lift slope a = 2 pi"}
+TERMS = ("circulatory", "suction", "separated", "friction")
+
+
+class ValidationError(ScenarioError):
+    """A bad option or reference file of the foil-data study."""
+
+
+# --- parameters ---------------------------------------------------------------------------------
+
+def shipped_parameters(path=None) -> dict:
+    """The fins' strip-model parameters as ``models/hydrodynamics.yaml`` ships them (degrees
+    for the angles), the ones ``station.hydro`` hands the foil model."""
+    from manta_drake.model.coefficients import DEFAULT_COEFFICIENTS_FILE, load_coefficients
+
+    fins = load_coefficients(DEFAULT_COEFFICIENTS_FILE if path is None else path).fins
+    return {"lift_slope": float(fins.lift_slope.value),
+            "suction_efficiency": float(fins.suction_efficiency.value),
+            "cross_flow_coefficient": float(fins.normal_force_coefficient.value),
+            "friction_coefficient": float(fins.skin_friction_coefficient.value),
+            "stall_angle_deg": float(fins.stall_angle_deg.value),
+            "stall_width_deg": float(fins.stall_width_deg.value)}
+
+
+def base_parameters(base: str, shipped: dict | None = None) -> dict:
+    """``shipped`` as is, or ``2d``: the same with the 2-D lift slope 2 pi."""
+    p = dict(shipped_parameters() if shipped is None else shipped)
+    if base == "2d":
+        p["lift_slope"] = 2.0 * math.pi
+    elif base != "shipped":
+        raise ValueError(f"base_parameters: {base!r} is not one of {', '.join(BASES)}")
+    return p
+
+
+def foil_params(p: dict) -> dict:
+    """The ``params`` dict of ``foil.prescribed_motion_forces`` (radians, rho)."""
+    return {"rho": RHO, "lift_slope": p["lift_slope"],
+            "suction_efficiency": p["suction_efficiency"],
+            "cross_flow_coefficient": p["cross_flow_coefficient"],
+            "friction_coefficient": p["friction_coefficient"],
+            "stall_angle": math.radians(p["stall_angle_deg"]),
+            "stall_width": math.radians(p["stall_width_deg"])}
+
+
+# --- kinematics ---------------------------------------------------------------------------------
+
+def _phases(n: int = 7200) -> np.ndarray:
+    return np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+
+
+def alpha_max_of(strouhal: float, theta0: float, psi: float) -> float:
+    """max_t |atan(h_dot / U) - theta(t)| [rad]; h_dot / U = pi St cos(wt), St = 2 f h0 / U."""
+    ph = _phases()
+    return float(np.max(np.abs(np.arctan(math.pi * strouhal * np.cos(ph))
+                               - theta0 * np.sin(ph + psi))))
+
+
+def pitch_amplitude(strouhal: float, alpha_max: float, psi: float = math.pi / 2) -> float:
+    """theta0 [rad] whose kinematic angle of attack peaks at alpha_max [rad]: the smallest root
+    (the feathering branch, theta0 <= atan(pi St)); 0 if pure heave stays below alpha_max."""
+    from scipy.optimize import brentq
+
+    heave = math.atan(math.pi * strouhal)
+    if heave <= alpha_max:
+        return 0.0
+    g = lambda th: alpha_max_of(strouhal, th, psi) - alpha_max  # noqa: E731
+    return float(brentq(g, 0.0, heave, xtol=1e-13, rtol=1e-13))
+
+
+def motion(strouhal: float, h0_over_c: float, theta0: float, psi: float, pivot: float,
+           chord: float, speed: float, t) -> dict:
+    """The strip's prescribed motion at the times t, as ``foil.prescribed_motion_forces``
+    takes it ((nt, 1, 3) arrays), and the tunnel-frame velocity of the mid-chord point."""
+    t = np.asarray(t, dtype=float)
+    h0 = h0_over_c * chord
+    w = math.pi * strouhal * speed / h0  # 2 pi f, f = St U / (2 h0)
+    z = np.zeros_like(t)
+    h_dot = h0 * w * np.cos(w * t)
+    th = theta0 * np.sin(w * t + psi)
+    th_dot = theta0 * w * np.cos(w * t + psi)
+    chord_dir = np.stack([-np.cos(th), z, np.sin(th)], axis=1)  # to the leading edge
+    normal = np.stack([np.sin(th), z, np.cos(th)], axis=1)
+    span = np.tile([0.0, 1.0, 0.0], (len(t), 1))
+    omega = np.stack([z, th_dot, z], axis=1)
+    v_pivot = np.stack([np.full_like(t, -speed), z, h_dot], axis=1)  # relative to the water
+    r_mid = -(0.5 - pivot) * chord * chord_dir  # pivot -> mid-chord (aft of a 1/3 pivot)
+    v_mid = v_pivot + np.cross(omega, r_mid)
+    v_tunnel = v_mid + np.array([speed, 0.0, 0.0])
+    col = lambda x: x[:, None, :]  # noqa: E731
+    return {"v_mid": col(v_mid), "omega": col(omega), "normal": col(normal),
+            "chord_dir": col(chord_dir), "span_dir": col(span), "v_tunnel": v_tunnel,
+            "frequency": w / (2.0 * math.pi)}
+
+
+def cycles_needed(strouhal: float, h0_over_c: float) -> int:
+    """Whole cycles for MIN_TRAVEL half-chords before the last one: 2 U T / c = 4 (h0/c) / St
+    half-chords a cycle."""
+    per_cycle = 4.0 * h0_over_c / strouhal
+    return max(MIN_CYCLES, int(math.ceil(MIN_TRAVEL / per_cycle)) + 1)
+
+
+# --- the model on one case ----------------------------------------------------------------------
+
+def run_case(strouhal: float, h0_over_c: float, alpha_max_deg: float | None, p: dict,
+             psi_deg: float = 90.0, pivot: float = 1.0 / 3.0, chord: float = 0.1,
+             speed: float = SPEED, theta0: float | None = None,
+             steps_per_cycle: int = STEPS_PER_CYCLE, cycles: int | None = None,
+             terms: bool = False) -> dict:
+    """The strip model's C_T, C_P and eta of one case (last whole cycle), its per-cycle C_T,
+    theta0, the peak angle of attack of the model's own three-quarter-chord flow and the
+    cycle-mean attached share; with ``terms`` the share of each term in C_T."""
+    psi = math.radians(psi_deg)
+    if theta0 is None:
+        theta0 = pitch_amplitude(strouhal, math.radians(alpha_max_deg), psi)
+    cycles = cycles_needed(strouhal, h0_over_c) if cycles is None else cycles
+    h0 = h0_over_c * chord
+    f = strouhal * speed / (2.0 * h0)
+    dt = 1.0 / (f * steps_per_cycle)
+    t = np.arange(cycles * steps_per_cycle + 1) * dt
+    m = motion(strouhal, h0_over_c, theta0, psi, pivot, chord, speed, t)
+    area, c = np.array([chord]), np.array([chord])
+    q = 0.5 * RHO * speed * speed * chord  # per unit span
+
+    def forces(pp):
+        return foil.prescribed_motion_forces(dt, m["v_mid"], m["omega"], m["normal"],
+                                             m["chord_dir"], m["span_dir"], area, c,
+                                             foil_params(pp))[:, 0, :]
+
+    F = forces(p)
+    thrust = -F[:, 0]
+    power = -(F * m["v_tunnel"]).sum(axis=1)
+    ct = [x / q for x in cycle_means(thrust, steps_per_cycle)]
+    cp = cycle_means(power, steps_per_cycle)[-1] / (q * speed)
+    last = slice((cycles - 1) * steps_per_cycle, cycles * steps_per_cycle + 1)
+    kin = foil.strip_kinematics(m["v_mid"][last, 0], m["omega"][last, 0], m["normal"][last, 0],
+                                m["chord_dir"][last, 0], m["span_dir"][last, 0],
+                                np.full(len(t[last]), chord))
+    attached = foil.attached_fraction(kin["alpha"], math.radians(p["stall_angle_deg"]),
+                                      math.radians(p["stall_width_deg"]))
+    out = {"strouhal": strouhal, "h0_over_c": h0_over_c, "alpha_max_deg": alpha_max_deg,
+           "psi_deg": psi_deg, "pivot": pivot, "theta0_deg": math.degrees(theta0),
+           "frequency_hz": f, "reduced_frequency": math.pi * f * chord / speed,
+           "cycles": cycles, "steps_per_cycle": steps_per_cycle,
+           "ct": ct[-1], "cp": cp, "eta": ct[-1] / cp if cp else None,
+           "ct_change_last_cycle": ct[-1] - ct[-2],
+           "alpha34_max_deg": math.degrees(float(np.max(kin["alpha"]))),
+           "attached_mean": float(np.trapezoid(attached) / steps_per_cycle)}
+    if terms:
+        # Each term is linear in its coefficient with the kinematics and lag fixed.
+        share = {}
+        for name, key in (("suction", "suction_efficiency"),
+                          ("separated", "cross_flow_coefficient"),
+                          ("friction", "friction_coefficient")):
+            without = -forces({**p, key: 0.0})[:, 0]
+            share[name] = cycle_means(thrust - without, steps_per_cycle)[-1] / q
+        share["circulatory"] = ct[-1] - sum(share.values())
+        out["terms"] = {k: share[k] for k in TERMS}
+    return out
+
+
+def garrick_rows(ks=GARRICK_K) -> list[dict]:
+    """Small-amplitude pure plunge against Garrick (1936) at the reduced frequencies ``ks``: the
+    strip model (a = 2 pi, eta_s = 1, attached, no friction), Garrick with Theodorsen's C(k)
+    and with Jones's C(k) (the one the model's lag reproduces)."""
+    p = {"lift_slope": 2.0 * math.pi, "suction_efficiency": 1.0, "cross_flow_coefficient": 1.17,
+         "friction_coefficient": 0.0, "stall_angle_deg": 180.0, "stall_width_deg": 0.1}
+    rows = []
+    chord, speed = 0.1, SPEED
+    for k in ks:
+        st = 4.0 * GARRICK_H0C * k / (2.0 * math.pi)  # k = pi f c / U, St = 2 f h0 / U
+        r = run_case(st, GARRICK_H0C, None, p, theta0=0.0, chord=chord, speed=speed)
+        w = 2.0 * math.pi * r["frequency_hz"]
+        q = 0.5 * RHO * speed * speed * chord
+        theo = foil.garrick_plunge_thrust(RHO, chord / 2, w, GARRICK_H0C * chord, speed) / q
+        jones = theo * abs(foil.jones_theodorsen(k)) ** 2 / abs(foil.theodorsen(k)) ** 2
+        rows.append({"reduced_frequency": k, "strouhal": st, "h0_over_c": GARRICK_H0C,
+                     "ct_model": r["ct"], "ct_garrick": float(theo), "ct_garrick_jones":
+                     float(jones), "ratio": r["ct"] / float(theo),
+                     "ratio_jones": r["ct"] / float(jones),
+                     "within_tol": abs(r["ct"] / float(theo) - 1.0) <= GARRICK_TOL})
+    return rows
+
+
+# --- the comparison -----------------------------------------------------------------------------
+
+def data_points(data: dict) -> list[dict]:
+    """The data's points: St, C_T and (at the nearest digitized St, if within 0.01) eta."""
+    cond = data["conditions"]
+    st_t, ct = data["thrust_coefficient"]["strouhal"], data["thrust_coefficient"]["value"]
+    eff = data.get("efficiency")
+    pts = []
+    for s, c in zip(st_t, ct):
+        e = None
+        if eff:
+            j = int(np.argmin(np.abs(np.asarray(eff["strouhal"]) - s)))
+            if abs(eff["strouhal"][j] - s) <= 0.01:
+                e = eff["value"][j]
+        pts.append({"strouhal": float(s), "ct": float(c), "eta": e,
+                    "h0_over_c": float(cond["h0_over_c"]),
+                    "alpha_max_deg": float(cond["alpha_max_deg"]),
+                    "psi_deg": float(cond["psi_deg"]),
+                    "pivot": float(cond["pivot_from_leading_edge"]),
+                    "chord": float(cond["chord_m"])})
+    return pts
+
+
+def model_point(pt: dict, p: dict, terms: bool = False) -> dict:
+    return run_case(pt["strouhal"], pt["h0_over_c"], pt["alpha_max_deg"], p,
+                    psi_deg=pt["psi_deg"], pivot=pt["pivot"], chord=pt["chord"], terms=terms)
+
+
+def sensitivity_cases(base: dict, name: str = "shipped") -> dict:
+    """name -> parameters: each band end of BANDS (the rest of ``base`` held; not the lift
+    slope's for the ``2d`` base, which replaces it) and the diagnostics."""
+    cases = {}
+    for key, (lo, hi) in BANDS.items():
+        if key == "lift_slope" and name == "2d":
+            continue
+        for v in (lo, hi):
+            if not math.isclose(v, base[key]):
+                cases[f"{key} = {v:g}"] = {**base, key: v}
+    for name, over in DIAGNOSTICS.items():
+        cases[name] = {**base, **over}
+    return cases
+
+
+def compare(data: dict, shipped: dict | None = None, log=print) -> dict:
+    """The model on every data point for both bases (with the terms), the sensitivity, and
+    Garrick's rows: the ``model`` block of the reference file."""
+    shipped = shipped_parameters() if shipped is None else shipped
+    pts = data_points(data)
+    out = {"bases": {}, "garrick": None}
+    for base in BASES:
+        p = base_parameters(base, shipped)
+        rows = []
+        for pt in pts:
+            r = model_point(pt, p, terms=True)
+            r["ct_data"], r["eta_data"] = pt["ct"], pt["eta"]
+            r["ratio"] = r["ct"] / pt["ct"]
+            r["within_acceptance"] = abs(r["ratio"] - 1.0) <= ACCEPT
+            r["eta_ratio"] = r["eta"] / pt["eta"] if (pt["eta"] and r["eta"]) else None
+            rows.append(r)
+            log(f"{base}: St {pt['strouhal']:.3f} C_T {r['ct']:.4f} (data {pt['ct']:.3f}, "
+                f"ratio {r['ratio']:.2f}), eta {r['eta']:.3f}")
+        sens = {}
+        for name, pp in sensitivity_cases(p, base).items():
+            vals = [model_point(pt, pp)["ct"] for pt in pts]
+            sens[name] = {"parameters": pp, "ct": vals,
+                          "ratio": [v / pt["ct"] for v, pt in zip(vals, pts)]}
+            log(f"{base}: {name}: ratios " + ", ".join(f"{x:.2f}" for x in sens[name]["ratio"]))
+        # The time step: the highest St again at twice the steps a cycle.
+        fine = run_case(pts[-1]["strouhal"], pts[-1]["h0_over_c"], pts[-1]["alpha_max_deg"], p,
+                        psi_deg=pts[-1]["psi_deg"], pivot=pts[-1]["pivot"],
+                        chord=pts[-1]["chord"], steps_per_cycle=2 * STEPS_PER_CYCLE)
+        step = {"strouhal": pts[-1]["strouhal"], "steps_per_cycle": 2 * STEPS_PER_CYCLE,
+                "ct": fine["ct"], "eta": fine["eta"],
+                "ct_change": fine["ct"] / rows[-1]["ct"] - 1.0}
+        out["bases"][base] = {"label": BASE_LABELS[base], "parameters": p, "points": rows,
+                              "sensitivity": sens, "time_step_check": step}
+    out["garrick"] = garrick_rows()
+    return out
+
+
+# --- files --------------------------------------------------------------------------------------
+
+HEADER = ("# A published heaving-pitching foil data set (`data`, curated by hand with its "
+          "source) and\n# the fin strips' model (station/foil.py) on the same kinematics "
+          "(`model`, generated by\n# `{command}`,\n# manta_drake/studies/validation/"
+          "foil_data.py; docs/validation.md's \"Foil data\" section is\n# rendered from it). "
+          "Edit `data` only with its source; regenerate `model`.\n")
+PROVENANCE_FIELDS = ("repository", "path", "commit", "url", "variables", "digitized_from",
+                     "experiment", "digitized_by", "retrieved")
+
+
+def load_reference(path=YAML_PATH) -> dict:
+    """The reference file, checked for its data's provenance and shape."""
+    from manta_drake.config_io import load_yaml_mapping
+
+    ref, _ = load_yaml_mapping(path, "heaving-pitching foil reference", ValidationError)
+    data = ref.get("data")
+    if not isinstance(data, dict):
+        raise ValidationError(f"{path}: no `data` mapping")
+    src = data.get("source", {})
+    missing = [k for k in PROVENANCE_FIELDS if not src.get(k)]
+    if missing:
+        raise ValidationError(f"{path}: data.source lacks {', '.join(missing)}")
+    for key in ("thrust_coefficient", "efficiency"):
+        block = data.get(key, {})
+        if len(block.get("strouhal", [])) != len(block.get("value", [])) or not block.get("value"):
+            raise ValidationError(f"{path}: data.{key}: strouhal and value differ in length")
+    return ref
+
+
+def provenance(seconds: float) -> dict:
+    from manta_drake.studies.stamp import commit
+
+    return {"generator": "manta_drake.studies.validation.foil_data", "command": COMMAND,
+            "date": datetime.date.today().isoformat(), "commit": commit(),
+            "seconds": round(seconds, 1), "rho": RHO, "speed": SPEED,
+            "steps_per_cycle": STEPS_PER_CYCLE, "min_travel_half_chords": MIN_TRAVEL,
+            "acceptance": ACCEPT, "garrick_tol": GARRICK_TOL}
+
+
+def write_reference(path, ref: dict) -> pathlib.Path:
+    import yaml
+
+    class Dumper(yaml.SafeDumper):
+        """Mappings as blocks, lists of numbers on one line."""
+
+    def seq(dumper, v):
+        flat = all(x is None or isinstance(x, (bool, int, float)) for x in v)
+        return dumper.represent_sequence("tag:yaml.org,2002:seq", v, flow_style=flat)
+
+    def mapping(dumper, v):
+        return dumper.represent_mapping("tag:yaml.org,2002:map", v.items(), flow_style=False)
+
+    Dumper.add_representer(list, seq)
+    Dumper.add_representer(dict, mapping)
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(HEADER.format(command=COMMAND) + yaml.dump(
+        ref, Dumper=Dumper, sort_keys=False, width=100, allow_unicode=True), encoding="utf-8")
+    return path
+
+
+def run_study(ref: dict, log=print) -> dict:
+    """The reference with a fresh ``model`` block (the data block as given)."""
+    started = time.time()
+    model = round_floats(compare(ref["data"], log=log), 10)
+    return {"data": ref["data"], "model": {"provenance": provenance(time.time() - started),
+                                           **model}}
+
+
+# --- the page -----------------------------------------------------------------------------------
+
+def render_section(ref: dict) -> str:
+    from manta_drake.studies.validation import section_markers
+
+    begin, end = section_markers(SECTION)
+    m = ref["model"]
+    body = render_template(TEMPLATE, d=ref["data"], m=m, p=m["provenance"],
+                                                bases=m["bases"], garrick=m["garrick"],
+                                                terms=TERMS)
+    return f"{begin}\n{body.strip()}\n{end}"
+
+
+def write_page(path, ref: dict) -> None:
+    from manta_drake.studies.validation import write_section
+
+    write_section(pathlib.Path(path), SECTION, render_section(ref))
+
+
+# --- the command --------------------------------------------------------------------------------
+
+def parse_args(argv, prog):
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="writes DIR/foil_data.json (data and model) and DIR/foil_data.md "
+                             "(the section)")
+    parser.add_argument("--yaml", default=str(YAML_PATH), metavar="FILE",
+                        help="the reference file: its `data` is read and its `model` block "
+                             "rewritten (default models/reference/heaving_pitching_foil.yaml of "
+                             "the checkout)")
+    parser.add_argument("--no-write-yaml", action="store_true",
+                        help="leave --yaml as it is (the results go to DIR only)")
+    parser.add_argument("--page", default=str(PAGE_PATH), metavar="FILE",
+                        help="the page whose foil-data block is replaced (default "
+                             "docs/validation.md); '' writes none")
+    parser.add_argument("--from-yaml", action="store_true",
+                        help="compute nothing: render the page from --yaml's committed `model`")
+    args = parser.parse_args(argv)
+    if not str(args.out).strip():
+        raise ValidationError("--out: an empty path; name the folder to write")
+    out = pathlib.Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValidationError(f"--out {args.out}: exists and is not a folder")
+    if not pathlib.Path(args.yaml).is_file():
+        raise ValidationError(f"--yaml {args.yaml}: no such file (it holds the data)")
+    return args
+
+
+def main(argv=None, prog=None) -> int:
+    prog = prog or "python -m manta_drake.studies.validation.foil_data"
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parse_args(argv, prog)
+    out = pathlib.Path(args.out)
+    ref = load_reference(args.yaml)
+    if args.from_yaml:
+        if "model" not in ref:
+            raise ValidationError(f"--from-yaml: {args.yaml} has no `model` block; run "
+                                  "without --from-yaml first")
+    else:
+        ref = run_study(ref, log=lambda msg: print(msg, flush=True))
+        if not args.no_write_yaml:
+            print(f"reference: {write_reference(args.yaml, ref)}")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "foil_data.json").write_text(json.dumps(ref, indent=1) + "\n")
+    (out / "foil_data.md").write_text(render_section(ref) + "\n")
+    if args.page:
+        write_page(args.page, ref)
+        print(f"page: {args.page}")
+    print(f"wrote {out / 'foil_data.json'} and {out / 'foil_data.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except ScenarioError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)

@@ -8,8 +8,11 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
 DOCS_OUT ?= docs/_build/html
+# Sphinx's cache (doctrees) beside the HTML: docs/_build/doctrees by default, and outside the
+# checkout when DOCS_OUT is (DOCS_OUT=/tmp/site/html caches in /tmp/site/doctrees).
+DOCS_CACHE ?= $(dir $(abspath $(DOCS_OUT)))doctrees
 
-.PHONY: demo test setup clean syslibs models experiments benchmark docs FORCE
+.PHONY: demo test setup clean syslibs models experiments benchmark docs cfd FORCE
 
 setup: syslibs $(STAMP)
 
@@ -26,7 +29,10 @@ FORCE:
 demo: setup
 	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors
 
+# scripts/ensure_openfoam.sh: Debian's OpenFOAM (about 80 s the first time, quiet once
+# installed) for the CFD study's one slow end-to-end test.
 test: setup
+	@bash scripts/ensure_openfoam.sh
 	$(PY) -m pytest -q
 
 experiments: setup
@@ -40,13 +46,22 @@ benchmark: setup
 	$(PY) scripts/benchmark_hydro.py
 	$(PY) scripts/benchmark_vision.py
 
+# The CFD study of the hull's damping (docs/cfd.md): every case under CFD_OUT (a rerun
+# skips the finished ones), the samples into models/cfd/.
+CFD_OUT ?= $(OUT)/cfd
+CFD_WORKERS ?= 2
+cfd: setup
+	@bash scripts/ensure_openfoam.sh
+	$(PY) -m manta_drake.cli study cfd --out $(CFD_OUT) --cases all --workers $(CFD_WORKERS)
+
 models: setup
 	$(PY) scripts/generate_models.py
 
 # The API reference (Sphinx, docs/conf.py, sources docs/api/): warnings are errors; -E
-# rereads every docstring (Sphinx cannot see that a docstring changed).
+# rereads every docstring (Sphinx cannot see that a docstring changed). With DOCS_OUT outside
+# the checkout a build writes nothing into it (docs/conf.py writes no bytecode either).
 docs: setup
-	$(PY) -m sphinx -b html -E -W --keep-going -q -d docs/_build/doctrees docs $(DOCS_OUT)
+	$(PY) -m sphinx -b html -E -W --keep-going -q -d $(DOCS_CACHE) docs $(DOCS_OUT)
 	@echo "API reference: $(DOCS_OUT)/index.html"
 
 clean:

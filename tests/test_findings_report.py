@@ -237,7 +237,7 @@ def test_the_study_command_writes_the_committed_findings_page(tmp_path, monkeypa
     assert exit_info.value.code == 0
     listing = capsys.readouterr().out
     assert set(STUDIES) == {"faults", "findings", "transitions", "stance", "readings", "energy",
-                            "wall-noise", "behaviours"}
+                            "wall-noise", "behaviours", "cfd", "validation"}
     assert all(f"  {name} " in listing for name in STUDIES)
 
 

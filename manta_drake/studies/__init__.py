@@ -1,7 +1,9 @@
 """The studies that regenerate the reports of ``docs/``: ``manta-drake study NAME [ARGS...]``.
 
 Each study is a module of this package with a ``main(argv, prog) -> int`` that parses its own
-options (``manta-drake study NAME --help`` lists them). They write into the source checkout
+options (``manta-drake study NAME --help`` lists them) with ``options.StudyParser`` and checks
+every one of them, with its range, before it starts anything expensive (``options`` has the
+checks; a bad option is one line, exit status 2). They write into the source checkout
 the package is imported from (``REPO``: its ``docs/``, ``docs/figures/`` and
 ``diagrams/sweeps/data/``), so they run from a checkout (an editable install).
 """
@@ -34,6 +36,12 @@ STUDIES = {
                    "(docs/behaviours.md)"),
     "wall-noise": ("manta_drake.studies.wall_noise",
                    "s_hat against depth noise (docs/figures/s_hat_vs_noise.png)"),
+    "cfd": ("manta_drake.studies.cfd",
+            "the hull's damping by OpenFOAM, the paper's section 2.3 (docs/cfd.md, "
+            "models/cfd/)"),
+    "validation": ("manta_drake.studies.validation",
+                   "each model against its independent reference, one --section at a time "
+                   "(docs/validation.md, models/reference/)"),
 }
 
 

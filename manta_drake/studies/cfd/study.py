@@ -1,0 +1,427 @@
+"""The CFD study of the hull's damping by the paper's method (section 2.3): OpenFOAM cases.
+
+Runs the cases (validation: the sphere at Re 1e5 and the hull alone; robot: three meshes at
+0.4 m/s for grid convergence, then 0.4/0.8/1.2 m/s x pitch -30..30 deg and yaw 15, 30 deg on
+one mesh), each in its own folder of ``--out`` and skipped when its result exists, on a Dask
+local cluster (one OpenFOAM run per worker), and writes the samples of every finished case
+under ``--out`` to ``models/cfd/`` (``robot_samples.csv``, ``validation_samples.csv``) and a
+progress page.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import json
+import os
+import pathlib
+import shlex
+import sys
+import time
+
+from manta_drake.config_io import ScenarioError
+from manta_drake.studies import REPO
+from manta_drake.studies.options import StudyParser
+
+SPEEDS = (0.4, 0.8, 1.2)
+PITCHES = (-30.0, -15.0, 0.0, 15.0, 30.0)
+YAWS = (15.0, 30.0)  # yaw is symmetric: the paper's -30..30 from the positive half
+CASE_SETS = ("validation", "robot", "all")
+MESH_CHOICES = ("coarse", "medium", "fine")
+MAX_WORKERS = 2  # each case is one single-threaded OpenFOAM run
+CSV_DIR = REPO / "models" / "cfd"
+REPORT = REPO / "docs" / "cfd.md"
+BEGIN, END = "<!-- cfd results: begin (manta-drake study cfd) -->", "<!-- cfd results: end -->"
+# The validation sphere's reference: the standard drag curve of a smooth sphere, subcritical
+# at Re = 1e5 (laminar separation ahead of the equator): C_D = 0.47 (Schlichting,
+# Boundary-Layer Theory, Fig. 1.21 / the standard curve; Achenbach 1972, J. Fluid Mech. 54,
+# 565-575, measured 0.47-0.50 at 1e5).
+SPHERE_CD_REFERENCE = 0.47
+# The hull alone at 0.4 m/s, k-epsilon, same kind of mesh (shared/reference/hydro_refs.md
+# section 3): level 3 (41 k cells) 0.108 N, level 4 (75 k cells) 0.129 N.
+HULL_REFERENCE_N = {"medium": (0.108, 41_000), "fine": (0.129, 75_000)}
+
+
+class CfdError(ScenarioError):
+    """A study option that cannot work; one line says why (exit status 2)."""
+
+
+def validation_cases():
+    from manta_drake.studies.cfd.case import SPHERE_SPEED, CaseSpec
+
+    return ([CaseSpec("sphere", SPHERE_SPEED, mesh=m) for m in ("coarse", "medium", "fine")]
+            + [CaseSpec("hull", 0.4, mesh=m) for m in ("medium", "fine")])
+
+
+def robot_cases(mesh: str = "medium"):
+    """Grid convergence first (0.4 m/s, zero incidence, three meshes), then the sweep on
+    ``mesh``: each speed at zero incidence, pitch, then yaw."""
+    from manta_drake.studies.cfd.case import CaseSpec
+
+    cases = [CaseSpec("robot", 0.4, mesh=m) for m in MESH_CHOICES]
+    sweep = [CaseSpec("robot", u, pitch_deg=p, mesh=mesh) for p in PITCHES for u in SPEEDS]
+    sweep += [CaseSpec("robot", u, yaw_deg=y, mesh=mesh) for y in YAWS for u in SPEEDS]
+    sweep.sort(key=lambda c: (abs(c.pitch_deg) + abs(c.yaw_deg) > 0, c.yaw_deg != 0,
+                              abs(c.pitch_deg) + abs(c.yaw_deg), c.speed, c.pitch_deg))
+    names = {c.name for c in cases}
+    return cases + [c for c in sweep if c.name not in names]
+
+
+def cases_for(which: str, mesh: str):
+    if which == "validation":
+        return validation_cases()
+    if which == "robot":
+        return robot_cases(mesh)
+    return validation_cases() + robot_cases(mesh)
+
+
+# --- samples -----------------------------------------------------------------------------------
+
+CSV_COLUMNS = (
+    "speed", "pitch_deg", "yaw_deg", "u", "v", "w",
+    "Fx", "Fy", "Fz", "Mx", "My", "Mz",
+    "Fx_pressure", "Fy_pressure", "Fz_pressure", "Fx_viscous", "Fy_viscous", "Fz_viscous",
+    "Mx_pressure", "My_pressure", "Mz_pressure", "Mx_viscous", "My_viscous", "Mz_viscous",
+    "drag", "drag_tail_mean", "drag_tail_spread", "cd", "a_ref",
+    "shape", "mesh", "cells", "yplus_avg", "yplus_max",
+    "res_p", "res_Ux", "res_Uy", "res_Uz", "res_k", "res_epsilon", "iterations", "converged",
+    "wall_s", "cpu_s", "openfoam", "date", "command",
+)
+
+
+def sample_row(result: dict) -> dict:
+    """One CSV row of a finished case: body-frame forces (N) and moments about the CG (N m)
+    on the whole body (final iteration), x forward, y left, z up."""
+    f, m = result["final"]["force"], result["final"]["moment"]
+    spec = result["spec"]
+    row = {"speed": spec["speed"], "pitch_deg": spec["pitch_deg"], "yaw_deg": spec["yaw_deg"]}
+    row.update(dict(zip("uvw", (round(x, 6) for x in result["body_velocity"]))))
+    for comp, name in ((f["total"], "F"), (m["total"], "M")):
+        row.update({f"{name}{a}": comp[i] for i, a in enumerate("xyz")})
+    for part in ("pressure", "viscous"):
+        row.update({f"F{a}_{part}": f[part][i] for i, a in enumerate("xyz")})
+        row.update({f"M{a}_{part}": m[part][i] for i, a in enumerate("xyz")})
+    res = result.get("residuals", {})
+    row.update({
+        "drag": result["drag_n"], "drag_tail_mean": result["drag_tail_mean_n"],
+        "drag_tail_spread": result["drag_tail_spread"], "cd": result["cd"],
+        "a_ref": result["a_ref_m2"], "shape": spec["shape"], "mesh": spec["mesh"],
+        "cells": result["cells"], "yplus_avg": result["yplus_avg"],
+        "yplus_max": result["yplus_max"],
+        **{f"res_{k}": res.get(k, "") for k in ("p", "Ux", "Uy", "Uz", "k", "epsilon")},
+        "iterations": result["iterations"], "converged": result["converged"],
+        "wall_s": result["wall_s"], "cpu_s": result["cpu_s"],
+        "openfoam": result["openfoam"], "date": result["finished"][:10],
+        "command": result.get("command", ""),
+    })
+    for k, v in row.items():
+        if isinstance(v, float):
+            row[k] = float(f"{v:.6g}")
+    return row
+
+
+def finished_results(out: pathlib.Path) -> list[dict]:
+    results = []
+    for path in sorted(pathlib.Path(out).glob("*/result.json")):
+        try:
+            results.append(json.loads(path.read_text()))
+        except (OSError, ValueError):
+            continue
+    return results
+
+
+def write_samples(out: pathlib.Path, csv_dir: pathlib.Path) -> dict[str, int]:
+    """Writes the ok cases under ``out`` to ``csv_dir``: robot and validation samples
+    (sorted by shape, mesh, speed, pitch, yaw); returns the rows per file."""
+    results = [r for r in finished_results(out) if r.get("status") == "ok"]
+    order = {"coarse": 0, "medium": 1, "fine": 2, "tiny": -1}
+    results.sort(key=lambda r: (r["spec"]["shape"], order.get(r["spec"]["mesh"], 9),
+                                r["spec"]["speed"], r["spec"]["pitch_deg"],
+                                r["spec"]["yaw_deg"]))
+    files = {"robot_samples.csv": [r for r in results if r["spec"]["shape"] == "robot"],
+             "validation_samples.csv": [r for r in results if r["spec"]["shape"] != "robot"]}
+    counts = {}
+    csv_dir.mkdir(parents=True, exist_ok=True)
+    for name, rows in files.items():
+        if not rows:
+            continue
+        path = csv_dir / name
+        with open(path, "w", newline="") as fh:
+            fh.write("# CFD samples of manta-drake study cfd (docs/cfd.md): OpenFOAM simpleFoam, "
+                     "standard k-epsilon, standard wall functions; forces in N and moments "
+                     "about the CG in N m on the whole body, Drake body frame (x forward, y "
+                     "left, z up); u, v, w the body's velocity through the water in that "
+                     "frame; pitch nose up, yaw nose to starboard (NED senses)\n")
+            writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+            writer.writeheader()
+            for r in rows:
+                writer.writerow(sample_row(r))
+        counts[name] = len(rows)
+    return counts
+
+
+def _grid_convergence(drags):
+    """Observed order and the fine mesh's grid convergence index (Roache; Celik et al. 2008,
+    safety factor 1.25) from drags on the coarse, medium and fine meshes (refinement ratio
+    sqrt 2); None where the changes are not monotone."""
+    import math
+
+    f3, f2, f1 = drags  # coarse, medium, fine
+    r = math.sqrt(2.0)
+    e32, e21 = f3 - f2, f2 - f1
+    if e21 == 0 or e32 == 0 or (e32 / e21) <= 0:
+        return None, None
+    p = abs(math.log(abs(e32 / e21))) / math.log(r)
+    gci = 1.25 * abs(e21 / f1) / (r ** p - 1.0)
+    return p, gci
+
+
+def report_block(out: pathlib.Path) -> str:
+    """The results of docs/cfd.md (between its markers) from the finished cases."""
+    from manta_drake.studies.cfd.case import CaseSpec
+
+    results = {r["case"]: r for r in finished_results(out)}
+    ok = {k: r for k, r in results.items() if r.get("status") == "ok"}
+    lines = [BEGIN, "", f"Cases finished: {len(ok)} of {len(cases_for('all', 'medium'))} "
+             f"(failed: {sum(r.get('status') == 'failed' for r in results.values())}).", ""]
+
+    def it(r):
+        how = r.get("stopped_by", "residuals" if r["converged"] else "iteration cap")
+        return f"{r['iterations']}{'' if how == 'residuals' else f' ({how})'}"
+
+    lines += ["### Validation: sphere at Re = 1e5", "",
+              f"Reference C_D = {SPHERE_CD_REFERENCE} (subcritical, standard drag curve).", "",
+              "| mesh | cells | C_D | C_D / 0.47 | pressure / viscous (N) | y+ avg / max | "
+              "iterations | wall (s) | CPU (s) |", "|---|---|---|---|---|---|---|---|---|"]
+    for mesh in ("coarse", "medium", "fine"):
+        r = ok.get(CaseSpec("sphere", 1.0, mesh=mesh).name)
+        if r:
+            lines.append(f"| {mesh} | {r['cells']} | {r['cd']:.3f} | "
+                         f"{r['cd'] / SPHERE_CD_REFERENCE:.2f} | {r['drag_pressure_n']:.4f} / "
+                         f"{r['drag_viscous_n']:.4f} | {r['yplus_avg']:.0f} / "
+                         f"{r['yplus_max']:.0f} | {it(r)} | {r['wall_s']} | {r['cpu_s']} |")
+    lines += ["", "### Pipeline check: the hull alone at 0.4 m/s", "",
+              "| mesh | cells | drag (N) | hydro_refs.md (N, cells) | pressure / viscous (N) | "
+              "y+ avg / max | iterations | wall (s) |", "|---|---|---|---|---|---|---|---|"]
+    for mesh, (ref, ref_cells) in HULL_REFERENCE_N.items():
+        r = ok.get(CaseSpec("hull", 0.4, mesh=mesh).name)
+        if r:
+            lines.append(f"| {mesh} | {r['cells']} | {r['drag_n']:.4f} | {ref} ({ref_cells}) | "
+                         f"{r['drag_pressure_n']:.4f} / {r['drag_viscous_n']:.4f} | "
+                         f"{r['yplus_avg']:.1f} / {r['yplus_max']:.0f} | {it(r)} | "
+                         f"{r['wall_s']} |")
+    lines += ["", "### Robot: grid convergence at 0.4 m/s, zero incidence", "",
+              "| mesh | base cell (m) | cells | drag (N) | change from the previous mesh | "
+              "pressure / viscous (N) | y+ avg / max | iterations | wall (s) | CPU (s) |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    drags, prev = [], None
+    for mesh in MESH_CHOICES:
+        r = ok.get(CaseSpec("robot", 0.4, mesh=mesh).name)
+        if not r:
+            continue
+        change = f"{100 * (r['drag_n'] / prev - 1):+.1f} %" if prev else ""
+        prev = r["drag_n"]
+        drags.append(r["drag_n"])
+        lines.append(f"| {mesh} | {r['mesh_spec']['base_cell']:.4g} | {r['cells']} | "
+                     f"{r['drag_n']:.4f} | {change} | {r['drag_pressure_n']:.4f} / "
+                     f"{r['drag_viscous_n']:.4f} | {r['yplus_avg']:.1f} / "
+                     f"{r['yplus_max']:.0f} | {it(r)} | {r['wall_s']} | {r['cpu_s']} |")
+    if len(drags) == 3:
+        p, gci = _grid_convergence(drags)
+        lines += ["", (f"Observed order {p:.2f}, fine-mesh GCI {100 * gci:.1f} % (Celik et al. "
+                       "2008, safety factor 1.25)." if p is not None else
+                       "The three drags do not change monotonically: no observed order.")]
+    lines += ["", "### Robot: the sweep (body frame: x forward, y left, z up; N and N m about "
+              "the CG)", "",
+              "| U (m/s) | pitch | yaw | mesh | Fx | Fy | Fz | Mx | My | Mz | cells | "
+              "iterations | drag spread (last 10 %) | wall (s) |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    sweep = [r for r in ok.values() if r["spec"]["shape"] == "robot"
+             and not (r["spec"]["pitch_deg"] == 0 and r["spec"]["yaw_deg"] == 0
+                      and r["spec"]["speed"] == 0.4 and r["spec"]["mesh"] != "medium")]
+    sweep.sort(key=lambda r: (r["spec"]["yaw_deg"], r["spec"]["pitch_deg"], r["spec"]["speed"]))
+    for r in sweep:
+        f, m = r["final"]["force"]["total"], r["final"]["moment"]["total"]
+        s = r["spec"]
+        lines.append(f"| {s['speed']} | {s['pitch_deg']:g} | {s['yaw_deg']:g} | {s['mesh']} | "
+                     + " | ".join(f"{x:.4g}" for x in (*f, *m))
+                     + f" | {r['cells']} | {it(r)} | {100 * r['drag_tail_spread']:.1f} % | "
+                       f"{r['wall_s']} |")
+    surge = sorted((r["spec"]["speed"], -r["final"]["force"]["total"][0]) for r in sweep
+                   if r["spec"]["pitch_deg"] == 0 and r["spec"]["yaw_deg"] == 0)
+    if len(surge) >= 2:
+        from manta_drake.model.coefficients import fit_damping
+
+        h, res = fit_damping([u for u, _ in surge], [x for _, x in surge])
+        lines += ["", f"Eq. (4) on the {len(surge)} zero-incidence samples (surge, resisting "
+                      f"force -Fx against u): X_u = {h[0]:.4g} N s/m, X_u|u| = {h[1]:.4g} "
+                      f"N s^2/m^2, RMS residual {float((res ** 2).mean() ** 0.5):.3g} N "
+                      "(for reading only: models/hydrodynamics.yaml is not changed here)."]
+    failed = [r for r in results.values() if r.get("status") != "ok"]
+    if failed:
+        lines += ["", "Failed cases:", ""] + [f"- {r['case']}: {r.get('reason', '')[:300]}"
+                                              for r in failed]
+    left = [c.name for c in cases_for("all", "medium") if c.name not in results]
+    lines += ["", f"Not run yet ({len(left)}): " + (", ".join(left) if left else "none") + ".",
+              "", END]
+    return "\n".join(lines)
+
+
+def write_report(out: pathlib.Path, page: pathlib.Path) -> None:
+    from manta_drake.studies.stamp import replace_marked_block
+
+    replace_marked_block(page, report_block(out), BEGIN, END)
+
+
+def write_progress(path: pathlib.Path, out: pathlib.Path, cases, command: str,
+                   started: float) -> None:
+    results = {r["case"]: r for r in finished_results(out)}
+    lines = [f"# CFD study progress", "",
+             f"Updated {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC by "
+             f"`{command}` (pid {os.getpid()}, {time.time() - started:.0f} s in). Resume: run "
+             "the same command again (finished cases are skipped).", "",
+             "| case | status | cells | drag (N) | iterations | converged | wall (s) | CPU (s) |",
+             "|---|---|---|---|---|---|---|---|"]
+    left = []
+    for c in cases:
+        r = results.get(c.name)
+        if r is None:
+            left.append(c.name)
+            continue
+        if r.get("status") == "ok":
+            lines.append(f"| {c.name} | ok | {r['cells']} | {r['drag_n']:.4g} | "
+                         f"{r['iterations']} | {r['converged']} | {r['wall_s']} | "
+                         f"{r['cpu_s']} |")
+        else:
+            lines.append(f"| {c.name} | {r.get('status')}: {r.get('reason', '')[:200]} | | | "
+                         f"| | {r.get('wall_s', '')} | |")
+    lines += ["", f"Left ({len(left)}): " + (", ".join(left) if left else "none"), ""]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines))
+
+
+# --- the command -------------------------------------------------------------------------------
+
+def parse_args(argv, prog):
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="the cases' root folder (one folder per case; rerunning skips "
+                             "the finished ones)")
+    parser.add_argument("--cases", default="all", metavar="SET",
+                        help=f"one of {', '.join(CASE_SETS)} (default all)")
+    parser.add_argument("--workers", default="1", metavar="N",
+                        help=f"cases run side by side on a Dask local cluster, 0..{MAX_WORKERS} "
+                             "(0: in this process; default 1)")
+    parser.add_argument("--mesh", default="medium", metavar="MESH",
+                        help=f"the sweep's mesh: {', '.join(MESH_CHOICES)} (default medium; "
+                             "grid convergence runs all three)")
+    parser.add_argument("--csv-dir", default=str(CSV_DIR), metavar="DIR",
+                        help="where the samples CSVs go (default models/cfd of the checkout)")
+    parser.add_argument("--progress", default=None, metavar="FILE",
+                        help="a progress page rewritten after each case (default "
+                             "OUT/progress.md)")
+    parser.add_argument("--retry-failed", action="store_true",
+                        help="run failed cases again (default: keep their result)")
+    parser.add_argument("--out-md", default=str(REPORT), metavar="FILE",
+                        help="the report page whose results block is rewritten (default "
+                             "docs/cfd.md; '' for none)")
+    parser.add_argument("--tables-only", action="store_true",
+                        help="run nothing: write the samples and the report from the cases "
+                             "already under --out")
+    args = parser.parse_args(argv)
+    if args.cases not in CASE_SETS:
+        raise CfdError(f"--cases {args.cases!r}: expected one of {', '.join(CASE_SETS)}")
+    if args.mesh not in MESH_CHOICES:
+        raise CfdError(f"--mesh {args.mesh!r}: expected one of {', '.join(MESH_CHOICES)}")
+    try:
+        args.workers = int(args.workers)
+    except ValueError:
+        raise CfdError(f"--workers {args.workers!r}: expected an integer 0..{MAX_WORKERS}") \
+            from None
+    if not 0 <= args.workers <= MAX_WORKERS:
+        raise CfdError(f"--workers {args.workers}: expected 0..{MAX_WORKERS} (each case is one "
+                       "single-threaded OpenFOAM run; this machine shares 2 cores)")
+    out = pathlib.Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CfdError(f"--out {args.out}: exists and is not a folder")
+    if not args.out.strip():
+        raise CfdError("--out: empty path")
+    return args
+
+
+def main(argv=None, prog=None) -> int:
+    prog = prog or "manta-drake study cfd"
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parse_args(argv, prog)
+    from manta_drake.studies.cfd import run
+
+    out_md = pathlib.Path(args.out_md) if args.out_md else None
+    if args.tables_only:
+        out = pathlib.Path(args.out)
+        if not out.is_dir():
+            raise CfdError(f"--out {args.out}: no such folder of cases")
+        if args.csv_dir:
+            counts = write_samples(out, pathlib.Path(args.csv_dir))
+            print(f"samples: {counts}")
+        if out_md is not None:
+            write_report(out, out_md)
+            print(f"report: {out_md}")
+        return 0
+    if not run.openfoam_available():
+        raise CfdError("OpenFOAM's simpleFoam is not installed: run `bash "
+                       "scripts/ensure_openfoam.sh` (Debian's openfoam) or `make cfd`")
+    out = pathlib.Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    csv_dir = pathlib.Path(args.csv_dir) if args.csv_dir else None
+    progress = pathlib.Path(args.progress) if args.progress else out / "progress.md"
+    command = f"{prog} {shlex.join(argv)}"
+    cases = cases_for(args.cases, args.mesh)
+    started = time.time()
+    jobs = [(c.to_json(), str(out), args.retry_failed, command) for c in cases]
+    failed = 0
+
+    def finished(result) -> None:
+        nonlocal failed
+        status = result.get("status")
+        failed += status != "ok"
+        note = " (skipped: done before)" if result.get("skipped") else ""
+        detail = (f"drag {result['drag_n']:.4g} N, {result['cells']} cells, "
+                  f"{result['iterations']} it, {result['wall_s']} s"
+                  if status == "ok" else result.get("reason", ""))
+        print(f"{result['case']}: {status}{note}: {detail}", flush=True)
+        if csv_dir is not None:
+            write_samples(out, csv_dir)
+        write_progress(progress, out, cases, command, started)
+
+    write_progress(progress, out, cases, command, started)
+    print(f"{len(cases)} cases under {out}; progress: {progress}", flush=True)
+    if args.workers == 0:
+        for job in jobs:
+            finished(run.run_case_job(job))
+    else:
+        from manta_drake.cluster import completed_resubmitting_lost, dask_client
+
+        with dask_client(workers=args.workers, dashboard="") as client:
+            for job, outcome in completed_resubmitting_lost(
+                    client, run.run_case_job, jobs, lambda j: j,
+                    lambda j: f"cfd-{cfd_name(j)}",
+                    window=lambda: 2 * args.workers):
+                if isinstance(outcome, dict):
+                    finished(outcome)
+                else:
+                    failed += 1
+                    print(f"{cfd_name(job)}: task failed: {outcome.reason()}", flush=True)
+                    write_progress(progress, out, cases, command, started)
+    if csv_dir is not None:
+        counts = write_samples(out, csv_dir)
+        print(f"samples: {', '.join(f'{csv_dir / k} ({v} rows)' for k, v in counts.items())}")
+    if out_md is not None and out_md.exists():
+        write_report(out, out_md)
+        print(f"report: {out_md}")
+    return 1 if failed else 0
+
+
+def cfd_name(job) -> str:
+    from manta_drake.studies.cfd.case import CaseSpec
+
+    return CaseSpec(**job[0]).name

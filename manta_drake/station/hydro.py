@@ -307,7 +307,7 @@ class HydrodynamicForces(LeafSystem):
         elements, strips = K.pack_elements(el)
         if self._foil:  # the strips are the foil model's: none for the cross-flow terms
             strips = np.zeros((0, strips.shape[1]))
-            self._pack_foil(coeffs, el, added)
+            self._foil_reference_args, self._foil_packed = self._pack_foil(coeffs, el, added)
         self._packed = (elements, strips,
                         np.ascontiguousarray(np.hstack([d_lin, d_quad]), dtype=float),
                         K.pack_params(self.rho, self.g, self.c_normal, self.c_friction,
@@ -366,9 +366,10 @@ class HydrodynamicForces(LeafSystem):
             # Held forces start from the initial state, not from zero.
             self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
 
-    def _pack_foil(self, coeffs: HydroCoefficients, el: dict, added: dict) -> None:
-        """The foil model's arrays, once: strips, parameters, added-mass bodies (the
-        kernels' tables and the numpy reference's dicts) and the plates' fraction weights."""
+    def _pack_foil(self, coeffs: HydroCoefficients, el: dict, added: dict) -> tuple:
+        """The foil model's arrays, once: (the numpy reference's strips, parameters and
+        added-mass bodies; the kernels' tables of them with the plates' fraction weights and
+        the discrete state at rest), both read-only mappings."""
         fins = coeffs.fins
         params = {"rho": self.rho, "lift_slope": float(fins.lift_slope.value),
                   "suction_efficiency": float(fins.suction_efficiency.value),
@@ -386,9 +387,9 @@ class HydrodynamicForces(LeafSystem):
         for j, plate in enumerate(bodies["plate"]):
             elements = el["strip_element"][el["strip_body"] == plate]
             weights[j, elements] = 1.0 / len(elements)
-        self._foil_reference_args = types.MappingProxyType(
+        reference = types.MappingProxyType(
             {"strips": strips, "params": params, "bodies": bodies})
-        self._foil_packed = types.MappingProxyType({
+        return reference, types.MappingProxyType({
             "strips": FK.pack_strips(*strips.values()),
             "params": FK.pack_foil_params(*params.values(), self.current),
             "bodies": FK.pack_added_mass_bodies(*bodies.values()),

@@ -77,6 +77,42 @@ def round_floats(x, digits: int):
     return x
 
 
+class ValidationError(ScenarioError):
+    """A bad option, results or reference file of a validation section (one line, exit 2)."""
+
+
+def check_out(out) -> pathlib.Path:
+    """A section's ``--out``: a non-empty path that is a folder or does not exist yet."""
+    if not str(out).strip():
+        raise ValidationError("--out: an empty path; name the folder to write")
+    path = pathlib.Path(out)
+    if path.exists() and not path.is_dir():
+        raise ValidationError(f"--out {out}: exists and is not a folder")
+    return path
+
+
+def write_results(out, stem: str, results: dict, block: str) -> tuple[pathlib.Path, ...]:
+    """A section's outputs in ``out``: STEM.json (its results) and STEM.md (its block)."""
+    import json
+
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    json_path, md_path = out / f"{stem}.json", out / f"{stem}.md"
+    json_path.write_text(json.dumps(results, indent=1) + "\n")
+    md_path.write_text(block + "\n")
+    return json_path, md_path
+
+
+def run_module(main) -> None:
+    """The ``python -m`` entry of a section's module: its ``main``, a bad option as one line
+    on stderr with exit status 2 (``manta-drake study validation`` does the same)."""
+    try:
+        sys.exit(main())
+    except ScenarioError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
+
+
 def section_markers(name: str) -> tuple[str, str]:
     """The markers of section ``name``'s block in ``docs/validation.md``."""
     return f"<!-- section: {name} -->", f"<!-- end section: {name} -->"

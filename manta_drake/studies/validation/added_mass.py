@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import dataclasses as dc
 import datetime
-import json
 import math
 import pathlib
 import sys
@@ -54,13 +53,20 @@ import time
 
 import numpy as np
 
-from manta_drake.config_io import ScenarioError
 from manta_drake.model.kinematics import link_poses_at_zero, rot_z
 from manta_drake.model.model_sdf import fin_plate_geometry
 from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS, LEGS, RobotParams
 from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
-from manta_drake.studies.validation import PAGE_PATH, render_template, round_floats
+from manta_drake.studies.validation import (
+    PAGE_PATH,
+    ValidationError,
+    check_out,
+    render_template,
+    round_floats,
+    run_module,
+    write_results,
+)
 
 SECTION = "added-mass"
 COMMAND = "manta-drake study validation --section added-mass --out DIR"
@@ -106,10 +112,6 @@ POSES = {
     "stroke_feathered": ("roll1 +45 deg, pitch +45 deg (left fins) / -45 deg (right fins, the "
                          "swim gait's mirror)", _pose_q(45.0, 45.0, -45.0)),
 }
-
-
-class ValidationError(ScenarioError):
-    """A study option that cannot work; one line says why (exit status 2)."""
 
 
 # --- references ---------------------------------------------------------------------------------
@@ -834,11 +836,7 @@ def parse_args(argv, prog):
     parser.add_argument("--from-yaml", action="store_true",
                         help="solve nothing: render the page from --yaml as committed")
     args = parser.parse_args(argv)
-    if not str(args.out).strip():
-        raise ValidationError("--out: an empty path; name the folder to write")
-    out = pathlib.Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"--out {args.out}: exists and is not a folder")
+    check_out(args.out)
     if args.from_yaml and not pathlib.Path(args.yaml).is_file():
         raise ValidationError(f"--from-yaml: no results file {args.yaml}; run without "
                               "--from-yaml first")
@@ -859,18 +857,13 @@ def main(argv=None, prog=None) -> int:
         results["provenance"]["command"] = COMMAND
         if args.yaml:
             print(f"results: {write_yaml(args.yaml, results)}")
-    (out / "added_mass.json").write_text(json.dumps(results, indent=1) + "\n")
-    (out / "added_mass.md").write_text(render_section(results) + "\n")
+    written = write_results(out, "added_mass", results, render_section(results))
     if args.page:
         write_page(args.page, results)
         print(f"page: {args.page}")
-    print(f"wrote {out / 'added_mass.json'} and {out / 'added_mass.md'}")
+    print(f"wrote {written[0]} and {written[1]}")
     return 0
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except ScenarioError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(2)
+    run_module(main)

@@ -43,7 +43,6 @@ model C_T within +-30 % of the data.
 from __future__ import annotations
 
 import datetime
-import json
 import math
 import pathlib
 import sys
@@ -51,11 +50,18 @@ import time
 
 import numpy as np
 
-from manta_drake.config_io import ScenarioError
 from manta_drake.station import foil
 from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
-from manta_drake.studies.validation import PAGE_PATH, render_template, round_floats
+from manta_drake.studies.validation import (
+    PAGE_PATH,
+    ValidationError,
+    check_out,
+    render_template,
+    round_floats,
+    run_module,
+    write_results,
+)
 from manta_drake.studies.validation.vortex_lattice import cycle_means
 
 SECTION = "foil-data"
@@ -88,10 +94,6 @@ DIAGNOSTICS = {
 BASES = ("shipped", "2d")
 BASE_LABELS = {"shipped": "shipped (a = 3.1)", "2d": "2-D lift slope a = 2 pi"}
 TERMS = ("circulatory", "suction", "separated", "friction")
-
-
-class ValidationError(ScenarioError):
-    """A bad option or reference file of the foil-data study."""
 
 
 # --- parameters ---------------------------------------------------------------------------------
@@ -457,11 +459,7 @@ def parse_args(argv, prog):
     parser.add_argument("--from-yaml", action="store_true",
                         help="compute nothing: render the page from --yaml's committed `model`")
     args = parser.parse_args(argv)
-    if not str(args.out).strip():
-        raise ValidationError("--out: an empty path; name the folder to write")
-    out = pathlib.Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"--out {args.out}: exists and is not a folder")
+    check_out(args.out)
     if not pathlib.Path(args.yaml).is_file():
         raise ValidationError(f"--yaml {args.yaml}: no such file (it holds the data)")
     return args
@@ -481,19 +479,13 @@ def main(argv=None, prog=None) -> int:
         ref = run_study(ref, log=lambda msg: print(msg, flush=True))
         if not args.no_write_yaml:
             print(f"reference: {write_reference(args.yaml, ref)}")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "foil_data.json").write_text(json.dumps(ref, indent=1) + "\n")
-    (out / "foil_data.md").write_text(render_section(ref) + "\n")
+    written = write_results(out, "foil_data", ref, render_section(ref))
     if args.page:
         write_page(args.page, ref)
         print(f"page: {args.page}")
-    print(f"wrote {out / 'foil_data.json'} and {out / 'foil_data.md'}")
+    print(f"wrote {written[0]} and {written[1]}")
     return 0
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except ScenarioError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(2)
+    run_module(main)

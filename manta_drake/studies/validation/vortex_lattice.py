@@ -55,13 +55,19 @@ import time
 
 import numpy as np
 
-from manta_drake.config_io import ScenarioError
 from manta_drake.model.kinematics import X_BODYDRAKE_BODYNED, leg_frames_ned, rot_z
 from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS, RobotParams
 from manta_drake.station import foil
 from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
-from manta_drake.studies.validation import PAGE_PATH, render_template, round_floats
+from manta_drake.studies.validation import (
+    PAGE_PATH,
+    ValidationError,
+    check_out,
+    render_template,
+    round_floats,
+    run_module,
+)
 
 SECTION = "vortex-lattice"
 COMMAND = "manta-drake study validation --section vortex-lattice --out DIR"
@@ -100,10 +106,6 @@ SPANWISE_CHECK = ((16, 10),)
 GAIT_DT_CHECK_SPEEDS = (0.4, 0.1)
 QUICK_NC = (4,)
 QUICK_CYCLES = 2
-
-
-class ValidationError(ScenarioError):
-    """A bad option or results file of the vortex-lattice study."""
 
 
 # --- the fin and its stroke ---------------------------------------------------------------------
@@ -752,11 +754,7 @@ def parse_args(argv, prog):
     parser.add_argument("--from-yaml", action="store_true",
                         help="run nothing: render the page from --reference as committed")
     args = parser.parse_args(argv)
-    if not str(args.out).strip():
-        raise ValidationError("--out: an empty path; name the folder to write")
-    out = pathlib.Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"--out {args.out}: exists and is not a folder")
+    check_out(args.out)
     if args.reference is None:
         args.reference = "" if args.quick else str(YAML_PATH)
     if args.page is None:
@@ -791,9 +789,5 @@ def main(argv=None, prog=None) -> int:
     return 0
 
 
-if __name__ == "__main__":  # pragma: no cover
-    try:
-        sys.exit(main())
-    except ScenarioError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(2)
+if __name__ == "__main__":
+    run_module(main)

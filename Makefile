@@ -17,7 +17,7 @@ DOCS_CACHE ?= $(dir $(abspath $(DOCS_OUT)))doctrees
 setup: syslibs $(STAMP)
 
 syslibs:
-	@bash scripts/ensure_syslibs.sh
+	@bash scripts/ensure_debian.sh libusb
 
 # The stamp holds the venv's Python version; the script skips what is done, and makes the
 # venv anew for another PYTHON.
@@ -29,10 +29,10 @@ FORCE:
 demo: setup
 	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors
 
-# scripts/ensure_openfoam.sh: Debian's OpenFOAM (about 80 s the first time, quiet once
+# scripts/ensure_debian.sh openfoam: Debian's OpenFOAM (about 80 s the first time, quiet once
 # installed) for the CFD study's one slow end-to-end test.
 test: setup
-	@bash scripts/ensure_openfoam.sh
+	@bash scripts/ensure_debian.sh openfoam
 	$(PY) -m pytest -q
 
 experiments: setup
@@ -51,7 +51,7 @@ benchmark: setup
 CFD_OUT ?= $(OUT)/cfd
 CFD_WORKERS ?= 2
 cfd: setup
-	@bash scripts/ensure_openfoam.sh
+	@bash scripts/ensure_debian.sh openfoam
 	$(PY) -m manta_drake.cli study cfd --out $(CFD_OUT) --cases all --workers $(CFD_WORKERS)
 
 models: setup

@@ -202,7 +202,7 @@ TINY_SPHERE_TOL = 0.02
 @pytest.mark.slow
 @pytest.mark.skipif(not run.openfoam_available(),
                     reason="OpenFOAM (simpleFoam) is not installed: run "
-                           "scripts/ensure_openfoam.sh (make test does)")
+                           "scripts/ensure_debian.sh openfoam (make test does)")
 def test_tiny_sphere_case_end_to_end(tmp_path):
     spec = cfdcase.CaseSpec("sphere", 1.0, mesh="tiny")
     result = run.run_case(spec, tmp_path)

@@ -34,7 +34,7 @@ RESULT = "result.json"
 
 
 class OpenFoamMissing(RuntimeError):
-    """simpleFoam is not installed (scripts/ensure_openfoam.sh installs it)."""
+    """simpleFoam is not installed (scripts/ensure_debian.sh openfoam installs it)."""
 
 
 def openfoam_available() -> bool:
@@ -319,7 +319,7 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False,
             result["skipped"] = True
             return result
     if not openfoam_available():
-        raise OpenFoamMissing("simpleFoam is not installed: run scripts/ensure_openfoam.sh "
+        raise OpenFoamMissing("simpleFoam is not installed: run scripts/ensure_debian.sh openfoam "
                               "(Debian's openfoam)")
     if folder.exists():
         shutil.rmtree(folder)  # a half-run case starts again from nothing

@@ -369,7 +369,7 @@ def main(argv=None, prog=None) -> int:
         return 0
     if not run.openfoam_available():
         raise CfdError("OpenFOAM's simpleFoam is not installed: run `bash "
-                       "scripts/ensure_openfoam.sh` (Debian's openfoam) or `make cfd`")
+                       "scripts/ensure_debian.sh openfoam` (Debian's openfoam) or `make cfd`")
     out = pathlib.Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     csv_dir = pathlib.Path(args.csv_dir) if args.csv_dir else None

@@ -14,6 +14,7 @@ from manta_drake.station.foil import (
     kirchhoff_plate_correction,
     kirchhoff_plate_force,
     prescribed_motion_forces,
+    separation_step,
     strip_forces,
     strip_kinematics,
     theodorsen,
@@ -201,17 +202,23 @@ def test_compiled_strip_wrenches_and_lag_equal_the_numpy_reference():
               "stall_angle": np.radians(15), "stall_width": np.radians(3)}
     current = np.array([0.1, -0.05, 0.02])
     frac, lag = rng.uniform(size=ne), rng.normal(size=(ns, 2)) * 0.1
-    S, w34, speed = foil.strip_wrenches(R, w, v, current, strips, frac, lag, params)
+    attached = rng.uniform(size=ns)
+    S, w34, speed, alpha = foil.strip_wrenches(R, w, v, current, strips, frac, lag, params,
+                                               attached)
     packed = FK.pack_strips(strips["body"], strips["element"], strips["p"], normal, chord_dir,
                             strips["span_dir"], strips["area"], strips["chord"])
-    prm = FK.pack_foil_params(*params.values(), current)
-    S_k, w34_k, speed_k = FK.strip_wrenches(R, w, v, packed, frac, lag, prm)
+    prm = FK.pack_foil_params(**params, current=current, separation_lag=3.0)
+    S_k, w34_k, speed_k, alpha_k = FK.strip_wrenches(R, w, v, packed, frac, lag, prm, attached)
     np.testing.assert_allclose(S_k, S, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(w34_k, w34, rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(speed_k, speed, rtol=1e-12, atol=1e-14)
+    for got, expected in ((w34_k, w34), (speed_k, speed), (alpha_k, alpha)):
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(FK.lag_step(lag, w34, speed, packed, 1e-3),
                                wagner_step(lag, w34, speed, strips["chord"], 1e-3),
                                rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(
+        FK.separation_step(attached, alpha, speed, packed, 1e-3, prm),
+        separation_step(attached, alpha, speed, strips["chord"], 1e-3, params["stall_angle"],
+                        params["stall_width"], 3.0), rtol=1e-12, atol=1e-15)
 
 
 def _one_plate(U=0.4, alpha=np.radians(25)):
@@ -276,3 +283,21 @@ def test_compiled_added_mass_body_wrenches_equal_the_numpy_reference():
     F_k, q_k = FK.added_mass_body_wrenches(R, p, w, v, current, packed, frac, a_n, 20.0, 0.9)
     np.testing.assert_allclose(F_k, F, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(q_k, q, rtol=1e-12, atol=1e-14)
+
+
+def test_separation_lag_is_first_order_in_semichords_travelled():
+    """From attached flow, the angle jumps past stall: f(t) = f_inf + (1 - f_inf)
+    exp(-2 U t / (c T_f)) (Leishman & Beddoes's first-order lag), for any step sizes; with
+    T_f = 0 the share is the switch's at once."""
+    U, c, T_f = 0.4, 0.12, 3.0
+    stall, width = np.radians(15), np.radians(3)
+    alpha = np.full(1, np.radians(40))
+    f_inf = attached_fraction(alpha, stall, width)[0]
+    f, t = np.ones(1), 0.0
+    for dt in np.random.default_rng(2).uniform(1e-4, 0.05, 30):
+        f = separation_step(f, alpha, np.full(1, U), np.full(1, c), dt, stall, width, T_f)
+        t += dt
+        assert f[0] == pytest.approx(f_inf + (1 - f_inf) * np.exp(-2 * U * t / (c * T_f)),
+                                     rel=1e-12)
+    assert separation_step(np.ones(1), alpha, np.full(1, U), np.full(1, c), 1e-3, stall,
+                           width, 0.0)[0] == f_inf

@@ -3,7 +3,7 @@
 The committed UVLM numbers (models/reference/vortex_lattice.yaml, made by
 ``python -m manta_drake.studies.validation.vortex_lattice``) are the reference; the strip
 model (station/foil.py, numpy) is recomputed here on the same prescribed stroke of the model's
-own fin and held to the issue's acceptance: within +-30 % of the converged UVLM in pure roll
+own fin and held to the acceptance: within +-30 % of the converged UVLM in pure roll
 at 0.4 m/s. With pterasoftware installed, one tiny case checks the solver still gives the
 committed numbers (slow: the numba JIT) and its movement moves the model's fin.
 """

@@ -154,6 +154,7 @@ class FinHydro:
     suction_efficiency: Scalar = dc.field(default_factory=Scalar)  # leading-edge suction share
     stall_angle_deg: Scalar = dc.field(default_factory=Scalar)  # attached -> separated
     stall_width_deg: Scalar = dc.field(default_factory=Scalar)  # width of that blend
+    separation_lag: Scalar = dc.field(default_factory=Scalar)  # T_f, semichords
 
 
 @dc.dataclass

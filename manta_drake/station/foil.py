@@ -19,7 +19,11 @@ the terms a quasi-steady cross-flow model lacks:
   with s = 2 U t / c (``wagner_step``); its harmonic response is Jones's approximation
   of Theodorsen's C(k) (``jones_theodorsen``, ``theodorsen``);
 * **separated cross-flow normal force** past stall, -1/2 rho A C_dcf |w| w, blended
-  with the attached terms by the geometric angle of attack (``attached_fraction``);
+  with the attached terms by the attached share f of the flow: f follows
+  ``attached_fraction`` of the angle the lagged circulation sees, atan(|w_eff| / |u|),
+  with the boundary layer's lag of T_f semichords (``separation_step``; Leishman &
+  Beddoes 1989's separation-point lag, T_f = 3 for NACA0012), which delays stall in a
+  fast stroke (dynamic stall); T_f = 0 gives the instantaneous geometric switch;
 * **skin friction** on the in-plane velocity, -1/2 rho A C_f |v_t| v_t.
 
 The strips' added mass (the reactive force of the water the plate accelerates, rho pi
@@ -104,6 +108,23 @@ def attached_fraction(alpha, stall_angle, width):
     return 1.0 / (1.0 + np.exp((np.asarray(alpha) - stall_angle) / width))
 
 
+def lagged_angle(w_eff, u):
+    """The angle of attack the lagged circulation sees, atan(|w_eff| / |u|) in [0, pi/2]."""
+    return np.arctan2(np.abs(w_eff), np.abs(u))
+
+
+def separation_step(attached, alpha, speed, chord, dt, stall_angle, stall_width,
+                    lag_semichords):
+    """The attached share of each strip's flow after ``dt``: first-order towards
+    ``attached_fraction(alpha)`` with the time constant T_f c / (2 U) (T_f semichords of
+    travel), exact for alpha and U held over the step; T_f = 0: at once."""
+    target = attached_fraction(alpha, stall_angle, stall_width)
+    if lag_semichords <= 0.0:
+        return target
+    rate = 2.0 * np.asarray(speed) / (np.asarray(chord) * lag_semichords)
+    return target + (np.asarray(attached) - target) * np.exp(-rate * dt)
+
+
 def strip_kinematics(v_mid, omega, normal, chord_dir, span_dir, chord):
     """The 2-D flow of each strip: the velocity of its three-quarter-chord point relative
     to the water in the chord-normal plane and its parts.
@@ -134,16 +155,19 @@ def strip_kinematics(v_mid, omega, normal, chord_dir, span_dir, chord):
 
 
 def strip_forces(kin, w_eff, normal, area, rho, lift_slope, suction_efficiency,
-                 cross_flow_coefficient, friction_coefficient, stall_angle, stall_width):
+                 cross_flow_coefficient, friction_coefficient, stall_angle, stall_width,
+                 attached=None):
     """Circulatory, suction, separated and friction forces (N, 3) on strips.
 
     F = f [-1/2 rho A a U w_eff n + 1/2 rho A a eta_s w_eff^2 l]
         + (1 - f) [-1/2 rho A C_dcf |w| w n] - 1/2 rho A C_f |v_t| v_t,
-    with f = ``attached_fraction(alpha)``, l the leading edge facing the flow and U the
-    in-plane speed of the three-quarter-chord point (``strip_kinematics``).
+    with f the ``attached`` share (a state: ``separation_step``), or, when None,
+    ``attached_fraction`` of the geometric angle at once; l the leading edge facing the flow
+    and U the in-plane speed of the three-quarter-chord point (``strip_kinematics``).
     """
     half_rho_a = 0.5 * rho * np.asarray(area)
-    f = attached_fraction(kin["alpha"], stall_angle, stall_width)
+    f = (attached_fraction(kin["alpha"], stall_angle, stall_width) if attached is None
+         else np.asarray(attached))
     w = kin["w"]
     normal_force = (f * (-half_rho_a * lift_slope * kin["speed"] * w_eff)
                     + (1.0 - f) * (-half_rho_a * cross_flow_coefficient * np.abs(w) * w))
@@ -188,7 +212,7 @@ def kirchhoff_plate_correction(mass, normal, v_rel, v_slider_rel, omega):
     return force, torque
 
 
-def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict):
+def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict, attached=None):
     """Every strip's force from its body's pose and velocity, summed per body: the numpy
     reference of ``foil_kernels.strip_wrenches``.
 
@@ -200,10 +224,13 @@ def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict):
         frac: (ne,) submerged fraction of each volume element (scales its strip).
         lag: (ns, 2) Wagner states.
         params: ``rho``, ``lift_slope``, ``suction_efficiency``, ``cross_flow_coefficient``,
-            ``friction_coefficient``, ``stall_angle``, ``stall_width``.
+            ``friction_coefficient``, ``stall_angle``, ``stall_width`` (and
+            ``separation_lag``, read by the state's step).
+        attached: (ns,) the attached shares (a state), or None: the geometric switch.
 
     Returns:
-        (S (nb, 6) [tau_W, f_W] about each body origin, w34 (ns,), speed (ns,)).
+        (S (nb, 6) [tau_W, f_W] about each body origin, w34 (ns,), speed (ns,), the lagged
+        angle (ns,)).
     """
     b = strips["body"]
     Rs = R[b]
@@ -217,10 +244,11 @@ def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict):
     f = strip_forces(kin, w_eff, n, strips["area"], params["rho"], params["lift_slope"],
                      params["suction_efficiency"], params["cross_flow_coefficient"],
                      params["friction_coefficient"], params["stall_angle"],
-                     params["stall_width"])
+                     params["stall_width"], attached)
     f = f * np.asarray(frac)[strips["element"]][:, None]
     to_body = np.eye(len(R))[:, b]
-    return to_body @ np.concatenate([np.cross(r, f), f], axis=1), kin["w"], kin["speed"]
+    return (to_body @ np.concatenate([np.cross(r, f), f], axis=1), kin["w"], kin["speed"],
+            lagged_angle(w_eff, kin["u"]))
 
 
 def prescribed_motion_forces(dt, v_mid, omega, normal, chord_dir, span_dir, area, chord,
@@ -234,20 +262,29 @@ def prescribed_motion_forces(dt, v_mid, omega, normal, chord_dir, span_dir, area
         v_mid, omega, normal, chord_dir, span_dir: (nt, ns, 3) each strip's mid-chord
             velocity relative to the water, angular velocity and unit axes, per step.
         area, chord: (ns,).
-        params: as ``strip_wrenches``'s.
+        params: as ``strip_wrenches``'s; with ``separation_lag`` (T_f semichords) the
+            attached share is a state (from 1, ``separation_step``), else the geometric
+            switch at once.
 
     Returns:
         (nt, ns, 3) forces [N] in the world.
     """
     nt, ns = v_mid.shape[:2]
     lag = np.zeros((ns, 2))
+    lagged = "separation_lag" in params
+    attached = np.ones(ns) if lagged else None
     out = np.empty((nt, ns, 3))
     for i in range(nt):
         kin = strip_kinematics(v_mid[i], omega[i], normal[i], chord_dir[i], span_dir[i], chord)
-        out[i] = strip_forces(kin, effective_normal_velocity(lag, kin["w"]), normal[i], area,
+        w_eff = effective_normal_velocity(lag, kin["w"])
+        out[i] = strip_forces(kin, w_eff, normal[i], area,
                               params["rho"], params["lift_slope"], params["suction_efficiency"],
                               params["cross_flow_coefficient"], params["friction_coefficient"],
-                              params["stall_angle"], params["stall_width"])
+                              params["stall_angle"], params["stall_width"], attached)
+        if lagged:
+            attached = separation_step(attached, lagged_angle(w_eff, kin["u"]), kin["speed"],
+                                       chord, dt, params["stall_angle"], params["stall_width"],
+                                       params["separation_lag"])
         lag = wagner_step(lag, kin["w"], kin["speed"], chord, dt)
     return out
 

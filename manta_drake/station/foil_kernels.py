@@ -23,7 +23,8 @@ from manta_drake.station.foil import WAGNER_A, WAGNER_B
 # Layout of the packed strip parameters (``pack_foil_params``).
 F_RHO, F_SLOPE, F_SUCTION, F_CDCF, F_CF, F_STALL, F_WIDTH = range(7)
 F_CURRENT = 7
-NUM_FOIL_PARAMS = 10
+F_LAG = 10  # the separation lag T_f [semichords]
+NUM_FOIL_PARAMS = 11
 _A1, _A2 = WAGNER_A
 _B1, _B2 = WAGNER_B
 
@@ -35,12 +36,14 @@ def pack_strips(body, element, p, normal, chord_dir, span_dir, area, chord) -> n
 
 
 def pack_foil_params(rho, lift_slope, suction_efficiency, cross_flow_coefficient,
-                     friction_coefficient, stall_angle, stall_width, current) -> np.ndarray:
+                     friction_coefficient, stall_angle, stall_width, current,
+                     separation_lag=0.0) -> np.ndarray:
     """The strip model's parameters as one float vector (layout: the F_* indices)."""
     prm = np.empty(NUM_FOIL_PARAMS)
     prm[:7] = (rho, lift_slope, suction_efficiency, cross_flow_coefficient,
                friction_coefficient, stall_angle, stall_width)
     prm[F_CURRENT:F_CURRENT + 3] = current
+    prm[F_LAG] = separation_lag
     return prm
 
 
@@ -52,25 +55,27 @@ def _rot(Rb, x0, x1, x2):
 
 
 @njit(cache=True)
-def strip_wrenches(R, w, v, strips, frac, lag, prm):
+def strip_wrenches(R, w, v, strips, frac, lag, prm, attached):
     """Every strip's ``foil.strip_forces`` with ``foil.strip_kinematics``, the lagged
-    normal velocity from the states ``lag`` (ns, 2), scaled by its element's submerged
-    fraction ``frac`` and summed per body.
+    normal velocity from the states ``lag`` (ns, 2) and the attached shares ``attached``
+    (ns,), scaled by its element's submerged fraction ``frac`` and summed per body.
 
     Args:
         R, w, v: (nb, 3, 3), (nb, 3), (nb, 3) body orientations, angular and origin
             velocities in the world.
 
     Returns:
-        (S (nb, 6) [tau_W, f_W] about each body origin, w34 (ns,), speed (ns,)).
+        (S (nb, 6) [tau_W, f_W] about each body origin, w34 (ns,), speed (ns,), the angle
+        the lagged circulation sees (ns,)).
     """
     nb, ns = R.shape[0], strips.shape[0]
     rho, slope, eta = prm[F_RHO], prm[F_SLOPE], prm[F_SUCTION]
-    c_dcf, c_f, stall, width = prm[F_CDCF], prm[F_CF], prm[F_STALL], prm[F_WIDTH]
+    c_dcf, c_f = prm[F_CDCF], prm[F_CF]
     cur0, cur1, cur2 = prm[F_CURRENT], prm[F_CURRENT + 1], prm[F_CURRENT + 2]
     S = np.zeros((nb, 6))
     w34 = np.empty(ns)
     speed = np.empty(ns)
+    alpha_lag = np.empty(ns)
     for k in range(ns):
         b = int(strips[k, 0])
         Rb = R[b]
@@ -95,9 +100,9 @@ def strip_wrenches(R, w, v, strips, frac, lag, prm):
         uc = q0 * c0 + q1 * c1 + q2 * c2
         spd = np.sqrt(wn * wn + uc * uc)
         w34[k], speed[k] = wn, spd
-        alpha = np.arctan2(abs(wn), abs(uc))
-        f_att = 1.0 / (1.0 + np.exp((alpha - stall) / width))
         w_eff = (1.0 - _A1 - _A2) * wn + lag[k, 0] + lag[k, 1]
+        alpha_lag[k] = np.arctan2(abs(w_eff), abs(uc))
+        f_att = attached[k]
         half_rho_a = 0.5 * rho * area
         fn = (f_att * (-half_rho_a * slope * spd * w_eff)
               + (1.0 - f_att) * (-half_rho_a * c_dcf * abs(wn) * wn))
@@ -115,7 +120,22 @@ def strip_wrenches(R, w, v, strips, frac, lag, prm):
         S[b, 3] += f0
         S[b, 4] += f1
         S[b, 5] += f2
-    return S, w34, speed
+    return S, w34, speed, alpha_lag
+
+
+@njit(cache=True)
+def separation_step(attached, alpha, speed, strips, dt, prm):
+    """``foil.separation_step`` for every strip: the attached shares after ``dt``."""
+    out = np.empty_like(attached)
+    stall, width, lag_semichords = prm[F_STALL], prm[F_WIDTH], prm[F_LAG]
+    for k in range(attached.shape[0]):
+        target = 1.0 / (1.0 + np.exp((alpha[k] - stall) / width))
+        if lag_semichords <= 0.0:
+            out[k] = target
+        else:
+            rate = 2.0 * speed[k] / (strips[k, 15] * lag_semichords)
+            out[k] = target + (attached[k] - target) * np.exp(-rate * dt)
+    return out
 
 
 @njit(cache=True)
@@ -228,15 +248,15 @@ def added_mass_normal_acceleration(R, w, v, bodies, q_prev, t_prev, t):
 
 
 @njit(cache=True)
-def add_foil_forces(F, R, p, w, v, frac, current, t, strips, prm, lag, bodies, weights,
-                    prev, centring_frequency, centring_damping):
+def add_foil_forces(F, R, p, w, v, frac, current, t, strips, prm, lag, attached, bodies,
+                    weights, prev, centring_frequency, centring_damping):
     """The foil model's terms added to the water's other forces F (``spatial_wrenches``,
     whose element fractions ``frac`` it filled): the strips' forces, and the added-mass
     bodies' (their plates' submerged fraction the mean of the plate's strips' elements,
     ``weights`` (nm, ne); their normal acceleration from ``prev`` = [q (nm), t])."""
     fp = prm.copy()
     fp[F_CURRENT:F_CURRENT + 3] = current
-    S, _, _ = strip_wrenches(R, w, v, strips, frac, lag, fp)
+    S, _, _, _ = strip_wrenches(R, w, v, strips, frac, lag, fp, attached)
     nm = bodies.shape[0]
     a_n = added_mass_normal_acceleration(R, w, v, bodies, prev[:nm], prev[nm], t)
     A, _ = added_mass_body_wrenches(R, p, w, v, current, bodies, weights @ frac, a_n,
@@ -245,16 +265,18 @@ def add_foil_forces(F, R, p, w, v, frac, current, t, strips, prm, lag, bodies, w
 
 
 @njit(cache=True)
-def foil_state_step(R, w, v, current, strips, prm, lag, bodies, dt):
+def foil_state_step(R, w, v, current, strips, prm, lag, attached, bodies, dt):
     """The foil model's discrete state after one period ``dt``: the strips' Wagner states
-    (``lag_step``) and each added-mass body's normal velocity v . n (its next ``prev``)."""
+    (``lag_step``) and attached shares (``separation_step``), and each added-mass body's
+    normal velocity v . n (its next ``prev``)."""
     fp = prm.copy()
     fp[F_CURRENT:F_CURRENT + 3] = current
     ones = np.ones(int(strips[:, 1].max()) + 1 if strips.shape[0] else 0)
-    _, w34, speed = strip_wrenches(R, w, v, strips, ones, lag, fp)
+    _, w34, speed, alpha = strip_wrenches(R, w, v, strips, ones, lag, fp, attached)
     nm = bodies.shape[0]
     q = np.empty(nm)
     for j in range(nm):
         s = int(bodies[j, 0])
         q[j] = v[s, 0] * R[s, 0, 2] + v[s, 1] * R[s, 1, 2] + v[s, 2] * R[s, 2, 2]
-    return lag_step(lag, w34, speed, strips, dt), q
+    return (lag_step(lag, w34, speed, strips, dt),
+            separation_step(attached, alpha, speed, strips, dt, fp), q)

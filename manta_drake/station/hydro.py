@@ -328,9 +328,10 @@ class HydrodynamicForces(LeafSystem):
             force.p_BoBq_B = np.zeros(3)
         # The hull's (v_W, w_W, t) at the last two updates; t = -1 marks "none yet".
         self._v_prev = self.DeclareDiscreteState(np.tile(np.r_[np.zeros(6), -1.0], 2))
-        if self._foil:  # the strips' Wagner lag; the added-mass bodies' [v . n, t]
+        if self._foil:  # the strips' Wagner lag and attached share; the bodies' [v . n, t]
             self._lag = self.DeclareDiscreteState(self._foil_packed["lag0"].ravel())
             self._am_prev = self.DeclareDiscreteState(self._foil_packed["prev0"])
+            self._attached = self.DeclareDiscreteState(self._foil_packed["attached0"])
         self._fin_period = self.time_step if self.update_period == 0.0 else self.update_period
         if self._plant_state:
             self._tree_i, self._tree_f = K.pack_tree(plant, body_index)
@@ -376,7 +377,8 @@ class HydrodynamicForces(LeafSystem):
                   "cross_flow_coefficient": self.c_normal,
                   "friction_coefficient": self.c_friction,
                   "stall_angle": float(np.radians(fins.stall_angle_deg.value)),
-                  "stall_width": float(np.radians(fins.stall_width_deg.value))}
+                  "stall_width": float(np.radians(fins.stall_width_deg.value)),
+                  "separation_lag": float(fins.separation_lag.value)}
         strips = {"body": el["strip_body"], "element": el["strip_element"], "p": el["strip_p"],
                   "normal": el["strip_n"], "chord_dir": el["strip_c"], "span_dir": el["strip_s"],
                   "area": el["strip_area"], "chord": el["strip_chord"]}
@@ -391,11 +393,12 @@ class HydrodynamicForces(LeafSystem):
             {"strips": strips, "params": params, "bodies": bodies})
         return reference, types.MappingProxyType({
             "strips": FK.pack_strips(*strips.values()),
-            "params": FK.pack_foil_params(*params.values(), self.current),
+            "params": FK.pack_foil_params(**params, current=self.current),
             "bodies": FK.pack_added_mass_bodies(*bodies.values()),
             "weights": np.ascontiguousarray(weights),
             "lag0": _frozen(np.zeros((len(el["strip_body"]), 2))),
-            "prev0": _frozen(np.r_[np.zeros(len(bodies["body"])), -1.0])})
+            "prev0": _frozen(np.r_[np.zeros(len(bodies["body"])), -1.0]),
+            "attached0": _frozen(np.ones(len(el["strip_body"])))})
 
     @staticmethod
     def AddToBuilder(builder, plant, robot, coeffs: HydroCoefficients, time_step: float,
@@ -478,8 +481,9 @@ class HydrodynamicForces(LeafSystem):
                 (None: the fixed ``current``).
             t: the time [s] (the foil model's added-mass bodies difference their velocity
                 against the state's sample).
-            fin_state: the foil model's discrete state (``lag`` (ns, 2), ``prev`` (nm + 1)),
-                None: at rest, nothing known yet.
+            fin_state: the foil model's discrete state (``lag`` (ns, 2), ``prev`` (nm + 1)
+                and ``attached`` (ns,), which may be left out: attached), None: at rest,
+                nothing known yet.
         """
         if self._compiled:
             return self.compute_compiled(R, p, w, v, balloon_volume, hull_accel_W,
@@ -508,11 +512,11 @@ class HydrodynamicForces(LeafSystem):
     def _add_foil_compiled(self, F, R, p, w, v, frac, prm, t: float, fin_state):
         if not self._foil:
             return F
-        lag, prev = self._fin_state_or_rest(fin_state)
+        lag, prev, attached = self._fin_state_or_rest(fin_state)
         f = self._foil_packed
         return FK.add_foil_forces(F, R, p, w, v, frac, prm[K.P_CURRENT:K.P_CURRENT + 3],
-                                  float(t), f["strips"], f["params"], lag, f["bodies"],
-                                  f["weights"], prev, *self.CENTRING)
+                                  float(t), f["strips"], f["params"], lag, attached,
+                                  f["bodies"], f["weights"], prev, *self.CENTRING)
 
     def compute_reference(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
                           hull_alpha_W=None, *, current=None, t: float = 0.0,
@@ -541,9 +545,10 @@ class HydrodynamicForces(LeafSystem):
 
     def _foil_reference(self, R, p, w, v, current, frac, t: float, fin_state) -> np.ndarray:
         """The foil model's strip and added-mass-body forces by the numpy functions."""
-        lag, prev = self._fin_state_or_rest(fin_state)
+        lag, prev, attached = self._fin_state_or_rest(fin_state)
         f = self._foil_reference_args
-        S, _, _ = foil.strip_wrenches(R, w, v, current, f["strips"], frac, lag, f["params"])
+        S, _, _, _ = foil.strip_wrenches(R, w, v, current, f["strips"], frac, lag, f["params"],
+                                         attached)
         bodies = f["bodies"]
         nm = len(bodies["body"])
         a_n = foil.added_mass_normal_acceleration(R, w, v, bodies, prev[:nm], prev[nm], t)
@@ -553,12 +558,16 @@ class HydrodynamicForces(LeafSystem):
         return S + A
 
     def _fin_state_or_rest(self, fin_state):
-        """(lag, prev) of ``fin_state``, or at rest (zero lag, no earlier sample)."""
+        """(lag, prev, attached) of ``fin_state``, or at rest (zero lag, no earlier sample,
+        attached flow)."""
+        f = self._foil_packed
         if fin_state is None:
-            return self._foil_packed["lag0"], self._foil_packed["prev0"]
-        lag, prev = fin_state
+            return f["lag0"], f["prev0"], f["attached0"]
+        lag, prev, *rest = fin_state
+        attached = rest[0] if rest else f["attached0"]
         return (np.ascontiguousarray(lag, dtype=float).reshape(-1, 2),
-                np.ascontiguousarray(prev, dtype=float))
+                np.ascontiguousarray(prev, dtype=float),
+                np.ascontiguousarray(attached, dtype=float))
 
     def compute_from_state(self, x, balloon_volume: float, t: float, v_prev,
                            fin_state=None) -> np.ndarray:
@@ -687,11 +696,11 @@ class HydrodynamicForces(LeafSystem):
         self._store_velocity(context, discrete_state)
 
     def _fin_state(self, context):
-        """The foil model's (lag, prev) in ``context``, or None (the cross-flow model)."""
+        """The foil model's (lag, prev, attached) in ``context``, or None (cross-flow)."""
         if not self._foil:
             return None
-        return (context.get_discrete_state(self._lag).get_value(),
-                context.get_discrete_state(self._am_prev).get_value())
+        return tuple(context.get_discrete_state(i).get_value()
+                     for i in (self._lag, self._am_prev, self._attached))
 
     def _step_fin_state(self, context, discrete_state, dt: float) -> None:
         """Advances the foil model's discrete state by one period ``dt`` from the state in
@@ -699,24 +708,32 @@ class HydrodynamicForces(LeafSystem):
         if not self._foil:
             return
         R, p, w, v = (np.ascontiguousarray(a) for a in self._kinematics(context))
-        lag, _ = self._fin_state(context)
+        lag, _, attached = self._fin_state(context)
         t = context.get_time()
         current = self._current_now(t)
         current = self.current if current is None else current
         f = self._foil_packed
         lag = np.ascontiguousarray(lag).reshape(-1, 2)
+        attached = np.ascontiguousarray(attached)
         if self._compiled:
-            lag_next, q = FK.foil_state_step(R, w, v, np.ascontiguousarray(current, dtype=float),
-                                             f["strips"], f["params"], lag, f["bodies"], dt)
+            lag_next, attached_next, q = FK.foil_state_step(
+                R, w, v, np.ascontiguousarray(current, dtype=float), f["strips"], f["params"],
+                lag, attached, f["bodies"], dt)
         else:
             ref = self._foil_reference_args
-            _, w34, speed = foil.strip_wrenches(R, w, v, current, ref["strips"],
-                                                np.ones(len(self.el["volume"])), lag,
-                                                ref["params"])
-            lag_next = foil.wagner_step(lag, w34, speed, ref["strips"]["chord"], dt)
+            prm = ref["params"]
+            _, w34, speed, alpha = foil.strip_wrenches(
+                R, w, v, current, ref["strips"], np.ones(len(self.el["volume"])), lag, prm,
+                attached)
+            chord = ref["strips"]["chord"]
+            lag_next = foil.wagner_step(lag, w34, speed, chord, dt)
+            attached_next = foil.separation_step(attached, alpha, speed, chord, dt,
+                                                 prm["stall_angle"], prm["stall_width"],
+                                                 prm["separation_lag"])
             body = ref["bodies"]["body"]
             q = (v[body] * R[body][:, :, 2]).sum(axis=1)
         discrete_state.get_mutable_vector(self._lag).SetFromVector(lag_next.ravel())
+        discrete_state.get_mutable_vector(self._attached).SetFromVector(attached_next)
         discrete_state.get_mutable_vector(self._am_prev).SetFromVector(np.r_[q, t])
 
     def _store_velocity(self, context, discrete_state):

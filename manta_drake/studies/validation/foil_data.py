@@ -83,12 +83,14 @@ GARRICK_K = (0.3, math.pi / 4.0, math.pi / 2.0)
 
 # The bands of models/hydrodynamics.yaml's ``fins:`` sources (lift_slope "band 3.1-4.3",
 # suction_efficiency "band 0.5-1.0", stall_angle_deg "band 10-25 deg", stall_width_deg "band
-# 1-5 deg"); each end is one sensitivity case, the other parameters held.
+# 1-5 deg", separation_lag "band 2-4"); each end is one sensitivity case, the others held.
 BANDS = {"lift_slope": (3.1, 4.3), "suction_efficiency": (0.5, 1.0),
-         "stall_angle_deg": (10.0, 25.0), "stall_width_deg": (1.0, 5.0)}
+         "stall_angle_deg": (10.0, 25.0), "stall_width_deg": (1.0, 5.0),
+         "separation_lag": (2.0, 4.0)}
 # Diagnostic cases (not bands): which term or switch makes the difference.
 DIAGNOSTICS = {
     "attached (no stall)": {"stall_angle_deg": 180.0},
+    "no separation lag (geometric switch)": {"separation_lag": 0.0},
     "no friction": {"friction_coefficient": 0.0},
 }
 BASES = ("shipped", "2d")
@@ -109,7 +111,8 @@ def shipped_parameters(path=None) -> dict:
             "cross_flow_coefficient": float(fins.normal_force_coefficient.value),
             "friction_coefficient": float(fins.skin_friction_coefficient.value),
             "stall_angle_deg": float(fins.stall_angle_deg.value),
-            "stall_width_deg": float(fins.stall_width_deg.value)}
+            "stall_width_deg": float(fins.stall_width_deg.value),
+            "separation_lag": float(fins.separation_lag.value)}
 
 
 def base_parameters(base: str, shipped: dict | None = None) -> dict:
@@ -129,7 +132,8 @@ def foil_params(p: dict) -> dict:
             "cross_flow_coefficient": p["cross_flow_coefficient"],
             "friction_coefficient": p["friction_coefficient"],
             "stall_angle": math.radians(p["stall_angle_deg"]),
-            "stall_width": math.radians(p["stall_width_deg"])}
+            "stall_width": math.radians(p["stall_width_deg"]),
+            "separation_lag": p.get("separation_lag", 0.0)}
 
 
 # --- kinematics ---------------------------------------------------------------------------------

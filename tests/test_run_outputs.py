@@ -23,6 +23,14 @@ from manta_drake.simulate import (
 CLI = [sys.executable, "-m", "manta_drake.cli"]
 
 
+def _default_signals() -> None:
+    """In the child: SIGINT, SIGTERM and SIGHUP at their defaults, as a shell starts a
+    command (a test run under nohup or a CI runner would otherwise hand down an ignored
+    SIGHUP, which the command rightly keeps ignoring)."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _stand(duration=0.2):
     return load_scenario("stand", overrides={"duration": duration,
                                              "visualization.meshcat": False})
@@ -116,7 +124,7 @@ def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(
     process = subprocess.Popen(CLI + ["run", "stand", "--out", str(out), "--duration", "0.3",
                                       "--no-meshcat", "--quiet"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                               preexec_fn=_default_signals)
     # The mark comes within about 0.1 s of the start (later on a loaded machine: then the
     # signal follows it at once).
     marked = _wait_for_mark(out, "load", timeout=30)
@@ -151,7 +159,7 @@ def test_a_signal_mid_run_writes_the_partial_log_and_why(tmp_path, sig, code, re
     process = subprocess.Popen(CLI + ["run", "two_behaviors", "--out", str(out),
                                       "--no-meshcat", "--quiet"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                               preexec_fn=_default_signals)
     # Wait until the simulation is under way: the 'running' metrics.json of stage 'build'
     # is written when the run has loaded its scenario, then the build takes about a second.
     _wait_for_mark(out, "build", timeout=60)

@@ -86,6 +86,9 @@ CSV_COLUMNS = (
     "shape", "mesh", "cells", "yplus_avg", "yplus_max",
     "res_p", "res_Ux", "res_Uy", "res_Uz", "res_k", "res_epsilon", "iterations", "converged",
     "wall_s", "cpu_s", "openfoam", "date", "command",
+    # The means over the last 10 % of the iterations (at least 20): the better estimate where
+    # a case ends at the iteration cap with its forces still wandering (drag_tail_spread).
+    "Fx_mean", "Fy_mean", "Fz_mean", "Mx_mean", "My_mean", "Mz_mean", "stopped_by",
 )
 
 
@@ -114,6 +117,11 @@ def sample_row(result: dict) -> dict:
         "openfoam": result["openfoam"], "date": result["finished"][:10],
         "command": result.get("command", ""),
     })
+    fm, mm = result["tail_mean"]["force"]["total"], result["tail_mean"]["moment"]["total"]
+    row.update({f"F{a}_mean": fm[i] for i, a in enumerate("xyz")})
+    row.update({f"M{a}_mean": mm[i] for i, a in enumerate("xyz")})
+    row["stopped_by"] = result.get("stopped_by",
+                                   "residuals" if result["converged"] else "iteration cap")
     for k, v in row.items():
         if isinstance(v, float):
             row[k] = float(f"{v:.6g}")
@@ -151,7 +159,8 @@ def write_samples(out: pathlib.Path, csv_dir: pathlib.Path) -> dict[str, int]:
                      "standard k-epsilon, standard wall functions; forces in N and moments "
                      "about the CG in N m on the whole body, Drake body frame (x forward, y "
                      "left, z up); u, v, w the body's velocity through the water in that "
-                     "frame; pitch nose up, yaw nose to starboard (NED senses)\n")
+                     "frame; pitch nose up, yaw nose to starboard (NED senses); Fx..Mz at the last "
+                     "iteration, Fx_mean..Mz_mean over the last 10 % of the iterations\n")
             writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
             writer.writeheader()
             for r in rows:

@@ -11,8 +11,8 @@ from manta_drake.studies.validation import released as R
 
 def test_fit_recovers_a_motion_from_rest():
     t = np.linspace(0.0, 0.03, 31)
-    assert R.fit_acceleration(t, -0.25 - 0.5 * 0.3 * t * t, 2) == pytest.approx(-0.3)
-    assert R.fit_acceleration(t, 0.7 * t, 1) == pytest.approx(0.7)
+    assert R.fit_acceleration(t, -0.25 + 1e-3 * t - 0.5 * 0.3 * t * t, 2) == pytest.approx(-0.3)
+    assert R.fit_acceleration(t, 0.01 + 0.7 * t, 1) == pytest.approx(0.7)
 
 
 def test_the_release_scenario_is_what_it_says():
@@ -28,8 +28,7 @@ def test_the_release_scenario_is_what_it_says():
 @pytest.mark.slow
 def test_released_heave_mass_is_the_robot_with_its_water(tmp_path):
     """Heave: the rigid robot plus the hull's added mass (cross_flow), plus every plate's
-    added-mass body along its (vertical) normal (foil), within the explicit residual's
-    start-up lag (< 10 %)."""
+    added-mass body along its (vertical) normal (foil), within 3 %."""
     coeffs = load_coefficients()
     hull = coeffs.body.added_mass.value[2]
     bodies = len(LEGS) * sum(
@@ -39,5 +38,5 @@ def test_released_heave_mass_is_the_robot_with_its_water(tmp_path):
     foil = R.measure("heave", "foil", tmp_path / "foil")
     assert cross["rigid"] == pytest.approx(DEFAULT_ROBOT.total_mass)
     assert cross["force"] == pytest.approx(foil["force"]) and cross["force"] < 0  # it sinks
-    assert cross["effective"] == pytest.approx(cross["rigid"] + hull, rel=0.10)
-    assert foil["effective"] - cross["effective"] == pytest.approx(bodies, rel=0.10)
+    assert cross["effective"] == pytest.approx(cross["rigid"] + hull, rel=0.03)
+    assert foil["effective"] - cross["effective"] == pytest.approx(bodies, rel=0.03)

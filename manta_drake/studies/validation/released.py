@@ -14,8 +14,8 @@ first accelerate with little of the fins' water.
 F_z and M_x are the plant's own generalized forces on the floating hull at the release
 (gravity plus the water's forces, the hull's [w, v] components: the whole tree's wrench
 about the hull's origin); the accelerations are least-squares fits of the logged hull
-motion over the first ``FIT_S`` seconds (z = z0 + a t^2 / 2, w_x = alpha t). The rigid
-robot's mass and inertia about the hull's origin come from the plant, so the added part
+motion over the first ``FIT_S`` seconds (z = z0 + v0 t + a t^2 / 2, w_x = w0 + alpha t). The
+rigid robot's mass and inertia about the hull's origin come from the plant, so the added part
 is M_eff - m (I_eff - I) and compares with the whole robot's BEM value of the same
 geometry (``models/reference/added_mass_bem.yaml``, ``added_mass.py``).
 """
@@ -80,14 +80,17 @@ def _lock_joints(handles, context) -> None:
 
 
 def fit_acceleration(t, y, order: int) -> float:
-    """The acceleration of a motion from rest: y = y0 + a t^2 / 2 (order 2, a position) or
-    y = a t (order 1, a rate), least squares on the samples given."""
+    """The acceleration of a motion: y = y0 + v0 t + a t^2 / 2 (order 2, a position) or
+    y = y0 + a t (order 1, a rate), least squares on the samples given. The offsets are free:
+    the explicit part of the hull's added mass acts from the second step on (it needs an
+    acceleration sample), so the first step moves a little faster than the rest."""
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     if order == 2:
-        A = np.column_stack([np.ones_like(t), 0.5 * t * t])
-        return float(np.linalg.lstsq(A, y, rcond=None)[0][1])
-    return float(np.linalg.lstsq(t[:, None], y, rcond=None)[0][0])
+        A = np.column_stack([np.ones_like(t), t, 0.5 * t * t])
+        return float(np.linalg.lstsq(A, y, rcond=None)[0][2])
+    A = np.column_stack([np.ones_like(t), t])
+    return float(np.linalg.lstsq(A, y, rcond=None)[0][1])
 
 
 def measure(kind: str, fin_model: str, out_dir) -> dict:

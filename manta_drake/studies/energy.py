@@ -1048,17 +1048,18 @@ LOGS_COLUMNS = ("run_id",)
 def check_arguments(args) -> None:
     """Every option before anything is read; raises ScenarioError naming it."""
     from manta_drake.config_io import check_writable_folder
-    from manta_drake.studies.options import check_output_file, check_results_csv
+    from manta_drake.studies.options import (
+        check_output_file,
+        check_results_csv,
+        check_sweep_results,
+    )
 
     if args.check_logs is not None:
         check_results_csv("--check-logs", args.check_logs / "results.csv", LOGS_COLUMNS,
                           hint=" (DIR is the output folder of `manta-drake sweep "
                                "diagrams/sweeps/energy.yaml`)")
         return
-    check_results_csv("--results", args.results, RESULTS_COLUMNS,
-                      hint=f"; run `manta-drake sweep diagrams/sweeps/energy.yaml --out "
-                           f"{pathlib.Path(args.results).parent}` or use --results "
-                           f"{SHIPPED_RESULTS}")
+    check_sweep_results(args.results, RESULTS_COLUMNS, "energy", SHIPPED_RESULTS)
     check_output_file("--out-md", args.out_md)
     check_writable_folder(args.out_fig_dir, "--out-fig-dir", example="docs/figures")
 

@@ -749,7 +749,7 @@ def check_arguments(args) -> None:
         check_figure_file,
         check_names,
         check_output_file,
-        check_results_csv,
+        check_sweep_results,
         needs,
     )
 
@@ -763,10 +763,7 @@ def check_arguments(args) -> None:
             check_names("--only", ",".join(args.only), tuple(DIAGNOSTIC_RUNS))
         check_writable_folder(args.diagnose, "--diagnose", example="out/findings_diagnostics")
         return
-    check_results_csv("--results", args.results, RESULTS_COLUMNS,
-                      hint=f"; run `manta-drake sweep diagrams/sweeps/findings.yaml --out "
-                           f"{pathlib.Path(args.results).parent}` or use --results "
-                           f"{SHIPPED_RESULTS}")
+    check_sweep_results(args.results, RESULTS_COLUMNS, "findings", SHIPPED_RESULTS)
     check_output_file("--out-md", args.out_md)
     check_figure_file("--out-fig", args.out_fig)
 

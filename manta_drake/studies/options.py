@@ -147,3 +147,13 @@ def check_results_csv(option: str, path, columns, hint: str = "") -> pathlib.Pat
     if not has_row:
         raise ScenarioError(f"{option} {path}: a header but no rows (no run in the table)")
     return path
+
+
+def check_sweep_results(path, columns, sweep: str, shipped) -> pathlib.Path:
+    """``--results``: a sweep's results table (``check_results_csv``); a missing file's
+    message says how to make it (``manta-drake sweep diagrams/sweeps/SWEEP.yaml``) or points
+    to the shipped table ``shipped``."""
+    return check_results_csv(
+        "--results", path, columns,
+        hint=f"; run `manta-drake sweep diagrams/sweeps/{sweep}.yaml --out "
+             f"{pathlib.Path(path).parent}` or use --results {shipped}")

@@ -33,7 +33,23 @@ if ! command -v apt-get >/dev/null; then
   exit 1
 fi
 export DEBIAN_FRONTEND=noninteractive
-if ! { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq "$package" >/dev/null; } </dev/null; then
+# Another apt-get (a second bootstrap beside this one) holds apt's locks for a minute or two:
+# wait for it (up to 10 min) instead of failing. `update` has no lock timeout of its own.
+apt_install() {
+  local try
+  for try in $(seq 60); do
+    if $SUDO apt-get -o DPkg::Lock::Timeout=600 update -qq 2>/tmp/ensure_debian.$$ \
+        && $SUDO apt-get -o DPkg::Lock::Timeout=600 install -y -qq "$package" >/dev/null \
+          2>>/tmp/ensure_debian.$$; then
+      rm -f /tmp/ensure_debian.$$; return 0
+    fi
+    grep -q 'Could not get lock' /tmp/ensure_debian.$$ || break
+    [ "$try" = 1 ] && echo "apt is busy (another install); waiting for its lock ..."
+    sleep 10
+  done
+  cat /tmp/ensure_debian.$$ >&2; rm -f /tmp/ensure_debian.$$; return 1
+}
+if ! apt_install </dev/null; then
   echo "error: apt-get could not install $package (see above)." >&2
   exit 1
 fi

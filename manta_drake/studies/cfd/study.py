@@ -26,7 +26,7 @@ from manta_drake.studies.options import StudyParser
 SPEEDS = (0.4, 0.8, 1.2)
 PITCHES = (-30.0, -15.0, 0.0, 15.0, 30.0)
 YAWS = (15.0, 30.0)  # yaw is symmetric: the paper's -30..30 from the positive half
-CASE_SETS = ("validation", "robot", "all")
+CASE_SETS = ("validation", "robot", "sweep", "all")
 MESH_CHOICES = ("coarse", "medium", "fine")
 MAX_WORKERS = 2  # each case is one single-threaded OpenFOAM run
 CSV_DIR = REPO / "models" / "cfd"
@@ -68,10 +68,14 @@ def robot_cases(mesh: str = "medium"):
 
 
 def cases_for(which: str, mesh: str):
+    """The cases of a set: ``validation``, ``robot`` (grid convergence and the sweep),
+    ``sweep`` (the robot's pitched and yawed cases on ``mesh`` only) or ``all``."""
     if which == "validation":
         return validation_cases()
     if which == "robot":
         return robot_cases(mesh)
+    if which == "sweep":
+        return [c for c in robot_cases(mesh) if c.pitch_deg or c.yaw_deg]
     return validation_cases() + robot_cases(mesh)
 
 
@@ -138,22 +142,39 @@ def finished_results(out: pathlib.Path) -> list[dict]:
     return results
 
 
+def _sample_key(row: dict) -> tuple:
+    return (row["shape"], row["mesh"], float(row["speed"]), float(row["pitch_deg"]),
+            float(row["yaw_deg"]))
+
+
+def read_samples(path: pathlib.Path) -> list[dict]:
+    """The rows of a samples CSV (its comment line skipped), as strings; [] if absent."""
+    if not path.exists():
+        return []
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
+
+
 def write_samples(out: pathlib.Path, csv_dir: pathlib.Path) -> dict[str, int]:
-    """Writes the ok cases under ``out`` to ``csv_dir``: robot and validation samples
-    (sorted by shape, mesh, speed, pitch, yaw); returns the rows per file."""
+    """Writes the ok cases under ``out`` to ``csv_dir``, robot and validation samples, keeping
+    the rows already there for cases not under ``out`` (a case run here replaces its row);
+    sorted by shape, mesh, speed, pitch, yaw. Returns the rows per file."""
     results = [r for r in finished_results(out) if r.get("status") == "ok"]
     order = {"coarse": 0, "medium": 1, "fine": 2, "tiny": -1}
-    results.sort(key=lambda r: (r["spec"]["shape"], order.get(r["spec"]["mesh"], 9),
-                                r["spec"]["speed"], r["spec"]["pitch_deg"],
-                                r["spec"]["yaw_deg"]))
-    files = {"robot_samples.csv": [r for r in results if r["spec"]["shape"] == "robot"],
-             "validation_samples.csv": [r for r in results if r["spec"]["shape"] != "robot"]}
+    files = {"robot_samples.csv": [sample_row(r) for r in results
+                                   if r["spec"]["shape"] == "robot"],
+             "validation_samples.csv": [sample_row(r) for r in results
+                                        if r["spec"]["shape"] != "robot"]}
     counts = {}
     csv_dir.mkdir(parents=True, exist_ok=True)
     for name, rows in files.items():
+        path = csv_dir / name
+        new = {_sample_key(r) for r in rows}
+        rows += [r for r in read_samples(path) if _sample_key(r) not in new]
         if not rows:
             continue
-        path = csv_dir / name
+        rows.sort(key=lambda r: (r["shape"], order.get(r["mesh"], 9), float(r["speed"]),
+                                 float(r["pitch_deg"]), float(r["yaw_deg"])))
         with open(path, "w", newline="") as fh:
             fh.write("# CFD samples of manta-drake study cfd (docs/cfd.md): OpenFOAM simpleFoam, "
                      "standard k-epsilon, standard wall functions; forces in N and moments "
@@ -164,7 +185,7 @@ def write_samples(out: pathlib.Path, csv_dir: pathlib.Path) -> dict[str, int]:
             writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
             writer.writeheader()
             for r in rows:
-                writer.writerow(sample_row(r))
+                writer.writerow(r)
         counts[name] = len(rows)
     return counts
 

@@ -7,7 +7,12 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
-from manta_drake.model.added_mass import fin_plates, plate_added_mass
+from manta_drake.model.added_mass import (
+    fin_plates,
+    heave_body_inertia,
+    plate_added_mass,
+    split_hull_added_mass,
+)
 from manta_drake.model.coefficients import load_coefficients
 from manta_drake.model.plant import FIN_ADDED_MASS_INSTANCE, add_plant
 from manta_drake.model.robot_params import DEFAULT_ROBOT as P
@@ -43,6 +48,17 @@ def _hull_effective(handles):
     return A - B @ np.linalg.solve(C, B.T), context
 
 
+def _about_hull(handles, context):
+    """The hull's welded added-mass body's spatial inertia about the hull's origin, world
+    axes, as the 6x6 [w, v] block of the mass matrix it adds."""
+    plant = handles.plant
+    body = plant.GetBodyByName("added_mass")
+    X_WB = body.EvalPoseInWorld(context)
+    p_WH = handles.body.EvalPoseInWorld(context).translation()
+    M = body.default_spatial_inertia().ReExpress(X_WB.rotation())
+    return M.Shift(p_WH - X_WB.translation()).CopyToFullMatrix6()
+
+
 def test_bodies_add_their_mass_along_the_plate_normals_only():
     with_bodies, coeffs = _plant("bodies")
     hinge, _ = _plant("hinge")
@@ -65,12 +81,26 @@ def test_bodies_add_their_mass_along_the_plate_normals_only():
             expected += m * np.outer(J, J)
             I_inplane = R @ np.diag([i_c, i_s, 0.0]) @ R.T
             expected[:3, :3] += I_inplane
+    # The hull's heave body (at the hull's origin, along its z) and the hull's welded
+    # added-mass body, which differs between the two plants (split_hull_added_mass).
+    heave = plant.GetBodyByName("body_heave_added_mass")
+    m_h = heave.default_mass()
+    expected[5, 5] += m_h
+    expected[:3, :3] += np.diag(heave_body_inertia(m_h)) * [1.0, 1.0, 0.0]
+    expected += _about_hull(with_bodies, context) - _about_hull(hinge,
+                                                               hinge.plant.CreateDefaultContext())
     np.testing.assert_allclose(M_b - M_h, expected, atol=1e-9)
     # At the zero pose the plates are level: heave gets all of it, surge none.
     total = sum(plate_added_mass(pl.chord, pl.span, rho, k)[0]
                 for pl, k in zip(fin_plates(P), FACTORS)) * len(LEGS)
-    assert (M_b - M_h)[5, 5] == pytest.approx(total, rel=1e-9)
-    assert abs((M_b - M_h)[3, 3]) < 1e-9
+    iso_b, _, m_heave = split_hull_added_mass(coeffs.body.added_mass.value,
+                                              coeffs.fins.hull_interaction_added_mass.value)
+    assert m_heave == pytest.approx(m_h)
+    iso_h = hinge.plant.GetBodyByName("added_mass").default_mass()
+    assert iso_h == pytest.approx(0.5 * (min(coeffs.body.added_mass.value)
+                                             + max(coeffs.body.added_mass.value)))
+    assert (M_b - M_h)[5, 5] == pytest.approx(total + m_h + iso_b - iso_h, rel=1e-9)
+    assert (M_b - M_h)[3, 3] == pytest.approx(iso_b - iso_h, rel=1e-9)  # surge: the split only
 
 
 def test_bodies_replace_the_hinges_reflected_inertia():

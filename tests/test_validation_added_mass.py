@@ -215,3 +215,18 @@ def test_the_command_renders_its_block_beside_other_sections(tmp_path):
     assert main(argv) == 0
     assert page.read_text() == text  # regenerating changes no byte
     assert text.count("<!-- section: added-mass -->") == 1
+
+
+def test_the_yaml_fin_hull_interaction_is_the_bem_difference():
+    """fins.hull_interaction_added_mass is the whole robot's heave less the hull alone and
+    the four fins alone at the flat pose (all at the parts' mesh), and it lies inside the
+    band its source states over the three poses."""
+    from manta_drake.model.coefficients import load_coefficients
+
+    poses = _load()["robot"]["poses"]
+    interaction = {name: pose["whole_at_parts_level"][2][2]
+                   - pose["parts"]["sum_hull_fins"][2][2] for name, pose in poses.items()}
+    value = load_coefficients().fins.hull_interaction_added_mass.value
+    assert value == pytest.approx(interaction["flat"], rel=1e-3)
+    assert interaction["stroke_feathered"] < interaction["stroke"] < value
+    assert interaction["stroke_feathered"] == pytest.approx(2.2, abs=0.05)

@@ -9,7 +9,9 @@ the model layer builds the plant without the station.
 The fin plates' added mass rides each plate as a body on a planar joint
 (``fin_plates``, ``plate_added_mass``): the joint locks the normal, so the body's mass
 acts along the plate's normal only, in the mass matrix (stable at any ratio to the
-plate's own mass, where an explicit -m a is not).
+plate's own mass, where an explicit -m a is not). With them the hull's heave added mass
+(and the fins' interaction with the hull, which the plates alone do not carry) rides the
+hull the same way (``split_hull_added_mass``): a body free in the hull's x-y plane.
 """
 
 import dataclasses as dc
@@ -44,11 +46,48 @@ def split_added_mass(added_mass, rigid_mass: float) -> tuple[float, np.ndarray]:
     return float(iso), residual
 
 
-def split_added_inertia(added_inertia) -> tuple[np.ndarray, np.ndarray]:
-    """Splits the hull's added rotational inertia (roll, pitch, yaw) into the largest part
-    a rigid body can carry (principal moments obeying the triangle inequality, each <= the
-    sum of the other two) and an explicit residual."""
-    added = np.asarray(added_inertia, dtype=float)
+# The hull's heave added-mass body: a point mass needs a rotational inertia about the
+# planar joint's free axis (the hull's z) for the mass matrix to stay regular; m r^2 at this
+# radius, split half and half onto roll and pitch (1 % of the hull's own added roll).
+HEAVE_BODY_RADIUS = 0.003  # m
+
+
+def split_hull_added_mass(added_mass, interaction: float) -> tuple[float, np.ndarray, float]:
+    """The hull's translational added mass for a plant with added-mass bodies: the isotropic
+    part (the smaller of surge and sway) in the mass matrix, the heave beyond it plus the
+    fins' interaction with the hull as a body free in the hull's x-y plane (so its mass acts
+    along the hull's z only, implicitly, at any ratio to the hull's mass), and the sway's
+    excess over surge as the explicit residual.
+
+    Args:
+        added_mass: (3,) surge, sway, heave added mass of the hull alone [kg].
+        interaction: the heave added mass of the fins' interaction with the hull [kg].
+
+    Returns:
+        (isotropic mass, residual (3,) with heave 0, heave body's mass) [kg].
+    """
+    added_mass = np.asarray(added_mass, dtype=float)
+    if added_mass.shape != (3,) or not np.all(added_mass >= 0) or not interaction >= 0:
+        raise ValueError(f"split_hull_added_mass: added mass {added_mass.tolist()!r} and "
+                         f"interaction {interaction!r} must be >= 0")
+    iso = float(min(added_mass[0], added_mass[1]))
+    residual = np.array([added_mass[0] - iso, added_mass[1] - iso, 0.0])
+    return iso, residual, float(added_mass[2] - iso + interaction)
+
+
+def heave_body_inertia(mass: float) -> tuple[float, float, float]:
+    """The hull heave body's (roll, pitch, yaw) moments: m r^2 about its free z axis and
+    half of it about x and y (the smallest a rigid body allows), ``HEAVE_BODY_RADIUS``."""
+    i_z = mass * HEAVE_BODY_RADIUS**2
+    return 0.5 * i_z, 0.5 * i_z, i_z
+
+
+def split_added_inertia(added_inertia, carried=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Splits the hull's added rotational inertia (roll, pitch, yaw), less what another
+    body already carries (``carried``: the heave body's ``heave_body_inertia``), into the
+    largest part a rigid body can carry (principal moments obeying the triangle inequality,
+    each <= the sum of the other two) and an explicit residual."""
+    added = np.maximum(np.asarray(added_inertia, dtype=float) - np.asarray(carried), 0.0)
     implicit = added.copy()
     i = int(np.argmax(implicit))
     implicit[i] = min(implicit[i], implicit.sum() - implicit[i])

@@ -150,6 +150,7 @@ class FinHydro:
     passive_pitch_reference_pressure: Scalar = dc.field(default_factory=Scalar)  # Pa
     hinge_added_inertia: Vector = dc.field(default_factory=Vector)  # (yaw, roll1, pitch, roll2)
     added_mass_factor: Vector = dc.field(default_factory=Vector)  # 3-D K (proximal, distal)
+    hull_interaction_added_mass: Scalar = dc.field(default_factory=Scalar)  # kg, heave
     lift_slope: Scalar = dc.field(default_factory=Scalar)  # 1/rad, attached flow
     suction_efficiency: Scalar = dc.field(default_factory=Scalar)  # leading-edge suction share
     stall_angle_deg: Scalar = dc.field(default_factory=Scalar)  # attached -> separated

@@ -27,9 +27,11 @@ from pydrake.systems.framework import DiagramBuilder
 from manta_drake.model import package_map
 from manta_drake.model.added_mass import (
     fin_plates,
+    heave_body_inertia,
     plate_added_mass,
     split_added_inertia,
     split_added_mass,
+    split_hull_added_mass,
 )
 from manta_drake.model.model_sdf import robot_sdf
 from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES, JOINTS_PER_LEG, LEGS
@@ -117,11 +119,12 @@ def add_plant(
     body = plant.GetBodyByName("body", robot)
     if weld_body is not None:
         plant.WeldFrames(plant.world_frame(), body.body_frame(), weld_body)
-    iso = _add_hydro_inertia(plant, robot, body, hydro) if hydro is not None else 0.0
     bodies = hydro is not None and fin_added_mass == "bodies"
+    iso = _add_hydro_inertia(plant, robot, body, hydro, bodies) if hydro is not None else 0.0
     if bodies:
         add_fin_added_mass_bodies(plant, robot, robot_params or DEFAULT_ROBOT,
                                   hydro.water_density.value, hydro.fins.added_mass_factor.value)
+        add_hull_heave_body(plant, body, hull_heave_mass(hydro))
     plant.Finalize()
     if hydro is not None and not bodies:
         _set_hinge_added_inertia(plant, robot, hydro.fins.hinge_added_inertia.value)
@@ -133,10 +136,24 @@ def add_plant(
     return PlantHandles(plant, scene_graph, robot, pool, body, added_mass_iso=iso)
 
 
-def _add_hydro_inertia(plant, robot, body, hydro) -> float:
-    """Puts the implicit part of the added mass into the plant (before Finalize)."""
-    iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
-    Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value)[0]
+def hull_heave_mass(hydro) -> float:
+    """The mass of the hull's heave added-mass body (``split_hull_added_mass``) [kg]."""
+    return split_hull_added_mass(hydro.body.added_mass.value,
+                                 hydro.fins.hull_interaction_added_mass.value)[2]
+
+
+def _add_hydro_inertia(plant, robot, body, hydro, bodies: bool) -> float:
+    """Puts the implicit part of the hull's added mass into the plant (before Finalize):
+    isotropic, or with the added-mass bodies the part ``split_hull_added_mass`` leaves
+    outside the heave body."""
+    if bodies:
+        iso = split_hull_added_mass(hydro.body.added_mass.value,
+                                    hydro.fins.hull_interaction_added_mass.value)[0]
+        carried = heave_body_inertia(hull_heave_mass(hydro))
+    else:
+        iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
+        carried = (0.0, 0.0, 0.0)
+    Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value, carried)[0]
     instance = plant.AddModelInstance("manta_added_mass")
     added = plant.AddRigidBody(
         "added_mass", instance,
@@ -185,6 +202,22 @@ def add_fin_added_mass_bodies(plant, robot, params, rho: float, factors) -> list
             joints.append(plant.AddJoint(PlanarJoint(name, frame, body.body_frame())))
     plant.mutable_gravity_field().set_enabled(instance, False)
     return joints
+
+
+def add_hull_heave_body(plant, hull, mass: float):
+    """Adds the hull's heave added mass (``split_hull_added_mass``) as a body on a planar
+    joint at the hull's origin, the ellipsoid's centre (before Finalize), free in the hull's
+    x-y plane: its mass acts along the hull's z only; in the model instance
+    ``FIN_ADDED_MASS_INSTANCE`` (gravity off), where ``HydrodynamicForces`` keeps it centred
+    and adds Kirchhoff's velocity terms as for a plate's body. Returns the joint."""
+    if not mass > 0:
+        raise ValueError(f"hull heave added mass {mass!r} must be > 0 kg")
+    instance = plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)
+    heave = plant.AddRigidBody("body_heave_added_mass", instance,
+                               SpatialInertia.MakeFromCentralInertia(
+                                   mass, np.zeros(3), RotationalInertia(*heave_body_inertia(mass))))
+    return plant.AddJoint(PlanarJoint("body_heave_added_mass", hull.body_frame(),
+                                      heave.body_frame()))
 
 
 def _set_hinge_added_inertia(plant, robot, hinge) -> None:

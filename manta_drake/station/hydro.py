@@ -52,6 +52,7 @@ from manta_drake.station import foil
 from manta_drake.station import foil_kernels as FK
 from manta_drake.station import water_kernels as K
 from manta_drake.station.current import CurrentSchedule
+from manta_drake.model.added_mass import heave_body_inertia, split_hull_added_mass
 from manta_drake.station.water import (
     balloon_wrench,
     build_elements,
@@ -270,12 +271,19 @@ class HydrodynamicForces(LeafSystem):
         d_lin[:len(names)] = links.linear_damping.value
         d_quad[:len(names)] = links.quadratic_damping.value
         d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
-        if added_mass_iso is None:
+        carried = (0.0, 0.0, 0.0)
+        if self._foil:  # the hull's heave rides its added-mass body (model.plant)
+            iso, residual_added_mass, heave = split_hull_added_mass(
+                b.added_mass.value, coeffs.fins.hull_interaction_added_mass.value)
+            carried = heave_body_inertia(heave)
+            added_mass_iso = iso if added_mass_iso is None else added_mass_iso
+            residual_added_mass[:2] += iso - added_mass_iso
+        elif added_mass_iso is None:
             added_mass_iso, residual_added_mass = split_added_mass(
                 b.added_mass.value, plant.GetBodyByName("body", robot).default_mass())
         else:
             residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
-        _, residual_added_inertia = split_added_inertia(b.added_inertia.value)
+        _, residual_added_inertia = split_added_inertia(b.added_inertia.value, carried)
         # The explicit residual acts on the hull's acceleration, which every body held by
         # the servos shares: compare it, axis by axis, with the whole robot's effective
         # mass and inertia (implicit added mass included) along that axis.
@@ -386,9 +394,14 @@ class HydrodynamicForces(LeafSystem):
                                         "p_PF")}
         # A plate's submerged fraction: the mean of its strips' elements' (equal volumes).
         weights = np.zeros((len(bodies["body"]), len(el["volume"])))
+        # The hull's heave body: the hull's, its elements' volume-weighted mean.
         for j, plate in enumerate(bodies["plate"]):
             elements = el["strip_element"][el["strip_body"] == plate]
-            weights[j, elements] = 1.0 / len(elements)
+            if len(elements):
+                weights[j, elements] = 1.0 / len(elements)
+            else:
+                elements = np.flatnonzero(el["body"] == plate)
+                weights[j, elements] = el["volume"][elements] / el["volume"][elements].sum()
         reference = types.MappingProxyType(
             {"strips": strips, "params": params, "bodies": bodies})
         return reference, types.MappingProxyType({

@@ -788,7 +788,7 @@ def page_context(results: dict) -> dict:
             dnv += plates[which]["dnv_heave"] * nz2
         bem = pose["meshes"][-1]["matrix"][2][2]
         sums.append({"pose": name, "bem": bem, "rows": [
-            ("hull strip theory (the model's today) + plates' strip", results["hull"]
+            ("hull strip theory + plates' strip", results["hull"]
              ["strip_theory"][2] + strip),
             ("hull Lamb + plates' strip", lamb_heave + strip),
             ("hull Lamb + plates' DNV 3-D", lamb_heave + dnv)]})

@@ -549,7 +549,7 @@ def test_kinematics_and_jacobians_with_planar_joints_equal_the_plant(rng):
     bodies = [plant.GetBodyByName(n, h.robot).index() for n in hydro_body_names()]
     bodies += list(plant.GetBodyIndices(plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)))
     tree_i, tree_f = WK.pack_tree(plant, bodies)
-    assert (tree_i[:, 1] == WK.PLANAR).sum() == 8
+    assert (tree_i[:, 1] == WK.PLANAR).sum() == 9  # 8 plates and the hull's heave body
     context = plant.CreateDefaultContext()
     for _ in range(5):
         plant.SetPositions(context, rng.normal(size=plant.num_positions()))
@@ -596,7 +596,7 @@ def test_foil_model_gives_the_same_forces_on_every_port_set_and_backend():
             v = rng.normal(scale=0.5, size=h.plant.num_velocities())
             lag = rng.normal(scale=0.05, size=hydro.GetMyContextFromRoot(context)
                              .get_discrete_state(hydro._lag).size())
-            prev = np.r_[rng.normal(scale=0.1, size=8), 0.0]
+            prev = np.r_[rng.normal(scale=0.1, size=9), 0.0]  # 8 plates, the hull's heave body
         h.plant.SetVelocities(plant_context, v)
         hydro_context = hydro.GetMyMutableContextFromRoot(context)
         hydro_context.get_mutable_discrete_state(hydro._lag).SetFromVector(lag)
@@ -605,7 +605,7 @@ def test_foil_model_gives_the_same_forces_on_every_port_set_and_backend():
         hydro.GetInputPort("balloon_volume").FixValue(hydro_context, [1e-3])
         out = hydro.GetOutputPort("spatial_forces").Eval(hydro_context)
         forces.append(np.array([f.F_Bq_W.get_coeffs() for f in out]))
-    assert forces[0].shape == (NB + 8, 6)
+    assert forces[0].shape == (NB + 9, 6)
     for F in forces[1:]:
         np.testing.assert_allclose(F, forces[0], rtol=0, atol=1e-12 * np.abs(forces[0]).max())
 

@@ -120,11 +120,12 @@ def add_plant(
     if weld_body is not None:
         plant.WeldFrames(plant.world_frame(), body.body_frame(), weld_body)
     bodies = hydro is not None and fin_added_mass == "bodies"
-    iso = _add_hydro_inertia(plant, robot, body, hydro, bodies) if hydro is not None else 0.0
+    iso, heave = (_add_hydro_inertia(plant, body, hydro, bodies) if hydro is not None
+                  else (0.0, 0.0))
     if bodies:
         add_fin_added_mass_bodies(plant, robot, robot_params or DEFAULT_ROBOT,
                                   hydro.water_density.value, hydro.fins.added_mass_factor.value)
-        add_hull_heave_body(plant, body, hull_heave_mass(hydro))
+        add_hull_heave_body(plant, body, heave)
     plant.Finalize()
     if hydro is not None and not bodies:
         _set_hinge_added_inertia(plant, robot, hydro.fins.hinge_added_inertia.value)
@@ -136,23 +137,17 @@ def add_plant(
     return PlantHandles(plant, scene_graph, robot, pool, body, added_mass_iso=iso)
 
 
-def hull_heave_mass(hydro) -> float:
-    """The mass of the hull's heave added-mass body (``split_hull_added_mass``) [kg]."""
-    return split_hull_added_mass(hydro.body.added_mass.value,
-                                 hydro.fins.hull_interaction_added_mass.value)[2]
-
-
-def _add_hydro_inertia(plant, robot, body, hydro, bodies: bool) -> float:
+def _add_hydro_inertia(plant, body, hydro, bodies: bool) -> tuple[float, float]:
     """Puts the implicit part of the hull's added mass into the plant (before Finalize):
     isotropic, or with the added-mass bodies the part ``split_hull_added_mass`` leaves
-    outside the heave body."""
+    outside the heave body. Returns (isotropic mass, heave body's mass; 0 without bodies)."""
     if bodies:
-        iso = split_hull_added_mass(hydro.body.added_mass.value,
-                                    hydro.fins.hull_interaction_added_mass.value)[0]
-        carried = heave_body_inertia(hull_heave_mass(hydro))
+        iso, _, heave = split_hull_added_mass(hydro.body.added_mass.value,
+                                              hydro.fins.hull_interaction_added_mass.value)
+        carried = heave_body_inertia(heave)
     else:
         iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
-        carried = (0.0, 0.0, 0.0)
+        heave, carried = 0.0, (0.0, 0.0, 0.0)
     Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value, carried)[0]
     instance = plant.AddModelInstance("manta_added_mass")
     added = plant.AddRigidBody(
@@ -160,7 +155,7 @@ def _add_hydro_inertia(plant, robot, body, hydro, bodies: bool) -> float:
         SpatialInertia.MakeFromCentralInertia(iso, np.zeros(3), RotationalInertia(Ixx, Iyy, Izz)))
     p_BoBcm = body.default_com()
     plant.WeldFrames(body.body_frame(), added.body_frame(), RigidTransform(p_BoBcm))
-    return iso
+    return iso, heave
 
 
 def add_fin_added_mass_bodies(plant, robot, params, rho: float, factors) -> list:

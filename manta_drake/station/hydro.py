@@ -45,6 +45,7 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from manta_drake.model.added_mass import heave_body_inertia, split_hull_added_mass
 from manta_drake.model.coefficients import HydroCoefficients
 from manta_drake.model.plant import FIN_ADDED_MASS_INSTANCE
 from manta_drake.model.robot_params import DEFAULT_ROBOT, RobotParams
@@ -52,7 +53,6 @@ from manta_drake.station import foil
 from manta_drake.station import foil_kernels as FK
 from manta_drake.station import water_kernels as K
 from manta_drake.station.current import CurrentSchedule
-from manta_drake.model.added_mass import heave_body_inertia, split_hull_added_mass
 from manta_drake.station.water import (
     balloon_wrench,
     build_elements,
@@ -394,12 +394,11 @@ class HydrodynamicForces(LeafSystem):
                                         "p_PF")}
         # A plate's submerged fraction: the mean of its strips' elements' (equal volumes).
         weights = np.zeros((len(bodies["body"]), len(el["volume"])))
-        # The hull's heave body: the hull's, its elements' volume-weighted mean.
         for j, plate in enumerate(bodies["plate"]):
             elements = el["strip_element"][el["strip_body"] == plate]
             if len(elements):
                 weights[j, elements] = 1.0 / len(elements)
-            else:
+            else:  # the hull's heave body: the hull's elements' volume-weighted mean
                 elements = np.flatnonzero(el["body"] == plate)
                 weights[j, elements] = el["volume"][elements] / el["volume"][elements].sum()
         reference = types.MappingProxyType(

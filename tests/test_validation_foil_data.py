@@ -5,6 +5,7 @@ source (`data`) and the model's numbers on the same kinematics (`model`, made by
 ``python -m manta_drake.studies.validation.foil_data``). Here: the data's provenance is there,
 the strip model recomputed on three of the data's points gives the committed numbers (it is
 deterministic), thrust grows with the Strouhal number at the data's fixed h0/c and alpha_max,
+the model's lift-slope law at the experiment's aspect ratio meets the data within the acceptance,
 and the model meets Garrick's small-amplitude plunge.
 """
 
@@ -79,6 +80,34 @@ def test_strip_model_recomputed_gives_the_committed_numbers(ref, shipped_runs):
     two = FD.model_point(pt, FD.base_parameters("2d"))
     assert two["ct"] == pytest.approx(committed["2d"]["points"][0]["ct"], rel=REL)
     assert two["eta"] == pytest.approx(committed["2d"]["points"][0]["eta"], rel=REL)
+
+
+def test_experiment_base_is_helmbold_at_the_data_foil_and_accepted(ref):
+    """The acceptance case applies the model's own law (Helmbold at the plate's aspect ratio) to
+    the data foil, 0.6 m / 0.1 m = AR 6, a = 2 pi 6 / (2 + sqrt 40); every committed point is
+    within the acceptance, one is recomputed, and the acceptance block is the points' worst."""
+    ar = FD.experiment_aspect_ratio(ref["data"])
+    assert ar == pytest.approx(6.0)
+    a = 2.0 * math.pi * 6.0 / (2.0 + math.sqrt(40.0))
+    model = ref["model"]
+    exp = model["bases"][FD.ACCEPTED_BASE]
+    assert model["aspect_ratio"] == pytest.approx(ar)
+    assert exp["parameters"]["lift_slope"] == pytest.approx(a, rel=1e-9)
+    assert FD.base_parameters("experiment", aspect_ratio=ar)["lift_slope"] == \
+        pytest.approx(a, rel=1e-12)
+    ratios = [r["ratio"] for r in exp["points"]]
+    assert all(abs(x - 1.0) <= FD.ACCEPT for x in ratios), ratios
+    worst = max(ratios, key=lambda x: abs(x - 1.0))
+    assert model["acceptance"]["worst_ratio"] == pytest.approx(worst, rel=1e-12)
+    assert model["acceptance"]["within"] is True
+    pt = FD.data_points(ref["data"])[1]
+    run = FD.model_point(pt, FD.base_parameters("experiment", aspect_ratio=ar))
+    assert run["ct"] == pytest.approx(exp["points"][1]["ct"], rel=REL)
+    # The steeper slope gives more thrust than the fin's at every point: C_T grows with a.
+    ship = model["bases"]["shipped"]["points"]
+    assert all(e["ct"] > s["ct"] for e, s in zip(exp["points"], ship))
+    with pytest.raises(ValueError, match="aspect ratio"):
+        FD.base_parameters("experiment")
 
 
 def test_kinematics_hit_the_data_s_alpha_max(ref):

@@ -47,6 +47,8 @@ import pathlib
 import statistics
 import textwrap
 
+from manta_drake.studies import REPO
+
 # ---------------------------------------------------------------------------------------------
 # Criteria (thresholds and what they mean)
 
@@ -444,6 +446,7 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
 # ContactResults: force, point, slip speed, the robot's geometry) and the water's forces by
 # term (recomputed from the state with manta_drake.station.water's functions).
 
+SWEEP_FILE = REPO / "diagrams" / "sweeps" / "findings.yaml"
 SAMPLE_PERIOD = 0.001  # s: every plant step (sampling every 10 ms aliased the contact forces:
 #                        the traction of a 20 s walk came out 30 % short of the water drag)
 SLIDING = 0.005  # m/s: a contact whose slip speed exceeds this is sliding (SAP's regularised
@@ -452,11 +455,12 @@ SLIDING = 0.005  # m/s: a contact whose slip speed exceeds this is sliding (SAP'
 
 def band_scenario(gait: str, friction: float, damping: float, weight: float, duration: float,
                   extra: dict | None = None):
-    """The shipped ``locomotion_<gait>`` at one band point, as the sweep resolves it."""
+    """The shipped ``locomotion_<gait>`` at one band point, as the sweep resolves it (with
+    the sweep file's ``fixed`` overrides: its fin model)."""
     from manta_drake.scenario import load_scenario
-    from manta_drake.sweep import apply_overrides
+    from manta_drake.sweep import apply_overrides, load_sweep
 
-    overrides = {"contact.friction": friction,
+    overrides = {**load_sweep(SWEEP_FILE).fixed, "contact.friction": friction,
                  "water.coefficient_scales.body.linear_damping": damping,
                  "water.coefficient_scales.body.quadratic_damping": damping,
                  "net_weight_kg": weight, "random_seed": 0, "duration": duration,
@@ -486,7 +490,8 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
 
     Returns a dict: numpy arrays ``t``, ``xyz`` (N, 3), ``quat_wxyz`` (N, 4), ``yaw`` (N,),
     ``v_world`` (N, 3), ``hydro`` (N, 3, 3): the world force [N] of the hull's damping, the
-    16 links' damping and the fin strips (blade elements) at each sample; and ``contacts``:
+    16 links' damping and the fin strips (blade elements) at each sample (the cross-flow
+    fin model only: empty for ``water.fin_model: foil``); and ``contacts``:
     per sample a list of tuples (kind, leg, p_W (3), f_W on the robot (3), v_W of the
     robot's point (3), slip speed) of the robot's contacts with the floor; kind: foot (the
     sphere at a fin tip), proximal plate, distal plate (a fin plate's box), hull."""
@@ -514,6 +519,8 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     robot_bodies = {int(i) for i in plant.GetBodyIndices(h.plant_handles.robot)}
     hull = h.plant_handles.body
     hydro = h.systems.get("hydro")
+    if scenario.water.fin_model != "cross_flow":
+        hydro = None  # the recomputation below is the cross-flow model's terms only
     hydro_bodies = [plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else []
     inspector = h.station_handles.plant_handles.scene_graph.model_inspector()
     steps = max(1, round(period / scenario.time_step))
@@ -697,6 +704,19 @@ DIAGNOSTIC_RUNS = {
     "crab_f0.65_w0.6": ("crab", 0.65, 1.0, 0.6, 20.0, {}, None),
     "crab_f0.5_w1.1_d0.7": ("crab", 0.5, 0.7, 1.1, 20.0, {}, None),
     "turning_f0.65_w0.85": ("turning", 0.65, 1.0, 0.85, 20.0, {}, None),
+    # The floor gaits with the flapping-foil fins (the plates' added mass as bodies): contacts
+    # and slip against the cross-flow runs above, at the gaits' 0.5 Hz and at 0.25 Hz.
+    "trot_f0.8_w0.85_foil": ("trot", 0.8, 1.0, 0.85, 20.0, {"water.fin_model": "foil"}, None),
+    "walk_f0.8_w0.85_foil": ("walk", 0.8, 1.0, 0.85, 20.0, {"water.fin_model": "foil"}, None),
+    "trot_f0.8_w0.85_0.25Hz": ("trot", 0.8, 1.0, 0.85, 20.0, {"cpg.frequency_hz": 0.25}, None),
+    "trot_f0.8_w0.85_foil_0.25Hz": ("trot", 0.8, 1.0, 0.85, 20.0,
+                                    {"water.fin_model": "foil", "cpg.frequency_hz": 0.25},
+                                    None),
+    # The same with the plates' added mass scaled to 1/1000 (a factor must be > 0).
+    "trot_f0.8_w0.85_foil_light_plates": ("trot", 0.8, 1.0, 0.85, 20.0,
+                                          {"water.fin_model": "foil",
+                                           "water.coefficient_scales.fins.added_mass_factor":
+                                           0.001}, None),
 }
 
 

@@ -191,11 +191,12 @@ class WaterConfig:
     # Multipliers of named coefficients of the file, e.g. {body.linear_damping: 1.3}
     # (sweeps and calibration; see manta_drake.model.coefficients.scale_coefficients).
     coefficient_scales: dict[str, float] = dc.field(default_factory=dict)
-    # The fins' hydrodynamics (docs/design.md): "cross_flow", the quasi-steady normal
-    # force with passive pitch and the hinges' zero-pose added inertia; "foil", the
-    # flapping-foil strip model (circulation, suction, Wagner lag, stall) with the fins'
-    # added mass as bodies on the plates (manta_drake.station.foil).
-    fin_model: str = "cross_flow"
+    # The fins' hydrodynamics (docs/design.md, section 4): "foil" (the default), the
+    # flapping-foil strip model (circulation, suction, Wagner lag, stall) with the fins' and
+    # the hull's added mass as bodies (manta_drake.station.foil); "cross_flow", the earlier
+    # quasi-steady normal force with a chosen passive pitch and the hinges' zero-pose added
+    # inertia, kept to compare against.
+    fin_model: str = "foil"
 
 
 @dc.dataclass

@@ -108,12 +108,19 @@ def test_the_charge_estimate_drives_the_tree(tmp_path):
 
 def test_estimators_start_from_the_robots_pose_not_from_zero(tmp_path):
     """Yawed 90 deg at the start, the posture estimate starts at 90 deg (the IMU holds the
-    reading at rest in the start pose before its first sample) and the heading hold keeps
-    that heading, instead of swinging the robot round to 0."""
-    s = load_scenario("swim_heading_hold", overrides={
-        **QUIET, "duration": 3.0, "initial_pose.rpy_deg": [0.0, 0.0, 90.0],
-        "initial_pose.xyz": [0.0, 0.0, -0.045]})
-    r = run(s, tmp_path, progress=False)
+    reading at rest in the start pose before its first sample) and the heading hold holds
+    that heading: the run is the yaw-0 run turned by 90 deg (the pool is far on every side),
+    instead of a hold swinging the robot round to 0."""
+    runs = {}
+    for yaw in (0.0, 90.0):
+        s = load_scenario("swim_heading_hold", overrides={
+            **QUIET, "duration": 3.0, "initial_pose.rpy_deg": [0.0, 0.0, yaw],
+            "initial_pose.xyz": [0.0, 0.0, -0.045]})
+        runs[yaw] = run(s, tmp_path / str(yaw), progress=False)
+    r, ref = runs[90.0], runs[0.0]
     assert r.log["attitude_hat"][0, 2] == pytest.approx(np.pi / 2, abs=1e-9)
-    assert r.metrics["final_body_rpy_deg"][2] == pytest.approx(90.0, abs=8.0)  # not 0
-    assert np.abs(r.log["heading_trim"][:, 0]).max() < 0.1
+    turned = r.metrics["final_body_rpy_deg"][2] - 90.0
+    assert turned == pytest.approx(ref.metrics["final_body_rpy_deg"][2], abs=2.0)
+    # The same trim in both (with the foil fins it saturates at its 0.3 bound in the first
+    # seconds, against the swim's early turn: docs/behaviours.md).
+    np.testing.assert_allclose(r.log["heading_trim"], ref.log["heading_trim"], atol=0.01)

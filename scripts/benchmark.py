@@ -23,6 +23,8 @@ Cases (no Meshcat, progress bars off):
   (c) plant SG  optional (``--camera-in-plant-scene``): (c) with the camera rendering in
             the plant's SceneGraph (its VTK poses move at every plant step);
   (b) 2 ms, (c) 2 ms  optional (``--two-ms``): the plant and integrator at 2 ms.
+  (b) cross-flow  optional (``--cross-flow``): (b) with the earlier cross-flow fins, so
+            (b) / (b) cross-flow is what the foil fins' terms cost.
 
 Every case's diagram is built once. A round makes a fresh context for every case at its
 scenario's start, advances each ``--warmup`` s untimed (the first camera frame and the
@@ -368,6 +370,9 @@ def main() -> int:
                         help="also time (c) with the camera rendering in the plant's SceneGraph")
     parser.add_argument("--two-ms", action="store_true",
                         help="also time (b) and (c) with a 2 ms plant and integrator step")
+    parser.add_argument("--cross-flow", action="store_true",
+                        help="also time (b) with the cross-flow fins (water.fin_model: "
+                             "cross_flow): what the foil fins' terms cost")
     parser.add_argument("--no-table", action="store_true", help="skip the per-step table")
     parser.add_argument("--no-startup", action="store_true", help="skip the startup costs")
     args = parser.parse_args()
@@ -387,6 +392,9 @@ def main() -> int:
     if args.camera_in_plant_scene:
         cases.append(build_case("(c) plant SG", scenario("three_behaviors"),
                                 camera_own_scene=False))
+    if args.cross_flow:
+        cases.append(build_case("(b) cross-flow", scenario("two_behaviors",
+                                                           fin_model="cross_flow")))
     if args.two_ms:
         cases += [build_case("(b) 2 ms", scenario("two_behaviors", time_step=0.002)),
                   build_case("(c) 2 ms", scenario("three_behaviors", time_step=0.002))]

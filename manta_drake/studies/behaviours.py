@@ -34,7 +34,7 @@ VARIANTS = {"swim_heading_hold_reversed": ("swim_heading_hold", {"heading_hold.t
 COMMAND = "`manta-drake study behaviours`"
 # What drove each of four_behaviors' changes: the estimate whose node changed the target.
 DRIVERS = {("trot", "walk"): "flow (flow_hat rises: the cross current on the floor)",
-           ("walk", "trot"): "flow (flow_hat falls: the current has stopped)",
+           ("walk", "trot"): "flow (flow_hat falls)",
            ("trot", "swim"): "depth (z_hat falls: the balloon rule on flow filled the balloon)",
            ("swim", "rest"): "energy (energy_hat rises: the charge reaches the reserve)"}
 
@@ -264,7 +264,7 @@ def page(metrics: dict, out: pathlib.Path) -> str:
     lines += [
         "",
         "two_behaviors and three_behaviors are the paper's runs, with no tree, sensor or hold "
-        "of the new kinds: their numbers are those of docs/transitions.md and the README.",
+        "of the new kinds: their numbers are the README's.",
         "",
         "## A fourth behaviour from new modalities: four_behaviors",
         "",
@@ -304,17 +304,35 @@ def page(metrics: dict, out: pathlib.Path) -> str:
     drift = (np.interp(b, log["t"], xy) - np.interp(a, log["t"], xy)) / (b - a)
     tz, z = log["t_z_hat"], log["z_hat"][:, 0]
     z_low = z[tz <= 5.0].min()
+    low, high = spec.flow_estimator.speed_low, spec.flow_estimator.speed_high
+    back = next((tr["start_s"] for tr in four["transitions"]
+                 if (tr["from"], tr["to"]) == ("walk", "trot")), None)
+    if lo_in >= low:
+        reads = f"above the thresholds ({low:g}-{high:g} m/s)"
+    else:
+        reads = (f"falling below the lower threshold ({low:g} m/s; the band is "
+                 f"{low:g}-{high:g} m/s) as the robot drifts with it")
+    if back is not None and back < on_until:
+        back_text = (f" The walk gives way to the trot at {back:.1f} s, before the current "
+                     f"stops at {on_until:g} s: drifting with it, the robot sees too little of it.")
+    elif back is not None:
+        back_text = f" The walk gives way to the trot at {back:.1f} s, once the current stops."
+    else:
+        back_text = ""
+    if z_low < 0.99:
+        settle = (f"While the robot settles on its feet (the first 5 s) z_hat dips to "
+                  f"{z_low:.2f}, which gives the swim a share of the target for a moment.")
+    else:
+        settle = f"While the robot settles on its feet (the first 5 s) z_hat stays at {z_low:.2f}."
     lines += [
         "",
         f"The current drags the walking robot along the floor at {drift:.3f} m/s ({a:g}-{b:g} s; "
         f"its feet hold it only partly), so the filtered flow speed reads {lo_in:.3f}-{hi_in:.3f} "
-        f"m/s in the {speed_now:g} m/s current, above the thresholds "
-        f"({spec.flow_estimator.speed_low:g}-{spec.flow_estimator.speed_high:g} m/s); a "
+        f"m/s in the {speed_now:g} m/s current, {reads}; a "
         f"{spec.flow_estimator.time_constant:g} s filter averages the walk's own sway over its "
         "2 s cycle. Drifting at the surface the robot could not see a steady current at all; "
-        "that is why the decision to leave the floor waits for the current to stop, not for it "
-        f"to start. While the robot settles on its feet (the first 5 s) z_hat dips to "
-        f"{z_low:.2f}, which gives the swim a share of the target for a moment.",
+        "that is why the decision to leave the floor is made on the current's absence, not on "
+        f"its start.{back_text} {settle}",
         "",
         f"Energy: {energy.get('mean_electrical_power_w', float('nan')):.1f} W mean, the charge "
         f"from {100 * soc0:g} % to {100 * energy.get('battery_soc_end', float('nan')):.2f} %.",

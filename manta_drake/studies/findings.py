@@ -490,8 +490,10 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
 
     Returns a dict: numpy arrays ``t``, ``xyz`` (N, 3), ``quat_wxyz`` (N, 4), ``yaw`` (N,),
     ``v_world`` (N, 3), ``hydro`` (N, 3, 3): the world force [N] of the hull's damping, the
-    16 links' damping and the fin strips (blade elements) at each sample (the cross-flow
-    fin model only: empty for ``water.fin_model: foil``); and ``contacts``:
+    16 links' damping and the fin strips (blade elements) at each sample (with the foil fins,
+    the system's total less the two dampings: the strips, Kirchhoff's terms, the added-mass
+    bodies' centring and the explicit residual, whose cycle means vanish but the strips'; the
+    buoyancy is vertical); and ``contacts``:
     per sample a list of tuples (kind, leg, p_W (3), f_W on the robot (3), v_W of the
     robot's point (3), slip speed) of the robot's contacts with the floor; kind: foot (the
     sphere at a fin tip), proximal plate, distal plate (a fin plate's box), hull."""
@@ -519,8 +521,7 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     robot_bodies = {int(i) for i in plant.GetBodyIndices(h.plant_handles.robot)}
     hull = h.plant_handles.body
     hydro = h.systems.get("hydro")
-    if scenario.water.fin_model != "cross_flow":
-        hydro = None  # the recomputation below is the cross-flow model's terms only
+    cross_flow = scenario.water.fin_model == "cross_flow"
     hydro_bodies = [plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else []
     inspector = h.station_handles.plant_handles.scene_graph.model_inspector()
     steps = max(1, round(period / scenario.time_step))
@@ -547,10 +548,16 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
             _, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
             D = W.damping_wrenches(Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad,
                                    body_frac)
-            _, fs = W.fin_strip_forces(Rb, wb, vb, hydro.current, hydro.el, frac, hydro.rho,
-                                       hydro.c_normal, hydro.c_friction, hydro.pitch_max,
-                                       hydro.pitch_pressure)
-            out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fs.sum(0)]))
+            if cross_flow:
+                _, fs = W.fin_strip_forces(Rb, wb, vb, hydro.current, hydro.el, frac,
+                                           hydro.rho, hydro.c_normal, hydro.c_friction,
+                                           hydro.pitch_max, hydro.pitch_pressure)
+                fins = fs.sum(0)
+            else:  # the system's own total, less the damping: what the foil fins add
+                total = sum(f.F_Bq_W.translational() for f in hydro.GetOutputPort(
+                    "spatial_forces").Eval(hydro.GetMyContextFromRoot(root)))
+                fins = np.asarray(total) - D[:, 3:].sum(0)
+            out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fins]))
         results = plant.get_contact_results_output_port().Eval(pctx)
         contacts = []
         for i in range(results.num_point_pair_contacts()):
@@ -706,6 +713,9 @@ DIAGNOSTIC_RUNS = {
     "turning_f0.65_w0.85": ("turning", 0.65, 1.0, 0.85, 20.0, {}, None),
     # The floor gaits with the flapping-foil fins (the plates' added mass as bodies): contacts
     # and slip against the cross-flow runs above, at the gaits' 0.5 Hz and at 0.25 Hz.
+    "swim_foil": ("swim", 0.65, 1.0, 0.85, 10.0, {"water.fin_model": "foil"}, None),
+    "swim_no_phase_lag_foil": ("swim", 0.65, 1.0, 0.85, 10.0, {"water.fin_model": "foil"},
+                               "swim_no_phase_lag"),
     "trot_f0.8_w0.85_foil": ("trot", 0.8, 1.0, 0.85, 20.0, {"water.fin_model": "foil"}, None),
     "walk_f0.8_w0.85_foil": ("walk", 0.8, 1.0, 0.85, 20.0, {"water.fin_model": "foil"}, None),
     "trot_f0.8_w0.85_0.25Hz": ("trot", 0.8, 1.0, 0.85, 20.0, {"cpg.frequency_hz": 0.25}, None),

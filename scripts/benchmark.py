@@ -169,7 +169,8 @@ def physical_limit_builder(s, replay: dict):
     coeffs = scale_coefficients(load_coefficients(resolve_path(s.water.coefficients)),
                                 s.water.coefficient_scales)
     ph = add_plant(builder, time_step=s.time_step,
-                   discrete_contact_approximation=s.discrete_contact_approximation, hydro=coeffs)
+                   discrete_contact_approximation=s.discrete_contact_approximation, hydro=coeffs,
+                   fin_added_mass="bodies" if s.water.fin_model == "foil" else "hinge")
     set_contact_friction(ph, s.contact.friction)
     _set_default_start(ph, s)
     plant = ph.plant

@@ -69,5 +69,7 @@ def test_the_robot_s_plates_are_rigid_over_the_band():
 def test_bad_input_names_the_argument():
     with pytest.raises(ValueError, match="youngs_modulus"):
         PB.cantilever_deflection(100.0, 0.1, 0.0, 0.01)
+    with pytest.raises(ValueError, match="thickness"):
+        PB.cantilever_deflection(100.0, 0.1, 1e9, lambda s: np.where(s < 0.05, 0.01, 0.0))
     with pytest.raises(ValueError, match="clamp"):
         PB.plate_chordwise_bending(100.0, 0.1, 1e9, clamp=1.0)

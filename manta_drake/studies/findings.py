@@ -491,9 +491,9 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     Returns a dict: numpy arrays ``t``, ``xyz`` (N, 3), ``quat_wxyz`` (N, 4), ``yaw`` (N,),
     ``v_world`` (N, 3), ``hydro`` (N, 3, 3): the world force [N] of the hull's damping, the
     16 links' damping and the fin strips (blade elements) at each sample (with the foil fins,
-    the system's total less the two dampings: the strips, Kirchhoff's terms, the added-mass
-    bodies' centring and the explicit residual, whose cycle means vanish but the strips'; the
-    buoyancy is vertical); and ``contacts``:
+    the system's total less the two dampings and the buoyancy: the strips, Kirchhoff's terms,
+    the added-mass bodies' centring and the explicit residual, whose cycle means vanish but
+    the strips', and the vertical balloon and weight cancellation); and ``contacts``:
     per sample a list of tuples (kind, leg, p_W (3), f_W on the robot (3), v_W of the
     robot's point (3), slip speed) of the robot's contacts with the floor; kind: foot (the
     sphere at a fin tip), proximal plate, distal plate (a fin plate's box), hull."""
@@ -545,7 +545,7 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
             pb = np.array([x.translation() for x in Xs])
             wb = np.array([v.rotational() for v in Vs])
             vb = np.array([v.translational() for v in Vs])
-            _, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
+            B, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
             D = W.damping_wrenches(Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad,
                                    body_frac)
             if cross_flow:
@@ -553,10 +553,10 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
                                            hydro.rho, hydro.c_normal, hydro.c_friction,
                                            hydro.pitch_max, hydro.pitch_pressure)
                 fins = fs.sum(0)
-            else:  # the system's own total, less the damping: what the foil fins add
+            else:  # the system's own total less damping and buoyancy: the foil fins' share
                 total = sum(f.F_Bq_W.translational() for f in hydro.GetOutputPort(
                     "spatial_forces").Eval(hydro.GetMyContextFromRoot(root)))
-                fins = np.asarray(total) - D[:, 3:].sum(0)
+                fins = np.asarray(total) - D[:, 3:].sum(0) - B[:, 3:].sum(0)
             out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fins]))
         results = plant.get_contact_results_output_port().Eval(pctx)
         contacts = []

@@ -52,6 +52,14 @@ def identify(samples: dict) -> tuple[dict, dict]:
     return coeffs, rms
 
 
+def table_source(path) -> str:
+    """What the table's ``# source:`` comment says it is ("unstated" without one)."""
+    for line in pathlib.Path(path).read_text().splitlines():
+        if line.startswith("# source:"):
+            return line[len("# source:"):].strip()
+    return "source unstated"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--csv", default=MODELS / "damping_samples.csv")
@@ -68,8 +76,8 @@ def main() -> int:
         text = path.read_text()
         header = "".join(line for line in text.splitlines(True) if line.startswith("#"))
         data = yaml.safe_load(text)
-        source = (f"least-squares fit of Eq. (4) to {pathlib.Path(args.csv).name} by "
-                  "scripts/identify_damping.py; RMS residuals " +
+        source = (f"least-squares fit of Eq. (4) to {pathlib.Path(args.csv).name} "
+                  f"({table_source(args.csv)}) by scripts/identify_damping.py; RMS residuals " +
                   ", ".join(f"{a} {rms[a]:.3g}" for a in AXES))
         data["body"]["linear_damping"] = {
             "value": [round(float(coeffs[a][0]), 5) for a in AXES], "source": source}

@@ -42,7 +42,8 @@ def main() -> int:
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     lines = ["# axis,velocity,force  (velocity m/s or rad/s; resisting force N or N m, sign of velocity)",
-             "# source: scripts/reference_damping_samples.py (textbook drag, Hoerner 1965; 3 % noise)"]
+             "# source: synthetic, not measured: scripts/reference_damping_samples.py (textbook "
+             "drag, Hoerner 1965, plus a chosen linear term; 3 % noise)"]
     for axis, (lin, cd, area, (lo, hi)) in REFERENCE.items():
         quad = 0.5 * RHO * cd * area
         for u in np.concatenate([-np.linspace(lo, hi, 9), np.linspace(lo, hi, 9)]):

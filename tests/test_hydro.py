@@ -174,7 +174,7 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
 
     root = __import__("pathlib").Path(__file__).resolve().parent.parent
     csv = tmp_path / "s.csv"
-    lines = ["# test"] + [f"{a},{u},{(1.0 + i + 2.0 * (i + 1) * abs(u)) * u}"
+    lines = ["# test", "# source: a closed-form test table"] + [f"{a},{u},{(1.0 + i + 2.0 * (i + 1) * abs(u)) * u}"
                           for i, a in enumerate(("surge", "sway", "heave", "roll", "pitch", "yaw"))
                           for u in (-1.0, -0.5, 0.5, 1.0, 1.5)]
     csv.write_text("\n".join(lines) + "\n")
@@ -190,6 +190,8 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
     np.testing.assert_allclose(data["body"]["quadratic_damping"]["value"],
                                [2, 4, 6, 8, 10, 12], atol=1e-6)
     assert "surge" in out.stdout and "rms" in out.stdout
+    # The fit's source names the table and what the table says it is.
+    assert "s.csv (a closed-form test table)" in data["body"]["linear_damping"]["source"]
 
 
 def _one_element(p_B, axes, body=0):

@@ -160,6 +160,11 @@ class HydrodynamicForces(LeafSystem):
             docstring).
         backend: the force maths, ``"compiled"`` (numba kernels) or ``"numpy"`` (the
             reference functions of ``manta_drake.station.water``).
+        fin_model: the fins' terms, ``"cross_flow"`` (the default here, as it works on any
+            plant: blade elements with passive pitch, the hinges' reflected inertia) or
+            ``"foil"`` (``manta_drake.station.foil``'s strips, with the added-mass bodies
+            ``model.plant.add_plant(..., fin_added_mass="bodies")`` adds; the scenario's
+            default, ``water.fin_model``, which the station builds that way).
 
     Raises:
         ValueError: naming the argument and its allowed values or range.

@@ -163,14 +163,14 @@ def physical_limit_builder(s, replay: dict):
     from manta_drake.model.coefficients import load_coefficients, scale_coefficients
     from manta_drake.model.plant import add_plant, set_contact_friction
     from manta_drake.scenario import resolve_path
-    from manta_drake.wiring.station import _set_default_start
+    from manta_drake.wiring.station import _set_default_start, fin_added_mass
 
     builder = DiagramBuilder()
     coeffs = scale_coefficients(load_coefficients(resolve_path(s.water.coefficients)),
                                 s.water.coefficient_scales)
     ph = add_plant(builder, time_step=s.time_step,
                    discrete_contact_approximation=s.discrete_contact_approximation, hydro=coeffs,
-                   fin_added_mass="bodies" if s.water.fin_model == "foil" else "hinge")
+                   fin_added_mass=fin_added_mass(s))
     set_contact_friction(ph, s.contact.friction)
     _set_default_start(ph, s)
     plant = ph.plant

@@ -137,6 +137,12 @@ class StationHandles:
         return self.plant_handles.plant
 
 
+def fin_added_mass(scenario: Scenario) -> str:
+    """``add_plant``'s ``fin_added_mass`` for the scenario's fin model: the foil fins' added
+    mass rides the plates as bodies, the cross-flow fins' is the hinges' reflected inertia."""
+    return "bodies" if scenario.water.fin_model == "foil" else "hinge"
+
+
 def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
     """The scenario's initial pose and stance as the plant's defaults."""
     plant = handles.plant
@@ -304,11 +310,10 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     if scenario.water.enabled:
         coeffs = scale_coefficients(load_coefficients(resolve_path(scenario.water.coefficients)),
                                     scenario.water.coefficient_scales)
-    foil = scenario.water.fin_model == "foil"
     plant_handles = add_plant(builder, time_step=scenario.time_step,
                               discrete_contact_approximation=scenario.discrete_contact_approximation,
                               hydro=coeffs, robot_params=scenario.robot_params(),
-                              fin_added_mass="bodies" if foil else "hinge")
+                              fin_added_mass=fin_added_mass(scenario))
     set_contact_friction(plant_handles, scenario.contact.friction)
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant

@@ -248,3 +248,44 @@ def test_forces_settled_needs_a_quiet_window_of_every_component():
     # Moving by less than the tolerance over the window: settled.
     slow = steady_f + drift * np.array([0.5e-4 * n / 100, 0.0, 0.0])
     assert run.forces_settled(slow, steady_m)
+
+
+def test_the_robot_writes_its_hull_and_fins_forces_apart():
+    fo = _parsed(cfdcase.CaseSpec("robot", 0.8, yaw_deg=15, mesh="coarse"))[
+        "system/controlDict"]["functions"]
+    assert fo["forces_hull"]["patches"] == ["body_hull"]
+    assert fo["forces_fins"]["patches"] == ["body_fin_.*"]
+    assert fo["forces_hull"]["CofR"] == fo["forces"]["CofR"]
+    sphere = _parsed(cfdcase.CaseSpec("sphere", 1.0, mesh="tiny"))["system/controlDict"]
+    assert not [k for k in sphere["functions"] if k.startswith("forces_")]
+
+
+def test_level_and_sweep_sets_and_the_sweeps_order():
+    from manta_drake.studies.cfd import study
+
+    level = study.cases_for("level", "coarse")
+    assert [(c.speed, c.pitch_deg, c.yaw_deg, c.mesh) for c in level] == [
+        (u, 0.0, 0.0, "coarse") for u in study.SPEEDS]
+    sweep = study.cases_for("sweep", "coarse")
+    assert len(sweep) == len(study.SPEEDS) * (len(study.PITCHES) - 1 + len(study.YAWS))
+    angles = [abs(c.pitch_deg) + abs(c.yaw_deg) for c in sweep]
+    assert angles == sorted(angles)  # every axis at 15 deg before any at 30 deg
+    n = len(study.SPEEDS)
+    assert {c.pitch_deg for c in sweep[:2 * n]} == {-15.0, 15.0}
+    assert {c.yaw_deg for c in sweep[2 * n:3 * n]} == {15.0}
+
+
+def test_committed_robot_samples_parts_add_up_to_the_whole_body():
+    import csv
+
+    from manta_drake.studies.cfd import study
+
+    path = study.CSV_DIR / "robot_samples.csv"
+    rows = list(csv.DictReader(line for line in path.open() if not line.startswith("#")))
+    with_parts = [r for r in rows if r["Fx_hull"]]
+    assert len(with_parts) >= 21  # the coarse sweep
+    # Two independent OpenFOAM function objects over disjoint patches and the whole body's.
+    for r in with_parts:
+        for q in ("Fx", "Fz", "Fy", "My", "Mz"):
+            total, parts = float(r[f"{q}_mean"]), float(r[f"{q}_hull"]) + float(r[f"{q}_fins"])
+            assert parts == pytest.approx(total, rel=1e-4, abs=1e-6), (r["speed"], q)

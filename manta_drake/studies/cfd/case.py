@@ -225,6 +225,13 @@ def mesh_settings(spec: CaseSpec, parts) -> dict:
             "feature_snap": spec.shape == "robot"}
 
 
+# The parts whose forces are written apart from the whole body's (a ``forces_<part>``
+# function object each): snappyHexMesh names a surface's patches ``body_<solid>``. The
+# simulator carries the hull's force in its damping and the fins' in its blade elements, so
+# the robot's identification needs the two apart.
+PART_PATCHES = {"robot": {"hull": ["body_hull"], "fins": ["body_fin_.*"]}}
+
+
 def solver_settings(spec: CaseSpec, parts) -> dict:
     """What controlDict, fvSolution, the turbulence and the fields need."""
     R = geometry.rotation(spec.pitch_deg, spec.yaw_deg)
@@ -241,7 +248,8 @@ def solver_settings(spec: CaseSpec, parts) -> dict:
         "speed": spec.speed, "inflow": [-spec.speed, 0.0, 0.0], "drag_dir": [-1, 0, 0],
         "rho": RHO, "nu": NU, "cofr": [0.0, 0.0, 0.0], "l_ref": l_ref, "a_ref": a_ref,
         "a_ref_domain": _num(a_ref * kept),
-        "body_patches": ["body.*"], "turbulence_model": spec.turbulence_model,
+        "body_patches": ["body.*"], "part_patches": PART_PATCHES.get(spec.shape, {}),
+        "turbulence_model": spec.turbulence_model,
         "nut_wall_function": "nutkWallFunction",
         "turbulence_intensity": TURBULENCE_INTENSITY, "viscosity_ratio": VISCOSITY_RATIO,
         "k_inlet": _num(k), "epsilon_inlet": _num(eps),

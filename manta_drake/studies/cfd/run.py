@@ -265,6 +265,13 @@ def summarise(folder: pathlib.Path, spec: cfdcase.CaseSpec) -> dict:
     out = {}
     for how in ("final", "tail_mean"):
         out[how] = {"force": parts(forces, False, how), "moment": parts(moments, True, how)}
+    out["parts"] = {}
+    for name in settings["s"].get("part_patches", {}):
+        _, pf = read_vectors(folder / f"postProcessing/forces_{name}/0/force.dat")
+        _, pm = read_vectors(folder / f"postProcessing/forces_{name}/0/moment.dat")
+        t = slice(max(0, len(pf) - max(20, len(pf) // 10)), len(pf))
+        out["parts"][name] = {"force": frame(pf[t, 0].mean(axis=0), False).tolist(),
+                              "moment": frame(pm[t, 0].mean(axis=0), True).tolist()}
     # Drag: the force along the water's flow (-x in the domain), on the whole body.
     drag_series = -np.array([full_body(f[0], sym, False)[0] for f in forces])
     drag_tail = drag_series[tail]

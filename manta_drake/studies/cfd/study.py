@@ -26,7 +26,7 @@ from manta_drake.studies.options import StudyParser
 SPEEDS = (0.4, 0.8, 1.2)
 PITCHES = (-30.0, -15.0, 0.0, 15.0, 30.0)
 YAWS = (15.0, 30.0)  # yaw is symmetric: the paper's -30..30 from the positive half
-CASE_SETS = ("validation", "robot", "sweep", "all")
+CASE_SETS = ("validation", "robot", "level", "sweep", "all")
 MESH_CHOICES = ("coarse", "medium", "fine")
 MAX_WORKERS = 2  # each case is one single-threaded OpenFOAM run
 CSV_DIR = REPO / "models" / "cfd"
@@ -61,19 +61,25 @@ def robot_cases(mesh: str = "medium"):
     cases = [CaseSpec("robot", 0.4, mesh=m) for m in MESH_CHOICES]
     sweep = [CaseSpec("robot", u, pitch_deg=p, mesh=mesh) for p in PITCHES for u in SPEEDS]
     sweep += [CaseSpec("robot", u, yaw_deg=y, mesh=mesh) for y in YAWS for u in SPEEDS]
-    sweep.sort(key=lambda c: (abs(c.pitch_deg) + abs(c.yaw_deg) > 0, c.yaw_deg != 0,
-                              abs(c.pitch_deg) + abs(c.yaw_deg), c.speed, c.pitch_deg))
+    # Level first, then by angle (pitch and yaw at 15 deg before either at 30 deg), so a
+    # sweep stopped part-way holds every axis.
+    sweep.sort(key=lambda c: (abs(c.pitch_deg) + abs(c.yaw_deg), c.yaw_deg != 0, c.speed,
+                              c.pitch_deg))
     names = {c.name for c in cases}
     return cases + [c for c in sweep if c.name not in names]
 
 
 def cases_for(which: str, mesh: str):
     """The cases of a set: ``validation``, ``robot`` (grid convergence and the sweep),
-    ``sweep`` (the robot's pitched and yawed cases on ``mesh`` only) or ``all``."""
+    ``level`` (the robot at zero incidence at each speed on ``mesh``), ``sweep`` (the
+    robot's pitched and yawed cases on ``mesh`` only) or ``all``."""
     if which == "validation":
         return validation_cases()
     if which == "robot":
         return robot_cases(mesh)
+    if which == "level":
+        return [c for c in robot_cases(mesh)
+                if c.mesh == mesh and not (c.pitch_deg or c.yaw_deg)]
     if which == "sweep":
         return [c for c in robot_cases(mesh) if c.pitch_deg or c.yaw_deg]
     return validation_cases() + robot_cases(mesh)
@@ -93,6 +99,9 @@ CSV_COLUMNS = (
     # The means over the last 10 % of the iterations (at least 20): the better estimate where
     # a case ends at the iteration cap with its forces still wandering (drag_tail_spread).
     "Fx_mean", "Fy_mean", "Fz_mean", "Mx_mean", "My_mean", "Mz_mean", "stopped_by",
+    # The same means on the hull's patch alone and on the four fins' (blank for cases run
+    # before the parts were written apart).
+    *(f"{q}{a}_{part}" for part in ("hull", "fins") for q in "FM" for a in "xyz"),
 )
 
 
@@ -124,6 +133,9 @@ def sample_row(result: dict) -> dict:
     fm, mm = result["tail_mean"]["force"]["total"], result["tail_mean"]["moment"]["total"]
     row.update({f"F{a}_mean": fm[i] for i, a in enumerate("xyz")})
     row.update({f"M{a}_mean": mm[i] for i, a in enumerate("xyz")})
+    for part, fm_part in result.get("parts", {}).items():
+        for q, key in (("F", "force"), ("M", "moment")):
+            row.update({f"{q}{a}_{part}": fm_part[key][i] for i, a in enumerate("xyz")})
     row["stopped_by"] = result.get("stopped_by",
                                    "residuals" if result["converged"] else "iteration cap")
     for k, v in row.items():

@@ -271,6 +271,7 @@ def summarise(folder: pathlib.Path, spec: cfdcase.CaseSpec) -> dict:
         _, pm = read_vectors(folder / f"postProcessing/forces_{name}/0/moment.dat")
         t = slice(max(0, len(pf) - max(20, len(pf) // 10)), len(pf))
         out["parts"][name] = {"force": frame(pf[t, 0].mean(axis=0), False).tolist(),
+                              "pressure_force": frame(pf[t, 1].mean(axis=0), False).tolist(),
                               "moment": frame(pm[t, 0].mean(axis=0), True).tolist()}
     # Drag: the force along the water's flow (-x in the domain), on the whole body.
     drag_series = -np.array([full_body(f[0], sym, False)[0] for f in forces])

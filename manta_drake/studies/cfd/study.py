@@ -102,6 +102,8 @@ CSV_COLUMNS = (
     # The same means on the hull's patch alone and on the four fins' (blank for cases run
     # before the parts were written apart).
     *(f"{q}{a}_{part}" for part in ("hull", "fins") for q in "FM" for a in "xyz"),
+    # The pressure part of each part's Fx (its viscous part is Fx_<part> - this).
+    "Fx_hull_pressure", "Fx_fins_pressure",
 )
 
 
@@ -136,6 +138,8 @@ def sample_row(result: dict) -> dict:
     for part, fm_part in result.get("parts", {}).items():
         for q, key in (("F", "force"), ("M", "moment")):
             row.update({f"{q}{a}_{part}": fm_part[key][i] for i, a in enumerate("xyz")})
+        if "pressure_force" in fm_part:
+            row[f"Fx_{part}_pressure"] = fm_part["pressure_force"][0]
     row["stopped_by"] = result.get("stopped_by",
                                    "residuals" if result["converged"] else "iteration cap")
     for k, v in row.items():

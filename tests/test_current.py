@@ -164,6 +164,7 @@ def test_robot_at_rest_in_a_current_ramp_feels_the_damping_of_that_times_current
     Rz = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
     d_lin = np.asarray(COEFFS.body.linear_damping.value[:3])
     d_quad = np.asarray(COEFFS.body.quadratic_damping.value[:3])
+    Y_uv, Z_uw = COEFFS.body.body_lift.value[:2]
     results = {}
     for backend in ("compiled", "numpy"):
         hydro, context, h, plant_context = _hydro(inputs, backend, current_schedule=schedule)
@@ -173,7 +174,11 @@ def test_robot_at_rest_in_a_current_ramp_feels_the_damping_of_that_times_current
             context.SetTime(t)
             F = _hull_force(hydro, context)
             c_B = Rz.T @ np.asarray(c)
-            expected = Rz @ ((d_lin + d_quad * np.abs(c_B)) * c_B)
+            # The hull moves at -c_B through the water: Eq. (2) and the body lift
+            # Y = -Y_uv |u| v, Z = -Z_uw |u| w of that.
+            u, v, w = -c_B
+            lift = -np.array([0.0, Y_uv * abs(u) * v, Z_uw * abs(u) * w])
+            expected = Rz @ ((d_lin + d_quad * np.abs(c_B)) * c_B + lift)
             # x, y: damping only (buoyancy and the weight cancellation are vertical).
             np.testing.assert_allclose(F[0, 3:5], expected[:2], rtol=1e-12, atol=1e-14)
             assert np.linalg.norm(expected[:2]) > 0.1  # the current's drag is there
@@ -183,7 +188,9 @@ def test_robot_at_rest_in_a_current_ramp_feels_the_damping_of_that_times_current
                                    rtol=1e-12, atol=1e-12)
     # The vertical key (0.05 m/s at t = 4) reaches the heave damping too.
     dz = results["numpy", 4.0][0, 5] - results["numpy", 2.5][0, 5]
-    heave = COEFFS.body.linear_damping.value[2] + COEFFS.body.quadratic_damping.value[2] * 0.05
+    u_4 = abs((Rz.T @ np.array([0.4, -0.2, 0.0]))[0])
+    heave = (COEFFS.body.linear_damping.value[2] + COEFFS.body.quadratic_damping.value[2] * 0.05
+             + Z_uw * u_4)
     assert dz == pytest.approx(heave * 0.05, rel=1e-9)
 
 

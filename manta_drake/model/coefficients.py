@@ -88,22 +88,26 @@ def fin_hinge_added_inertia(params: RobotParams, rho: float) -> np.ndarray:
     return np.array([0.0, roll1, pitch, roll2])
 
 
-def fit_damping(velocity, force) -> tuple[np.ndarray, np.ndarray]:
+def fit_damping(velocity, force, relative: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares fit of Eq. (4): force = d_lin * u + d_quad * u|u|.
 
     Args:
         velocity: samples u (n,).
         force: resisting force magnitudes X (n,), same sign as u.
+        relative: minimise the relative residuals (A h - b) / b instead of the absolute
+            ones (rows weighted by 1 / |b|): for samples spanning decades of force, where
+            the absolute fit serves the largest forces only.
 
     Returns:
-        (h, residuals): h = [d_lin, d_quad] = (A^T A)^-1 A^T b, residuals = A h - b.
+        (h, residuals): h = [d_lin, d_quad] = (A^T W A)^-1 A^T W b, residuals = A h - b.
     """
     u = np.asarray(velocity, dtype=float)
     b = np.asarray(force, dtype=float)
     if u.shape != b.shape or u.ndim != 1 or len(u) < 2:
         raise ValueError("fit_damping: need two equally long 1-D arrays of at least 2 samples")
     A = np.column_stack([u, u * np.abs(u)])
-    h, *_ = np.linalg.lstsq(A, b, rcond=None)
+    wt = 1.0 / np.abs(b) if relative else np.ones_like(b)
+    h, *_ = np.linalg.lstsq(A * wt[:, None], b * wt, rcond=None)
     return h, A @ h - b
 
 
@@ -132,6 +136,8 @@ class BodyHydro:
     added_inertia: Vector = dc.field(default_factory=Vector)  # kg m^2 (roll, pitch, yaw)
     linear_damping: Vector = dc.field(default_factory=Vector)  # 6, N s/m | N m s
     quadratic_damping: Vector = dc.field(default_factory=Vector)  # 6, N s^2/m^2 | N m s^2
+    # 4, body lift Y_uv, Z_uw (N s^2/m^2), M_uw, N_uv (N s^2/m): water.body_lift
+    body_lift: Vector = dc.field(default_factory=Vector)
 
 
 @dc.dataclass
@@ -232,6 +238,7 @@ SEALED_VOLUME_TOLERANCE = 0.01  # relative: body.sealed_volume against 4/3 pi ab
 RANGES = {"water_density": (900.0, 1300.0, "kg/m^3"), "gravity": (9.7, 9.9, "m/s^2")}
 SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
          "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
+         "body.body_lift": 4,
          "links.linear_damping": 6, "links.quadratic_damping": 6,
          "fins.hinge_added_inertia": 4, "fins.added_mass_factor": 2, "balloon.mount_point": 3}
 
@@ -247,7 +254,7 @@ def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -
             raise ScenarioError(f"{where}: {name} needs {SIZES[name]} values, got {len(values)}")
         if not np.all(np.isfinite(values)):
             raise ScenarioError(f"{where}: {name} = {entry.value!r} has non-finite values")
-        signed = name in ("body.center_of_buoyancy", "balloon.mount_point")
+        signed = name in ("body.center_of_buoyancy", "balloon.mount_point", "body.body_lift")
         if not signed and np.any(values < 0):
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be >= 0 (magnitudes)")
         if name in POSITIVE and np.any(values <= 0):

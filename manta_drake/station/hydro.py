@@ -190,6 +190,7 @@ class HydrodynamicForces(LeafSystem):
     el = _fixed("el", "Volume elements and strips (``water.build_elements``), read-only.")
     d_lin = _fixed("d_lin", "Linear damping per body and axis (nb, 6).")
     d_quad = _fixed("d_quad", "Quadratic damping per body and axis (nb, 6).")
+    d_lift = _fixed("d_lift", "Body lift Y_uv, Z_uw, M_uw, N_uv per body (nb, 4).")
     c_normal = _fixed("c_normal", "Flat-plate normal-force coefficient.")
     c_friction = _fixed("c_friction", "Skin-friction coefficient.")
     pitch_max = _fixed("pitch_max", "Largest passive pitch of the fin plates [rad].")
@@ -276,6 +277,8 @@ class HydrodynamicForces(LeafSystem):
         d_lin[:len(names)] = links.linear_damping.value
         d_quad[:len(names)] = links.quadratic_damping.value
         d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
+        d_lift = np.zeros((nb, 4))
+        d_lift[0] = b.body_lift.value
         carried = (0.0, 0.0, 0.0)
         if self._foil:  # the hull's heave rides its added-mass body (model.plant)
             iso, residual_added_mass, heave = split_hull_added_mass(
@@ -303,7 +306,7 @@ class HydrodynamicForces(LeafSystem):
             "update_period": float(update_period), "inputs": inputs, "backend": backend,
             "body_indices": tuple(int(i) for i in body_index),
             "el": types.MappingProxyType({k: _frozen(v) for k, v in el.items()}),
-            "d_lin": _frozen(d_lin), "d_quad": _frozen(d_quad),
+            "d_lin": _frozen(d_lin), "d_quad": _frozen(d_quad), "d_lift": _frozen(d_lift),
             "c_normal": float(coeffs.fins.normal_force_coefficient.value),
             "c_friction": float(coeffs.fins.skin_friction_coefficient.value),
             "pitch_max": float(np.radians(coeffs.fins.passive_pitch_max_deg.value)),
@@ -322,7 +325,7 @@ class HydrodynamicForces(LeafSystem):
             strips = np.zeros((0, strips.shape[1]))
             self._foil_reference_args, self._foil_packed = self._pack_foil(coeffs, el, added)
         self._packed = (elements, strips,
-                        np.ascontiguousarray(np.hstack([d_lin, d_quad]), dtype=float),
+                        np.ascontiguousarray(np.hstack([d_lin, d_quad, d_lift]), dtype=float),
                         K.pack_params(self.rho, self.g, self.c_normal, self.c_friction,
                                       self.pitch_max, self.pitch_pressure, self.added_mass_iso,
                                       self.current, self.balloon_mount,
@@ -544,7 +547,8 @@ class HydrodynamicForces(LeafSystem):
             current = self.current
         F, frac, body_frac = buoyancy_wrenches(R, p, self.el, self.rho, self.g)
         F[0] += balloon_wrench(R[0], p[0], self.balloon_mount, balloon_volume, self.rho, self.g)
-        F += damping_wrenches(R, w, v, current, self.d_lin, self.d_quad, body_frac)
+        F += damping_wrenches(R, w, v, current, self.d_lin, self.d_quad, body_frac,
+                              self.d_lift)
         if self._foil:
             F += self._foil_reference(R, p, w, v, current, frac, t, fin_state)
         else:

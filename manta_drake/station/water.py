@@ -16,7 +16,8 @@ The terms:
   buoyancy) are spherical-cap formulas: exact and continuous. Gravity stays in the plant.
 * ``balloon_wrench``: the BVBS balloon, a sphere of the current volume at its mount.
 * ``damping_wrenches``: Eq. (2)'s D, -(d_lin + d_quad |nu|) nu per axis of each body's
-  frame, on the velocity relative to the water, scaled by the submerged fraction.
+  frame, on the velocity relative to the water, scaled by the submerged fraction, plus
+  the hull's body lift and moment at incidence (``body_lift``).
 * ``fin_strip_forces``: quasi-steady blade elements. Each strip sees the velocity of
   its centre relative to the water and feels the flat-plate normal force
   -1/2 rho C_N A |v_n| v_n n (cross-flow principle, with ``passive_pitch``) and skin
@@ -269,22 +270,53 @@ def balloon_wrench(R_hull, p_hull, mount_B, volume: float, rho: float, g: float)
     return F
 
 
-def damping_wrenches(R, w, v, current, d_lin, d_quad, submerged_fraction):
+def body_lift(nu, d_lift):
+    """The body lift and moment of a hull at incidence, in its own frame (Fossen 2011,
+    Handbook of Marine Craft Hydrodynamics, sec. 7.5; Prestero 2001, REMUS, sec. 4.6, the
+    body-lift and Munk terms Y_uv, Z_uw, M_uw, N_uv): with nu = (u, v, w, p, q, r),
+
+        Y = -Y_uv |u| v,   Z = -Z_uw |u| w,   M = -M_uw u w,   N = -N_uv u v.
+
+    A lift at small incidence is proportional to U^2 sin(2 alpha) / 2, i.e. to u w. Fossen's
+    u w is the form about a forward speed; reflecting the body fore-aft (u -> -u) leaves a
+    side or vertical force as it is and turns a pitch or yaw moment over, so the forces take
+    |u| (a body reversing still has its heave and sway resisted) and the moments u. Both
+    vanish in pure heave or sway, where Eq. (2)'s diagonal terms are the whole force.
+
+    Args:
+        nu: (nb, 6) body-frame velocities relative to the water.
+        d_lift: (nb, 4) [Y_uv, Z_uw, M_uw, N_uv] per body.
+
+    Returns:
+        (nb, 6) body-frame generalized forces [X, Y, Z, K, M, N].
+    """
+    u, v, w = nu[:, 0], nu[:, 1], nu[:, 2]
+    out = np.zeros_like(nu)
+    out[:, 1], out[:, 2] = -d_lift[:, 0] * np.abs(u) * v, -d_lift[:, 1] * np.abs(u) * w
+    out[:, 4], out[:, 5] = -d_lift[:, 2] * u * w, -d_lift[:, 3] * u * v
+    return out
+
+
+def damping_wrenches(R, w, v, current, d_lin, d_quad, submerged_fraction, d_lift=None):
     """Eq. (2)'s linear + quadratic damping per body axis, on the velocity relative to the
-    water, scaled by each body's submerged fraction.
+    water, plus the body lift (``body_lift``), scaled by each body's submerged fraction.
 
     Args:
         R: (nb, 3, 3) body orientations; w, v: (nb, 3) angular and origin velocities (world).
         current: (3,) water velocity in the world.
         d_lin, d_quad: (nb, 6) coefficients per body axis (surge, sway, heave, roll, pitch, yaw).
         submerged_fraction: (nb,).
+        d_lift: (nb, 4) body-lift coefficients (``body_lift``); None for none.
 
     Returns:
         (nb, 6) wrenches [tau_W, f_W] about each body origin.
     """
     Rt = np.swapaxes(R, 1, 2)
     nu = np.concatenate([_rotate(Rt, v - current), _rotate(Rt, w)], axis=1)
-    d = -(d_lin + d_quad * np.abs(nu)) * nu * np.asarray(submerged_fraction)[:, None]
+    d = -(d_lin + d_quad * np.abs(nu)) * nu
+    if d_lift is not None:
+        d = d + body_lift(nu, d_lift)
+    d = d * np.asarray(submerged_fraction)[:, None]
     return np.concatenate([_rotate(R, d[:, 3:]), _rotate(R, d[:, :3])], axis=1)
 
 

@@ -300,7 +300,7 @@ def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements
         R, p, w, v: (nb, 3, 3), (nb, 3) x 3 body kinematics in the world.
         balloon_volume: [m^3] (finite).
         hull_accel: (6,) [a_W, alpha_W] of the hull, used when ``has_accel``.
-        elements, strips: ``pack_elements``; damping: (nb, 12) [d_lin, d_quad];
+        elements, strips: ``pack_elements``; damping: (nb, 16) [d_lin, d_quad, d_lift];
         prm: ``pack_params``.
         frac: (ne,) filled with each volume element's submerged fraction.
     """
@@ -355,8 +355,16 @@ def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements
         for i in range(3):
             nu[i] = Rb[0, i] * r0 + Rb[1, i] * r1 + Rb[2, i] * r2
             nu[3 + i] = Rb[0, i] * w[b, 0] + Rb[1, i] * w[b, 1] + Rb[2, i] * w[b, 2]
+        u, v_, w_ = nu[0], nu[1], nu[2]
         for i in range(6):
-            nu[i] = -(damping[b, i] + damping[b, 6 + i] * abs(nu[i])) * nu[i] * body_frac[b]
+            nu[i] = -(damping[b, i] + damping[b, 6 + i] * abs(nu[i])) * nu[i]
+        # The body lift (water.body_lift).
+        nu[1] -= damping[b, 12] * abs(u) * v_
+        nu[2] -= damping[b, 13] * abs(u) * w_
+        nu[4] -= damping[b, 14] * u * w_
+        nu[5] -= damping[b, 15] * u * v_
+        for i in range(6):
+            nu[i] *= body_frac[b]
         for i in range(3):
             F[b, i] += Rb[i, 0] * nu[3] + Rb[i, 1] * nu[4] + Rb[i, 2] * nu[5]
             F[b, 3 + i] += Rb[i, 0] * nu[0] + Rb[i, 1] * nu[1] + Rb[i, 2] * nu[2]

@@ -547,7 +547,7 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
             vb = np.array([v.translational() for v in Vs])
             B, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
             D = W.damping_wrenches(Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad,
-                                   body_frac)
+                                   body_frac, hydro.d_lift)
             if cross_flow:
                 _, fs = W.fin_strip_forces(Rb, wb, vb, hydro.current, hydro.el, frac,
                                            hydro.rho, hydro.c_normal, hydro.c_friction,

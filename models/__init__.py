@@ -2,7 +2,7 @@
 
 ``manta.sdf`` and ``pool.sdf`` (generated from ``manta_drake/model/robot_params.py``),
 ``package.xml`` (so ``package://manta_drake/...`` URLs resolve through Drake's
-``PackageMap``), the hydrodynamic coefficients ``hydrodynamics.yaml``, the damping samples
-``damping_samples.csv`` and the shipped scenarios ``scenarios/*.yaml``: data with their
+``PackageMap``), the hydrodynamic coefficients ``hydrodynamics.yaml``, the CFD samples
+``cfd/*.csv`` and the shipped scenarios ``scenarios/*.yaml``: data with their
 provenance, no code.
 """

@@ -191,7 +191,7 @@ parameters:
 experiments:
   - {name: swim, scenario: locomotion_swim, overrides: {duration: 4.0}, measured: swim.csv,
      columns: [x, y, yaw]}
-sigma: {position_m: 0.002, yaw_deg: 0.2}
+sigma: {position_m: 0.001, yaw_deg: 0.1}
 optimizer: {max_evaluations: 6, diff_step: 0.05}
 """
 
@@ -199,12 +199,14 @@ optimizer: {max_evaluations: 6, diff_step: 0.05}
 @pytest.mark.slow
 def test_calibration_recovers_a_known_hull_damping_on_a_cluster(tmp_path):
     """Synthetic data from hull damping x1.25 plus noise; the fit from x1.0 must land within
-    10 % (one parameter, a 4 s swim, two simulations per iteration on 2 workers)."""
+    10 % (one parameter, a 4 s swim, two simulations per iteration on 2 workers). The
+    noise is a motion-capture system's (1 mm, 0.1 deg): the hull's damping is a small part
+    of a 0.1 m/s swim's drag (the fins' and links' carry most), so its signal is small."""
     path = write(tmp_path / "c.yaml", RECOVER)
     config = C.load_calibration(path, require_data=False)
     truth = {"body.linear_damping": 1.25, "body.quadratic_damping": 1.25}
     with dask_client(workers=2) as client:
-        data = C.synthesize_measurements(config, truth, C.Sigma(position_m=0.002, yaw_deg=0.2),
+        data = C.synthesize_measurements(config, truth, C.Sigma(position_m=0.001, yaw_deg=0.1),
                                          seed=11, period=0.1, client=client)
         C.write_measured(tmp_path / "swim.csv", data["swim"])
         config = C.load_calibration(path)

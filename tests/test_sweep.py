@@ -245,7 +245,7 @@ rows:
   - {hull_damping: 0.8}
   - {hull_damping: 1.2, net_weight_kg: 1.1}
   - {contact.friction: -1.0}                                   # invalid value
-  - {water.coefficient_scales.body.linear_damping: 100000.0}   # the simulation diverges
+  - {water.coefficient_scales.body.quadratic_damping: 1.0e6}   # the simulation diverges
   - {water.coefficient_scales.fins.strips_per_plate: 0.0}      # the water model refuses it
 """
 

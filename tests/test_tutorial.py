@@ -72,32 +72,20 @@ def _path_speed(folder: pathlib.Path) -> float:
     return float(np.linalg.norm(log["body_v_world"][window, :2], axis=1).mean())
 
 
-def _mean_heading(folder: pathlib.Path) -> float:
-    """The hull's mean yaw over the steady window [rad]."""
-    import numpy as np
-
-    log, window = _steady(folder)
-    return float(np.mean(np.unwrap(log["body_rpy"][window, 2])))
-
-
 @pytest.mark.slow
 def test_the_runs_and_the_changed_field(executed):
     _, out = executed
-    still, against = _metrics(out / "swim"), _metrics(out / "swim_current")
-    for m in (still, against):
+    swim = _metrics(out / "swim")
+    still, against = _metrics(out / "swim_no_lag"), _metrics(out / "swim_current")
+    for m in (swim, still, against):
         assert m["status"] == "ok" and m["sim_time_s"] == pytest.approx(6.0)
         _assert_whole_cycles(m["steady_window_s"], 0.5, at_least=2)
-    assert _scenario(out / "swim")["water"]["current"] == [0.0, 0.0, 0.0]
+    assert _scenario(out / "swim_no_lag")["water"]["current"] == [0.0, 0.0, 0.0]
     assert _scenario(out / "swim_current")["water"]["current"] == [-0.03, 0.0, 0.0]
-    # The current (-0.03 m/s along world x) takes its component along the robot's mean
-    # heading off the forward speed over the ground: the swim turns (its left-right lag),
-    # so that is 0.03 cos(heading), not the whole 0.03.
-    import math
-
+    # The straight swim against a 0.03 m/s current: slowed over the ground, but by less than
+    # the current (started at rest on the ground, it has not picked the current up in 6 s).
     slowed = still["mean_velocity_body"][0] - against["mean_velocity_body"][0]
-    along = 0.03 * math.cos(_mean_heading(out / "swim_current"))
-    assert along > 0.005, along
-    assert 0.5 * along < slowed < 1.5 * along, (slowed, along)
+    assert 0.003 < slowed < 0.03, slowed
 
 
 @pytest.mark.slow
@@ -118,7 +106,7 @@ def test_the_sweep_table(executed):
         rows = list(csv.DictReader(f))
     assert len(rows) == 4
     assert [row["status"] for row in rows] == ["ok"] * 4
-    freq, damping = "cpg.frequency_hz", "water.coefficient_scales.body.linear_damping"
+    freq, damping = "cpg.frequency_hz", "water.coefficient_scales.links.quadratic_damping"
     grid = {(float(row[freq]), float(row[damping])) for row in rows}
     assert grid == {(0.4, 0.8), (0.4, 1.2), (0.6, 0.8), (0.6, 1.2)}
     # The swim turns (more so at 0.6 Hz), so its speed is the path's, not the displacement's.
@@ -131,7 +119,7 @@ def test_the_sweep_table(executed):
     for row in rows:  # each run's resolved scenario holds its own parameters
         resolved = _scenario(out / "sweep" / "runs" / row["run_id"])
         assert resolved["cpg"]["frequency_hz"] == float(row[freq])
-        assert resolved["water"]["coefficient_scales"] == {"body.linear_damping":
+        assert resolved["water"]["coefficient_scales"] == {"links.quadratic_damping":
                                                            float(row[damping])}
         assert resolved["duration"] == 7.0
         window = (float(row["steady_start_s"]), float(row["steady_end_s"]))

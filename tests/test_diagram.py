@@ -61,7 +61,9 @@ def test_three_behaviours_wall_seen_then_turning(tmp_path):
     the wall detector and the tree turn the robot. With the cross-flow fins, whose trot
     walks at the gait's 0.5 Hz (with the foil fins it slips in place and never reaches the
     wall's range: docs/design.md, section 4)."""
-    s = _scenario("three_behaviors", duration=14.0)
+    # 18 s: the turn is fitted over 8 s after the wall is seen, four of the turning gait's
+    # cycles, whose sway (+-10 deg a cycle) would bias a shorter fit.
+    s = _scenario("three_behaviors", duration=18.0)
     s.water.fin_model = "cross_flow"
     s.initial_pose.xyz = [7.5 - 0.19 - 1.0, 0.0, -0.25]  # camera 1.0 m from the wall
     s.initial_stance = "trot"

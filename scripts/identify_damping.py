@@ -83,7 +83,8 @@ def identify_cfd(path) -> tuple[dict, str]:
               f"{fit.relative_rms['surge']:.1%}; heave and sway Z_w|w|, Y_v|v| with the body "
               f"lift on the pitched and yawed samples (RMS {fit.relative_rms['heave']:.1%}, "
               f"{fit.relative_rms['sway']:.1%}); roll, pitch, yaw from cross-flow strips, "
-              f"2-D C_D {di.ROTATIONAL_DRAG_COEFFICIENTS} (Hoerner 1965) +-30 %")
+              f"2-D C_D {di.ROTATIONAL_DRAG_COEFFICIENTS} (Hoerner 1965) "
+              f"+-{100 * di.ROTATIONAL_BAND:.0f} %")
     lift_source = (f"identified by scripts/identify_damping.py from {pathlib.Path(path).name}: "
                    "least squares on the hull patch's pitched and yawed samples (relative RMS "
                    f"M_uw {fit.relative_rms['pitch moment']:.1%}, N_uv "

@@ -61,11 +61,17 @@ class Identification:
     samples: dict  # fit -> number of samples
 
 
+def sample_rows(path) -> list[dict]:
+    """The rows of a CFD samples CSV (``manta-drake study cfd`` writes them under one comment
+    line), as strings."""
+    with pathlib.Path(path).open(newline="") as fh:
+        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
+
+
 def read_cfd_samples(path=CFD_SAMPLES, mesh: str = CFD_MESH) -> list[dict]:
     """The rows of ``path`` on ``mesh`` that carry the hull patch's forces, as floats."""
     path = pathlib.Path(path)
-    with path.open(newline="") as fh:
-        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    rows = sample_rows(path)
     if rows and "Fx_hull" not in rows[0]:
         raise ValueError(f"{path}: no Fx_hull column (the hull patch's forces); rerun "
                          "manta-drake study cfd --tables-only on its cases")

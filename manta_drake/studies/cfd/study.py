@@ -165,10 +165,9 @@ def _sample_key(row: dict) -> tuple:
 
 def read_samples(path: pathlib.Path) -> list[dict]:
     """The rows of a samples CSV (its comment line skipped), as strings; [] if absent."""
-    if not path.exists():
-        return []
-    with open(path, newline="") as fh:
-        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    from manta_drake.model.damping_identification import sample_rows
+
+    return sample_rows(path) if path.exists() else []
 
 
 def write_samples(out: pathlib.Path, csv_dir: pathlib.Path) -> dict[str, int]:

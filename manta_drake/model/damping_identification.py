@@ -89,10 +89,9 @@ def _hull_areas(semi_axes) -> tuple[float, float, float]:
     return math.pi * b * c, hr.ellipsoid_surface_area(semi_axes), 2.0 * a
 
 
-def surge_law(rows, semi_axes, rho: float = CFD_DENSITY):
-    """(C_Dp, law): the hull's form-drag coefficient from the level samples' pressure drag and
-    the laminar law U -> X(U) with it."""
-    level = [r for r in rows if r["pitch_deg"] == 0 and r["yaw_deg"] == 0]
+def surge_law(level, semi_axes, rho: float = CFD_DENSITY):
+    """(C_Dp, law): the hull's form-drag coefficient from the level (zero-incidence) samples'
+    pressure drag and the laminar law U -> X(U) with it."""
     frontal, wetted, length = _hull_areas(semi_axes)
     cdp = hr.hull_form_drag_coefficient([-r["Fx_hull_pressure"] for r in level],
                                         [r["u"] for r in level], frontal, rho)
@@ -113,7 +112,7 @@ def identify(rows, semi_axes, rho: float = CFD_DENSITY) -> Identification:
     if len(level) < 2 or len(pitched) < 2 or len(yawed) < 2:
         raise ValueError(f"need >= 2 level, pitched and yawed samples; got {len(level)}, "
                          f"{len(pitched)}, {len(yawed)}")
-    cdp, law = surge_law(rows, semi_axes, rho)
+    cdp, law = surge_law(level, semi_axes, rho)
     u_cfd = np.array([r["u"] for r in level])
     x_cfd = -np.array([r["Fx_hull"] for r in level])
     low = np.array(LOW_SPEEDS)

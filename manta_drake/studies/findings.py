@@ -35,7 +35,8 @@ Usage (either the table of a fresh sweep or the copy shipped in the repository):
 
 ``--diagnose DIR`` instead runs the targeted simulations behind the explanations in
 docs/findings.md (``DIAGNOSTIC_RUNS``: contacts, slip and the water's forces of single gaits at
-single band points; one at a time, about 5 min) and writes ``DIR/diagnostics.json``.
+single band points; ``SHIPPED_RUNS``: the shipped locomotion scenarios with either fin model,
+with the servos' power; one at a time, about 10 min) and writes ``DIR/diagnostics.json``.
 """
 
 from __future__ import annotations
@@ -491,9 +492,12 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     Returns a dict: numpy arrays ``t``, ``xyz`` (N, 3), ``quat_wxyz`` (N, 4), ``yaw`` (N,),
     ``v_world`` (N, 3), ``hydro`` (N, 3, 3): the world force [N] of the hull's damping, the
     16 links' damping and the fin strips (blade elements) at each sample (with the foil fins,
-    the system's total less the two dampings and the buoyancy: the strips, Kirchhoff's terms,
-    the added-mass bodies' centring and the explicit residual, whose cycle means vanish but
-    the strips', and the vertical balloon and weight cancellation); and ``contacts``:
+    ``foil_share`` less the two dampings and the buoyancy: the strips, the added-mass
+    bodies' normal forces and inertia as their joints pass them on, and the explicit
+    residual, whose cycle means vanish in steady motion but the strips', and the vertical
+    balloon and weight cancellation); ``power`` (N, 2): the
+    servos' and electronics' electrical power and the joints' summed mechanical power [W]
+    (empty without the energy model); and ``contacts``:
     per sample a list of tuples (kind, leg, p_W (3), f_W on the robot (3), v_W of the
     robot's point (3), slip speed) of the robot's contacts with the floor; kind: foot (the
     sphere at a fin tip), proximal plate, distal plate (a fin plate's box), hull."""
@@ -523,10 +527,13 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     hydro = h.systems.get("hydro")
     cross_flow = scenario.water.fin_model == "cross_flow"
     hydro_bodies = [plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else []
+    added_joints = added_mass_joints(plant)
+    servos = h.systems.get("servo_power")
     inspector = h.station_handles.plant_handles.scene_graph.model_inspector()
     steps = max(1, round(period / scenario.time_step))
     n = round(scenario.duration / (steps * scenario.time_step))
-    out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "contacts")}
+    out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power",
+                           "contacts")}
     sim.Initialize()
     for k in range(n + 1):
         if k:
@@ -553,11 +560,15 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
                                            hydro.rho, hydro.c_normal, hydro.c_friction,
                                            hydro.pitch_max, hydro.pitch_pressure)
                 fins = fs.sum(0)
-            else:  # the system's own total less damping and buoyancy: the foil fins' share
-                total = sum(f.F_Bq_W.translational() for f in hydro.GetOutputPort(
-                    "spatial_forces").Eval(hydro.GetMyContextFromRoot(root)))
-                fins = np.asarray(total) - D[:, 3:].sum(0) - B[:, 3:].sum(0)
+            else:  # the system's total on the robot less damping and buoyancy, and what
+                #    the added-mass bodies' joints pass on: the foil fins' share
+                fins = foil_share(plant, pctx, hydro, root, robot_bodies, added_joints)
+                fins = fins - D[:, 3:].sum(0) - B[:, 3:].sum(0)
             out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fins]))
+        if servos is not None:
+            sctx = servos.GetMyContextFromRoot(root)
+            out["power"].append([servos.GetOutputPort("electrical_power").Eval(sctx)[0],
+                                 servos.GetOutputPort("joint_mechanical_power").Eval(sctx).sum()])
         results = plant.get_contact_results_output_port().Eval(pctx)
         contacts = []
         for i in range(results.num_point_pair_contacts()):
@@ -580,9 +591,36 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
             contacts.append((kind, body.name().split("_")[0], p.copy(), np.array(f),
                              np.array(v), info.slip_speed()))
         out["contacts"].append(contacts)
-    for key in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro"):
+    for key in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power"):
         out[key] = np.array(out[key])
     return out
+
+
+def added_mass_joints(plant) -> list:
+    """The planar joints of the added-mass bodies (``model.plant``), or none."""
+    from manta_drake.model.plant import FIN_ADDED_MASS_INSTANCE
+
+    if not plant.HasModelInstanceNamed(FIN_ADDED_MASS_INSTANCE):
+        return []
+    instance = plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)
+    return [plant.get_joint(i) for i in plant.GetJointIndices(instance)]
+
+
+def foil_share(plant, pctx, hydro, root, robot_bodies, added_joints):
+    """The world force [N] the water system's output puts on the robot's own bodies, plus
+    what the added-mass bodies' planar joints pass on to the plates and the hull (their
+    normal force and inertia; not the in-plane centring force on the bodies alone, which a
+    turning or accelerating robot's bodies need to follow it and which never reaches it)."""
+    import numpy as np
+
+    forces = hydro.GetOutputPort("spatial_forces").Eval(hydro.GetMyContextFromRoot(root))
+    total = sum((np.asarray(f.F_Bq_W.translational()) for f in forces
+                 if int(f.body_index) in robot_bodies), np.zeros(3))
+    reactions = plant.get_reaction_forces_output_port().Eval(pctx)
+    for joint in added_joints:  # the reaction on the child at Jc, in Jc: minus on the parent
+        R_WJc = joint.frame_on_child().CalcPoseInWorld(pctx).rotation()
+        total -= R_WJc @ reactions[int(joint.index())].translational()
+    return total
 
 
 def metric_window(samples: dict, scenario) -> tuple[float, float] | None:
@@ -643,6 +681,14 @@ def hydro_summary(samples: dict, window) -> dict:
     F = samples["hydro"][m]  # (N, 3 terms, 3)
     mean = np.einsum("ntk,nk->t", F, fwd) / m.sum()
     return dict(zip(("hull_damping", "link_damping", "fin_strips"), map(float, mean)))
+
+
+def power_summary(samples: dict, window) -> dict:
+    """Mean electrical and summed joint mechanical power [W] over the window."""
+    t = samples["t"]
+    m = (t >= window[0]) & (t < window[1])
+    electrical, mechanical = samples["power"][m].mean(axis=0)
+    return {"electrical_W": float(electrical), "mechanical_W": float(mechanical)}
 
 
 def contact_summary(samples: dict, window) -> dict:
@@ -730,29 +776,53 @@ DIAGNOSTIC_RUNS = {
 }
 
 
+# The shipped locomotion scenarios as they are (20 s, their own friction and weight), with
+# either fin model: the README's table, with the water's forward forces and the power.
+SHIPPED_RUNS = {f"shipped_{gait}_{fins}": (gait, fins)
+                for gait in ("swim", "trot", "walk", "crab", "turning")
+                for fins in ("foil", "cross_flow")}
+
+DIAGNOSTIC_NAMES = (*DIAGNOSTIC_RUNS, *SHIPPED_RUNS)
+
+
+def diagnostic_scenario(name: str):
+    """(scenario, explicit GaitParams or None) of a DIAGNOSTIC_RUNS or SHIPPED_RUNS entry."""
+    from manta_drake.scenario import load_scenario
+
+    if name in SHIPPED_RUNS:
+        gait, fins = SHIPPED_RUNS[name]
+        scenario = load_scenario(f"locomotion_{gait}")
+        scenario.water.fin_model = fins
+        scenario.visualization.meshcat = False
+        return scenario, None
+    gait, fr, dmp, w, dur, extra, gait_override = DIAGNOSTIC_RUNS[name]
+    scenario = band_scenario(gait, fr, dmp, w, dur, extra)
+    if gait_override in DIAGNOSTIC_GAITS:
+        return scenario, DIAGNOSTIC_GAITS[gait_override]()
+    if gait_override is not None:  # a library gait: named by the scenario
+        scenario.controller.gait = gait_override
+        scenario.initial_stance = gait_override
+    return scenario, None
+
+
 def diagnose(out_dir: pathlib.Path, names=None) -> dict:
-    """Runs DIAGNOSTIC_RUNS (or ``names`` of them) one after another; writes and returns
-    ``out_dir/diagnostics.json`` (existing entries are kept, so an interrupted call resumes)."""
+    """Runs DIAGNOSTIC_RUNS and SHIPPED_RUNS (or ``names`` of them) one after another; writes
+    and returns ``out_dir/diagnostics.json`` (existing entries are kept, so an interrupted
+    call resumes)."""
     import json
     import time
 
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "diagnostics.json"
     done = json.loads(path.read_text()) if path.exists() else {}
-    for name, (gait, fr, dmp, w, dur, extra, gait_override) in DIAGNOSTIC_RUNS.items():
+    for name in DIAGNOSTIC_NAMES:
         if (names and name not in names) or name in done:
             continue
-        scenario = band_scenario(gait, fr, dmp, w, dur, extra)
-        explicit = None
-        if gait_override in DIAGNOSTIC_GAITS:
-            explicit = DIAGNOSTIC_GAITS[gait_override]()
-        elif gait_override is not None:  # a library gait: named by the scenario
-            scenario.controller.gait = gait_override
-            scenario.initial_stance = gait_override
+        scenario, explicit = diagnostic_scenario(name)
         start = time.perf_counter()
         samples = sample_run(scenario.validate(), gait=explicit)
         window = metric_window(samples, scenario)
-        entry = {"run": [gait, fr, dmp, w, dur, extra, gait_override],
+        entry = {"run": list(DIAGNOSTIC_RUNS.get(name, SHIPPED_RUNS.get(name))),
                  "wall_s": time.perf_counter() - start}
         if window is not None:
             cycles = whole_cycles(window, 1.0 / scenario.cpg.frequency_hz)
@@ -760,6 +830,8 @@ def diagnose(out_dir: pathlib.Path, names=None) -> dict:
             entry["force_window"] = list(cycles)
             if len(samples["hydro"]):
                 entry["water_forward_N"] = hydro_summary(samples, cycles)
+            if len(samples["power"]):
+                entry["power"] = power_summary(samples, cycles)
             entry["contacts"] = contact_summary(samples, cycles)
         done[name] = entry
         path.write_text(json.dumps(done, indent=1) + "\n")
@@ -789,8 +861,8 @@ def check_arguments(args) -> None:
         if args.only is not None:
             if not args.only:
                 raise ScenarioError("--only: name at least one of "
-                                    f"{', '.join(DIAGNOSTIC_RUNS)}")
-            check_names("--only", ",".join(args.only), tuple(DIAGNOSTIC_RUNS))
+                                    f"{', '.join(DIAGNOSTIC_NAMES)}")
+            check_names("--only", ",".join(args.only), DIAGNOSTIC_NAMES)
         check_writable_folder(args.diagnose, "--diagnose", example="out/findings_diagnostics")
         return
     check_sweep_results(args.results, RESULTS_COLUMNS, "findings", SHIPPED_RESULTS)
@@ -817,7 +889,7 @@ def main(argv=None, prog=None) -> int:
                         "explanations in docs/findings.md (one at a time, ~5 min) and write "
                         "DIR/diagnostics.json")
     p.add_argument("--only", nargs="*", help="with --diagnose: only these runs "
-                   f"({', '.join(DIAGNOSTIC_RUNS)})")
+                   f"({', '.join(DIAGNOSTIC_NAMES)})")
     args = p.parse_args(argv)
     check_arguments(args)
     if args.diagnose is not None:

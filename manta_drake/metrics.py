@@ -298,3 +298,21 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
     out["cost_of_transport"] = out["steady_electrical_power_w"] / weight_speed
     out["cost_of_transport_mechanical"] = out["steady_mechanical_power_w"] / weight_speed
     return out
+
+
+# A sample is outside the actuator's envelope when the duty it needs exceeds full duty by
+# more than rounding (the datasheet servo's own torque reaches exactly 1).
+ENVELOPE_TOLERANCE = 1e-6
+
+
+def envelope_summary(t: np.ndarray, ratio: np.ndarray, joint_names, voltage: float) -> dict:
+    """How far the joints left the servo's torque-speed envelope: ``ratio`` (N, joints) is
+    the duty each (rate, torque) sample needs over the most the servo has
+    (``model.servo.envelope_ratio``; > 1 is outside) at ``voltage`` [V]. Returns the bus
+    voltage, the count and fraction of samples outside, the worst ratio and where."""
+    ratio = np.asarray(ratio, dtype=float)
+    outside = ratio > 1.0 + ENVELOPE_TOLERANCE
+    i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    return {"voltage_V": float(voltage), "samples_outside": int(outside.sum()),
+            "fraction_outside": float(outside.mean()), "worst_ratio": float(ratio[i, j]),
+            "worst_joint": str(joint_names[j]), "worst_time_s": float(t[i])}

@@ -60,9 +60,10 @@ from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
 from manta_drake.control.transition import check_parameters
 from manta_drake.control.vision import WallDetectorParams
 from manta_drake.model import MODELS_DIR, PACKAGE_URL, resolve_path
-from manta_drake.model.actuators import load_actuators, scale_actuators
+from manta_drake.model.actuators import load_actuators, load_energy_model, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
+from manta_drake.model.servo import SERVO_MODELS, servo_robot_params
 from manta_drake.model.start_pose import start_pose_problem
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
 from manta_drake.station.flow_sensor import FlowSensorParams
@@ -285,6 +286,13 @@ class ActuatorsConfig:
     initial_soc: float = 1.0  # state of charge at t = 0, above the file's cutoff_soc
     # Stop the run (Simulator termination) once the state of charge reaches cutoff_soc.
     stop_when_empty: bool = True
+    # The joints' torque (model.servo): "ideal", the plant's PD with RobotParams' chosen
+    # gains and +-6 N m clamp; "datasheet", the file's servo in its firmware's position
+    # mode at servo.supply_voltage (stall torque, torque-speed line, back-EMF braking).
+    servo_model: str = "ideal"
+    # The servo bus: the controller's commands reach the servos every bus_period s, one
+    # period late (a sync write per period); 0: at every plant step, at once.
+    bus_period: float = 0.0
 
 
 @dc.dataclass
@@ -344,8 +352,18 @@ class Scenario:
         return resolve_fin_sweep_deg(self.robot.fin_sweep_deg, self.controller.gait_reading)
 
     def robot_params(self):
-        """The RobotParams of this scenario's geometry (model.robot_params)."""
-        return robot_with_fin_sweep_deg(self.fin_sweep_deg())
+        """The RobotParams of this scenario's geometry (model.robot_params), with the joint
+        gains, effort limit and damping of ``actuators.servo_model`` (model.servo)."""
+        params = robot_with_fin_sweep_deg(self.fin_sweep_deg())
+        if self.actuators.servo_model == "datasheet":
+            params = servo_robot_params(params, self.servo())
+        return params
+
+    def servo(self):
+        """The servo class's constants (model.actuators.ServoConstants) of the
+        ``actuators`` section: its file with its scales."""
+        a = self.actuators
+        return load_energy_model(a.file, a.scales, a.electronics_mode).servo
 
     def gaits(self):
         """The gait library of this scenario (name -> GaitParams, read-only): the shipped
@@ -494,6 +512,10 @@ class Scenario:
         cutoff = params.battery.cutoff_soc.value
         check_in_range("actuators.initial_soc", a.initial_soc, cutoff, 1.0,
                        f"(cutoff_soc = {cutoff:g}, 1]", open_low=True)
+        check_one_of("actuators.servo_model", a.servo_model, SERVO_MODELS)
+        if a.bus_period != 0.0:
+            check_in_range("actuators.bus_period", a.bus_period, self.time_step, 0.1,
+                           f"0 or [time_step = {self.time_step:g}, 0.1] s")
 
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises

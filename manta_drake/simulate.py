@@ -180,6 +180,8 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         n = min(len(log["joint_angles"]), len(log["commanded_joint_angles"]))
         err = log["joint_angles"][:n] - log["commanded_joint_angles"][:n]
         m["final_max_joint_error_rad"] = float(np.abs(err[-1]).max())
+    if len(log.get("joint_torque", [])) and len(log.get("joint_velocities", [])):
+        m["actuator_envelope"] = actuator_envelope(scenario, log)
     if "electrical_power" in log:  # the energy model is on (actuators.enabled)
         from manta_drake.model.actuators import load_energy_model
 
@@ -189,6 +191,20 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
             log, scenario.robot_params().total_mass, pack.usable_energy_wh(), pack.cutoff_soc,
             m.get("steady_window_s"), m.get("mean_velocity_body"))
     return m
+
+
+def actuator_envelope(scenario: Scenario, log: dict) -> dict:
+    """``metrics.envelope_summary`` of the logged joint torques (interpolated to the joint
+    rates' times) against the scenario's servo at its supply voltage (``model.servo``)."""
+    from manta_drake.model.robot_params import JOINT_NAMES
+    from manta_drake.model.servo import envelope_ratio
+
+    servo, t, qdot = scenario.servo(), log["t"], log["joint_velocities"]
+    n = min(len(t), len(qdot))
+    tau = np.stack([np.interp(t[:n], log["t_joint_torque"], column)
+                    for column in np.asarray(log["joint_torque"]).T], axis=1)
+    ratio = envelope_ratio(tau, qdot[:n], servo, servo.supply_voltage)
+    return M.envelope_summary(t[:n], ratio, JOINT_NAMES, servo.supply_voltage)
 
 
 def random_sources(system) -> list:

@@ -76,6 +76,11 @@ def test_misspelt_key_fails_naming_the_key(tmp_path, text, needle):
     ("random_seed: -4\n", "random_seed", "[0, 4294967295]"),
     ("robot: {fin_sweep_deg: 75}\n", "robot.fin_sweep_deg", "[-60, 60] deg (or null"),
     ("controller: {gait_reading: mirror}\n", "controller.gait_reading", "paper, mirrored"),
+    ("actuators: {servo_model: dynamixel}\n", "actuators.servo_model", "ideal, datasheet"),
+    ("actuators: {bus_period: 0.0005}\n", "actuators.bus_period",
+     "0 or [time_step = 0.001, 0.1] s"),
+    ("actuators: {bus_period: 0.5}\n", "actuators.bus_period",
+     "0 or [time_step = 0.001, 0.1] s"),
 ])
 def test_out_of_range_value_fails_naming_field_and_range(tmp_path, text, field, allowed):
     with pytest.raises(ScenarioError) as info:

@@ -83,6 +83,10 @@ class ServoParams:
     winding_resistance: Number = dc.field(default_factory=Number)  # ohm
     standby_current: Number = dc.field(default_factory=Number)  # A
     supply_voltage: Number = dc.field(default_factory=Number)  # V
+    position_p_gain: Number = dc.field(default_factory=Number)  # control-table units
+    encoder_resolution: Number = dc.field(default_factory=Number)  # pulses per revolution
+    pwm_unit: Number = dc.field(default_factory=Number)  # duty per PWM unit
+    pwm_limit: Number = dc.field(default_factory=Number)  # PWM units
     recover_negative_work: Flag = dc.field(default_factory=Flag)
 
 
@@ -125,9 +129,11 @@ class ActuatorParams:
                 for f in dc.fields(getattr(self, section.name))]
 
 
-# Numeric entries no factor may scale: cell and pack counts are whole numbers, and the
-# state-of-charge grid must run from 0 to 1.
-NOT_SCALABLE = ("battery.packs", "battery.cells_per_pack", "battery.ocv_soc")
+# Numeric entries no factor may scale: cell and pack counts are whole numbers, the
+# state-of-charge grid must run from 0 to 1, and the encoder's count and the PWM's unit are
+# the firmware's definitions, not uncertain quantities.
+NOT_SCALABLE = ("battery.packs", "battery.cells_per_pack", "battery.ocv_soc",
+                "servo.encoder_resolution", "servo.pwm_unit")
 
 # The factors a scale may apply, [lo, hi]: a band about the file's value for sensitivity
 # studies and calibration, not another robot (above 10 it is another servo, battery or
@@ -158,7 +164,8 @@ def scalable_names() -> tuple[str, ...]:
 # Entries that must be > 0 (each divides something or is a physical size), and those that
 # must lie in (0, 1] or [0, 1).
 POSITIVE = ("servo.gear_ratio", "servo.torque_constant", "servo.gearbox_efficiency",
-            "servo.supply_voltage", "electronics.regulator_efficiency", "battery.packs",
+            "servo.supply_voltage", "servo.encoder_resolution", "servo.pwm_unit",
+            "servo.pwm_limit", "electronics.regulator_efficiency", "battery.packs",
             "battery.cells_per_pack", "battery.pack_capacity", "battery.ocv_cell_voltage",
             "electronics.jetson_power")
 AT_MOST_ONE = ("servo.gearbox_efficiency", "electronics.regulator_efficiency")
@@ -189,6 +196,10 @@ def check_actuators(params: ActuatorParams, where: str = "actuators") -> None:
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be in (0, 1]")
         if name in INTEGER and np.any(values != np.round(values)):
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be a whole number")
+    duty = params.servo.pwm_unit.value * params.servo.pwm_limit.value
+    if duty > 1.0 + 1e-3:  # the datasheet's 885 x 0.113 % rounds to 100.005 %
+        raise ScenarioError(f"{where}: servo.pwm_limit x servo.pwm_unit = {duty:g} must be at "
+                            "most 1 (full duty)")
     if not params.servo.model.value.strip():
         raise ScenarioError(f"{where}: servo.model is empty (name the servo class)")
     e, b = params.electronics, params.battery
@@ -288,6 +299,12 @@ class ServoConstants:
     # Joint rate against the torque at which the load fully back-drives the motor [rad/s];
     # 0: the sign of tau qdot alone decides.
     backdrive_speed: float = 0.0
+    # The firmware's position loop (model.servo): Position P Gain in control-table units,
+    # the encoder's pulses per revolution, duty per PWM unit and the PWM limit in units.
+    position_p_gain: float = 800.0
+    encoder_resolution: float = 4096.0
+    pwm_unit: float = 0.00113
+    pwm_limit: float = 885.0
 
     @property
     def standby_power(self) -> float:
@@ -371,7 +388,10 @@ def servo_constants(params: ActuatorParams) -> ServoConstants:
         standby_current=float(s.standby_current.value),
         supply_voltage=float(s.supply_voltage.value),
         recover_negative_work=bool(s.recover_negative_work.value),
-        backdrive_speed=float(s.backdrive_speed.value))
+        backdrive_speed=float(s.backdrive_speed.value),
+        position_p_gain=float(s.position_p_gain.value),
+        encoder_resolution=float(s.encoder_resolution.value), pwm_unit=float(s.pwm_unit.value),
+        pwm_limit=float(s.pwm_limit.value))
 
 
 def energy_model(params: ActuatorParams, electronics_mode: str | None = None) -> EnergyModel:

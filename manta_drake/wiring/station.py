@@ -29,7 +29,10 @@ station in another process (over LCM) or the robot itself.
 Inputs:
 
 * ``desired_state`` (32): joint angles and rates for the servos' PD (the plant's
-  implicit PD, ``<drake:controller_gains>``), in the plant's joint order.
+  implicit PD, ``<drake:controller_gains>``: RobotParams' chosen gains, or with
+  ``actuators.servo_model: datasheet`` the servo's firmware loop of ``model.servo``, which
+  ignores the rates), in the plant's joint order; with ``actuators.bus_period`` > 0 through
+  a ``ServoBus`` (taken up one bus period after it was written).
 * ``balloon_command`` (1): wanted balloon fill in [0, 1] (0 empty, 1 ``max_volume``).
 
 Outputs, what the robot's sensors give:
@@ -40,7 +43,8 @@ Outputs, what the robot's sensors give:
 * ``camera_pose``: the camera's pose in the world (RigidTransform). On the robot this
   is the IMU attitude and the pressure depth; the detector uses only its height and
   its horizontal viewing direction.
-* ``measured_joint_state`` (32): the servos' angles and rates.
+* ``measured_joint_state`` (32): the servos' angles and rates (with a bus: its last sync
+  read, in whole encoder pulses and velocity units).
 * ``battery`` (3): [state of charge 0-1, terminal voltage V, current A] of the pack
   (``Battery``; the run stops when the charge reaches the file's cut-off, see
   ``actuators.stop_when_empty``).
@@ -60,7 +64,9 @@ and, for logging and visualisation only (a controller must not read them):
   step, in the plant's joint order (that of ``measured_joint_state``): the plant's net
   actuation, which includes the implicit PD's contribution (SAP evaluates the PD at the
   step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next), clamped to the effort
-  limit), i.e. what the servos deliver, not the PD law at the logged state.
+  limit), i.e. what the servos deliver, not the PD law at the logged state; with the
+  ``datasheet`` servo less its back-EMF braking b qdot, which the plant applies as joint
+  damping.
 * ``joint_mechanical_power`` (16) [W]: tau qdot of each joint over the last step.
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
@@ -93,7 +99,15 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import Gain, MatrixGain, Multiplexer, RandomSource, ZeroOrderHold
+from pydrake.systems.primitives import (
+    Adder,
+    Gain,
+    MatrixGain,
+    Multiplexer,
+    PassThrough,
+    RandomSource,
+    ZeroOrderHold,
+)
 from pydrake.systems.sensors import RgbdSensor
 
 from manta_drake.model import resolve_path
@@ -112,6 +126,7 @@ from manta_drake.model.plant import (
     joint_torque_port,
     set_contact_friction,
 )
+from manta_drake.model.servo import back_emf_damping
 from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
@@ -121,6 +136,7 @@ from manta_drake.station.hydro import HydrodynamicForces
 from manta_drake.station.imu import add_imu
 from manta_drake.station.pressure import PressureSensor
 from manta_drake.station.render_poses import add_camera_scene
+from manta_drake.station.servo_bus import ServoBus
 from manta_drake.station.servo_power import ServoPower
 
 
@@ -151,6 +167,46 @@ def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
                                                              scenario.initial_pose.rpy_deg))
     for name, q in zip(handles.joint_names, scenario.initial_joint_angles()):
         plant.GetJointByName(name, handles.robot).set_default_angle(q)
+
+
+def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector) -> None:
+    """``desired_state`` into the plant's PD and the joints' state out as
+    ``measured_joint_state``: directly, or with ``actuators.bus_period`` > 0 through a
+    ``ServoBus`` (commands taken up one period after the controller wrote them, readings
+    sampled every period in the servos' encoder and velocity units)."""
+    port = handles.plant.get_desired_state_input_port(handles.robot)
+    period = scenario.actuators.bus_period
+    if period == 0.0:
+        builder.ExportInput(port, "desired_state")
+        builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
+        return
+    bus = builder.AddNamedSystem("servo_bus", ServoBus(
+        len(handles.joint_names), period, scenario.servo().encoder_resolution))
+    builder.ExportInput(bus.GetInputPort("command"), "desired_state")
+    builder.Connect(bus.GetOutputPort("applied_command"), port)
+    builder.Connect(selector.get_output_port(), bus.GetInputPort("joint_state"))
+    builder.ExportOutput(bus.GetOutputPort("measured_joint_state"), "measured_joint_state")
+
+
+def _motor_torque(builder, scenario: Scenario, handles: PlantHandles):
+    """The system whose output is each joint's servo torque (16, N m): the plant's net
+    actuation, and with ``actuators.servo_model: datasheet`` less the back-EMF braking
+    b qdot that the plant applies as joint damping (``model.servo``; the gear train's own
+    friction stays out), from C++ primitives."""
+    plant = handles.plant
+    if scenario.actuators.servo_model != "datasheet":
+        torque = builder.AddNamedSystem("joint_torque", PassThrough(len(handles.joint_names)))
+        builder.Connect(joint_torque_port(handles), torque.get_input_port())
+        return torque
+    n = len(handles.joint_names)
+    b = back_emf_damping(scenario.servo())
+    braking = builder.AddNamedSystem("back_emf_braking", MatrixGain(
+        -b * joint_state_selector(handles)[n:]))
+    builder.Connect(plant.get_state_output_port(), braking.get_input_port())
+    total = builder.AddNamedSystem("joint_torque", Adder(2, n))
+    builder.Connect(joint_torque_port(handles), total.get_input_port(0))
+    builder.Connect(braking.get_output_port(), total.get_input_port(1))
+    return total
 
 
 def _random_source(builder, name: str, distribution, size: int, period: float):
@@ -251,7 +307,7 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     # at its end state); held for one step (in C++, no Python call), it meets the joint rate
     # at that step's end, so tau qdot dt is the step's work.
     hold = builder.AddNamedSystem("joint_torque_hold", ZeroOrderHold(scenario.time_step, n))
-    builder.Connect(joint_torque_port(ph), hold.get_input_port())
+    builder.Connect(handles.systems["joint_torque"].get_output_port(), hold.get_input_port())
     servos = builder.AddNamedSystem("servo_power", ServoPower(model.servo,
                                                               model.electronics_power, n))
     builder.Connect(hold.get_output_port(), servos.GetInputPort("joint_torque"))
@@ -318,12 +374,12 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant
     _set_default_start(plant_handles, scenario)
-    builder.ExportInput(plant.get_desired_state_input_port(plant_handles.robot), "desired_state")
     selector = builder.AddNamedSystem("joint_state_selector",
                                       MatrixGain(joint_state_selector(plant_handles)))
     builder.Connect(plant.get_state_output_port(), selector.get_input_port())
-    builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
-    builder.ExportOutput(joint_torque_port(plant_handles), "joint_torque")
+    _add_servo_bus(builder, scenario, plant_handles, selector)
+    handles.systems["joint_torque"] = _motor_torque(builder, scenario, plant_handles)
+    builder.ExportOutput(handles.systems["joint_torque"].get_output_port(), "joint_torque")
     builder.ExportOutput(plant.get_state_output_port(), "plant_state")
     builder.ExportOutput(plant_handles.scene_graph.get_query_output_port(), "query_object")
     if coeffs is not None:

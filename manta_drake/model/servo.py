@@ -1,0 +1,104 @@
+"""The joint servo in its firmware's position mode: the torque the plant applies.
+
+A DYNAMIXEL X-series servo (``models/actuators.yaml``: the XW540-T140) closes its own
+position loop: its PID turns the position error in encoder pulses into a PWM duty, Goal PWM
+limits it, and its H-bridge applies duty x V to the motor (ROBOTIS e-Manual, X-series
+"Position PID Gain": K_PP = Position P Gain / 128, I and D gains 0 by default). The motor
+(torque constant k_t, terminal resistance R, gear ratio N, gearbox efficiency eta) turns that
+voltage into the joint torque
+
+    tau = (k_t N eta / R) (d V - k_t N qdot) = tau_s(V) d - b qdot,
+    d   = clip(K_d (q_goal - q), -d_max, d_max),
+
+with
+
+    tau_s(V) = k_t N eta V / R           the stall torque at the bus voltage V,
+    b        = (k_t N)^2 eta / R          the back-EMF braking (no-load speed tau_s / b
+                                          = V / (k_t N)),
+    K_d      = K_PP n_enc / (2 pi) u_pwm  duty per radian of error (n_enc pulses per turn,
+                                          u_pwm duty per PWM unit),
+    d_max    = PWM limit x u_pwm          (885 x 0.113 % = 100 %).
+
+So the torque-speed line of the datasheet (stall torque at rest, zero torque at the no-load
+speed) and the braking of a back-driven joint (up to tau_s d_max + b |qdot|) are the motor's
+own, at any speed. The plant applies the saturated term as Drake's implicit PD (kp = tau_s
+K_d, kd = 0, effort limit tau_s d_max) and the back-EMF term as the joint's damping, both
+implicit in the discrete step, so the loop is stable at the 1 ms step however light the link.
+
+The closed forms the tests hold it to: at 14.8 V tau_s = 8.30 N m and tau_s / b = 9.22 rad/s
+(datasheet: 8.3 N m and 88 rev/min = 9.2 rad/s), at 12 V 6.73 N m (datasheet 6.9); K_d =
+4.60 /rad at the control table's 800, so the duty saturates 12.4 deg from the goal.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+
+import numpy as np
+
+from manta_drake.model.actuators import ServoConstants
+
+# A scenario's ``actuators.servo_model``: the plant's PD with RobotParams' chosen gains, or
+# this module's servo.
+SERVO_MODELS = ("ideal", "datasheet")
+
+
+def stall_torque(servo: ServoConstants, voltage: float) -> float:
+    """tau_s = k_t N eta V / R [N m] at the bus voltage ``voltage`` [V]."""
+    return (servo.torque_constant * servo.gear_ratio * servo.gearbox_efficiency * voltage
+            / servo.winding_resistance)
+
+
+def back_emf_damping(servo: ServoConstants) -> float:
+    """b = (k_t N)^2 eta / R [N m s/rad]: the motor's braking per joint rate."""
+    k_n = servo.torque_constant * servo.gear_ratio
+    return k_n * k_n * servo.gearbox_efficiency / servo.winding_resistance
+
+
+def no_load_speed(servo: ServoConstants, voltage: float) -> float:
+    """V / (k_t N) [rad/s]: where the torque-speed line reaches zero torque at full duty."""
+    return voltage / (servo.torque_constant * servo.gear_ratio)
+
+
+def duty_per_radian(servo: ServoConstants) -> float:
+    """K_d = (Position P Gain / 128) n_enc / (2 pi) u_pwm [1/rad]."""
+    return (servo.position_p_gain / 128.0 * servo.encoder_resolution / (2.0 * math.pi)
+            * servo.pwm_unit)
+
+
+def max_duty(servo: ServoConstants) -> float:
+    """d_max = PWM limit x duty per unit (at most 1)."""
+    return min(servo.pwm_limit * servo.pwm_unit, 1.0)
+
+
+def joint_gains(servo: ServoConstants, voltage: float) -> tuple[float, float, float]:
+    """(kp [N m/rad], effort limit [N m], back-EMF damping [N m s/rad]) of the plant's
+    implicit PD and joint damping that apply ``tau`` (module docstring) at ``voltage``."""
+    tau_s = stall_torque(servo, voltage)
+    return tau_s * duty_per_radian(servo), tau_s * max_duty(servo), back_emf_damping(servo)
+
+
+def servo_torque(q_goal, q, qdot, servo: ServoConstants, voltage: float) -> np.ndarray:
+    """tau = tau_s clip(K_d (q_goal - q), -d_max, d_max) - b qdot [N m], element-wise."""
+    kp, limit, b = joint_gains(servo, voltage)
+    error = np.asarray(q_goal, dtype=float) - np.asarray(q, dtype=float)
+    return np.clip(kp * error, -limit, limit) - b * np.asarray(qdot, dtype=float)
+
+
+def envelope_ratio(tau, qdot, servo: ServoConstants, voltage: float) -> np.ndarray:
+    """|tau + b qdot| / (tau_s d_max): the duty a torque ``tau`` at joint rate ``qdot``
+    needs, over the most the servo has; above 1 it is outside the torque-speed envelope
+    (element-wise)."""
+    _, limit, b = joint_gains(servo, voltage)
+    return np.abs(np.asarray(tau, dtype=float) + b * np.asarray(qdot, dtype=float)) / limit
+
+
+def servo_robot_params(params, servo: ServoConstants):
+    """``params`` (a RobotParams) with the plant's joint gains, effort limit and damping of
+    ``servo`` at its ``supply_voltage``: kp = tau_s K_d, kd = 0 (no D or velocity
+    feed-forward in the firmware's defaults), the effort limit tau_s d_max, and the back-EMF
+    braking b added to the gear train's own viscous friction."""
+    kp, limit, b = joint_gains(servo, servo.supply_voltage)
+    return dc.replace(params, kp=kp, kd=0.0, effort_limit=limit,
+                      joint_damping=params.joint_damping + b)

@@ -170,7 +170,7 @@ def physical_limit_builder(s, replay: dict):
                                 s.water.coefficient_scales)
     ph = add_plant(builder, time_step=s.time_step,
                    discrete_contact_approximation=s.discrete_contact_approximation, hydro=coeffs,
-                   fin_added_mass=fin_added_mass(s))
+                   robot_params=s.robot_params(), fin_added_mass=fin_added_mass(s))
     set_contact_friction(ph, s.contact.friction)
     _set_default_start(ph, s)
     plant = ph.plant

@@ -79,6 +79,7 @@ def _slew(servo_model: str, step_rad: float = 0.8):
     s.visualization.meshcat = False
     s.initial_pose.xyz = [0.0, 0.0, 0.0]  # 0.28 m above its stance: 0.15 s of free fall
     s.actuators.servo_model = servo_model
+    s.actuators.bus_period = 0.0  # the servo's own response, not the bus's timing
     station, handles = build_station(s.validate())
     plant = handles.plant
     simulator = Simulator(station)

@@ -27,7 +27,7 @@ def _bus(period=0.01):
     """A ServoBus fed a 1 Hz sine command and a constant joint state, in a simulator."""
     builder = DiagramBuilder()
     command = builder.AddSystem(Sine(1.0, 2 * math.pi, 0.0, 2))
-    bus = builder.AddSystem(ServoBus(1, period, 4096))
+    bus = builder.AddSystem(ServoBus(1, period, 4096, start=[0.7, 0.0]))
     joints = builder.AddSystem(ConstantVectorSource([10.3 * PULSE, -1.6 * VELOCITY_UNIT]))
     builder.Connect(command.get_output_port(0), bus.GetInputPort("command"))
     builder.Connect(joints.get_output_port(), bus.GetInputPort("joint_state"))
@@ -41,12 +41,14 @@ def test_commands_apply_one_period_after_they_were_written():
     sim.Initialize()
     applied = bus.GetOutputPort("applied_command")
     ctx = bus.GetMyContextFromRoot(context)
-    assert applied.Eval(ctx)[0] == 0.0  # sin(0): the start's own command
+    assert applied.Eval(ctx)[0] == 0.7  # the pose the servos were switched on in
+    sim.AdvanceTo(0.0051)
+    assert applied.Eval(ctx)[0] == 0.7  # the command of t = 0 is taken up at T
     for t in (0.0149, 0.0349, 0.2549):
         sim.AdvanceTo(t)
         k = math.floor(t / 0.01 + 1e-9)  # the cycle in force at t
-        written = max(k - 1, 0) * 0.01
-        assert applied.Eval(ctx)[0] == pytest.approx(math.sin(2 * math.pi * written), abs=1e-12)
+        assert applied.Eval(ctx)[0] == pytest.approx(math.sin(2 * math.pi * (k - 1) * 0.01),
+                                                     abs=1e-12)
 
 
 def test_readings_are_sampled_and_quantized():
@@ -57,6 +59,8 @@ def test_readings_are_sampled_and_quantized():
     np.testing.assert_allclose(reading, [10 * PULSE, -2 * VELOCITY_UNIT], atol=1e-15)
 
 
-def test_bad_period_is_refused():
+def test_bad_arguments_are_refused():
     with pytest.raises(ValueError, match="ServoBus.period"):
         ServoBus(16, 0.0, 4096)
+    with pytest.raises(ValueError, match="ServoBus.start"):
+        ServoBus(2, 0.01, 4096, start=[0.0, 0.0])

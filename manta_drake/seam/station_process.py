@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from manta_drake.model.plant import joint_state_selector
 from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.seam.channels import (
     CHANNEL_BY_NAME,
@@ -35,14 +36,13 @@ from manta_drake.seam.schedule import (
     exchange_schedule,
 )
 from manta_drake.simulate import make_simulator
-from manta_drake.wiring.station import build_station
+from manta_drake.wiring.station import build_station, start_command
 
 
 def initial_commands(scenario) -> dict[str, np.ndarray]:
     """What the station holds before the first command: the start stance at rest and the
     initial balloon fill (a robot's servos hold their pose until commanded)."""
-    return {"desired_state": np.concatenate([scenario.initial_joint_angles(),
-                                             np.zeros(NUM_JOINTS)]),
+    return {"desired_state": start_command(scenario),
             "balloon_command": np.array([scenario.balloon.initial_fill])}
 
 
@@ -142,7 +142,9 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
     sending = {c.name for c in sends}
     reading = {c.name for c in reads}
     body = _body_indices(handles)
-    joint_port = station.GetOutputPort("measured_joint_state")
+    # The joints' true state, as the single diagram logs it (``measured_joint_state`` is
+    # the servo bus's quantized reading when the scenario has one).
+    joints = joint_state_selector(handles.plant_handles)
     state_port = station.GetOutputPort("plant_state")
     logged = [c for c in sends if c.codec == "vector"]  # sensors logged as sent
     log = {"t": [], "joint_angles": [], "joint_velocities": [], "body_xyz": [],
@@ -150,7 +152,7 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
     logged = {c.name for c in logged}
 
     def record(t):
-        x = joint_port.Eval(context)
+        x = joints @ state_port.Eval(context)
         log["t"].append(t)
         log["joint_angles"].append(x[:NUM_JOINTS].copy())
         log["joint_velocities"].append(x[NUM_JOINTS:].copy())

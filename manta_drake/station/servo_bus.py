@@ -42,16 +42,19 @@ class ServoBus(LeafSystem):
     * ``command`` (2n): the controller's desired joint state.
     * ``applied_command`` (2n): what the servos act on: over [t_k, t_k + T) the command
       written at t_k - T (a sync write every T, taken up at the next cycle:
-      applied(t) = command(t_k - T), t_k = k T); at t = 0 the command of t = 0, so a run
-      starts from its stance.
+      applied(t) = command(t_k - T), t_k = k T); before the first command is taken up
+      (t < T), ``start``: the servos hold the pose they were switched on in.
     * ``joint_state`` (2n): the joints' true [q, qdot] (the plant's).
     * ``measured_joint_state`` (2n): the last sync read, at t_k:
-      ``quantize_joint_state(joint_state(t_k))``.
+      ``quantize_joint_state(joint_state(t_k))``; before the first, ``start``'s.
 
-    Both outputs depend on the discrete state only (no direct feedthrough).
+    Both outputs depend on the discrete state only (no direct feedthrough), and nothing
+    reads an input before the first cycle: a station alone over the seam, whose first
+    command arrives after its initialization, runs exactly as the single diagram.
     """
 
-    def __init__(self, num_joints: int, period: float, encoder_resolution: float):
+    def __init__(self, num_joints: int, period: float, encoder_resolution: float,
+                 start=None):
         super().__init__()
         if not (math.isfinite(period) and period > 0):
             raise ValueError(f"ServoBus.period: {period!r} must be a finite number > 0 s")
@@ -59,24 +62,21 @@ class ServoBus(LeafSystem):
             raise ValueError(f"ServoBus.encoder_resolution: {encoder_resolution!r} must be > 0")
         self.period, self.encoder_resolution = float(period), float(encoder_resolution)
         n = 2 * num_joints
+        start = np.zeros(n) if start is None else np.asarray(start, dtype=float)
+        if start.shape != (n,) or not np.all(np.isfinite(start)):
+            raise ValueError(f"ServoBus.start: expected {n} finite numbers [q, qdot], got "
+                             f"shape {start.shape}")
         self._command = self.DeclareVectorInputPort("command", n)
         self._joints = self.DeclareVectorInputPort("joint_state", n)
-        self._applied = self.DeclareDiscreteState(n)  # taken up at this cycle
-        self._written = self.DeclareDiscreteState(n)  # written at this cycle, for the next
-        self._read = self.DeclareDiscreteState(n)
+        self._applied = self.DeclareDiscreteState(start)  # taken up at this cycle
+        self._written = self.DeclareDiscreteState(start)  # written at this cycle, for the next
+        self._read = self.DeclareDiscreteState(quantize_joint_state(start, encoder_resolution))
         self.DeclareStateOutputPort("applied_command", self._applied)
         self.DeclareStateOutputPort("measured_joint_state", self._read)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._cycle)
-        self.DeclareInitializationDiscreteUpdateEvent(self._start)
 
     def _read_joints(self, context):
         return quantize_joint_state(self._joints.Eval(context), self.encoder_resolution)
-
-    def _start(self, context, state):
-        command = self._command.Eval(context)
-        state.get_mutable_vector(self._applied).SetFromVector(command)
-        state.get_mutable_vector(self._written).SetFromVector(command)
-        state.get_mutable_vector(self._read).SetFromVector(self._read_joints(context))
 
     def _cycle(self, context, state):
         state.get_mutable_vector(self._applied).SetFromVector(

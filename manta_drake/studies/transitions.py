@@ -292,19 +292,29 @@ def target_series(z_hat, blend: str, z_t: float) -> np.ndarray:
     return np.array([target_params(z, 0.0, *gaits, z_t, blend) for z in np.ravel(z_hat)])
 
 
-def joint_limits() -> tuple[np.ndarray, np.ndarray]:
+def joint_limits(params=None) -> tuple[np.ndarray, np.ndarray]:
     """The 16 joint actuators' effort limits [N m] and the joints' velocity limits [rad/s],
-    read from the robot's model."""
+    read from the robot's model of RobotParams ``params`` (None: the shipped model)."""
     from pydrake.systems.framework import DiagramBuilder
 
     from manta_drake.model.plant import add_plant
 
-    handles = add_plant(DiagramBuilder(), with_pool=False)
+    handles = add_plant(DiagramBuilder(), with_pool=False, robot_params=params)
     plant = handles.plant
     actuators = [plant.get_joint_actuator(i)
                  for i in plant.GetJointActuatorIndices(handles.robot)]
     return (np.array([a.effort_limit() for a in actuators]),
             np.array([a.joint().velocity_upper_limits()[0] for a in actuators]))
+
+
+def braking(scenario) -> float:
+    """The datasheet servo's back-EMF braking b [N m s/rad] that its logged joint torque
+    includes (``model.servo``), or 0 for the ideal PD."""
+    if scenario.actuators.servo_model != "datasheet":
+        return 0.0
+    from manta_drake.model.servo import back_emf_damping
+
+    return back_emf_damping(scenario.servo())
 
 
 def facts(scenario, effort, velocity) -> dict:
@@ -1006,7 +1016,8 @@ def main(argv=None, prog=None) -> int:
     from manta_drake.model.robot_params import JOINT_NAMES
 
     runs, rows, checks = {}, [], {}
-    effort, velocity = joint_limits()
+    reference = make_scenario(*METHODS[0][1:3], None)  # the servos of every run
+    effort, velocity = joint_limits(reference.robot_params())
     duration = None
     for label, blend, follow, folder in METHODS:
         print(f"[{label}] analysing {out / folder}", flush=True)
@@ -1020,8 +1031,9 @@ def main(argv=None, prog=None) -> int:
         if follow == "direct":
             checks[f"{label}: logged cpg_params = psi_d(z_hat) one update later, max "
                    "difference (rad)"] = f"{check_direct_follow(log, scenario):.2e}"
-        if "joint_torque" in log:
-            at_limit = np.abs(log["joint_torque"]) >= effort - 1e-9
+        if "joint_torque" in log:  # the limit is the PD's, before the servo's braking
+            pd = log["joint_torque"] + braking(scenario) * log["joint_velocities"]
+            at_limit = np.abs(pd) >= effort - 1e-9
             limit = (f"{effort.min():g}" if np.ptp(effort) == 0
                      else f"{effort.min():g}-{effort.max():g}")
             checks[f"{label}: samples (1 ms) with a joint at its effort limit "

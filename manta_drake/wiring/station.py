@@ -60,13 +60,13 @@ Outputs, what the robot's sensors give:
 
 and, for logging and visualisation only (a controller must not read them):
 
-* ``joint_torque`` (16) [N m]: the torque each joint's actuator applies in the plant's
-  step, in the plant's joint order (that of ``measured_joint_state``): the plant's net
-  actuation, which includes the implicit PD's contribution (SAP evaluates the PD at the
-  step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next), clamped to the effort
-  limit), i.e. what the servos deliver, not the PD law at the logged state; with the
-  ``datasheet`` servo less its back-EMF braking b qdot, which the plant applies as joint
-  damping.
+* ``joint_torque`` (16) [N m]: the torque each joint's actuator applied over the last
+  plant step, in the plant's joint order (that of ``measured_joint_state``): the plant's
+  net actuation of that step, which includes the implicit PD's contribution (SAP
+  evaluates the PD at the step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next),
+  clamped to the effort limit), i.e. what the servos deliver, not the PD law at the
+  logged state; with the ``datasheet`` servo less its back-EMF braking b qdot_next, which
+  the plant applies as joint damping.
 * ``joint_mechanical_power`` (16) [W]: tau qdot of each joint over the last step.
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
@@ -86,6 +86,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 
+import numpy as np
 from pydrake.common import RandomDistribution
 from pydrake.geometry import (
     ClippingRange,
@@ -169,6 +170,13 @@ def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
         plant.GetJointByName(name, handles.robot).set_default_angle(q)
 
 
+def start_command(scenario: Scenario) -> np.ndarray:
+    """The servos' command before the controller's first: the start stance at rest (a
+    robot's servos hold the pose they were switched on in)."""
+    return np.concatenate([scenario.initial_joint_angles(),
+                           np.zeros(len(scenario.initial_joint_angles()))])
+
+
 def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector) -> None:
     """``desired_state`` into the plant's PD and the joints' state out as
     ``measured_joint_state``: directly, or with ``actuators.bus_period`` > 0 through a
@@ -181,7 +189,8 @@ def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector)
         builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
         return
     bus = builder.AddNamedSystem("servo_bus", ServoBus(
-        len(handles.joint_names), period, scenario.servo().encoder_resolution))
+        len(handles.joint_names), period, scenario.servo().encoder_resolution,
+        start_command(scenario)))
     builder.ExportInput(bus.GetInputPort("command"), "desired_state")
     builder.Connect(bus.GetOutputPort("applied_command"), port)
     builder.Connect(selector.get_output_port(), bus.GetInputPort("joint_state"))
@@ -189,22 +198,23 @@ def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector)
 
 
 def _motor_torque(builder, scenario: Scenario, handles: PlantHandles):
-    """The system whose output is each joint's servo torque (16, N m): the plant's net
-    actuation, and with ``actuators.servo_model: datasheet`` less the back-EMF braking
-    b qdot that the plant applies as joint damping (``model.servo``; the gear train's own
-    friction stays out), from C++ primitives."""
-    plant = handles.plant
+    """The system whose output is each joint's servo torque over the last plant step (16,
+    N m), from C++ primitives: the plant's net actuation (the implicit PD's torque of the
+    step about to be taken) held for one step, so that it meets the joint rate at that
+    step's end; with ``actuators.servo_model: datasheet`` less the back-EMF braking
+    b qdot that the plant applied as joint damping over the step (``model.servo``; the gear
+    train's own friction stays out)."""
+    plant, n = handles.plant, len(handles.joint_names)
+    hold = builder.AddNamedSystem("joint_torque_hold", ZeroOrderHold(scenario.time_step, n))
+    builder.Connect(joint_torque_port(handles), hold.get_input_port())
     if scenario.actuators.servo_model != "datasheet":
-        torque = builder.AddNamedSystem("joint_torque", PassThrough(len(handles.joint_names)))
-        builder.Connect(joint_torque_port(handles), torque.get_input_port())
-        return torque
-    n = len(handles.joint_names)
+        return hold
     b = back_emf_damping(scenario.servo())
     braking = builder.AddNamedSystem("back_emf_braking", MatrixGain(
         -b * joint_state_selector(handles)[n:]))
     builder.Connect(plant.get_state_output_port(), braking.get_input_port())
     total = builder.AddNamedSystem("joint_torque", Adder(2, n))
-    builder.Connect(joint_torque_port(handles), total.get_input_port(0))
+    builder.Connect(hold.get_output_port(), total.get_input_port(0))
     builder.Connect(braking.get_output_port(), total.get_input_port(1))
     return total
 
@@ -303,14 +313,12 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     a, ph = scenario.actuators, handles.plant_handles
     model = load_energy_model(a.file, a.scales, a.electronics_mode)
     n = len(ph.joint_names)
-    # The live net-actuation port gives the torque of the step about to be taken (evaluated
-    # at its end state); held for one step (in C++, no Python call), it meets the joint rate
-    # at that step's end, so tau qdot dt is the step's work.
-    hold = builder.AddNamedSystem("joint_torque_hold", ZeroOrderHold(scenario.time_step, n))
-    builder.Connect(handles.systems["joint_torque"].get_output_port(), hold.get_input_port())
+    # The station's joint torque is the last step's (``_motor_torque``), so it meets the
+    # joint rate at that step's end and tau qdot dt is the step's work.
     servos = builder.AddNamedSystem("servo_power", ServoPower(model.servo,
                                                               model.electronics_power, n))
-    builder.Connect(hold.get_output_port(), servos.GetInputPort("joint_torque"))
+    builder.Connect(handles.systems["joint_torque"].get_output_port(),
+                    servos.GetInputPort("joint_torque"))
     builder.Connect(builder.GetSubsystemByName("joint_state_selector").get_output_port(),
                     servos.GetInputPort("measured_joint_state"))
     battery = builder.AddNamedSystem("battery", Battery(
@@ -320,7 +328,7 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     builder.ExportOutput(servos.GetOutputPort("electrical_power"), "electrical_power")
     builder.ExportOutput(battery.GetOutputPort("battery"), "battery")
     builder.ExportOutput(servos.GetOutputPort("joint_mechanical_power"), "joint_mechanical_power")
-    handles.systems.update(joint_torque_hold=hold, servo_power=servos, battery=battery)
+    handles.systems.update(servo_power=servos, battery=battery)
 
 
 def _add_modalities(builder, scenario: Scenario, handles: StationHandles) -> None:

@@ -67,12 +67,14 @@ def test_mechanical_power_is_the_work_of_each_plant_step(trot_runs):
     log = trot_runs[True][1].log
     tau, v, p = log["joint_torque"], log["joint_velocities"], log["joint_mechanical_power"]
     q = log["joint_angles"]
-    # The live joint_torque at t_k is the torque of the step to t_k+1 (implicit PD at its
-    # end): the held torque meets the rate at the end of its step.
+    # The station's joint_torque at t_k is the torque of the step that ended at t_k (the
+    # implicit PD at that step's end, held, less the servo's braking at the same rate): it
+    # meets the rate at the end of its step.
     np.testing.assert_array_equal(p[0], 0.0)
-    np.testing.assert_allclose(p[1:], tau[:-1] * v[1:], rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(tau[0], 0.0)  # no step taken yet
+    np.testing.assert_allclose(p[1:], tau[1:] * v[1:], rtol=1e-15, atol=0)
     # So p dt sums to the work tau . (q_k+1 - q_k) of the plant's symplectic steps.
-    work = np.sum(tau[:-1] * (q[1:] - q[:-1]))
+    work = np.sum(tau[1:] * (q[1:] - q[:-1]))
     assert np.sum(p[1:]) * 1e-3 == pytest.approx(work, rel=1e-9)
 
 
@@ -82,7 +84,7 @@ def test_standing_draws_the_holding_current(tmp_path):
     rest = log["t"] >= 1.5
     assert np.abs(log["joint_velocities"][rest]).max() < 5e-3  # standing still
     power = log["electrical_power"][rest, 0]
-    held = log["joint_torque"][np.flatnonzero(rest) - 1]  # each step's torque
+    held = log["joint_torque"][rest]  # each step's torque, logged at the step's end
     copper = MODEL.servo.winding_resistance * motor_current(held, 0.0, MODEL.servo) ** 2
     # At rest: the stall closed form R i^2 + standby per servo, plus the computers (within
     # 1 %: the stance still creeps at up to 5e-3 rad/s, a few per cent of backdrive_speed).

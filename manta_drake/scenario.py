@@ -63,7 +63,7 @@ from manta_drake.model import MODELS_DIR, PACKAGE_URL, resolve_path
 from manta_drake.model.actuators import load_actuators, load_energy_model, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
-from manta_drake.model.servo import SERVO_MODELS, servo_robot_params
+from manta_drake.model.servo import SERVO_MODELS, back_emf_damping, servo_robot_params
 from manta_drake.model.start_pose import start_pose_problem
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
 from manta_drake.station.flow_sensor import FlowSensorParams
@@ -359,14 +359,21 @@ class Scenario:
         gains, effort limit and damping of ``actuators.servo_model`` (model.servo)."""
         params = robot_with_fin_sweep_deg(self.fin_sweep_deg())
         if self.actuators.servo_model == "datasheet":
-            params = servo_robot_params(params, self.servo())
+            params = servo_robot_params(params, self.energy_model().servo)
         return params
 
-    def servo(self):
-        """The servo class's constants (model.actuators.ServoConstants) of the
-        ``actuators`` section: its file with its scales."""
+    def energy_model(self):
+        """The resolved servos, electronics and battery (model.actuators.EnergyModel) of the
+        ``actuators`` section: its file with its scales, the Jetson in its mode."""
         a = self.actuators
-        return load_energy_model(a.file, a.scales, a.electronics_mode).servo
+        return load_energy_model(a.file, a.scales, a.electronics_mode)
+
+    def servo_braking(self) -> float:
+        """The back-EMF braking b [N m s/rad] (model.servo) that the plant applies as joint
+        damping and the station's ``joint_torque`` includes; 0 with the ideal PD."""
+        if self.actuators.servo_model != "datasheet":
+            return 0.0
+        return back_emf_damping(self.energy_model().servo)
 
     def gaits(self):
         """The gait library of this scenario (name -> GaitParams, read-only): the shipped

@@ -183,10 +183,7 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
     if len(log.get("joint_torque", [])) and len(log.get("joint_velocities", [])):
         m["actuator_envelope"] = actuator_envelope(scenario, log)
     if "electrical_power" in log:  # the energy model is on (actuators.enabled)
-        from manta_drake.model.actuators import load_energy_model
-
-        a = scenario.actuators
-        pack = load_energy_model(a.file, a.scales, a.electronics_mode).pack
+        pack = scenario.energy_model().pack
         m["energy"] = M.energy_metrics(
             log, scenario.robot_params().total_mass, pack.usable_energy_wh(), pack.cutoff_soc,
             m.get("steady_window_s"), m.get("mean_velocity_body"))
@@ -199,7 +196,7 @@ def actuator_envelope(scenario: Scenario, log: dict) -> dict:
     from manta_drake.model.robot_params import JOINT_NAMES
     from manta_drake.model.servo import envelope_ratio
 
-    servo, t, qdot = scenario.servo(), log["t"], log["joint_velocities"]
+    servo, t, qdot = scenario.energy_model().servo, log["t"], log["joint_velocities"]
     n = min(len(t), len(qdot))
     tau = np.stack([np.interp(t[:n], log["t_joint_torque"], column)
                     for column in np.asarray(log["joint_torque"]).T], axis=1)

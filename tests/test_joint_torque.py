@@ -90,7 +90,7 @@ def test_equals_the_implicit_pd_law(run):
     scenario, handles, log, desired = run
     kp, kd, effort, damping = _actuator_parameters(handles)
     datasheet = scenario.actuators.servo_model == "datasheet"
-    b = back_emf_damping(scenario.servo()) if datasheet else 0.0
+    b = back_emf_damping(scenario.energy_model().servo) if datasheet else 0.0
     assert np.all(kp > 0) and np.all(np.isfinite(effort))
     assert np.all(kd == 0) if datasheet else np.all(kd > 0)
     np.testing.assert_allclose(damping, scenario.robot_params().joint_damping)
@@ -123,7 +123,7 @@ def test_equals_the_implicit_pd_law(run):
 def test_stand_exercises_the_effort_limit(servo_model, pose):
     scenario, handles, log, _ = _short_run("stand", 0.4, servo_model, **pose)
     _, _, effort, _ = _actuator_parameters(handles)
-    b = back_emf_damping(scenario.servo()) if servo_model == "datasheet" else 0.0
+    b = back_emf_damping(scenario.energy_model().servo) if servo_model == "datasheet" else 0.0
     pd = log["joint_torque"][1:] + b * log["joint_velocities"][1:]
     saturated = np.abs(pd) >= effort - 1e-9
     assert saturated.any(), np.abs(pd).max()

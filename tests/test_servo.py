@@ -91,7 +91,7 @@ def _slew(servo_model: str, step_rad: float = 0.8):
     goal[16:] = 0.0
     station.GetInputPort("desired_state").FixValue(context, goal)
     rates, ratios = [], []
-    servo = s.servo()
+    servo = s.energy_model().servo
     for k in range(1, 151):
         simulator.AdvanceTo(0.001 * k)
         x = station.GetOutputPort("measured_joint_state").Eval(context)

@@ -176,10 +176,7 @@ class SensorRanges:
         """The ranges of the robot that ``scenario`` describes."""
         voltage = current = power = math.inf
         if scenario.actuators.enabled:
-            from manta_drake.model.actuators import load_energy_model
-
-            a = scenario.actuators
-            pack = load_energy_model(a.file, a.scales, a.electronics_mode).pack
+            pack = scenario.energy_model().pack
             ocv = pack.cells_in_series * float(np.max(pack.ocv_cell_voltage))
             voltage = pack.cells_in_series * MAX_CELL_VOLTAGE_V
             if pack.internal_resistance > 0:

@@ -307,16 +307,6 @@ def joint_limits(params=None) -> tuple[np.ndarray, np.ndarray]:
             np.array([a.joint().velocity_upper_limits()[0] for a in actuators]))
 
 
-def braking(scenario) -> float:
-    """The datasheet servo's back-EMF braking b [N m s/rad] that its logged joint torque
-    includes (``model.servo``), or 0 for the ideal PD."""
-    if scenario.actuators.servo_model != "datasheet":
-        return 0.0
-    from manta_drake.model.servo import back_emf_damping
-
-    return back_emf_damping(scenario.servo())
-
-
 def facts(scenario, effort, velocity) -> dict:
     """Numbers the page quotes, from the scenario, the gaits and the model."""
     from manta_drake.control.gaits import GAITS
@@ -1032,7 +1022,7 @@ def main(argv=None, prog=None) -> int:
             checks[f"{label}: logged cpg_params = psi_d(z_hat) one update later, max "
                    "difference (rad)"] = f"{check_direct_follow(log, scenario):.2e}"
         if "joint_torque" in log:  # the limit is the PD's, before the servo's braking
-            pd = log["joint_torque"] + braking(scenario) * log["joint_velocities"]
+            pd = log["joint_torque"] + scenario.servo_braking() * log["joint_velocities"]
             at_limit = np.abs(pd) >= effort - 1e-9
             limit = (f"{effort.min():g}" if np.ptp(effort) == 0
                      else f"{effort.min():g}-{effort.max():g}")

@@ -112,7 +112,6 @@ from pydrake.systems.primitives import (
 from pydrake.systems.sensors import RgbdSensor
 
 from manta_drake.model import resolve_path
-from manta_drake.model.actuators import load_energy_model
 from manta_drake.model.camera import camera_info
 from manta_drake.model.coefficients import (
     HydroCoefficients,
@@ -127,7 +126,6 @@ from manta_drake.model.plant import (
     joint_torque_port,
     set_contact_friction,
 )
-from manta_drake.model.servo import back_emf_damping
 from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
@@ -189,7 +187,7 @@ def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector)
         builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
         return
     bus = builder.AddNamedSystem("servo_bus", ServoBus(
-        len(handles.joint_names), period, scenario.servo().encoder_resolution,
+        len(handles.joint_names), period, scenario.energy_model().servo.encoder_resolution,
         start_command(scenario)))
     builder.ExportInput(bus.GetInputPort("command"), "desired_state")
     builder.Connect(bus.GetOutputPort("applied_command"), port)
@@ -207,9 +205,9 @@ def _motor_torque(builder, scenario: Scenario, handles: PlantHandles):
     plant, n = handles.plant, len(handles.joint_names)
     hold = builder.AddNamedSystem("joint_torque_hold", ZeroOrderHold(scenario.time_step, n))
     builder.Connect(joint_torque_port(handles), hold.get_input_port())
-    if scenario.actuators.servo_model != "datasheet":
+    b = scenario.servo_braking()
+    if b == 0.0:
         return hold
-    b = back_emf_damping(scenario.servo())
     braking = builder.AddNamedSystem("back_emf_braking", MatrixGain(
         -b * joint_state_selector(handles)[n:]))
     builder.Connect(plant.get_state_output_port(), braking.get_input_port())
@@ -311,7 +309,7 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     """The energy model: the servos' and computers' electrical power and the battery. It
     reads the plant and applies no force, so the run's motion is the same without it."""
     a, ph = scenario.actuators, handles.plant_handles
-    model = load_energy_model(a.file, a.scales, a.electronics_mode)
+    model = scenario.energy_model()
     n = len(ph.joint_names)
     # The station's joint torque is the last step's (``_motor_torque``), so it meets the
     # joint rate at that step's end and tau qdot dt is the step's work.

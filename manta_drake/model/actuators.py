@@ -17,6 +17,7 @@ piecewise-linear curve).
 
 import copy
 import dataclasses as dc
+import functools
 import pathlib
 
 import numpy as np
@@ -409,5 +410,21 @@ def load_energy_model(file, scales: dict | None = None, electronics_mode: str | 
     """The resolved model of a scenario's ``actuators`` section: ``file`` (a
     ``package://manta_drake/...`` URL or a path) loaded, ``scales`` applied, the Jetson in
     ``electronics_mode`` (None: the file's default). Errors name ``field``."""
-    params = load_actuators(resolve_path(file), field)
+    path = resolve_path(file)
+    try:  # the file parsed once per version (~15 ms a parse; a build asks several times)
+        key = (str(path), path.stat().st_mtime_ns if path.is_file() else None,
+               tuple(sorted((scales or {}).items())), electronics_mode, field)
+        hash(key)
+    except (TypeError, OSError):  # unhashable scales: the checks below name them
+        return _energy_model(path, scales, electronics_mode, field)
+    return _cached_energy_model(*key)
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_energy_model(path: str, mtime_ns, scales: tuple, electronics_mode, field: str):
+    return _energy_model(pathlib.Path(path), dict(scales), electronics_mode, field)
+
+
+def _energy_model(path, scales, electronics_mode, field: str) -> EnergyModel:
+    params = load_actuators(path, field)
     return energy_model(scale_actuators(params, scales or {}), electronics_mode)

@@ -131,7 +131,7 @@ class ServoPower(LeafSystem):
     * ``joint_torque`` (n) [N m]: each actuator's torque over the step that ends at the
       current time, in the joint order of ``measured_joint_state``. (The plant's live
       net-actuation port reports the step *about to be taken*, whose torque is paired with
-      the velocity at its end; the station feeds it through a one-step ZeroOrderHold so
+      the velocity at its end; the station's ``joint_torque`` holds it for one step, so
       that here torque and rate belong to the same step and tau qdot dt is exactly the
       step's work.)
     * ``measured_joint_state`` (2n): joint angles then joint rates [rad, rad/s].

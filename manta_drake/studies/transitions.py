@@ -889,7 +889,8 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
         "* **max meas. vel**: the largest |joint velocity| measured [rad/s] (servo limit in "
         f"the model: {f['velocity']} rad/s).",
         "* **peak abs torque**: the largest |joint torque| the actuators apply (the station's "
-        "`joint_torque`, the plant's net actuation including the PD) [N m]; the effort limit "
+        "`joint_torque`: the plant's net actuation including the PD, less the datasheet "
+        "servo's back-EMF braking) [N m]; the PD's effort limit "
         f"is {f['effort']} N m.",
         "* **roll / pitch exc.**: max - min of the body's roll and pitch over the window [deg] "
         "(includes the sinking/rising and landing, which every method has).",

@@ -206,6 +206,21 @@ def test_contact_summary_stride_and_slip_in_the_heading_frame(fr):
     assert abs(legs["fl"]["noslip_v"]) < 1e-12  # nothing sideways in the heading frame
     assert c["all"]["noslip_u"] == pytest.approx((3 * 0.05 + 1 * 0.07) / 4)
     assert c["all"]["sliding"] == pytest.approx(0.25)  # rr's load slides (> 5 mm/s)
+    assert legs["fl"]["duty"] == legs["rr"]["duty"] == c["all"]["duty"] == 1.0
+
+
+def test_contact_summary_duty_factor_counts_loaded_samples(fr):
+    import numpy as np
+
+    zero = np.zeros(3)
+    step = ("distal plate", "fl", zero, np.array([0.0, 0.0, 2.0]), zero, 0.0)
+    graze = ("foot", "rr", zero, np.array([0.0, 0.0, 0.05]), zero, 0.0)  # below LOADED
+    # fl stands in 3 of 4 samples; rr only grazes; nothing touches in the last sample.
+    s = _samples(0.0, [0.0, 0.0, 0.0], [[step, graze], [step], [step, graze], []])
+    c = fr.contact_summary(s, (0.0, 1.0))
+    assert c["legs"]["fl"]["duty"] == pytest.approx(0.75)
+    assert c["legs"]["rr"]["duty"] == 0.0
+    assert c["all"]["duty"] == pytest.approx(0.75)
 
 
 def test_contact_summary_without_contacts_is_nan_not_zero(fr):

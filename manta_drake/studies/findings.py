@@ -452,6 +452,8 @@ SAMPLE_PERIOD = 0.001  # s: every plant step (sampling every 10 ms aliased the c
 #                        the traction of a 20 s walk came out 30 % short of the water drag)
 SLIDING = 0.005  # m/s: a contact whose slip speed exceeds this is sliding (SAP's regularised
 #                  friction lets a stuck contact creep at well under 1 mm/s)
+LOADED = 0.1  # N: a leg bearing more of the floor's normal force than this stands on it
+#              (1 % of the deflated robot's 8.3 N; a grazing contact carries less)
 
 
 def band_scenario(gait: str, friction: float, damping: float, weight: float, duration: float,
@@ -700,38 +702,45 @@ def contact_summary(samples: dict, window) -> dict:
     normal-force-weighted means of the robot's contact point's horizontal velocity
     ``slip_u``, ``slip_v`` [m/s] (zero if nothing slides) and of the hull's velocity
     relative to that point, ``noslip_u``, ``noslip_v`` (the stride's own speed: what the
-    hull would do if the loaded points held), and ``sliding``: the fraction of the normal
-    load on points sliding faster than SLIDING."""
+    hull would do if the loaded points held), ``sliding``: the fraction of the normal
+    load on points sliding faster than SLIDING, and ``duty``: the fraction of the window's
+    samples in which the leg (any leg, for ``all``) bears more than LOADED of it."""
     import numpy as np
 
     t = samples["t"]
     kinds: dict = {}
     acc: dict = {}  # per leg: [fn, fn slip_u, fn slip_v, fn noslip_u, fn noslip_v, sliding fn]
+    loaded: dict = {}  # per leg, and "all": samples with the leg loaded
     traction, n = 0.0, 0
     for k in np.flatnonzero((t >= window[0]) & (t < window[1])):
         n += 1
         fwd, left = heading_frame(samples["yaw"][k])
         v_hull = samples["v_world"][k]
+        load: dict = {}
         for kind, leg, _, f, v, slip in samples["contacts"][k]:
             fn = max(float(f[2]), 0.0)
+            load[leg] = load.get(leg, 0.0) + fn
             kinds[kind] = kinds.get(kind, 0.0) + fn
             rel = v_hull - v  # the hull's velocity relative to the robot's contact point
             row = fn * np.array([1.0, v @ fwd, v @ left, rel @ fwd, rel @ left,
                                  1.0 if slip > SLIDING else 0.0])
             acc[leg] = acc.get(leg, np.zeros(6)) + row
             traction += float(f @ fwd)
+        for leg in [leg for leg, f in load.items() if f > LOADED] + (
+                ["all"] if any(f > LOADED for f in load.values()) else []):
+            loaded[leg] = loaded.get(leg, 0) + 1
     total = sum(kinds.values())
 
-    def stats(a):
+    def stats(a, leg):
         w = a[0] if a[0] > 0 else math.nan
         return {"share": a[0] / total if total else math.nan, "slip_u": a[1] / w,
                 "slip_v": a[2] / w, "noslip_u": a[3] / w, "noslip_v": a[4] / w,
-                "sliding": a[5] / w}
+                "sliding": a[5] / w, "duty": loaded.get(leg, 0) / n if n else math.nan}
 
     return {"load": total / max(n, 1), "traction": traction / max(n, 1),
             "share": {k: v / total for k, v in sorted(kinds.items())},
-            "all": stats(sum(acc.values(), np.zeros(6))),
-            "legs": {leg: stats(a) for leg, a in sorted(acc.items())}}
+            "all": stats(sum(acc.values(), np.zeros(6)), "all"),
+            "legs": {leg: stats(a, leg) for leg, a in sorted(acc.items())}}
 
 
 # name: (gait, friction, damping x, net weight kg, duration s, extra overrides, gait override)

@@ -9,7 +9,6 @@ import time
 
 import numpy as np
 
-from manta_drake.model.plant import joint_state_selector
 from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.seam.channels import (
     CHANNEL_BY_NAME,
@@ -144,7 +143,8 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
     body = _body_indices(handles)
     # The joints' true state, as the single diagram logs it (``measured_joint_state`` is
     # the servo bus's quantized reading when the scenario has one).
-    joints = joint_state_selector(handles.plant_handles)
+    selector = handles.systems["joint_state_selector"]
+    selector_context = selector.GetMyContextFromRoot(context)
     state_port = station.GetOutputPort("plant_state")
     logged = [c for c in sends if c.codec == "vector"]  # sensors logged as sent
     log = {"t": [], "joint_angles": [], "joint_velocities": [], "body_xyz": [],
@@ -152,7 +152,7 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
     logged = {c.name for c in logged}
 
     def record(t):
-        x = joints @ state_port.Eval(context)
+        x = selector.get_output_port().Eval(selector_context)
         log["t"].append(t)
         log["joint_angles"].append(x[:NUM_JOINTS].copy())
         log["joint_velocities"].append(x[NUM_JOINTS:].copy())

@@ -726,8 +726,8 @@ def contact_summary(samples: dict, window) -> dict:
                                  1.0 if slip > SLIDING else 0.0])
             acc[leg] = acc.get(leg, np.zeros(6)) + row
             traction += float(f @ fwd)
-        for leg in [leg for leg, f in load.items() if f > LOADED] + (
-                ["all"] if any(f > LOADED for f in load.values()) else []):
+        standing = [leg for leg, f in load.items() if f > LOADED]
+        for leg in standing + (["all"] if standing else []):
             loaded[leg] = loaded.get(leg, 0) + 1
     total = sum(kinds.values())
 

@@ -171,8 +171,8 @@ def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
 def start_command(scenario: Scenario) -> np.ndarray:
     """The servos' command before the controller's first: the start stance at rest (a
     robot's servos hold the pose they were switched on in)."""
-    return np.concatenate([scenario.initial_joint_angles(),
-                           np.zeros(len(scenario.initial_joint_angles()))])
+    q = scenario.initial_joint_angles()
+    return np.concatenate([q, np.zeros_like(q)])
 
 
 def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector) -> None:
@@ -317,7 +317,7 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
                                                               model.electronics_power, n))
     builder.Connect(handles.systems["joint_torque"].get_output_port(),
                     servos.GetInputPort("joint_torque"))
-    builder.Connect(builder.GetSubsystemByName("joint_state_selector").get_output_port(),
+    builder.Connect(handles.systems["joint_state_selector"].get_output_port(),
                     servos.GetInputPort("measured_joint_state"))
     battery = builder.AddNamedSystem("battery", Battery(
         model.pack, scenario.time_step, a.initial_soc, stop_at_cutoff=a.stop_when_empty))
@@ -383,6 +383,7 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     selector = builder.AddNamedSystem("joint_state_selector",
                                       MatrixGain(joint_state_selector(plant_handles)))
     builder.Connect(plant.get_state_output_port(), selector.get_input_port())
+    handles.systems["joint_state_selector"] = selector  # the joints' true [q, qdot]
     _add_servo_bus(builder, scenario, plant_handles, selector)
     handles.systems["joint_torque"] = _motor_torque(builder, scenario, plant_handles)
     builder.ExportOutput(handles.systems["joint_torque"].get_output_port(), "joint_torque")

@@ -36,7 +36,8 @@ def print_metrics(metrics: dict, out_dir) -> None:
         "min_wall_clearance_m", "touched_wall", "distance_m", "max_joint_step_rad",
         "max_penetration_m", "final_max_joint_error_rad",
     ]
-    energy_keys = ["mean_electrical_power_w", "cost_of_transport", "cost_of_transport_mechanical",
+    energy_keys = ["mean_electrical_power_w", "hotel_power_w", "cot_electrical_dry_weight",
+                   "cot_net_of_hotel_dry_weight", "cot_mechanical_dry_weight",
                    "operation_time_h", "battery_soc_end"]
     print()
     for key in keys:
@@ -58,7 +59,7 @@ def print_metrics(metrics: dict, out_dir) -> None:
         if key in energy:
             value = energy[key]
             print(f"  {key:<28} {'-' if value is None else f'{value:.4g}'}")
-    if energy.get("cost_of_transport") is None and energy.get("cost_of_transport_note"):
+    if energy.get("cost_of_transport_note"):
         print(f"  {'':<28} ({energy['cost_of_transport_note']})")
     failure = metrics.get("failure")
     if failure:

@@ -217,9 +217,33 @@ def _step_integral(t, values, start: float = -np.inf, end: float = np.inf) -> tu
     return float(np.sum(values[1:][inside] * dt[inside])), float(np.sum(dt[inside]))
 
 
+# The costs of transport the energy block reports: (name, the steady power it divides).
+# "net_of_hotel" leaves out the draw the robot has whatever its joints do (computers and
+# servo standby), so it compares locomotion rather than speed; each is divided by the dry
+# weight m g and by the weight in water (m - rho V_sealed) g of the deflated robot.
+COT_POWERS = ("electrical", "net_of_hotel", "mechanical")
+COT_WEIGHTS = ("dry_weight", "weight_in_water")
+COT_KEYS = tuple(f"cot_{p}_{w}" for p in COT_POWERS for w in COT_WEIGHTS)
+
+
+def costs_of_transport(electrical_w: float, mechanical_w: float, hotel_w: float,
+                       dry_weight_n: float, weight_in_water_n: float | None,
+                       speed: float) -> dict:
+    """P / (W u) for every entry of ``COT_KEYS``: the steady electrical power, the same less
+    the hotel load, and the joints' mechanical power sum |tau qdot|, each over the dry weight
+    and over the weight in water [N] (None where that weight is None or not positive: a
+    deflated robot that floats has no weight in water to carry)."""
+    powers = {"electrical": electrical_w, "net_of_hotel": electrical_w - hotel_w,
+              "mechanical": mechanical_w}
+    weights = {"dry_weight": dry_weight_n, "weight_in_water": weight_in_water_n}
+    return {f"cot_{p}_{w}": (powers[p] / (weights[w] * speed)
+                             if weights[w] is not None and weights[w] > 0 else None)
+            for p in COT_POWERS for w in COT_WEIGHTS}
+
+
 def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: float,
-                   steady_window=None, mean_velocity=None,
-                   min_speed: float = MIN_TRANSPORT_SPEED,
+                   steady_window=None, mean_velocity=None, weight_in_water_kg=None,
+                   hotel_power_w: float = 0.0, min_speed: float = MIN_TRANSPORT_SPEED,
                    gravity: float = STANDARD_GRAVITY) -> dict:
     """The run's ``energy`` block from the logged energy model.
 
@@ -235,18 +259,21 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         mean_velocity: the mean horizontal velocity [u, v] in the mean-heading frame over
             that window [m/s]; the speed of travel is its magnitude (so a crab's sideways
             travel counts).
+        weight_in_water_kg: the deflated robot's net weight [kg] (None: no water model).
+        hotel_power_w: the draw the robot has whatever its joints do [W] (the computers and
+            every servo's standby).
         min_speed: below this speed of travel the costs of transport are None, with a note.
         gravity: [m/s^2].
 
     Returns:
         ``mechanical_energy_j`` (integral of sum_j |tau_j qdot_j| over the run),
         ``electrical_energy_j`` (integral of the electrical power), ``mean_electrical_power_w``
-        (over the run), ``cost_of_transport`` (the window's mean electrical power / (m g u)),
-        ``cost_of_transport_mechanical`` (the window's mean sum |tau qdot| / (m g u)),
-        ``battery_soc_end``, ``operation_time_h`` (usable energy / mean electrical power),
-        and ``steady_electrical_power_w``, ``steady_mechanical_power_w``,
+        (over the run), ``hotel_power_w``, ``dry_weight_n``, ``weight_in_water_n``, the six
+        costs of transport of ``COT_KEYS`` (``costs_of_transport`` of the window's mean
+        powers), ``battery_soc_end``, ``operation_time_h`` (usable energy / mean electrical
+        power), and ``steady_electrical_power_w``, ``steady_mechanical_power_w``,
         ``transport_speed_m_s``, ``battery_cutoff_at_s`` (first time at the cut-off, or
-        None) and ``cost_of_transport_note`` (why a cost of transport is None).
+        None) and ``cost_of_transport_note`` (why the costs of transport are None).
     """
     t_p, power = log["t_electrical_power"], log["electrical_power"]
     t_m, mech = log["t_joint_mechanical_power"], np.abs(log["joint_mechanical_power"])
@@ -254,12 +281,15 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
     electrical, duration = _step_integral(t_p, power)
     mechanical, _ = _step_integral(t_m, mech)
     mean_power = electrical / duration if duration > 0 else None
+    wet = None if weight_in_water_kg is None else float(weight_in_water_kg) * gravity
     out = {
         "mechanical_energy_j": mechanical,
         "electrical_energy_j": electrical,
         "mean_electrical_power_w": mean_power,
-        "cost_of_transport": None,
-        "cost_of_transport_mechanical": None,
+        "hotel_power_w": float(hotel_power_w),
+        "dry_weight_n": mass * gravity,
+        "weight_in_water_n": wet,
+        **dict.fromkeys(COT_KEYS),
         "battery_soc_end": float(battery[-1, 0]) if len(battery) else None,
         "operation_time_h": (usable_energy_wh / mean_power
                              if mean_power is not None and mean_power > 0 else None),
@@ -294,9 +324,34 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         out["cost_of_transport_note"] = (f"speed of travel {speed:.4f} m/s is below "
                                          f"{min_speed} m/s: no cost of transport")
         return out
-    weight_speed = mass * gravity * speed
-    out["cost_of_transport"] = out["steady_electrical_power_w"] / weight_speed
-    out["cost_of_transport_mechanical"] = out["steady_mechanical_power_w"] / weight_speed
+    out.update(costs_of_transport(out["steady_electrical_power_w"],
+                                  out["steady_mechanical_power_w"], hotel_power_w,
+                                  out["dry_weight_n"], wet, speed))
+    if wet is not None and wet <= 0:
+        out["cost_of_transport_note"] = (f"the deflated robot floats (weight in water "
+                                         f"{wet:.2f} N): no cost of transport by it")
+    return out
+
+
+def step_mean(t, values, start: float = -np.inf, end: float = np.inf) -> float | None:
+    """The time mean over (start, end] of a logged per-step signal (``_step_integral``),
+    summed over its columns; None without samples there."""
+    energy, duration = _step_integral(t, values, start, end)
+    return energy / duration if duration > 0 else None
+
+
+def power_breakdown(t, terms: dict, window=None) -> dict:
+    """Mean power [W] of each of ``terms`` (name -> per-step samples (N,) or (N, joints),
+    summed over joints) over ``window`` [start, end] (None: the whole run), as
+    ``<name>_w``, with ``total_w`` their sum and ``window_s`` the window used."""
+    start, end = (-np.inf, np.inf) if window is None else window
+    out = {f"{name}_w": step_mean(t, values, start, end) for name, values in terms.items()}
+    means = list(out.values())
+    out["total_w"] = None if None in means else float(sum(means))
+    if window is not None:
+        out["window_s"] = [float(start), float(end)]
+    else:
+        out["window_s"] = [float(t[0]), float(t[-1])] if len(t) else None
     return out
 
 

@@ -375,6 +375,15 @@ class Scenario:
             return 0.0
         return back_emf_damping(self.energy_model().servo)
 
+    def hydro_coefficients(self) -> HydroCoefficients | None:
+        """The water model's coefficients: ``water.coefficients`` with
+        ``water.coefficient_scales`` applied; None when ``water.enabled`` is false."""
+        w = self.water
+        if not w.enabled:
+            return None
+        return scale_coefficients(load_coefficients(resolve_path(w.coefficients)),
+                                  w.coefficient_scales)
+
     def gaits(self):
         """The gait library of this scenario (name -> GaitParams, read-only): the shipped
         ``models/gaits.yaml`` and ``controller.gait_files`` under ``controller.gait_reading``."""

@@ -52,6 +52,8 @@ from manta_drake.run_folder import (  # noqa: F401 (also the names callers impor
     write_metrics,
 )
 from manta_drake.scenario import Scenario, scenario_yaml
+from manta_drake.station.servo_power import servo_power_terms
+from manta_drake.station.water import deflated_net_weight_kg
 from manta_drake.wiring.diagram import DiagramHandles, build_diagram, logger_data
 
 LOG_KEYS = (
@@ -183,11 +185,41 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
     if len(log.get("joint_torque", [])) and len(log.get("joint_velocities", [])):
         m["actuator_envelope"] = actuator_envelope(scenario, log)
     if "electrical_power" in log:  # the energy model is on (actuators.enabled)
-        pack = scenario.energy_model().pack
+        model, params, coeffs = (scenario.energy_model(), scenario.robot_params(),
+                                 scenario.hydro_coefficients())
         m["energy"] = M.energy_metrics(
-            log, scenario.robot_params().total_mass, pack.usable_energy_wh(), pack.cutoff_soc,
-            m.get("steady_window_s"), m.get("mean_velocity_body"))
+            log, params.total_mass, model.pack.usable_energy_wh(), model.pack.cutoff_soc,
+            m.get("steady_window_s"), m.get("mean_velocity_body"),
+            weight_in_water_kg=None if coeffs is None else deflated_net_weight_kg(coeffs, params),
+            hotel_power_w=model.electronics_power + NUM_JOINTS * model.servo.standby_power)
+        if len(log.get("joint_torque", [])):
+            window = m["steady_window_s"] if m.get("mean_velocity_body") else None
+            m["power_breakdown"] = power_breakdown(scenario, log, window)
     return m
+
+
+def power_breakdown(scenario: Scenario, log: dict, window=None) -> dict:
+    """``metrics.power_breakdown`` of the run's electrical draw over ``window`` (None: the
+    whole run): ``computers`` (constant), and per servo ``standby``, ``copper`` and
+    ``shaft`` (``station.servo_power.servo_power_terms`` of the logged joint torques and
+    rates), with ``electrical_w`` the logged total over the same window (equal to
+    ``total_w`` when the log period is the plant's step)."""
+    model, t = scenario.energy_model(), log["t"]
+    tau = _on_times(t, log["t_joint_torque"], log["joint_torque"])
+    terms = servo_power_terms(tau, log["joint_velocities"][:len(tau)], model.servo)
+    out = M.power_breakdown(t[:len(tau)], {"computers": np.full(len(tau), model.electronics_power),
+                                           **terms}, window)
+    start, end = out["window_s"] or (0.0, 0.0)
+    out["electrical_w"] = M.step_mean(log["t_electrical_power"], log["electrical_power"],
+                                      start, end)
+    return out
+
+
+def _on_times(t, t_samples, samples) -> np.ndarray:
+    """``samples`` (N, k) logged at ``t_samples``, interpolated to the times ``t``."""
+    n = min(len(t), len(t_samples))
+    return np.stack([np.interp(t[:n], t_samples, column)
+                     for column in np.asarray(samples, dtype=float).T], axis=1)
 
 
 def actuator_envelope(scenario: Scenario, log: dict) -> dict:
@@ -197,9 +229,8 @@ def actuator_envelope(scenario: Scenario, log: dict) -> dict:
     from manta_drake.model.servo import envelope_ratio
 
     servo, t, qdot = scenario.energy_model().servo, log["t"], log["joint_velocities"]
-    n = min(len(t), len(qdot))
-    tau = np.stack([np.interp(t[:n], log["t_joint_torque"], column)
-                    for column in np.asarray(log["joint_torque"]).T], axis=1)
+    tau = _on_times(t[:len(qdot)], log["t_joint_torque"], log["joint_torque"])
+    n = len(tau)
     ratio = envelope_ratio(tau, qdot[:n], servo, servo.supply_voltage)
     return M.envelope_summary(t[:n], ratio, JOINT_NAMES, servo.supply_voltage)
 

@@ -45,7 +45,9 @@ def _instant(task):
     """An evaluator that costs nothing: every candidate the same."""
     return {"status": "ok", "metrics": {m: 0.0 for m in ("u", "v", "abs_u", "abs_v",
                                                          "speed", "yaw_rate", "abs_yaw_rate",
-                                                         "cot_electrical", "cot_mechanical",
+                                                         "cot_electrical",
+                                                         "cot_net_of_hotel",
+                                                         "cot_mechanical",
                                                          "mean_power_w",
                                                          "joint_limit_margin_deg",
                                                          "max_penetration_m")},

@@ -31,6 +31,7 @@ from manta_drake.station.servo_power import (
     joint_mechanical_power,
     motor_current,
     servo_electrical_power,
+    servo_power_terms,
     total_electrical_power,
     total_electrical_power_kernel,
     voltage_demand,
@@ -235,6 +236,20 @@ def test_driving_a_constant_torque(servo):
     assert back_emf(qdot, servo) * i == pytest.approx(tau * qdot / servo.gearbox_efficiency)
     # Motor power at least the delivered mechanical power (efficiency below 1).
     assert servo_electrical_power(tau, qdot, servo) - servo.standby_power > tau * qdot
+
+
+def test_power_terms_split_the_draw_by_where_it_goes(servo):
+    tau, qdot = np.array([2.0, 2.0, 0.0]), np.array([3.0, -3.0, 5.0])  # drive, back-driven, dry
+    terms = servo_power_terms(tau, qdot, servo)
+    eta, kn, r = servo.gearbox_efficiency, servo.torque_constant * servo.gear_ratio, \
+        servo.winding_resistance
+    np.testing.assert_allclose(terms["copper"], r * np.array([(2 / (kn * eta)) ** 2,
+                                                              (2 * eta / kn) ** 2, 0.0]))
+    # Driving: the shaft takes tau qdot / eta; back-driven work is lost; a dry joint takes none.
+    np.testing.assert_allclose(terms["shaft"], [6.0 / eta, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_array_equal(terms["standby"], np.full(3, 0.040 * 14.8))
+    np.testing.assert_allclose(sum(terms.values()), servo_electrical_power(tau, qdot, servo),
+                               rtol=1e-12)
 
 
 def test_back_driven_work_is_lost_unless_recovered(servo):

@@ -106,7 +106,8 @@ def test_the_summary_prints_walls_energy_and_a_failure(capsys, tmp_path):
 
     print_metrics({"scenario": "x", "status": "failed", "touched_wall": True,
                    "min_wall_clearance_m": 0.004, "near_wall_at_s": None,
-                   "energy": {"mean_electrical_power_w": 26.84, "cost_of_transport": None,
+                   "energy": {"mean_electrical_power_w": 26.84,
+                              "cot_electrical_dry_weight": None,
                               "cost_of_transport_note": "u below 0.005 m/s",
                               "operation_time_h": 2.3102},
                    "failure": {"stage": "simulation", "time_s": 1.25,
@@ -116,7 +117,7 @@ def test_the_summary_prints_walls_energy_and_a_failure(capsys, tmp_path):
     assert lines["touched_wall"] == "yes" and lines["min_wall_clearance_m"] == "0.004"
     assert lines["near_wall_at_s"] == "-"
     assert lines["mean_electrical_power_w"] == "26.84" and lines["operation_time_h"] == "2.31"
-    assert lines["cost_of_transport"] == "-"
+    assert lines["cot_electrical_dry_weight"] == "-"
     assert lines["failure"] == "simulation at 1.250 s: battery empty"
 
 

@@ -6,15 +6,16 @@ import numpy as np
 import pytest
 
 from manta_drake import simulate
-from manta_drake.metrics import MIN_TRANSPORT_SPEED, STANDARD_GRAVITY
+from manta_drake.metrics import COT_KEYS, MIN_TRANSPORT_SPEED, STANDARD_GRAVITY
 from manta_drake.model.actuators import load_energy_model
 from manta_drake.model.robot_params import DEFAULT_ROBOT, NUM_JOINTS
 from manta_drake.scenario import load_scenario
 from manta_drake.station.servo_power import motor_current
+from manta_drake.station.water import build_elements
 
 ENERGY_KEYS = ("mechanical_energy_j", "electrical_energy_j", "mean_electrical_power_w",
-               "cost_of_transport", "cost_of_transport_mechanical", "battery_soc_end",
-               "operation_time_h")
+               "hotel_power_w", "dry_weight_n", "weight_in_water_n", *COT_KEYS,
+               "battery_soc_end", "operation_time_h")
 MODEL = load_energy_model("package://manta_drake/actuators.yaml")
 IDLE_W = NUM_JOINTS * MODEL.servo.standby_power + MODEL.electronics_power
 
@@ -40,12 +41,12 @@ def test_the_energy_model_changes_no_force(trot_runs):
     for key in shared:
         np.testing.assert_array_equal(with_model.log[key], without.log[key], err_msg=key)
     assert "electrical_power" in with_model.log and "electrical_power" not in without.log
-    # Every existing metric is the same (the wall clock aside); only ``energy`` is new.
-    clock = {"wall_time_s", "real_time_factor"}
-    a = {k: v for k, v in with_model.metrics.items() if k not in clock | {"energy"}}
+    # Every existing metric is the same (the wall clock aside); only the energy blocks are new.
+    clock, new = {"wall_time_s", "real_time_factor"}, {"energy", "power_breakdown"}
+    a = {k: v for k, v in with_model.metrics.items() if k not in clock | new}
     b = {k: v for k, v in without.metrics.items() if k not in clock}
     assert a == b
-    assert "energy" in with_model.metrics and "energy" not in without.metrics
+    assert new <= set(with_model.metrics) and not new & set(without.metrics)
 
 
 def test_the_battery_counts_the_logged_current(trot_runs):
@@ -118,19 +119,38 @@ def test_energy_block_of_each_kind_of_scenario(tmp_path, name, duration):
     assert e["battery_soc_end"] == soc[-1]
     drawn = np.sum(log["battery"][:-1, 2]) * 1e-3 / 3600.0
     assert 1.0 - soc[-1] == pytest.approx(drawn / MODEL.pack.capacity_ah, rel=1e-9)
+    assert e["hotel_power_w"] == pytest.approx(IDLE_W, rel=1e-12)
+    weight = DEFAULT_ROBOT.total_mass * STANDARD_GRAVITY
+    assert e["dry_weight_n"] == pytest.approx(weight) and DEFAULT_ROBOT.total_mass == 8.4
+    # The weight in water: the mass less the water the sealed volumes displace, balloon empty.
+    coeffs, wet = scenario.hydro_coefficients(), None
+    if coeffs is None:  # a dry run has no weight in water
+        assert e["weight_in_water_n"] is None
+    else:
+        sealed = build_elements(coeffs, scenario.robot_params())["volume"].sum()
+        wet = (DEFAULT_ROBOT.total_mass - coeffs.water_density.value * sealed) * STANDARD_GRAVITY
+        assert e["weight_in_water_n"] == pytest.approx(wet, rel=1e-12) and 0 < wet < 0.2 * weight
     speed = e["transport_speed_m_s"]
     if speed is not None and speed >= MIN_TRANSPORT_SPEED:
-        weight = DEFAULT_ROBOT.total_mass * STANDARD_GRAVITY
-        assert DEFAULT_ROBOT.total_mass == pytest.approx(8.4)
-        assert e["cost_of_transport"] == pytest.approx(
-            e["steady_electrical_power_w"] / (weight * speed), rel=1e-12)
-        assert e["cost_of_transport_mechanical"] == pytest.approx(
-            e["steady_mechanical_power_w"] / (weight * speed), rel=1e-12)
+        p_el, p_mech = e["steady_electrical_power_w"], e["steady_mechanical_power_w"]
+        for w_name, w in (("dry_weight", weight), ("weight_in_water", wet)):
+            for p_name, p_w in (("electrical", p_el), ("net_of_hotel", p_el - IDLE_W),
+                                ("mechanical", p_mech)):
+                expected = None if w is None else pytest.approx(p_w / (w * speed), rel=1e-12)
+                assert e[f"cot_{p_name}_{w_name}"] == expected
         assert speed == pytest.approx(np.hypot(*result.metrics["mean_velocity_body"]))
     else:
-        assert e["cost_of_transport"] is None and e["cost_of_transport_mechanical"] is None
+        assert all(e[k] is None for k in COT_KEYS)
         assert e["cost_of_transport_note"]
     if name == "locomotion_swim":  # it travels: a cost of transport is reported
-        assert e["cost_of_transport"] > e["cost_of_transport_mechanical"] > 0
+        assert e["cot_electrical_dry_weight"] > e["cot_net_of_hotel_dry_weight"] \
+            > e["cot_mechanical_dry_weight"] > 0
     if name == "stand":  # it does not
-        assert e["cost_of_transport"] is None and "below" in e["cost_of_transport_note"]
+        assert e["cot_electrical_dry_weight"] is None and "below" in e["cost_of_transport_note"]
+    # The breakdown adds up to what the energy model drew over the same window (the log is
+    # at the plant's step), every servo term recomputed here from the logged torques.
+    b = result.metrics["power_breakdown"]
+    assert b["total_w"] == pytest.approx(b["electrical_w"], rel=1e-9)
+    assert b["computers_w"] == pytest.approx(MODEL.electronics_power)
+    assert b["standby_w"] == pytest.approx(NUM_JOINTS * MODEL.servo.standby_power)
+    assert b["copper_w"] > 0 and b["shaft_w"] >= 0

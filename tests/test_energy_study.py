@@ -125,8 +125,8 @@ def _row(gait, params=None, status="ok", u=0.07, v=0.0, power=25.0, mean_power=2
            "energy.steady_mechanical_power_w": "1.5",
            "energy.mean_electrical_power_w": repr(mean_power),
            "energy.operation_time_h": repr(hours),
-           "energy.cost_of_transport": "" if cot is None else repr(cot),
-           "energy.cost_of_transport_mechanical": "" if cot is None else "0.25",
+           "energy.cot_electrical_dry_weight": "" if cot is None else repr(cot),
+           "energy.cot_mechanical_dry_weight": "" if cot is None else "0.25",
            "energy.transport_speed_m_s": repr(math.hypot(u, v) if speed is None else speed)}
     for name in E.PARAMS:
         row[name] = ""

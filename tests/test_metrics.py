@@ -128,13 +128,52 @@ def test_the_energy_notes_name_what_is_missing():
            "t_joint_mechanical_power": t, "joint_mechanical_power": np.ones((len(t), 16)),
            "t_battery": t, "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1))}
     short = M.energy_metrics(log, 8.4, 50.0, 0.2, [0.6, 1.2], None)
-    assert short["cost_of_transport"] is None
+    assert all(short[k] is None for k in M.COT_KEYS)
     assert short["cost_of_transport_note"] == ("no mean velocity over the steady window "
                                                "0.60-1.20 s (the run's note says why): no "
                                                "cost of transport")
     none = M.energy_metrics(log, 8.4, 50.0, 0.2, None, None)
     assert none["cost_of_transport_note"] == "no steady window: no cost of transport"
     assert none["mean_electrical_power_w"] == pytest.approx(30.0)
+
+
+def test_costs_of_transport_closed_form():
+    cots = M.costs_of_transport(28.0, 5.0, 21.0, 82.4, 8.24, 0.1)
+    assert set(cots) == set(M.COT_KEYS) and len(M.COT_KEYS) == 6
+    assert cots["cot_electrical_dry_weight"] == pytest.approx(28.0 / 8.24)
+    assert cots["cot_net_of_hotel_dry_weight"] == pytest.approx(7.0 / 8.24)
+    assert cots["cot_mechanical_weight_in_water"] == pytest.approx(5.0 / 0.824)
+    # The weight in water is ten times smaller: every cost by it ten times larger.
+    assert cots["cot_electrical_weight_in_water"] == pytest.approx(
+        10 * cots["cot_electrical_dry_weight"])
+    floating = M.costs_of_transport(28.0, 5.0, 21.0, 82.4, -1.0, 0.1)
+    assert floating["cot_electrical_weight_in_water"] is None
+    assert floating["cot_electrical_dry_weight"] == cots["cot_electrical_dry_weight"]
+
+
+def test_a_floating_robot_has_no_cost_of_transport_by_its_weight_in_water():
+    t = np.arange(0.0, 2.001, 0.01)
+    log = {"t_electrical_power": t, "electrical_power": 30.0 + 0 * t[:, None],
+           "t_joint_mechanical_power": t, "joint_mechanical_power": np.ones((len(t), 16)),
+           "t_battery": t, "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1))}
+    e = M.energy_metrics(log, 8.4, 50.0, 0.2, [1.0, 2.0], [0.1, 0.0],
+                         weight_in_water_kg=-0.2, hotel_power_w=20.0)
+    assert e["cot_net_of_hotel_dry_weight"] == pytest.approx(10.0 / (8.4 * 9.81 * 0.1))
+    assert e["cot_mechanical_dry_weight"] == pytest.approx(16.0 / (8.4 * 9.81 * 0.1))
+    assert e["cot_electrical_weight_in_water"] is None
+    assert "floats" in e["cost_of_transport_note"]
+
+
+def test_power_breakdown_means_each_term_over_the_window():
+    t = np.arange(0.0, 2.001, 0.01)
+    ramp = np.tile(t[:, None], (1, 4))  # 4 joints, each t watts at time t
+    b = M.power_breakdown(t, {"computers": np.full(len(t), 11.0), "copper": ramp}, [1.0, 2.0])
+    assert b["computers_w"] == pytest.approx(11.0)
+    # Each sample holds the step that ends at it: the mean of 4 t over (1, 2] on a 10 ms grid.
+    assert b["copper_w"] == pytest.approx(4 * np.mean(t[(t > 1.0) & (t <= 2.0 + 1e-9)]))
+    assert b["total_w"] == pytest.approx(b["computers_w"] + b["copper_w"])
+    assert b["window_s"] == [1.0, 2.0]
+    assert M.power_breakdown(t, {"copper": ramp})["window_s"] == [0.0, 2.0]
 
 
 # --- Euler angles through the gimbal lock ------------------------------------------------------

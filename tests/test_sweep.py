@@ -772,8 +772,10 @@ class _FakeAsCompleted:
 # --- energy columns --------------------------------------------------------------------------
 
 ENERGY = {"mechanical_energy_j": 12.5, "electrical_energy_j": 80.25,
-          "mean_electrical_power_w": 4.0125, "cost_of_transport": 3.1,
-          "cost_of_transport_mechanical": 0.6, "battery_soc_end": 0.97,
+          "mean_electrical_power_w": 4.0125, "cot_electrical_dry_weight": 3.1,
+          "cot_electrical_weight_in_water": 31.0, "cot_net_of_hotel_dry_weight": 0.8,
+          "cot_net_of_hotel_weight_in_water": 8.0, "cot_mechanical_dry_weight": 0.6,
+          "cot_mechanical_weight_in_water": 6.0, "battery_soc_end": 0.97,
           "operation_time_h": 12.4, "steady_electrical_power_w": 4.1,
           "cost_of_transport_note": None}
 
@@ -789,18 +791,20 @@ def test_energy_block_becomes_energy_columns_in_the_documented_order(tmp_path):
     columns, rows = S.table_rows([spec, failed], {spec.run_id: metrics, failed.run_id: {
         "status": "invalid", "reason": "contact.friction"}})
     contract = ["energy.mechanical_energy_j", "energy.electrical_energy_j",
-                "energy.mean_electrical_power_w", "energy.cost_of_transport",
-                "energy.cost_of_transport_mechanical", "energy.battery_soc_end",
+                "energy.mean_electrical_power_w", "energy.cot_electrical_dry_weight",
+                "energy.cot_electrical_weight_in_water", "energy.cot_net_of_hotel_dry_weight",
+                "energy.cot_net_of_hotel_weight_in_water", "energy.cot_mechanical_dry_weight",
+                "energy.cot_mechanical_weight_in_water", "energy.battery_soc_end",
                 "energy.operation_time_h"]
     energy_columns = [c for c in columns if c.startswith("energy.")]
-    assert energy_columns[:7] == contract  # then the block's other keys, sorted
-    assert energy_columns[7:] == ["energy.cost_of_transport_note",
+    assert energy_columns[:11] == contract  # then the block's other keys, sorted
+    assert energy_columns[11:] == ["energy.cost_of_transport_note",
                                   "energy.steady_electrical_power_w"]
     S.write_table(tmp_path / "results.csv", columns, rows)
     table = S.read_table(tmp_path / "results.csv")
-    assert table[0]["energy.cost_of_transport"] == "3.1"
+    assert table[0]["energy.cot_electrical_dry_weight"] == "3.1"
     assert table[0]["energy.electrical_energy_j"] == "80.25"
-    assert table[1]["energy.cost_of_transport"] == "" and table[1]["status"] == "invalid"
+    assert table[1]["energy.cot_electrical_dry_weight"] == "" and table[1]["status"] == "invalid"
 
 
 # --- the summary figure -----------------------------------------------------------------------

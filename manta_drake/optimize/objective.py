@@ -33,9 +33,12 @@ METRICS = {
     "speed": "sqrt(u^2 + v^2) [m/s]",
     "yaw_rate": "mean yaw rate over the steady window [deg/s] (yaw_rate_deg_s; + to the left)",
     "abs_yaw_rate": "|yaw_rate| [deg/s]",
-    "cot_electrical": "electrical cost of transport over the steady window "
-                      "(energy.cost_of_transport)",
-    "cot_mechanical": "mechanical cost of transport (energy.cost_of_transport_mechanical)",
+    "cot_electrical": "electrical cost of transport over the steady window, by the dry "
+                      "weight (energy.cot_electrical_dry_weight)",
+    "cot_net_of_hotel": "the same less the hotel load: computers and servo standby "
+                        "(energy.cot_net_of_hotel_dry_weight)",
+    "cot_mechanical": "mechanical cost of transport, by the dry weight "
+                      "(energy.cot_mechanical_dry_weight)",
     "mean_power_w": "mean electrical power over the run [W] "
                     "(energy.mean_electrical_power_w)",
     "joint_limit_margin_deg": "smallest distance of any joint angle, measured or commanded, "
@@ -48,7 +51,7 @@ METRICS = {
 # The metrics of the run's steady window (simulate.MIN_STEADY_WINDOW long at least): a run
 # without one gives none of them.
 STEADY_METRICS = ("u", "v", "abs_u", "abs_v", "speed", "yaw_rate", "abs_yaw_rate",
-                  "cot_electrical", "cot_mechanical")
+                  "cot_electrical", "cot_net_of_hotel", "cot_mechanical")
 
 # Status of a simulation that ran to its end; anything else costs failed_cost.
 OK = "ok"
@@ -72,8 +75,9 @@ def run_metrics(metrics: dict, log: dict | None = None, limits=None) -> dict:
         "abs_u": None if u is None else abs(u), "abs_v": None if v is None else abs(v),
         "speed": None if u is None or v is None else math.hypot(u, v),
         "yaw_rate": num(yaw), "abs_yaw_rate": None if yaw is None else abs(float(yaw)),
-        "cot_electrical": num(energy.get("cost_of_transport")),
-        "cot_mechanical": num(energy.get("cost_of_transport_mechanical")),
+        "cot_electrical": num(energy.get("cot_electrical_dry_weight")),
+        "cot_net_of_hotel": num(energy.get("cot_net_of_hotel_dry_weight")),
+        "cot_mechanical": num(energy.get("cot_mechanical_dry_weight")),
         "mean_power_w": num(energy.get("mean_electrical_power_w")),
         "joint_limit_margin_deg": None,
         "max_penetration_m": num(metrics.get("max_penetration_m")),

@@ -70,14 +70,23 @@ def voltage_demand(tau, qdot, servo: ServoConstants) -> np.ndarray:
     return servo.winding_resistance * motor_current(tau, qdot, servo) + back_emf(qdot, servo)
 
 
+def servo_power_terms(tau, qdot, servo: ServoConstants) -> dict[str, np.ndarray]:
+    """Each servo's electrical power [W] by where it goes, element-wise over any shape:
+    ``copper`` R i^2 (heat in the windings), ``shaft`` max(e i, 0) (converted to the motor
+    shaft's work: the joint's tau qdot plus the gearbox's loss; e i without the max with
+    ``recover_negative_work``) and ``standby`` I_standby V_supply (the servo's electronics)."""
+    i = motor_current(tau, qdot, servo)
+    shaft = back_emf(qdot, servo) * i
+    if not servo.recover_negative_work:
+        shaft = np.maximum(shaft, 0.0)
+    return {"copper": servo.winding_resistance * i * i, "shaft": shaft,
+            "standby": np.full(np.shape(i), servo.standby_power)}
+
+
 def servo_electrical_power(tau, qdot, servo: ServoConstants) -> np.ndarray:
     """Each servo's electrical power [W]: R i^2 + max(e i, 0) + standby (the max dropped with
-    ``recover_negative_work``); element-wise over any shape."""
-    i = motor_current(tau, qdot, servo)
-    conversion = back_emf(qdot, servo) * i
-    if not servo.recover_negative_work:
-        conversion = np.maximum(conversion, 0.0)
-    return servo.winding_resistance * i * i + conversion + servo.standby_power
+    ``recover_negative_work``), the sum of ``servo_power_terms``; element-wise over any shape."""
+    return sum(servo_power_terms(tau, qdot, servo).values())
 
 
 def joint_mechanical_power(tau, qdot) -> np.ndarray:

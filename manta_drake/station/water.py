@@ -202,6 +202,14 @@ def build_elements(coeffs: HydroCoefficients, params: RobotParams = DEFAULT_ROBO
     return arrays
 
 
+def deflated_net_weight_kg(coeffs: HydroCoefficients, params: RobotParams = DEFAULT_ROBOT) -> float:
+    """The robot's net weight [kg] with the balloon empty: its mass less the water displaced
+    by the sealed volume elements the water model uses (``build_elements``); negative when
+    the deflated robot floats."""
+    volume = build_elements(coeffs, params)["volume"].sum()
+    return float(params.total_mass - coeffs.water_density.value * volume)
+
+
 def leading_edge_signs(params: RobotParams = DEFAULT_ROBOT) -> list:
     """Per leg, the sign of link 3's +y and link 4's +z along the body's forward axis at
     the zero pose (so strip chord directions point to the leading edge)."""

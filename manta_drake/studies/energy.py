@@ -358,8 +358,8 @@ def energy_of(row: dict) -> GaitEnergy:
         return UNDETERMINED
     speed = _float(row.get("energy.transport_speed_m_s"))
     speed = math.hypot(u, v) if speed is None else speed
-    cot, cot_mech = (_float(row.get("energy.cost_of_transport")),
-                     _float(row.get("energy.cost_of_transport_mechanical")))
+    cot, cot_mech = (_float(row.get("energy.cot_electrical_dry_weight")),
+                     _float(row.get("energy.cot_mechanical_dry_weight")))
     if cot is None:  # a window but too slow for a cost of transport: it does not travel
         cot = cot_mech = math.inf
     run_hours = _float(row.get("energy.operation_time_h"))
@@ -1039,8 +1039,8 @@ def check_logs(sweep_dir: pathlib.Path) -> dict:
 # may be missing: |(u, v)| stands in), and the one ``--check-logs`` reads.
 RESULTS_COLUMNS = ("base", *PARAMS, "status", "u", "v", "steady_start_s", "steady_end_s",
                    "near_wall_at_s", "touched_wall", "energy.steady_electrical_power_w",
-                   "energy.steady_mechanical_power_w", "energy.cost_of_transport",
-                   "energy.cost_of_transport_mechanical", "energy.operation_time_h",
+                   "energy.steady_mechanical_power_w", "energy.cot_electrical_dry_weight",
+                   "energy.cot_mechanical_dry_weight", "energy.operation_time_h",
                    "energy.mean_electrical_power_w")
 LOGS_COLUMNS = ("run_id",)
 

@@ -12,7 +12,7 @@ from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import DEFAULT_ROBOT
 from manta_drake.scenario import Scenario
-from manta_drake.station.water import build_elements
+from manta_drake.station.water import build_elements, deflated_net_weight_kg  # noqa: F401
 
 
 def hull_scale_for_net_weight(net_weight_kg: float, total_mass_kg: float, water_density: float,
@@ -42,14 +42,6 @@ def hull_scale_for_net_weight(net_weight_kg: float, total_mass_kg: float, water_
                          f"(the robot weighs {total_mass_kg} kg; at most "
                          f"{total_mass_kg - water_density * other_volume_m3:.3f} kg)")
     return (target / hull_volume_m3) ** (1.0 / 3.0)
-
-
-def deflated_net_weight_kg(coeffs, params=None) -> float:
-    """The robot's net weight [kg] with the balloon empty, from the volume elements the water
-    model really uses (``station.water.build_elements``)."""
-    params = params or DEFAULT_ROBOT
-    volume = build_elements(coeffs, params)["volume"].sum()
-    return float(params.total_mass - coeffs.water_density.value * volume)
 
 
 def net_weight_scales(net_weight_kg: float, coeffs, params=None) -> dict[str, float]:

@@ -13,6 +13,7 @@ import pathlib
 
 from manta_drake.cluster import INFRASTRUCTURE_ERRORS, is_infrastructure_error  # noqa: F401
 from manta_drake.config_io import MAX_YAML_BYTES, read_csv_table
+from manta_drake.metrics import COT_KEYS
 from manta_drake.sweep.config import RunSpec, SweepError
 
 # Statuses of a run that is done: a restart skips it (``--rerun-failed`` runs the ones that
@@ -101,8 +102,7 @@ METRIC_COLUMNS = (
     "failure_time_s", "steady_start_s", "steady_end_s",
     # The run's energy block (metrics.json ``energy``), each key prefixed with ``energy.``.
     *(f"energy.{k}" for k in ("mechanical_energy_j", "electrical_energy_j",
-                              "mean_electrical_power_w", "cost_of_transport",
-                              "cost_of_transport_mechanical", "battery_soc_end",
+                              "mean_electrical_power_w", *COT_KEYS, "battery_soc_end",
                               "operation_time_h")),
 )
 
@@ -113,7 +113,7 @@ def flatten_metrics(metrics: dict) -> dict:
     Named vectors become named columns (``mean_velocity_body`` -> ``u``, ``v``), other lists
     ``<name>_<i>``, transitions one compact string, the failure its time, a block of
     metrics (``energy``) one column per key, ``<block>.<key>``
-    (``energy.cost_of_transport``); ``scenario``, ``status``, ``reason`` and ``run`` are
+    (``energy.cot_electrical_dry_weight``); ``scenario``, ``status``, ``reason`` and ``run`` are
     left out (the table has them elsewhere).
     """
     out = {}

@@ -111,13 +111,8 @@ from pydrake.systems.primitives import (
 )
 from pydrake.systems.sensors import RgbdSensor
 
-from manta_drake.model import resolve_path
 from manta_drake.model.camera import camera_info
-from manta_drake.model.coefficients import (
-    HydroCoefficients,
-    load_coefficients,
-    scale_coefficients,
-)
+from manta_drake.model.coefficients import HydroCoefficients
 from manta_drake.model.plant import (
     PlantHandles,
     add_plant,
@@ -368,10 +363,7 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
         (station diagram, StationHandles).
     """
     builder = DiagramBuilder()
-    coeffs = None
-    if scenario.water.enabled:
-        coeffs = scale_coefficients(load_coefficients(resolve_path(scenario.water.coefficients)),
-                                    scenario.water.coefficient_scales)
+    coeffs = scenario.hydro_coefficients()
     plant_handles = add_plant(builder, time_step=scenario.time_step,
                               discrete_contact_approximation=scenario.discrete_contact_approximation,
                               hydro=coeffs, robot_params=scenario.robot_params(),

@@ -224,6 +224,10 @@ def _step_integral(t, values, start: float = -np.inf, end: float = np.inf) -> tu
 COT_POWERS = ("electrical", "net_of_hotel", "mechanical")
 COT_WEIGHTS = ("dry_weight", "weight_in_water")
 COT_KEYS = tuple(f"cot_{p}_{w}" for p in COT_POWERS for w in COT_WEIGHTS)
+# The energy block's two original names, kept for the tools that read them: each is the
+# same number as the named cost it stands for (by the dry weight, as they always were).
+COT_ALIASES = {"cost_of_transport": "cot_electrical_dry_weight",
+               "cost_of_transport_mechanical": "cot_mechanical_dry_weight"}
 
 
 def costs_of_transport(electrical_w: float, mechanical_w: float, hotel_w: float,
@@ -270,7 +274,7 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         ``electrical_energy_j`` (integral of the electrical power), ``mean_electrical_power_w``
         (over the run), ``hotel_power_w``, ``dry_weight_n``, ``weight_in_water_n``, the six
         costs of transport of ``COT_KEYS`` (``costs_of_transport`` of the window's mean
-        powers), ``battery_soc_end``, ``operation_time_h`` (usable energy / mean electrical
+        powers) and their ``COT_ALIASES``, ``battery_soc_end``, ``operation_time_h`` (usable energy / mean electrical
         power), and ``steady_electrical_power_w``, ``steady_mechanical_power_w``,
         ``transport_speed_m_s``, ``battery_cutoff_at_s`` (first time at the cut-off, or
         None) and ``cost_of_transport_note`` (why the costs of transport are None).
@@ -289,7 +293,7 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         "hotel_power_w": float(hotel_power_w),
         "dry_weight_n": mass * gravity,
         "weight_in_water_n": wet,
-        **dict.fromkeys(COT_KEYS),
+        **dict.fromkeys(COT_KEYS), **dict.fromkeys(COT_ALIASES),
         "battery_soc_end": float(battery[-1, 0]) if len(battery) else None,
         "operation_time_h": (usable_energy_wh / mean_power
                              if mean_power is not None and mean_power > 0 else None),
@@ -327,6 +331,7 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
     out.update(costs_of_transport(out["steady_electrical_power_w"],
                                   out["steady_mechanical_power_w"], hotel_power_w,
                                   out["dry_weight_n"], wet, speed))
+    out.update({alias: out[name] for alias, name in COT_ALIASES.items()})
     if wet is not None and wet <= 0:
         out["cost_of_transport_note"] = (f"the deflated robot floats (weight in water "
                                          f"{wet:.2f} N): no cost of transport by it")

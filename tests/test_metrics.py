@@ -128,7 +128,7 @@ def test_the_energy_notes_name_what_is_missing():
            "t_joint_mechanical_power": t, "joint_mechanical_power": np.ones((len(t), 16)),
            "t_battery": t, "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1))}
     short = M.energy_metrics(log, 8.4, 50.0, 0.2, [0.6, 1.2], None)
-    assert all(short[k] is None for k in M.COT_KEYS)
+    assert all(short[k] is None for k in (*M.COT_KEYS, *M.COT_ALIASES))
     assert short["cost_of_transport_note"] == ("no mean velocity over the steady window "
                                                "0.60-1.20 s (the run's note says why): no "
                                                "cost of transport")
@@ -161,6 +161,9 @@ def test_a_floating_robot_has_no_cost_of_transport_by_its_weight_in_water():
     assert e["cot_net_of_hotel_dry_weight"] == pytest.approx(10.0 / (8.4 * 9.81 * 0.1))
     assert e["cot_mechanical_dry_weight"] == pytest.approx(16.0 / (8.4 * 9.81 * 0.1))
     assert e["cot_electrical_weight_in_water"] is None
+    # The original names stand for the dry-weight electrical and mechanical costs.
+    assert e["cost_of_transport"] == pytest.approx(30.0 / (8.4 * 9.81 * 0.1))
+    assert e["cost_of_transport_mechanical"] == pytest.approx(16.0 / (8.4 * 9.81 * 0.1))
     assert "floats" in e["cost_of_transport_note"]
 
 

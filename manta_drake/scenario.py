@@ -248,8 +248,8 @@ class DepthEstimatorConfig:
     floor_distance: float = 0.20
     # The sensor's depth with the robot floating at rest at the surface, balloon full: the
     # zero of a pressure sensor zeroed at initial submersion (measured: float_sink, 1-5 s,
-    # 0.030 m; tests/test_depth.py holds it). Depths are counted from it.
-    surface_depth: float = 0.030
+    # 0.027 m; tests/test_depth.py holds it). Depths are counted from it.
+    surface_depth: float = 0.027
 
 
 @dc.dataclass

@@ -106,11 +106,11 @@ def _coefficients_with(tmp_path, old, new):
 @pytest.mark.parametrize("make, field", [
     (lambda p: _coefficients_with(p, "strips_per_plate:\n    value: 4", "strips_per_plate:\n    value: 2.5"),
      "fins.strips_per_plate = 2.5 must be a whole number"),
-    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.0051", "sealed_volume:\n    value: 0.0"),
+    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784", "sealed_volume:\n    value: 0.0"),
      "body.sealed_volume = 0.0 must be > 0"),
     # The buoyancy comes from the semi-axes: a volume edited alone would have no effect.
-    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.0051", "sealed_volume:\n    value: 0.0061"),
-     "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes (4/3 pi abc = 0.0051 m^3"),
+    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784", "sealed_volume:\n    value: 0.0061"),
+     "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes (4/3 pi abc = 0.00478401 m^3"),
     (lambda p: _coefficients_with(p, "water_density:\n  value: 1000.0", "water_density:\n  value: 1.0e9"),
      "water_density = 1000000000.0 is outside the allowed range [900, 1300] kg/m^3"),
     (lambda p: _coefficients_with(p, "gravity:\n  value: 9.81", "gravity:\n  value: 98.1"),

@@ -48,7 +48,7 @@ def test_error_while_building_is_one_line_too(tmp_path):
 
     coeffs = tmp_path / "h.yaml"
     shutil.copy(MODELS_DIR / "hydrodynamics.yaml", coeffs)
-    coeffs.write_text(coeffs.read_text().replace("sealed_volume:\n    value: 0.0051",
+    coeffs.write_text(coeffs.read_text().replace("sealed_volume:\n    value: 0.004784",
                                                  "sealed_volume:\n    value: -1.0"))
     scenario = tmp_path / "s.yaml"
     scenario.write_text(f"duration: 0.1\nwater: {{coefficients: {coeffs}}}\n")

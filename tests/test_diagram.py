@@ -122,8 +122,9 @@ def test_mirrored_trot_stands_level_and_goes_straight_only_on_its_balanced_sweep
                                                                                   tmp_path):
     """The mirror rule makes the trot's command symmetric under "mirror, then half a period
     later", so on a balanced stance it goes straight: no side drift, no turn (docs/stance.md).
-    On the paper reading's 10 deg sweep its support is 8 cm ahead of the CG and it stands
-    nose up and barely moves. With the cross-flow fins, as docs/stance.md measured it."""
+    On the paper reading's 10 deg sweep its support is ahead of the CG and it stands nose
+    up (6.7 deg against 3.5 on its balanced sweep, with the bill of materials' masses; it
+    still walks, 0.060 m/s). With the cross-flow fins, as docs/stance.md measured it."""
     s = _scenario("locomotion_trot", duration=10.0, steady_after=4.0)
     s.water.fin_model = "cross_flow"
     s.controller.gait_reading = "mirrored"
@@ -137,7 +138,6 @@ def test_mirrored_trot_stands_level_and_goes_straight_only_on_its_balanced_sweep
         assert u > 0.03
         assert abs(v) < 0.2 * u
         assert abs(result.metrics["yaw_rate_deg_s"]) < 1.5
-        assert abs(pitch) < 12.0
+        assert abs(pitch) < 5.0
     else:
-        assert pitch < -15.0  # nose up: the support is ahead of the CG
-        assert u < 0.02
+        assert pitch < -5.0  # nose up: the support is ahead of the CG

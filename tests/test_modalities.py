@@ -83,10 +83,11 @@ def test_flow_sensor_reads_the_current_on_the_floor(tmp_path):
 
 def test_heading_hold_slows_the_swims_turn(tmp_path):
     """The swim with the printed Phi'_swim lag turns right; held by the IMU it turns about
-    half as fast over the steady window (8 s runs; the full measurement is
-    swim_heading_hold's metrics; measured with the datasheet servo: -23.2 -> -11.8 deg/s).
-    With the hull's CFD-identified yaw damping the turn is fast enough for the trim to
-    saturate at its 0.3 bound, so the hold slows the turn rather than stopping it."""
+    a third slower over the steady window (8 s runs; the full measurement is
+    swim_heading_hold's metrics; measured with the datasheet servo and the bill of
+    materials' masses: -11.2 -> -7.6 deg/s). With the hull's CFD-identified yaw damping the
+    turn is fast enough for the trim to saturate at its 0.3 bound, so the hold slows the
+    turn rather than stopping it."""
     rate = {}
     for enabled in (False, True):
         s = load_scenario("swim_heading_hold", overrides={**QUIET, "duration": 8.0,
@@ -96,7 +97,7 @@ def test_heading_hold_slows_the_swims_turn(tmp_path):
         if enabled:
             assert np.abs(r.log["heading_trim"]).max() > 0.0
     assert rate[False] < -5.0
-    assert abs(rate[True]) < 0.6 * abs(rate[False])
+    assert abs(rate[True]) < 0.8 * abs(rate[False])
 
 
 def test_the_charge_estimate_drives_the_tree(tmp_path):

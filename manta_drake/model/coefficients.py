@@ -142,7 +142,6 @@ class BodyHydro:
 
 @dc.dataclass
 class LinkHydro:
-    servo_volume: Scalar = dc.field(default_factory=Scalar)  # m^3 per servo bracket
     linear_damping: Vector = dc.field(default_factory=Vector)  # 6, per link
     quadratic_damping: Vector = dc.field(default_factory=Vector)  # 6, per link
 
@@ -227,7 +226,7 @@ def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoeffici
 # Entries that must be > 0 (a zero volume or density divides by zero at t = 0), and
 # entries that must be whole numbers.
 POSITIVE = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
-            "links.servo_volume", "fins.strips_per_plate", "fins.normal_force_coefficient",
+            "fins.strips_per_plate", "fins.normal_force_coefficient",
             "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate",
             "fins.added_mass_factor", "fins.lift_slope", "fins.stall_width_deg")
 INTEGER = ("fins.strips_per_plate",)

@@ -56,13 +56,74 @@ def ellipsoid_inertia(m: float, semi_axes) -> np.ndarray:
     return m / 5.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
 
 
-def _inertial(m: float, moments, xyz=(0.0, 0.0, 0.0)) -> str:
-    ixx, iyy, izz = moments
-    return (
-        f"<inertial>{_xyz_pose(xyz)}<mass>{_f(m)}</mass><inertia>"
-        f"<ixx>{_f(ixx)}</ixx><iyy>{_f(iyy)}</iyy><izz>{_f(izz)}</izz>"
-        "<ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>"
-    )
+def composite_inertia(parts) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, centre of mass, 3x3 inertia about it) of rigid ``parts``, each (mass, centre
+    (3,), principal moments (3,) along the frame's axes), by the parallel-axis theorem:
+    I = sum_i diag(moments_i) + m_i (|d_i|^2 E - d_i d_i^T), d_i = centre_i - centre."""
+    masses = np.array([m for m, _, _ in parts], dtype=float)
+    centres = np.array([c for _, c, _ in parts], dtype=float).reshape(-1, 3)
+    total = float(masses.sum())
+    com = masses @ centres / total
+    inertia = np.zeros((3, 3))
+    for m, c, moments in parts:
+        d = np.asarray(c, dtype=float) - com
+        inertia += np.diag(moments) + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return total, com, inertia
+
+
+def _inertial(m: float, inertia, xyz=(0.0, 0.0, 0.0)) -> str:
+    """An <inertial> of mass m, inertia (3 principal moments or a 3x3 matrix) about the
+    centre of mass ``xyz``."""
+    inertia = np.asarray(inertia, dtype=float)
+    if inertia.shape == (3,):
+        inertia = np.diag(inertia)
+    entries = "".join(f"<i{a}{b}>{_f(inertia[i, j])}</i{a}{b}>" for a, b, i, j in
+                      (("x", "x", 0, 0), ("y", "y", 1, 1), ("z", "z", 2, 2),
+                       ("x", "y", 0, 1), ("x", "z", 0, 2), ("y", "z", 1, 2)))
+    return f"<inertial>{_xyz_pose(xyz)}<mass>{_f(m)}</mass><inertia>{entries}</inertia></inertial>"
+
+
+def _servo_visual(name: str, xyz, p: RobotParams) -> str:
+    return (f"<visual name='{name}'>{_xyz_pose(xyz)}<geometry><box><size>"
+            f"{_vec(p.servo_size)}</size></box></geometry>{_material(SERVO_RGBA)}</visual>")
+
+
+def link_inertias(leg: str, p: RobotParams) -> dict[int, tuple]:
+    """(mass, centre of mass, 3x3 inertia) of each link 1-4 of a leg-fin in its own frame:
+    the servo the link carries (links 1-3, ``model.bill_of_materials``) as a solid block
+    at the next joint's axis, and the rest of the link's mass spread over its solid (the
+    servo block on links 1 and 2, the fin plate on links 3 and 4)."""
+    poses = link_poses_at_zero(leg, p)
+    plates = fin_plate_geometry(p)
+    solids = {1: (None, p.servo_size), 2: (None, p.servo_size),
+              3: (plates["proximal"]["center"], plates["proximal"]["size"]),
+              4: (plates["distal"]["center"], plates["distal"]["size"])}
+    out = {}
+    for i, m in enumerate(p.link_masses, start=1):
+        servo_at = poses["X_Lprev_L"][i - 1][:3, 3] if i <= 3 else None
+        rest = m - (p.servo_mass if servo_at is not None else 0.0)
+        centre, size = solids[i]
+        parts = [] if servo_at is None else [(p.servo_mass, servo_at,
+                                              box_inertia(p.servo_mass, p.servo_size))]
+        if rest > 1e-12:
+            parts.append((rest, servo_at if centre is None else centre, box_inertia(rest, size)))
+        out[i] = composite_inertia(parts)
+    return out
+
+
+def body_inertia(p: RobotParams) -> tuple:
+    """(mass, centre of mass, 3x3 inertia) of the hull body: the hull's parts as a solid
+    ellipsoid of the hull's shape, the residual as the same ellipsoid centred at
+    ``residual_position`` (the ballast's trim), and each yaw servo as a solid block at its
+    leg's mount."""
+    servo = box_inertia(p.servo_mass, p.servo_size)
+    rest = p.body_mass - len(p.mounts) * p.servo_mass - p.residual_mass
+    parts = [(rest, (0.0, 0.0, 0.0), ellipsoid_inertia(rest, p.body_semi_axes)),
+             (p.residual_mass, p.residual_position,
+              ellipsoid_inertia(p.residual_mass, p.body_semi_axes))]
+    parts += [(p.servo_mass, link_poses_at_zero(m.name, p)["X_Body_L1"][:3, 3], servo)
+              for m in p.mounts]
+    return composite_inertia(parts)
 
 
 def _material(rgba: str) -> str:
@@ -97,25 +158,22 @@ def fin_plate_geometry(p: RobotParams = DEFAULT_ROBOT) -> dict:
 def _leg_sdf(leg: str, p: RobotParams) -> str:
     poses = link_poses_at_zero(leg, p)
     plates = fin_plate_geometry(p)
-    m1, m2, m3, m4 = p.link_masses
-    s = p.servo_block
+    inertial = {i: _inertial(m, inertia, com)
+                for i, (m, com, inertia) in link_inertias(leg, p).items()}
     lines = []
     parents = ["body", f"{leg}_link1", f"{leg}_link2", f"{leg}_link3"]
     X_parent = [poses["X_Body_L1"]] + poses["X_Lprev_L"]
-    servo_visual = (
-        f"<visual name='servo'><geometry><box><size>{_vec(s)}</size></box></geometry>"
-        f"{_material(SERVO_RGBA)}</visual>"
-    )
+    servo = {i: _servo_visual("servo", poses["X_Lprev_L"][i - 1][:3, 3], p) for i in (1, 2, 3)}
     prox, dist = plates["proximal"], plates["distal"]
     link_body = {
-        1: _inertial(m1, box_inertia(m1, s)) + servo_visual,
-        2: _inertial(m2, box_inertia(m2, s)) + servo_visual,
-        3: _inertial(m3, box_inertia(m3, prox["size"]), prox["center"])
+        1: inertial[1] + servo[1],
+        2: inertial[2] + servo[2],
+        3: inertial[3] + servo[3]
         + f"<visual name='fin'>{_xyz_pose(prox['center'])}<geometry><box><size>"
         f"{_vec(prox['size'])}</size></box></geometry>{_material(FIN_RGBA)}</visual>"
         + f"<collision name='fin'>{_xyz_pose(prox['center'])}<geometry><box><size>"
         f"{_vec(prox['size'])}</size></box></geometry>{_contact_props(p)}</collision>",
-        4: _inertial(m4, box_inertia(m4, dist["size"]), dist["center"])
+        4: inertial[4]
         + f"<visual name='fin'>{_xyz_pose(dist['center'])}<geometry><box><size>"
         f"{_vec(dist['size'])}</size></box></geometry>{_material(FIN_RGBA)}</visual>"
         + f"<collision name='fin'>{_xyz_pose(dist['center'])}<geometry><box><size>"
@@ -157,8 +215,12 @@ def camera_pose(p: RobotParams = DEFAULT_ROBOT) -> np.ndarray:
 def robot_sdf(p: RobotParams = DEFAULT_ROBOT) -> str:
     """SDFormat text of the manta-ray robot (17 bodies, 16 revolute joints)."""
     a, b, c = p.body_semi_axes
+    mass, com, inertia = body_inertia(p)
+    yaw_servos = "".join(_servo_visual(f"servo_{m.name}",
+                                       link_poses_at_zero(m.name, p)["X_Body_L1"][:3, 3], p)
+                         for m in p.mounts)
     body = (
-        f"<link name='body'>{_inertial(p.body_mass, ellipsoid_inertia(p.body_mass, (a, b, c)))}"
+        f"<link name='body'>{_inertial(mass, inertia, com)}{yaw_servos}"
         f"<visual name='hull'><geometry><ellipsoid><radii>{_vec((a, b, c))}</radii></ellipsoid>"
         f"</geometry>{_material(BODY_RGBA)}</visual>"
         f"<visual name='belly'>{_xyz_pose((0.0, 0.0, -0.3 * c))}<geometry><ellipsoid><radii>"

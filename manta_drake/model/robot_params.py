@@ -90,11 +90,17 @@ class RobotParams:
 
     # Body: a flat ellipsoid (NACA0022-like section), semi-axes along x, y, z.
     body_semi_axes: tuple = (0.19, 0.12, 0.07)
-    body_mass: float = 5.2  # hull, electronics, two LiPo packs, BVBS pump and balloon
-    # Per leg-fin link masses: yaw-servo bracket, roll1-servo bracket, proximal
-    # plate (carries the pitch and roll2 servos), distal plate.
-    link_masses: tuple = (0.20, 0.20, 0.25, 0.15)
-    servo_block: tuple = (0.04, 0.04, 0.04)  # visual size of the servo brackets
+    # Masses from models/bill_of_materials.yaml (model.bill_of_materials) when None: the
+    # hull body's (hull, what it holds, the yaw servos, the residual) and per leg-fin link
+    # 1-4's (link 1: the roll1 servo; link 2: the pitch servo; link 3: the proximal plate
+    # and the roll2 servo; link 4: the distal plate), and one servo's mass and case size.
+    body_mass: float | None = None
+    link_masses: tuple | None = None
+    servo_mass: float | None = None
+    servo_size: tuple | None = None
+    # The hull's residual (its ballast among it) and where its centre sits (body frame).
+    residual_mass: float | None = None
+    residual_position: tuple | None = None
     proximal_chord: float = 0.14
     distal_chord: float = 0.10
     fin_thickness: float = 0.012  # NACA0012 at ~0.1 m chord
@@ -123,6 +129,44 @@ class RobotParams:
     friction: float = 0.8
     point_contact_stiffness: float = 2.0e5  # N/m
     hunt_crossley_dissipation: float = 5.0  # s/m
+
+    def __post_init__(self):
+        if None in (self.body_mass, self.link_masses, self.servo_mass, self.servo_size,
+                    self.residual_mass, self.residual_position):
+            from manta_drake.model import bill_of_materials as bom
+
+            shipped = bom.shipped_bill_of_materials()
+            rows = bom.parts(shipped, self.geometry())
+            body, links = bom.carried_masses(rows)
+            derived = {"body_mass": body, "link_masses": links,
+                       "servo_mass": shipped.servo.mass.value,
+                       "servo_size": tuple(shipped.servo.size.value),
+                       "residual_mass": rows[-1].mass, "residual_position": rows[-1].position}
+            for name, value in derived.items():
+                if getattr(self, name) is None:
+                    object.__setattr__(self, name, value)
+
+    def geometry(self):
+        """The dimensions the bill of materials' masses and volumes follow."""
+        from manta_drake.model.bill_of_materials import Geometry
+
+        return Geometry(tuple(self.body_semi_axes), self.fin_thickness, self.proximal_chord,
+                        self.d3, self.distal_chord, self.dE)
+
+    @property
+    def servo_volume(self) -> float:
+        """The water one servo's case displaces [m^3]: its envelope."""
+        return math.prod(self.servo_size)
+
+    @property
+    def plate_volumes(self) -> tuple[float, float]:
+        """The water the proximal and the distal plate displace [m^3]: a NACA0012 section
+        (model.bill_of_materials.naca_section_area) times the span."""
+        from manta_drake.model.bill_of_materials import naca_section_area
+
+        t = self.fin_thickness
+        return (naca_section_area(t, self.proximal_chord) * self.d3,
+                naca_section_area(t, self.distal_chord) * self.dE)
 
     def with_fin_sweep(self, sweep: float) -> "RobotParams":
         """These parameters with every leg-fin swept back by ``sweep`` [rad] at theta_1 = 0

@@ -41,7 +41,9 @@ from manta_drake.model.added_mass import (  # noqa: F401  (the water model's ter
     split_added_inertia,
     split_added_mass,
 )
+from manta_drake.model.bill_of_materials import NACA4_SECTION_AREA
 from manta_drake.model.coefficients import HydroCoefficients
+from manta_drake.model.kinematics import link_poses_at_zero
 from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS, RobotParams
 
 E_Z = np.array([0.0, 0.0, 1.0])
@@ -157,16 +159,21 @@ def build_elements(coeffs: HydroCoefficients, params: RobotParams = DEFAULT_ROBO
     e.body.append(0)
     e.p.append(b.center_of_buoyancy.value)
     e.axes.append(b.sealed_semi_axes.value)
-    servo_radius = (3.0 * coeffs.links.servo_volume.value / (4.0 * np.pi)) ** (1.0 / 3.0)
+    # Each servo's case (model.bill_of_materials): on the link its joint hangs from, at the
+    # joint's axis; a sphere of the case's volume.
+    servo_radius = (3.0 * params.servo_volume / (4.0 * np.pi)) ** (1.0 / 3.0)
     n = int(coeffs.fins.strips_per_plate.value)
     if n < 1:
         raise ValueError(f"fins.strips_per_plate: {n} must be >= 1")
     t = params.fin_thickness
-    for k in range(len(LEGS)):
+    for k, leg in enumerate(LEGS):
         base = 1 + 4 * k
-        for i in (0, 1):  # servo brackets
-            e.body.append(base + i)
-            e.p.append([0.0, 0.0, 0.0])
+        poses = link_poses_at_zero(leg, params)
+        carriers = [(0, poses["X_Body_L1"])] + [(base + i, X) for i, X in
+                                                 enumerate(poses["X_Lprev_L"])]
+        for body, X_carrier_joint in carriers:
+            e.body.append(body)
+            e.p.append(X_carrier_joint[:3, 3])
             e.axes.append([servo_radius] * 3)
         # Link 3 (proximal plate): normal x, chord y, span +z on [0, d3].
         # Link 4 (distal plate): normal x, span -y on [0, dE], chord z.
@@ -180,7 +187,8 @@ def build_elements(coeffs: HydroCoefficients, params: RobotParams = DEFAULT_ROBO
             ds = span / n
             for j in range(n):
                 half = np.zeros(3)
-                half[0] = t / 2
+                # Thickness scaled so the element holds the NACA0012 section's volume.
+                half[0] = NACA4_SECTION_AREA * t / 2
                 half[chord_axis] = chord / 2
                 half[np.argmax(np.abs(direction))] = ds / 2
                 e.strip_element.append(len(e.body))

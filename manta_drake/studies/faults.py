@@ -132,7 +132,7 @@ JOINT_SPEED_LIMIT = 8.0  # rad/s (DEFAULT_ROBOT.velocity_limit)
 
 # Entries the coefficient file requires to be > 0 (manta_drake.model.coefficients.POSITIVE).
 POSITIVE_ENTRIES = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
-                    "links.servo_volume", "fins.strips_per_plate",
+                    "fins.strips_per_plate",
                     "fins.normal_force_coefficient", "fins.passive_pitch_reference_pressure",
                     "balloon.max_volume", "balloon.pump_rate")
 

@@ -34,11 +34,21 @@ Where the printed paper contradicts its own text we follow the text (docs/design
     psi <- psi - alpha * (T sin(e) W) = psi + alpha dW/dpsi is ascent. We implement the
     descent the text intends, psi <- psi - alpha dW/dpsi, every ``period`` seconds.
 
+(c) Eq. (14)'s well is flat on the far side of the torus: a parameter exactly opposite its
+    target (e = pi) has zero slope and never moves, and one near it escapes slowly. A
+    target that jumps (a ``switch`` node, an estimate that steps) can put a parameter
+    there, and the gait then runs with that parameter stranded. The descent breaks the
+    tie: within ``TIE_BAND`` (0.25 rad) of the antipode the slope sin(e) is held at
+    sin(0.25) with the sign of e wrapped to (-pi, pi], so e = pi steps psi down (the
+    parameter goes the negative way round); a parameter at the antipode leaves the band
+    in ~0.9 s with the defaults.
+
 Guarantees (tested): each parameter's error e (wrapped to (-pi, pi], the potential is
-on the torus) shrinks monotonically without overshoot from any start, because the
-step is -c sin(e) exp(-T (1 - cos e)) with c = alpha g T <= 1 (checked at
-construction) and ``|sin e| <= |e|``; and no update moves a parameter by more than
-``max_step = alpha g T`` rad (0.059 rad with the defaults).
+on the torus) shrinks monotonically without overshoot from any start, the antipode
+included, because the step is -c s(e) exp(-T (1 - cos e)) with c = alpha g T <= 1
+(checked at construction), s the tie-broken sine, ``0 < |s(e)| <= |e|`` for e != 0;
+and no update moves a parameter by more than ``max_step = alpha g T`` rad (0.059 rad
+with the defaults).
 
 Defaults: T = 0.5 (a broad well: a parameter starting near the far side of the torus,
 e.g. Phi' from -pi/18 to pi, still escapes in ~3 s), g = 0.125, alpha = 0.95, period
@@ -132,10 +142,26 @@ def potential(psi, psi_d, g: float, T: float) -> np.ndarray:
     return -g * np.exp(-T * (1.0 - np.cos(np.asarray(psi) - psi_d)))
 
 
+# Within this much of the far side of the torus [rad] the descent's slope sin(e) is held
+# at sin(TIE_BAND), with the sign of e wrapped to (-pi, pi] (e = pi steps psi down).
+TIE_BAND = 0.25
+
+
+def tie_broken_sine(e) -> np.ndarray:
+    """sin(e), except within ``TIE_BAND`` of the antipode ``abs(e) = pi``, where Eq. (14)'s
+    slope vanishes: there sign(e) sin(TIE_BAND), sign(pi) = +1. Continuous at
+    ``abs(e) = pi - TIE_BAND``, never larger in magnitude than e, and nonzero wherever e
+    is."""
+    e = np.asarray(e, dtype=float)
+    held = np.where(e >= 0.0, 1.0, -1.0) * np.sin(TIE_BAND)
+    return np.where(np.abs(e) > np.pi - TIE_BAND, held, np.sin(e))
+
+
 def descent_step(psi, psi_d, g: float, T: float, alpha: float) -> np.ndarray:
-    """Eq. (15) as descent: psi - alpha dW/dpsi, dW/dpsi = g T sin(e) exp(-T (1 - cos e))."""
+    """Eq. (15) as descent: psi - alpha dW/dpsi, dW/dpsi = g T sin(e) exp(-T (1 - cos e)),
+    with sin(e) tie-broken at the antipode (``tie_broken_sine``)."""
     e = wrap(np.asarray(psi) - psi_d)
-    return psi - alpha * g * T * np.sin(e) * np.exp(-T * (1.0 - np.cos(e)))
+    return psi - alpha * g * T * tie_broken_sine(e) * np.exp(-T * (1.0 - np.cos(e)))
 
 
 class PotentialTransition(LeafSystem):

@@ -376,3 +376,51 @@ def envelope_summary(t: np.ndarray, ratio: np.ndarray, joint_names, voltage: flo
     return {"voltage_V": float(voltage), "samples_outside": int(outside.sum()),
             "fraction_outside": float(outside.mean()), "worst_ratio": float(ratio[i, j]),
             "worst_joint": str(joint_names[j]), "worst_time_s": float(t[i])}
+
+
+# A carrier bearing more of the floor's normal force than this stands on it [N].
+LOADED_N = 0.1
+
+
+def foot_summary(t, loads, yaw, carriers, window=None, loaded: float = LOADED_N) -> dict:
+    """Each carrier's stance on the floor over ``window`` [start, end] (None: the run).
+
+    Args:
+        t: (N,) sample times [s].
+        loads: (N, 3 k) per carrier [N, s_x, s_y] (``station.foot_contacts``): the normal
+            load [N] and the load-weighted horizontal slip velocity of its contacts [m/s].
+        yaw: (N,) the hull's heading at each sample [rad] (the slip's forward component is
+            along it).
+        carriers: the k carrier names.
+
+    Returns per carrier: ``duty`` (the share of samples with N > ``loaded``),
+    ``normal_force_n`` (mean N over the window), ``stance_force_n`` (mean N over its loaded
+    samples, None without any), ``load_share`` (its share of the total normal load),
+    ``slip_speed_m_s`` = sum N |s| / sum N and ``slip_forward_m_s`` = sum N (s . heading) /
+    sum N (None without load); and ``legs_down_mean``: the mean number of loaded carriers
+    other than ``hull``, and ``window_s``."""
+    t = np.asarray(t, dtype=float)
+    start, end = (-np.inf, np.inf) if window is None else window
+    inside = (t >= start) & (t <= end)
+    L = np.asarray(loads, dtype=float)[inside].reshape(int(inside.sum()), len(carriers), 3)
+    heading = np.stack([np.cos(yaw), np.sin(yaw)], axis=-1)[inside]
+    fn, slip = L[:, :, 0], L[:, :, 1:]
+    total = fn.sum()
+    out = {}
+    for k, name in enumerate(carriers):
+        down = fn[:, k] > loaded
+        weight = fn[:, k].sum()
+        out[name] = {
+            "duty": float(down.mean()) if len(down) else None,
+            "normal_force_n": float(fn[:, k].mean()) if len(down) else None,
+            "stance_force_n": float(fn[down, k].mean()) if down.any() else None,
+            "load_share": float(weight / total) if total > 0 else None,
+            "slip_speed_m_s": (float(fn[:, k] @ np.linalg.norm(slip[:, k], axis=1) / weight)
+                               if weight > 0 else None),
+            "slip_forward_m_s": (float(fn[:, k] @ np.einsum("ij,ij->i", slip[:, k], heading)
+                                       / weight) if weight > 0 else None),
+        }
+    legs = [k for k, name in enumerate(carriers) if name != "hull"]
+    out["legs_down_mean"] = float((fn[:, legs] > loaded).sum(axis=1).mean()) if len(fn) else None
+    out["window_s"] = [float(t[inside][0]), float(t[inside][-1])] if inside.any() else None
+    return out

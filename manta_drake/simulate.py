@@ -52,6 +52,7 @@ from manta_drake.run_folder import (  # noqa: F401 (also the names callers impor
     write_metrics,
 )
 from manta_drake.scenario import Scenario, scenario_yaml
+from manta_drake.station.foot_contacts import CARRIERS as FOOT_CARRIERS
 from manta_drake.station.servo_power import servo_power_terms
 from manta_drake.station.water import deflated_net_weight_kg
 from manta_drake.wiring.diagram import DiagramHandles, build_diagram, logger_data
@@ -184,6 +185,8 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         m["final_max_joint_error_rad"] = float(np.abs(err[-1]).max())
     if len(log.get("joint_torque", [])) and len(log.get("joint_velocities", [])):
         m["actuator_envelope"] = actuator_envelope(scenario, log)
+    if len(log.get("foot_contacts", [])) and "body_quat_wxyz" in log:
+        m["feet"] = feet(log, m["steady_window_s"] if m.get("mean_velocity_body") else None)
     if "electrical_power" in log:  # the energy model is on (actuators.enabled)
         model, params, coeffs = (scenario.energy_model(), scenario.robot_params(),
                                  scenario.hydro_coefficients())
@@ -196,6 +199,15 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
             window = m["steady_window_s"] if m.get("mean_velocity_body") else None
             m["power_breakdown"] = power_breakdown(scenario, log, window)
     return m
+
+
+def feet(log: dict, window=None) -> dict:
+    """``metrics.foot_summary`` of the logged ``foot_contacts`` over ``window`` (None: the
+    whole run), the slip's forward component along the hull's logged heading."""
+    t = log["t_foot_contacts"]
+    n = min(len(t), len(log["t"]))
+    yaw = np.interp(t[:n], log["t"], np.unwrap(log["body_rpy"][:, 2]))
+    return M.foot_summary(t[:n], log["foot_contacts"][:n], yaw, FOOT_CARRIERS, window)
 
 
 def power_breakdown(scenario: Scenario, log: dict, window=None) -> dict:

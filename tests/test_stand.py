@@ -56,3 +56,24 @@ def test_outputs_written(stand_run):
     assert len(html) > 100_000  # the recording carries the robot's meshes and frames
     for name in ("joints.png", "states.png", "trajectory.png"):
         assert (out / name).stat().st_size > 10_000
+
+
+def test_the_four_feet_carry_the_dry_weight_and_hold(stand_run):
+    """Dry, the floor carries the whole robot, m g (Table 1's 8.4 kg), on its four fin tips
+    (``foot_contacts``, from the plant's hydroelastic contact patches), each leg all the
+    time, none sliding; the hull does not touch."""
+    _, log, metrics = stand_run
+    feet = metrics["feet"]
+    legs = ("fl", "fr", "rl", "rr")
+    weight = 8.4 * 9.81
+    assert sum(feet[leg]["normal_force_n"] for leg in legs) == pytest.approx(weight, rel=0.01)
+    # The logged samples over the last second, not just their means.
+    last = log["t_foot_contacts"] >= log["t_foot_contacts"][-1] - 1.0
+    loads = log["foot_contacts"][last].reshape(-1, 5, 3)
+    np.testing.assert_allclose(loads[:, :4, 0].sum(axis=1), weight, rtol=0.01)
+    for leg in legs:
+        assert feet[leg]["duty"] == 1.0
+        assert 0.1 * weight < feet[leg]["normal_force_n"] < 0.4 * weight
+        assert feet[leg]["slip_speed_m_s"] < 1e-3
+    assert feet["legs_down_mean"] == 4.0
+    assert feet["hull"]["duty"] == 0.0 and feet["hull"]["load_share"] == 0.0

@@ -131,12 +131,13 @@ def _material(rgba: str) -> str:
 
 
 def _contact_props(p: RobotParams) -> str:
+    """The robot's proximity properties: rigid hydroelastic (the pool is compliant: see
+    ``pool_sdf``), SAP's default dissipation (relaxation time 0.1 s)."""
     return (
-        "<drake:proximity_properties>"
+        "<drake:proximity_properties><drake:rigid_hydroelastic/>"
+        f"<drake:mesh_resolution_hint>{_f(p.hydroelastic_resolution)}</drake:mesh_resolution_hint>"
         f"<drake:mu_dynamic>{_f(p.friction)}</drake:mu_dynamic>"
         f"<drake:mu_static>{_f(p.friction)}</drake:mu_static>"
-        f"<drake:point_contact_stiffness>{_f(p.point_contact_stiffness)}</drake:point_contact_stiffness>"
-        f"<drake:hunt_crossley_dissipation>{_f(p.hunt_crossley_dissipation)}</drake:hunt_crossley_dissipation>"
         "</drake:proximity_properties>"
     )
 
@@ -177,9 +178,7 @@ def _leg_sdf(leg: str, p: RobotParams) -> str:
         + f"<visual name='fin'>{_xyz_pose(dist['center'])}<geometry><box><size>"
         f"{_vec(dist['size'])}</size></box></geometry>{_material(FIN_RGBA)}</visual>"
         + f"<collision name='fin'>{_xyz_pose(dist['center'])}<geometry><box><size>"
-        f"{_vec(dist['size'])}</size></box></geometry>{_contact_props(p)}</collision>"
-        + f"<collision name='foot'>{_xyz_pose(plates['tip'])}<geometry><sphere><radius>"
-        f"{_f(p.foot_radius)}</radius></sphere></geometry>{_contact_props(p)}</collision>",
+        f"{_vec(dist['size'])}</size></box></geometry>{_contact_props(p)}</collision>",
     }
     for i, joint in enumerate(JOINTS, start=1):
         link = f"{leg}_link{i}"
@@ -256,11 +255,10 @@ def pool_sdf(pool: PoolParams = DEFAULT_POOL) -> str:
     h = D + pool.wall_height_above_water
     zc = -D + h / 2
     props = (
-        "<drake:proximity_properties>"
+        "<drake:proximity_properties><drake:compliant_hydroelastic/>"
+        f"<drake:hydroelastic_modulus>{_f(pool.hydroelastic_modulus)}</drake:hydroelastic_modulus>"
         f"<drake:mu_dynamic>{_f(pool.friction)}</drake:mu_dynamic>"
         f"<drake:mu_static>{_f(pool.friction)}</drake:mu_static>"
-        "<drake:point_contact_stiffness>1.0e6</drake:point_contact_stiffness>"
-        "<drake:hunt_crossley_dissipation>5.0</drake:hunt_crossley_dissipation>"
         "</drake:proximity_properties>"
     )
     boxes = {

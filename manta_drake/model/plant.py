@@ -1,7 +1,8 @@
 """The MultibodyPlant: robot + pool in a DiagramBuilder.
 
 A discrete plant (the scenario's time step, 1 ms by default) with SAP contact,
-point contact between the robot and the pool's floor and walls, and the
+hydroelastic contact between the robot (rigid) and the pool's floor and walls
+(compliant), and the
 robot's implicit joint PD (``<drake:controller_gains>``) driven through the
 plant's desired-state input port.
 """
@@ -103,7 +104,9 @@ def add_plant(
     config = MultibodyPlantConfig(
         time_step=time_step,
         discrete_contact_approximation=discrete_contact_approximation,
-        contact_model="point",
+        # The robot is rigid hydroelastic, the pool compliant (model_sdf); a pair without
+        # a hydroelastic representation would fall back to point contact.
+        contact_model="hydroelastic_with_fallback",
         # Live (not sampled) output ports: HydrodynamicForces differences the hull's
         # velocity between steps, and a sampled port would already show the next step's
         # value during the update event.

@@ -51,9 +51,10 @@ def start_pose_problem(xyz, rpy_deg, q, fin_sweep_deg: float,
 
     Checked at the joint angles ``q`` (4x4, rows fl, fr, rl, rr; the stance called
     ``stance_name`` in the messages): the hull's centre in the water (below the surface,
-    above the floor); the hull (an ellipsoid) and the four fin tips (with their foot
-    spheres) inside the walls and above the floor; then every collision geometry of the
-    robot (fin plates included) overlapping the pool's by at most 2 mm (a resting contact).
+    above the floor); the hull (an ellipsoid) and the four fin tips (the middle of each
+    distal plate's end) inside the walls and above the floor; then every collision
+    geometry of the robot (the fin plates' edges and corners included) overlapping the
+    pool's by at most 2 mm (a resting contact).
     """
     pool, robot = DEFAULT_POOL, robot_with_fin_sweep_deg(fin_sweep_deg)
     p = np.asarray(xyz, dtype=float)
@@ -68,8 +69,7 @@ def start_pose_problem(xyz, rpy_deg, q, fin_sweep_deg: float,
     boxes = [("hull", p - extent, p + extent)]
     for leg, q_leg in zip(LEGS, q):
         tip = p + R @ fin_tip_pose(leg, q_leg, robot)[:3, 3]
-        r = robot.foot_radius
-        boxes.append((f"{leg} fin tip", tip - r, tip + r))
+        boxes.append((f"{leg} fin tip", tip, tip))
     for name, low, high in boxes:
         if low[2] < floor - START_PENETRATION_TOLERANCE:
             return (f"the {name} reaches z = {low[2]:.3f} m, below the floor at {floor} m "

@@ -501,13 +501,15 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     servos' and electronics' electrical power and the joints' summed mechanical power [W]
     (empty without the energy model); and ``contacts``:
     per sample a list of tuples (kind, leg, p_W (3), f_W on the robot (3), v_W of the
-    robot's point (3), slip speed) of the robot's contacts with the floor; kind: foot (the
-    sphere at a fin tip), proximal plate, distal plate (a fin plate's box), hull."""
+    robot's point (3), its horizontal speed) of the robot's contacts with the floor
+    (``station.foot_contacts.floor_contacts``: hydroelastic patches at their centroids);
+    kind: proximal plate, distal plate (a fin plate's box), hull."""
     import numpy as np
     from pydrake.multibody.tree import BodyIndex
 
     from manta_drake.simulate import make_simulator
     from manta_drake.station import water as W
+    from manta_drake.station.foot_contacts import floor_contacts, robot_geometry_bodies
     from manta_drake.studies.explicit_gait import scenario_with_gait
     from manta_drake.wiring.diagram import build_diagram
 
@@ -531,7 +533,8 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     hydro_bodies = [plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else []
     added_joints = added_mass_joints(plant)
     servos = h.systems.get("servo_power")
-    inspector = h.station_handles.plant_handles.scene_graph.model_inspector()
+    floor = h.systems["foot_contacts"].floor_geometries
+    geometry_body = robot_geometry_bodies(plant, h.plant_handles.robot)
     steps = max(1, round(period / scenario.time_step))
     n = round(scenario.duration / (steps * scenario.time_step))
     out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power",
@@ -573,25 +576,15 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
                                  servos.GetOutputPort("joint_mechanical_power").Eval(sctx).sum()])
         results = plant.get_contact_results_output_port().Eval(pctx)
         contacts = []
-        for i in range(results.num_point_pair_contacts()):
-            info = results.point_pair_contact_info(i)
-            pair = info.point_pair()
-            a_is_robot = int(info.bodyA_index()) in robot_bodies
-            if a_is_robot == (int(info.bodyB_index()) in robot_bodies):
-                continue
-            body = plant.get_body(info.bodyA_index() if a_is_robot else info.bodyB_index())
-            if "floor" not in inspector.GetName(pair.id_B if a_is_robot else pair.id_A):
-                continue
-            geom = inspector.GetName(pair.id_A if a_is_robot else pair.id_B)
-            kind = ("hull" if body.name() == "body" else "foot" if "foot" in geom
-                    else {"link3": "proximal plate", "link4": "distal plate"}.get(
+        for index, f, p in floor_contacts(results, floor, geometry_body):
+            body = plant.get_body(BodyIndex(index))
+            kind = ("hull" if body.name() == "body" else
+                    {"link3": "proximal plate", "link4": "distal plate"}.get(
                         body.name().split("_")[-1], body.name()))
-            p = info.contact_point()
-            f = info.contact_force() * (-1.0 if a_is_robot else 1.0)  # on the robot
             Vb = plant.EvalBodySpatialVelocityInWorld(pctx, body)
             v = Vb.Shift(p - plant.EvalBodyPoseInWorld(pctx, body).translation()).translational()
-            contacts.append((kind, body.name().split("_")[0], p.copy(), np.array(f),
-                             np.array(v), info.slip_speed()))
+            contacts.append((kind, body.name().split("_")[0], np.array(p), np.array(f),
+                             np.array(v), float(np.linalg.norm(v[:2]))))
         out["contacts"].append(contacts)
     for key in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power"):
         out[key] = np.array(out[key])

@@ -25,6 +25,7 @@ station in another process (over LCM) or the robot itself.
     - flow_velocity (flow sensor on)
     - plant_state
     - query_object
+    - foot_contacts (pool on)
 
 Inputs:
 
@@ -70,6 +71,9 @@ and, for logging and visualisation only (a controller must not read them):
 * ``joint_mechanical_power`` (16) [W]: tau qdot of each joint over the last step.
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
+* ``foot_contacts`` (15): the floor's normal load [N] on each leg-fin (fl, fr, rl, rr)
+  and the hull, and the load-weighted horizontal slip velocity of their contacts [m/s]
+  (``FootContacts``; evaluated only when read, so logging it costs only at the log rate).
 
 Inside: MultibodyPlant + SceneGraph (robot and pool), ``HydrodynamicForces`` (its
 compiled path: the plant's state vector in; held spatial forces or, computed at every
@@ -126,6 +130,7 @@ from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
 from manta_drake.station.flow_sensor import add_flow_sensor
+from manta_drake.station.foot_contacts import FootContacts
 from manta_drake.station.hydro import HydrodynamicForces
 from manta_drake.station.imu import add_imu
 from manta_drake.station.pressure import PressureSensor
@@ -340,6 +345,19 @@ def _add_modalities(builder, scenario: Scenario, handles: StationHandles) -> Non
         handles.systems["flow_sensor"] = flow
 
 
+def _add_foot_contacts(builder: DiagramBuilder, handles: StationHandles) -> None:
+    """The floor's load and slip per leg-fin (``FootContacts``), exported as
+    ``foot_contacts``."""
+    plant_handles = handles.plant_handles
+    plant = plant_handles.plant
+    inspector = plant_handles.scene_graph.model_inspector()
+    floor = [g for g in plant.GetCollisionGeometriesForBody(
+        plant.GetBodyByName("pool", plant_handles.pool)) if "floor" in inspector.GetName(g)]
+    system = FootContacts.AddToBuilder(builder, plant, plant_handles.robot, floor)
+    handles.systems["foot_contacts"] = system
+    builder.ExportOutput(system.get_output_port(), "foot_contacts")
+
+
 def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool = True,
                   camera_own_scene: bool = True) -> tuple[Diagram, StationHandles]:
     """Builds the station of ``scenario`` (see the module docstring for its ports).
@@ -381,6 +399,8 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     builder.ExportOutput(handles.systems["joint_torque"].get_output_port(), "joint_torque")
     builder.ExportOutput(plant.get_state_output_port(), "plant_state")
     builder.ExportOutput(plant_handles.scene_graph.get_query_output_port(), "query_object")
+    if plant_handles.pool is not None:
+        _add_foot_contacts(builder, handles)
     if coeffs is not None:
         _add_water(builder, scenario, handles, hydro_plant_state)
     if scenario.camera.enabled:

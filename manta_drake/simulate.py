@@ -16,6 +16,7 @@ written, and the exception is re-raised as ``SimulationError``.
 from __future__ import annotations
 
 import dataclasses as dc
+import json
 import math
 import os
 import pathlib
@@ -354,7 +355,27 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     """
     out_dir = check_output_folder(out_dir, inputs)
     with interrupts_as_exceptions() as received:
-        return _run(scenario, out_dir, progress, write_outputs, prepare, received)
+        try:
+            return _run(scenario, out_dir, progress, write_outputs, prepare, received)
+        except RunInterrupted as stop:
+            with signals_deferred():
+                _story_of_a_signal_between_stages(scenario, out_dir, stop)
+            raise
+
+
+def _story_of_a_signal_between_stages(scenario: Scenario, out_dir: pathlib.Path,
+                                      stop: RunInterrupted) -> None:
+    """A signal that came between two stages (after the build's story was settled, before
+    the run's own signal handling took over) left ``metrics.json`` saying ``running``: it
+    now says ``interrupted`` at that stage."""
+    try:
+        metrics = json.loads((out_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return
+    if metrics.get("status") == "running":
+        write_metrics(out_dir, {"scenario": scenario.name, "status": "interrupted",
+                                "failure": interrupted_failure(metrics.get("stage", "build"),
+                                                               0.0, stop)})
 
 
 def _start_recording(handles: DiagramHandles, scenario: Scenario) -> None:

@@ -289,3 +289,29 @@ def test_metrics_that_cannot_be_computed_leave_a_failed_story_not_running(tmp_pa
     assert metrics["status"] == "failed"
     assert metrics["failure"] == {"stage": "metrics", "time_s": pytest.approx(0.05),
                                   "reason": "ValueError: no samples"}
+
+
+def test_a_signal_between_the_build_and_the_run_is_told(tmp_path, monkeypatch):
+    """A signal that comes after the build's story is settled and before the run's own
+    signal handling takes over (here: as that handling is installed) still leaves a
+    metrics.json that says the run was interrupted, at the build."""
+    import contextlib
+
+    from manta_drake import simulate
+    from manta_drake.run_folder import RunInterrupted
+    from manta_drake.scenario import load_scenario
+
+    @contextlib.contextmanager
+    def signalled():
+        raise RunInterrupted("SIGTERM")
+        yield []  # pragma: no cover
+
+    monkeypatch.setattr(simulate, "signals_flagged", signalled)
+    scenario = load_scenario("stand", overrides={"duration": 0.01,
+                                                 "visualization.meshcat": False})
+    with pytest.raises(RunInterrupted):
+        simulate.run(scenario, tmp_path / "out", progress=False, write_outputs=False)
+    metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert metrics["status"] == "interrupted"
+    assert metrics["failure"] == {"stage": "build", "time_s": 0.0,
+                                  "reason": "terminated (SIGTERM)", "signal": "SIGTERM"}

@@ -365,15 +365,20 @@ def power_breakdown(t, terms: dict, window=None) -> dict:
 ENVELOPE_TOLERANCE = 1e-6
 
 
-def envelope_summary(t: np.ndarray, ratio: np.ndarray, joint_names, voltage: float) -> dict:
+def envelope_summary(t: np.ndarray, ratio: np.ndarray, joint_names, voltage) -> dict:
     """How far the joints left the servo's torque-speed envelope: ``ratio`` (N, joints) is
     the duty each (rate, torque) sample needs over the most the servo has
-    (``model.servo.envelope_ratio``; > 1 is outside) at ``voltage`` [V]. Returns the bus
-    voltage, the count and fraction of samples outside, the worst ratio and where."""
+    (``model.servo.envelope_ratio``; > 1 is outside) at the bus ``voltage`` [V] of each
+    sample (N,) (or one for all). Returns the bus voltage at the worst sample and the
+    range over the run, the count and fraction of samples outside, the worst ratio and
+    where."""
     ratio = np.asarray(ratio, dtype=float)
+    volts = np.broadcast_to(np.asarray(voltage, dtype=float), ratio.shape[:1])
     outside = ratio > 1.0 + ENVELOPE_TOLERANCE
     i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-    return {"voltage_V": float(voltage), "samples_outside": int(outside.sum()),
+    return {"voltage_V": float(volts[i]),
+            "voltage_range_V": [float(volts.min()), float(volts.max())],
+            "samples_outside": int(outside.sum()),
             "fraction_outside": float(outside.mean()), "worst_ratio": float(ratio[i, j]),
             "worst_joint": str(joint_names[j]), "worst_time_s": float(t[i])}
 

@@ -271,7 +271,8 @@ class CameraConfig:
 
 @dc.dataclass
 class ActuatorsConfig:
-    """The energy model: servo power and battery (it applies no force). ``file``:
+    """The energy model: servo power and battery (its battery's terminal voltage is the
+    datasheet servos' bus; with the ideal servo it applies no force). ``file``:
     ``package://manta_drake/<file>``, an absolute path, or one relative to the working
     directory (see manta_drake.model.actuators)."""
 
@@ -287,8 +288,10 @@ class ActuatorsConfig:
     # Stop the run (Simulator termination) once the state of charge reaches cutoff_soc.
     stop_when_empty: bool = True
     # The joints' torque (model.servo): "datasheet", the file's servo in its firmware's
-    # position mode at servo.supply_voltage (stall torque, torque-speed line, back-EMF
-    # braking); "ideal", the plant's PD with RobotParams' chosen gains and +-6 N m clamp.
+    # position mode at the bus voltage (stall torque, torque-speed line, back-EMF braking;
+    # the bus is the battery's terminal voltage with the energy model on, else the file's
+    # servo.supply_voltage); "ideal", the plant's PD with RobotParams' chosen gains and
+    # +-6 N m clamp.
     servo_model: str = "datasheet"
     # The servo bus: the controller's commands reach the servos every bus_period s, one
     # period late (a sync write per period); 0: at every plant step, at once. 10 ms is
@@ -359,8 +362,19 @@ class Scenario:
         gains, effort limit and damping of ``actuators.servo_model`` (model.servo)."""
         params = robot_with_fin_sweep_deg(self.fin_sweep_deg())
         if self.actuators.servo_model == "datasheet":
-            params = servo_robot_params(params, self.energy_model().servo)
+            params = servo_robot_params(params, self.energy_model().servo,
+                                        self.bus_reference_voltage())
         return params
+
+    def bus_reference_voltage(self) -> float:
+        """The bus voltage the plant's datasheet-servo gains are set at [V]: with the energy
+        model on, the pack's full-charge open-circuit voltage (the station scales the
+        servos' torque down to the battery's terminal voltage, ``station.servo_supply``);
+        without it, the servo file's ``supply_voltage`` (a constant bus)."""
+        model = self.energy_model()
+        if self.actuators.enabled:
+            return float(model.pack.open_circuit_voltage(1.0))
+        return model.servo.supply_voltage
 
     def energy_model(self):
         """The resolved servos, electronics and battery (model.actuators.EnergyModel) of the

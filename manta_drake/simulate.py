@@ -237,15 +237,20 @@ def _on_times(t, t_samples, samples) -> np.ndarray:
 
 def actuator_envelope(scenario: Scenario, log: dict) -> dict:
     """``metrics.envelope_summary`` of the logged joint torques (interpolated to the joint
-    rates' times) against the scenario's servo at its supply voltage (``model.servo``)."""
+    rates' times) against the scenario's servo (``model.servo``) at the bus voltage of each
+    sample: the battery's logged terminal voltage with the energy model on, else the servo
+    file's supply voltage."""
     from manta_drake.model.robot_params import JOINT_NAMES
     from manta_drake.model.servo import envelope_ratio
 
     servo, t, qdot = scenario.energy_model().servo, log["t"], log["joint_velocities"]
     tau = _on_times(t[:len(qdot)], log["t_joint_torque"], log["joint_torque"])
     n = len(tau)
-    ratio = envelope_ratio(tau, qdot[:n], servo, servo.supply_voltage)
-    return M.envelope_summary(t[:n], ratio, JOINT_NAMES, servo.supply_voltage)
+    volts = np.full(n, servo.supply_voltage)
+    if len(log.get("battery", [])):
+        volts = np.interp(t[:n], log["t_battery"], np.asarray(log["battery"])[:, 1])
+    ratio = envelope_ratio(tau, qdot[:n], servo, volts[:, None])
+    return M.envelope_summary(t[:n], ratio, JOINT_NAMES, volts)
 
 
 def random_sources(system) -> list:

@@ -1,6 +1,8 @@
-"""The energy model in the whole diagram: it changes no force, its battery counts the
-current, a standing robot draws its holding current, and every kind of shipped scenario
-gets a consistent ``energy`` block in its metrics."""
+"""The energy model in the whole diagram: with the ideal servo it changes no force (with
+the datasheet servo the battery's voltage drives the servos: tests/test_servo.py and
+tests/test_joint_torque.py), its battery counts the current, a standing robot draws its
+holding current, and every kind of shipped scenario gets a consistent ``energy`` block in
+its metrics."""
 
 import numpy as np
 import pytest
@@ -30,19 +32,22 @@ def _run(tmp_path, name, duration, **overrides):
 @pytest.fixture(scope="module")
 def trot_runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("trot")
-    return {on: _run(tmp, "locomotion_trot", 2.0, **{"actuators.enabled": on})
+    return {on: _run(tmp, "locomotion_trot", 2.0, **{"actuators.enabled": on,
+                                                     "actuators.servo_model": "ideal"})
             for on in (True, False)}
 
 
-def test_the_energy_model_changes_no_force(trot_runs):
+def test_with_the_ideal_servo_the_energy_model_changes_no_force(trot_runs):
     with_model, without = trot_runs[True][1], trot_runs[False][1]
     shared = set(without.log) & set(with_model.log)
     assert {"joint_angles", "body_xyz", "joint_torque", "body_quat_wxyz"} <= shared
     for key in shared:
         np.testing.assert_array_equal(with_model.log[key], without.log[key], err_msg=key)
     assert "electrical_power" in with_model.log and "electrical_power" not in without.log
-    # Every existing metric is the same (the wall clock aside); only the energy blocks are new.
-    clock, new = {"wall_time_s", "real_time_factor"}, {"energy", "power_breakdown"}
+    # Every existing metric is the same (the wall clock aside, and the envelope, measured at
+    # the battery's voltage when there is one); only the energy blocks are new.
+    clock = {"wall_time_s", "real_time_factor", "actuator_envelope"}
+    new = {"energy", "power_breakdown"}
     a = {k: v for k, v in with_model.metrics.items() if k not in clock | new}
     b = {k: v for k, v in without.metrics.items() if k not in clock}
     assert a == b

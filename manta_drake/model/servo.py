@@ -79,6 +79,51 @@ def joint_gains(servo: ServoConstants, voltage: float) -> tuple[float, float, fl
     return tau_s * duty_per_radian(servo), tau_s * max_duty(servo), back_emf_damping(servo)
 
 
+def saturation_angle(servo: ServoConstants) -> float:
+    """theta_sat = d_max / K_d [rad]: the position error at which the duty saturates, the
+    same at any bus voltage (12.4 deg at the control table's defaults)."""
+    return max_duty(servo) / duty_per_radian(servo)
+
+
+def supply_scale(voltage, reference_voltage: float):
+    """1 - V / V_ref: the share of the torque of a loop set at ``reference_voltage`` that the
+    bus voltage ``voltage`` does not deliver (negative above the reference)."""
+    return 1.0 - np.asarray(voltage, dtype=float) / reference_voltage
+
+
+def supply_feed_forward(q_goal, q, qdot, voltage, kp_reference: float, saturation: float,
+                        reference_voltage: float, time_step: float) -> np.ndarray:
+    """The feed-forward [N m] that turns the plant's PD, set at ``reference_voltage`` V_r
+    with gain kp_r, into the servo's loop at the bus ``voltage`` V (element-wise):
+
+        u_ff = -kp_r [(e - sat(e)) + (1 - V / V_r) sat(e)] + [abs(e) > theta_sat] kp_r dt qdot,
+
+    e = q_goal - q, sat = clip(., +-theta_sat), theta_sat = ``saturation``, dt =
+    ``time_step`` (``station.servo_supply`` explains each term)."""
+    e = np.asarray(q_goal, dtype=float) - np.asarray(q, dtype=float)
+    sat = np.clip(e, -saturation, saturation)
+    return kp_reference * (-(e - sat) - supply_scale(voltage, reference_voltage) * sat
+                           + (np.abs(e) > saturation) * time_step
+                           * np.asarray(qdot, dtype=float))
+
+
+def supplied_torque(q_goal, q, qdot, q_next, qdot_next, servo: ServoConstants,
+                    voltage: float, reference_voltage: float, time_step: float) -> np.ndarray:
+    """The torque the station's servo loop applies over one plant step [N m]: the plant's
+    implicit PD, set at ``reference_voltage``, at the step's end state, plus
+    ``supply_feed_forward``, within the effort limit, less the back-EMF braking:
+
+        u = clip(kp_r (q_goal - q_next) + u_ff, +-L_r) - b qdot_next,
+
+    kp_r and L_r the gains at V_r: the firmware's duty at V (``servo_torque``), up to the
+    implicit step's kp_r dt terms."""
+    kp, limit, b = joint_gains(servo, reference_voltage)
+    u_ff = supply_feed_forward(q_goal, q, qdot, voltage, kp, saturation_angle(servo),
+                               reference_voltage, time_step)
+    pd = kp * (np.asarray(q_goal, dtype=float) - np.asarray(q_next, dtype=float))
+    return np.clip(pd + u_ff, -limit, limit) - b * np.asarray(qdot_next, dtype=float)
+
+
 def servo_torque(q_goal, q, qdot, servo: ServoConstants, voltage: float) -> np.ndarray:
     """tau = tau_s clip(K_d (q_goal - q), -d_max, d_max) - b qdot [N m], element-wise."""
     kp, limit, b = joint_gains(servo, voltage)
@@ -94,11 +139,13 @@ def envelope_ratio(tau, qdot, servo: ServoConstants, voltage: float) -> np.ndarr
     return np.abs(np.asarray(tau, dtype=float) + b * np.asarray(qdot, dtype=float)) / limit
 
 
-def servo_robot_params(params, servo: ServoConstants):
+def servo_robot_params(params, servo: ServoConstants, voltage: float | None = None):
     """``params`` (a RobotParams) with the plant's joint gains, effort limit and damping of
-    ``servo`` at its ``supply_voltage``: kp = tau_s K_d, kd = 0 (no D or velocity
-    feed-forward in the firmware's defaults), the effort limit tau_s d_max, and the back-EMF
-    braking b added to the gear train's own viscous friction."""
-    kp, limit, b = joint_gains(servo, servo.supply_voltage)
+    ``servo`` at ``voltage`` (None: its ``supply_voltage``): kp = tau_s K_d, kd = 0 (no D or
+    velocity feed-forward in the firmware's defaults), the effort limit tau_s d_max, and the
+    back-EMF braking b added to the gear train's own viscous friction. The station sets
+    them at the bus's highest voltage and scales them down to the battery's
+    (``supplied_torque``)."""
+    kp, limit, b = joint_gains(servo, servo.supply_voltage if voltage is None else voltage)
     return dc.replace(params, kp=kp, kd=0.0, effort_limit=limit,
                       joint_damping=params.joint_damping + b)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import Value
+from pydrake.geometry import QueryObject
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
@@ -85,11 +86,18 @@ class FootContacts(LeafSystem):
         - contact_results
         - body_poses
         - body_spatial_velocities
+        - query_object
         output_ports:
         - foot_contacts
 
     ``foot_contacts`` is the 15-vector [N, s_x, s_y] for fl, fr, rl, rr, hull. Inputs are
-    the plant's ports of the same names (``AddToBuilder`` connects them).
+    the plant's ports of the same names and its SceneGraph's query (``AddToBuilder``
+    connects them). Reading the plant's contact results solves the step's contact problem
+    (~0.4 ms with the servos' PD constraints), so the output reads them only when the
+    geometry overlaps something (``QueryObject.HasCollisions``): a swimming robot costs
+    nothing. A diagram that logs it should do so on the plant's step grid (the diagram
+    logs it every 10 ms, with its other loggers): a publish at a time off that grid splits
+    the CPG's continuous integration and changes the run by ~1e-9 over seconds.
 
     Args:
         plant: the finalized MultibodyPlant.
@@ -112,6 +120,7 @@ class FootContacts(LeafSystem):
         self.DeclareAbstractInputPort("body_spatial_velocities",
                                       plant.get_body_spatial_velocities_output_port()
                                       .Allocate())
+        self._query = self.DeclareAbstractInputPort("query_object", Value(QueryObject()))
         self.DeclareVectorOutputPort("foot_contacts", SIZE, self._calc)
 
     @property
@@ -120,6 +129,9 @@ class FootContacts(LeafSystem):
         return self._floor
 
     def _calc(self, context, output):
+        if not self._query.Eval(context).HasCollisions():
+            output.SetFromVector(np.zeros(SIZE))
+            return
         results = self.get_input_port(0).Eval(context)
         poses = self.get_input_port(1).Eval(context)
         velocities = self.get_input_port(2).Eval(context)
@@ -132,10 +144,11 @@ class FootContacts(LeafSystem):
         output.SetFromVector(carrier_loads(carriers, forces, speeds).ravel())
 
     @staticmethod
-    def AddToBuilder(builder, plant, robot, floor_geometries) -> "FootContacts":
-        """Adds the system and connects it to ``plant``'s ports."""
+    def AddToBuilder(builder, plant, scene_graph, robot, floor_geometries) -> "FootContacts":
+        """Adds the system and connects it to ``plant``'s and ``scene_graph``'s ports."""
         system = builder.AddNamedSystem("foot_contacts",
                                         FootContacts(plant, robot, floor_geometries))
+        builder.Connect(scene_graph.get_query_output_port(), system.GetInputPort("query_object"))
         builder.Connect(plant.get_contact_results_output_port(), system.get_input_port(0))
         builder.Connect(plant.get_body_poses_output_port(), system.get_input_port(1))
         builder.Connect(plant.get_body_spatial_velocities_output_port(),

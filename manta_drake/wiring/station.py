@@ -32,8 +32,10 @@ Inputs:
 * ``desired_state`` (32): joint angles and rates for the servos' PD (the plant's
   implicit PD, ``<drake:controller_gains>``: RobotParams' chosen gains, or with
   ``actuators.servo_model: datasheet`` the servo's firmware loop of ``model.servo``, which
-  ignores the rates), in the plant's joint order; with ``actuators.bus_period`` > 0 through
-  a ``ServoBus`` (taken up one bus period after it was written).
+  ignores the rates, at the battery's terminal voltage through ``ServoSupply``'s
+  feed-forward when the energy model is on), in the plant's joint order; with
+  ``actuators.bus_period`` > 0 through a ``ServoBus`` (taken up one bus period after it
+  was written).
 * ``balloon_command`` (1): wanted balloon fill in [0, 1] (0 empty, 1 ``max_volume``).
 
 Outputs, what the robot's sensors give:
@@ -64,18 +66,21 @@ and, for logging and visualisation only (a controller must not read them):
 * ``joint_torque`` (16) [N m]: the torque each joint's actuator applied over the last
   plant step, in the plant's joint order (that of ``measured_joint_state``): the plant's
   net actuation of that step, which includes the implicit PD's contribution (SAP
-  evaluates the PD at the step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next),
-  clamped to the effort limit), i.e. what the servos deliver, not the PD law at the
-  logged state; with the ``datasheet`` servo less its back-EMF braking b qdot_next, which
-  the plant applies as joint damping.
+  evaluates the PD at the step's end state, u = Kp (q_d - q_next) + Kd (v_d - v_next)
+  + u_ff, clamped to the effort limit, u_ff ``ServoSupply``'s feed-forward), i.e. what the
+  servos deliver, not the PD law at the logged state; with the ``datasheet`` servo less
+  its back-EMF braking b qdot_next, which the plant applies as joint damping.
 * ``joint_mechanical_power`` (16) [W]: tau qdot of each joint over the last step.
 * ``balloon_volume`` (1) [m^3], ``plant_state`` (the full MultibodyPlant state),
   ``query_object`` (SceneGraph's, for visualisers).
 * ``foot_contacts`` (15): the floor's normal load [N] on each leg-fin (fl, fr, rl, rr)
   and the hull, and the load-weighted horizontal slip velocity of their contacts [m/s]
-  (``FootContacts``; evaluated only when read, so logging it costs only at the log rate).
+  (``FootContacts``; evaluated only when read, and reading the plant's contact results
+  only when the robot touches something).
 
-Inside: MultibodyPlant + SceneGraph (robot and pool), ``HydrodynamicForces`` (its
+Inside: MultibodyPlant + SceneGraph (robot and pool), ``ServoBus`` and ``ServoSupply``
+(the datasheet servos' bus and their supply voltage), ``FootContacts``,
+``HydrodynamicForces`` (its
 compiled path: the plant's state vector in; held spatial forces or, computed at every
 step, generalized forces out),
 ``BalloonBuoyancy``, ``PressureSensor``, ``RgbdSensor`` (rendering from a SceneGraph of
@@ -125,6 +130,7 @@ from manta_drake.model.plant import (
     joint_torque_port,
     set_contact_friction,
 )
+from manta_drake.model.servo import joint_gains, saturation_angle
 from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
@@ -137,6 +143,7 @@ from manta_drake.station.pressure import PressureSensor
 from manta_drake.station.render_poses import add_camera_scene
 from manta_drake.station.servo_bus import ServoBus
 from manta_drake.station.servo_power import ServoPower
+from manta_drake.station.servo_supply import ServoSupply
 
 
 @dc.dataclass
@@ -175,17 +182,18 @@ def start_command(scenario: Scenario) -> np.ndarray:
     return np.concatenate([q, np.zeros_like(q)])
 
 
-def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector) -> None:
+def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector):
     """``desired_state`` into the plant's PD and the joints' state out as
     ``measured_joint_state``: directly, or with ``actuators.bus_period`` > 0 through a
     ``ServoBus`` (commands taken up one period after the controller wrote them, readings
-    sampled every period in the servos' encoder and velocity units)."""
+    sampled every period in the servos' encoder and velocity units). Returns the bus, or
+    None."""
     port = handles.plant.get_desired_state_input_port(handles.robot)
     period = scenario.actuators.bus_period
     if period == 0.0:
         builder.ExportInput(port, "desired_state")
         builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
-        return
+        return None
     bus = builder.AddNamedSystem("servo_bus", ServoBus(
         len(handles.joint_names), period, scenario.energy_model().servo.encoder_resolution,
         start_command(scenario)))
@@ -193,6 +201,30 @@ def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector)
     builder.Connect(bus.GetOutputPort("applied_command"), port)
     builder.Connect(selector.get_output_port(), bus.GetInputPort("joint_state"))
     builder.ExportOutput(bus.GetOutputPort("measured_joint_state"), "measured_joint_state")
+    return bus
+
+
+def _add_servo_supply(builder, scenario: Scenario, handles: StationHandles) -> None:
+    """The datasheet servos at the battery's terminal voltage: ``ServoSupply``'s
+    feed-forward into the plant's actuation input (the plant's PD is set at
+    ``Scenario.bus_reference_voltage``), from the servos' goal (the bus's applied command,
+    or the controller's ``desired_state``), the joints' state and the battery."""
+    ph, servo = handles.plant_handles, scenario.energy_model().servo
+    reference = scenario.bus_reference_voltage()
+    kp, _, _ = joint_gains(servo, reference)
+    supply = builder.AddNamedSystem("servo_supply", ServoSupply(
+        len(ph.joint_names), kp, saturation_angle(servo), reference, scenario.time_step))
+    bus = handles.systems.get("servo_bus")
+    if bus is None:
+        builder.ConnectInput("desired_state", supply.GetInputPort("servo_goal"))
+    else:
+        builder.Connect(bus.GetOutputPort("applied_command"), supply.GetInputPort("servo_goal"))
+    builder.Connect(handles.systems["joint_state_selector"].get_output_port(),
+                    supply.GetInputPort("joint_state"))
+    builder.Connect(handles.systems["battery"].GetOutputPort("battery"),
+                    supply.GetInputPort("battery"))
+    builder.Connect(supply.get_output_port(), ph.plant.get_actuation_input_port(ph.robot))
+    handles.systems["servo_supply"] = supply
 
 
 def _motor_torque(builder, scenario: Scenario, handles: PlantHandles):
@@ -307,7 +339,8 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles,
 
 def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     """The energy model: the servos' and computers' electrical power and the battery. It
-    reads the plant and applies no force, so the run's motion is the same without it."""
+    reads the plant; the datasheet servos take the battery's voltage (``_add_servo_supply``),
+    so only with the ideal servo is the run's motion the same without it."""
     a, ph = scenario.actuators, handles.plant_handles
     model = scenario.energy_model()
     n = len(ph.joint_names)
@@ -353,7 +386,8 @@ def _add_foot_contacts(builder: DiagramBuilder, handles: StationHandles) -> None
     inspector = plant_handles.scene_graph.model_inspector()
     floor = [g for g in plant.GetCollisionGeometriesForBody(
         plant.GetBodyByName("pool", plant_handles.pool)) if "floor" in inspector.GetName(g)]
-    system = FootContacts.AddToBuilder(builder, plant, plant_handles.robot, floor)
+    system = FootContacts.AddToBuilder(builder, plant, plant_handles.scene_graph,
+                                       plant_handles.robot, floor)
     handles.systems["foot_contacts"] = system
     builder.ExportOutput(system.get_output_port(), "foot_contacts")
 
@@ -394,7 +428,9 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
                                       MatrixGain(joint_state_selector(plant_handles)))
     builder.Connect(plant.get_state_output_port(), selector.get_input_port())
     handles.systems["joint_state_selector"] = selector  # the joints' true [q, qdot]
-    _add_servo_bus(builder, scenario, plant_handles, selector)
+    bus = _add_servo_bus(builder, scenario, plant_handles, selector)
+    if bus is not None:
+        handles.systems["servo_bus"] = bus
     handles.systems["joint_torque"] = _motor_torque(builder, scenario, plant_handles)
     builder.ExportOutput(handles.systems["joint_torque"].get_output_port(), "joint_torque")
     builder.ExportOutput(plant.get_state_output_port(), "plant_state")
@@ -407,6 +443,8 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
         _add_camera(builder, scenario, handles, camera_own_scene)
     if scenario.actuators.enabled:
         _add_power(builder, scenario, handles)
+        if scenario.actuators.servo_model == "datasheet":
+            _add_servo_supply(builder, scenario, handles)
     _add_modalities(builder, scenario, handles)
     if meshcat is not None:
         params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)

@@ -102,19 +102,22 @@ def test_state_of_charge_falls_by_exactly_the_integrated_current(pack):
     soc, volts, amps = log.data()
     n = len(soc)
     assert n == 2001
-    # Each step charges the current the output showed at its start, no more, no less.
+    # Each step charges the current the output shows at its end, no more, no less.
     expected = np.empty(n)
     expected[0] = 1.0
     for k in range(1, n):
-        expected[k] = expected[k - 1] - amps[k - 1] * (DT / (3600.0 * pack.capacity_ah))
+        expected[k] = expected[k - 1] - amps[k] * (DT / (3600.0 * pack.capacity_ah))
     np.testing.assert_array_equal(soc, expected)
     # And the closed form: about P / V amperes for 2 s out of 5 Ah.
-    assert 1.0 - soc[-1] == pytest.approx(amps[:-1].sum() * DT / (3600 * 5.0), rel=1e-12)
-    assert 1.0 - soc[-1] == pytest.approx(2.0 * power / volts.mean() / (3600 * 5.0), rel=1e-3)
-    # The output is consistent: V = OCV(SoC) - R I and V I = P at every sample.
-    np.testing.assert_allclose(volts, pack.open_circuit_voltage(soc)
-                               - pack.internal_resistance * amps, rtol=1e-14)
-    np.testing.assert_allclose(volts * amps, power, rtol=1e-12)
+    assert 1.0 - soc[-1] == pytest.approx(amps[1:].sum() * DT / (3600 * 5.0), rel=1e-12)
+    assert 1.0 - soc[-1] == pytest.approx(2.0 * power / volts[1:].mean() / (3600 * 5.0),
+                                          rel=1e-3)
+    # The output is consistent: the step's V = OCV(SoC at its start) - R I, and V I = P;
+    # at the start the open-circuit voltage and no current.
+    np.testing.assert_allclose(volts[1:], pack.open_circuit_voltage(soc[:-1])
+                               - pack.internal_resistance * amps[1:], rtol=1e-14)
+    np.testing.assert_allclose(volts[1:] * amps[1:], power, rtol=1e-12)
+    assert (volts[0], amps[0]) == (pack.open_circuit_voltage(1.0), 0.0)
     # The last sample is published at the end of the last step, before the next update.
     context = battery.GetMyContextFromRoot(simulator.get_context())
     assert battery.state_of_charge(context) == soc[-1]
@@ -152,9 +155,14 @@ def test_set_state_of_charge_and_bad_parameters(pack):
     context = battery.CreateDefaultContext()
     assert battery.state_of_charge(context) == 1.0
     battery.set_state_of_charge(context, 0.6)
-    battery.GetInputPort("electrical_power").FixValue(context, [0.0])
+    battery.GetInputPort("electrical_power").FixValue(context, [60.0])
     soc, volts, amps = battery.GetOutputPort("battery").Eval(context)
     assert (soc, amps) == (0.6, 0.0) and volts == pytest.approx(pack.open_circuit_voltage(0.6))
+    # One update: the charge falls by the current 60 W draws at 0.6, V I = 60 W.
+    context.SetDiscreteState(battery.EvalUniquePeriodicDiscreteUpdate(context))
+    soc, volts, amps = battery.GetOutputPort("battery").Eval(context)
+    assert volts * amps == pytest.approx(60.0, rel=1e-12)
+    assert soc == pytest.approx(0.6 - amps * DT / (3600 * pack.capacity_ah), rel=1e-15)
     with pytest.raises(ValueError, match="set_state_of_charge"):
         battery.set_state_of_charge(context, 1.5)
     with pytest.raises(ValueError, match="period"):

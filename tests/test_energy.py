@@ -60,13 +60,16 @@ def test_the_battery_counts_the_logged_current(trot_runs):
     dt = np.diff(log["t_battery"])
     assert np.allclose(dt, 1e-3, rtol=0, atol=1e-12)  # one sample per plant step
     per_coulomb = 1e-3 / (3600.0 * MODEL.pack.capacity_ah)
+    # Each sample holds the charge now and the current of the step that ended there.
     expected = np.empty_like(soc)
     expected[0] = 1.0
     for k in range(1, len(soc)):
-        expected[k] = expected[k - 1] - amps[k - 1] * per_coulomb
+        expected[k] = expected[k - 1] - amps[k] * per_coulomb
     np.testing.assert_array_equal(soc, expected)
-    # P = V I at every sample, the power the servo model logged.
-    np.testing.assert_allclose(volts * amps, log["electrical_power"][:, 0], rtol=1e-12)
+    # P = V I of every step, the power the servo model logged at its start.
+    np.testing.assert_allclose(volts[1:] * amps[1:], log["electrical_power"][:-1, 0],
+                               rtol=1e-12)
+    assert amps[0] == 0.0 and volts[0] == pytest.approx(MODEL.pack.open_circuit_voltage(1.0))
 
 
 def test_mechanical_power_is_the_work_of_each_plant_step(trot_runs):
@@ -122,7 +125,7 @@ def test_energy_block_of_each_kind_of_scenario(tmp_path, name, duration):
     assert energy - IDLE_W * duration > positive > 0
     soc = log["battery"][:, 0]
     assert e["battery_soc_end"] == soc[-1]
-    drawn = np.sum(log["battery"][:-1, 2]) * 1e-3 / 3600.0
+    drawn = np.sum(log["battery"][1:, 2]) * 1e-3 / 3600.0  # each step's current, at its end
     assert 1.0 - soc[-1] == pytest.approx(drawn / MODEL.pack.capacity_ah, rel=1e-9)
     assert e["hotel_power_w"] == pytest.approx(IDLE_W, rel=1e-12)
     weight = DEFAULT_ROBOT.total_mass * STANDARD_GRAVITY

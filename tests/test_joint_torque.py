@@ -159,7 +159,7 @@ def test_stand_exercises_the_effort_limit(servo_model, pose):
     # The plant's own clamp (at the full pack's 16.41 V) never binds: the battery is below.
     pd = log["joint_torque"][1:] + back_emf_damping(servo) * log["joint_velocities"][1:]
     assert np.all(np.abs(pd) < effort - 1e-3), (np.abs(pd).max(), effort.min())
-    assert log["battery"][:, 1].max() < scenario.bus_reference_voltage()
+    assert log["battery"][:, 1].max() <= scenario.bus_reference_voltage()
 
 
 def test_standing_torques_balance_gravity_and_the_floor():

@@ -26,7 +26,7 @@ kept within [0, 1].
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from manta_drake.jit import njit
 from manta_drake.model.actuators import PackConstants
@@ -72,7 +72,7 @@ def battery_kernel(soc, power, soc_grid, pack_ocv, resistance):
 
 
 class Battery(LeafSystem):
-    """The battery pack: its state of charge as discrete state, its voltage and current.
+    """The battery pack: its state of charge, and the voltage and current of its last step.
 
     .. pydrake_system::
 
@@ -84,18 +84,22 @@ class Battery(LeafSystem):
 
     * ``electrical_power`` (1) [W]: what the loads draw (held over each period).
     * ``battery`` (3): [state of charge (0-1), terminal voltage V = OCV(SoC) - R_int I [V],
-      current I [A]] with I the physical root of P = V I (the module docstring).
+      current I [A]] with I the physical root of P = V I (the module docstring): the
+      state of charge now, the voltage and current over the last period (at the start:
+      the open-circuit voltage and no current).
 
-    The state of charge is a discrete state updated every ``period`` seconds (the plant's
-    step, so no integrator step is added): SoC_{k+1} = SoC_k - I_k period / (3600 Q), so it
-    falls by exactly the sum of I dt. When it has reached ``pack.cutoff_soc`` and
-    ``stop_at_cutoff`` is set, a publish event at the same period returns
-    ``EventStatus.ReachedTermination``: the Simulator's ``AdvanceTo`` returns early, at the
-    end of a whole step, with the reason in its status. (From a publish, not from the update:
-    a termination returned by an update returns before the step is taken, and a caller that
-    calls ``AdvanceTo`` again re-applies that time's updates of every system, the plant's
-    included, at the same time; after a publish-time stop another ``AdvanceTo`` takes
-    ordinary whole steps.)
+    The three are the system's discrete state, updated every ``period`` seconds (the plant's
+    step, so no integrator step is added) from the power drawn at the period's start,
+    P_k: (V_k, I_k) at SoC_k, then SoC_{k+1} = SoC_k - I_k period / (3600 Q), so the charge
+    falls by exactly the sum of I dt. The output is that state (a state output port: its
+    readers, the servos' supply among them at every step, cost no Python call). When the
+    charge has reached ``pack.cutoff_soc`` and ``stop_at_cutoff`` is set, a publish event
+    at the same period returns ``EventStatus.ReachedTermination``: the Simulator's
+    ``AdvanceTo`` returns early, at the end of a whole step, with the reason in its status.
+    (From a publish, not from the update: a termination returned by an update returns
+    before the step is taken, and a caller that calls ``AdvanceTo`` again re-applies that
+    time's updates of every system, the plant's included, at the same time; after a
+    publish-time stop another ``AdvanceTo`` takes ordinary whole steps.)
     """
 
     def __init__(self, pack: PackConstants, period: float, initial_soc: float = 1.0,
@@ -113,37 +117,33 @@ class Battery(LeafSystem):
         self.pack, self.period = pack, float(period)
         self.stop_at_cutoff = bool(stop_at_cutoff)
         self._power = self.DeclareVectorInputPort("electrical_power", 1)
-        self._soc = self.DeclareDiscreteState([float(initial_soc)])
+        self._state = self.DeclareDiscreteState(self._at_rest(float(initial_soc)))
         self._ocv_soc = np.asarray(pack.ocv_soc, dtype=float)
         self._ocv_pack = pack.cells_in_series * np.asarray(pack.ocv_cell_voltage, dtype=float)
         self._soc_per_coulomb = self.period / (3600.0 * pack.capacity_ah)
-        self._battery = self.DeclareVectorOutputPort(
-            "battery", 3, self._calc_battery,
-            prerequisites_of_calc={self.xd_ticket(), self.all_input_ports_ticket()})
+        self.DeclareStateOutputPort("battery", self._state)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
         if self.stop_at_cutoff:
             self.DeclarePeriodicPublishEvent(self.period, 0.0, self._check_cutoff)
 
-    def _calc_battery(self, context, output: BasicVector):
-        soc = context.get_discrete_state(self._soc).GetAtIndex(0)
+    def _at_rest(self, soc: float) -> list:
+        """The state at ``soc`` with no current drawn yet: [SoC, OCV(SoC), 0]."""
+        return [soc, float(self.pack.open_circuit_voltage(soc)), 0.0]
+
+    def _update(self, context, discrete_state):
+        soc = context.get_discrete_state(self._state).GetAtIndex(0)
         r = self.pack.internal_resistance
         # np.interp holds the end values outside the table, as a clip to [0, 1] would.
         ocv, current = battery_kernel(soc, self._power.Eval(context)[0], self._ocv_soc,
                                       self._ocv_pack, r)
-        output.SetFromVector([soc, ocv - r * current, current])
-
-    def _update(self, context, discrete_state):
-        # The output port's value: computed once per step (a logger at the same time has
-        # already evaluated it on this context), so the update charges exactly the logged
-        # current.
-        soc, _, current = self._battery.Eval(context)
         # state_of_charge_step's arithmetic, in Python floats (the same operations in the
         # same order, so the same bits).
-        discrete_state.get_mutable_vector(self._soc).SetAtIndex(
-            0, min(max(soc - current * self._soc_per_coulomb, 0.0), 1.0))
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            [min(max(soc - current * self._soc_per_coulomb, 0.0), 1.0), ocv - r * current,
+             current])
 
     def _check_cutoff(self, context):
-        soc = context.get_discrete_state(self._soc).GetAtIndex(0)
+        soc = context.get_discrete_state(self._state).GetAtIndex(0)
         if soc <= self.pack.cutoff_soc:
             return EventStatus.ReachedTermination(
                 self, f"battery empty at t = {context.get_time():.3f} s: state of charge "
@@ -152,10 +152,10 @@ class Battery(LeafSystem):
 
     def state_of_charge(self, context) -> float:
         """The state of charge in this system's context."""
-        return context.get_discrete_state(self._soc).GetAtIndex(0)
+        return context.get_discrete_state(self._state).GetAtIndex(0)
 
     def set_state_of_charge(self, context, soc: float) -> None:
-        """Sets the state of charge in this system's context."""
+        """Sets the state of charge in this system's context (no current drawn yet)."""
         if not 0.0 <= soc <= 1.0:
             raise ValueError(f"Battery.set_state_of_charge: {soc} is outside [0, 1]")
-        context.get_mutable_discrete_state(self._soc).SetAtIndex(0, float(soc))
+        context.get_mutable_discrete_state(self._state).SetFromVector(self._at_rest(float(soc)))

@@ -48,9 +48,9 @@ Outputs, what the robot's sensors give:
   its horizontal viewing direction.
 * ``measured_joint_state`` (32): the servos' angles and rates (with a bus: its last sync
   read, in whole encoder pulses and velocity units).
-* ``battery`` (3): [state of charge 0-1, terminal voltage V, current A] of the pack
-  (``Battery``; the run stops when the charge reaches the file's cut-off, see
-  ``actuators.stop_when_empty``).
+* ``battery`` (3): [state of charge 0-1, terminal voltage V, current A] of the pack: the
+  charge now, the voltage and current of the last step (``Battery``; the run stops when
+  the charge reaches the file's cut-off, see ``actuators.stop_when_empty``).
 * ``electrical_power`` (1) [W]: what the servos and the computers draw (``ServoPower``,
   parameters in ``models/actuators.yaml``).
 

@@ -6,7 +6,7 @@ import pytest
 
 from manta_drake.model import servo as S
 from manta_drake.model.actuators import load_energy_model
-from manta_drake.station.servo_supply import ServoSupply
+from manta_drake.station.servo_supply import ServoSupply, supply_feed_forward_kernel
 
 SERVO = load_energy_model("package://manta_drake/actuators.yaml").servo
 V_R = 16.4116
@@ -71,3 +71,17 @@ def test_servo_supply_ports_give_the_feed_forward():
                                      kp_r * (s * 0.1), kp_r * (s * 0.1)], rtol=1e-12)
     with pytest.raises(ValueError, match="ServoSupply.reference_voltage: 0.0"):
         ServoSupply(3, kp_r, theta, 0.0, 1e-3)
+
+
+def test_the_kernel_equals_the_numpy_reference(rng=np.random.default_rng(5)):
+    kp_r, theta = S.joint_gains(SERVO, V_R)[0], S.saturation_angle(SERVO)
+    out = np.empty(16)
+    for _ in range(50):
+        goal, state = rng.uniform(-1, 1, 32), rng.uniform(-1, 1, 32)
+        state[16:] = rng.normal(scale=5.0, size=16)
+        volts = rng.uniform(11.0, 17.0)
+        supply_feed_forward_kernel(goal, state, volts, kp_r, theta, V_R, 1e-3, out)
+        expected = S.supply_feed_forward(goal[:16], state[:16], state[16:], volts, kp_r, theta,
+                                         V_R, 1e-3)
+        assert np.abs(goal[:16] - state[:16]).max() > theta  # both zones are exercised
+        np.testing.assert_allclose(out, expected, rtol=1e-13, atol=1e-13)

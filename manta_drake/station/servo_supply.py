@@ -24,8 +24,9 @@ speed). The implicit step keeps the stiff loop stable; the explicit feed-forward
 most kp_r (1 - V/V_r) <= 0.35 kp_r of stiffness and kp_r dt of negative damping, against
 the back-EMF's implicit b = 0.90 N m s/rad.
 
-``model.servo.supply_feed_forward`` is the pure maths; ``ServoSupply`` the Drake system
-that feeds it the servos' goal, the joints' state and the battery.
+``model.servo.supply_feed_forward`` is the pure maths, ``supply_feed_forward_kernel`` its
+compiled twin; ``ServoSupply`` the Drake system that feeds the kernel the servos' goal, the
+joints' state and the battery.
 """
 
 from __future__ import annotations
@@ -33,7 +34,24 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from manta_drake.model.servo import supply_feed_forward
+from manta_drake.jit import njit
+
+
+@njit(cache=True)
+def supply_feed_forward_kernel(goal, state, voltage, kp_reference, saturation,
+                               reference_voltage, time_step, out):
+    """``model.servo.supply_feed_forward`` compiled, into ``out`` (n) from the servos' goal
+    (2n) and the joints' state (2n): one loop instead of a dozen numpy calls on 16 values,
+    once per plant step; the tests hold it to the numpy reference."""
+    n = out.shape[0]
+    scale = 1.0 - voltage / reference_voltage
+    for j in range(n):
+        e = goal[j] - state[j]
+        sat = min(max(e, -saturation), saturation)
+        u = -(e - sat) - scale * sat
+        if abs(e) > saturation:
+            u += time_step * state[n + j]
+        out[j] = kp_reference * u
 
 
 class ServoSupply(LeafSystem):
@@ -80,9 +98,7 @@ class ServoSupply(LeafSystem):
         self.DeclareVectorOutputPort("feed_forward", n, self._calc)
 
     def _calc(self, context, output: BasicVector):
-        n = self.num_joints
-        state = self._state.Eval(context)
-        output.SetFromVector(supply_feed_forward(
-            self._goal.Eval(context)[:n], state[:n], state[n:],
+        supply_feed_forward_kernel(
+            self._goal.Eval(context), self._state.Eval(context),
             self._battery.Eval(context)[1], self.kp_reference, self.saturation,
-            self.reference_voltage, self.time_step))
+            self.reference_voltage, self.time_step, output.get_mutable_value())

@@ -61,6 +61,26 @@ def test_two_behaviours_swim_to_trot_by_depth(tmp_path):
     assert m["max_joint_step_rad"] < 0.01  # no jump in any commanded joint angle
 
 
+def test_a_switch_tree_arrives_at_the_trot(tmp_path):
+    """A tree that switches between the swim and the trot on the depth (root: z_hat, switch)
+    moves the target by exactly pi on the Phi entries where the two gaits are antipodal.
+    Without the tie-break at the antipode (``transition.tie_broken_sine``) those 8 entries
+    stayed there for good and ``transitions`` was empty (the robot ran the trot's
+    amplitudes with the swim's phases); with it the trot is reached (measured: 6.48-10.26 s;
+    the potential weight's own tree 3.96-8.40 s)."""
+    from manta_drake.control.behaviour_tree import BlendNode
+
+    s = _scenario("two_behaviors", duration=14.0)
+    s.balloon.schedule[0].time = 1.0
+    s.transition.tree = {"root": BlendNode(modality="z_hat", weight="switch",
+                                           children=["swim", "trot"])}
+    result = run(s.validate(), tmp_path, progress=False, write_outputs=False)
+    swim, trot = s.gaits()["swim"].to_vector(), s.gaits()["trot"].to_vector()
+    assert (np.abs(np.abs(wrap(trot - swim)) - np.pi) < 1e-9).sum() >= 8  # the antipodes
+    assert [(tr["from"], tr["to"]) for tr in result.metrics["transitions"]] == [("swim", "trot")]
+    np.testing.assert_allclose(wrap(result.log["cpg_params"][-1] - trot), 0.0, atol=0.05)
+
+
 def test_three_behaviours_wall_seen_then_turning(tmp_path):
     """On the floor in trot, facing the end wall just beyond the camera's range: the camera,
     the wall detector and the tree put the robot in the turning gait. With the cross-flow

@@ -66,7 +66,9 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  {'failure':<28} {failure.get('stage')} at {failure.get('time_s', 0):.3f} s: "
               f"{failure.get('reason')}")
     for tr in metrics.get("transitions", []):
-        print(f"  transition {tr['from']:>8} -> {tr['to']:<8} {tr['start_s']:.1f} s .. {tr['end_s']:.1f} s")
+        from manta_drake.metrics import transition_span
+
+        print(f"  transition {tr['from']:>8} -> {tr['to']:<8} {transition_span(tr)} s")
     out_dir = pathlib.Path(out_dir)
     print(f"\n  outputs in {out_dir}/")
     if (out_dir / "recording.html").exists():  # a run removes its old one before it writes

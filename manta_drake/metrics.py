@@ -155,41 +155,82 @@ def behaviour_at(params: np.ndarray, behaviours: dict, tolerance: float) -> list
     return labels
 
 
-def transition_progress(params: np.ndarray, start, target) -> np.ndarray:
-    """Per sample, how far the parameters are on their way from ``start`` to ``target``:
-    d_s / (d_s + d_t) with d the norm of the wrapped differences (0 at ``start``, 1 at
-    ``target``; direction-free, so it needs no choice of path round the torus)."""
-    d_s = np.linalg.norm(_wrapped_difference(params, start), axis=1)
-    d_t = np.linalg.norm(_wrapped_difference(params, target), axis=1)
-    return d_s / np.maximum(d_s + d_t, 1e-12)
+# A leaf's share of the behaviour tree's weights (w_leaf / sum of the weights) below which a
+# change toward it has not begun, and how long a leaf must lead to count as a change [s].
+TRANSITION_ONSET_SHARE = 0.1
+TRANSITION_MIN_LEAD = 2.0  # one cycle of the shipped gaits (0.5 Hz)
 
 
-def behaviour_transitions(t, params, behaviours: dict, tolerance: float = 0.05,
-                          start_progress: float = 0.1) -> list:
-    """Transitions between behaviours as ``{from, to, start_s, end_s}``.
-
-    A transition ends when the parameters first arrive at another behaviour (within
-    ``tolerance`` rad on every parameter); only arrivals count, so parameters that leave a
-    behaviour and come back make no transition. It starts at the last sample before that
-    arrival where they were still within ``start_progress`` of the way from the behaviour
-    they left (``transition_progress``): small excursions near the start (a depth estimate
-    that jitters at the surface) do not move the start earlier.
-    """
+def dominant_leaves(t, weights, min_lead: float = 0.0) -> np.ndarray:
+    """Per sample, the index of the leaf with the largest weight (the first on a tie); a
+    lead shorter than ``min_lead`` [s] (an estimate that flickers about a threshold) is
+    given to the leaf that led before it."""
     t = np.asarray(t, dtype=float)
-    params = np.atleast_2d(params)
-    labels = behaviour_at(params, behaviours, tolerance)
-    out, current, last_index = [], None, None
-    for i, label in enumerate(labels):
-        if label is None:
-            continue
-        if current is not None and label != current:
-            progress = transition_progress(params[last_index:i + 1], behaviours[current],
-                                           behaviours[label])
-            start = last_index + int(np.flatnonzero(progress <= start_progress)[-1])
-            out.append({"from": current, "to": label, "start_s": float(t[start]),
-                        "end_s": float(t[i])})
-        current, last_index = label, i
+    lead = np.argmax(np.atleast_2d(weights), axis=1)
+    starts = np.r_[0, np.flatnonzero(np.diff(lead)) + 1]
+    ends = np.r_[starts[1:], len(lead)]
+    for a, b in zip(starts[1:], ends[1:]):
+        until = t[b] if b < len(t) else np.inf
+        if until - t[a] < min_lead:
+            lead[a:b] = lead[a - 1]
+    return lead
+
+
+def leaf_transitions(t_weights, weights, leaves, t_params, params, gait_vectors: dict,
+                     tolerance: float, onset: float = TRANSITION_ONSET_SHARE,
+                     min_lead: float = TRANSITION_MIN_LEAD) -> list:
+    """Every change of the behaviour tree's dominant leaf (the gait with the largest weight,
+    ``behaviour_weights``, leading for at least ``min_lead`` s: ``dominant_leaves``), as
+    ``{from, to, start_s, dominant_s, end_s}``:
+
+    * ``start_s``: the last weight sample since the change before at which the new leaf's
+      share of the weights was at most ``onset`` (the target began moving toward it; the
+      change before, if the share never fell that low since);
+    * ``dominant_s``: the first sample at which it led;
+    * ``end_s``: the first time from ``start_s`` on at which the CPG's parameters (the
+      ``t_params``, ``params`` samples) are within ``tolerance`` rad of its gait on every
+      entry (wrapped), before the dominant leaf changes again; None if they never get there.
+
+    Args:
+        t_weights, weights: (N,), (N, L) the tree's leaf weights over time.
+        leaves: the L leaf (gait) names.
+        t_params, params: (M,), (M, 64) the CPG parameters psi over time.
+        gait_vectors: leaf name -> its 64-vector.
+    """
+    t_w, t_p = np.asarray(t_weights, dtype=float), np.asarray(t_params, dtype=float)
+    w = np.atleast_2d(np.asarray(weights, dtype=float))
+    if len(t_w) == 0:
+        return []
+    share = w / np.maximum(w.sum(axis=1, keepdims=True), 1e-12)
+    lead = dominant_leaves(t_w, w, min_lead)
+    changes = np.flatnonzero(np.diff(lead)) + 1
+    out = []
+    for n, i in enumerate(changes):
+        new, since = lead[i], changes[n - 1] if n else 0
+        before = since + np.flatnonzero(share[since:i, new] <= onset)
+        start = t_w[before[-1]] if len(before) else t_w[since]
+        until = t_w[changes[n + 1]] if n + 1 < len(changes) else np.inf
+        window = (t_p >= start) & (t_p < until)
+        there = np.flatnonzero(window & at_behaviour(params, gait_vectors[leaves[new]],
+                                                     tolerance))
+        out.append({"from": leaves[lead[i - 1]], "to": leaves[new], "start_s": float(start),
+                    "dominant_s": float(t_w[i]),
+                    "end_s": float(t_p[there[0]]) if len(there) else None})
     return out
+
+
+def transition_span(tr: dict, digits: int = 1) -> str:
+    """A ``leaf_transitions`` entry's times as text: ``start-end`` in s, the end ``never``
+    when the parameters did not arrive."""
+    end = "never" if tr["end_s"] is None else f"{tr['end_s']:.{digits}f}"
+    return f"{tr['start_s']:.{digits}f}-{end}"
+
+
+def heading_change_deg(quat_wxyz) -> float:
+    """The hull's heading change over the whole log [deg]: the unwrapped yaw's last value
+    less its first (counter-clockwise from above positive)."""
+    yaw = np.unwrap(euler_rpy(np.atleast_2d(quat_wxyz))[:, 2])
+    return float(np.degrees(yaw[-1] - yaw[0])) if len(yaw) else 0.0
 
 
 # --- energy --------------------------------------------------------------------------------

@@ -51,16 +51,23 @@ def plot_joints(t, q, t_cmd, q_cmd, path, title="", shade=None):
     fig.savefig(path, dpi=110)
 
 
-def plot_states(log: dict, path, title=""):
-    """Body Euler angles, depth and (if logged) z_hat, s_hat and balloon volume over time."""
+def plot_states(log: dict, path, title="", leaves=None):
+    """Body Euler angles (the yaw unwrapped), depth and (if logged) z_hat, s_hat, the
+    balloon's volume and, given the behaviour tree's ``leaves``, their weights over time."""
     t = log["t"]
-    panels = [("Euler angles [deg]", [(np.degrees(log["body_rpy"][:, i]), n)
-                                      for i, n in enumerate(("roll", "pitch", "yaw"))])]
+    rpy = log["body_rpy"].copy()
+    rpy[:, 2] = np.unwrap(rpy[:, 2])
+    panels = [("Euler angles [deg]\n(yaw unwrapped)",
+               [(np.degrees(rpy[:, i]), n) for i, n in enumerate(("roll", "pitch", "yaw"))])]
     panels.append(("body depth below surface [m]", [(-log["body_xyz"][:, 2], "depth")]))
     for key, label in (("z_hat", "z_hat"), ("s_hat", "s_hat"), ("balloon_volume", "balloon [L]")):
         if key in log and len(log[key]):
             scale = 1000.0 if key == "balloon_volume" else 1.0
             panels.append((label, [(log[key][:, 0] * scale, key, log[f"t_{key}"])]))
+    if leaves is not None and len(log.get("behaviour_weights", [])):
+        panels.append(("behaviour weights", [(log["behaviour_weights"][:, i], leaf,
+                                              log["t_behaviour_weights"])
+                                             for i, leaf in enumerate(leaves)]))
     fig = Figure(figsize=(10, 2.2 * len(panels) + 1))
     axes = fig.subplots(len(panels), 1, sharex=True)
     axes = np.atleast_1d(axes)
@@ -77,16 +84,43 @@ def plot_states(log: dict, path, title=""):
     fig.savefig(path, dpi=110)
 
 
+# The margin [m] around the path that the trajectory's view keeps (a wall within it shows).
+TRAJECTORY_MARGIN = 0.5
+
+
+def trajectory_limits(xy, pool=(15.0, 2.0), margin: float = TRAJECTORY_MARGIN):
+    """((x0, x1), (y0, y1)): the path's box grown by ``margin`` on every side, no larger
+    than the pool grown by the same margin, and at least 1 m wide and high."""
+    xy = np.asarray(xy, dtype=float)
+    L, W = pool
+    limits = []
+    for k, half in enumerate((L / 2, W / 2)):
+        lo = max(xy[:, k].min() - margin, -half - margin)
+        hi = min(xy[:, k].max() + margin, half + margin)
+        grow = max(0.0, 1.0 - (hi - lo)) / 2
+        limits.append((lo - grow, hi + grow))
+    return tuple(limits)
+
+
 def plot_trajectory(log: dict, path, title="", pool=(15.0, 2.0)):
-    """Top view of the body's path in the pool."""
+    """Top view of the body's path at its own scale (the pool's walls drawn, seen where
+    they are within ``TRAJECTORY_MARGIN`` of the path), the heading marked along it."""
     xyz = log["body_xyz"]
-    fig = Figure(figsize=(10, 3.2))
+    (x0, x1), (y0, y1) = trajectory_limits(xyz[:, :2], pool)
+    fig = Figure(figsize=(8, max(3.0, min(8.0, 8 * (y1 - y0) / (x1 - x0)))))
     ax = fig.subplots()
     L, W = pool
-    ax.add_patch(Rectangle((-L / 2, -W / 2), L, W, fill=False, lw=1.5, color="gray"))
+    ax.add_patch(Rectangle((-L / 2, -W / 2), L, W, fill=False, lw=2.0, color="gray",
+                           label="pool walls"))
     ax.plot(xyz[:, 0], xyz[:, 1], lw=1.5)
+    step = max(1, len(xyz) // 12)
+    yaw = log["body_rpy"][::step, 2]
+    ax.quiver(xyz[::step, 0], xyz[::step, 1], np.cos(yaw), np.sin(yaw), width=0.004,
+              scale=25, color="tab:blue", alpha=0.6, label="heading")
     ax.plot(*xyz[0, :2], "go", label="start")
     ax.plot(*xyz[-1, :2], "rs", label="end")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -96,28 +130,33 @@ def plot_trajectory(log: dict, path, title="", pool=(15.0, 2.0)):
     fig.savefig(path, dpi=110)
 
 
-def write_run_plots(log: dict, out_dir, title="", shade=None) -> None:
-    """joints.png, states.png and trajectory.png of one run."""
+def write_run_plots(log: dict, out_dir, title="", shade=None, leaves=None) -> None:
+    """joints.png, states.png and trajectory.png of one run (``leaves``: the behaviour
+    tree's gait names, for the weights panel)."""
     out_dir = pathlib.Path(out_dir)
     if len(log["t"]) == 0:
         return
     plot_joints(log["t"], log["joint_angles"], log.get("t_command"),
                 log.get("commanded_joint_angles"), out_dir / "joints.png", title, shade)
     if "body_xyz" in log:
-        plot_states(log, out_dir / "states.png", title)
+        plot_states(log, out_dir / "states.png", title, leaves)
         plot_trajectory(log, out_dir / "trajectory.png", title)
 
 
 # --- the paper's figures ----------------------------------------------------------------------
 
 def behaviour_spans(transitions: list, end: float) -> list:
-    """(start, end, label) spans for shading: each behaviour held, and each transition."""
+    """(start, end, label) spans for shading: each behaviour held, and each transition
+    (from its start until the parameters arrived, or until the next change when they did
+    not)."""
     spans, t0 = [], 0.0
     current = transitions[0]["from"] if transitions else None
-    for tr in transitions:
+    for k, tr in enumerate(transitions):
         spans.append((t0, tr["start_s"], tr["from"]))
-        spans.append((tr["start_s"], tr["end_s"], f"{tr['from']}->{tr['to']}"))
-        t0, current = tr["end_s"], tr["to"]
+        until = transitions[k + 1]["start_s"] if k + 1 < len(transitions) else end
+        t0 = until if tr["end_s"] is None else tr["end_s"]
+        spans.append((tr["start_s"], t0, f"{tr['from']}->{tr['to']}"))
+        current = tr["to"]
     if current is not None:
         spans.append((t0, end, current))
     return spans

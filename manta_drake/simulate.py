@@ -171,13 +171,15 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
             m["yaw_rate_deg_s"] = None
             m["note"] = M.short_window_note(start, end, MIN_STEADY_WINDOW, sim_time, near,
                                             scenario.free_water_margin)
+        m["heading_change_deg"] = M.heading_change_deg(q)
         m["distance_m"] = M.horizontal_distance(xyz)
         m["final_body_xyz"] = xyz[-1].tolist()
         m["final_body_rpy_deg"] = np.degrees(log["body_rpy"][-1]).tolist()
-    if scenario.controller.mode == "transition" and len(log.get("cpg_params", [])):
-        behaviours = scenario.behaviour_tree().gait_vectors
-        m["transitions"] = M.behaviour_transitions(
-            log["t_cpg_params"], log["cpg_params"], behaviours,
+    if len(log.get("behaviour_weights", [])) and len(log.get("cpg_params", [])):
+        tree = scenario.behaviour_tree()
+        m["transitions"] = M.leaf_transitions(
+            log["t_behaviour_weights"], log["behaviour_weights"], tree.leaves,
+            log["t_cpg_params"], log["cpg_params"], tree.gait_vectors,
             scenario.transition.arrival_tolerance)
     if len(log.get("commanded_joint_angles", [])) >= 2:
         m["max_joint_step_rad"] = M.max_joint_step(log["commanded_joint_angles"])
@@ -526,7 +528,12 @@ def _write_outputs(scenario: Scenario, out_dir: pathlib.Path, handles: DiagramHa
     np.savez_compressed(tmp_log, **log)
     os.replace(tmp_log, out_dir / "log.npz")
     if plots_and_recording:
-        plots.write_run_plots(log, out_dir, title=scenario.name)
+        leaves = (scenario.behaviour_tree().leaves if len(log.get("behaviour_weights", []))
+                  else None)
+        plots.write_run_plots(log, out_dir, title=scenario.name,
+                              shade=plots.behaviour_spans(metrics.get("transitions", []),
+                                                          float(log["t"][-1]))
+                              if metrics.get("transitions") else None, leaves=leaves)
         if handles.visualizer is not None:
             handles.visualizer.StopRecording()
             handles.visualizer.PublishRecording()

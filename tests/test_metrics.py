@@ -53,33 +53,60 @@ def _path(t, a, b, t0, t1):
     return a + s * (b - a)
 
 
-def test_transition_times_from_a_linear_path_with_jitter_at_the_start():
-    from manta_drake.metrics import behaviour_transitions
+def _weights(t, changes, leaves=2):
+    """Leaf weights that hand over linearly from one leaf to the next over each (t0, t1,
+    from, to) of ``changes``."""
+    w = np.zeros((len(t), leaves))
+    w[:, changes[0][2]] = 1.0
+    for t0, t1, a, b in changes:
+        s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
+        later = t >= t0
+        w[later, a], w[later, b] = 1.0 - s[later], s[later]
+    return w
+
+
+def test_leaf_transitions_by_hand():
+    """Weights hand over from a to b over 8-12 s (b's share passes 0.1 at 8.4 s, leads from
+    10 s); the parameters follow linearly over 8-16 s and arrive (within 0.05 on every
+    entry, the 3 rad one last) at 16 - 8 x 0.05 / 3 s."""
+    from manta_drake.metrics import leaf_transitions
 
     a, b = np.zeros(4), np.array([1.0, -2.0, 0.5, 3.0])
     t = np.arange(0.0, 20.0, 0.02)
-    params = _path(t, a, b, 8.0, 16.0)
-    # Jitter near the start behaviour from 0.4 s: 0.2 rad on one parameter (outside the 0.05
-    # tolerance, 5 % of the way): the transition must still start at 8 s, not 0.4 s.
-    params[(t > 0.4) & (t < 8.0), 1] += 0.2 * np.sin(t[(t > 0.4) & (t < 8.0)])
-    out = behaviour_transitions(t, params, {"a": a, "b": b}, tolerance=0.05)
+    w = _weights(t, [(8.0, 12.0, 0, 1)])
+    out = leaf_transitions(t, w, ("a", "b"), t, _path(t, a, b, 8.0, 16.0),
+                           {"a": a, "b": b}, tolerance=0.05)
     assert len(out) == 1 and (out[0]["from"], out[0]["to"]) == ("a", "b")
-    # Progress 0.1 of the way is 0.8 s after the linear path starts (d_s/(d_s+d_t) = s).
-    assert out[0]["start_s"] == pytest.approx(8.8, abs=0.03)
-    # Within 0.05 rad on every parameter: the largest one (3 rad) is the last to arrive.
+    assert out[0]["start_s"] == pytest.approx(8.4, abs=0.021)
+    assert out[0]["dominant_s"] == pytest.approx(10.0, abs=0.021)
     assert out[0]["end_s"] == pytest.approx(16.0 - 8.0 * 0.05 / 3.0, abs=0.03)
 
 
-def test_an_excursion_that_returns_is_no_transition_and_wrapping_is_on_the_torus():
-    from manta_drake.metrics import behaviour_transitions, transition_progress
+def test_a_brief_lead_is_no_change_and_a_change_need_not_arrive():
+    """b leads for 1 s (under the 2 s a change must last): no transition; then c takes
+    over for good but the parameters never reach it: its end is None; wrapping is on the
+    torus (-pi and pi are the same angle)."""
+    from manta_drake.metrics import TRANSITION_MIN_LEAD, leaf_transitions, transition_span
 
-    a, b = np.zeros(2), np.array([np.pi, -np.pi / 2])
-    t = np.arange(0.0, 10.0, 0.05)
-    params = np.where(((t > 2) & (t < 4))[:, None], 0.5 * b, a)  # halfway, then back
-    assert behaviour_transitions(t, params, {"a": a, "b": b}) == []
-    # -pi and pi are the same angle: progress 1 at b written either way.
-    np.testing.assert_allclose(transition_progress(np.array([[-np.pi, -np.pi / 2]]), a, b), 1.0)
-    np.testing.assert_allclose(transition_progress(np.array([a]), a, b), 0.0)
+    assert TRANSITION_MIN_LEAD == 2.0
+    t = np.arange(0.0, 20.0, 0.02)
+    w = _weights(t, [(4.0, 4.02, 0, 1), (5.0, 5.02, 1, 0), (10.0, 11.0, 0, 2)], leaves=3)
+    vectors = {"a": np.zeros(2), "b": np.ones(2), "c": np.array([np.pi, 1.0])}
+    params = np.tile([-np.pi, 0.5], (len(t), 1))  # at c's first entry (wrapped), not its second
+    out = leaf_transitions(t, w, ("a", "b", "c"), t, params, vectors, tolerance=0.05)
+    assert [(tr["from"], tr["to"]) for tr in out] == [("a", "c")]
+    assert out[0]["end_s"] is None and out[0]["dominant_s"] == pytest.approx(10.5, abs=0.021)
+    assert transition_span(out[0]) == f"{out[0]['start_s']:.1f}-never"
+    params[t >= 13.0, 1] = 1.0  # now it arrives, at 13 s
+    arrived = leaf_transitions(t, w, ("a", "b", "c"), t, params, vectors, tolerance=0.05)
+    assert arrived[0]["end_s"] == pytest.approx(13.0, abs=0.021)
+
+
+def test_heading_change_counts_whole_turns():
+    from manta_drake.metrics import heading_change_deg
+
+    yaw = np.radians(np.linspace(0.0, -400.0, 801))  # clockwise past a whole turn
+    assert heading_change_deg(_yaw_quats(yaw)) == pytest.approx(-400.0, abs=1e-6)
 
 
 # --- the note says only what happened ----------------------------------------------------------
@@ -248,3 +275,20 @@ def test_yaw_rate_of_a_robot_nearly_on_its_nose_is_its_turn():
     pitch = -np.pi / 2 + np.radians(0.01)
     q = np.array([_quat_rpy(np.radians(20.0), pitch, yaw) for yaw in np.radians(10.0) * t])
     assert M.yaw_rate_deg_s(t, q, 0.0) == pytest.approx(10.0, abs=1e-6)
+
+
+def test_the_trajectory_is_drawn_at_the_paths_scale():
+    """A short path far from the walls gets its own box plus 0.5 m; one near a wall shows
+    the wall (the box stops 0.5 m beyond it); a path shorter than 1 m is widened to 1 m."""
+    from manta_drake.plots import trajectory_limits
+
+    (x0, x1), (y0, y1) = trajectory_limits(np.array([[1.0, 0.0], [2.0, 0.2]]))
+    assert (x0, x1) == pytest.approx((0.5, 2.5)) and (y0, y1) == pytest.approx((-0.5, 0.7))
+    (_, _), (y0, y1) = trajectory_limits(np.array([[1.0, 0.7], [1.1, 0.9]]))
+    assert y1 == pytest.approx(1.4) and y1 > 1.0  # the wall at y = 1 is inside the view
+    (x0, x1), _ = trajectory_limits(np.array([[7.3, 0.0], [7.4, 0.0]]))
+    assert x1 == pytest.approx(7.9) and x0 == pytest.approx(6.8)  # the end wall at 7.5 shows
+    (x0, x1), _ = trajectory_limits(np.array([[-9.0, 0.0], [9.0, 0.0]]))  # beyond the pool
+    assert (x0, x1) == pytest.approx((-8.0, 8.0))
+    (x0, x1), _ = trajectory_limits(np.array([[0.0, 0.0], [0.0, 0.0]]))
+    assert x1 - x0 == pytest.approx(1.0)

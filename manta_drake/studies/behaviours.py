@@ -24,6 +24,7 @@ from manta_drake.cluster import (
     check_cluster_arguments,
     cluster_client,
 )
+from manta_drake.metrics import transition_span
 from manta_drake.studies import REPO
 from manta_drake.studies.stamp import stamp_line, write_stamped
 
@@ -64,7 +65,7 @@ def _runs(args) -> dict:
 
 
 def _transitions(m: dict) -> str:
-    return "; ".join(f"{t['from']} -> {t['to']} {t['start_s']:.1f}-{t['end_s']:.1f} s"
+    return "; ".join(f"{t['from']} -> {t['to']} {transition_span(t)} s"
                      for t in m.get("transitions", [])) or "none"
 
 
@@ -282,7 +283,7 @@ def page(metrics: dict, out: pathlib.Path) -> str:
     ]
     for t in four["transitions"]:
         driver = DRIVERS.get((t["from"], t["to"]), "-")
-        lines.append(f"| {t['from']} -> {t['to']} | {t['start_s']:.1f}-{t['end_s']:.1f} | {driver} |")
+        lines.append(f"| {t['from']} -> {t['to']} | {transition_span(t)} | {driver} |")
     lines += [
         "",
         f"{len(behaviours)} behaviours ({', '.join(behaviours)}); {_walls(four)}. "

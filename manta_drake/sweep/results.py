@@ -13,7 +13,7 @@ import pathlib
 
 from manta_drake.cluster import INFRASTRUCTURE_ERRORS, is_infrastructure_error  # noqa: F401
 from manta_drake.config_io import MAX_YAML_BYTES, read_csv_table
-from manta_drake.metrics import COT_KEYS
+from manta_drake.metrics import COT_KEYS, transition_span
 from manta_drake.sweep.config import RunSpec, SweepError
 
 # Statuses of a run that is done: a restart skips it (``--rerun-failed`` runs the ones that
@@ -84,8 +84,9 @@ def read_done(run_dir: pathlib.Path) -> dict | None:
 
 
 def format_transitions(transitions) -> str:
-    """Behaviour transitions as one compact cell: ``swim>trot@8.10-16.20;trot>turning@...``."""
-    return ";".join(f"{t['from']}>{t['to']}@{t['start_s']:.2f}-{t['end_s']:.2f}"
+    """Behaviour transitions as one compact cell: ``swim>trot@8.10-16.20;trot>turning@...``
+    (``never`` for an end the parameters did not reach)."""
+    return ";".join(f"{t['from']}>{t['to']}@{transition_span(t, 2)}"
                     for t in transitions or [])
 
 

@@ -438,9 +438,17 @@ class Scenario:
         or the balloon rule reads ``energy_hat``."""
         if not self.actuators.enabled:
             return False
-        return self.balloon.rule.modality == "energy" or (
-            self.controller.mode == "transition"
-            and "energy_hat" in self.behaviour_tree().modalities)
+        return ("energy_hat" in self.heading_changes_read()
+                or self.balloon.rule.estimate() == "energy_hat"
+                or (self.controller.mode == "transition"
+                    and "energy_hat" in self.behaviour_tree().modalities))
+
+    def heading_changes_read(self) -> tuple[str, ...]:
+        """The estimates ``heading_hold.changes`` read (when the hold is on)."""
+        if not self.heading_hold.enabled:
+            return ()
+        return tuple(dict.fromkeys(c.modality for c in self.heading_hold.changes
+                                   if c.modality))
 
     def _validate_modalities(self) -> None:
         """The sensors, estimators, heading hold and balloon rule; and that every estimate
@@ -461,7 +469,8 @@ class Scenario:
         except ValueError as e:
             raise ScenarioError(f"balloon.rule.{e}") from None
         self._validate_water_users()
-        needs = {"posture_hat": ("imu.enabled", self.imu.enabled),
+        needs = {"z_hat": ("water.enabled", self.water.enabled),
+                 "posture_hat": ("imu.enabled", self.imu.enabled),
                  "flow_hat": ("flow_sensor.enabled", self.flow_sensor.enabled and self.water.enabled),
                  "energy_hat": ("actuators.enabled", self.actuators.enabled),
                  "s_hat": ("camera.enabled", self.camera.enabled)}
@@ -471,11 +480,12 @@ class Scenario:
             # without a wall); a tree the scenario writes needs the camera for s_hat.
             used.update({m: "transition.tree" for m in self.behaviour_tree().modalities
                          if self.transition.tree or m != "s_hat"})
-        rule = self.balloon.rule.modality
+        rule = self.balloon.rule.estimate()
         if rule:
-            used[f"{rule}_hat"] = "balloon.rule.modality"
+            used[rule] = "balloon.rule.modality"
         if self.heading_hold.enabled:
             used["posture_hat"] = "heading_hold.enabled"
+            used.update({m: "heading_hold.changes" for m in self.heading_changes_read()})
         for estimate, where in used.items():
             if estimate in needs and not needs[estimate][1]:
                 raise ScenarioError(f"{where}: reads {estimate}, which needs "

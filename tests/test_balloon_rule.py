@@ -118,12 +118,55 @@ def test_nan_keeps_the_decision():
     assert rule.HasDirectFeedthrough(rule.GetInputPort("scheduled_fill").get_index(), 0)
 
 
-def test_modalities_name_the_estimators_ports():
-    assert MODALITIES == {"posture": "posture_hat", "flow": "flow_hat", "energy": "energy_hat"}
+def test_any_estimate_a_tree_reads_and_the_short_names():
+    from manta_drake.control.behaviour_tree import MODALITIES as TREE
+
+    assert set(TREE) <= set(MODALITIES) and {"z_hat", "s_hat"} <= set(MODALITIES)
+    assert BalloonRuleParams(modality="flow").estimate() == "flow_hat"
+    assert BalloonRuleParams(modality="s_hat").estimate() == "s_hat"
+    assert BalloonRuleParams().estimate() == ""
+
+
+@pytest.mark.parametrize("weight", ["linear", "cosine", "potential", "normalised"])
+def test_a_continuous_rule_follows_the_estimate_by_the_trees_weights(weight):
+    """fill = w0 fill_below + w1 fill_above at x = min(m / full_at, 1), the tree's pair
+    weights; a NaN holds the last fill; the schedule until the first finite estimate."""
+    from manta_drake.control.behaviour_tree import pair_weights
+
+    p = BalloonRuleParams(modality="z_hat", weight=weight, fill_below=1.0, fill_above=0.2,
+                          full_at=0.5, threshold=0.5, hysteresis=0.2).validate()
+    rule = BalloonRule(p, period=0.02)
+    context = rule.CreateDefaultContext()
+    rule.GetInputPort("scheduled_fill").FixValue(context, [SCHEDULED])
+    for m, x in ((np.nan, None), (0.1, 0.2), (np.nan, 0.2), (0.3, 0.6), (0.9, 1.0)):
+        rule.GetInputPort("modality").FixValue(context, [m])
+        context.SetDiscreteState(
+            rule.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
+        got = rule.get_output_port().Eval(context)[0]
+        if x is None:
+            assert got == SCHEDULED
+        else:
+            w0, w1 = pair_weights(weight, x)
+            assert got == pytest.approx(1.0 * w0 + 0.2 * w1, rel=1e-12)
+    if weight == "linear":
+        assert got == pytest.approx(0.2)  # at x = 1 (m 0.9 >= full_at): fill_above
+
+
+def test_a_switch_reads_the_estimate_through_full_at():
+    """The relay's band is in the coordinate x = m / full_at: with full_at 0.5 a z_hat of
+    0.35 is x = 0.7, above the band [0.4, 0.6]."""
+    p = BalloonRuleParams(modality="z_hat", fill_above=0.0, fill_below=1.0, full_at=0.5)
+    assert next_decision(NONE, 0.35, p.validate()) == ABOVE
+    assert next_decision(NONE, 0.35, dc.replace(p, full_at=1.0)) == BELOW
 
 
 @pytest.mark.parametrize("change, message", [
-    ({"modality": "depth"}, r"modality: 'depth' is not one of , posture, flow, energy"),
+    ({"modality": "depth"}, r"modality: 'depth' is not one of , z_hat, s_hat, flow_hat, "
+                            r"posture_hat, energy_hat, posture, flow, energy"),
+    ({"weight": "step"}, r"weight: 'step' is not one of potential, cosine"),
+    ({"full_at": 0.0}, r"full_at: 0.0 is outside the allowed range \(0, 1\]"),
+    ({"modality": "z_hat", "weight": "linear", "hysteresis": 0.3},
+     r"hysteresis: 0.3 is set on a linear rule, which ignores it"),
     ({"fill_above": 1.5}, r"fill_above: 1.5 is outside the allowed range \[0, 1\]"),
     ({"fill_below": -0.1}, r"fill_below: -0.1 is outside the allowed range \[0, 1\]"),
     ({"threshold": np.nan}, r"threshold: nan is not finite"),
@@ -153,7 +196,7 @@ def test_a_rule_parameter_without_a_modality_is_refused(field, value):
     """Without a modality the schedule alone commands the balloon: a rule parameter set there
     would be ignored, so it is refused naming the field; with a modality it is the rule's."""
     with pytest.raises(ValueError, match=rf"^{field}: {value} is set but the rule's modality "
-                                         r"is empty .*set modality to one of posture, flow"):
+                                         r"is empty .*set modality to one of z_hat, s_hat"):
         BalloonRuleParams(**{field: value}).validate()
     assert getattr(BalloonRuleParams(modality="energy", **{field: value}).validate(),
                    field) == value

@@ -309,3 +309,59 @@ def test_heading_edges_pass_and_wrap_to_the_same_target(heading):
     assert context.get_discrete_state_vector().GetAtIndex(1) == pytest.approx(np.pi, rel=1e-15)
     with pytest.raises(ValueError, match=r"heading_deg: -190.0 is outside the allowed range"):
         _params(heading_deg=-190.0)
+
+
+# --- changes of the held heading ---------------------------------------------------------------
+
+def test_changed_targets_by_hand():
+    from manta_drake.control.heading_hold import HeadingChange, changed_targets
+
+    changes = [HeadingChange(time=5.0, heading_deg=90.0),
+               HeadingChange(modality="s_hat", above=0.8, turn_deg=180.0)]
+    # Neither is due: the target stays.
+    assert changed_targets(0.3, 1.0, 4.9, {"s_hat": 0.5}, changes, (False, False)) == (
+        0.3, (False, False))
+    # The wall is seen: the heading then (1.0 rad) plus pi, wrapped.
+    target, done = changed_targets(0.3, 1.0, 4.9, {"s_hat": 0.9}, changes, (False, False))
+    assert target == pytest.approx(1.0 + np.pi - 2 * np.pi) and done == (False, True)
+    # Later the time comes: 90 deg; the wall change made already does not come again.
+    target, done = changed_targets(target, 0.0, 6.0, {"s_hat": 0.95}, changes, done)
+    assert target == pytest.approx(np.pi / 2) and done == (True, True)
+    # A NaN estimate triggers nothing.
+    assert changed_targets(0.3, 1.0, 0.0, {"s_hat": np.nan}, changes[1:], (False,))[1] == (False,)
+
+
+def test_the_system_turns_back_when_the_wall_is_seen_and_restarts_its_integral():
+    from manta_drake.control.heading_hold import HeadingChange
+
+    p = _params(kp=1.0, ki=0.5, heading_deg=0.0,
+                changes=[HeadingChange(modality="s_hat", above=0.8, turn_deg=180.0)])
+    system = HeadingHold(p)
+    context = system.CreateDefaultContext()
+    system.GetInputPort("s_hat").FixValue(context, [0.1])
+    _update(system, context, yaw=0.2)
+    assert system.target(context) == 0.0
+    assert context.get_discrete_state_vector().GetAtIndex(0) != 0.0  # an integral built up
+    system.GetInputPort("s_hat").FixValue(context, [0.9])
+    u = _update(system, context, yaw=0.2)
+    assert system.target(context) == pytest.approx(0.2 + np.pi - 2 * np.pi)
+    # e = wrap(0.2 - (0.2 - pi)) = pi: the integral restarted, and the saturated trim does
+    # not wind it up again (conditional integration).
+    assert context.get_discrete_state_vector().GetAtIndex(0) == 0.0
+    assert u == pytest.approx(p.max_trim)
+    assert context.get_discrete_state_vector().GetAtIndex(4) == 1.0  # made, once
+
+
+@pytest.mark.parametrize("change, message", [
+    ({}, "changes\\[0\\]: give either time or modality"),
+    ({"time": 3.0, "modality": "s_hat", "turn_deg": 90.0}, "give either time or modality"),
+    ({"time": 3.0}, "changes\\[0\\]: give either heading_deg .* or turn_deg"),
+    ({"modality": "depth", "turn_deg": 90.0}, "changes\\[0\\].modality: 'depth' is not one of"),
+    ({"time": 3.0, "turn_deg": 400.0}, "changes\\[0\\].turn_deg: 400.0 is outside"),
+    ({"modality": "s_hat", "above": 1.0, "turn_deg": 90.0}, "changes\\[0\\].above: 1.0"),
+])
+def test_a_bad_change_names_its_field(change, message):
+    from manta_drake.control.heading_hold import HeadingChange
+
+    with pytest.raises(ValueError, match=message):
+        _params(changes=[HeadingChange(**change)])

@@ -128,3 +128,26 @@ def test_estimators_start_from_the_robots_pose_not_from_zero(tmp_path):
     # The same trim in both (with the foil fins it saturates at its 0.3 bound in the first
     # seconds, against the swim's early turn: docs/behaviours.md).
     np.testing.assert_allclose(r.log["heading_trim"], ref.log["heading_trim"], atol=0.01)
+
+
+def test_the_wall_estimate_fills_the_balloon_and_turns_the_held_heading(tmp_path):
+    """wall_and_back's rule and heading change, on the floor facing the end wall 0.6 m away
+    (the camera sees it from its first frame): from the rule's ``after`` (1 s here) the
+    balloon rule commands a full balloon for good (the one-way band [0, 0.9]), the schedule's
+    empty one before; and the held heading becomes the heading at the hold's first update
+    that read s_hat > 0.9 (0.02 s) plus 180 deg."""
+    s = load_scenario("wall_and_back", overrides={
+        **QUIET, "duration": 4.0, "initial_pose.xyz": [7.5 - 0.19 - 0.6, 0.0, -0.25],
+        "initial_stance": "trot", "balloon.initial_fill": 0.0, "balloon.schedule": [],
+        "balloon.rule.after": 1.0})
+    result = run(s, tmp_path, progress=False, write_outputs=False)
+    log, hold = result.log, result.handles.systems["heading_hold"]
+    assert log["s_hat"][1:, 0].min() > 0.9  # seen from the first frame on
+    tc, fill = log["t_balloon_command"], log["balloon_command"][:, 0]
+    np.testing.assert_array_equal(fill[tc < 1.0], 0.0)
+    np.testing.assert_array_equal(fill[tc >= 1.0 + 0.02], 1.0)
+    yaw = np.interp(s.heading_hold.period, log["t"], np.unwrap(log["body_rpy"][:, 2]))
+    target = hold.target(hold.GetMyContextFromRoot(result.context))
+    assert abs(np.angle(np.exp(1j * (target - (yaw + np.pi))))) < 0.02
+    # Without the change the target would be the start's heading, 0.
+    assert abs(target) > 3.0

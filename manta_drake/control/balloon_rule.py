@@ -1,24 +1,36 @@
-"""A balloon rule: the balloon's fill from one 0-1 estimate, with hysteresis.
+"""A balloon rule: the balloon's fill from one 0-1 estimate.
 
 The scenario's time schedule commands the balloon (``scheduled_fill``); a rule lets one of
-the controller's 0-1 estimates (``modality``: posture, flow or energy, see ``MODALITIES``)
-take over once it has made a decision. With the band [lo, hi] = threshold -+ h / 2::
+the controller's 0-1 estimates (``modality``: any estimate a behaviour tree reads,
+``behaviour_tree.MODALITIES``: ``z_hat``, ``s_hat``, ``flow_hat``, ``posture_hat``,
+``energy_hat``; ``posture``, ``flow`` and ``energy`` name their estimates too) take over,
+with the weight functions of a tree's node (``weight``, ``behaviour_tree``). The estimate's
+coordinate is the tree's, x = min(clip(m, 0, 1) / ``full_at``, 1).
 
-    d <- above   if m > hi          (m: the estimate)
-    d <- below   if m < lo
+``switch`` (the default): a relay with hysteresis. With the band [lo, hi] = threshold -+
+h / 2::
+
+    d <- above   if x > hi
+    d <- below   if x < lo
     d <- d       otherwise, and while m is NaN or infinite
 
     balloon_command = scheduled_fill   if t < after or no decision yet
                       fill_above       if d = above
                       fill_below       if d = below
 
-The decision d is a discrete state updated every ``period`` seconds at and after ``after``
-(before it the rule neither decides nor commands). A band end at 0 or 1 can never be
-crossed (the estimate is in [0, 1]), which makes a one-way rule: threshold 0.25 and
-hysteresis 0.5 (band [0, 0.5]) decide "above" once the estimate passes 0.5 and never
-"below" (e.g. surface for good when the battery runs low: energy, fill_above 1). The
-hysteresis keeps a noisy estimate near the threshold from toggling the balloon (the relay
-with hysteresis of on-off control).
+A band end at 0 or 1 can never be crossed (x is in [0, 1]), which makes a one-way rule:
+threshold 0.25 and hysteresis 0.5 (band [0, 0.5]) decide "above" once the estimate passes
+0.5 and never "below" (e.g. surface for good when the battery runs low: energy,
+fill_above 1). The hysteresis keeps a noisy estimate near the threshold from toggling the
+balloon (the relay with hysteresis of on-off control).
+
+``potential``, ``cosine``, ``linear``, ``normalised``: the fill follows the estimate,
+fill = w0 fill_below + w1 fill_above with (w0, w1) the tree's weights at x
+(``behaviour_tree.pair_weights``), from the first finite estimate at or after ``after``
+(NaN or infinite holds the last fill). These read neither ``threshold`` nor ``hysteresis``.
+
+The decision, or the fill, is a discrete state updated every ``period`` seconds at and
+after ``after`` (before it the rule neither decides nor commands).
 """
 
 import dataclasses as dc
@@ -27,10 +39,14 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from manta_drake.config_io import check_in_range, check_one_of, short_repr
+from manta_drake.control.behaviour_tree import MODALITIES as ESTIMATES
+from manta_drake.control.behaviour_tree import WEIGHT_FUNCTIONS, pair_weights
 
-# The estimates a rule may follow, and the controller ports that carry them.
-MODALITIES = {"posture": "posture_hat", "flow": "flow_hat", "energy": "energy_hat"}
+# The short names a rule may give its estimate (the estimates' own names work too).
+ALIASES = {"posture": "posture_hat", "flow": "flow_hat", "energy": "energy_hat"}
+MODALITIES = (*ESTIMATES, *ALIASES)
 NONE, ABOVE, BELOW = 0.0, 1.0, -1.0  # the decision state's values
+SWITCH_ONLY = {"threshold": 0.5, "hysteresis": 0.2}  # the switch's fields and defaults
 
 
 @dc.dataclass
@@ -40,17 +56,25 @@ class BalloonRuleParams:
     be ignored)."""
 
     modality: str = ""  # "" or one of MODALITIES
-    fill_above: float = 0.0  # balloon fill once the estimate rose above threshold + h/2
-    fill_below: float = 1.0  # balloon fill once the estimate fell below threshold - h/2
-    threshold: float = 0.5
-    hysteresis: float = 0.2  # h: the width of the band about the threshold
+    weight: str = "switch"  # one of behaviour_tree.WEIGHT_FUNCTIONS
+    fill_above: float = 0.0  # the fill at x = 1 (switch: once above threshold + h/2)
+    fill_below: float = 1.0  # the fill at x = 0 (switch: once below threshold - h/2)
+    full_at: float = 1.0  # x = min(m / full_at, 1), in (0, 1]
+    threshold: float = 0.5  # switch only
+    hysteresis: float = 0.2  # switch only: h, the width of the band about the threshold
     after: float = 0.0  # [s] the schedule alone before this time
+
+    def estimate(self) -> str:
+        """The controller's estimate the rule reads (``""`` without a rule)."""
+        return ALIASES.get(self.modality, self.modality)
 
     def validate(self) -> "BalloonRuleParams":
         """Checks every field's type and range; ValueError names the field and the range."""
-        check_one_of("modality", self.modality, ("",) + tuple(MODALITIES))
+        check_one_of("modality", self.modality, ("",) + MODALITIES)
+        check_one_of("weight", self.weight, WEIGHT_FUNCTIONS)
         check_in_range("fill_above", self.fill_above, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
         check_in_range("fill_below", self.fill_below, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
+        check_in_range("full_at", self.full_at, 0.0, 1.0, "(0, 1]", open_low=True)
         check_in_range("threshold", self.threshold, 0.0, 1.0, "[0, 1]")
         check_in_range("hysteresis", self.hysteresis, 0.0, 1.0, "[0, 1]")
         lo, hi = band(self)
@@ -58,6 +82,12 @@ class BalloonRuleParams:
             raise ValueError(f"hysteresis: {self.hysteresis!r} puts the band threshold -+ "
                              f"hysteresis/2 = [{lo:g}, {hi:g}] outside [0, 1]")
         check_in_range("after", self.after, 0.0, 1e6, "[0, 1e6] s")
+        if self.weight != "switch":
+            for name, default in SWITCH_ONLY.items():
+                if getattr(self, name) != default:
+                    raise ValueError(f"{name}: {short_repr(getattr(self, name))} is set on a "
+                                     f"{self.weight} rule, which ignores it (only switch reads "
+                                     f"{' and '.join(SWITCH_ONLY)}): leave it out")
         if not self.modality:
             default = BalloonRuleParams()
             for f in dc.fields(self):
@@ -70,6 +100,17 @@ class BalloonRuleParams:
         return self
 
 
+def coordinate(modality: float, params: BalloonRuleParams) -> float:
+    """x = min(clip(m, 0, 1) / full_at, 1) (the tree's node coordinate)."""
+    return min(min(max(float(modality), 0.0), 1.0) / params.full_at, 1.0)
+
+
+def following_fill(modality: float, params: BalloonRuleParams) -> float:
+    """A continuous rule's fill at the estimate ``modality``: fill_below w0 + fill_above w1."""
+    w0, w1 = pair_weights(params.weight, coordinate(modality, params))
+    return w0 * params.fill_below + w1 * params.fill_above
+
+
 def band(params: BalloonRuleParams) -> tuple:
     """(lo, hi) = threshold -+ hysteresis / 2."""
     half = 0.5 * params.hysteresis
@@ -78,24 +119,28 @@ def band(params: BalloonRuleParams) -> tuple:
 
 def next_decision(decision: float, modality: float, params: BalloonRuleParams) -> float:
     """The decision (``NONE``, ``ABOVE`` or ``BELOW``) after reading the estimate
-    ``modality``: ABOVE past the band's top, BELOW past its bottom, else (or NaN or
-    infinite) kept."""
+    ``modality``: ABOVE past the band's top, BELOW past its bottom (in the coordinate x),
+    else (or NaN or infinite) kept."""
     if not np.isfinite(modality):
         return decision
+    x = coordinate(modality, params)
     lo, hi = band(params)
-    if modality > hi:
+    if x > hi:
         return ABOVE
-    if modality < lo:
+    if x < lo:
         return BELOW
     return decision  # inside the band
 
 
 def balloon_command(scheduled_fill: float, decision: float, time: float,
-                    params: BalloonRuleParams) -> float:
-    """The fill commanded: the schedule before ``after``, with no rule or no decision;
-    else ``fill_above`` or ``fill_below``."""
+                    params: BalloonRuleParams, fill: float = 0.0) -> float:
+    """The fill commanded: the schedule before ``after``, with no rule or no decision (a
+    continuous rule: no finite estimate yet); else a switch's ``fill_above`` or
+    ``fill_below``, a continuous rule's ``fill``."""
     if not params.modality or time < params.after or decision == NONE:
         return scheduled_fill
+    if params.weight != "switch":
+        return fill
     return params.fill_above if decision == ABOVE else params.fill_below
 
 
@@ -112,14 +157,16 @@ class BalloonRule(LeafSystem):
         - balloon_command
 
     * ``scheduled_fill`` (1): the time schedule's fill command in [0, 1].
-    * ``modality`` (1): the 0-1 estimate the rule follows (``MODALITIES[params.modality]``
-      of the controller); NaN or infinite keeps the last decision.
+    * ``modality`` (1): the 0-1 estimate the rule follows (``params.estimate()`` of the
+      controller); NaN or infinite keeps the last decision or fill.
     * ``balloon_command`` (1): ``balloon_command(scheduled_fill, d, t, params)``: depends
       directly on ``scheduled_fill``, on the time and on the state, not on ``modality``.
 
-    Discrete state (1): the decision d (0 none, +1 above, -1 below), updated by
-    ``next_decision`` every ``period`` seconds at the updates at or after ``after``. With
-    ``modality`` empty no update is declared and the schedule passes through.
+    Discrete state (2): the decision d (0 none, +1 above, -1 below; a continuous rule: +1
+    once it has read a finite estimate) and a continuous rule's fill, updated by
+    ``next_decision`` or ``following_fill`` every ``period`` seconds at the updates at or
+    after ``after``. With ``modality`` empty no update is declared and the schedule passes
+    through.
 
     Args:
         params: ``BalloonRuleParams`` (None: the defaults, no rule).
@@ -134,7 +181,7 @@ class BalloonRule(LeafSystem):
         self.params = (params if params is not None else BalloonRuleParams()).validate()
         check_in_range("BalloonRule.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
         self.period = float(period)
-        self._state = self.DeclareDiscreteState([NONE])
+        self._state = self.DeclareDiscreteState([NONE, 0.0])
         self._schedule = self.DeclareVectorInputPort("scheduled_fill", 1)
         self._modality = self.DeclareVectorInputPort("modality", 1)
         self.DeclareVectorOutputPort(
@@ -145,14 +192,17 @@ class BalloonRule(LeafSystem):
             self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
 
     def _calc_command(self, context, output):
-        decision = context.get_discrete_state(self._state).GetAtIndex(0)
+        decision, fill = context.get_discrete_state(self._state).get_value()
         output.SetAtIndex(0, balloon_command(float(self._schedule.Eval(context)[0]), decision,
-                                             context.get_time(), self.params))
+                                             context.get_time(), self.params, fill))
 
     def _update(self, context, discrete_state):
         if context.get_time() < self.params.after:
             return  # the schedule alone: no decision yet
-        decision = context.get_discrete_state(self._state).GetAtIndex(0)
+        decision, fill = context.get_discrete_state(self._state).get_value()
         modality = float(self._modality.Eval(context)[0])
-        discrete_state.get_mutable_vector(self._state).SetAtIndex(
-            0, next_decision(decision, modality, self.params))
+        if self.params.weight == "switch":
+            decision = next_decision(decision, modality, self.params)
+        elif np.isfinite(modality):
+            decision, fill = ABOVE, following_fill(modality, self.params)
+        discrete_state.get_mutable_vector(self._state).SetFromVector([decision, fill])

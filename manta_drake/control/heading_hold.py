@@ -42,13 +42,70 @@ import dataclasses as dc
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.config_io import check_boolean, check_in_range, check_number
+from manta_drake.config_io import check_boolean, check_in_range, check_number, check_one_of
+from manta_drake.control.behaviour_tree import MODALITIES
 from manta_drake.control.gaits import RIGHT_LEGS
 from manta_drake.control.transition import wrap
 from manta_drake.model.robot_params import JOINTS, NUM_CPG_PARAMS, NUM_JOINTS, NUM_LEGS
 
 LEFT_LEGS = tuple(k for k in range(NUM_LEGS) if k not in RIGHT_LEGS)  # fl, rl
 ROLL_COLUMNS = (JOINTS.index("roll1"), JOINTS.index("roll2"))  # the fin's flapping joints
+
+
+@dc.dataclass
+class HeadingChange:
+    """A change of the held heading, made once: at ``time`` [s], or when the estimate
+    ``modality`` (one of ``behaviour_tree.MODALITIES``) first rises above ``above``. The new
+    target is ``heading_deg`` (absolute), or the heading estimate at the change plus
+    ``turn_deg`` (e.g. 180: turn back)."""
+
+    time: float | None = None
+    modality: str = ""
+    above: float = 0.5
+    heading_deg: float | None = None
+    turn_deg: float | None = None
+
+    def validate(self, where: str = "change") -> "HeadingChange":
+        """Exactly one trigger and exactly one new target, each in range; ValueError names
+        the field (``<where>.<field>``)."""
+        if (self.time is None) == (not self.modality):
+            raise ValueError(f"{where}: give either time or modality (a change happens at a "
+                             f"time or on an estimate), got time={self.time!r}, "
+                             f"modality={self.modality!r}")
+        if self.time is not None:
+            check_in_range(f"{where}.time", self.time, 0.0, 1e6, "[0, 1e6] s")
+        else:
+            check_one_of(f"{where}.modality", self.modality, MODALITIES)
+        check_in_range(f"{where}.above", self.above, 0.0, 1.0, "[0, 1)", open_high=True)
+        if (self.heading_deg is None) == (self.turn_deg is None):
+            raise ValueError(f"{where}: give either heading_deg (the new target) or turn_deg "
+                             f"(the heading at the change plus it), got heading_deg="
+                             f"{self.heading_deg!r}, turn_deg={self.turn_deg!r}")
+        if self.heading_deg is not None:
+            check_in_range(f"{where}.heading_deg", self.heading_deg, -180.0, 180.0,
+                           "[-180, 180] deg")
+        else:
+            check_in_range(f"{where}.turn_deg", self.turn_deg, -360.0, 360.0,
+                           "[-360, 360] deg")
+        return self
+
+
+def changed_targets(target: float, yaw: float, time: float, estimates: dict, changes,
+                    done) -> tuple[float, tuple]:
+    """(the target [rad], which of ``changes`` have been made) after the changes due now, in
+    order: a change not yet made (``done`` False) is due at or after its time, or when its
+    estimate (``estimates``, modality -> value) is finite and above its threshold; it sets
+    the target to its heading, or to ``yaw`` plus its turn."""
+    done = list(done)
+    for k, c in enumerate(changes):
+        if done[k]:
+            continue
+        value = estimates.get(c.modality, np.nan) if c.modality else np.nan
+        if (c.time is not None and time >= c.time) or (np.isfinite(value) and value > c.above):
+            target = float(wrap(np.radians(c.heading_deg) if c.heading_deg is not None
+                                else yaw + np.radians(c.turn_deg)))
+            done[k] = True
+    return target, tuple(done)
 
 
 @dc.dataclass
@@ -70,6 +127,9 @@ class HeadingHoldParams:
     # The behaviour-tree leaves (gait names) the hold trims; its share is their summed
     # weight (behaviour_weights). A fixed gait (controller.mode: gait) is trimmed whole.
     behaviours: list[str] = dc.field(default_factory=lambda: ["swim", "swim_printed"])
+    # Changes of the target, each made once, in order (``HeadingChange``): at a time or on
+    # an estimate, to a heading or by a turn. The integral restarts at each change.
+    changes: list[HeadingChange] = dc.field(default_factory=list)
 
     def validate(self) -> "HeadingHoldParams":
         """Checks every field's type and range; ValueError names the field and the range."""
@@ -89,7 +149,13 @@ class HeadingHoldParams:
         if not isinstance(self.behaviours, list) or not all(
                 isinstance(b, str) and b for b in self.behaviours):
             raise ValueError(f"behaviours: {self.behaviours!r} must be a list of gait names")
+        for k, change in enumerate(self.changes):
+            change.validate(f"changes[{k}]")
         return self
+
+    def read(self) -> tuple[str, ...]:
+        """The estimates the changes read, each once, in order."""
+        return tuple(dict.fromkeys(c.modality for c in self.changes if c.modality))
 
 
 def heading_trim_step(state: float, yaw: float, yaw_rate: float, target: float,
@@ -155,6 +221,7 @@ class HeadingHold(LeafSystem):
         - attitude_hat
         - yaw_rate_hat
         - swim_share
+        - <estimate> (one per estimate ``changes`` read)
         output_ports:
         - cpg_params
         - heading_trim
@@ -168,11 +235,14 @@ class HeadingHold(LeafSystem):
       when disabled or when s u = 0.
     * ``heading_trim`` (1): the autopilot's trim u (before the share).
 
-    Discrete state (4): [I, psi_t, target set (0/1), u], updated by ``heading_trim_step``
-    every ``period`` seconds from t = 0. With ``heading_deg`` None the target is the yaw
-    estimate at the first update with a finite one (at t = 0 the posture estimator's
-    initialization event has already seeded it). A non-finite yaw or yaw rate holds the
-    state. The output ``cpg_params`` depends directly on the ``cpg_params`` and
+    * ``<estimate>`` (1): each 0-1 estimate a change reads (e.g. ``s_hat``).
+
+    Discrete state (4 + changes): [I, psi_t, target set (0/1), u, one made (0/1) per
+    change], updated every ``period`` seconds from t = 0: first the changes due
+    (``changed_targets``; a change restarts the integral), then ``heading_trim_step``.
+    With ``heading_deg`` None the target is the yaw estimate at the first update with a
+    finite one (at t = 0 the posture estimator's initialization event has already seeded
+    it). A non-finite yaw or yaw rate holds the state. The output ``cpg_params`` depends directly on the ``cpg_params`` and
     ``swim_share`` inputs and on the state, never on ``attitude_hat`` or
     ``yaw_rate_hat``: the estimators read the plant, and a feedthrough from them would
     close an algebraic loop through the CPG. Disabled, no update is declared.
@@ -190,7 +260,8 @@ class HeadingHold(LeafSystem):
         p = self.params
         target = 0.0 if p.heading_deg is None else float(wrap(np.radians(p.heading_deg)))
         self._state = self.DeclareDiscreteState(
-            [0.0, target, 0.0 if p.heading_deg is None else 1.0, 0.0])
+            [0.0, target, 0.0 if p.heading_deg is None else 1.0, 0.0] + [0.0] * len(p.changes))
+        self._estimates = {m: self.DeclareVectorInputPort(m, 1) for m in p.read()}
         self._cpg = self.DeclareVectorInputPort("cpg_params", NUM_CPG_PARAMS)
         self._attitude = self.DeclareVectorInputPort("attitude_hat", 3)
         self._yaw_rate = self.DeclareVectorInputPort("yaw_rate_hat", 1)
@@ -217,14 +288,26 @@ class HeadingHold(LeafSystem):
         output.SetFromVector(params)
 
     def _update(self, context, discrete_state):
-        integral, target, target_set, _ = context.get_discrete_state(self._state).get_value()
+        state = context.get_discrete_state(self._state).get_value()
+        integral, target, target_set = state[:3]
         yaw = float(self._attitude.Eval(context)[2])
         yaw_rate = float(self._yaw_rate.Eval(context)[0])
         if not (np.isfinite(yaw) and np.isfinite(yaw_rate)):
             return  # hold the trim and the integral through a dropout
         if target_set < 0.5:
             target = yaw
+        done = tuple(state[4:] > 0.5)
+        if not all(done):
+            estimates = {m: float(port.Eval(context)[0]) for m, port in self._estimates.items()}
+            target, now = changed_targets(target, yaw, context.get_time(), estimates,
+                                          self.params.changes, done)
+            if now != done:
+                integral, done = 0.0, now
         integral, u = heading_trim_step(integral, yaw, yaw_rate, target, self.params,
                                         self._swim_share(context))
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            [integral, target, 1.0, u])
+            [integral, target, 1.0, u, *map(float, done)])
+
+    def target(self, context) -> float:
+        """The held heading in this system's context [rad]."""
+        return float(context.get_discrete_state(self._state).GetAtIndex(1))

@@ -72,7 +72,6 @@ from pydrake.systems.primitives import ConstantVectorSource, MatrixGain, Traject
 from pydrake.systems.sensors import PixelType
 from pydrake.trajectories import PiecewisePolynomial
 
-from manta_drake.control.balloon_rule import MODALITIES as BALLOON_MODALITIES
 from manta_drake.control.balloon_rule import BalloonRule
 from manta_drake.control.cpg import CpgOscillators, initial_state
 from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
@@ -92,7 +91,8 @@ class ControllerHandles:
     """Every system of a built controller by name."""
 
     systems: dict = dc.field(default_factory=dict)
-    # The 0-1 estimates a behaviour tree may read, beyond z_hat and s_hat: modality -> port.
+    # The 0-1 estimates a behaviour tree, the balloon rule or the heading hold may read:
+    # modality -> port (z_hat with the water on, s_hat with the camera or a transition).
     estimates: dict = dc.field(default_factory=dict)
 
 
@@ -161,6 +161,7 @@ def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> Non
     for name in ("h_hat", "z_hat"):
         builder.ExportOutput(estimator.GetOutputPort(name), name)
     handles.systems["depth_estimator"] = estimator
+    handles.estimates["z_hat"] = estimator.GetOutputPort("z_hat")
 
 
 def _add_estimators(builder, scenario: Scenario, handles: ControllerHandles) -> None:
@@ -194,6 +195,8 @@ def _add_heading_hold(builder, scenario: Scenario, handles: ControllerHandles, p
     builder.Connect(params, hold.GetInputPort("cpg_params"))
     builder.Connect(posture.GetOutputPort("attitude_hat"), hold.GetInputPort("attitude_hat"))
     builder.Connect(posture.GetOutputPort("yaw_rate_hat"), hold.GetInputPort("yaw_rate_hat"))
+    for modality in scenario.heading_hold.read():  # Scenario.validate checked each is here
+        builder.Connect(handles.estimates[modality], hold.GetInputPort(modality))
     if "transition" in handles.systems:
         transition = handles.systems["transition"]
         leaves = transition.tree.leaves
@@ -219,8 +222,7 @@ def _add_balloon(builder, scenario: Scenario, handles: ControllerHandles) -> Non
         return
     system = builder.AddNamedSystem("balloon_rule", BalloonRule(rule))
     builder.Connect(schedule.get_output_port(), system.GetInputPort("scheduled_fill"))
-    builder.Connect(handles.estimates[BALLOON_MODALITIES[rule.modality]],
-                    system.GetInputPort("modality"))
+    builder.Connect(handles.estimates[rule.estimate()], system.GetInputPort("modality"))
     builder.ExportOutput(system.GetOutputPort("balloon_command"), "balloon_command")
     handles.systems["balloon_rule"] = system
 
@@ -242,24 +244,22 @@ def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, 
     for name in ("s_hat", "detector_status", "clusters", "best_clusters"):
         builder.ExportOutput(detector.GetOutputPort(name), name)
     handles.systems.update(depth_to_cloud=to_cloud, wall_detector=detector)
-    return detector.GetOutputPort("s_hat")
+    handles.estimates["s_hat"] = detector.GetOutputPort("s_hat")
 
 
-def _add_transition(builder, scenario: Scenario, handles: ControllerHandles, s_hat):
+def _add_transition(builder, scenario: Scenario, handles: ControllerHandles):
     tr = scenario.transition
     tree = scenario.behaviour_tree()
     transition = builder.AddNamedSystem("transition", PotentialTransition(
         tr.period, tr.g, tr.T, tr.alpha, follow=tr.follow,
         initial_params=initial_cpg_params(scenario), tree=tree,
         s_hat_time_constant=tr.s_hat_time_constant))
-    estimates = {"z_hat": handles.systems["depth_estimator"].GetOutputPort("z_hat")}
-    if s_hat is None:  # no camera: no wall is ever seen
+    if "s_hat" not in handles.estimates:  # no camera: no wall is ever seen
         s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
         builder.ExportOutput(s_hat, "s_hat")
-    estimates["s_hat"] = s_hat
-    estimates.update(handles.estimates)
+        handles.estimates["s_hat"] = s_hat
     for modality in tree.modalities:  # Scenario.validate checked each has its sensor
-        builder.Connect(estimates[modality], transition.GetInputPort(modality))
+        builder.Connect(handles.estimates[modality], transition.GetInputPort(modality))
     builder.ExportOutput(transition.GetOutputPort("behaviour_weights"), "behaviour_weights")
     handles.systems["transition"] = transition
     return transition.GetOutputPort("cpg_params")
@@ -284,9 +284,8 @@ def build_controller(scenario: Scenario, meshcat=None, *,
     mode = scenario.controller.mode
     if scenario.water.enabled:
         _add_sensing(builder, scenario, handles)
-    s_hat = None
     if scenario.camera.enabled:
-        s_hat = _add_wall_detector(builder, scenario, handles, meshcat)
+        _add_wall_detector(builder, scenario, handles, meshcat)
     _add_estimators(builder, scenario, handles)
     if mode == "hold":
         stance = scenario.gait(scenario.controller.gait).X
@@ -298,7 +297,7 @@ def build_controller(scenario: Scenario, meshcat=None, *,
             params = builder.AddNamedSystem("gait_params", ConstantVectorSource(
                 initial_cpg_params(scenario))).get_output_port()  # the fixed gait
         else:
-            params = _add_transition(builder, scenario, handles, s_hat)
+            params = _add_transition(builder, scenario, handles)
         builder.ExportOutput(params, "cpg_params")  # the behaviour's, before any trim
         if scenario.heading_hold.enabled:
             params = _add_heading_hold(builder, scenario, handles, params)

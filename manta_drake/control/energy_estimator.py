@@ -15,15 +15,9 @@ while the servos push, gone when they rest) would only disturb.
 
 import dataclasses as dc
 
-import numpy as np
-from pydrake.systems.framework import LeafSystem
-
 from manta_drake.config_io import check_in_range
-from manta_drake.control.memberships import (
-    lag_coefficient,
-    low_pass_step,
-    ramp_membership,
-)
+from manta_drake.control.filtered_estimator import FilteredEstimator
+from manta_drake.control.memberships import ramp_membership
 
 BATTERY_SIZE = 3  # [state of charge, terminal voltage V, current A]
 
@@ -51,7 +45,7 @@ def energy_membership(soc, params: EnergyEstimatorParams):
     return 1.0 - ramp_membership(soc, params.soc_low, params.soc_high)
 
 
-class EnergyEstimator(LeafSystem):
+class EnergyEstimator(FilteredEstimator):
     """The filtered state of charge and its low-energy membership.
 
     .. pydrake_system::
@@ -85,41 +79,10 @@ class EnergyEstimator(LeafSystem):
     """
 
     def __init__(self, params: EnergyEstimatorParams | None = None, period: float = 0.1):
-        super().__init__()
-        self.params = (params if params is not None else EnergyEstimatorParams()).validate()
-        check_in_range("EnergyEstimator.period", period, 0.0, 10.0, "(0, 10] s", open_low=True)
-        self.period = float(period)
-        self._alpha = lag_coefficient(self.period, self.params.time_constant)
-        self._state = self.DeclareDiscreteState([1.0, 0.0])
-        self._battery = self.DeclareVectorInputPort("battery", BATTERY_SIZE)
-        xd = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("energy_hat", 1, self._calc_energy_hat,
-                                     prerequisites_of_calc=xd)
-        self.DeclareVectorOutputPort("soc_hat", 1, self._calc_soc,
-                                     prerequisites_of_calc=xd)
-        # Seeds the filter from the first reading when a Simulator initializes, before any
-        # consumer's first update reads the estimate.
-        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
-
-    def _soc(self, context) -> float:
-        return float(context.get_discrete_state(self._state).GetAtIndex(0))
-
-    def _calc_soc(self, context, output):
-        output.SetAtIndex(0, self._soc(context))
-
-    def _calc_energy_hat(self, context, output):
-        output.SetAtIndex(0, float(energy_membership(self._soc(context), self.params)))
-
-    def _initialize(self, context, discrete_state):
-        self._step(context, discrete_state, 0.0)  # seeds unseeded channels, moves no other
-
-    def _update(self, context, discrete_state):
-        self._step(context, discrete_state, self._alpha)
-
-    def _step(self, context, discrete_state, alpha):
-        x = context.get_discrete_state(self._state).get_value()
-        soc = np.asarray(self._battery.Eval(context), dtype=float)[:1]
-        value, seeded = low_pass_step(x[:1], x[1:] > 0.5, soc, alpha)
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            [value[0], float(seeded[0])])
+        params = (params if params is not None else EnergyEstimatorParams()).validate()
+        super().__init__("battery", BATTERY_SIZE, [0], period, params.time_constant,
+                         initial=[1.0], max_period=10.0)
+        self.params = params
+        self.DeclareEstimateOutputPort("energy_hat", 1,
+                                       lambda soc: energy_membership(soc[0], params))
+        self.DeclareEstimateOutputPort("soc_hat", 1, lambda soc: soc[0])

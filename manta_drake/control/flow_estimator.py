@@ -28,14 +28,9 @@ the estimate is used; with a standing robot (the seabed gaits) the reading is th
 import dataclasses as dc
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
-
 from manta_drake.config_io import check_in_range, check_one_of
-from manta_drake.control.memberships import (
-    lag_coefficient,
-    low_pass_step,
-    ramp_membership,
-)
+from manta_drake.control.filtered_estimator import FilteredEstimator
+from manta_drake.control.memberships import ramp_membership
 
 AXES = ("magnitude", "surge", "sway")
 
@@ -73,7 +68,7 @@ def flow_speed(velocity, axis: str):
     raise ValueError(f"axis: {axis!r} is not one of {', '.join(AXES)}")
 
 
-class FlowEstimator(LeafSystem):
+class FlowEstimator(FilteredEstimator):
     """The filtered relative flow speed and its 0-1 membership.
 
     .. pydrake_system::
@@ -108,43 +103,9 @@ class FlowEstimator(LeafSystem):
     """
 
     def __init__(self, params: FlowEstimatorParams | None = None, period: float = 0.02):
-        super().__init__()
-        self.params = (params if params is not None else FlowEstimatorParams()).validate()
-        check_in_range("FlowEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
-        self.period = float(period)
-        self._alpha = lag_coefficient(self.period, self.params.time_constant)
-        self._state = self.DeclareDiscreteState(np.zeros(6))
-        self._flow = self.DeclareVectorInputPort("flow_velocity", 3)
-        xd = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("flow_hat", 1, self._calc_flow_hat,
-                                     prerequisites_of_calc=xd)
-        self.DeclareVectorOutputPort("flow_speed_hat", 1, self._calc_speed,
-                                     prerequisites_of_calc=xd)
-        # Seeds the filter from the first reading when a Simulator initializes, before any
-        # consumer's first update reads the estimate.
-        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
-
-    def _speed(self, context) -> float:
-        v = context.get_discrete_state(self._state).get_value()[:3]
-        return float(flow_speed(v, self.params.axis))
-
-    def _calc_speed(self, context, output):
-        output.SetAtIndex(0, self._speed(context))
-
-    def _calc_flow_hat(self, context, output):
-        output.SetAtIndex(0, float(ramp_membership(self._speed(context), self.params.speed_low,
-                                                   self.params.speed_high)))
-
-    def _initialize(self, context, discrete_state):
-        self._step(context, discrete_state, 0.0)  # seeds unseeded channels, moves no other
-
-    def _update(self, context, discrete_state):
-        self._step(context, discrete_state, self._alpha)
-
-    def _step(self, context, discrete_state, alpha):
-        x = context.get_discrete_state(self._state).get_value()
-        sample = np.asarray(self._flow.Eval(context), dtype=float)
-        value, seeded = low_pass_step(x[:3], x[3:] > 0.5, sample, alpha)
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([value, seeded.astype(float)]))
+        params = (params if params is not None else FlowEstimatorParams()).validate()
+        super().__init__("flow_velocity", 3, [0, 1, 2], period, params.time_constant)
+        self.params = params
+        self.DeclareEstimateOutputPort("flow_hat", 1, lambda v: ramp_membership(
+            flow_speed(v, params.axis), params.speed_low, params.speed_high))
+        self.DeclareEstimateOutputPort("flow_speed_hat", 1, lambda v: flow_speed(v, params.axis))

@@ -23,14 +23,9 @@ The specific force is not used: the AHRS attitude already fuses it.
 import dataclasses as dc
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
-
 from manta_drake.config_io import check_in_range
-from manta_drake.control.memberships import (
-    lag_coefficient,
-    low_pass_step,
-    ramp_membership,
-)
+from manta_drake.control.filtered_estimator import FilteredEstimator
+from manta_drake.control.memberships import ramp_membership
 
 IMU_SIZE = 9  # [roll, pitch, yaw] rad, [wx, wy, wz] rad/s, [fx, fy, fz] m/s^2
 # The IMU channels filtered, in the state's order: roll, pitch, yaw, wz.
@@ -70,7 +65,7 @@ def posture_membership(roll, pitch, params: PostureEstimatorParams):
                            params.tilt_high_deg)
 
 
-class PostureEstimator(LeafSystem):
+class PostureEstimator(FilteredEstimator):
     """The filtered attitude, yaw rate and tilt membership from the IMU.
 
     .. pydrake_system::
@@ -107,47 +102,11 @@ class PostureEstimator(LeafSystem):
     """
 
     def __init__(self, params: PostureEstimatorParams | None = None, period: float = 0.02):
-        super().__init__()
-        self.params = (params if params is not None else PostureEstimatorParams()).validate()
-        check_in_range("PostureEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
-        self.period = float(period)
-        self._alpha = lag_coefficient(self.period, self.params.time_constant)
-        self._state = self.DeclareDiscreteState(np.zeros(8))
-        self._imu = self.DeclareVectorInputPort("imu", IMU_SIZE)
-        xd = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("attitude_hat", 3, self._calc_attitude,
-                                     prerequisites_of_calc=xd)
-        self.DeclareVectorOutputPort("yaw_rate_hat", 1, self._calc_yaw_rate,
-                                     prerequisites_of_calc=xd)
-        self.DeclareVectorOutputPort("posture_hat", 1, self._calc_posture,
-                                     prerequisites_of_calc=xd)
-        # Seeds the filter from the first reading when a Simulator initializes, before any
-        # consumer's first update reads the estimate.
-        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
-
-    def _filtered(self, context) -> np.ndarray:
-        return context.get_discrete_state(self._state).get_value()[:4]
-
-    def _calc_attitude(self, context, output):
-        output.SetFromVector(self._filtered(context)[:3])
-
-    def _calc_yaw_rate(self, context, output):
-        output.SetAtIndex(0, self._filtered(context)[3])
-
-    def _calc_posture(self, context, output):
-        roll, pitch = self._filtered(context)[:2]
-        output.SetAtIndex(0, float(posture_membership(roll, pitch, self.params)))
-
-    def _initialize(self, context, discrete_state):
-        self._step(context, discrete_state, 0.0)  # seeds unseeded channels, moves no other
-
-    def _update(self, context, discrete_state):
-        self._step(context, discrete_state, self._alpha)
-
-    def _step(self, context, discrete_state, alpha):
-        x = context.get_discrete_state(self._state).get_value()
-        sample = np.asarray(self._imu.Eval(context), dtype=float)[_CHANNELS]
-        value, seeded = low_pass_step(x[:4], x[4:] > 0.5, sample, alpha, _CIRCULAR)
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([value, seeded.astype(float)]))
+        params = (params if params is not None else PostureEstimatorParams()).validate()
+        super().__init__("imu", IMU_SIZE, _CHANNELS, period, params.time_constant,
+                         circular=_CIRCULAR)
+        self.params = params
+        self.DeclareEstimateOutputPort("attitude_hat", 3, lambda x: x[:3])
+        self.DeclareEstimateOutputPort("yaw_rate_hat", 1, lambda x: x[3])
+        self.DeclareEstimateOutputPort("posture_hat", 1,
+                                       lambda x: posture_membership(x[0], x[1], params))

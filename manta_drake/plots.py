@@ -16,6 +16,7 @@ from matplotlib.patches import Rectangle
 
 from manta_drake import metrics as M
 from manta_drake.control.vision import LABEL_COLORS
+from manta_drake.modalities import MODALITIES
 from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, JOINTS, LEGS
 
 LEG_TITLES = {"fl": "front-left", "fr": "front-right", "rl": "rear-left", "rr": "rear-right"}
@@ -173,15 +174,14 @@ def wall_spans(log: dict, margin: float) -> list:
 
 
 # The 0-1 estimates a behaviour tree reads, as fig_transition_run labels them.
-ESTIMATES = (("z_hat", "z_hat (depth)"), ("s_hat", "s_hat (wall)"), ("flow_hat", "flow_hat (flow)"),
-             ("posture_hat", "posture_hat (tilt)"), ("energy_hat", "energy_hat (low charge)"))
+ESTIMATES = tuple((m.estimate, m.label) for m in MODALITIES)
 
 
 def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",),
                        paper_windows=(), wall_margin=None, wall_label="near a wall",
                        leaves=None):
     """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth and every modality
-    estimate in the log (z_hat, s_hat, flow_hat, posture_hat, energy_hat) over time, with the
+    estimate in the log (``ESTIMATES``: z_hat, s_hat, posture_hat, ...) over time, with the
     behaviour phases shaded (grey: a behaviour held, orange: a transition). ``leaves``: the
     behaviour tree's gait names; given, a last panel draws their weights
     (``behaviour_weights``).

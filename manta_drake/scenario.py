@@ -51,10 +51,7 @@ from manta_drake.config_io import (
 )
 from manta_drake.control.balloon_rule import BalloonRuleParams
 from manta_drake.control.behaviour_tree import BlendNode, compile_tree, default_tree
-from manta_drake.control.energy_estimator import EnergyEstimatorParams
-from manta_drake.control.flow_estimator import FlowEstimatorParams
 from manta_drake.control.heading_hold import HeadingHoldParams
-from manta_drake.control.posture import PostureEstimatorParams
 from manta_drake.control.gait_files import gait_library
 from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
 from manta_drake.control.transition import check_parameters
@@ -65,10 +62,9 @@ from manta_drake.model.coefficients import HydroCoefficients, load_coefficients,
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
 from manta_drake.model.servo import SERVO_MODELS, back_emf_damping, servo_robot_params
 from manta_drake.model.start_pose import start_pose_problem
+from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE, NAMES, SECTIONS
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
-from manta_drake.station.flow_sensor import FlowSensorParams
 from manta_drake.station.foil import FIN_MODELS
-from manta_drake.station.imu import ImuParams
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "find_scenario", "shipped_scenarios",
            "resolve_path", "set_override", "check_override_key", "scenario_yaml"]
@@ -311,9 +307,29 @@ class VisualizationConfig:
     recording_fps: float = 40.0  # frames per second kept in recording.html
 
 
+def with_modality_sections(after: str):
+    """A class decorator (under ``dc.dataclass``) adding a field per section of the
+    modalities' sensors and estimators (``manta_drake.modalities.SECTIONS``), each
+    defaulting to its dataclass's defaults, after the field ``after``."""
+    def add(cls):
+        fields = {}
+        for name, tp in cls.__annotations__.items():
+            fields[name] = tp
+            if name == after:
+                fields.update(SECTIONS)
+        for name, params in SECTIONS:
+            setattr(cls, name, dc.field(default_factory=params))
+        cls.__annotations__ = fields
+        return cls
+    return add
+
+
 @dc.dataclass
+@with_modality_sections(after="wall_detector")
 class Scenario:
-    """One run of the simulator."""
+    """One run of the simulator. Besides the fields below, one per section of the
+    modalities' sensors and estimators (``manta_drake.modalities.SECTIONS``: ``imu``,
+    ``posture_estimator``, ``flow_sensor``, ``flow_estimator`` and the rest)."""
 
     name: str = "unnamed"
     description: str = ""
@@ -335,12 +351,8 @@ class Scenario:
     depth_estimator: DepthEstimatorConfig = dc.field(default_factory=DepthEstimatorConfig)
     camera: CameraConfig = dc.field(default_factory=CameraConfig)
     wall_detector: WallDetectorParams = dc.field(default_factory=WallDetectorParams)
-    # The new modalities: station sensors and the controller's 0-1 estimates of them.
-    imu: ImuParams = dc.field(default_factory=ImuParams)
-    flow_sensor: FlowSensorParams = dc.field(default_factory=FlowSensorParams)
-    posture_estimator: PostureEstimatorParams = dc.field(default_factory=PostureEstimatorParams)
-    flow_estimator: FlowEstimatorParams = dc.field(default_factory=FlowEstimatorParams)
-    energy_estimator: EnergyEstimatorParams = dc.field(default_factory=EnergyEstimatorParams)
+    # Here ``with_modality_sections`` adds a field per section of the modalities' sensors
+    # and estimators (manta_drake.modalities.SECTIONS: imu, posture_estimator, ...).
     # Feedback from posture: the swim's heading held from the IMU (control.heading_hold).
     heading_hold: HeadingHoldParams = dc.field(default_factory=HeadingHoldParams)
     simulator: SimulatorConfig = dc.field(default_factory=_default_simulator_config)
@@ -424,7 +436,8 @@ class Scenario:
         library = self.gaits()
         try:
             return compile_tree(self.behaviour_nodes(),
-                                {name: gait.to_vector() for name, gait in library.items()})
+                                {name: gait.to_vector() for name, gait in library.items()},
+                                ESTIMATES)
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
 
@@ -434,80 +447,88 @@ class Scenario:
 
     def reads_charge_estimate(self) -> bool:
         """Whether the controller estimates the battery's charge (``EnergyEstimator``, a
-        ``battery`` input): the energy model is on and the behaviour tree (transition mode)
-        or the balloon rule reads ``energy_hat``."""
-        if not self.actuators.enabled:
-            return False
-        return ("energy_hat" in self.heading_changes_read()
-                or self.balloon.rule.estimate() == "energy_hat"
-                or (self.controller.mode == "transition"
-                    and "energy_hat" in self.behaviour_tree().modalities))
+        ``battery`` input): the energy model is on and the behaviour tree (transition mode),
+        the balloon rule or the heading hold's changes read ``energy_hat``."""
+        return self.has_estimator("energy_hat")
+
+    def has_estimator(self, estimate: str) -> bool:
+        """Whether the controller of this scenario builds the estimator of ``estimate`` (a
+        modality with an estimator, ``manta_drake.modalities``): its sensor is on and,
+        for one built only when read, something reads it."""
+        return MODALITY_BY_ESTIMATE[estimate].built(self, estimate in self.estimates_read())
 
     def heading_changes_read(self) -> tuple[str, ...]:
         """The estimates ``heading_hold.changes`` read (when the hold is on)."""
         if not self.heading_hold.enabled:
             return ()
-        return tuple(dict.fromkeys(c.modality for c in self.heading_hold.changes
-                                   if c.modality))
+        return self.heading_hold.read()
 
-    def _validate_modalities(self) -> None:
-        """The sensors, estimators, heading hold and balloon rule; and that every estimate
-        the behaviour tree or the balloon rule reads has its sensor."""
-        for section in ("posture_estimator", "flow_estimator", "energy_estimator",
-                        "heading_hold"):
-            try:
-                getattr(self, section).validate()
-            except ValueError as e:
-                raise ScenarioError(f"{section}.{e}") from None
-        for section in ("imu", "flow_sensor"):
-            try:
-                getattr(self, section).validate(section)
-            except ValueError as e:
-                raise ScenarioError(str(e)) from None
-        try:
-            self.balloon.rule.validate()
-        except ValueError as e:
-            raise ScenarioError(f"balloon.rule.{e}") from None
-        self._validate_water_users()
-        needs = {"z_hat": ("water.enabled", self.water.enabled),
-                 "posture_hat": ("imu.enabled", self.imu.enabled),
-                 "flow_hat": ("flow_sensor.enabled", self.flow_sensor.enabled and self.water.enabled),
-                 "energy_hat": ("actuators.enabled", self.actuators.enabled),
-                 "s_hat": ("camera.enabled", self.camera.enabled)}
+    def estimates_read(self) -> dict[str, str]:
+        """Every estimate the controller reads -> the field that reads it (the last of
+        several): the behaviour tree (transition mode; the default tree's s_hat only with
+        the camera, which it reads as 0 without), the balloon rule, the heading hold
+        (``posture_hat``) and its changes."""
         used = {}
         if self.controller.mode == "transition":
-            # Eq. (12)'s default tree reads s_hat = 0 without a camera (the paper's runs
-            # without a wall); a tree the scenario writes needs the camera for s_hat.
             used.update({m: "transition.tree" for m in self.behaviour_tree().modalities
-                         if self.transition.tree or m != "s_hat"})
-        rule = self.balloon.rule.estimate()
+                         if self.transition.tree or m != "s_hat" or self.camera.enabled})
+        rule = self.balloon.rule.estimate(NAMES)
         if rule:
             used[rule] = "balloon.rule.modality"
         if self.heading_hold.enabled:
             used["posture_hat"] = "heading_hold.enabled"
             used.update({m: "heading_hold.changes" for m in self.heading_changes_read()})
-        for estimate, where in used.items():
-            if estimate in needs and not needs[estimate][1]:
-                raise ScenarioError(f"{where}: reads {estimate}, which needs "
-                                    f"{needs[estimate][0]}: true")
+        return used
+
+    def _validate_modality_sections(self) -> None:
+        """Each modality's sensor and estimator section (``manta_drake.modalities``)."""
+        for m in MODALITIES:
+            if m.reading is not None:
+                try:
+                    getattr(self, m.reading.section).validate(m.reading.section)
+                except ValueError as e:
+                    raise ScenarioError(str(e)) from None
+            if m.estimation is not None:
+                try:
+                    getattr(self, m.estimation.section).validate()
+                except ValueError as e:
+                    raise ScenarioError(f"{m.estimation.section}.{e}") from None
+
+    def _validate_modalities(self) -> None:
+        """The sensors, estimators, heading hold and balloon rule; and that every estimate
+        the behaviour tree, the balloon rule or the heading hold reads has its sensor."""
+        self._validate_modality_sections()
+        for section, call in (("heading_hold", lambda: self.heading_hold.validate(ESTIMATES)),
+                              ("balloon.rule", lambda: self.balloon.rule.validate(NAMES))):
+            try:
+                call()
+            except ValueError as e:
+                raise ScenarioError(f"{section}.{e}") from None
+        self._validate_water_users()
+        for estimate, where in self.estimates_read().items():
+            m = MODALITY_BY_ESTIMATE[estimate]
+            if not m.available(self):
+                raise ScenarioError(f"{where}: reads {estimate}, which needs {m.needs}: true")
         if self.heading_hold.enabled and self.controller.mode == "hold":
             raise ScenarioError("heading_hold.enabled: true trims a CPG gait; controller.mode "
                                 "hold runs none (use gait or transition)")
         self._validate_heading_hold_behaviours()
 
     def _validate_water_users(self) -> None:
-        """The balloon rule acts and the flow sensor reads through the water: refused with
-        the water off (the rule would command a balloon that lifts nothing, the sensor read
-        a current that is not there)."""
+        """The balloon rule acts and some sensors (the modalities' that need water) read
+        through the water: refused with the water off (the rule would command a balloon that lifts
+        nothing, the sensor read water that is not there)."""
         if self.water.enabled:
             return
         if self.balloon.rule.modality:
             raise ScenarioError(f"balloon.rule.modality: {short_repr(self.balloon.rule.modality)}"
                                 " needs water.enabled: true (the balloon acts through the "
                                 "water's buoyancy)")
-        if self.flow_sensor.enabled:
-            raise ScenarioError("flow_sensor.enabled: true needs water.enabled: true (the "
-                                "sensor reads the water's velocity)")
+        for m in MODALITIES:
+            r = m.reading
+            if r is not None and r.needs_water and getattr(self, r.section).enabled:
+                raise ScenarioError(f"{r.section}.enabled: true needs water.enabled: true (the "
+                                    "sensor reads through the water)")
 
     def _validate_heading_hold_behaviours(self) -> None:
         """``heading_hold.behaviours`` are gaits of the library, and in transition mode with

@@ -362,6 +362,13 @@ SILENT_SETTINGS = [
      "balloon.rule.modality", "'posture' needs water.enabled: true"),
     ("water: {enabled: false}\nflow_sensor: {enabled: true}\n",
      "flow_sensor.enabled", "needs water.enabled: true"),
+    ("water: {enabled: false}\naltimeter: {enabled: true}\n",
+     "altimeter.enabled", "needs water.enabled: true"),
+    ("controller: {mode: transition}\ntransition:\n  tree:\n"
+     "    root: {modality: floor_hat, weight: potential, children: [swim, trot]}\n",
+     "transition.tree", "reads floor_hat, which needs altimeter.enabled: true"),
+    ("altimeter: {enabled: true}\nballoon: {rule: {modality: altitud}}\n",
+     "balloon.rule.modality", "'altitud' is not an estimate's name"),
     ("controller: {mode: transition}\ntransition:\n  tree:\n"
      "    root: {modality: z_hat, weight: potential, threshold: 0.3, children: [swim, trot]}\n",
      "transition.tree.root.threshold", "0.3 is set on a potential node, which ignores it"),

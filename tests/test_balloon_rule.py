@@ -12,7 +12,6 @@ from pydrake.trajectories import PiecewisePolynomial
 from manta_drake.control.balloon_rule import (
     ABOVE,
     BELOW,
-    MODALITIES,
     NONE,
     BalloonRule,
     BalloonRuleParams,
@@ -119,12 +118,15 @@ def test_nan_keeps_the_decision():
 
 
 def test_any_estimate_a_tree_reads_and_the_short_names():
-    from manta_drake.control.behaviour_tree import MODALITIES as TREE
+    from manta_drake.modalities import ESTIMATES, NAMES
 
-    assert set(TREE) <= set(MODALITIES) and {"z_hat", "s_hat"} <= set(MODALITIES)
-    assert BalloonRuleParams(modality="flow").estimate() == "flow_hat"
-    assert BalloonRuleParams(modality="s_hat").estimate() == "s_hat"
-    assert BalloonRuleParams().estimate() == ""
+    assert set(ESTIMATES) <= set(NAMES) and {"z_hat", "s_hat", "floor_hat"} <= set(NAMES)
+    assert BalloonRuleParams(modality="flow").estimate(NAMES) == "flow_hat"
+    assert BalloonRuleParams(modality="altitude").estimate(NAMES) == "floor_hat"
+    assert BalloonRuleParams(modality="s_hat").estimate(NAMES) == "s_hat"
+    assert BalloonRuleParams().estimate(NAMES) == ""
+    with pytest.raises(ValueError, match="modality: 'depth' is not an estimate's name; allowed: "):
+        BalloonRuleParams(modality="depth").validate(NAMES)
 
 
 @pytest.mark.parametrize("weight", ["linear", "cosine", "potential", "normalised"])
@@ -161,8 +163,7 @@ def test_a_switch_reads_the_estimate_through_full_at():
 
 
 @pytest.mark.parametrize("change, message", [
-    ({"modality": "depth"}, r"modality: 'depth' is not one of , z_hat, s_hat, flow_hat, "
-                            r"posture_hat, energy_hat, posture, flow, energy"),
+    ({"modality": "bad name"}, r"modality: 'bad name' is not an estimate's name"),
     ({"weight": "step"}, r"weight: 'step' is not one of potential, cosine"),
     ({"full_at": 0.0}, r"full_at: 0.0 is outside the allowed range \(0, 1\]"),
     ({"modality": "z_hat", "weight": "linear", "hysteresis": 0.3},
@@ -196,7 +197,7 @@ def test_a_rule_parameter_without_a_modality_is_refused(field, value):
     """Without a modality the schedule alone commands the balloon: a rule parameter set there
     would be ignored, so it is refused naming the field; with a modality it is the rule's."""
     with pytest.raises(ValueError, match=rf"^{field}: {value} is set but the rule's modality "
-                                         r"is empty .*set modality to one of z_hat, s_hat"):
+                                         r"is empty .*set modality to an estimate's name"):
         BalloonRuleParams(**{field: value}).validate()
     assert getattr(BalloonRuleParams(modality="energy", **{field: value}).validate(),
                    field) == value

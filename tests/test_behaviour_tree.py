@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from manta_drake.control.behaviour_tree import (
-    MODALITIES,
     WEIGHT_FUNCTIONS,
     BlendNode,
     compile_tree,
@@ -18,6 +17,7 @@ from manta_drake.control.behaviour_tree import (
 )
 from manta_drake.control.gaits import GAITS
 from manta_drake.control.transition import BLENDS, target_params
+from manta_drake.modalities import ESTIMATES
 
 NAMES = ("swim", "trot", "turning")
 SWIM, TROT, TURN = (GAITS[n].to_vector() for n in NAMES)
@@ -326,7 +326,8 @@ ERRORS = [
     ({**default_tree(), "spare": BlendNode(children=["swim", "trot"])},
      "tree.spare: not reachable from root"),
     (_tree(root={"modality": "depth"}),
-     "tree.root.modality: 'depth' is not one of " + ", ".join(MODALITIES)),
+     "tree.root.modality: 'depth' is not one of " + ", ".join(ESTIMATES)),
+    (_tree(root={"modality": 3}), "tree.root.modality: 3 is not one of"),
     (_tree(root={"full_at": 0.0}), "tree.root.full_at: 0.0 is not a finite number in (0, 1]"),
     (_tree(root={"full_at": 1.5}), "tree.root.full_at: 1.5 is not a finite number in (0, 1]"),
     (_tree(root={"full_at": np.nan}), "tree.root.full_at: nan is not a finite number"),
@@ -354,9 +355,23 @@ ERRORS = [
 @pytest.mark.parametrize("nodes, message", ERRORS, ids=[m[:40] for _, m in ERRORS])
 def test_validation_messages(nodes, message):
     with pytest.raises(ValueError, match=re.escape(message)) as error:
-        compile_tree(nodes, GAIT3)
+        compile_tree(nodes, GAIT3, ESTIMATES)
     assert "\n" not in str(error.value)
     assert str(error.value).startswith("tree.")
+
+
+def test_without_a_list_any_name_is_read_in_the_order_first_read():
+    """compile_tree without modalities takes any estimate's name (a library user's own
+    sensor) in depth-first order; a name that cannot be a port is refused."""
+    nodes = {"root": BlendNode("my_sonar_hat", "linear", ["A", "gait"]),
+             "gait": BlendNode("z_hat", "linear", ["B", "C"])}
+    tree = compile_tree(nodes, RANDOM)
+    assert tree.modalities == ("my_sonar_hat", "z_hat")
+    assert compile_tree(nodes, RANDOM, ("z_hat", "s_hat", "my_sonar_hat")).modalities == (
+        "z_hat", "my_sonar_hat")
+    with pytest.raises(ValueError, match=re.escape("tree.root.modality: 'a b' is not an "
+                                                   "estimate's name")):
+        compile_tree({"root": BlendNode("a b", "linear", ["A", "B"])}, RANDOM)
 
 
 def test_gait_vectors_are_checked():

@@ -175,8 +175,11 @@ def test_the_builders_pages_draw_the_halves(html_out):
     assert station["inputs"] == ["desired_state", "balloon_command"]
     assert {"depth", "depth_image", "camera_pose", "measured_joint_state"} <= set(
         station["outputs"])
-    assert controller["inputs"] == ["depth", "depth_image", "camera_pose", "imu", "flow_velocity",
-                                   "battery"]
+    from manta_drake.modalities import READINGS
+
+    assert controller["inputs"] == ["depth", "depth_image", "camera_pose",
+                                   *(r.port for r in READINGS), "battery"]
+    assert {"imu", "flow_velocity", "altitude"} <= set(controller["inputs"])
     assert controller["outputs"][:2] == ["desired_state", "balloon_command"]
 
 

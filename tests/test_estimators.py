@@ -1,4 +1,4 @@
-"""The 0-1 estimators of posture, flow and energy, and their shared ramp and lag."""
+"""The 0-1 estimators of posture, flow, energy and altitude, and their shared ramp and lag."""
 
 import numpy as np
 import pytest
@@ -8,6 +8,11 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from manta_drake.control.altimeter_estimator import (
+    AltimeterEstimator,
+    AltimeterEstimatorParams,
+    floor_membership,
+)
 from manta_drake.control.energy_estimator import (
     EnergyEstimator,
     EnergyEstimatorParams,
@@ -302,6 +307,44 @@ def test_energy_estimator_reads_full_until_the_first_reading_and_holds_nan():
         0.3 - 0.2 * (1 - np.exp(-0.1)))
 
 
+# --- altitude ----------------------------------------------------------------------------------
+
+def test_floor_membership_falls_from_the_on_floor_to_the_off_floor_range():
+    p = AltimeterEstimatorParams()  # 0.23 and 0.28 m
+    r = [0.0, 0.2, 0.23, 0.2425, 0.255, 0.28, 0.4, 50.0]
+    np.testing.assert_allclose(floor_membership(r, p), [1, 1, 1, 0.75, 0.5, 0, 0, 0],
+                               atol=1e-12)
+
+
+def test_altimeter_estimator_follows_a_step_with_the_first_order_lag():
+    """Rising off the floor: the range 0.18 -> 0.40 m; the filtered range is the closed-form
+    lag and floor_hat its falling ramp."""
+    tau = 0.5
+    system = AltimeterEstimator(AltimeterEstimatorParams(time_constant=tau), period=T)
+    out = _simulate_step(system, "altitude", [0.18], [0.40], _TIMES)
+    r = _lagged(0.18, 0.40, tau)
+    np.testing.assert_allclose(out["altitude_hat"][:, 0], r, rtol=1e-12)
+    np.testing.assert_allclose(out["floor_hat"][:, 0], np.clip((0.28 - r) / 0.05, 0, 1),
+                               atol=1e-12)
+    assert out["floor_hat"][0, 0] == 1.0 and out["floor_hat"][-1, 0] == 0.0
+
+
+def test_altimeter_estimator_reads_free_water_until_an_echo_and_holds_dropouts():
+    system = AltimeterEstimator(AltimeterEstimatorParams(time_constant=1.0), period=0.1)
+    context = system.CreateDefaultContext()
+    assert system.GetOutputPort("altitude_hat").Eval(context)[0] == 0.28
+    assert system.GetOutputPort("floor_hat").Eval(context)[0] == 0.0  # not "on the floor"
+    _update(system, context, "altitude", [np.nan])  # a dropout before any echo
+    assert system.GetOutputPort("altitude_hat").Eval(context)[0] == 0.28
+    _update(system, context, "altitude", [0.2])
+    assert system.GetOutputPort("floor_hat").Eval(context)[0] == 1.0
+    _update(system, context, "altitude", [np.inf])  # no echo: held
+    assert system.GetOutputPort("altitude_hat").Eval(context)[0] == 0.2
+    _update(system, context, "altitude", [0.5])
+    assert system.GetOutputPort("altitude_hat").Eval(context)[0] == pytest.approx(
+        0.2 + 0.3 * (1 - np.exp(-0.1)))
+
+
 # --- parameters --------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("make, message", [
@@ -331,6 +374,12 @@ def test_energy_estimator_reads_full_until_the_first_reading_and_holds_nan():
      r"soc_high: 0.1 is outside the allowed range \(soc_low = 0.2, 1\]"),
     (lambda: EnergyEstimatorParams(time_constant=-5.0),
      r"time_constant: -5.0 is outside the allowed range \[0, 1000\] s"),
+    (lambda: AltimeterEstimatorParams(on_floor_range=-0.1),
+     r"on_floor_range: -0.1 is outside the allowed range \[0, 100\) m"),
+    (lambda: AltimeterEstimatorParams(off_floor_range=0.23),
+     r"off_floor_range: 0.23 is outside the allowed range \(on_floor_range = 0.23, 100\] m"),
+    (lambda: AltimeterEstimatorParams(time_constant=-1.0),
+     r"time_constant: -1.0 is outside the allowed range \[0, 100\] s"),
 ])
 def test_every_parameter_error_names_the_field_and_range(make, message):
     with pytest.raises(ValueError, match=message):
@@ -341,6 +390,7 @@ def test_every_parameter_error_names_the_field_and_range(make, message):
     (lambda: PostureEstimator(period=0.0), r"PostureEstimator.period: 0.0 is outside .*\(0, 1\]"),
     (lambda: FlowEstimator(period=2.0), r"FlowEstimator.period: 2.0 is outside .*\(0, 1\]"),
     (lambda: EnergyEstimator(period=-1.0), r"EnergyEstimator.period: -1.0 is outside .*\(0, 10\]"),
+    (lambda: AltimeterEstimator(period=1.5), r"AltimeterEstimator.period: 1.5 is outside .*\(0, 1\]"),
     (lambda: PostureEstimator(PostureEstimatorParams(tilt_high_deg=5.0)), r"tilt_high_deg: 5.0"),
     (lambda: FlowEstimator(FlowEstimatorParams(axis="")), r"axis: '' is not one of"),
     (lambda: EnergyEstimator(EnergyEstimatorParams(soc_low=0.5)), r"soc_high: 0.4 is outside"),

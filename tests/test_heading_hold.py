@@ -356,7 +356,7 @@ def test_the_system_turns_back_when_the_wall_is_seen_and_restarts_its_integral()
     ({}, "changes\\[0\\]: give either time or modality"),
     ({"time": 3.0, "modality": "s_hat", "turn_deg": 90.0}, "give either time or modality"),
     ({"time": 3.0}, "changes\\[0\\]: give either heading_deg .* or turn_deg"),
-    ({"modality": "depth", "turn_deg": 90.0}, "changes\\[0\\].modality: 'depth' is not one of"),
+    ({"modality": "a b", "turn_deg": 90.0}, "changes\\[0\\].modality: 'a b' is not an "),
     ({"time": 3.0, "turn_deg": 400.0}, "changes\\[0\\].turn_deg: 400.0 is outside"),
     ({"modality": "s_hat", "above": 1.0, "turn_deg": 90.0}, "changes\\[0\\].above: 1.0"),
 ])
@@ -365,3 +365,13 @@ def test_a_bad_change_names_its_field(change, message):
 
     with pytest.raises(ValueError, match=message):
         _params(changes=[HeadingChange(**change)])
+
+
+def test_a_change_on_an_estimate_outside_the_given_names_is_refused():
+    from manta_drake.control.heading_hold import HeadingChange
+    from manta_drake.modalities import ESTIMATES
+
+    change = HeadingChange(modality="depth", turn_deg=90.0)
+    with pytest.raises(ValueError, match="changes\\[0\\].modality: 'depth' is not one of z_hat"):
+        HeadingHoldParams(changes=[change]).validate(ESTIMATES)
+    assert HeadingHoldParams(changes=[change]).validate().changes == [change]  # any name

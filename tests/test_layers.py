@@ -15,6 +15,7 @@ LAYERS = [
     ("config I/O", ["manta_drake.config_io", "manta_drake.version", "manta_drake.jit"], False),
     ("model", ["manta_drake.model", "manta_drake.models", "manta_drake.lcmtypes"], True),
     ("halves", ["manta_drake.station", "manta_drake.control"], True),
+    ("modalities", ["manta_drake.modalities"], False),
     ("scenario", ["manta_drake.scenario"], False),
     ("wiring", ["manta_drake.wiring"], True),
     ("running", ["manta_drake.metrics", "manta_drake.plots", "manta_drake.simulate",

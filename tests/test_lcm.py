@@ -129,7 +129,7 @@ def test_channel_table_matches_the_ports_and_the_docs():
     from manta_drake.wiring.station import build_station
 
     halves = {}
-    for name in ("three_behaviors", "four_behaviors"):
+    for name in ("three_behaviors", "four_behaviors", "nose_up_trot"):
         scenario = load_scenario(name, {"duration": 1.0})
         halves[name] = build_station(scenario)[0], build_controller(scenario)[0]
     for channel in seam.CHANNELS:  # every channel is a port of its sender (camera or not)
@@ -204,7 +204,7 @@ def test_every_periodic_reader_of_a_sensor_reads_at_exchange_times():
     from manta_drake.wiring.controller import build_controller
 
     for name in ("four_behaviors", "swim_heading_hold", "two_behaviors_heading_hold",
-                 "three_behaviors"):
+                 "three_behaviors", "nose_up_trot"):
         scenario = load_scenario(name, {"duration": 75.0})
         controller = seam.controller_with_tick(build_controller(scenario)[0], scenario.time_step)
         assert seam.unexchanged_reads(controller, scenario) == [], name
@@ -1018,6 +1018,17 @@ def test_split_run_of_four_behaviors_matches_the_single_diagram(tmp_path):
     # Each path carried something: the charge fell, the flow estimate rose, the trim acted.
     assert np.ptp(controller["soc_hat"]) > 1e-5 and controller["flow_hat"].max() > 0.1
     assert np.abs(controller["heading_trim"]).max() > 0.01
+
+
+@pytest.mark.slow
+def test_split_run_with_the_altimeter_matches_the_single_diagram(tmp_path):
+    """2 s of nose_up_trot: the altimeter's range every 100 ms crosses, the tree reads its
+    floor_hat: the single diagram bit for bit."""
+    station, controller, _, _ = _assert_split_is_single(
+        "nose_up_trot", 2.0, tmp_path,
+        ("altitude_hat", "floor_hat", "behaviour_weights", "cpg_params"), ("altitude", "depth"))
+    assert len(station["t_altitude"]) == 20 and np.all(np.isfinite(station["altitude"]))
+    assert np.ptp(controller["altitude_hat"]) > 1e-3  # the range moved with the gait
 
 
 @pytest.mark.slow

@@ -34,11 +34,13 @@ def test_sensors_add_their_noise_sources_after_the_old_ones():
     same order (so it draws the same noise); the sensors add theirs at the end."""
     base = load_scenario("two_behaviors", overrides=QUIET)
     more = load_scenario("two_behaviors", overrides={**QUIET, "imu.enabled": True,
-                                                     "flow_sensor.enabled": True})
+                                                     "flow_sensor.enabled": True,
+                                                     "altimeter.enabled": True})
     old = [s.get_name() for s in random_sources(build_diagram(base)[0])]
     new = [s.get_name() for s in random_sources(build_diagram(more)[0])]
     assert new[:len(old)] == old
-    assert new[len(old):] == ["imu_noise", "imu_bias", "flow_sensor_noise"]
+    assert new[len(old):] == ["imu_noise", "imu_bias", "flow_sensor_noise",
+                              "altimeter_noise_normal", "altimeter_noise_uniform"]
 
 
 def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_path):
@@ -151,3 +153,28 @@ def test_the_wall_estimate_fills_the_balloon_and_turns_the_held_heading(tmp_path
     assert abs(np.angle(np.exp(1j * (target - (yaw + np.pi))))) < 0.02
     # Without the change the target would be the start's heading, 0.
     assert abs(target) > 3.0
+
+
+def test_the_altimeter_reads_the_hulls_height_and_the_tree_starts_on_the_floor(tmp_path):
+    """nose_up_trot, 3 s: every reading is the transducer's height above the floor computed
+    here from the logged hull pose (over cos of the tilt beyond the 15 deg half-beam), within
+    the noise and the pose's motion between a ping and its log sample; the tree reading
+    floor_hat starts on the trot (its initial estimate is the start pose's) and stays there."""
+    from pydrake.math import RollPitchYaw
+
+    scenario = load_scenario("nose_up_trot", overrides={**QUIET, "duration": 3.0})
+    log = run(scenario, tmp_path / "run", progress=False).log
+    p_BS = np.asarray(scenario.altimeter.position)
+    k = np.searchsorted(log["t"], log["t_altitude"] - 1e-9)
+    height, tilt = [], []
+    for i in k:
+        R = RollPitchYaw(log["body_rpy"][i]).ToRotationMatrix().matrix()
+        height.append(log["body_xyz"][i, 2] + (R @ p_BS)[2] + 0.5)  # floor at z = -0.5
+        tilt.append(np.arccos(R[2, 2]))
+    beam = np.radians(scenario.altimeter.beam_half_angle_deg)
+    expected = np.array(height) / np.cos(np.maximum(np.array(tilt) - beam, 0.0))
+    error = log["altitude"][:, 0] - expected
+    assert np.all(np.isfinite(error)) and np.median(np.abs(error)) < 0.01
+    assert np.max(np.degrees(tilt)) > 15.0  # the run pitches past the beam
+    np.testing.assert_array_equal(log["floor_hat"][:, 0], 1.0)
+    np.testing.assert_array_equal(log["behaviour_weights"][:, 1], 1.0)  # the nose-up trot

@@ -305,18 +305,18 @@ def test_imu_readings_outside_the_parts_full_scale_are_dropped_value_by_value():
     160 m/s^2 (16 g), each value on its own: one beyond its bound (or +-inf) becomes NaN and
     is counted ``ignored``; a NaN passes (the sensor's dropout) and is counted ``dropout``;
     a good reading is passed on as the very same array."""
-    from manta_drake.seam import SensorRanges, screen_imu
+    from manta_drake.seam import SensorRanges, screen_reading
 
     ranges = SensorRanges()
     good = np.array([np.pi, -np.pi / 2, -np.pi, 35.0, -35.0, 0.1, 160.0, -160.0, 9.81])
-    same, problems = screen_imu(good, ranges)
+    same, problems = screen_reading(good, "imu", ranges)
     assert same is good and problems == []  # the bounds themselves are readings
     x = good.copy()
     x[0] = np.nextafter(np.pi, 4.0)  # just past +pi
     x[4] = -35.001
     x[6] = np.inf
     x[2], x[8] = np.nan, np.nan
-    safe, problems = screen_imu(x, ranges)
+    safe, problems = screen_reading(x, "imu", ranges)
     expected = good.copy()
     expected[[0, 2, 4, 6, 8]] = np.nan
     np.testing.assert_array_equal(safe, expected)
@@ -327,23 +327,38 @@ def test_imu_readings_outside_the_parts_full_scale_are_dropped_value_by_value():
     assert problems[1][1] == ("imu yaw, fz NaN (dropped readings): the posture estimator holds "
                               "them")
     only_nan = np.r_[np.nan, good[1:]]
-    value, problems = screen_imu(only_nan, ranges)
+    value, problems = screen_reading(only_nan, "imu", ranges)
     assert value is only_nan and [kind for kind, _ in problems] == ["dropout"]
 
 
 def test_flow_readings_beyond_5_m_s_per_axis_are_dropped():
-    from manta_drake.seam import SensorRanges, screen_flow_velocity
+    from manta_drake.seam import SensorRanges, screen_reading
 
     ranges = SensorRanges()
     good = np.array([-5.0, 5.0, 0.02])
-    assert screen_flow_velocity(good, ranges) == (good, [])
-    safe, problems = screen_flow_velocity(np.array([5.5, -np.inf, np.nan]), ranges)
+    assert screen_reading(good, "flow_velocity", ranges) == (good, [])
+    safe, problems = screen_reading(np.array([5.5, -np.inf, np.nan]), "flow_velocity", ranges)
     assert np.isnan(safe).all()
     ignored = ("flow velocity u 5.5 m/s beyond +-5, v -inf m/s beyond +-5: ignored (read as "
                "dropped readings; the flow estimator holds them)")
     assert problems == [
         ("ignored", ignored),
         ("dropout", "flow velocity w NaN (dropped readings): the flow estimator holds them")]
+
+
+def test_altimeter_ranges_beyond_the_longest_part_are_dropped():
+    """The altimeter's range within 100 m (the longest-range part taken): 100.5 m or a
+    negative range beyond it is corrupt; a NaN is the sounder's no-echo reading."""
+    from manta_drake.seam import SensorRanges, screen_reading
+
+    ranges = SensorRanges()
+    good = np.array([0.21])
+    assert screen_reading(good, "altitude", ranges) == (good, [])
+    safe, problems = screen_reading(np.array([100.5]), "altitude", ranges)
+    assert np.isnan(safe).all() and problems == [
+        ("ignored", "altitude range 100.5 m beyond +-100: ignored (read as dropped readings; "
+                    "the altitude estimator holds them)")]
+    assert screen_reading(np.array([np.nan]), "altitude", ranges)[1][0][0] == "dropout"
 
 
 def test_a_battery_the_controller_reads_is_a_dropped_reading_when_out_of_range():

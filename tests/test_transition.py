@@ -246,6 +246,27 @@ def test_behaviour_weights_are_the_leaf_weights_of_the_last_target():
                                [c, d * (1 - w), d * w], atol=1e-12)
 
 
+def test_the_weights_switches_and_filters_start_from_the_initial_estimates():
+    """On the floor at t = 0 (z_hat 1) and a wall already at half (s_hat 0.5): before any
+    update the weights are Eq. (12)'s there, and the s_hat filter starts at 0.5, not 0."""
+    system = PotentialTransition(initial_values={"z_hat": 1.0, "s_hat": 0.5})
+    context = system.CreateDefaultContext()
+    w = (1 - np.cos(np.pi * 0.5)) / 2
+    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
+                               [0.0, 1 - w, w], atol=1e-15)
+    index = system.filter_state_indices["s_hat"]
+    assert context.get_discrete_state(index).GetAtIndex(0) == 0.5
+    from manta_drake.control.behaviour_tree import BlendNode, compile_tree
+
+    tree = compile_tree({"root": BlendNode("floor_hat", "switch", ["swim", "trot"],
+                                           threshold=0.5, hysteresis=0.2)},
+                        {"swim": SWIM, "trot": TROT})
+    on_floor = PotentialTransition(tree=tree, initial_values={"floor_hat": 0.9})
+    np.testing.assert_array_equal(
+        on_floor.GetOutputPort("behaviour_weights").Eval(on_floor.CreateDefaultContext()),
+        [0.0, 1.0])  # the switch starts on the trot's side
+
+
 def test_a_tree_of_other_modalities_sets_the_ports_filters_and_switch_memory():
     from manta_drake.control.behaviour_tree import BlendNode, compile_tree
 
@@ -258,7 +279,7 @@ def test_a_tree_of_other_modalities_sets_the_ports_filters_and_switch_memory():
     system = PotentialTransition(follow="direct", tree=tree,
                                  time_constants={"flow_hat": 0.5})
     assert [system.get_input_port(i).get_name() for i in range(system.num_input_ports())] == \
-        ["flow_hat", "energy_hat"]
+        ["energy_hat", "flow_hat"]  # in the order the tree reads them
     assert system.tree is tree and set(system.filter_state_indices) == {"flow_hat"}
     context = system.CreateDefaultContext()
     assert tree.leaves == ("trot", "walk", "swim")  # depth first

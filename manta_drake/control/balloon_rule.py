@@ -1,9 +1,8 @@
 """A balloon rule: the balloon's fill from one 0-1 estimate.
 
 The scenario's time schedule commands the balloon (``scheduled_fill``); a rule lets one of
-the controller's 0-1 estimates (``modality``: any estimate a behaviour tree reads,
-``behaviour_tree.MODALITIES``: ``z_hat``, ``s_hat``, ``flow_hat``, ``posture_hat``,
-``energy_hat``; ``posture``, ``flow`` and ``energy`` name their estimates too) take over,
+the controller's 0-1 estimates (``modality``: any estimate a behaviour tree reads, by its
+name or its modality's alias, ``manta_drake.modalities.NAMES``: ``z_hat``, ``posture``) take over,
 with the weight functions of a tree's node (``weight``, ``behaviour_tree``). The estimate's
 coordinate is the tree's, x = min(clip(m, 0, 1) / ``full_at``, 1).
 
@@ -39,12 +38,8 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from manta_drake.config_io import check_in_range, check_one_of, short_repr
-from manta_drake.control.behaviour_tree import MODALITIES as ESTIMATES
 from manta_drake.control.behaviour_tree import WEIGHT_FUNCTIONS, pair_weights
 
-# The short names a rule may give its estimate (the estimates' own names work too).
-ALIASES = {"posture": "posture_hat", "flow": "flow_hat", "energy": "energy_hat"}
-MODALITIES = (*ESTIMATES, *ALIASES)
 NONE, ABOVE, BELOW = 0.0, 1.0, -1.0  # the decision state's values
 SWITCH_ONLY = {"threshold": 0.5, "hysteresis": 0.2}  # the switch's fields and defaults
 
@@ -55,7 +50,7 @@ class BalloonRuleParams:
     and every other field left at its default (a rule's parameters without a modality would
     be ignored)."""
 
-    modality: str = ""  # "" or one of MODALITIES
+    modality: str = ""  # "" or an estimate's name or alias
     weight: str = "switch"  # one of behaviour_tree.WEIGHT_FUNCTIONS
     fill_above: float = 0.0  # the fill at x = 1 (switch: once above threshold + h/2)
     fill_below: float = 1.0  # the fill at x = 0 (switch: once below threshold - h/2)
@@ -64,13 +59,22 @@ class BalloonRuleParams:
     hysteresis: float = 0.2  # switch only: h, the width of the band about the threshold
     after: float = 0.0  # [s] the schedule alone before this time
 
-    def estimate(self) -> str:
-        """The controller's estimate the rule reads (``""`` without a rule)."""
-        return ALIASES.get(self.modality, self.modality)
+    def estimate(self, names=None) -> str:
+        """The controller's estimate the rule reads (``""`` without a rule): ``modality``
+        through ``names`` (name or alias -> estimate; None: the name itself)."""
+        return (names or {}).get(self.modality, self.modality)
 
-    def validate(self) -> "BalloonRuleParams":
-        """Checks every field's type and range; ValueError names the field and the range."""
-        check_one_of("modality", self.modality, ("",) + MODALITIES)
+    def validate(self, names=None) -> "BalloonRuleParams":
+        """Checks every field's type and range (``modality`` one of ``names``, a mapping of
+        the names and aliases a rule may give to their estimates; None: any name);
+        ValueError names the field and the range."""
+        if names is not None:
+            if self.modality != "" and self.modality not in names:
+                raise ValueError(f"modality: {short_repr(self.modality)} is not an estimate's "
+                                 f"name; allowed: {', '.join(names)} (empty: no rule)")
+        elif not (isinstance(self.modality, str)
+                  and (self.modality == "" or self.modality.isidentifier())):
+            raise ValueError(f"modality: {short_repr(self.modality)} is not an estimate's name")
         check_one_of("weight", self.weight, WEIGHT_FUNCTIONS)
         check_in_range("fill_above", self.fill_above, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
         check_in_range("fill_below", self.fill_below, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
@@ -89,14 +93,14 @@ class BalloonRuleParams:
                                      f"{self.weight} rule, which ignores it (only switch reads "
                                      f"{' and '.join(SWITCH_ONLY)}): leave it out")
         if not self.modality:
+            choices = f"one of {', '.join(names)}" if names else "an estimate's name"
             default = BalloonRuleParams()
             for f in dc.fields(self):
                 value = getattr(self, f.name)
                 if f.name != "modality" and value != getattr(default, f.name):
                     raise ValueError(f"{f.name}: {short_repr(value)} is set but the rule's "
                                      "modality is empty (no rule: the schedule alone); set "
-                                     f"modality to one of {', '.join(MODALITIES)} or leave "
-                                     f"{f.name} out")
+                                     f"modality to {choices} or leave {f.name} out")
         return self
 
 
@@ -157,8 +161,8 @@ class BalloonRule(LeafSystem):
         - balloon_command
 
     * ``scheduled_fill`` (1): the time schedule's fill command in [0, 1].
-    * ``modality`` (1): the 0-1 estimate the rule follows (``params.estimate()`` of the
-      controller); NaN or infinite keeps the last decision or fill.
+    * ``modality`` (1): the controller's 0-1 estimate the rule follows (``params.modality``);
+      NaN or infinite keeps the last decision or fill.
     * ``balloon_command`` (1): ``balloon_command(scheduled_fill, d, t, params)``: depends
       directly on ``scheduled_fill``, on the time and on the state, not on ``modality``.
 

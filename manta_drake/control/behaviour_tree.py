@@ -1,8 +1,8 @@
 r"""Behaviours as a tree: the transition system's target psi_d, generalising Eq. (12).
 
 A tree is a ``dict[str, BlendNode]`` whose top node is named ``root``. Each node reads one
-modality m (a 0-1 estimate, ``MODALITIES``: depth ``z_hat``, wall ``s_hat``, flow
-``flow_hat``, posture ``posture_hat``, low battery ``energy_hat``) and blends its children,
+modality m (a 0-1 estimate by its name, e.g. depth ``z_hat`` or wall ``s_hat``; the
+package's modalities are ``manta_drake.modalities.ESTIMATES``) and blends its children,
 each either another node or a gait (a leaf, a 64-vector R, X, Phi, Phi' in rad). The node's
 coordinate is
 
@@ -56,8 +56,6 @@ from manta_drake.config_io import short_repr
 from manta_drake.model.robot_params import NUM_CPG_PARAMS
 
 WEIGHT_FUNCTIONS = ("potential", "cosine", "linear", "normalised", "switch")
-# Each a 0-1 estimate: depth, wall detection rate, flow, posture, low battery.
-MODALITIES = ("z_hat", "s_hat", "flow_hat", "posture_hat", "energy_hat")
 ROOT = "root"
 # The most nodes on a path from the root to a gait: the shipped trees are 3 deep.
 MAX_TREE_DEPTH = 32
@@ -72,7 +70,7 @@ class BlendNode:
     """One node of a behaviour tree (a scenario's ``transition.tree`` entry).
 
     Attributes:
-        modality: the estimate this node reads, one of ``MODALITIES``.
+        modality: the estimate this node reads (its port's name).
         weight: its weight function, one of ``WEIGHT_FUNCTIONS``.
         children: names of other nodes or of gaits (leaves), at least 2.
         full_at: the modality value at which the blend is complete, in (0, 1]
@@ -172,13 +170,16 @@ def _number(where: str, value, lo: float, hi: float, interval: str, open_hi: boo
     return v
 
 
-def _check_node(name: str, node, nodes: Mapping, gaits: Mapping) -> None:
+def _check_node(name: str, node, nodes: Mapping, gaits: Mapping, modalities) -> None:
     where = f"tree.{name}"
     if not isinstance(node, BlendNode):
         raise ValueError(f"{where}: expected a BlendNode, got {type(node).__name__}")
-    if node.modality not in MODALITIES:
+    if modalities is not None and node.modality not in modalities:
         raise ValueError(f"{where}.modality: {short_repr(node.modality)} is not one of "
-                         f"{', '.join(MODALITIES)}")
+                         f"{', '.join(modalities)}")
+    if not (isinstance(node.modality, str) and node.modality.isidentifier()):
+        raise ValueError(f"{where}.modality: {short_repr(node.modality)} is not an "
+                         "estimate's name (an identifier, e.g. z_hat)")
     if node.weight not in WEIGHT_FUNCTIONS:
         raise ValueError(f"{where}.weight: {short_repr(node.weight)} is not one of "
                          f"{', '.join(WEIGHT_FUNCTIONS)}")
@@ -254,13 +255,16 @@ def _refuse_depth(nodes: Mapping[str, BlendNode], path: list, height: dict) -> N
                      f"{MAX_TREE_DEPTH} nodes deep")
 
 
-def compile_tree(nodes: Mapping[str, BlendNode],
-                 gaits: Mapping[str, np.ndarray]) -> "BehaviourTree":
+def compile_tree(nodes: Mapping[str, BlendNode], gaits: Mapping[str, np.ndarray],
+                 modalities=None) -> "BehaviourTree":
     """Checks a tree and returns it compiled (immutable).
 
     Args:
         nodes: the tree, node name -> BlendNode; the top node is ``root``.
         gaits: gait name -> its 64-vector (R, X, Phi, Phi' in rad, ``GaitParams.to_vector()``).
+        modalities: the estimates a node may read, in the order ``modalities`` lists them
+            (a scenario passes ``manta_drake.modalities.ESTIMATES``); None: any name, in
+            the order the tree first reads them.
 
     Raises:
         ValueError: one line naming the node and the field (``tree.<node>.<field>``) or the
@@ -283,12 +287,15 @@ def compile_tree(nodes: Mapping[str, BlendNode],
     if ROOT not in nodes:
         raise ValueError("tree.root: missing (the tree's top node is named root)")
     for name, node in nodes.items():
-        _check_node(name, node, nodes, vectors)
+        _check_node(name, node, nodes, vectors, modalities)
     order = _depth_first(nodes)
     for name in nodes:
         if name not in order:
             raise ValueError(f"tree.{name}: not reachable from root")
-    return BehaviourTree(_PRIVATE, {n: nodes[n] for n in order}, vectors)
+    read = [nodes[n].modality for n in order]
+    ordered = tuple(m for m in (modalities if modalities is not None else read) if m in read)
+    return BehaviourTree(_PRIVATE, {n: nodes[n] for n in order}, vectors,
+                         tuple(dict.fromkeys(ordered)))
 
 
 _PRIVATE = object()  # BehaviourTree is made by compile_tree only
@@ -304,7 +311,8 @@ class BehaviourTree:
 
     __slots__ = ("_blend_nodes", "_leaves", "_modalities", "_nodes", "_switch_nodes", "_vectors")
 
-    def __init__(self, key, nodes: dict[str, BlendNode], vectors: dict[str, np.ndarray]):
+    def __init__(self, key, nodes: dict[str, BlendNode], vectors: dict[str, np.ndarray],
+                 modalities: tuple[str, ...]):
         if key is not _PRIVATE:
             raise TypeError("BehaviourTree: build one with compile_tree(nodes, gaits)")
         index = {name: i for i, name in enumerate(nodes)}  # depth-first: the root is 0
@@ -335,8 +343,7 @@ class BehaviourTree:
         set_(self, "_nodes", tuple(compiled))
         set_(self, "_vectors", types.MappingProxyType({g: vectors[g] for g in leaves}))
         set_(self, "_leaves", tuple(leaves))
-        set_(self, "_modalities",
-             tuple(m for m in MODALITIES if any(c.modality == m for c in compiled)))
+        set_(self, "_modalities", modalities)
         set_(self, "_switch_nodes", tuple(switches))
         set_(self, "_blend_nodes", types.MappingProxyType(
             {name: dataclasses.replace(node, children=list(node.children))
@@ -347,7 +354,7 @@ class BehaviourTree:
 
     @property
     def modalities(self) -> tuple[str, ...]:
-        """The modalities the tree reads, in ``MODALITIES`` order."""
+        """The modalities the tree reads, in the order ``compile_tree`` was given."""
         return self._modalities
 
     @property

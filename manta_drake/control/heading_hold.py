@@ -43,7 +43,6 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from manta_drake.config_io import check_boolean, check_in_range, check_number, check_one_of
-from manta_drake.control.behaviour_tree import MODALITIES
 from manta_drake.control.gaits import RIGHT_LEGS
 from manta_drake.control.transition import wrap
 from manta_drake.model.robot_params import JOINTS, NUM_CPG_PARAMS, NUM_JOINTS, NUM_LEGS
@@ -55,7 +54,8 @@ ROLL_COLUMNS = (JOINTS.index("roll1"), JOINTS.index("roll2"))  # the fin's flapp
 @dc.dataclass
 class HeadingChange:
     """A change of the held heading, made once: at ``time`` [s], or when the estimate
-    ``modality`` (one of ``behaviour_tree.MODALITIES``) first rises above ``above``. The new
+    ``modality`` (an estimate's name, ``manta_drake.modalities.ESTIMATES``) first rises above
+    ``above``. The new
     target is ``heading_deg`` (absolute), or the heading estimate at the change plus
     ``turn_deg`` (e.g. 180: turn back)."""
 
@@ -65,9 +65,10 @@ class HeadingChange:
     heading_deg: float | None = None
     turn_deg: float | None = None
 
-    def validate(self, where: str = "change") -> "HeadingChange":
-        """Exactly one trigger and exactly one new target, each in range; ValueError names
-        the field (``<where>.<field>``)."""
+    def validate(self, where: str = "change", modalities=None) -> "HeadingChange":
+        """Exactly one trigger and exactly one new target, each in range, the estimate one
+        of ``modalities`` (None: any name); ValueError names the field
+        (``<where>.<field>``)."""
         if (self.time is None) == (not self.modality):
             raise ValueError(f"{where}: give either time or modality (a change happens at a "
                              f"time or on an estimate), got time={self.time!r}, "
@@ -75,7 +76,11 @@ class HeadingChange:
         if self.time is not None:
             check_in_range(f"{where}.time", self.time, 0.0, 1e6, "[0, 1e6] s")
         else:
-            check_one_of(f"{where}.modality", self.modality, MODALITIES)
+            if modalities is not None:
+                check_one_of(f"{where}.modality", self.modality, tuple(modalities))
+            elif not (isinstance(self.modality, str) and self.modality.isidentifier()):
+                raise ValueError(f"{where}.modality: {self.modality!r} is not an estimate's "
+                                 "name (an identifier, e.g. s_hat)")
         check_in_range(f"{where}.above", self.above, 0.0, 1.0, "[0, 1)", open_high=True)
         if (self.heading_deg is None) == (self.turn_deg is None):
             raise ValueError(f"{where}: give either heading_deg (the new target) or turn_deg "
@@ -131,8 +136,9 @@ class HeadingHoldParams:
     # an estimate, to a heading or by a turn. The integral restarts at each change.
     changes: list[HeadingChange] = dc.field(default_factory=list)
 
-    def validate(self) -> "HeadingHoldParams":
-        """Checks every field's type and range; ValueError names the field and the range."""
+    def validate(self, modalities=None) -> "HeadingHoldParams":
+        """Checks every field's type and range (a change's estimate one of ``modalities``;
+        None: any name); ValueError names the field and the range."""
         check_boolean("enabled", self.enabled)
         check_in_range("kp", self.kp, 0.0, 100.0, "[0, 100] 1/rad")
         check_in_range("ki", self.ki, 0.0, 100.0, "[0, 100] 1/(rad s)")
@@ -150,7 +156,7 @@ class HeadingHoldParams:
                 isinstance(b, str) and b for b in self.behaviours):
             raise ValueError(f"behaviours: {self.behaviours!r} must be a list of gait names")
         for k, change in enumerate(self.changes):
-            change.validate(f"changes[{k}]")
+            change.validate(f"changes[{k}]", modalities)
         return self
 
     def read(self) -> tuple[str, ...]:

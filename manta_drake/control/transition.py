@@ -60,12 +60,7 @@ the sinking).
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.control.behaviour_tree import (
-    MODALITIES,
-    BehaviourTree,
-    compile_tree,
-    default_tree,
-)
+from manta_drake.control.behaviour_tree import BehaviourTree, compile_tree, default_tree
 from manta_drake.control.gaits import get_gait
 from manta_drake.model.robot_params import NUM_CPG_PARAMS
 
@@ -178,8 +173,8 @@ class PotentialTransition(LeafSystem):
         - behaviour_weights
 
     The input ports vary with the tree: one per modality it reads (``tree.modalities``, each
-    of size 1, named by the modality: ``z_hat``, ``s_hat``, ``flow_hat``, ``posture_hat``,
-    ``energy_hat``). Drawn above are the default tree's, z_hat and s_hat.
+    of size 1, named by the modality, e.g. ``flow_hat`` or ``posture_hat``). Drawn above are
+    the default tree's, z_hat and s_hat.
 
     * ``z_hat`` (1): estimated depth in [0, 1] (FuzzyDepthEstimator).
     * ``s_hat`` (1): wall detection rate in [0, 1] (WallDetector).
@@ -198,8 +193,8 @@ class PotentialTransition(LeafSystem):
     follows. z_hat comes from a continuous depth and is used as it is.
 
     Switch nodes hold their chosen child in a discrete state (``tree.num_switches``; starting
-    from the threshold rule at all estimates 0). Non-finite inputs are treated as 0 for that
-    update.
+    from the threshold rule at the initial estimates). Non-finite inputs are treated as 0 for
+    that update.
 
     Without a ``tree`` the default tree of ``blend`` and ``z_t`` blends the three behaviours
     ``behaviours`` (the surface, floor and wall gaits, by default swim, trot, turning) taken
@@ -207,8 +202,11 @@ class PotentialTransition(LeafSystem):
     With a ``tree``, ``blend``, ``z_t``, ``behaviours`` and ``gait_reading`` are not used.
     ``initial_params`` (64) is psi at t = 0; None: the tree's first leaf (the surface gait of
     the default tree). ``time_constants`` (modality -> tau [s], 0: raw) overrides
-    ``{"s_hat": s_hat_time_constant}`` entry by entry; modalities the tree does not read are
-    ignored. ``filter_state_indices`` maps each filtered modality to its discrete state.
+    ``{"s_hat": s_hat_time_constant}`` entry by entry; each key a modality the tree reads
+    (s_hat's default is ignored by a tree without it). ``filter_state_indices`` maps each filtered modality to its discrete state.
+    ``initial_values`` (modality -> estimate) are the estimates at t = 0, which the switches,
+    the filters and ``behaviour_weights`` start from (None or a missing modality: 0, nothing
+    seen yet).
     """
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
@@ -216,7 +214,8 @@ class PotentialTransition(LeafSystem):
                  follow: str = "descent",
                  initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0,
                  gait_reading: str = "paper", *, tree: BehaviourTree | None = None,
-                 time_constants: dict[str, float] | None = None):
+                 time_constants: dict[str, float] | None = None,
+                 initial_values: dict[str, float] | None = None):
         super().__init__()
         try:
             check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant, follow)
@@ -238,9 +237,9 @@ class PotentialTransition(LeafSystem):
         self.tree = tree
         taus = {"s_hat": s_hat_time_constant, **(time_constants or {})}
         for m, tau in taus.items():
-            if m not in MODALITIES:
-                raise ValueError(f"PotentialTransition.time_constants: {m!r} is not one of "
-                                 f"{', '.join(MODALITIES)}")
+            if m != "s_hat" and m not in tree.modalities:
+                raise ValueError(f"PotentialTransition.time_constants: {m!r} is not a "
+                                 f"modality the tree reads ({', '.join(tree.modalities)})")
             if not (isinstance(tau, (int, float)) and np.isfinite(tau) and tau >= 0):
                 raise ValueError(f"PotentialTransition.time_constants.{m}: {tau!r} must be a "
                                  "finite number >= 0 (0: no filter)")
@@ -258,13 +257,14 @@ class PotentialTransition(LeafSystem):
             raise ValueError(f"PotentialTransition.initial_params: expected {NUM_CPG_PARAMS} "
                              f"finite values (R, X, Phi, Phi'), got shape {initial.shape}")
         self._psi = self.DeclareDiscreteState(initial)
-        # One filter state per filtered modality, no signal seen at the start.
-        self._filters = {m: (self.DeclareDiscreteState([0.0]), gain) for m, gain in gains.items()}
+        start = {m: float((initial_values or {}).get(m, 0.0)) for m in tree.modalities}
+        # One filter state per filtered modality, from its estimate at the start.
+        self._filters = {m: (self.DeclareDiscreteState([start[m]]), gain)
+                         for m, gain in gains.items()}
         self.filter_state_indices = {m: index for m, (index, _) in self._filters.items()}
-        zeros = dict.fromkeys(tree.modalities, 0.0)
-        switches = tree.initial_switch_state(zeros)
+        switches = tree.initial_switch_state(start)
         self._switches = self.DeclareDiscreteState(switches)
-        self._weights = self.DeclareDiscreteState(tree.leaf_weights(zeros, switches)[0])
+        self._weights = self.DeclareDiscreteState(tree.leaf_weights(start, switches)[0])
         self._inputs = {m: self.DeclareVectorInputPort(m, 1) for m in tree.modalities}
         self.DeclareStateOutputPort("cpg_params", self._psi)
         self.DeclareStateOutputPort("behaviour_weights", self._weights)

@@ -238,6 +238,14 @@ def _set_hinge_added_inertia(plant, robot, hinge) -> None:
         raise RuntimeError(f"hinge added inertia did not take effect: {applied} != {expected}")
 
 
+def floor_geometries(handles: PlantHandles) -> list:
+    """The pool's floor: its collision geometries whose name holds ``floor``."""
+    inspector = handles.scene_graph.model_inspector()
+    pool = handles.plant.GetBodyByName("pool", handles.pool)
+    return [g for g in handles.plant.GetCollisionGeometriesForBody(pool)
+            if "floor" in inspector.GetName(g)]
+
+
 def set_contact_friction(handles: PlantHandles, mu: float) -> None:
     """Sets the Coulomb friction (static = dynamic = ``mu``) of every collision geometry
     of the robot and the pool, so the foot-floor pair has exactly ``mu`` (Drake combines

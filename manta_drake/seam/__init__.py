@@ -102,8 +102,7 @@ from manta_drake.seam.limits import (
     screen_balloon_command,
     screen_battery,
     screen_depth,
-    screen_flow_velocity,
-    screen_imu,
+    screen_reading,
     screen_joint_command,
 )
 from manta_drake.seam.link import (
@@ -202,8 +201,7 @@ __all__ = [
     "screen_balloon_command",
     "screen_battery",
     "screen_depth",
-    "screen_flow_velocity",
-    "screen_imu",
+    "screen_reading",
     "screen_joint_command",
     "station_channels",
     "station_main",

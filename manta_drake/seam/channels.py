@@ -5,18 +5,17 @@ reads, and how a received message reaches its input port."""
 from __future__ import annotations
 
 import dataclasses as dc
-import inspect
 from collections.abc import Callable
 
 from pydrake.systems.framework import Diagram
 
-from manta_drake.control.energy_estimator import EnergyEstimator
+from manta_drake.modalities import MODALITY_BY_ESTIMATE, READINGS
 from manta_drake.seam.messages import CODECS
 from manta_drake.seam.schedule import sample_times
 
-# The period of the controller's EnergyEstimator, the battery's only reader: its default,
-# which build_controller uses (a test reads the built controller's and compares).
-ENERGY_ESTIMATOR_PERIOD_S = inspect.signature(EnergyEstimator).parameters["period"].default
+# The period of the controller's EnergyEstimator, the battery's only reader (a test reads
+# the built controller's and compares).
+ENERGY_ESTIMATOR_PERIOD_S = MODALITY_BY_ESTIMATE["energy_hat"].estimation.period
 
 
 @dc.dataclass(frozen=True)
@@ -87,14 +86,9 @@ CHANNELS = (
     Channel("MANTA_CAMERA_POSE", "camera_pose", "station", "pose",
             lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
             "the camera's pose X_WC (on the robot: IMU attitude + pressure depth); camera on"),
-    Channel("MANTA_IMU", "imu", "station", "vector",
-            lambda s: 1.0 / s.imu.rate_hz, "1 / `imu.rate_hz` (10 ms)",
-            "the AHRS's roll, pitch, yaw [rad], body rates [rad/s] and body specific force "
-            "[m/s^2] (9 values, NaN on a dropout); imu on", size=9),
-    Channel("MANTA_FLOW_VELOCITY", "flow_velocity", "station", "vector",
-            lambda s: 1.0 / s.flow_sensor.rate_hz, "1 / `flow_sensor.rate_hz` (20 ms)",
-            "the water's velocity past the head probe, body frame [m/s] (3 values, NaN on a "
-            "dropout); flow sensor and water on", size=3),
+    # The modalities' sensors (manta_drake.modalities), each read at its sample period.
+    *(Channel(r.channel, r.port, "station", "vector", r.period, r.period_text(), r.what,
+              size=r.size) for r in READINGS),
     Channel("MANTA_BALLOON_VOLUME", "balloon_volume", "station", "vector",
             lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
             "balloon volume [m^3], for monitoring (the controller logs it); water on", size=1),

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from manta_drake.modalities import estimator_outputs
 from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.seam.channels import (
     CHANNELS,
@@ -46,8 +47,7 @@ MAX_LEAD_STEPS = 4
 # The controller's outputs logged at every command (those it has): what it decided and the
 # estimates it decided on.
 MONITORED_OUTPUTS = ("cpg_params", "z_hat", "s_hat", "detector_status", "behaviour_weights",
-                     "heading_trim", "attitude_hat", "yaw_rate_hat", "posture_hat",
-                     "flow_speed_hat", "flow_hat", "soc_hat", "energy_hat", "balloon_command")
+                     "heading_trim", *estimator_outputs(), "balloon_command")
 
 
 class StationLog:
@@ -156,7 +156,7 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         SeamResult; its log has ``t_command`` and ``commanded_joint_angles`` (the
         desired angles sent at every plant step) and, where the controller has them, the
         ``MONITORED_OUTPUTS`` (``cpg_params``, ``z_hat``, ``s_hat``, ``detector_status``,
-        ``behaviour_weights``, ``heading_trim``, the posture, flow and charge estimates,
+        ``behaviour_weights``, ``heading_trim``, the modalities' estimates,
         ``balloon_command``) at the same times; and
         ``t_<port>``, ``<port>`` of the station's channels it has no port for
         (``balloon_volume``, ``battery``, ``electrical_power``), as received.

@@ -18,6 +18,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.systems.sensors import ImageDepth32F
 
+from manta_drake.modalities import MODALITIES, READINGS
 from manta_drake.model.robot_params import JOINT_NAMES, JOINTS_PER_LEG, RobotParams
 from manta_drake.seam.channels import CHANNEL_BY_NAME, reads_battery
 from manta_drake.seam.errors import Incidents
@@ -32,19 +33,6 @@ RATE_READING_FACTOR = 5.0
 DEPTH_RANGE_M = (-1.0, 300.0)
 # The highest charge voltage of any lithium cell (LiHV, 4.35 V): no pack of n cells reads more.
 MAX_CELL_VOLTAGE_V = 4.35
-# The IMU's readings: an AHRS reports roll and yaw in (-pi, pi] and pitch in [-pi/2, pi/2]
-# (noise added, roll and yaw wrapped again); the widest full scales of MEMS parts (BNO055,
-# BMI088, ICM-42688 class), 2000 deg/s = 34.9 rad/s and 16 g = 156.9 m/s^2, rounded up. A
-# reading beyond them is no motion the part can measure: a corrupt message.
-IMU_ATTITUDE_RANGE_RAD = math.pi
-IMU_RATE_RANGE_RAD_S = 35.0
-IMU_SPECIFIC_FORCE_RANGE_M_S2 = 160.0
-IMU_NAMES = ("roll", "pitch", "yaw", "wx", "wy", "wz", "fx", "fy", "fz")
-IMU_UNITS = ("rad",) * 3 + ("rad/s",) * 3 + ("m/s^2",) * 3
-# The flow probe's reading per axis [m/s]: the robot swims at about 0.1 m/s and a tank's or a
-# harbour's current is well below 1 m/s; a small pitot or hot-film probe's full scale.
-FLOW_RANGE_M_S = 5.0
-FLOW_NAMES = ("u", "v", "w")
 ROTATION_TOLERANCE = 1e-6  # max |R^T R - I| of a rotation matrix read from a message
 
 
@@ -152,9 +140,9 @@ class SensorRanges:
         battery_current: |current| [A]: the pack's short-circuit current OCV / R_int
             (inf without a resistance).
         power: |electrical power| [W]: OCV x the short-circuit current.
-        imu: per IMU value, the bound of its magnitude (9: roll, pitch, yaw pi rad; body
-            rates ``IMU_RATE_RANGE_RAD_S``; specific force ``IMU_SPECIFIC_FORCE_RANGE_M_S2``).
-        flow: |flow velocity| per axis [m/s]: ``FLOW_RANGE_M_S``.
+        readings: the modalities' sensors by port -> per value, the bound of its magnitude
+            (``manta_drake.modalities``: e.g. the IMU's attitude, rates and specific force,
+            the flow probe's axes).
         battery_read: the controller reads the battery (its energy estimator), rather than
             only logging it.
     """
@@ -166,9 +154,7 @@ class SensorRanges:
     battery_voltage: float = math.inf
     battery_current: float = math.inf
     power: float = math.inf
-    imu: tuple[float, ...] = ((IMU_ATTITUDE_RANGE_RAD,) * 3 + (IMU_RATE_RANGE_RAD_S,) * 3
-                              + (IMU_SPECIFIC_FORCE_RANGE_M_S2,) * 3)
-    flow: float = FLOW_RANGE_M_S
+    readings: dict = dc.field(default_factory=lambda: {r.port: r.bounds for r in READINGS})
     battery_read: bool = False
 
     @classmethod
@@ -299,19 +285,18 @@ def _screen_components(value, bounds, names, units, what: str, holder: str):
     return x, problems
 
 
-def screen_imu(value, ranges: SensorRanges):
-    """An IMU reading [roll, pitch, yaw, wx, wy, wz, fx, fy, fz]: value by value, a NaN passes
-    (a dropped value, counted); +-inf or beyond ``ranges.imu`` becomes NaN, which the
-    posture estimator holds through channel by channel."""
-    return _screen_components(value, ranges.imu, IMU_NAMES, IMU_UNITS, "imu",
-                              "the posture estimator")
+def screen_reading(value, port: str, ranges: SensorRanges):
+    """A reading of a modality's sensor (``port``: ``imu``, ``flow_velocity``, ...): value by
+    value, a NaN passes (a dropped value, counted); +-inf or beyond its bound in
+    ``ranges.readings`` becomes NaN, which the modality's estimator holds through channel by
+    channel."""
+    m = _MODALITY_OF_PORT[port]
+    r = m.reading
+    return _screen_components(value, ranges.readings[port], r.names, r.units,
+                              r.port.replace("_", " "), f"the {m.alias} estimator")
 
 
-def screen_flow_velocity(value, ranges: SensorRanges):
-    """A flow velocity [u, v, w] (body frame): as ``screen_imu``, with +-``ranges.flow`` per
-    axis and the flow estimator holding."""
-    return _screen_components(value, (ranges.flow,) * 3, FLOW_NAMES, ("m/s",) * 3,
-                              "flow velocity", "the flow estimator")
+_MODALITY_OF_PORT = {m.reading.port: m for m in MODALITIES if m.reading is not None}
 
 
 def screen_battery(value, ranges: SensorRanges):
@@ -372,8 +357,8 @@ class Guard:
             "measured_joint_state": lambda x, last: screen_joint_reading(x, last, ranges),
             "depth_image": lambda x, last: screen_depth_image(x, ranges),
             "camera_pose": screen_pose,
-            "imu": lambda x, last: screen_imu(x, ranges),
-            "flow_velocity": lambda x, last: screen_flow_velocity(x, ranges),
+            **{port: lambda x, last, port=port: screen_reading(x, port, ranges)
+               for port in _MODALITY_OF_PORT},
             "battery": lambda x, last: screen_battery(x, ranges),
             "electrical_power": lambda x, last: screen_power(x, ranges)}, {})
 

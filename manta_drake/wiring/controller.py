@@ -1,8 +1,8 @@
 """The controller: what runs on the robot, as one Diagram with the station's port names.
 
 ``build_controller(scenario)`` returns a Diagram that consumes only what the real
-robot's sensors give (the station's ``depth``, ``depth_image``, ``camera_pose``, ``imu``,
-``flow_velocity`` and ``battery``) and commands the joints and the balloon.
+robot's sensors give (the station's ``depth``, ``depth_image``, ``camera_pose``, the
+modalities' sensors and the ``battery``) and commands the joints and the balloon.
 
 .. pydrake_system::
 
@@ -11,8 +11,7 @@ robot's sensors give (the station's ``depth``, ``depth_image``, ``camera_pose``,
     - depth (water on)
     - depth_image (camera on)
     - camera_pose (camera on)
-    - imu (imu on)
-    - flow_velocity (flow sensor on)
+    - <sensor ports>
     - battery (charge estimate read)
     output_ports:
     - desired_state
@@ -24,13 +23,7 @@ robot's sensors give (the station's ``depth``, ``depth_image``, ``camera_pose``,
     - h_hat (water on)
     - z_hat (water on)
     - s_hat (camera on or transition)
-    - attitude_hat (imu on)
-    - yaw_rate_hat (imu on)
-    - posture_hat (imu on)
-    - flow_speed_hat (flow sensor on)
-    - flow_hat (flow sensor on)
-    - soc_hat (charge estimate read)
-    - energy_hat (charge estimate read)
+    - <estimate ports>
     - detector_status (camera on)
     - clusters (camera on)
     - best_clusters (camera on)
@@ -47,10 +40,13 @@ By ``scenario.controller.mode``:
   (``transition.tree``; by default Eq. 12's swim, trot and turning) by the estimates and
   descends to the blend.
 
-The new modalities' estimators run whenever their sensor is on: ``PostureEstimator``
-(imu -> attitude_hat, yaw_rate_hat, posture_hat), ``FlowEstimator`` (flow_velocity ->
-flow_hat), ``EnergyEstimator`` (battery -> energy_hat, when a tree or the balloon rule reads
-it). ``HeadingHold`` (``heading_hold.enabled``) trims the CPG's parameters from the attitude
+The modalities' estimators (``manta_drake.modalities``, each a ``FilteredEstimator``) run
+whenever their sensor is on, those marked "estimate read" only when a tree, the balloon
+rule or the heading hold reads their estimate:
+
+  * <estimators>
+
+``HeadingHold`` (``heading_hold.enabled``) trims the CPG's parameters from the attitude
 estimate while the swim's leaves carry weight (``cpg_params`` is the behaviour's, before the
 trim). The balloon follows the scenario's schedule (``balloon_command``, fill in [0, 1]), or
 ``balloon.rule`` on an estimate; with water on, the depth estimator runs (and is logged) in
@@ -74,16 +70,23 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from manta_drake.control.balloon_rule import BalloonRule
 from manta_drake.control.cpg import CpgOscillators, initial_state
-from manta_drake.control.depth import FuzzyDepthEstimator, fuzzy_depth
+from manta_drake.control.depth import FuzzyDepthEstimator
 from manta_drake.control.depth_image_filter import DepthImageFilter
-from manta_drake.control.energy_estimator import EnergyEstimator
-from manta_drake.control.flow_estimator import FlowEstimator
 from manta_drake.control.heading_hold import HeadingHold
-from manta_drake.control.posture import PostureEstimator
 from manta_drake.control.transition import PotentialTransition
 from manta_drake.control.vision import WallDetector
+from manta_drake.modalities import (
+    MODALITIES,
+    MODALITY_BY_ESTIMATE,
+    NAMES,
+    fill_docstring,
+    initial_sensor_depth,
+)
 from manta_drake.model.camera import camera_info
 from manta_drake.scenario import Scenario
+
+# The modalities' ports and parts in the docstring come from their registry.
+__doc__ = fill_docstring(__doc__)
 
 
 @dc.dataclass
@@ -96,21 +99,19 @@ class ControllerHandles:
     estimates: dict = dc.field(default_factory=dict)
 
 
-def initial_sensor_depth(scenario: Scenario) -> float:
-    """Depth of the pressure sensor at t = 0, taking the start as level [m, >= 0]."""
-    return max(0.0, -(scenario.initial_pose.xyz[2] + scenario.pressure_sensor.position[2]))
+def initial_estimates(scenario: Scenario) -> dict[str, float]:
+    """Each estimate the behaviour tree reads, at the start pose (``Modality.initial``; 0,
+    nothing seen yet, where the pose says nothing)."""
+    return {m: MODALITY_BY_ESTIMATE[m].initial(scenario)
+            for m in scenario.behaviour_tree().modalities}
 
 
 def initial_cpg_params(scenario: Scenario) -> np.ndarray:
     """The CPG parameters at t = 0: the fixed gait, or the transition's target for the
-    initial depth (no wall seen)."""
+    estimates at the start pose (``initial_estimates``)."""
     if scenario.controller.mode == "transition":
-        de = scenario.depth_estimator
-        z0 = float(fuzzy_depth(initial_sensor_depth(scenario), de.floor_distance,
-                               de.surface_depth)[1])
         tree = scenario.behaviour_tree()
-        values = {m: 0.0 for m in tree.modalities}  # no wall, flow, tilt or low charge yet
-        values["z_hat"] = z0
+        values = initial_estimates(scenario)
         return tree.target(values, tree.initial_switch_state(values))[0]
     return scenario.gait(scenario.controller.gait).to_vector()
 
@@ -165,26 +166,21 @@ def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> Non
 
 
 def _add_estimators(builder, scenario: Scenario, handles: ControllerHandles) -> None:
-    """imu -> PostureEstimator, flow_velocity -> FlowEstimator (each when its sensor is on),
-    battery -> EnergyEstimator (when an estimate of the charge is read): their 0-1
-    estimates join ``handles.estimates``."""
-    def add(name, system, sensor, outputs):
-        builder.AddNamedSystem(name, system)
-        builder.ExportInput(system.GetInputPort(sensor), sensor)
-        for port in outputs:
+    """The modalities' estimators (``manta_drake.modalities``), each that the scenario has (``Scenario.has_estimator``), fed by
+    the sensor of its name and started from the start pose (``Estimation.start``); their
+    0-1 estimates join ``handles.estimates``."""
+    for m in MODALITIES:
+        if m.estimation is None or not scenario.has_estimator(m.estimate):
+            continue
+        e = m.estimation
+        system = builder.AddNamedSystem(e.section, e.system(
+            getattr(scenario, e.section), e.period, **e.start(scenario)))
+        sensor = system.get_input_port()
+        builder.ExportInput(sensor, sensor.get_name())
+        for port in e.outputs:
             builder.ExportOutput(system.GetOutputPort(port), port)
-        handles.systems[name] = system
-        handles.estimates[outputs[-1]] = system.GetOutputPort(outputs[-1])
-
-    if scenario.imu.enabled:
-        add("posture_estimator", PostureEstimator(scenario.posture_estimator), "imu",
-            ("attitude_hat", "yaw_rate_hat", "posture_hat"))
-    if scenario.flow_sensor.enabled and scenario.water.enabled:
-        add("flow_estimator", FlowEstimator(scenario.flow_estimator), "flow_velocity",
-            ("flow_speed_hat", "flow_hat"))
-    if scenario.reads_charge_estimate():
-        add("energy_estimator", EnergyEstimator(scenario.energy_estimator), "battery",
-            ("soc_hat", "energy_hat"))
+        handles.systems[e.section] = system
+        handles.estimates[m.estimate] = system.GetOutputPort(m.estimate)
 
 
 def _add_heading_hold(builder, scenario: Scenario, handles: ControllerHandles, params):
@@ -222,7 +218,7 @@ def _add_balloon(builder, scenario: Scenario, handles: ControllerHandles) -> Non
         return
     system = builder.AddNamedSystem("balloon_rule", BalloonRule(rule))
     builder.Connect(schedule.get_output_port(), system.GetInputPort("scheduled_fill"))
-    builder.Connect(handles.estimates[rule.estimate()], system.GetInputPort("modality"))
+    builder.Connect(handles.estimates[rule.estimate(NAMES)], system.GetInputPort("modality"))
     builder.ExportOutput(system.GetOutputPort("balloon_command"), "balloon_command")
     handles.systems["balloon_rule"] = system
 
@@ -253,7 +249,8 @@ def _add_transition(builder, scenario: Scenario, handles: ControllerHandles):
     transition = builder.AddNamedSystem("transition", PotentialTransition(
         tr.period, tr.g, tr.T, tr.alpha, follow=tr.follow,
         initial_params=initial_cpg_params(scenario), tree=tree,
-        s_hat_time_constant=tr.s_hat_time_constant))
+        s_hat_time_constant=tr.s_hat_time_constant,
+        initial_values=initial_estimates(scenario)))
     if "s_hat" not in handles.estimates:  # no camera: no wall is ever seen
         s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
         builder.ExportOutput(s_hat, "s_hat")

@@ -16,10 +16,24 @@ from pydrake.geometry import Meshcat, MeshcatParams
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
+from manta_drake.modalities import MODALITIES
 from manta_drake.model.plant import PlantHandles
 from manta_drake.scenario import Scenario
 from manta_drake.wiring.controller import ControllerHandles, build_controller
 from manta_drake.wiring.station import StationHandles, build_station
+
+def _modality_loggers() -> tuple:
+    """(source, port, period) of each modality's sensor and estimator outputs."""
+    out = []
+    for m in MODALITIES:
+        if m.reading is not None:
+            out.append(("station", m.reading.port,
+                        lambda s, r=m.reading: max(s.log_period, r.period(s))))
+        if m.estimation is not None:
+            out += [("controller", port, lambda s, e=m.estimation: max(s.log_period, e.period))
+                    for port in m.estimation.outputs]
+    return tuple(out)
+
 
 # What the top-level diagram logs: (source, port, period) with the period a function of
 # the scenario; a port the built halves do not have (e.g. no camera) is skipped.
@@ -43,15 +57,9 @@ _LOGGED = (
     ("controller", "s_hat", lambda s: 1.0 / s.camera.rate_hz if s.camera.enabled
      else max(s.log_period, 0.01)),
     ("controller", "detector_status", lambda s: 1.0 / s.camera.rate_hz),
-    # The new modalities (each only when its half has the port).
-    ("station", "imu", lambda s: max(s.log_period, 1.0 / s.imu.rate_hz)),
-    ("station", "flow_velocity", lambda s: max(s.log_period, 1.0 / s.flow_sensor.rate_hz)),
-    ("controller", "attitude_hat", lambda s: max(s.log_period, 0.02)),
-    ("controller", "posture_hat", lambda s: max(s.log_period, 0.02)),
-    ("controller", "flow_hat", lambda s: max(s.log_period, 0.02)),
-    ("controller", "flow_speed_hat", lambda s: max(s.log_period, 0.02)),
-    ("controller", "energy_hat", lambda s: max(s.log_period, 0.1)),
-    ("controller", "soc_hat", lambda s: max(s.log_period, 0.1)),
+    # The modalities' sensors and estimates (manta_drake.modalities), each at its own
+    # period (each only when its half has the port).
+    *_modality_loggers(),
     ("controller", "behaviour_weights", lambda s: s.transition.period),
     ("controller", "heading_trim", lambda s: max(s.log_period, s.heading_hold.period)),
     ("controller", "balloon_command", lambda s: max(s.log_period, 0.01)),

@@ -21,8 +21,7 @@ station in another process (over LCM) or the robot itself.
     - joint_torque
     - joint_mechanical_power (actuators on)
     - balloon_volume (water on)
-    - imu (imu on)
-    - flow_velocity (flow sensor on)
+    - <sensor ports>
     - plant_state
     - query_object
     - foot_contacts (pool on)
@@ -54,12 +53,10 @@ Outputs, what the robot's sensors give:
 * ``electrical_power`` (1) [W]: what the servos and the computers draw (``ServoPower``,
   parameters in ``models/actuators.yaml``).
 
-* ``imu`` (9): [roll, pitch, yaw] rad, [wx, wy, wz] rad/s (body frame), [fx, fy, fz] m/s^2
-  (specific force, body frame) of the hull's AHRS, with white noise and a per-run bias
-  (``ImuSensor``, ``imu.enabled``).
-* ``flow_velocity`` (3) [m/s]: the water's velocity relative to the head in the body frame
-  (``FlowVelocitySensor``, ``flow_sensor.enabled``; the current of ``water.current`` and
-  ``water.current_schedule``), noisy.
+* the modalities' sensors (``manta_drake.modalities``), each when its section is enabled,
+  with its Drake noise sources:
+
+  * <sensors>
 
 and, for logging and visualisation only (a controller must not read them):
 
@@ -126,24 +123,27 @@ from manta_drake.model.plant import (
     PlantHandles,
     add_plant,
     body_pose,
+    floor_geometries,
     joint_state_selector,
     joint_torque_port,
     set_contact_friction,
 )
+from manta_drake.modalities import MODALITIES, fill_docstring
 from manta_drake.model.servo import joint_gains, saturation_angle
 from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery
 from manta_drake.station.buoyancy import BalloonBuoyancy
 from manta_drake.station.depth_image_noise import DepthImageNoise
-from manta_drake.station.flow_sensor import add_flow_sensor
 from manta_drake.station.foot_contacts import FootContacts
 from manta_drake.station.hydro import HydrodynamicForces
-from manta_drake.station.imu import add_imu
 from manta_drake.station.pressure import PressureSensor
 from manta_drake.station.render_poses import add_camera_scene
 from manta_drake.station.servo_bus import ServoBus
 from manta_drake.station.servo_power import ServoPower
 from manta_drake.station.servo_supply import ServoSupply
+
+# The modalities' ports and parts in the docstring come from their registry.
+__doc__ = fill_docstring(__doc__)
 
 
 @dc.dataclass
@@ -363,31 +363,22 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
 
 
 def _add_modalities(builder, scenario: Scenario, handles: StationHandles) -> None:
-    """The IMU and the flow-velocity sensor on the hull, with their Drake noise sources
-    (added after every other random source, so that a scenario without them draws the
-    same noise as before they existed)."""
-    plant, body = handles.plant, handles.plant_handles.body
-    if scenario.imu.enabled:
-        imu = add_imu(builder, plant, body, scenario.imu)
-        builder.ExportOutput(imu.GetOutputPort("imu"), "imu")
-        handles.systems["imu"] = imu
-    if scenario.flow_sensor.enabled and scenario.water.enabled:
-        flow = add_flow_sensor(builder, plant, body, scenario.flow_sensor,
-                               scenario.current_schedule())
-        builder.ExportOutput(flow.GetOutputPort("flow_velocity"), "flow_velocity")
-        handles.systems["flow_sensor"] = flow
+    """The modalities' sensors on the hull (``manta_drake.modalities``), each with its Drake noise sources, in the table's order (added
+    after every other random source, so that a scenario without them draws the same noise
+    as before they existed)."""
+    for m in MODALITIES:
+        if m.reading is not None and m.available(scenario):
+            sensor = m.reading.add(builder, handles.plant_handles, scenario)
+            builder.ExportOutput(sensor.GetOutputPort(m.reading.port), m.reading.port)
+            handles.systems[m.reading.section] = sensor
 
 
 def _add_foot_contacts(builder: DiagramBuilder, handles: StationHandles) -> None:
     """The floor's load and slip per leg-fin (``FootContacts``), exported as
     ``foot_contacts``."""
     plant_handles = handles.plant_handles
-    plant = plant_handles.plant
-    inspector = plant_handles.scene_graph.model_inspector()
-    floor = [g for g in plant.GetCollisionGeometriesForBody(
-        plant.GetBodyByName("pool", plant_handles.pool)) if "floor" in inspector.GetName(g)]
-    system = FootContacts.AddToBuilder(builder, plant, plant_handles.scene_graph,
-                                       plant_handles.robot, floor)
+    system = FootContacts.AddToBuilder(builder, plant_handles.plant, plant_handles.scene_graph,
+                                       plant_handles.robot, floor_geometries(plant_handles))
     handles.systems["foot_contacts"] = system
     builder.ExportOutput(system.get_output_port(), "foot_contacts")
 

@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 
 from manta_drake.cli import main
 from manta_drake.cluster import dask_client
@@ -236,6 +237,23 @@ def test_ties_signs_and_phi_prime_antisymmetry_set_the_gait():
     assert off.off_ties() == [(0, "tie[0]", message)]
 
 
+@pytest.mark.parametrize("reading", ["paper", "mirrored"])
+def test_left_and_right_fins_may_be_free_separately(tmp_path, reading):
+    """A left pair and a right pair of roll1 amplitudes as two parameters: the candidate's
+    gait file runs them as written under either reading (the mirrored reading would
+    otherwise copy each left fin's R row to its right partner)."""
+    start = load_scenario("locomotion_crab").gait("crab")
+    space = ParameterSpace(build_parameters([
+        FreeEntry("R_deg[fl, roll1]", 0, 30, ["R_deg[rl, roll1]"]),
+        FreeEntry("R_deg[fr, roll1]", 0, 30, ["R_deg[rr, roll1]"])]), start)
+    path = write(tmp_path / "gait.yaml", candidate_gait_text("sided", space.gait([8.0, 22.0])))
+    scenario = load_scenario("locomotion_crab", overrides={
+        "controller.gait_files": [str(path)], "controller.gait": "sided",
+        "controller.gait_reading": reading})
+    roll1 = np.degrees(scenario.gait("sided").R[:, 1])
+    np.testing.assert_allclose(roll1, [8.0, 22.0, 8.0, 22.0], atol=1e-12)
+
+
 # --- the cost ---------------------------------------------------------------------------------
 
 def test_cost_terms_quadratic_penalties_wall_and_failures():
@@ -429,6 +447,45 @@ def test_runs_without_the_objectives_metric_give_no_gait(tmp_path):
     assert {r["cost"] for r in rows} == {1e6}
     assert not result.best_ok and result.best_gait_file is None
     assert not (tmp_path / "out" / "best_gait.yaml").exists()
+
+
+@pytest.mark.parametrize("bound, status, code", [(0.5, "infeasible", 3), (-10.0, "ok", 0)])
+def test_an_infeasible_best_is_marked_everywhere_and_each_generation_is_a_line(
+        tmp_path, capsys, monkeypatch, bound, status, code):
+    """u <= 0 everywhere (the quadratic), so `u >= 0.5` is broken by every candidate: the
+    best gait is still written, but marked infeasible in its provenance, summary.json, the
+    console and the exit status 3; `u >= -10` is met everywhere: status ok, exit 0."""
+    import manta_drake.optimize.cli as cli
+
+    spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC.replace(
+        "  terms: [{metric: u, weight: -1.0}]\n",
+        f"  terms: [{{metric: u, weight: -1.0}}]\n  constraints: [{{metric: u, min: {bound}}}]\n"))
+    monkeypatch.setattr(cli, "run_optimization", lambda problem, out, client, progress:
+                        run_optimization(problem, out, client, evaluate=quadratic_evaluator(),
+                                         progress=progress))
+    out = tmp_path / "out"
+    assert main(["optimize", str(spec), "--out", str(out), "--workers", "0", "--quiet",
+                 "--generations", "2"]) == code
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if x.startswith("generation ")]
+    assert [x.split(":")[0] for x in lines] == ["generation 1/2", "generation 2/2"]
+    within = "0/6" if status == "infeasible" else "6/6"
+    assert all(f"{within} candidates within every constraint" in x for x in lines), lines
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == status and summary["best"]["feasible"] == (status == "ok")
+    gait_text = (out / "best_gait.yaml").read_text()
+    assert set(load_gait_file(out / "best_gait.yaml")) == {"quadratic"}  # a gait file
+    provenance = yaml.safe_load(gait_text)["provenance"]
+    if status == "infeasible":
+        # the best candidate's 2 search points and its re-run, each below the bound
+        assert len(summary["violations"]) == 3
+        assert all("u -" in v and "< 0.5" in v for v in summary["violations"])
+        assert "INFEASIBLE" in gait_text and provenance["feasible"] is False
+        assert provenance["violations"] == summary["violations"]
+        assert "manta-drake: optimize quadratic: INFEASIBLE: the best gait breaks" in err
+    else:
+        assert summary["violations"] == [] and provenance["feasible"] is True
+        assert "INFEASIBLE" not in gait_text + err
 
 
 # --- what a restart reads back: state.json, history.csv, never a pickle ------------------------
@@ -628,14 +685,21 @@ def test_a_history_too_large_is_refused_unread(tmp_path, one_generation):
 
 @pytest.mark.parametrize("budget, message", [
     ("{duration: 1.5, steady_after: 1.0}",
-     "optimize.budget: duration 1.5 s and steady_after 1 s leave a steady window of 0.75 s "
-     "(from steady_after, at most half the run, to its end), under the 1 s the objective's u "
-     "needs: every simulation would be unscored; set duration to at least 2 s"),
+     "optimize.budget: duration 1.5 s and steady_after 1 s: the run is under twice "
+     "steady_after, so the objective's u would be averaged from half the run, 0.75 s, before "
+     "the settling steady_after assumes; set duration to at least 2 s (or lower "
+     "steady_after)"),
     ("{duration: 1.2, steady_after: 0.5}",
-     "optimize.budget: duration 1.2 s and steady_after 0.5 s leave a steady window of 0.7 s"),
+     "optimize.budget: duration 1.2 s and steady_after 0.5 s leave a steady window of 0.7 s, "
+     "under the 1 s the objective's u needs: every simulation would be unscored; set "
+     "duration to at least 2 s"),
     ("{duration: 1.5}",
-     "optimize.budget: duration 1.5 s and steady_after 6 s (the scenario's) leave a steady "
-     "window of 0.75 s"),
+     "optimize.budget: duration 1.5 s and steady_after 6 s (the scenario's): the run is "
+     "under twice steady_after"),
+    ("{duration: 8.0, steady_after: 5.0}",  # a 3 s window, but from 4 s, not 5 s
+     "optimize.budget: duration 8 s and steady_after 5 s: the run is under twice "
+     "steady_after, so the objective's u would be averaged from half the run, 4 s, before "
+     "the settling steady_after assumes; set duration to at least 10 s"),
 ])
 def test_a_budget_without_a_steady_window_is_refused_before_any_simulation(
         tmp_path, capsys, budget, message):
@@ -653,9 +717,9 @@ def test_a_budget_without_a_steady_window_is_refused_before_any_simulation(
 
 
 def test_a_steady_window_of_exactly_the_minimum_and_an_objective_without_one_pass(tmp_path):
-    """duration 2 s after steady_after 5 s: the window is the run's second half, 1 s; an
+    """duration 2 s after steady_after 1 s: the window is 1 s from steady_after; an
     objective of power alone needs no window at all."""
-    ok = write(tmp_path / "ok.yaml", BASE + "budget: {duration: 2.0, steady_after: 5.0}\n")
+    ok = write(tmp_path / "ok.yaml", BASE + "budget: {duration: 2.0, steady_after: 1.0}\n")
     assert load_problem(ok).base.duration == 2.0
     power = write(tmp_path / "power.yaml", BASE.replace("metric: u,", "metric: mean_power_w,")
                   + "budget: {duration: 0.5}\n")
@@ -703,9 +767,12 @@ def test_tiny_real_run_of_a_shipped_spec(tmp_path, capsys):
     out = tmp_path / "out"
     start = time.perf_counter()
     code = main(["optimize", str(spec), "--out", str(out), "--workers", "2", "--population",
-                 "4", "--generations", "1", "--duration", "2", "--quiet"])
+                 "4", "--generations", "1", "--duration", "2", "--steady-after", "1",
+                 "--quiet"])
     wall = time.perf_counter() - start
-    assert code == 0, capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    # 2 s runs rarely meet the spec's constraints: written either way, the status says which
+    assert code == {"ok": 0, "infeasible": 3}[summary["status"]], capsys.readouterr().err
     problem = load_problem(spec)
     n_points = len(problem.spec.points())
     rows = read_history(out / "history.csv")
@@ -763,7 +830,8 @@ def test_the_command_against_a_running_scheduler(tmp_path, capsys):
         with Client(address, timeout="30s") as c:
             c.wait_for_workers(1, timeout=60)
             worker_address = next(iter(c.scheduler_info()["workers"]))
-        spec = write(tmp_path / "remote_walk.yaml", BASE + "budget: {duration: 2.0}\n")
+        spec = write(tmp_path / "remote_walk.yaml",
+                     BASE + "budget: {duration: 2.0, steady_after: 1.0}\n")
         code = main(["optimize", str(spec), "--out", str(tmp_path / "out"), "--scheduler",
                      address, "--population", "2", "--generations", "1", "--quiet"])
         assert code == 0, capsys.readouterr().err

@@ -1,9 +1,12 @@
 """``manta-drake optimize SPEC.yaml --out DIR`` (``manta_drake.cli`` dispatches here).
 
-Exit status: 0 when ``best_gait.yaml`` is written; 1 when the search ran but no candidate's
-simulations all ran (every candidate refused or failed: no gait file; ``history.csv`` says
-why); 2 when the input is refused (one line naming the file or option and the field;
-nothing simulated)."""
+Exit status: 0 when ``best_gait.yaml`` is written and the best gait meets every constraint at
+every search point, in its re-run and at every held-out point; 3 when the gait is written but
+breaks a constraint somewhere (``infeasible``: a line on stderr, ``status`` in summary.json,
+``feasible: false`` and the violations in the gait file's provenance); 1 when the search ran
+but no candidate's simulations all ran (every candidate refused or failed: no gait file;
+``history.csv`` says why); 2 when the input is refused (one line naming the file or option
+and the field; nothing simulated)."""
 
 from __future__ import annotations
 
@@ -19,8 +22,9 @@ from manta_drake.optimize.run import FOLDERS, OUTPUTS, run_optimization
 from manta_drake.scenario import parse_set
 from manta_drake.sweep.config import check_out_folder
 
-# Exit status of a search that gives no gait.
+# Exit status of a search that gives no gait, and of one whose gait breaks a constraint.
 NO_GAIT = 1
+INFEASIBLE = 3
 
 
 def add_optimize_parser(subparsers) -> None:
@@ -32,7 +36,8 @@ def add_optimize_parser(subparsers) -> None:
                     "DIR/history.csv, DIR/convergence.png, DIR/summary.json and the best "
                     "gait's re-run in DIR/best_run/. The same command again continues from "
                     "DIR/state.json. Exit status 1 when no candidate ran, 2 when the input "
-                    "is refused.")
+                    "is refused, 3 when the best gait breaks a constraint (it is written, "
+                    "marked infeasible).")
     p.add_argument("spec", help="optimisation spec YAML file (docs/optimize.md)")
     p.add_argument("--out", required=True, help="output folder (a restart continues there)")
     add_cluster_arguments(p)
@@ -43,6 +48,9 @@ def add_optimize_parser(subparsers) -> None:
                    help="candidates per generation (replaces budget.population)")
     p.add_argument("--duration", type=float, metavar="S",
                    help="simulated seconds per evaluation (replaces budget.duration)")
+    p.add_argument("--steady-after", type=float, metavar="S",
+                   help="where the metrics' steady window starts [s] (replaces "
+                        "budget.steady_after; at most half of the duration)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a field of the spec's scenario, e.g. --set "
                         "contact.friction=0.7 (repeatable)")
@@ -57,10 +65,12 @@ def optimize_main(args) -> int:
     # Before the load and the search: a search never ends by finding it cannot write.
     check_out_folder(args.out, OUTPUTS, [args.spec], folders=FOLDERS)
     problem = load_problem(args.spec, parse_set(args.set), generations=args.generations,
-                           population=args.population, duration=args.duration, seed=args.seed)
+                           population=args.population, duration=args.duration, seed=args.seed,
+                           steady_after=args.steady_after)
     with cluster_client(args) as client:
         result = run_optimization(problem, args.out, client, progress=not args.quiet)
-    print(f"\n  {result.name}: cost {result.start_cost:.4g} (start) -> {result.best_cost:.4g} "
+    print(f"\n  {result.name}: {result.status}, cost {result.start_cost:.4g} (start) -> "
+          f"{result.best_cost:.4g} "
           f"(generation {result.best_generation}, candidate {result.best_candidate}); "
           f"stopped: {result.stop}")
     for name, x0, x in zip(result.names, result.start_degrees, result.best_degrees):
@@ -84,6 +94,11 @@ def optimize_main(args) -> int:
         print(f"manta-drake: optimize {result.name}: no candidate's simulations all ran; "
               f"see {result.history_file}", file=sys.stderr)
         return NO_GAIT
+    if not result.feasible:
+        print(f"manta-drake: optimize {result.name}: INFEASIBLE: the best gait breaks its "
+              f"constraints in {len(result.violations)} simulation(s), first "
+              f"{result.violations[0]}; see {result.summary_file}", file=sys.stderr)
+        return INFEASIBLE
     return 0
 
 

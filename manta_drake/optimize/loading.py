@@ -128,14 +128,15 @@ def _build(data: dict, path: pathlib.Path, text: str) -> OptimizeSpec:
 
 def load_problem(path, sets: dict | None = None, generations: int | None = None,
                  population: int | None = None, duration: float | None = None,
-                 seed: int | None = None) -> Problem:
+                 seed: int | None = None, steady_after: float | None = None) -> Problem:
     """Loads and checks an optimisation spec; simulates nothing.
 
     Args:
         path: the spec file.
         sets: ``--set`` overrides (dotted scenario keys), layered over the spec's
             ``overrides``.
-        generations, population, duration: replace the spec's ``budget`` entries.
+        generations, population, duration, steady_after: replace the spec's ``budget``
+            entries.
         seed: replaces the spec's ``seed``.
 
     Raises:
@@ -145,7 +146,8 @@ def load_problem(path, sets: dict | None = None, generations: int | None = None,
     path = pathlib.Path(path)
     data, text = load_yaml_mapping(path, "optimisation spec", OptimizeError)
     try:
-        return _load(path, data, text, sets, generations, population, duration, seed)
+        return _load(path, data, text, sets, generations, population, duration, seed,
+                     steady_after)
     except OptimizeError as e:
         if str(e).startswith(f"{ROOT}."):  # a field of the file: name the file
             raise OptimizeError(f"{path}: {e}") from None
@@ -153,12 +155,13 @@ def load_problem(path, sets: dict | None = None, generations: int | None = None,
 
 
 def _load(path: pathlib.Path, data: dict, text: str, sets, generations, population,
-          duration, seed) -> Problem:
+          duration, seed, steady_after=None) -> Problem:
     spec = _build(data, path, text)
     budget = spec.budget
     for option, field, value in (("--generations", "generations", generations),
                                  ("--population", "population", population),
-                                 ("--duration", "duration", duration)):
+                                 ("--duration", "duration", duration),
+                                 ("--steady-after", "steady_after", steady_after)):
         if value is not None:
             _check_budget_value(option, field, value)
             setattr(budget, field, value)
@@ -273,23 +276,31 @@ def _load_scenario_file(spec: OptimizeSpec, path: pathlib.Path) -> Scenario:
 
 
 def _check_steady_window(spec: OptimizeSpec, base: Scenario) -> None:
-    """The runs' steady window (``simulate.run``'s: from steady_after, at most half the
-    run, to its end) at least ``MIN_STEADY_WINDOW`` long when the objective needs one of its
-    metrics: else every simulation would be unscored."""
+    """When the objective needs a steady-window metric: the runs' window (``simulate.run``'s:
+    from steady_after, at most half the run, to its end) must start at steady_after (a run
+    shorter than twice steady_after would start it at half the run, before the settling the
+    spec assumes: refused, not halved silently) and last at least ``MIN_STEADY_WINDOW``
+    (else every simulation would be unscored)."""
     steady = [m for m in needed_metrics(spec.objective) if m in STEADY_METRICS]
     duration, after = base.duration, base.steady_after
     window = duration - min(after, 0.5 * duration)
-    if not steady or window >= MIN_STEADY_WINDOW:
+    if not steady or (after <= 0.5 * duration and window >= MIN_STEADY_WINDOW):
         return
     source = ["" if getattr(spec.budget, f) is not None else " (the scenario's)"
               for f in ("duration", "steady_after")]
-    need = min(after + MIN_STEADY_WINDOW, 2 * MIN_STEADY_WINDOW)
+    need = max(2.0 * after, after + MIN_STEADY_WINDOW, 2 * MIN_STEADY_WINDOW)
+    given = f"{ROOT}.budget: duration {duration:g} s{source[0]} and steady_after {after:g} s" \
+            f"{source[1]}"
+    if after > 0.5 * duration:
+        raise OptimizeError(
+            f"{given}: the run is under twice steady_after, so the objective's {steady[0]} "
+            f"would be averaged from half the run, {0.5 * duration:g} s, before the settling "
+            f"steady_after assumes; set duration to at least {need:g} s (or lower "
+            f"steady_after)")
     raise OptimizeError(
-        f"{ROOT}.budget: duration {duration:g} s{source[0]} and steady_after {after:g} "
-        f"s{source[1]} leave a steady window of {window:g} s (from steady_after, at most half "
-        f"the run, to its end), under the {MIN_STEADY_WINDOW:g} s the objective's "
-        f"{steady[0]} needs: every simulation would be unscored; set duration to at least "
-        f"{need:g} s")
+        f"{given} leave a steady window of {window:g} s, under the {MIN_STEADY_WINDOW:g} s "
+        f"the objective's {steady[0]} needs: every simulation would be unscored; set "
+        f"duration to at least {need:g} s")
 
 
 def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:

@@ -106,6 +106,20 @@ class OptimizationResult:
     timings: list = dc.field(default_factory=list)
     best_run: dict | None = None  # the row of the best gait's re-run
     source: str = ""  # source_version() when this call started
+    # Where the best gait breaks a constraint or does not run: one line per simulation
+    # (search points, its re-run, held-out points); empty: feasible everywhere.
+    violations: list = dc.field(default_factory=list)
+
+    @property
+    def feasible(self) -> bool:
+        return not self.violations
+
+    @property
+    def status(self) -> str:
+        """``ok``, ``infeasible`` (a gait is written, marked so) or ``no_gait``."""
+        if not self.best_ok:
+            return "no_gait"
+        return "ok" if self.feasible else "infeasible"
 
 
 def check_optimize_out(problem: Problem, out_dir) -> pathlib.Path:
@@ -325,6 +339,10 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
                         r["candidate_cost"] = costs[-1]
                 state.tell(costs)
                 state.best = _better(state.best, generation, costs, jobs)
+                _say(bar, generation_line(generation, budget.generations, costs, state.best,
+                                          [[rows[j["key"]] for j in jobs if j["candidate"] == c]
+                                           for c in range(len(costs))],
+                                          len(todo), time.perf_counter() - t_generation))
                 _prune_logs(out_dir, rows, state.best)
                 table.write(list(rows.values()) + final_rows, force=True)
                 walls = [rows[j["key"]]["wall_time_s"] or 0.0 for j in todo]
@@ -343,6 +361,42 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
     save()
     return _finish(problem, out_dir, state, rows, final_rows, runner.simulated, reused, stop,
                    time.perf_counter() - started, source=source)
+
+
+def _say(bar, line: str) -> None:
+    """A line on stderr, above the progress bar when there is one."""
+    if bar is not None:
+        bar.write(line, file=sys.stderr)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def within_constraints(rows: list[dict]) -> bool:
+    """Every simulation ran (``ok``) and none broke a constraint or touched a wall."""
+    return bool(rows) and all(r["status"] == "ok" and not r["penalty"] for r in rows)
+
+
+def generation_line(generation: int, generations: int, costs, best: dict,
+                    candidate_rows: list[list[dict]], simulated: int, wall_s: float) -> str:
+    """One line per told generation: its best cost, the best so far, how many of its
+    candidates met every constraint at every point, the simulations run and the time."""
+    feasible = sum(within_constraints(rows) for rows in candidate_rows)
+    return (f"generation {generation}/{generations}: cost {min(costs):.4g} (best so far "
+            f"{best['cost']:.4g}, generation {best['generation']}), {feasible}/{len(costs)} "
+            f"candidates within every constraint, {simulated} simulated, {wall_s:.0f} s")
+
+
+def violations(rows: list[dict]) -> list[str]:
+    """Where these simulations (a candidate's search rows, its re-run, its held-out
+    checks) break a constraint, touch a wall or did not run: one line each."""
+    out = []
+    for r in rows:
+        where = f"{r['kind']} point {r['point']} {r['overrides']} seed {r['seed']}"
+        if r["status"] != "ok":
+            out.append(f"{where}: {r['status']}: {r['reason']}")
+        elif r["penalty"]:
+            out.append(f"{where}: {r['reason']}")
+    return out
 
 
 def _better(best: dict | None, generation: int, costs: list, jobs: list[dict]) -> dict | None:
@@ -518,7 +572,8 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: d
         stop=stop or "done", wall_time_s=wall_time, out_dir=out_dir,
         held_out=[r for r in final_rows if r["kind"] == "held_out"],
         best_run=next((r for r in final_rows if r["kind"] == "best"), None),
-        timings=list(state.timings), source=source)
+        timings=list(state.timings), source=source,
+        violations=violations(best_rows + final_rows))
     (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
     if best_ok:
         result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
@@ -526,7 +581,9 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: d
     result.figure = write_convergence_figure(out_dir / "convergence.png", problem,
                                              list(rows.values()))
     summary = {
-        "name": spec.name, "spec": spec_path_text(spec.path), "spec_sha256": spec.text_sha256,
+        "name": spec.name, "status": result.status, "feasible": result.feasible,
+        "violations": result.violations,
+        "spec": spec_path_text(spec.path), "spec_sha256": spec.text_sha256,
         "scenario": spec.scenario, "start_gait": spec.gait, "source": source,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "parameters": [{"name": p.name, "entry": p.entry, "low": p.low, "high": p.high,
@@ -536,6 +593,7 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: d
                   **term_values(problem, start_rows)},
         "best": {"cost": result.best_cost, "generation": result.best_generation,
                  "candidate": result.best_candidate, "ok": best_ok,
+                 "feasible": result.feasible,
                  "degrees": dict(zip(space.names, map(float, result.best_degrees))),
                  "entries": [{"entry": e, "start": s, "best": b}
                              for e, s, b in space.changed_entries(result.best_degrees)],
@@ -581,9 +639,14 @@ def write_best_gait(path: pathlib.Path, problem: Problem,
         "evaluations": result.evaluations,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "parameters_deg": {n: float(v) for n, v in zip(space.names, result.best_degrees)},
+        "feasible": result.feasible,
+        "violations": result.violations,
     }
     header = (f"The gait {spec.name} found by `manta-drake optimize` from {spec.gait} "
               f"({spec.scenario}); use it with controller.gait_files: [this file].")
+    if not result.feasible:
+        header = (f"INFEASIBLE: this gait breaks its spec's constraints in "
+                  f"{len(result.violations)} simulation(s) (provenance.violations). " + header)
     text = candidate_gait_text(spec.name, space.gait(result.best_degrees),
                                description=" ".join(spec.description.split())
                                or f"optimised from {spec.gait}",

@@ -45,12 +45,14 @@ The package, one module per step: ``spec`` (the file's dataclasses, ``OptimizeEr
 ``loading`` (``load_problem``), ``parameters`` (entries, ties, the unit cube and gaits),
 ``objective`` (the metrics, the cost), ``evaluate`` (one simulation on a worker),
 ``history`` (``history.csv``, keys, evaluation folders), ``state`` (``state.json``, the
-restart state, replayed), ``run`` (``run_optimization``), ``figure`` (``convergence.png``)
-and ``cli``.
+restart state, replayed), ``run`` (``run_optimization``), ``figure`` (``convergence.png``),
+``front`` (a ``front`` section: one search per level of one metric, the other minimised,
+and the non-dominated set of every candidate: ``run_front``, ``pareto_mask``) and ``cli``.
 """
 
 from manta_drake.optimize.cli import add_optimize_parser, optimize_main
 from manta_drake.optimize.evaluate import simulate_candidate
+from manta_drake.optimize.front import pareto_mask, run_front
 from manta_drake.optimize.history import (
     HISTORY,
     evaluation_key,
@@ -83,6 +85,7 @@ from manta_drake.optimize.spec import (
     Budget,
     Constraint,
     FreeEntry,
+    Front,
     HeldOut,
     Objective,
     OptimizeError,
@@ -95,7 +98,7 @@ from manta_drake.optimize.state import STATE, load_state
 __all__ = [
     # the spec
     "OptimizeSpec", "FreeEntry", "Term", "Constraint", "Objective", "Robustness", "HeldOut",
-    "Budget", "OptimizeError", "Problem", "load_problem", "validate",
+    "Budget", "Front", "OptimizeError", "Problem", "load_problem", "validate",
     # parameters and gaits
     "Parameter", "ParameterSpace", "build_parameters", "parse_entry", "candidate_gait_text",
     # the objective
@@ -104,6 +107,8 @@ __all__ = [
     "simulate_candidate", "HISTORY", "evaluation_key", "history_columns", "read_history",
     # the search
     "run_optimization", "OptimizationResult", "load_state", "STATE", "write_best_gait",
+    # a front of two metrics
+    "run_front", "pareto_mask",
     "OUTPUTS", "FOLDERS",
     # the command line
     "add_optimize_parser", "optimize_main",

@@ -37,7 +37,9 @@ def add_optimize_parser(subparsers) -> None:
                     "gait's re-run in DIR/best_run/. The same command again continues from "
                     "DIR/state.json. Exit status 1 when no candidate ran, 2 when the input "
                     "is refused, 3 when the best gait breaks a constraint (it is written, "
-                    "marked infeasible).")
+                    "marked infeasible). A spec with a front section runs one search per "
+                    "level into DIR/level_NN/ and writes DIR/front.png, front.csv and "
+                    "front.json.")
     p.add_argument("spec", help="optimisation spec YAML file (docs/optimize.md)")
     p.add_argument("--out", required=True, help="output folder (a restart continues there)")
     add_cluster_arguments(p)
@@ -67,6 +69,9 @@ def optimize_main(args) -> int:
     problem = load_problem(args.spec, parse_set(args.set), generations=args.generations,
                            population=args.population, duration=args.duration, seed=args.seed,
                            steady_after=args.steady_after)
+    if problem.spec.front:
+        with cluster_client(args) as client:
+            return _front(problem, args, client)
     with cluster_client(args) as client:
         result = run_optimization(problem, args.out, client, progress=not args.quiet)
     print(f"\n  {result.name}: {result.status}, cost {result.start_cost:.4g} (start) -> "
@@ -99,6 +104,31 @@ def optimize_main(args) -> int:
               f"constraints in {len(result.violations)} simulation(s), first "
               f"{result.violations[0]}; see {result.summary_file}", file=sys.stderr)
         return INFEASIBLE
+    return 0
+
+
+def _front(problem, args, client) -> int:
+    """A spec with a front: one search per level, then the front (``optimize.front``)."""
+    from manta_drake.optimize.front import run_front
+
+    summary = run_front(problem, args.out, client, progress=not args.quiet,
+                        run=run_optimization)
+    f = problem.spec.front
+    print(f"\n  {summary['name']}: front of {f.minimise} against {f.maximise}, "
+          f"{summary['candidates']} candidates, {summary['meeting_constraints']} within the "
+          "constraints")
+    for level in summary["levels"]:
+        print(f"  level {f.maximise} >= {level['level']:g}: {level['status']}, best cost "
+              f"{level['best_cost']:.4g} ({level['folder']})")
+    for p in summary["front"]:
+        print(f"  on the front: {f.maximise} {p[f.maximise]:.4g}, {f.minimise} "
+              f"{p[f.minimise]:.4g} (level {p['level']}, generation {p['generation']}, "
+              f"candidate {p['candidate']})")
+    print(f"  front: {args.out}/front.png, front.csv, front.json")
+    if not summary["front"]:
+        print(f"manta-drake: optimize {summary['name']}: no candidate met the constraints; "
+              "no front", file=sys.stderr)
+        return NO_GAIT
     return 0
 
 

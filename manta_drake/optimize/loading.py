@@ -27,6 +27,7 @@ from manta_drake.optimize.spec import (
     Budget,
     Constraint,
     FreeEntry,
+    Front,
     HeldOut,
     Objective,
     OptimizeError,
@@ -119,6 +120,7 @@ def _build(data: dict, path: pathlib.Path, text: str) -> OptimizeSpec:
         robustness=Robustness(**(data.get("robustness") or {})),
         held_out=HeldOut(**(data.get("held_out") or {})),
         budget=Budget(**(data.get("budget") or {})),
+        front=Front(**(data.get("front") or {})),
         seed=data.get("seed", 0),
         folder=path.resolve().parent,
         path=path.resolve(),
@@ -281,7 +283,8 @@ def _check_steady_window(spec: OptimizeSpec, base: Scenario) -> None:
     shorter than twice steady_after would start it at half the run, before the settling the
     spec assumes: refused, not halved silently) and last at least ``MIN_STEADY_WINDOW``
     (else every simulation would be unscored)."""
-    steady = [m for m in needed_metrics(spec.objective) if m in STEADY_METRICS]
+    front = [spec.front.maximise, spec.front.minimise] if spec.front else []
+    steady = [m for m in needed_metrics(spec.objective) + front if m in STEADY_METRICS]
     duration, after = base.duration, base.steady_after
     window = duration - min(after, 0.5 * duration)
     if not steady or (after <= 0.5 * duration and window >= MIN_STEADY_WINDOW):
@@ -350,7 +353,8 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     if off:
         i, field, text = off[0]
         raise OptimizeError(f"{ROOT}.free[{i}].{field}: {text}")
-    _validate_objective(spec.objective)
+    _validate_front(spec)
+    _validate_objective(spec.objective, front=bool(spec.front))
     _check_steady_window(spec, base)
     r = spec.robustness
     if not isinstance(r.points, list):
@@ -395,9 +399,29 @@ def _check_point(problem: Problem, point: dict, where: str) -> None:
             raise OptimizeError(f"{where}: {' '.join(str(e).split())}") from None
 
 
-def _validate_objective(o: Objective) -> None:
+def _validate_front(spec: OptimizeSpec) -> None:
+    """A front's metrics are metrics, its levels finite and increasing, and the objective
+    leaves the terms to it."""
+    f, where = spec.front, f"{ROOT}.front"
+    if not isinstance(f.levels, list):
+        raise OptimizeError(f"{where}.levels: expected a list of numbers")
+    if not f.levels:
+        return
+    _metric(f.maximise, f"{where}.maximise")
+    _metric(f.minimise, f"{where}.minimise")
+    for i, level in enumerate(f.levels):
+        _number(f"{where}.levels[{i}]", level, -1e9, 1e9, "[-1e9, 1e9]")
+        if i and not level > f.levels[i - 1]:
+            raise OptimizeError(f"{where}.levels[{i}]: {level!r} is not above the level "
+                                f"before it ({f.levels[i - 1]!r}); give them increasing")
+    if spec.objective.terms:
+        raise OptimizeError(f"{ROOT}.objective.terms: a front minimises {f.minimise} at each "
+                            f"level of {f.maximise}; leave the terms out (keep constraints)")
+
+
+def _validate_objective(o: Objective, front: bool = False) -> None:
     where = f"{ROOT}.objective"
-    if not o.terms:
+    if not o.terms and not front:
         raise OptimizeError(f"{where}.terms: name at least one term, e.g. "
                             "{metric: u, weight: -1.0}")
     for i, t in enumerate(o.terms):

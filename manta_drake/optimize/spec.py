@@ -102,6 +102,21 @@ class Budget:
 
 
 @dc.dataclass
+class Front:
+    """A front instead of one optimum: for each of ``levels`` a search that minimises
+    ``minimise`` with ``maximise`` at least that level (and the objective's constraints),
+    the epsilon-constraint method; the front is the non-dominated set of every candidate
+    of every level that meets the objective's constraints. No levels: no front."""
+
+    maximise: str = "u"
+    minimise: str = "cot_net_of_hotel"
+    levels: list[float] = dc.field(default_factory=list)
+
+    def __bool__(self) -> bool:
+        return bool(self.levels)
+
+
+@dc.dataclass
 class OptimizeSpec:
     """An optimisation spec file (docs/optimize.md)."""
 
@@ -115,6 +130,7 @@ class OptimizeSpec:
     robustness: Robustness = dc.field(default_factory=Robustness)
     held_out: HeldOut = dc.field(default_factory=HeldOut)
     budget: Budget = dc.field(default_factory=Budget)
+    front: Front = dc.field(default_factory=Front)
     seed: int = 0  # CMA-ES's random numbers
     # Not in the file: where it is and what it says (the provenance and restarts use them).
     folder: pathlib.Path = dc.field(default=pathlib.Path("."), repr=False)

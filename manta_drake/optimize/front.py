@@ -1,0 +1,200 @@
+"""A front of two metrics (speed against cost of transport) by the epsilon-constraint method.
+
+A spec with a ``front`` section (``Front``: ``maximise``, ``minimise``, ``levels``) is one
+search per level: minimise ``minimise`` subject to ``maximise >= level`` and the spec's own
+constraints (Haimes, Lasdon and Wismer 1971; Miettinen, *Nonlinear Multiobjective
+Optimization*, 1999, section 3.2). Unlike a weighted sum, which finds only the convex hull
+of the front, each level finds the front's point at that speed wherever the front bends.
+Every level is an ordinary ``run_optimization`` in ``<out>/level_NN/`` (restartable as any),
+and every candidate of every level is a point: the front is the non-dominated set of the
+candidates that meet the spec's constraints (its joint limits, its straightness...) at every
+robustness point, whatever level they were searched at.
+
+Outputs in ``<out>``: ``front.csv`` (every candidate: its level, generation and number, the
+parameters, the two metrics' means over its points, whether it meets the constraints and
+whether it is on the front), ``front.json`` (the front's points with their parameters, the
+start gait's point, each level's result) and ``front.png``.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import dataclasses as dc
+import json
+import os
+import pathlib
+
+import numpy as np
+
+from manta_drake.optimize.loading import Problem, validate
+from manta_drake.optimize.objective import constraint_violation
+from manta_drake.optimize.spec import Constraint, Term
+
+FRONT_OUTPUTS = ("front.csv", "front.json", "front.png")
+
+
+def pareto_mask(maximise, minimise) -> np.ndarray:
+    """Which points are non-dominated: no other point has ``maximise`` at least as large and
+    ``minimise`` at least as small with one of them strictly better. Points with a
+    non-finite value are never on the front. O(n log n): sorted by ``maximise`` falling
+    (``minimise`` rising on ties), a point is on the front when its ``minimise`` is below
+    every earlier point's."""
+    up = np.asarray(maximise, dtype=float)
+    down = np.asarray(minimise, dtype=float)
+    on = np.zeros(up.size, dtype=bool)
+    finite = np.flatnonzero(np.isfinite(up) & np.isfinite(down))
+    order = finite[np.lexsort((down[finite], -up[finite]))]
+    best = np.inf
+    previous = None
+    for i in order:
+        if down[i] < best:
+            on[i] = True
+            best = down[i]
+        elif previous is not None and (up[i], down[i]) == previous:
+            on[i] = True  # a duplicate of a front point is no worse than it
+        if on[i]:
+            previous = (up[i], down[i])
+    return on
+
+
+def level_problem(problem: Problem, level: float) -> Problem:
+    """The search at one level: the spec's constraints, ``maximise >= level``, and the one
+    term ``minimise`` (weight 1)."""
+    spec = copy.deepcopy(problem.spec)
+    f = spec.front
+    spec.objective.terms = [Term(f.minimise, 1.0)]
+    spec.objective.constraints = [*spec.objective.constraints, Constraint(f.maximise, min=level)]
+    spec.front = dc.replace(f, levels=[])
+    return validate(spec, problem.sets)
+
+
+def level_folder(out_dir: pathlib.Path, k: int) -> pathlib.Path:
+    return pathlib.Path(out_dir) / f"level_{k:02d}"
+
+
+def candidate_points(problem: Problem, rows: list[dict], level: int) -> list[dict]:
+    """Each searched candidate of one level as a point: the means of the two metrics over
+    its simulations, and whether it meets the spec's own constraints (not the level's) at
+    every one without touching a wall."""
+    f, names = problem.spec.front, problem.space.names
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if r["kind"] == "search":
+            groups.setdefault((r["generation"], r["candidate"]), []).append(r)
+    points = []
+    for (generation, candidate), mine in sorted(groups.items()):
+        ran = all(r["status"] == "ok" for r in mine)
+        values = {m: float(np.mean([r[m] for r in mine])) if ran and all(
+            r.get(m) is not None for r in mine) else float("nan")
+            for m in (f.maximise, f.minimise)}
+        meets = ran and not any(r["touched_wall"] for r in mine) and all(
+            constraint_violation(c, r)[0] == 0 for c in problem.spec.objective.constraints
+            for r in mine)
+        points.append({"level": level, "generation": generation, "candidate": candidate,
+                       **{n: mine[0][n] for n in names}, **values,
+                       "meets_constraints": bool(meets and np.all(np.isfinite(
+                           list(values.values()))))})
+    return points
+
+
+def front_of(problem: Problem, points: list[dict]) -> list[dict]:
+    """``points`` with ``on_front`` set: the non-dominated ones among those that meet the
+    constraints."""
+    f = problem.spec.front
+    ok = [p for p in points if p["meets_constraints"]]
+    mask = pareto_mask([p[f.maximise] for p in ok], [p[f.minimise] for p in ok])
+    on = {id(p) for p, m in zip(ok, mask) if m}
+    return [{**p, "on_front": id(p) in on} for p in points]
+
+
+def write_front(problem: Problem, out_dir: pathlib.Path, points: list[dict],
+                levels: list[dict]) -> dict:
+    """front.csv, front.json and front.png; returns front.json's content."""
+    f, names = problem.spec.front, problem.space.names
+    out_dir = pathlib.Path(out_dir)
+    columns = ["level", "generation", "candidate", *names, f.maximise, f.minimise,
+               "meets_constraints", "on_front"]
+    tmp = out_dir / ".front.csv.tmp"
+    with open(tmp, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, columns)
+        writer.writeheader()
+        writer.writerows(points)
+    os.replace(tmp, out_dir / "front.csv")
+    front = sorted((p for p in points if p["on_front"]), key=lambda p: p[f.maximise])
+    start = next((p for p in points if (p["generation"], p["candidate"]) == (1, 0)), None)
+    summary = {"name": problem.spec.name, "start_gait": problem.spec.gait,
+               "maximise": f.maximise, "minimise": f.minimise,
+               "levels": levels, "start": start, "front": front,
+               "candidates": len(points),
+               "meeting_constraints": sum(p["meets_constraints"] for p in points)}
+    tmp = out_dir / ".front.json.tmp"
+    tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    os.replace(tmp, out_dir / "front.json")
+    _figure(problem, out_dir / "front.png", points, start)
+    return summary
+
+
+def _figure(problem: Problem, path: pathlib.Path, points: list[dict], start) -> None:
+    from matplotlib.figure import Figure
+
+    f = problem.spec.front
+    fig = Figure(figsize=(7, 5))
+    ax = fig.subplots()
+    ok = [p for p in points if p["meets_constraints"]]
+    bad = [p for p in points if not p["meets_constraints"] and np.isfinite(p[f.maximise])]
+    ax.scatter([p[f.maximise] for p in bad], [p[f.minimise] for p in bad], s=8,
+               color="0.8", label="breaks a constraint")
+    ax.scatter([p[f.maximise] for p in ok], [p[f.minimise] for p in ok], s=10,
+               color="tab:blue", alpha=0.5, label="meets the constraints")
+    front = sorted((p for p in points if p["on_front"]), key=lambda p: p[f.maximise])
+    ax.plot([p[f.maximise] for p in front], [p[f.minimise] for p in front], "o-",
+            color="tab:red", label="front")
+    if start is not None and np.isfinite(start[f.maximise]):
+        ax.scatter([start[f.maximise]], [start[f.minimise]], marker="*", s=180,
+                   color="k", zorder=5, label=f"{problem.spec.gait} (the start)")
+    for level in f.levels:
+        ax.axvline(level, color="0.6", lw=0.6, ls=":")
+    ax.set_xlabel(f.maximise)
+    ax.set_ylabel(f.minimise)
+    ax.set_title(f"{problem.spec.name}: {f.minimise} against {f.maximise}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def run_front(problem: Problem, out_dir, client=None, evaluate=None, progress: bool = True,
+              run=None) -> dict:
+    """Runs (or continues) every level's search and writes the front (module docstring).
+
+    ``run`` is ``run_optimization`` (its ``evaluate``, ``client`` and ``progress`` as
+    there). Returns front.json's content."""
+    from manta_drake.optimize.history import read_history
+    from manta_drake.optimize.run import run_optimization
+
+    run = run or run_optimization
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    points, levels = [], []
+    for k, level in enumerate(problem.spec.front.levels):
+        folder = level_folder(out_dir, k)
+        result = run(level_problem(problem, level), folder, client, evaluate=evaluate,
+                     progress=progress)
+        levels.append({"level": level, "folder": folder.name, "status": result.status,
+                       "best_cost": result.best_cost, "stop": result.stop})
+        rows = read_history(folder / "history.csv", problem.space.names)
+        points += candidate_points(problem, rows, k)
+    return write_front(problem, out_dir, front_of(problem, distinct(problem, points)), levels)
+
+
+def distinct(problem: Problem, points: list[dict]) -> list[dict]:
+    """One point per gait: the start gait begins every level's search, and a level may ask
+    a candidate another has; the first kept."""
+    seen, out = set(), []
+    for p in points:
+        key = tuple(p[n] for n in problem.space.names)
+        if key not in seen:
+            seen.add(key)
+            out.append(p)
+    return out

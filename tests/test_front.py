@@ -1,0 +1,123 @@
+"""A front of two metrics by the epsilon-constraint method (``manta_drake.optimize.front``):
+the non-dominated set against its definition, and a front spec run through the command with a
+cheap evaluator whose front is known."""
+
+import csv
+import json
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+from manta_drake.cli import main
+from manta_drake.optimize import OptimizeError, load_problem, read_history, run_optimization
+
+FRONT_SPEC = """\
+scenario: locomotion_walk
+gait: walk
+name: quadratic
+free:
+  - {entry: "R_deg[fl, yaw]", low: 0, high: 30,
+     tie: ["R_deg[fr, yaw]", "R_deg[rl, yaw]", "R_deg[rr, yaw]"], tie_signs: [-1, 1, -1]}
+  - {entry: "Phi_prime_deg[fl, fr]", low: 180, high: 360}
+objective:
+  constraints: [{metric: abs_v, max: 0.01}]
+front: {maximise: u, minimise: cot_net_of_hotel, levels: [0.02, 0.05, 0.08]}
+robustness:
+  points: [{}, {contact.friction: 0.6}]
+budget: {generations: 3, population: 6, sigma0: 0.3}
+seed: 3
+"""
+
+
+def write(path: pathlib.Path, text: str) -> pathlib.Path:
+    path.write_text(text)
+    return path
+
+
+def test_pareto_mask_is_the_non_dominated_set_by_brute_force(rng):
+    """Random points with ties and NaNs: on the front exactly when no other finite point is
+    at least as good in both and better in one (the definition, O(n^2))."""
+    from manta_drake.optimize.front import pareto_mask
+
+    up = np.round(rng.uniform(0, 1, 300), 1)  # many ties
+    down = np.round(rng.uniform(0, 1, 300), 1)
+    up[::37] = np.nan
+    mask = pareto_mask(up, down)
+    finite = np.isfinite(up) & np.isfinite(down)
+    for i in range(up.size):
+        dominated = np.any(finite & (up >= up[i]) & (down <= down[i])
+                           & ((up > up[i]) | (down < down[i])))
+        assert mask[i] == (bool(finite[i]) and not dominated), i
+    assert pareto_mask([1.0, 2.0], [1.0, 1.0]).tolist() == [False, True]
+    assert pareto_mask([], []).size == 0
+
+
+def cost_speed(task):
+    """u grows with the yaw amplitude (0.1 m/s at 30 deg); the cost is 1 + 2 u at the best
+    phase (300 deg) and more away from it: the front is cot = 1 + 2 u. Above 27 deg the
+    run sideslips (|v| 0.02 m/s, breaking the constraint)."""
+    x = task["parameters"]
+    u = 0.1 * x["R_deg.fl.yaw"] / 30.0
+    cot = 1.0 + 2.0 * u + ((x["Phi_prime_deg.fl.fr"] - 300.0) / 180.0) ** 2
+    v = 0.02 if x["R_deg.fl.yaw"] > 27.0 else 0.0
+    return {"status": "ok", "metrics": {"u": u, "v": v, "abs_u": u, "abs_v": v,
+                                        "cot_net_of_hotel": cot}}
+
+
+def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, capsys,
+                                                                      monkeypatch):
+    import manta_drake.optimize.cli as cli
+    from manta_drake.optimize.front import pareto_mask
+
+    spec = write(tmp_path / "front.yaml", FRONT_SPEC)
+    monkeypatch.setattr(cli, "run_optimization",
+                        lambda problem, out, client, evaluate=None, progress=False:
+                        run_optimization(problem, out, client, evaluate=cost_speed,
+                                         progress=progress))
+    out = tmp_path / "out"
+    assert main(["optimize", str(spec), "--out", str(out), "--workers", "0", "--quiet",
+                 "--generations", "4"]) == 0
+    printed = capsys.readouterr().out
+    assert "level u >= 0.05" in printed and "on the front: u" in printed
+    summary = json.loads((out / "front.json").read_text())
+    assert [x["folder"] for x in summary["levels"]] == ["level_00", "level_01", "level_02"]
+    for k, level in enumerate((0.02, 0.05, 0.08)):  # each level searched under its bound
+        rows = read_history(out / f"level_{k:02d}" / "history.csv")
+        assert {r["generation"] for r in rows if r["kind"] == "search"} == {1, 2, 3, 4}
+        assert any(f"u {r['u']:.4g} < {level:g}" in r["reason"] for r in rows
+                   if r["u"] is not None and r["u"] < level and r["status"] == "ok")
+    with open(out / "front.csv") as fh:
+        points = list(csv.DictReader(fh))
+    # every candidate of every level, the start gait (first of each level) once
+    assert len(points) == summary["candidates"] <= 3 * 4 * 6 - 2
+    assert len({tuple(p[n] for n in ("R_deg.fl.yaw", "Phi_prime_deg.fl.fr"))
+                for p in points}) == len(points)
+    ok = [p for p in points if p["meets_constraints"] == "True"]
+    assert all(float(p["R_deg.fl.yaw"]) <= 27.0 for p in ok)  # sideslip breaks the rest
+    u = np.array([float(p["u"]) for p in ok])
+    cot = np.array([float(p["cot_net_of_hotel"]) for p in ok])
+    on = pareto_mask(u, cot)
+    assert [p["on_front"] == "True" for p in ok] == on.tolist()
+    assert all(p["on_front"] == "False" for p in points if p["meets_constraints"] == "False")
+    front = summary["front"]
+    assert len(front) == on.sum() >= 3
+    assert all(f["cot_net_of_hotel"] - (1 + 2 * f["u"]) < 0.1 for f in front)  # near the line
+    assert summary["start"]["generation"] == 1 and summary["start"]["candidate"] == 0
+    assert (out / "front.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda s: s.replace("levels: [0.02, 0.05, 0.08]", "levels: [0.05, 0.02]"),
+     "optimize.front.levels[1]: 0.02 is not above the level before it (0.05)"),
+    (lambda s: s.replace("maximise: u,", "maximise: speeed,"),
+     "optimize.front.maximise: 'speeed' is not a metric"),
+    (lambda s: s.replace("objective:\n", "objective:\n  terms: [{metric: u, weight: -1}]\n"),
+     "optimize.objective.terms: a front minimises cot_net_of_hotel at each level of u; leave "
+     "the terms out"),
+])
+def test_a_bad_front_is_refused_in_one_line(tmp_path, edit, message):
+    spec = write(tmp_path / "front.yaml", edit(FRONT_SPEC))
+    with pytest.raises(OptimizeError, match=re.escape(message)):
+        load_problem(spec)

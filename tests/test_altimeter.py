@@ -81,8 +81,12 @@ def _height(X_WB) -> float:
 @pytest.mark.parametrize("rpy_deg", [(0, 0, 0), (0, 10, 30), (-12, 0, 0), (8, -9, 0)])
 def test_within_the_beam_the_range_is_the_transducers_height_above_the_floor(rpy_deg):
     diagram, sensor, X_WB = _welded([1.0, 0.3, -0.22], rpy_deg)
-    context = sensor.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    simulator = Simulator(diagram)
+    simulator.Initialize()  # the first reading: the start pose's, noiseless
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
     assert sensor.true_range(context) == pytest.approx(_height(X_WB), abs=1e-9)
+    assert sensor.GetOutputPort("altitude").Eval(context)[0] == sensor.true_range(context)
+    assert sensor.GetOutputPort("altitude_true").Eval(context)[0] == sensor.true_range(context)
 
 
 @pytest.mark.parametrize("rpy_deg", [(0, 25, 0), (0, -40, 90), (30, 0, 0)])

@@ -90,7 +90,9 @@ def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, c
                    if r["u"] is not None and r["u"] < level and r["status"] == "ok")
     with open(out / "front.csv") as fh:
         points = list(csv.DictReader(fh))
-    # every candidate of every level, the start gait (first of each level) once
+    # every candidate of every level (each level its own seed), the start gait once
+    assert len({json.loads((out / f"level_{k:02d}" / "state.json").read_text())["identity"]
+                ["seed"] for k in range(3)}) == 3
     assert len(points) == summary["candidates"] <= 3 * 4 * 6 - 2
     assert len({tuple(p[n] for n in ("R_deg.fl.yaw", "Phi_prime_deg.fl.fr"))
                 for p in points}) == len(points)

@@ -58,10 +58,12 @@ def pareto_mask(maximise, minimise) -> np.ndarray:
     return on
 
 
-def level_problem(problem: Problem, level: float) -> Problem:
-    """The search at one level: the spec's constraints, ``maximise >= level``, and the one
-    term ``minimise`` (weight 1)."""
+def level_problem(problem: Problem, level: float, k: int = 0) -> Problem:
+    """The search at level ``k``, ``level``: the spec's constraints, ``maximise >= level``,
+    and the one term ``minimise`` (weight 1). Its CMA-ES seed is the spec's plus ``k``, so
+    the levels do not all ask the same first generation (the start gait aside)."""
     spec = copy.deepcopy(problem.spec)
+    spec.seed = problem.spec.seed + k
     f = spec.front
     spec.objective.terms = [Term(f.minimise, 1.0)]
     spec.objective.constraints = [*spec.objective.constraints, Constraint(f.maximise, min=level)]
@@ -179,7 +181,7 @@ def run_front(problem: Problem, out_dir, client=None, evaluate=None, progress: b
     points, levels = [], []
     for k, level in enumerate(problem.spec.front.levels):
         folder = level_folder(out_dir, k)
-        result = run(level_problem(problem, level), folder, client, evaluate=evaluate,
+        result = run(level_problem(problem, level, k), folder, client, evaluate=evaluate,
                      progress=progress)
         levels.append({"level": level, "folder": folder.name, "status": result.status,
                        "best_cost": result.best_cost, "stop": result.stop})

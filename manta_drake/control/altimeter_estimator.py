@@ -22,7 +22,7 @@ import dataclasses as dc
 
 from manta_drake.config_io import check_in_range
 from manta_drake.control.filtered_estimator import FilteredEstimator
-from manta_drake.control.memberships import ramp_membership
+from manta_drake.control.memberships import check_ramp, ramp_membership
 
 
 @dc.dataclass
@@ -43,12 +43,7 @@ class AltimeterEstimatorParams:
 
     def validate(self) -> "AltimeterEstimatorParams":
         """Checks every field's range; ValueError names the field and the allowed range."""
-        check_in_range("on_floor_range", self.on_floor_range, 0.0, 100.0, "[0, 100) m",
-                       open_high=True)
-        check_in_range("off_floor_range", self.off_floor_range, self.on_floor_range, 100.0,
-                       f"(on_floor_range = {self.on_floor_range:g}, 100] m", open_low=True)
-        check_in_range("time_constant", self.time_constant, 0.0, 100.0,
-                       "[0, 100] s (0: no filter)")
+        check_ramp(self, "on_floor_range", "off_floor_range", 100.0, " m")
         return self
 
 

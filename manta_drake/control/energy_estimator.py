@@ -15,9 +15,8 @@ while the servos push, gone when they rest) would only disturb.
 
 import dataclasses as dc
 
-from manta_drake.config_io import check_in_range
 from manta_drake.control.filtered_estimator import FilteredEstimator
-from manta_drake.control.memberships import ramp_membership
+from manta_drake.control.memberships import check_ramp, ramp_membership
 
 BATTERY_SIZE = 3  # [state of charge, terminal voltage V, current A]
 
@@ -32,11 +31,7 @@ class EnergyEstimatorParams:
 
     def validate(self) -> "EnergyEstimatorParams":
         """Checks every field's range; ValueError names the field and the allowed range."""
-        check_in_range("soc_low", self.soc_low, 0.0, 1.0, "[0, 1)", open_high=True)
-        check_in_range("soc_high", self.soc_high, self.soc_low, 1.0,
-                       f"(soc_low = {self.soc_low:g}, 1]", open_low=True)
-        check_in_range("time_constant", self.time_constant, 0.0, 1000.0,
-                       "[0, 1000] s (0: no filter)")
+        check_ramp(self, "soc_low", "soc_high", 1.0, time_constant_max=1000.0)
         return self
 
 

@@ -28,9 +28,9 @@ the estimate is used; with a standing robot (the seabed gaits) the reading is th
 import dataclasses as dc
 
 import numpy as np
-from manta_drake.config_io import check_in_range, check_one_of
+from manta_drake.config_io import check_one_of
 from manta_drake.control.filtered_estimator import FilteredEstimator
-from manta_drake.control.memberships import ramp_membership
+from manta_drake.control.memberships import check_ramp, ramp_membership
 
 AXES = ("magnitude", "surge", "sway")
 
@@ -47,11 +47,7 @@ class FlowEstimatorParams:
 
     def validate(self) -> "FlowEstimatorParams":
         """Checks every field's range; ValueError names the field and the allowed range."""
-        check_in_range("speed_low", self.speed_low, 0.0, 10.0, "[0, 10) m/s", open_high=True)
-        check_in_range("speed_high", self.speed_high, self.speed_low, 10.0,
-                       f"(speed_low = {self.speed_low:g}, 10] m/s", open_low=True)
-        check_in_range("time_constant", self.time_constant, 0.0, 100.0,
-                       "[0, 100] s (0: no filter)")
+        check_ramp(self, "speed_low", "speed_high", 10.0, " m/s")
         check_one_of("axis", self.axis, AXES)
         return self
 

@@ -1,6 +1,7 @@
-"""The shared maths of the controller's 0-1 estimators (posture, flow, energy).
+"""The shared maths of the controller's 0-1 estimators (posture, flow, energy, altitude).
 
-Two plain functions, both vectorised over numpy arrays:
+Two plain functions, both vectorised over numpy arrays, and the check of their parameters
+(``check_ramp``):
 
 * ``ramp_membership``: the piecewise-linear membership of the kind Eq. (9)'s layers use,
   0 at or below ``low``, 1 at or above ``high`` and linear between::
@@ -25,7 +26,21 @@ Two plain functions, both vectorised over numpy arrays:
 
 import numpy as np
 
+from manta_drake.config_io import check_in_range
 from manta_drake.control.transition import wrap
+
+
+def check_ramp(params, low: str, high: str, top: float, unit: str = "",
+               time_constant_max: float = 100.0) -> None:
+    """Checks an estimator's ramp and lag parameters: ``params.<low>`` in [0, top),
+    ``params.<high>`` in (low, top] and ``params.time_constant`` in [0, time_constant_max];
+    ValueError names the field and the allowed range (``unit`` after it, e.g. `` m/s``)."""
+    lo = getattr(params, low)
+    check_in_range(low, lo, 0.0, top, f"[0, {top:g}){unit}", open_high=True)
+    check_in_range(high, getattr(params, high), lo, top, f"({low} = {lo:g}, {top:g}]{unit}",
+                   open_low=True)
+    check_in_range("time_constant", params.time_constant, 0.0, time_constant_max,
+                   f"[0, {time_constant_max:g}] s (0: no filter)")
 
 
 def ramp_membership(x, low: float, high: float):

@@ -23,9 +23,8 @@ The specific force is not used: the AHRS attitude already fuses it.
 import dataclasses as dc
 
 import numpy as np
-from manta_drake.config_io import check_in_range
 from manta_drake.control.filtered_estimator import FilteredEstimator
-from manta_drake.control.memberships import ramp_membership
+from manta_drake.control.memberships import check_ramp, ramp_membership
 
 IMU_SIZE = 9  # [roll, pitch, yaw] rad, [wx, wy, wz] rad/s, [fx, fy, fz] m/s^2
 # The IMU channels filtered, in the state's order: roll, pitch, yaw, wz.
@@ -50,12 +49,7 @@ class PostureEstimatorParams:
 
     def validate(self) -> "PostureEstimatorParams":
         """Checks every field's range; ValueError names the field and the allowed range."""
-        check_in_range("tilt_low_deg", self.tilt_low_deg, 0.0, 180.0, "[0, 180) deg",
-                       open_high=True)
-        check_in_range("tilt_high_deg", self.tilt_high_deg, self.tilt_low_deg, 180.0,
-                       f"(tilt_low_deg = {self.tilt_low_deg:g}, 180] deg", open_low=True)
-        check_in_range("time_constant", self.time_constant, 0.0, 100.0,
-                       "[0, 100] s (0: no filter)")
+        check_ramp(self, "tilt_low_deg", "tilt_high_deg", 180.0, " deg")
         return self
 
 

@@ -251,11 +251,6 @@ SECTIONS = tuple((part.section, part.params) for m in MODALITIES
                  for part in (m.reading, m.estimation) if part is not None)
 
 
-def estimate_named(name: str) -> str:
-    """The estimate a name (an estimate or an alias) gives; ``""`` for ``""``."""
-    return NAMES.get(name, name)
-
-
 def estimator_outputs() -> tuple[str, ...]:
     """Every output port the modalities' estimators export, in the table's order."""
     return tuple(port for e in ESTIMATIONS for port in e.outputs)

@@ -373,7 +373,7 @@ def _say(bar, line: str) -> None:
 
 def within_constraints(rows: list[dict]) -> bool:
     """Every simulation ran (``ok``) and none broke a constraint or touched a wall."""
-    return bool(rows) and all(r["status"] == "ok" and not r["penalty"] for r in rows)
+    return bool(rows) and not violations(rows)
 
 
 def generation_line(generation: int, generations: int, costs, best: dict,

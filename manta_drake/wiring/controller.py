@@ -99,19 +99,19 @@ class ControllerHandles:
     estimates: dict = dc.field(default_factory=dict)
 
 
-def initial_estimates(scenario: Scenario) -> dict[str, float]:
-    """Each estimate the behaviour tree reads, at the start pose (``Modality.initial``; 0,
-    nothing seen yet, where the pose says nothing)."""
-    return {m: MODALITY_BY_ESTIMATE[m].initial(scenario)
-            for m in scenario.behaviour_tree().modalities}
+def initial_estimates(scenario: Scenario, tree) -> dict[str, float]:
+    """Each estimate ``tree`` (the scenario's behaviour tree) reads, at the start pose
+    (``Modality.initial``; 0, nothing seen yet, where the pose says nothing)."""
+    return {m: MODALITY_BY_ESTIMATE[m].initial(scenario) for m in tree.modalities}
 
 
-def initial_cpg_params(scenario: Scenario) -> np.ndarray:
+def initial_cpg_params(scenario: Scenario, tree=None) -> np.ndarray:
     """The CPG parameters at t = 0: the fixed gait, or the transition's target for the
-    estimates at the start pose (``initial_estimates``)."""
+    estimates at the start pose (``initial_estimates``); ``tree``: the scenario's behaviour
+    tree when the caller has it compiled (None: compiled here)."""
     if scenario.controller.mode == "transition":
-        tree = scenario.behaviour_tree()
-        values = initial_estimates(scenario)
+        tree = tree or scenario.behaviour_tree()
+        values = initial_estimates(scenario, tree)
         return tree.target(values, tree.initial_switch_state(values))[0]
     return scenario.gait(scenario.controller.gait).to_vector()
 
@@ -248,9 +248,9 @@ def _add_transition(builder, scenario: Scenario, handles: ControllerHandles):
     tree = scenario.behaviour_tree()
     transition = builder.AddNamedSystem("transition", PotentialTransition(
         tr.period, tr.g, tr.T, tr.alpha, follow=tr.follow,
-        initial_params=initial_cpg_params(scenario), tree=tree,
+        initial_params=initial_cpg_params(scenario, tree), tree=tree,
         s_hat_time_constant=tr.s_hat_time_constant,
-        initial_values=initial_estimates(scenario)))
+        initial_values=initial_estimates(scenario, tree)))
     if "s_hat" not in handles.estimates:  # no camera: no wall is ever seen
         s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
         builder.ExportOutput(s_hat, "s_hat")

@@ -440,7 +440,10 @@ def check_one_of(field: str, value, allowed) -> None:
 
 
 def check_vector(field: str, value, n: int, bound: float = math.inf, unit: str = "") -> None:
-    """``n`` finite numbers whose Euclidean norm is at most ``bound``."""
+    """``n`` finite numbers whose Euclidean norm is at most ``bound`` (a list, a tuple or a
+    numpy array, which a caller's dataclass may hold after ``dc.replace``)."""
+    if hasattr(value, "tolist"):
+        value = value.tolist()
     if not isinstance(value, (list, tuple)) or len(value) != n:
         raise ScenarioError(f"{field}: expected {n} finite numbers, got {short_repr(value)}")
     for i, v in enumerate(value):

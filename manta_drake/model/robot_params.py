@@ -43,6 +43,9 @@ JOINT_NAMES = tuple(f"{leg}_{joint}" for leg in LEGS for joint in JOINTS)
 NUM_LEGS = len(LEGS)  # 4
 JOINTS_PER_LEG = len(JOINTS)  # 4
 NUM_JOINTS = len(JOINT_NAMES)  # 16 = legs x joints, the plant's actuated joints
+# A sensor on the hull (IMU, flow probe, altimeter) sits within this of the body's origin [m];
+# a position farther out is off the robot (the hull is 0.65 m long).
+HULL_SENSOR_REACH = 1.0
 GAIT_SHAPE = (NUM_LEGS, JOINTS_PER_LEG)  # rows: leg-fins, columns: joints (Eqs. 6-8)
 NUM_CPG_PARAMS = 4 * NUM_JOINTS  # R, X, Phi, Phi' (each legs x joints), 64
 

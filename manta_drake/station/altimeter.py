@@ -34,6 +34,7 @@ from pydrake.systems.primitives import Multiplexer, RandomSource
 
 from manta_drake.config_io import check_boolean, check_in_range, check_vector
 from manta_drake.model.plant import floor_geometries
+from manta_drake.model.robot_params import HULL_SENSOR_REACH
 
 
 @dc.dataclass
@@ -54,7 +55,6 @@ class AltimeterParams:
     dropout_rate: float = 0.0  # probability that a reading is missing (NaN)
 
     MAX_RANGE_M = 100.0  # the largest max_range taken (a long-range part's)
-    MAX_OFFSET = 1.0  # m: |position| beyond this is off the robot
 
     def validate(self, prefix: str = "altimeter") -> "AltimeterParams":
         """Checks every field; ValueError, one line naming ``<prefix>.<field>``, the value
@@ -70,9 +70,7 @@ class AltimeterParams:
                        f"[0, max_range = {self.max_range:g}) m", open_high=True)
         check_in_range(f"{prefix}.noise_std", self.noise_std, 0.0, 0.5, "[0, 0.5] m")
         check_in_range(f"{prefix}.dropout_rate", self.dropout_rate, 0.0, 1.0, "[0, 1]")
-        position = self.position
-        check_vector(f"{prefix}.position", list(position) if isinstance(position, np.ndarray)
-                     else position, 3, self.MAX_OFFSET, " m")
+        check_vector(f"{prefix}.position", self.position, 3, HULL_SENSOR_REACH, " m")
         return self
 
 

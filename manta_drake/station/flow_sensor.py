@@ -17,6 +17,7 @@ from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import RandomSource
 
 from manta_drake.config_io import check_boolean, check_in_range, check_vector
+from manta_drake.model.robot_params import HULL_SENSOR_REACH
 from manta_drake.station.current import CurrentSchedule
 from manta_drake.station.imu import cross3
 
@@ -31,7 +32,6 @@ class FlowSensorParams:
     position: list[float] = dc.field(default_factory=lambda: [0.19, 0.0, 0.03])
     noise_std: float = 0.005  # m/s, white noise per axis
 
-    MAX_OFFSET = 1.0  # m: |position| beyond this is off the robot
 
     def validate(self, prefix: str = "flow_sensor") -> "FlowSensorParams":
         """Checks every field; ValueError, one line naming ``<prefix>.<field>``, the value
@@ -40,9 +40,7 @@ class FlowSensorParams:
         check_in_range(f"{prefix}.rate_hz", self.rate_hz, 0.0, 1000.0, "(0, 1000] Hz",
                        open_low=True)
         check_in_range(f"{prefix}.noise_std", self.noise_std, 0.0, 0.5, "[0, 0.5] m/s")
-        position = self.position
-        check_vector(f"{prefix}.position", list(position) if isinstance(position, np.ndarray)
-                     else position, 3, self.MAX_OFFSET, " m")
+        check_vector(f"{prefix}.position", self.position, 3, HULL_SENSOR_REACH, " m")
         return self
 
 

@@ -19,6 +19,7 @@ from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import RandomSource
 
 from manta_drake.config_io import check_boolean, check_in_range, check_vector
+from manta_drake.model.robot_params import HULL_SENSOR_REACH
 
 # A bias RandomSource's sampling interval [s]: far beyond any run, so its sample is one
 # constant per run, drawn from the Context's seed.
@@ -50,7 +51,6 @@ class ImuParams:
         ("accel_noise_std", 0.0, 2.0, "m/s^2", False),
         ("accel_bias_std", 0.0, 2.0, "m/s^2", False),
     )
-    MAX_OFFSET = 1.0  # m: |position| beyond this is off the robot
 
     def validate(self, prefix: str = "imu") -> "ImuParams":
         """Checks every field; ValueError, one line naming ``<prefix>.<field>``, the value
@@ -59,9 +59,7 @@ class ImuParams:
         for name, lo, hi, unit, open_low in self.RANGES:
             check_in_range(f"{prefix}.{name}", getattr(self, name), lo, hi,
                            f"{'(' if open_low else '['}{lo:g}, {hi:g}] {unit}", open_low)
-        position = self.position
-        check_vector(f"{prefix}.position", list(position) if isinstance(position, np.ndarray)
-                     else position, 3, self.MAX_OFFSET, " m")
+        check_vector(f"{prefix}.position", self.position, 3, HULL_SENSOR_REACH, " m")
         return self
 
     def noise_std(self) -> np.ndarray:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import pathlib
 
 import numpy as np
 import pytest
@@ -14,6 +15,8 @@ import pytest
 from manta_drake.model.robot_params import DEFAULT_ROBOT
 from manta_drake.studies.cfd import case as cfdcase
 from manta_drake.studies.cfd import geometry, run
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 ABC = DEFAULT_ROBOT.body_semi_axes
 
@@ -289,3 +292,30 @@ def test_committed_robot_samples_parts_add_up_to_the_whole_body():
         for q in ("Fx", "Fz", "Fy", "My", "Mz"):
             total, parts = float(r[f"{q}_mean"]), float(r[f"{q}_hull"]) + float(r[f"{q}_fins"])
             assert parts == pytest.approx(total, rel=1e-4, abs=1e-6), (r["speed"], q)
+
+
+def test_the_committed_page_is_the_report_of_the_committed_samples():
+    """docs/cfd.md's results block is what the samples of models/cfd/ give, and every case
+    the study plans (the sweep on the mesh the samples were run on) has its sample."""
+    from manta_drake.studies.cfd import study
+
+    rows = study.samples(ROOT / "models" / "cfd")
+    page = (ROOT / "docs" / "cfd.md").read_text()
+    block = page[page.index(study.BEGIN):page.index(study.END) + len(study.END)]
+    assert study.report_block(rows) == block
+    assert study.sweep_mesh_of(rows) == "coarse"
+    assert "Not run yet (0): none." in block
+    # The grid-convergence drags are the samples' own (coarse, medium, fine at 0.4 m/s).
+    level = {r["mesh"]: float(r["drag"]) for r in rows if r["shape"] == "robot"
+             and float(r["speed"]) == 0.4 and float(r["pitch_deg"]) == 0
+             and float(r["yaw_deg"]) == 0}
+    assert f"| {level['fine']:.4f} | {100 * (level['fine'] / level['medium'] - 1):+.1f} %" \
+        in block
+
+
+def test_tables_only_without_cases_needs_the_samples_marker(tmp_path, capsys):
+    from manta_drake.config_io import ScenarioError
+    from manta_drake.studies.cfd import study
+
+    with pytest.raises(ScenarioError, match="no such folder of cases"):
+        study.main(["--tables-only", "--out", str(tmp_path / "none"), "--out-md", ""])

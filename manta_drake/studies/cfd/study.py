@@ -40,6 +40,8 @@ SPHERE_CD_REFERENCE = 0.47
 # The hull alone at 0.4 m/s, k-epsilon, same kind of mesh (shared/reference/hydro_refs.md
 # section 3): level 3 (41 k cells) 0.108 N, level 4 (75 k cells) 0.129 N.
 HULL_REFERENCE_N = {"medium": (0.108, 41_000), "fine": (0.129, 75_000)}
+# ``--tables-only --out -``: no cases folder, the page from the samples in --csv-dir alone.
+TABLES_FROM_SAMPLES = "-"
 
 
 class CfdError(ScenarioError):
@@ -221,101 +223,156 @@ def _grid_convergence(drags):
     return p, gci
 
 
-def report_block(out: pathlib.Path) -> str:
-    """The results of docs/cfd.md (between its markers) from the finished cases."""
+def _num(row: dict, key: str) -> float:
+    return float(row[key])
+
+
+def _case_name(row: dict) -> str:
+    """The case a sample row comes from (``CaseSpec.name``)."""
     from manta_drake.studies.cfd.case import CaseSpec
 
-    results = {r["case"]: r for r in finished_results(out)}
-    ok = {k: r for k, r in results.items() if r.get("status") == "ok"}
-    lines = [BEGIN, "", f"Cases finished: {len(ok)} of {len(cases_for('all', 'medium'))} "
-             f"(failed: {sum(r.get('status') == 'failed' for r in results.values())}).", ""]
+    return CaseSpec(row["shape"], _num(row, "speed"), pitch_deg=_num(row, "pitch_deg"),
+                    yaw_deg=_num(row, "yaw_deg"), mesh=row["mesh"]).name
 
-    def it(r):
-        how = r.get("stopped_by", "residuals" if r["converged"] else "iteration cap")
-        return f"{r['iterations']}{'' if how == 'residuals' else f' ({how})'}"
 
-    lines += ["### Validation: sphere at Re = 1e5", "",
-              f"Reference C_D = {SPHERE_CD_REFERENCE} (subcritical, standard drag curve).", "",
-              "| mesh | cells | C_D | C_D / 0.47 | pressure / viscous (N) | y+ avg / max | "
-              "iterations | wall (s) | CPU (s) |", "|---|---|---|---|---|---|---|---|---|"]
-    for mesh in ("coarse", "medium", "fine"):
-        r = ok.get(CaseSpec("sphere", 1.0, mesh=mesh).name)
-        if r:
-            lines.append(f"| {mesh} | {r['cells']} | {r['cd']:.3f} | "
-                         f"{r['cd'] / SPHERE_CD_REFERENCE:.2f} | {r['drag_pressure_n']:.4f} / "
-                         f"{r['drag_viscous_n']:.4f} | {r['yplus_avg']:.0f} / "
-                         f"{r['yplus_max']:.0f} | {it(r)} | {r['wall_s']} | {r['cpu_s']} |")
-    lines += ["", "### Pipeline check: the hull alone at 0.4 m/s", "",
-              "| mesh | cells | drag (N) | hydro_refs.md (N, cells) | pressure / viscous (N) | "
-              "y+ avg / max | iterations | wall (s) |", "|---|---|---|---|---|---|---|---|"]
-    for mesh, (ref, ref_cells) in HULL_REFERENCE_N.items():
-        r = ok.get(CaseSpec("hull", 0.4, mesh=mesh).name)
-        if r:
-            lines.append(f"| {mesh} | {r['cells']} | {r['drag_n']:.4f} | {ref} ({ref_cells}) | "
-                         f"{r['drag_pressure_n']:.4f} / {r['drag_viscous_n']:.4f} | "
-                         f"{r['yplus_avg']:.1f} / {r['yplus_max']:.0f} | {it(r)} | "
-                         f"{r['wall_s']} |")
-    lines += ["", "### Robot: grid convergence at 0.4 m/s, zero incidence", "",
-              "| mesh | base cell (m) | cells | drag (N) | change from the previous mesh | "
-              "pressure / viscous (N) | y+ avg / max | iterations | wall (s) | CPU (s) |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
-    drags, prev = [], None
-    for mesh in MESH_CHOICES:
-        r = ok.get(CaseSpec("robot", 0.4, mesh=mesh).name)
-        if not r:
-            continue
-        change = f"{100 * (r['drag_n'] / prev - 1):+.1f} %" if prev else ""
-        prev = r["drag_n"]
-        drags.append(r["drag_n"])
-        lines.append(f"| {mesh} | {r['mesh_spec']['base_cell']:.4g} | {r['cells']} | "
-                     f"{r['drag_n']:.4f} | {change} | {r['drag_pressure_n']:.4f} / "
-                     f"{r['drag_viscous_n']:.4f} | {r['yplus_avg']:.1f} / "
-                     f"{r['yplus_max']:.0f} | {it(r)} | {r['wall_s']} | {r['cpu_s']} |")
-    if len(drags) == 3:
-        p, gci = _grid_convergence(drags)
-        lines += ["", (f"Observed order {p:.2f}, fine-mesh GCI {100 * gci:.1f} % (Celik et al. "
-                       "2008, safety factor 1.25)." if p is not None else
-                       "The three drags do not change monotonically: no observed order.")]
-    lines += ["", "### Robot: the sweep (body frame: x forward, y left, z up; N and N m about "
-              "the CG)", "",
-              "| U (m/s) | pitch | yaw | mesh | Fx | Fy | Fz | Mx | My | Mz | cells | "
-              "iterations | drag spread (last 10 %) | wall (s) |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    sweep = [r for r in ok.values() if r["spec"]["shape"] == "robot"
-             and not (r["spec"]["pitch_deg"] == 0 and r["spec"]["yaw_deg"] == 0
-                      and r["spec"]["speed"] == 0.4 and r["spec"]["mesh"] != "medium")]
-    sweep.sort(key=lambda r: (r["spec"]["yaw_deg"], r["spec"]["pitch_deg"], r["spec"]["speed"]))
-    for r in sweep:
-        f, m = r["final"]["force"]["total"], r["final"]["moment"]["total"]
-        s = r["spec"]
-        lines.append(f"| {s['speed']} | {s['pitch_deg']:g} | {s['yaw_deg']:g} | {s['mesh']} | "
-                     + " | ".join(f"{x:.4g}" for x in (*f, *m))
-                     + f" | {r['cells']} | {it(r)} | {100 * r['drag_tail_spread']:.1f} % | "
-                       f"{r['wall_s']} |")
-    surge = sorted((r["spec"]["speed"], -r["final"]["force"]["total"][0]) for r in sweep
-                   if r["spec"]["pitch_deg"] == 0 and r["spec"]["yaw_deg"] == 0)
-    if len(surge) >= 2:
-        from manta_drake.model.coefficients import fit_damping
+def _iterations(row: dict) -> str:
+    how = row.get("stopped_by") or ("residuals" if str(row["converged"]) == "True"
+                                    else "iteration cap")
+    return f"{int(float(row['iterations']))}{'' if how == 'residuals' else f' ({how})'}"
 
-        h, res = fit_damping([u for u, _ in surge], [x for _, x in surge])
-        lines += ["", f"Eq. (4) on the {len(surge)} zero-incidence samples (surge, resisting "
-                      f"force -Fx against u): X_u = {h[0]:.4g} N s/m, X_u|u| = {h[1]:.4g} "
-                      f"N s^2/m^2, RMS residual {float((res ** 2).mean() ** 0.5):.3g} N "
-                      "(for reading only: models/hydrodynamics.yaml is not changed here)."]
-    failed = [r for r in results.values() if r.get("status") != "ok"]
-    if failed:
-        lines += ["", "Failed cases:", ""] + [f"- {r['case']}: {r.get('reason', '')[:300]}"
-                                              for r in failed]
-    left = [c.name for c in cases_for("all", "medium") if c.name not in results]
+
+def _drag_parts(row: dict) -> str:
+    """Pressure / viscous drag [N] of a case at zero incidence (the body moves along +x)."""
+    return f"{-_num(row, 'Fx_pressure'):.4f} / {-_num(row, 'Fx_viscous'):.4f}"
+
+
+def sweep_mesh_of(rows) -> str:
+    """The mesh the robot's pitched and yawed samples were run on (the most common one)."""
+    meshes = [r["mesh"] for r in rows if r["shape"] == "robot"
+              and (_num(r, "pitch_deg") or _num(r, "yaw_deg"))]
+    return max(MESH_CHOICES, key=meshes.count) if meshes else "medium"
+
+
+def report_block(rows: list[dict]) -> str:
+    """The results of docs/cfd.md (between its markers) from the samples: the rows of
+    ``models/cfd/robot_samples.csv`` and ``validation_samples.csv`` (or ``sample_row`` of
+    finished cases), the sweep's mesh read from them."""
+    mesh = sweep_mesh_of(rows)
+    by_name = {_case_name(r): r for r in rows}
+    planned = [c.name for c in cases_for("all", mesh)]
+    extra = [n for n in by_name if n not in planned]
+    lines = [BEGIN, "", f"Cases finished: {sum(n in by_name for n in planned)} of "
+             f"{len(planned)} (the sweep on the {mesh} mesh), and {len(extra)} more on "
+             "another mesh.", ""]
+    lines += _validation_lines(by_name) + _grid_lines(by_name) + _sweep_lines(rows)
+    left = [n for n in planned if n not in by_name]
     lines += ["", f"Not run yet ({len(left)}): " + (", ".join(left) if left else "none") + ".",
               "", END]
     return "\n".join(lines)
 
 
-def write_report(out: pathlib.Path, page: pathlib.Path) -> None:
+def _validation_lines(by_name: dict) -> list[str]:
+    from manta_drake.studies.cfd.case import SPHERE_SPEED, CaseSpec
+
+    lines = ["### Validation: sphere at Re = 1e5", "",
+             f"Reference C_D = {SPHERE_CD_REFERENCE} (subcritical, standard drag curve).", "",
+             "| mesh | cells | C_D | C_D / 0.47 | pressure / viscous (N) | y+ avg / max | "
+             "iterations | wall (s) | CPU (s) |", "|---|---|---|---|---|---|---|---|---|"]
+    for mesh in ("coarse", "medium", "fine"):
+        r = by_name.get(CaseSpec("sphere", SPHERE_SPEED, mesh=mesh).name)
+        if r:
+            cd = _num(r, "cd")
+            lines.append(f"| {mesh} | {r['cells']} | {cd:.3f} | "
+                         f"{cd / SPHERE_CD_REFERENCE:.2f} | {_drag_parts(r)} | "
+                         f"{_num(r, 'yplus_avg'):.0f} / {_num(r, 'yplus_max'):.0f} | "
+                         f"{_iterations(r)} | {r['wall_s']} | {r['cpu_s']} |")
+    lines += ["", "### Pipeline check: the hull alone at 0.4 m/s", "",
+              "| mesh | cells | drag (N) | hydro_refs.md (N, cells) | pressure / viscous (N) | "
+              "y+ avg / max | iterations | wall (s) |", "|---|---|---|---|---|---|---|---|"]
+    for mesh, (ref, ref_cells) in HULL_REFERENCE_N.items():
+        r = by_name.get(CaseSpec("hull", 0.4, mesh=mesh).name)
+        if r:
+            lines.append(f"| {mesh} | {r['cells']} | {_num(r, 'drag'):.4f} | {ref} "
+                         f"({ref_cells}) | {_drag_parts(r)} | {_num(r, 'yplus_avg'):.1f} / "
+                         f"{_num(r, 'yplus_max'):.0f} | {_iterations(r)} | {r['wall_s']} |")
+    return lines
+
+
+def _grid_lines(by_name: dict) -> list[str]:
+    from manta_drake.studies.cfd.case import CaseSpec
+
+    lines = ["", "### Robot: grid convergence at 0.4 m/s, zero incidence", "",
+             "| mesh | base cell (m) | cells | drag (N) | change from the previous mesh | "
+             "pressure / viscous (N) | y+ avg / max | iterations | wall (s) | CPU (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    drags, prev = [], None
+    for mesh in MESH_CHOICES:
+        case = CaseSpec("robot", 0.4, mesh=mesh)
+        r = by_name.get(case.name)
+        if not r:
+            continue
+        drag = _num(r, "drag")
+        change = f"{100 * (drag / prev - 1):+.1f} %" if prev else ""
+        prev = drag
+        drags.append(drag)
+        lines.append(f"| {mesh} | {case.mesh_spec.base_cell:.4g} | {r['cells']} | "
+                     f"{drag:.4f} | {change} | {_drag_parts(r)} | "
+                     f"{_num(r, 'yplus_avg'):.1f} / {_num(r, 'yplus_max'):.0f} | "
+                     f"{_iterations(r)} | {r['wall_s']} | {r['cpu_s']} |")
+    if len(drags) == 3:
+        p, gci = _grid_convergence(drags)
+        lines += ["", (f"Observed order {p:.2f}, fine-mesh GCI {100 * gci:.1f} % (Celik et al. "
+                       "2008, safety factor 1.25)." if p is not None else
+                       "The three drags do not change monotonically: no observed order.")]
+    return lines
+
+
+def _sweep_lines(rows) -> list[str]:
+    from manta_drake.model.coefficients import fit_damping
+
+    mesh = sweep_mesh_of(rows)
+    lines = ["", "### Robot: the sweep (body frame: x forward, y left, z up; N and N m about "
+             "the CG; the last iteration's forces, and the drag's spread over the last 10 % "
+             "of the iterations)", "",
+             "| U (m/s) | pitch | yaw | mesh | Fx | Fy | Fz | Mx | My | Mz | cells | "
+             "iterations | drag spread (last 10 %) | wall (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    sweep = [r for r in rows if r["shape"] == "robot"
+             and not (_num(r, "speed") == 0.4 and not _num(r, "pitch_deg")
+                      and not _num(r, "yaw_deg") and r["mesh"] not in (mesh, "medium"))]
+    order = {m: i for i, m in enumerate(MESH_CHOICES)}
+    sweep.sort(key=lambda r: (order[r["mesh"]] != order[mesh], order[r["mesh"]],
+                              _num(r, "yaw_deg"), _num(r, "pitch_deg"), _num(r, "speed")))
+    for r in sweep:
+        forces = " | ".join(f"{_num(r, k):.4g}" for k in ("Fx", "Fy", "Fz", "Mx", "My", "Mz"))
+        lines.append(f"| {_num(r, 'speed'):g} | {_num(r, 'pitch_deg'):g} | "
+                     f"{_num(r, 'yaw_deg'):g} | {r['mesh']} | {forces} | {r['cells']} | "
+                     f"{_iterations(r)} | {100 * _num(r, 'drag_tail_spread'):.1f} % | "
+                     f"{r['wall_s']} |")
+    for m in dict.fromkeys(r["mesh"] for r in sweep):
+        surge = sorted((_num(r, "speed"), -_num(r, "Fx")) for r in sweep if r["mesh"] == m
+                       and not _num(r, "pitch_deg") and not _num(r, "yaw_deg"))
+        if len(surge) >= 2:
+            h, res = fit_damping([u for u, _ in surge], [x for _, x in surge])
+            lines += ["", f"Eq. (4) on the {len(surge)} zero-incidence samples of the {m} "
+                          f"mesh (surge, resisting force -Fx against u): X_u = {h[0]:.4g} "
+                          f"N s/m, X_u|u| = {h[1]:.4g} N s^2/m^2, RMS residual "
+                          f"{float((res ** 2).mean() ** 0.5):.3g} N (for reading only: "
+                          "the model's damping is identified from the hull's and fins' "
+                          "parts by `scripts/identify_damping.py`)."]
+    return lines
+
+
+def samples(csv_dir: pathlib.Path) -> list[dict]:
+    """Every committed sample row (robot and validation) of ``csv_dir``."""
+    return [r for name in ("validation_samples.csv", "robot_samples.csv")
+            for r in read_samples(pathlib.Path(csv_dir) / name)]
+
+
+def write_report(rows: list[dict], page: pathlib.Path) -> None:
     from manta_drake.studies.stamp import replace_marked_block
 
-    replace_marked_block(page, report_block(out), BEGIN, END)
+    replace_marked_block(page, report_block(rows), BEGIN, END)
 
 
 def write_progress(path: pathlib.Path, out: pathlib.Path, cases, command: str,
@@ -371,8 +428,9 @@ def parse_args(argv, prog):
                         help="the report page whose results block is rewritten (default "
                              "docs/cfd.md; '' for none)")
     parser.add_argument("--tables-only", action="store_true",
-                        help="run nothing: write the samples and the report from the cases "
-                             "already under --out")
+                        help="run nothing: write the samples from the cases already under "
+                             "--out, then the report from the samples in --csv-dir (--out "
+                             f"{TABLES_FROM_SAMPLES}: from the samples alone)")
     args = parser.parse_args(argv)
     if args.cases not in CASE_SETS:
         raise CfdError(f"--cases {args.cases!r}: expected one of {', '.join(CASE_SETS)}")
@@ -403,13 +461,15 @@ def main(argv=None, prog=None) -> int:
     out_md = pathlib.Path(args.out_md) if args.out_md else None
     if args.tables_only:
         out = pathlib.Path(args.out)
-        if not out.is_dir():
-            raise CfdError(f"--out {args.out}: no such folder of cases")
-        if args.csv_dir:
+        if out.is_dir():
             counts = write_samples(out, pathlib.Path(args.csv_dir))
             print(f"samples: {counts}")
+        elif args.out != TABLES_FROM_SAMPLES:
+            raise CfdError(f"--out {args.out}: no such folder of cases (--out "
+                           f"{TABLES_FROM_SAMPLES} with --tables-only: the page from the "
+                           "committed samples alone)")
         if out_md is not None:
-            write_report(out, out_md)
+            write_report(samples(pathlib.Path(args.csv_dir)), out_md)
             print(f"report: {out_md}")
         return 0
     if not run.openfoam_available():
@@ -460,8 +520,8 @@ def main(argv=None, prog=None) -> int:
     if csv_dir is not None:
         counts = write_samples(out, csv_dir)
         print(f"samples: {', '.join(f'{csv_dir / k} ({v} rows)' for k, v in counts.items())}")
-    if out_md is not None and out_md.exists():
-        write_report(out, out_md)
+    if out_md is not None and out_md.exists() and csv_dir is not None:
+        write_report(samples(csv_dir), out_md)
         print(f"report: {out_md}")
     return 1 if failed else 0
 

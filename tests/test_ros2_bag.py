@@ -311,3 +311,93 @@ def test_decimate_keeps_the_first_sample_at_or_after_each_grid_time():
     np.testing.assert_array_equal(decimate(slow, 10.0), np.arange(11))
     np.testing.assert_array_equal(decimate(slow, 5.0), np.arange(0, 11, 2))
     assert len(decimate(np.zeros(0), 10.0)) == 0
+
+
+# --- a measured bag for calibrate ----------------------------------------------------------
+
+def _calibration(folder, experiments: str) -> pathlib.Path:
+    path = folder / "calibration.yaml"
+    path.write_text("parameters:\n  - {name: hull, coefficients: [body.linear_damping]}\n"
+                    "experiments:\n" + experiments)
+    return path
+
+
+def _experiment(name: str, measured, extra: str = "") -> str:
+    return (f"  - {{name: {name}, scenario: four_behaviors, overrides: {{duration: {DURATION}}}, "
+            f"measured: {measured}{extra}}}\n")
+
+
+def test_calibrate_reads_the_same_trajectory_from_a_bag_as_from_its_csv(bagged, tmp_path):
+    """The pose topic of a run's bag (a rosbag2 folder, or its bare .mcap) gives the arrays
+    of a CSV written from the run's log.npz at the same times (yaw from Drake's rpy there,
+    from the quaternion here); the depth topic gives z = -depth - the sensor's height."""
+    from manta_drake.calibrate.loading import experiment_measured, load_calibration
+
+    out, log, scenario = bagged
+    rows = decimate(log["t"], TOPICS.topics["pose"].rate_hz)
+    lines = ["t,x,y,z,yaw"] + [",".join(repr(float(v)) for v in (
+        log["t"][i], *log["body_xyz"][i], log["body_rpy"][i, 2])) for i in rows]
+    (tmp_path / "pose.csv").write_text("\n".join(lines) + "\n")
+    config = load_calibration(_calibration(tmp_path, "".join([
+        _experiment("csv", "pose.csv"),
+        _experiment("bag", out, ", topics: {pose: /manta/pose, joint_states: "
+                                "/manta/joint_states}"),
+        _experiment("mcap", out / "run.mcap", ", topics: {pose: /manta/pose}"),
+        _experiment("depth", out, ", topics: {depth: /manta/pressure}, columns: [z]")])))
+    csv, bag, mcap_file, depth = (experiment_measured(config, e) for e in config.experiments)
+    for measured in (bag, mcap_file):
+        for column in ("t", "x", "y", "z", "yaw"):
+            np.testing.assert_allclose(measured[column], csv[column], rtol=0, atol=1e-12)
+    joint_rows = _rows_at(log["t"], np.round(bag["joint_t"] * 1e9).astype(np.int64))
+    np.testing.assert_array_equal(bag["joint_positions"], log["joint_angles"][joint_rows])
+    depth_rows = _rows_at(log["t_depth"], np.round(depth["t"] * 1e9).astype(np.int64))
+    expected = -log["depth"][depth_rows, 0] - scenario.pressure_sensor.position[2]
+    np.testing.assert_allclose(depth["z"], expected, rtol=0, atol=1e-9)
+
+
+def test_calibrating_against_a_runs_own_bag_finds_that_run(bagged, tmp_path, capsys):
+    """``manta-drake calibrate`` with the run's bag as the measurement: the simulation at the
+    run's own coefficients is the measurement (stamps, positions and headings line up), so
+    the cost there is zero to round-off and the fit stays at 1."""
+    import json
+
+    out = bagged[0]
+    path = _calibration(tmp_path, _experiment(
+        "own", out / "run.mcap", ", topics: {pose: /manta/pose}"))
+    path.write_text(path.read_text() + "optimizer: {max_evaluations: 2}\n")
+    assert main(["calibrate", str(path), "--out", str(tmp_path / "fit"), "--workers", "0",
+                 "--quiet"]) == 0
+    history = json.loads((tmp_path / "fit" / "calibration.json").read_text())
+    assert history["cost"] < 1e-20 and history["initial_cost"] < 1e-20
+    assert [p["fitted"] for p in history["parameters"]] == [1.0]
+    assert (tmp_path / "fit" / "calibration.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("measured, extra, words", [
+    ("BAG", ", topics: {pose: /manta/nowhere}", "has no topic /manta/nowhere (its topics: "),
+    ("BAG", ", topics: {pose: /manta/imu}", "topic /manta/imu is sensor_msgs/msg/Imu; "
+                                            "allowed: geometry_msgs/msg/PoseStamped"),
+    ("BAG", ", topics: {pose: /manta/pose, depth: /manta/pressure}",
+     "topics: name the bag's pose or depth topic (one of them)"),
+    ("BAG", ", topics: {depth: /manta/pressure}", "columns: ['x', 'y', 'z', 'yaw'] must be "
+                                                  "some of z"),
+    ("BAG", ", topics: {sonar: /s}", "topics.sonar: not one of pose, depth, joint_states"),
+    ("BAG", ", topics: {pose: /manta/pose, joint_states: /manta/joint_commands}", None),
+    ("pose.csv", ", topics: {pose: /manta/pose}", "topics: only for a measured ROS 2 bag"),
+    ("nothing.mcap", ", topics: {pose: /manta/pose}", "nothing.mcap: no such bag"),
+])
+def test_a_bad_measured_bag_is_refused_in_one_line(bagged, tmp_path, measured, extra, words):
+    from manta_drake.calibrate.loading import load_calibration
+    from manta_drake.sweep.config import SweepError
+
+    out = bagged[0]
+    (tmp_path / "pose.csv").write_text("t,x,y,z,yaw\n0,0,0,0,0\n1,0,0,0,0\n")
+    path = _calibration(tmp_path, _experiment("e", out if measured == "BAG" else measured,
+                                              extra))
+    if words is None:  # joint commands are joint states: a bag may name them so
+        load_calibration(path)
+        return
+    with pytest.raises(SweepError) as error:
+        load_calibration(path)
+    assert "calibration.experiments[0]" in str(error.value) and words in str(error.value)
+    assert len(str(error.value).splitlines()) == 1

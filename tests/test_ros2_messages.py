@@ -168,8 +168,10 @@ def test_quaternion_from_rpy_is_the_rotation_rz_ry_rx(rpy):
     w, x, y, z = m.quaternion_from_rpy(*rpy)
     q = type("Q", (), {"w": w, "x": x, "y": y, "z": z})
     np.testing.assert_allclose(_matrix_of(q), _rotation(rpy), atol=1e-15)
-    assert m.yaw_of_quaternion(w, x, y, z) == pytest.approx(math.atan2(
-        _rotation(rpy)[1, 0], _rotation(rpy)[0, 0]), abs=1e-14)
+    yaw = math.atan2(_rotation(rpy)[1, 0], _rotation(rpy)[0, 0])
+    assert m.yaw_of_quaternion(w, x, y, z) == pytest.approx(yaw, abs=1e-14)
+    # A quaternion off unit norm (a simulator's state) has the same heading.
+    assert m.yaw_of_quaternion(*(1.3 * np.array([w, x, y, z]))) == pytest.approx(yaw, abs=1e-14)
 
 
 def test_pressure_and_depth_are_inverse_closed_forms():

@@ -136,25 +136,42 @@ def write_mcap(path: pathlib.Path, topic_map: TopicMap, streams: dict) -> None:
         writer.finish()
 
 
-def metadata(topic_map: TopicMap, streams: dict) -> dict:
-    """The bag's rosbag2 metadata (version 5) as a mapping."""
-    stamps = [t for stream in streams.values() for t, _ in stream]
-    start, end = (min(stamps), max(stamps)) if stamps else (0, 0)
-    count = len(stamps)
-    span = {"starting_time": {"nanoseconds_since_epoch": start},
-            "duration": {"nanoseconds": end - start}}
-    topics = [{"topic_metadata": {"name": topic_map.topics[name].topic,
-                                  "type": topic_map.topics[name].type,
+def rosbag2_metadata(file_name: str, topics: list[dict], start_ns: int, end_ns: int) -> dict:
+    """rosbag2's metadata (version 5) of one storage file ``file_name`` holding ``topics``
+    (each ``{name, type, qos, count}``, ``qos`` the offered profiles' text) from
+    ``start_ns`` to ``end_ns``."""
+    count = sum(t["count"] for t in topics)
+    span = {"starting_time": {"nanoseconds_since_epoch": start_ns},
+            "duration": {"nanoseconds": end_ns - start_ns}}
+    listed = [{"topic_metadata": {"name": t["name"], "type": t["type"],
                                   "serialization_format": "cdr",
-                                  "offered_qos_profiles": qos_text(topic_map.topics[name].qos)},
-               "message_count": len(stream)} for name, stream in streams.items()]
+                                  "offered_qos_profiles": t["qos"]},
+               "message_count": t["count"]} for t in topics]
     return {"rosbag2_bagfile_information": {
         "version": METADATA_VERSION, "storage_identifier": "mcap",
         "duration": span["duration"], "starting_time": span["starting_time"],
-        "message_count": count, "topics_with_message_count": topics,
+        "message_count": count, "topics_with_message_count": listed,
         "compression_format": "", "compression_mode": "",
-        "relative_file_paths": [BAG_FILE],
-        "files": [{"path": BAG_FILE, **span, "message_count": count}]}}
+        "relative_file_paths": [file_name],
+        "files": [{"path": file_name, **span, "message_count": count}]}}
+
+
+def metadata(topic_map: TopicMap, streams: dict) -> dict:
+    """The bag's rosbag2 metadata (version 5) as a mapping."""
+    stamps = [t for stream in streams.values() for t, _ in stream]
+    entries = {name: topic_map.topics[name] for name in streams}
+    return rosbag2_metadata(
+        BAG_FILE, [{"name": e.topic, "type": e.type, "qos": qos_text(e.qos),
+                    "count": len(streams[name])} for name, e in entries.items()],
+        min(stamps, default=0), max(stamps, default=0))
+
+
+def write_metadata(path: pathlib.Path, info: dict) -> None:
+    """``info`` (``rosbag2_metadata``) as ``metadata.yaml`` at ``path``, through a temporary
+    file and a rename."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(_yaml(info))
+    os.replace(tmp, path)
 
 
 def write_bag(folder, log: dict, topic_map: TopicMap, constants: Constants) -> BagSummary:
@@ -166,9 +183,7 @@ def write_bag(folder, log: dict, topic_map: TopicMap, constants: Constants) -> B
     write_mcap(tmp, topic_map, streams)
     os.replace(tmp, folder / BAG_FILE)
     info = metadata(topic_map, streams)
-    tmp = folder / f".{METADATA_FILE}.tmp"
-    tmp.write_text(_yaml(info))
-    os.replace(tmp, folder / METADATA_FILE)
+    write_metadata(folder / METADATA_FILE, info)
     top = info["rosbag2_bagfile_information"]
     start = top["starting_time"]["nanoseconds_since_epoch"]
     return BagSummary(folder, {topic_map.topics[n].topic: (topic_map.topics[n].type, len(s))

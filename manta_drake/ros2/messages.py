@@ -61,8 +61,10 @@ def quaternion_from_rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 
 def yaw_of_quaternion(w: float, x: float, y: float, z: float) -> float:
-    """The yaw [rad] of (w, x, y, z) in the roll-pitch-yaw convention above."""
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    """The yaw [rad] of (w, x, y, z) in the roll-pitch-yaw convention above: atan2(R10,
+    R00) in the form that holds for a quaternion of any norm (a simulator's state, a
+    driver's float round-off)."""
+    return math.atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z)
 
 
 def _vector3(v):

@@ -401,3 +401,13 @@ def test_a_bad_measured_bag_is_refused_in_one_line(bagged, tmp_path, measured, e
         load_calibration(path)
     assert "calibration.experiments[0]" in str(error.value) and words in str(error.value)
     assert len(str(error.value).splitlines()) == 1
+
+
+def test_docs_hold_the_shipped_topic_map_and_the_readme_points_to_them():
+    from manta_drake.ros2.topic_map import topic_table_markdown
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    docs = (root / "docs" / "ros2.md").read_text()
+    assert topic_table_markdown() in docs, "docs/ros2.md: paste topic_table_markdown()"
+    readme = (root / "README.md").read_text()
+    assert "docs/ros2.md" in readme and "`run.mcap`" in readme and "`metadata.yaml`" in readme

@@ -129,7 +129,8 @@ SIGNALS = {s.name: s for s in (
            "the simulated time (for nodes with `use_sim_time`)"),
     Signal("joint_states", "t", ("joint_angles", "joint_velocities"),
            {"sensor_msgs/msg/JointState": _joint_states},
-           "the 16 servos' measured angles [rad], rates [rad/s] and torques [N m]"),
+           "the 16 servos' measured angles [rad], rates [rad/s] and torques [N m] (the last "
+           "`joint_torque` at or before each sample)"),
     Signal("joint_commands", "t_command", ("commanded_joint_angles",),
            {"sensor_msgs/msg/JointState": _joint_commands},
            "the controller's desired angles [rad] (log.npz keeps no desired rates)"),

@@ -166,3 +166,20 @@ def _check_entry(where: str, name: str, entry: TopicEntry) -> None:
             or not 0 < rate <= MAX_RATE_HZ:
         raise TopicMapError(f"{where}.rate_hz: {short_repr(rate)} is outside the allowed range "
                             f"(0, {MAX_RATE_HZ:g}] Hz")
+
+
+def topic_table_markdown(topic_map: TopicMap | None = None) -> str:
+    """The topic map (default: the shipped one) as a Markdown table: signal, topic, type
+    (its alternatives after "or"), QoS, rate, the log arrays it is made of and what it is
+    (docs/ros2.md holds the shipped map's; a test checks)."""
+    topic_map = topic_map or load_topic_map()
+    rows = ["| signal | topic | type | QoS | rate | from `log.npz` | what |",
+            "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name, entry in topic_map.topics.items():
+        signal = SIGNALS[name]
+        others = [t for t in signal.types if t != entry.type]
+        kind = f"`{entry.type}`" + "".join(f" (or `{t}`)" for t in others)
+        arrays = ", ".join(f"`{a}`" for a in (signal.times, *signal.arrays))
+        rows.append(f"| `{name}` | `{entry.topic}` | {kind} | `{entry.qos}` | "
+                    f"{entry.rate_hz:g} Hz | {arrays} | {signal.what} |")
+    return "\n".join(rows) + "\n"

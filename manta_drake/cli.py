@@ -255,8 +255,10 @@ def _topic_map(args, wanted: bool = False):
 
 def print_bag(summary) -> None:
     """One line per topic of a bag (``ros2.bag.BagSummary``) and where it is."""
-    print(f"\n  ROS 2 bag: {summary.folder}/ (run.mcap, {summary.size_bytes / 1e3:.0f} kB, "
-          f"and metadata.yaml), {summary.start_ns / 1e9:g} to {summary.end_ns / 1e9:g} s")
+    from manta_drake.ros2 import BAG_FILE, METADATA_FILE
+
+    print(f"\n  ROS 2 bag: {summary.folder}/ ({BAG_FILE}, {summary.size_bytes / 1e3:.0f} kB, "
+          f"and {METADATA_FILE}), {summary.start_ns / 1e9:g} to {summary.end_ns / 1e9:g} s")
     for topic, (ros_type, count) in summary.topics.items():
         print(f"  {topic:<28} {ros_type:<34} {count} messages")
 
@@ -330,12 +332,11 @@ def _parser(argv) -> argparse.ArgumentParser:
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
-    _add_bag_options(p_run, "--bag", "also write the run as a ROS 2 bag (run.mcap and "
-                     "metadata.yaml; docs/ros2.md)")
+    _add_bag_options(p_run, with_flag=True)
     p_bag = sub.add_parser("bag", help="write a run folder's log.npz as a ROS 2 bag "
                            "(docs/ros2.md)")
     p_bag.add_argument("run_dir", help="a run's output folder (with log.npz and scenario.yaml)")
-    _add_bag_options(p_bag)
+    _add_bag_options(p_bag, with_flag=False)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     sub.add_parser("list", help="list the shipped scenarios")
     chosen = _command_in(argv)
@@ -348,12 +349,15 @@ def _parser(argv) -> argparse.ArgumentParser:
     return parser
 
 
-def _add_bag_options(parser, flag: str | None = None, help_text: str = "") -> None:
-    if flag:
-        parser.add_argument(flag, action="store_true", help=help_text)
+def _add_bag_options(parser, with_flag: bool) -> None:
+    """``--bag`` (``with_flag``) and ``--topic-map FILE`` (which then implies it)."""
+    if with_flag:
+        parser.add_argument("--bag", action="store_true", help="also write the run as a ROS 2 "
+                            "bag (run.mcap and metadata.yaml; docs/ros2.md)")
     parser.add_argument("--topic-map", metavar="FILE",
                         help="the bag's topics, types, QoS and rates: your changes to the "
-                        "shipped models/ros2_topics.yaml" + (" (implies --bag)" if flag else ""))
+                        "shipped models/ros2_topics.yaml"
+                        + (" (implies --bag)" if with_flag else ""))
 
 
 def _interrupted(e: KeyboardInterrupt) -> int:

@@ -1,6 +1,8 @@
 """The ``manta-drake`` command line.
 
     manta-drake run SCENARIO.yaml --out DIR [--duration S] [--set KEY=VALUE ...] [--no-meshcat]
+                    [--bag] [--topic-map FILE]
+    manta-drake bag RUN_DIR [--topic-map FILE]       (manta_drake.ros2: a run as a ROS 2 bag)
     manta-drake list
     manta-drake station SCENARIO.yaml --lcm URL      (manta_drake.seam)
     manta-drake controller SCENARIO.yaml --lcm URL   (manta_drake.seam)
@@ -126,9 +128,10 @@ _OPTION_FIELDS = {"--duration": "duration", "--no-meshcat": "visualization.meshc
 
 
 def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True,
-                  settings=(), received=()):
+                  settings=(), received=(), topic_map=None):
     """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
-    KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it.
+    KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it; with a
+    ``topic_map`` (``ros2.topic_map.TopicMap``) the run writes its ROS 2 bag too.
 
     Before the slow imports the output folder is checked and marked ``running``
     (``run_folder.starting_run``): an interrupt from then on leaves a metrics.json that
@@ -151,7 +154,7 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
             options["visualization.meshcat"] = False
         scenario = _scenario(path, settings, options)
         stop_if_signalled(received)
-        return run(scenario, out_dir, progress=progress, inputs=[path]), scenario
+        return run(scenario, out_dir, progress=progress, inputs=[path], bag=topic_map), scenario
 
 
 def _scenario(path, settings, options: dict):
@@ -239,10 +242,44 @@ def _list() -> int:
     return 0
 
 
+def _topic_map(args, wanted: bool = False):
+    """The topic map of ``--topic-map FILE`` (else the shipped one) when a bag is ``wanted``,
+    or ``--bag`` or ``--topic-map`` (which implies ``--bag``) asks for one, read and checked
+    before anything else; None otherwise."""
+    if not (wanted or getattr(args, "bag", False) or args.topic_map):
+        return None
+    from manta_drake.ros2.topic_map import load_topic_map
+
+    return load_topic_map(args.topic_map)
+
+
+def print_bag(summary) -> None:
+    """One line per topic of a bag (``ros2.bag.BagSummary``) and where it is."""
+    from manta_drake.ros2 import BAG_FILE, METADATA_FILE
+
+    print(f"\n  ROS 2 bag: {summary.folder}/ ({BAG_FILE}, {summary.size_bytes / 1e3:.0f} kB, "
+          f"and {METADATA_FILE}), {summary.start_ns / 1e9:g} to {summary.end_ns / 1e9:g} s")
+    for topic, (ros_type, count) in summary.topics.items():
+        print(f"  {topic:<28} {ros_type:<34} {count} messages")
+
+
 def _run(args, received=()) -> int:
+    topic_map = _topic_map(args)
     result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
-                              progress=not args.quiet, settings=args.set, received=received)
+                              progress=not args.quiet, settings=args.set, received=received,
+                              topic_map=topic_map)
     print_metrics(result.metrics, result.out_dir)
+    if result.bag is not None:
+        print_bag(result.bag)
+    return 0
+
+
+def _bag(args) -> int:
+    """``manta-drake bag RUN_DIR``: an existing run folder's log as a ROS 2 bag."""
+    topic_map = _topic_map(args, wanted=True)
+    from manta_drake.ros2.bag import bag_run_folder
+
+    print_bag(bag_run_folder(args.run_dir, topic_map))
     return 0
 
 
@@ -295,6 +332,11 @@ def _parser(argv) -> argparse.ArgumentParser:
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
+    _add_bag_options(p_run, with_flag=True)
+    p_bag = sub.add_parser("bag", help="write a run folder's log.npz as a ROS 2 bag "
+                           "(docs/ros2.md)")
+    p_bag.add_argument("run_dir", help="a run's output folder (with log.npz and scenario.yaml)")
+    _add_bag_options(p_bag, with_flag=False)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     sub.add_parser("list", help="list the shipped scenarios")
     chosen = _command_in(argv)
@@ -305,6 +347,17 @@ def _parser(argv) -> argparse.ArgumentParser:
         else:  # listed by --help; its options are read only when it is the command
             sub.add_parser(command, help=help_text, add_help=False)
     return parser
+
+
+def _add_bag_options(parser, with_flag: bool) -> None:
+    """``--bag`` (``with_flag``) and ``--topic-map FILE`` (which then implies it)."""
+    if with_flag:
+        parser.add_argument("--bag", action="store_true", help="also write the run as a ROS 2 "
+                            "bag (run.mcap and metadata.yaml; docs/ros2.md)")
+    parser.add_argument("--topic-map", metavar="FILE",
+                        help="the bag's topics, types, QoS and rates: your changes to the "
+                        "shipped models/ros2_topics.yaml"
+                        + (" (implies --bag)" if with_flag else ""))
 
 
 def _interrupted(e: KeyboardInterrupt) -> int:
@@ -332,6 +385,8 @@ def main(argv=None) -> int:
         try:
             if args.command in EXTENSIONS:
                 return getattr(_extension(args.command), f"{args.command}_main")(args)
+            if args.command == "bag":
+                return _bag(args)
             return _list() if args.command == "list" else _run(args, received)
         except (KeyboardInterrupt, Exception) as e:  # one clear line; --debug: the traceback
             if interruption(e, received):  # a signal, e.g. pydrake's ImportError for Ctrl-C

@@ -1,6 +1,7 @@
 """A run's output folder and the story its ``metrics.json`` tells, whatever ends the run.
 
-This module is light (the standard library; ``config_io`` for the folder check), so
+This module is light (the standard library; ``config_io`` for the folder check; the bag's
+file names from ``manta_drake.ros2``), so
 ``manta-drake run`` turns signals into exceptions, checks the folder and marks it
 ``running`` before the slow imports (pydrake) start: an interrupt at any moment after that
 leaves a metrics.json that says why.
@@ -27,9 +28,12 @@ import signal
 import threading
 import time
 
-# The files a run writes (and the only ones it removes from an old output folder).
+from manta_drake.ros2 import BAG_FILES
+
+# The files a run writes (and the only ones it removes from an old output folder): the bag's
+# (``manta-drake run --bag``) too, so a run without one leaves no earlier run's bag.
 OUTPUT_FILES = ("scenario.yaml", "recording.html", "log.npz", "metrics.json", "joints.png",
-                "states.png", "trajectory.png")
+                "states.png", "trajectory.png", *BAG_FILES)
 SCENARIO_HEADER = ("# The resolved scenario of this run (every field, overrides applied); run it "
                    "again\n# with: manta-drake run scenario.yaml --out DIR\n")
 # The signals that stop a run with its story written: Ctrl-C, kill / a service manager, a

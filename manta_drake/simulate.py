@@ -6,7 +6,9 @@ and writes into ``out_dir``:
 * ``recording.html``: self-contained Meshcat recording (if visualisation is on);
 * ``log.npz``: time series (see ``LOG_KEYS``);
 * ``metrics.json``: the run's metrics (see ``compute_metrics`` and docs/design.md);
-* ``joints.png``, ``states.png``, ``trajectory.png``.
+* ``joints.png``, ``states.png``, ``trajectory.png``;
+* ``run.mcap`` and ``metadata.yaml``: the log as a ROS 2 bag (with a topic map,
+  ``manta_drake.ros2.bag``).
 
 If the simulation fails part-way, the log up to the failure and a
 ``metrics.json`` with ``status: failed``, the time and the reason are still
@@ -77,6 +79,7 @@ class RunResult:
     log: dict
     handles: DiagramHandles | None = None
     context: object = None  # the root context at the end of the run
+    bag: object = None  # the bag's ros2.bag.BagSummary, if one was written
 
 
 def _progress(total: float, enabled: bool):
@@ -326,7 +329,7 @@ def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseEx
 
 
 def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True,
-        inputs=(), prepare=None) -> RunResult:
+        inputs=(), prepare=None, bag=None) -> RunResult:
     """Simulates ``scenario`` and writes its outputs into ``out_dir``.
 
     The folder is checked before anything is built (``check_output_folder``). This
@@ -350,6 +353,9 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
             a gait file the scenario names.)
         progress: show a progress bar on stderr (only when stderr is a terminal).
         write_outputs: write plots and the recording (tests may skip them).
+        bag: a ``ros2.topic_map.TopicMap``: write the log as a ROS 2 bag too (``run.mcap``
+            and ``metadata.yaml``, ``ros2.bag.write_run_bag``), unless interrupted; None: no
+            bag.
 
     Returns:
         RunResult with ``.metrics``, ``.log``, ``.handles`` and the final ``.context``.
@@ -363,7 +369,7 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     out_dir = check_output_folder(out_dir, inputs)
     with interrupts_as_exceptions() as received:
         try:
-            return _run(scenario, out_dir, progress, write_outputs, prepare, received)
+            return _run(scenario, out_dir, progress, write_outputs, prepare, received, bag)
         except RunInterrupted as stop:
             with signals_deferred():
                 _story_of_a_signal_between_stages(scenario, out_dir, stop)
@@ -422,7 +428,7 @@ def _build(scenario: Scenario, out_dir: pathlib.Path, prepare, received):
 
 
 def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
-         write_outputs: bool, prepare, received) -> RunResult:
+         write_outputs: bool, prepare, received, bag=None) -> RunResult:
     diagram, handles, simulator = _build(scenario, out_dir, prepare, received)
     root_context = simulator.get_mutable_context()
     failure, interrupted = None, None
@@ -477,8 +483,9 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
                 raise interrupted from e
             raise SimulationError(f"{scenario.name}: the run's log or metrics failed: "
                                   f"{type(e).__name__}: {e} (metrics.json in {out_dir})") from e
-        _write_outputs(scenario, out_dir, handles, log, metrics,
-                       write_outputs and not interrupted)
+        summary = _write_outputs(scenario, out_dir, handles, log, metrics,
+                                 write_outputs and not interrupted,
+                                 None if interrupted else bag)
     if interrupted:
         raise interrupted
     stop_if_signalled(signals)  # a signal after the last step: the story was written first
@@ -488,7 +495,7 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
             f"{scenario.name}: simulation failed at t = {failure['time_s']:.3f} s: "
             f"{failure['reason']} (partial log in {out_dir})"
         )
-    return RunResult(metrics, out_dir, log, handles, root_context)
+    return RunResult(metrics, out_dir, log, handles, root_context, summary)
 
 
 def _write_failed_metrics(scenario: Scenario, out_dir: pathlib.Path, time_s: float,
@@ -521,9 +528,10 @@ def _finish(scenario: Scenario, handles: DiagramHandles, diagram, root_context,
 
 
 def _write_outputs(scenario: Scenario, out_dir: pathlib.Path, handles: DiagramHandles,
-                   log: dict, metrics: dict, plots_and_recording: bool) -> None:
-    """The log, the plots and the recording, then metrics.json (last: its presence says
-    the others are complete)."""
+                   log: dict, metrics: dict, plots_and_recording: bool, bag=None):
+    """The log, the plots and the recording, the bag (with a topic map ``bag``), then
+    metrics.json (last: its presence says the others are complete). Returns the bag's
+    summary (None: no bag)."""
     tmp_log = out_dir / ".log.npz.tmp.npz"
     np.savez_compressed(tmp_log, **log)
     os.replace(tmp_log, out_dir / "log.npz")
@@ -538,4 +546,10 @@ def _write_outputs(scenario: Scenario, out_dir: pathlib.Path, handles: DiagramHa
             handles.visualizer.StopRecording()
             handles.visualizer.PublishRecording()
             write_atomic(out_dir / "recording.html", handles.meshcat.StaticHtml())
+    summary = None
+    if bag is not None and len(log["t"]):
+        from manta_drake.ros2.bag import write_run_bag
+
+        summary = write_run_bag(out_dir, log, scenario, bag)
     write_metrics(out_dir, metrics)
+    return summary

@@ -17,6 +17,9 @@ LAYERS = [
     ("halves", ["manta_drake.station", "manta_drake.control"], True),
     ("modalities", ["manta_drake.modalities"], False),
     ("scenario", ["manta_drake.scenario"], False),
+    # ROS 2 messages, topic map and bags: below the run that writes a bag and the seam
+    # that will publish the same messages.
+    ("ros2", ["manta_drake.ros2"], True),
     ("wiring", ["manta_drake.wiring"], True),
     ("running", ["manta_drake.metrics", "manta_drake.plots", "manta_drake.simulate",
                  "manta_drake.run_folder"], True),

@@ -7,7 +7,11 @@ hydrodynamic coefficients (``body.linear_damping``, or a lumped hull damping tha
 ``scipy.optimize.least_squares`` so that simulated runs match measured ones:
 
 * a trajectory: a CSV with columns ``t, x, y, z, yaw`` (s, m in the pool's world frame of
-  the scenario, yaw in rad), compared sample by sample; or
+  the scenario, yaw in rad), or a ROS 2 bag (a rosbag2 folder or an ``.mcap`` file, read
+  with rosbags) whose ``topics`` name its ``pose`` topic (PoseStamped,
+  PoseWithCovarianceStamped or Odometry: x, y, z, yaw) or its ``depth`` topic
+  (FluidPressure or Float64: z) and, read and checked, its ``joint_states``, compared
+  sample by sample; or
 * target mean velocities (``u``, ``v`` [m/s], ``yaw_rate_deg_s``), compared with the run's
   metrics.
 
@@ -24,7 +28,7 @@ to), ``calibration.png`` (measured against simulated before and after) and
 
 Checked before any simulation, each refused with one line naming the field or option: the
 file (keys, types, ranges, coefficients, scenarios and override values), every measured CSV
-against its experiment (UTF-8 text, the columns, finite numbers, times from 0 that increase
+or bag against its experiment (a bag's topics and their types) (UTF-8 text, the columns, finite numbers, times from 0 that increase
 and end within the run's duration), finite targets, and the output folder. A fit whose
 simulations at the fitted point did not all run to their end writes no coefficients file
 (``calibrate`` exits 1).
@@ -44,7 +48,7 @@ Example (diagrams/sweeps/calibration.yaml)::
     optimizer: {max_evaluations: 12, diff_step: 0.05}
 
 The package, one module per step: ``config`` (the file's dataclasses), ``loading``
-(``load_calibration``), ``measured`` (the trajectory CSVs), ``scenarios`` (from parameters
+(``load_calibration``), ``measured`` (the trajectory CSVs and bags), ``scenarios`` (from parameters
 to scenarios), ``run`` (one simulation on a worker), ``residuals``, ``evaluator`` (batches
 of simulations on Dask), ``fit`` (``calibrate``), ``results`` (the result and its files),
 ``figure`` (``calibration.png``), ``synthetic`` (synthetic measurements) and ``cli``.
@@ -68,8 +72,18 @@ from manta_drake.calibrate.fit import (
     check_calibration_out,
     standard_errors,
 )
-from manta_drake.calibrate.loading import load_calibration, validate_calibration
-from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured, write_measured
+from manta_drake.calibrate.loading import (
+    experiment_measured,
+    load_calibration,
+    validate_calibration,
+)
+from manta_drake.calibrate.measured import (
+    BAG_TOPICS,
+    TRAJECTORY_COLUMNS,
+    load_measured,
+    load_measured_bag,
+    write_measured,
+)
 from manta_drake.calibrate.residuals import (
     FAILED_RESIDUAL,
     target_residuals,
@@ -109,6 +123,7 @@ __all__ = [
     "TARGET_KEYS", "load_calibration", "validate_calibration",
     # measured trajectories
     "TRAJECTORY_COLUMNS", "load_measured", "write_measured", "synthesize_measurements",
+    "BAG_TOPICS", "load_measured_bag", "experiment_measured",
     # from parameters to simulations and residuals
     "parameter_scales", "experiment_scenario", "simulate_trajectory", "FAILED_RESIDUAL",
     "trajectory_residuals", "target_residuals", "Evaluator", "fd_points",

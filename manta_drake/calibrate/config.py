@@ -26,14 +26,18 @@ class CalibrationParameter:
 class Experiment:
     """One measured run: a scenario (with overrides) and its measurement.
 
-    ``measured``: a CSV (t, x, y, z, yaw) relative to the calibration file; ``columns``
-    says which of x, y, z, yaw enter the fit. ``target``: mean velocities instead (or too).
+    ``measured``: a CSV (t, x, y, z, yaw) relative to the calibration file, or a ROS 2 bag
+    (a rosbag2 folder or an ``.mcap`` file) whose ``topics`` name the ``pose`` (x, y, z,
+    yaw) or the ``depth`` (z) and optionally the ``joint_states`` (read and checked);
+    ``columns`` says which of x, y, z, yaw enter the fit. ``target``: mean velocities
+    instead (or too).
     """
 
     name: str = ""
     scenario: str = ""
     overrides: dict[str, Any] = dc.field(default_factory=dict)
     measured: str = ""
+    topics: dict[str, str] = dc.field(default_factory=dict)
     columns: list[str] = dc.field(default_factory=lambda: list(TRAJECTORY_COLUMNS))
     target: dict[str, float] = dc.field(default_factory=dict)
     weight: float = 1.0

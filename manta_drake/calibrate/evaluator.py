@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from manta_drake.calibrate.config import CalibrationConfig
-from manta_drake.calibrate.measured import load_measured
+from manta_drake.calibrate.loading import experiment_measured
 from manta_drake.calibrate.residuals import target_residuals, trajectory_residuals
 from manta_drake.calibrate.run import simulate_trajectory
 from manta_drake.calibrate.scenarios import experiment_scenario, parameter_scales, scenario_text
@@ -33,7 +33,7 @@ class Evaluator:
         self.cache: dict[tuple, dict] = {}
         self.history: list[dict] = []
         self.simulations = 0
-        self.measured = {e.name: load_measured(config.folder / e.measured, e.columns)
+        self.measured = {e.name: experiment_measured(config, e)
                          for e in config.experiments if e.measured}
         self._bar = None
         if progress:

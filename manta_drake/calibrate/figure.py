@@ -3,6 +3,7 @@ and after, and the cost and parameters at every evaluation."""
 
 from __future__ import annotations
 
+import dataclasses as dc
 import math
 import pathlib
 
@@ -10,7 +11,7 @@ import numpy as np
 
 from manta_drake.calibrate.config import CalibrationConfig
 from manta_drake.calibrate.evaluator import Evaluator
-from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured
+from manta_drake.calibrate.loading import experiment_measured, measured_columns
 from manta_drake.calibrate.results import CalibrationResult
 
 
@@ -31,8 +32,7 @@ def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
     for row, e in enumerate(config.experiments):
         ax_path, ax_z, ax_yaw = axes[row]
         if e.measured:
-            full = load_measured(config.folder / e.measured, [c for c in TRAJECTORY_COLUMNS
-                                 if c in _header(config.folder / e.measured)])
+            full = experiment_measured(config, dc.replace(e, columns=_available(config, e)))
             if "x" in full and "y" in full:
                 ax_path.plot(full["x"], full["y"], "k.", ms=3, label="measured")
             if "z" in full:
@@ -99,9 +99,12 @@ def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
     return path
 
 
-def _header(path) -> tuple:
-    with open(path) as f:
-        for line in f:
-            if not line.startswith("#"):
-                return tuple(c.strip() for c in line.split(","))
-    return ()
+def _available(config: CalibrationConfig, e) -> list:
+    """The columns experiment ``e``'s measurement holds: a CSV's header's, a bag's topics'."""
+    allowed = measured_columns(config, e)
+    path = config.folder / e.measured
+    if path.is_file() and path.suffix != ".mcap":
+        with open(path) as f:
+            header = next((line for line in f if not line.startswith("#")), "")
+        return [c for c in allowed if c in (h.strip() for h in header.split(","))]
+    return list(allowed)

@@ -15,7 +15,12 @@ from manta_drake.calibrate.config import (
     OptimizerConfig,
     Sigma,
 )
-from manta_drake.calibrate.measured import TRAJECTORY_COLUMNS, load_measured
+from manta_drake.calibrate.measured import (
+    BAG_TOPICS,
+    TRAJECTORY_COLUMNS,
+    load_measured,
+    load_measured_bag,
+)
 from manta_drake.calibrate.scenarios import base_scenario, experiment_scenario
 from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients
@@ -59,6 +64,43 @@ def load_calibration(path, require_data: bool = True) -> CalibrationConfig:
     )
     validate_calibration(config, require_data)
     return config
+
+
+def measured_columns(config: CalibrationConfig, e: Experiment,
+                     where: str = "calibration.experiment") -> tuple:
+    """The columns experiment ``e``'s measurement can give: a CSV's are x, y, z and yaw (its
+    header says which it holds); a bag's, those of its ``topics`` (``BAG_TOPICS``), which
+    are checked here: a bag names ``pose`` or ``depth`` (not both), a CSV no topics."""
+    from manta_drake.ros2.reading import is_bag
+
+    if not is_bag(config.folder / e.measured):
+        if e.topics:
+            raise SweepError(f"{where}.topics: only for a measured ROS 2 bag (a folder or an "
+                             f".mcap file); {e.measured} is a CSV")
+        return TRAJECTORY_COLUMNS
+    for key, topic in e.topics.items():
+        if key not in BAG_TOPICS:
+            raise SweepError(f"{where}.topics.{key}: not one of {', '.join(BAG_TOPICS)}")
+        if not (isinstance(topic, str) and topic.startswith("/")):
+            raise SweepError(f"{where}.topics.{key}: {topic!r} is not a topic name (/a/b)")
+    if ("pose" in e.topics) == ("depth" in e.topics):
+        raise SweepError(f"{where}.topics: name the bag's pose or depth topic (one of them), "
+                         f"e.g. {{pose: /manta/pose}}; got {sorted(e.topics) or 'none'}")
+    return BAG_TOPICS["pose" if "pose" in e.topics else "depth"]
+
+
+def experiment_measured(config: CalibrationConfig, e: Experiment, scenario=None,
+                        where: str = "measured") -> dict:
+    """Experiment ``e``'s measurement (its ``columns``): a CSV by ``load_measured``, a bag by
+    ``load_measured_bag``, checked against its run's duration. ``scenario``: the
+    experiment's (None: made here)."""
+    from manta_drake.ros2.reading import is_bag
+
+    scenario = scenario or experiment_scenario(config, e, {})
+    path = config.folder / e.measured
+    if is_bag(path):
+        return load_measured_bag(path, e.topics, e.columns, where, scenario.duration, scenario)
+    return load_measured(path, e.columns, where, duration=scenario.duration)
 
 
 def _positive(where: str, value) -> None:
@@ -123,13 +165,13 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
         if not e.measured and not e.target:
             raise SweepError(f"{where}: give `measured` (a CSV) or `target` (mean velocities)")
         if e.measured:
-            bad = [c for c in e.columns if c not in TRAJECTORY_COLUMNS]
+            allowed = measured_columns(config, e, where)
+            bad = [c for c in e.columns if c not in allowed]
             if bad or not e.columns or len(set(e.columns)) != len(e.columns):
                 raise SweepError(f"{where}.columns: {e.columns} must be some of "
-                                 f"{', '.join(TRAJECTORY_COLUMNS)}, each once")
+                                 f"{', '.join(allowed)}, each once")
             if require_data:
-                load_measured(config.folder / e.measured, e.columns, f"{where}.measured",
-                              duration=scenario.duration)
+                experiment_measured(config, e, scenario, f"{where}.measured")
         for key, value in e.target.items():
             if key not in TARGET_KEYS:
                 raise SweepError(f"{where}.target.{key}: not one of {', '.join(TARGET_KEYS)}")

@@ -1,5 +1,6 @@
 """Measured trajectories: the CSV files (``t, x, y, z, yaw``; ``#`` lines are comments) a
-calibration fits, read strictly (``load_measured``) and written (``write_measured``)."""
+calibration fits, read strictly (``load_measured``) and written (``write_measured``), and
+measured ROS 2 bags (``load_measured_bag``: a pose or a depth topic, and joint states)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,8 @@ from manta_drake.config_io import (
 from manta_drake.sweep.config import SweepError
 
 TRAJECTORY_COLUMNS = ("x", "y", "z", "yaw")
+# What an experiment's ``topics`` may name in a measured bag, and the columns each gives.
+BAG_TOPICS = {"pose": TRAJECTORY_COLUMNS, "depth": ("z",), "joint_states": ()}
 
 
 def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
@@ -56,7 +59,13 @@ def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
         raise SweepError(f"{where}: {path}: not a UTF-8 text (CSV) file") from None
     except OSError as e:
         raise SweepError(f"{where}: {path}: cannot be read: {e.strerror}") from None
-    t = out["t"]
+    check_times(out["t"], path, where, duration)
+    return out
+
+
+def check_times(t, path, where: str, duration: float | None) -> None:
+    """Measured times [s]: at least two, increasing, from t >= 0 and within ``duration``
+    (None: not checked); SweepError naming ``where`` and ``path`` otherwise."""
     if len(t) < 2:
         raise SweepError(f"{where}: {path}: t must increase, with at least two samples "
                          f"(got {len(t)})")
@@ -72,6 +81,69 @@ def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
         raise SweepError(f"{where}: {path}: t ends at {float(t[-1])!r} s, after the run's end "
                          f"(duration {duration!r} s; allowed: 0 <= t <= {duration!r}); "
                          "shorten the data or set the experiment's overrides: {duration: ...}")
+
+
+def load_measured_bag(path, topics: dict, columns=TRAJECTORY_COLUMNS, where: str = "measured",
+                      duration: float | None = None, scenario=None) -> dict:
+    """A measured trajectory from a ROS 2 bag, as ``load_measured`` gives a CSV's: ``t`` and
+    the named columns, from the ``pose`` topic (x, y, z [m] and the heading yaw [rad] of its
+    quaternion) or the ``depth`` topic (z = -depth - the pressure sensor's height in the
+    hull, the hull taken level; a FluidPressure's depth with the scenario's water density
+    and gravity); with ``joint_states``, ``joint_t`` and ``joint_positions`` (N, 16) too, in
+    the plant's joint order, checked but not fitted.
+
+    Args:
+        path: the bag: a rosbag2 folder or an ``.mcap`` file (``ros2.reading``).
+        topics: ``BAG_TOPICS`` key -> topic name.
+        columns: the columns that must be there.
+        where: the field that names the bag, for the messages.
+        duration: as ``load_measured``'s.
+        scenario: the experiment's Scenario (a depth topic needs it).
+
+    Raises:
+        SweepError: one line naming ``where`` and the bag: unreadable, a topic missing or
+            of another type, non-finite values, times as ``check_times`` refuses.
+    """
+    from manta_drake.ros2.reading import BagReadError, read_topics
+
+    try:
+        read = read_topics(path, {topics[k]: _topic_types(k) for k in BAG_TOPICS if k in topics})
+        out = _bag_columns(read, topics, scenario)
+    except BagReadError as e:
+        raise SweepError(f"{where}: {e}") from None
+    for key in ("t", *columns, "joint_positions"):
+        if key in out and not np.all(np.isfinite(out[key])):
+            bad = int(np.flatnonzero(~np.isfinite(out[key]).reshape(len(out[key]), -1)
+                                     .all(axis=1))[0])
+            raise SweepError(f"{where}: {path}: {key} is not finite at message {bad + 1} "
+                             "(a dropped reading?); the fit needs finite samples")
+    check_times(out["t"], path, where, duration)
+    if "joint_t" in out:
+        check_times(out["joint_t"], path, f"{where} (joint states)", duration)
+    return out
+
+
+def _topic_types(key: str) -> tuple:
+    from manta_drake.ros2.reading import DEPTH_TYPES, JOINT_TYPES, POSE_TYPES
+
+    return {"pose": tuple(POSE_TYPES), "depth": DEPTH_TYPES, "joint_states": JOINT_TYPES}[key]
+
+
+def _bag_columns(read: dict, topics: dict, scenario) -> dict:
+    """``t``, the trajectory columns and the joint arrays of a bag's topics."""
+    from manta_drake.model.robot_params import JOINT_NAMES
+    from manta_drake.ros2.reading import depth_track, joint_track, pose_track
+
+    if "pose" in topics:
+        out = pose_track(read[topics["pose"]])
+    else:
+        hydro = scenario.hydro_coefficients()
+        depth = depth_track(read[topics["depth"]], hydro.water_density.value,
+                            hydro.gravity.value)
+        out = {"t": depth["t"], "z": -depth["depth"] - scenario.pressure_sensor.position[2]}
+    if "joint_states" in topics:
+        joints = joint_track(read[topics["joint_states"]], JOINT_NAMES)
+        out.update(joint_t=joints["t"], joint_positions=joints["position"])
     return out
 
 

@@ -29,7 +29,7 @@ from manta_drake.seam.link import (
     STALE_AFTER_S,
     Link,
 )
-from manta_drake.seam.messages import CODECS, to_utime
+from manta_drake.seam.messages import to_utime
 from manta_drake.seam.plant_step_tick import controller_with_tick
 from manta_drake.seam.result import SeamResult
 from manta_drake.seam.schedule import (
@@ -143,7 +143,7 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
 
     Args:
         scenario: a validated Scenario (the station's).
-        url: the LCM URL (the station's).
+        url: the LCM URL (the station's), or a transport (``Link``).
         wall_clock: run on this machine's clock with the latest sensor messages (as on
             the robot), instead of lockstep with the station's time.
         timeout: give up after the station has been silent this long [s]; meanwhile the
@@ -188,7 +188,7 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     def command(t: float) -> None:
         for channel in sends:
             value = controller.GetOutputPort(channel.port).Eval(context)
-            link.publish(channel.name, CODECS[channel.codec].encode(t, value), to_utime(t))
+            link.publish(channel.name, link.message(channel, t, value), to_utime(t))
             if channel.port == "desired_state":
                 log["t_command"].append(t)
                 log["commanded_joint_angles"].append(value[:NUM_JOINTS].copy())
@@ -206,15 +206,16 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
         if link.last_arrival is None:
             return SeamError(f"controller: nothing from the station within {waited:.1f} s; is "
-                             "`manta-drake station` running with the same scenario, --lcm URL "
-                             f"and --wall-clock setting?{skipped}")
+                             "`manta-drake station` running with the same scenario, "
+                             f"{link.transport.medium.option} and --wall-clock setting?"
+                             f"{skipped}")
         return SeamError(f"controller: the station has been silent for {waited:.1f} s "
                          f"(last command stamped t = {state['last_t']:.3f} s, held until now); "
                          f"stopped{skipped}")
 
     if progress:
         warn(f"controller: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
-             f"station on {url}")
+             f"station on {link.url}")
     stopped = ""
     try:
         peer = link.shake_hands(startup_timeout)
@@ -248,7 +249,7 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     link.say_goodbye("finished")
     arrays = {k: np.array(v) for k, v in log.items() if len(v)}
     arrays.update(station_log.arrays())
-    return SeamResult("controller", mode, url, float(context.get_time()), wall, exchanges,
+    return SeamResult("controller", mode, link.url, float(context.get_time()), wall, exchanges,
                       link.resends, arrays, incidents=incidents.counts, stopped=stopped,
                       run_id=hello.run_id, peer_run_id=peer.run_id)
 
@@ -351,7 +352,7 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
             missing = sorted(c.name for c in reads if c.name not in latest)
             raise SeamError(f"controller: nothing on {', '.join(missing)} within "
                             f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
-                            "running with the same scenario and --lcm URL?")
+                            f"running with the same scenario and {link.transport.medium.option}?")
     fix_inputs(controller, context, guard.screen(latest, 0.0))
     simulator.Initialize()
     command(0.0)

@@ -15,6 +15,11 @@ bounces). So, as soon as both are up:
 
 When a side stops it sends its status once more (``finished``, ``stopped: ...`` for an end
 the scenario asks for, ``failed: ...``), so its peer names the reason at once.
+
+A message of the handshake is a ``Greeting`` (a Hello, the peer it names, request or
+reply, status); the transport carries it as its own type (over LCM an
+``lcmt_manta_handshake``: ``hello_message``, ``greeting_from_message``; over ROS 2 a
+``diagnostic_msgs/DiagnosticStatus``: ``manta_drake.seam.ros2_link``).
 """
 
 from __future__ import annotations
@@ -32,6 +37,20 @@ from manta_drake.seam.errors import PeerStopped, SeamError, warn
 HANDSHAKE_CHANNEL = "MANTA_SEAM_HANDSHAKE"
 ROLES = ("station", "controller")
 CLOCK_MODES = ("lockstep", "wall-clock")
+
+
+@dc.dataclass(frozen=True)
+class Medium:
+    """What a transport's meeting place is called in the handshake's lines."""
+
+    name: str  # "URL"
+    one: str  # "an LCM URL"
+    remedy: str  # how to keep two runs apart
+    option: str  # the option both sides must give alike
+
+
+LCM_MEDIUM = Medium("URL", "an LCM URL", "give each run a URL of its own (another port)",
+                    "--lcm URL")
 
 
 def new_run_id() -> str:
@@ -91,6 +110,17 @@ def failure_status(e: BaseException) -> str:
     return f"failed: {text}"
 
 
+@dc.dataclass(frozen=True)
+class Greeting:
+    """One handshake message: ``hello`` (who sends it), the peer's run id it names ("" before
+    pairing), a reply or a request, and the sender's end ("" while it runs)."""
+
+    hello: Hello
+    peer_run_id: str = ""
+    reply: bool = False
+    status: str = ""
+
+
 def hello_message(hello: Hello, peer_run_id: str = "", reply: bool = False,
                   status: str = "") -> lcmt_manta_handshake:
     """``hello`` as an ``lcmt_manta_handshake``."""
@@ -112,15 +142,31 @@ def hello_from_message(msg: lcmt_manta_handshake) -> Hello:
     Raises:
         SeamError: an unknown role or clock mode, a negative or non-finite duration or step.
     """
-    if msg.role not in ROLES or msg.clock_mode not in CLOCK_MODES:
-        raise SeamError(f"role {msg.role!r}, clock_mode {msg.clock_mode!r}; expected one of "
+    return check_hello(Hello(msg.role, msg.run_id, msg.scenario, msg.duration, msg.time_step,
+                             msg.clock_mode, tuple(msg.channels), msg.host, msg.pid))
+
+
+def check_hello(hello: Hello) -> Hello:
+    """``hello`` if its role, clock mode, duration and step can be; else SeamError (what a
+    transport's decoder raises for a greeting that is not one)."""
+    if hello.role not in ROLES or hello.clock_mode not in CLOCK_MODES:
+        raise SeamError(f"role {hello.role!r}, clock_mode {hello.clock_mode!r}; expected one of "
                         f"{ROLES} and of {CLOCK_MODES}")
     for name in ("duration", "time_step"):
-        value = getattr(msg, name)
+        value = getattr(hello, name)
         if not (math.isfinite(value) and value >= 0):
             raise SeamError(f"{name} {value}; expected a finite number >= 0")
-    return Hello(msg.role, msg.run_id, msg.scenario, msg.duration, msg.time_step,
-                 msg.clock_mode, tuple(msg.channels), msg.host, msg.pid)
+    return hello
+
+
+def greeting_message(greeting: Greeting) -> lcmt_manta_handshake:
+    """``greeting`` as an ``lcmt_manta_handshake`` (the LCM seam's)."""
+    return hello_message(greeting.hello, greeting.peer_run_id, greeting.reply, greeting.status)
+
+
+def greeting_from_message(msg: lcmt_manta_handshake) -> Greeting:
+    """The Greeting of an ``lcmt_manta_handshake``; SeamError as ``hello_from_message``."""
+    return Greeting(hello_from_message(msg), msg.peer_run_id, bool(msg.reply), msg.status)
 
 
 def mismatches(mine: Hello, theirs: Hello) -> list[str]:
@@ -149,8 +195,10 @@ class Handshake:
         error: set when the handshake cannot go on (the Link raises it).
     """
 
-    def __init__(self, mine: Hello, publish, url: str):
-        self.mine, self._publish, self.url = mine, publish, url
+    def __init__(self, mine: Hello, publish, url: str, medium: Medium = LCM_MEDIUM):
+        """``publish(greeting)`` sends a Greeting; ``url`` names where it runs and ``medium``
+        what kind of place that is, in messages."""
+        self.mine, self._publish, self.url, self.medium = mine, publish, url, medium
         self.peer: Hello | None = None
         self.confirmed = False
         self.error: SeamError | None = None
@@ -164,16 +212,16 @@ class Handshake:
     def send(self, reply: bool = False, status: str = "") -> None:
         """Publishes this side's Hello (a request, a reply, or with ``status`` its end)."""
         peer = self.peer.run_id if self.peer is not None else ""
-        self._publish(HANDSHAKE_CHANNEL,
-                      hello_message(self.mine, peer, reply or bool(status), status).encode())
+        self._publish(Greeting(self.mine, peer, reply or bool(status), status))
 
     def _fail(self, text: str) -> None:
         if self.error is None:
             self.error = SeamError(f"{self.mine.role}: {text}")
 
-    def receive(self, msg: lcmt_manta_handshake, theirs: Hello) -> None:
-        """Handles one handshake message (``theirs``, decoded from ``msg``) and answers it if
-        it is a request (after pairing, so that the answer names the new peer)."""
+    def receive(self, msg: Greeting) -> None:
+        """Handles one handshake message and answers it if it is a request (after pairing, so
+        that the answer names the new peer)."""
+        theirs = msg.hello
         if theirs.run_id == self.mine.run_id:  # our own, looped back by udpm
             return
         try:
@@ -197,13 +245,12 @@ class Handshake:
             return
         if theirs.role == mine.role:
             self._fail(f"another {mine.role} is on {self.url}: {theirs.describe()}; two "
-                       f"{mine.role}s cannot share an LCM URL: give each run a URL of its own "
-                       "(another port)")
+                       f"{mine.role}s cannot share {self.medium.one}: {self.medium.remedy}")
             return
         if msg.peer_run_id not in ("", mine.run_id):
             self._fail(f"{theirs.describe()} on {self.url} is paired with the {mine.role} "
-                       f"{msg.peer_run_id} already: a second {mine.role} on this URL? give "
-                       "each run a URL of its own (another port)")
+                       f"{msg.peer_run_id} already: a second {mine.role} on this "
+                       f"{self.medium.name}? {self.medium.remedy}")
             return
         problems = mismatches(mine, theirs)
         if problems:

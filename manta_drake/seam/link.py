@@ -1,6 +1,7 @@
-"""Transport: one end of the seam (``Link``): an LCM instance, the messages received (decoded
-as they arrive; what does not decode is counted and skipped), the handshake, what to
-re-send; the URL check; and how long a side waits for its peer."""
+"""Transport: one end of the seam (``Link``): a transport (LCM here, ``LcmTransport``; ROS 2
+in ``manta_drake.seam.ros2_link``), the messages received (decoded as they arrive; what
+does not decode is counted and skipped), the handshake, what to re-send; the URL check;
+and how long a side waits for its peer."""
 
 from __future__ import annotations
 
@@ -19,11 +20,15 @@ from collections.abc import Callable
 
 from manta_drake.seam.channels import Channel
 from manta_drake.seam.errors import Incidents, SeamError, warn
+from manta_drake.lcmtypes import lcmt_manta_handshake
 from manta_drake.seam.handshake import (
     HANDSHAKE_CHANNEL,
+    LCM_MEDIUM,
+    Greeting,
     Handshake,
     Hello,
-    hello_from_message,
+    greeting_from_message,
+    greeting_message,
 )
 from manta_drake.seam.messages import CODECS
 
@@ -144,13 +149,80 @@ def open_lcm(url: str, who: str):
     return instance
 
 
-class Link:
-    """One end of the seam: an LCM instance, the messages received, what to re-send.
+class LcmTransport:
+    """The LCM side of a ``Link``: an ``lcm.LCM`` on ``url``, the channels as LCM channels of
+    their ``CODECS`` types, the handshake as ``lcmt_manta_handshake`` on
+    ``HANDSHAKE_CHANNEL``.
 
     The transport is the ``lcm`` package rather than ``pydrake.lcm.DrakeLcm``: a
     DrakeLcm subscription keeps only the newest unhandled message and its Python
     ``Subscribe`` gives no handle to change that, while the lockstep controller runs a
     few steps ahead, so several messages per channel can wait to be handled.
+    """
+
+    medium = LCM_MEDIUM
+
+    def __init__(self, url: str, who: str):
+        check_url(url, in_process=True)
+        self.url = url
+        self.lcm = open_lcm(url, who)
+
+    def message(self, channel: Channel, t: float, value):
+        """The message of ``value`` at ``t`` on ``channel``."""
+        return CODECS[channel.codec].encode(t, value)
+
+    def pack(self, _name: str, msg) -> bytes:
+        return msg.encode()
+
+    def send(self, name: str, data: bytes) -> None:
+        self.lcm.publish(name, data)
+
+    def listen(self, channel: Channel, deliver: Callable) -> None:
+        """``deliver(data, None)`` for every message on ``channel``."""
+        self.lcm.subscribe(channel.name, lambda _name, data: deliver(data, None)) \
+            .set_queue_capacity(QUEUE_CAPACITY)
+
+    def decode(self, channel: Channel, data: bytes, _meta) -> tuple[int, object]:
+        """(stamp [us], port value) of a message; DECODE_ERRORS when it is not one."""
+        codec = CODECS[channel.codec]
+        msg = codec.lcm_type.decode(data)
+        return int(codec.stamp(msg)), codec.decode(msg)
+
+    def type_name(self, channel: Channel) -> str:
+        lcm_type = CODECS[channel.codec].lcm_type
+        return f"{lcm_type.__module__.rsplit('.', 1)[0]}.{lcm_type.__name__}"
+
+    def why_malformed(self, channel: Channel | None, data: bytes, reason: str) -> str:
+        """``reason``, or what a foreign fingerprint says instead."""
+        lcm_type = lcmt_manta_handshake if channel is None else CODECS[channel.codec].lcm_type
+        if data[:8] != lcm_type._get_packed_fingerprint():
+            return "another type's fingerprint: another program on this URL?"
+        return reason
+
+    def listen_handshake(self, deliver: Callable) -> None:
+        self.lcm.subscribe(HANDSHAKE_CHANNEL, lambda _name, data: deliver(data)) \
+            .set_queue_capacity(QUEUE_CAPACITY)
+
+    def send_greeting(self, greeting: Greeting) -> None:
+        self.lcm.publish(HANDSHAKE_CHANNEL, greeting_message(greeting).encode())
+
+    def decode_greeting(self, data: bytes) -> Greeting:
+        return greeting_from_message(lcmt_manta_handshake.decode(data))
+
+    handshake_type = "manta_drake.lcmtypes.lcmt_manta_handshake"
+    handshake_name = HANDSHAKE_CHANNEL
+
+    def handle(self, timeout_ms: int) -> int:
+        """Handles one message, waiting up to ``timeout_ms``; returns how many."""
+        return max(0, self.lcm.handle_timeout(int(timeout_ms)))
+
+    def close(self) -> None:
+        """Nothing to release (liblcm closes with the object)."""
+
+
+class Link:
+    """One end of the seam: a transport (``LcmTransport``, or the ROS 2 one of
+    ``manta_drake.seam.ros2_link``), the messages received, what to re-send.
 
     Messages are decoded into port values as they arrive (one that does not decode, or a
     vector of the wrong length, is counted and skipped: ``Incidents``, kind
@@ -167,14 +239,18 @@ class Link:
     With a ``hello`` the Link takes part in the handshake (``manta_drake.seam.handshake``)
     for as long as it lives: ``shake_hands`` pairs it with its peer, and later requests
     (a second station, say) are answered and named.
+
+    Args:
+        transport: an LCM URL (an ``LcmTransport`` on it) or a transport object.
     """
 
-    def __init__(self, url: str, subscribe, who: str, lockstep: bool = True,
+    def __init__(self, transport, subscribe, who: str, lockstep: bool = True,
                  sticky: tuple[str, ...] = (), incidents: Incidents | None = None,
                  monitor=(), hello: Hello | None = None):
-        check_url(url, in_process=True)
-        self.who, self.url, self.lockstep = who, url, lockstep
-        self.lcm = open_lcm(url, who)
+        if isinstance(transport, str):
+            transport = LcmTransport(transport, who)
+        self.transport = transport
+        self.who, self.url, self.lockstep = who, transport.url, lockstep
         self.incidents = incidents if incidents is not None else Incidents(who)
         self.inbox: dict[str, dict[int, object]] = {}
         self.monitored: dict[str, dict[int, object]] = {}
@@ -184,46 +260,38 @@ class Link:
         self.resends = 0
         self._acked_below = -1  # the peer has what we sent stamped before this
         self._error: Exception | None = None
-        self._unacked: collections.deque[tuple[int, str, bytes]] = collections.deque()
+        self._unacked: collections.deque[tuple[int, str, object]] = collections.deque()
         self._sticky = {name: None for name in sticky}
         self._channels: dict[str, Channel] = {}
         for channel in subscribe:
             self._subscribe(channel, channel.name in set(monitor))
         self.handshake = None
         if hello is not None:
-            self.handshake = Handshake(hello, self.lcm.publish, url)
-            self.lcm.subscribe(HANDSHAKE_CHANNEL, self._receive_hello).set_queue_capacity(
-                QUEUE_CAPACITY)
+            self.handshake = Handshake(hello, transport.send_greeting, self.url,
+                                       transport.medium)
+            transport.listen_handshake(self._receive_hello)
 
     def _subscribe(self, channel: Channel, monitor: bool = False) -> None:
         if channel.name in self._channels:
             return
         self._channels[channel.name] = channel
         (self.monitored if monitor else self.inbox)[channel.name] = {}
-        subscription = self.lcm.subscribe(channel.name, functools.partial(self._receive, channel))
-        subscription.set_queue_capacity(QUEUE_CAPACITY)
+        self.transport.listen(channel, functools.partial(self._receive, channel))
 
-    def _malformed(self, channel_name: str, type_name: str, data: bytes, fingerprint: bytes,
-                   reason: str) -> None:
-        if data[:8] != fingerprint:
-            reason = "another type's fingerprint: another program on this URL?"
+    def _malformed(self, channel_name: str, type_name: str, data: bytes, reason: str) -> None:
         self.incidents.report(channel_name, ["malformed"],
                               f"a message ({len(data)} bytes) that is not a valid {type_name} "
                               f"({reason}): skipped")
 
-    def _receive(self, channel: Channel, _name: str, data: bytes) -> None:
-        codec = CODECS[channel.codec]
-        lcm_type = codec.lcm_type
-        type_name = f"{lcm_type.__module__.rsplit('.', 1)[0]}.{lcm_type.__name__}"
+    def _receive(self, channel: Channel, data: bytes, meta) -> None:
         try:
-            msg = lcm_type.decode(data)
-            stamp = int(codec.stamp(msg))
-            value = codec.decode(msg)
+            stamp, value = self.transport.decode(channel, data, meta)
             if channel.size is not None and len(value) != channel.size:
                 raise SeamError(f"{len(value)} values, expected {channel.size}")
         except DECODE_ERRORS as e:  # a truncated or foreign message must not stop the run
-            self._malformed(channel.name, type_name, data, lcm_type._get_packed_fingerprint(),
-                            " ".join(str(e).split()) or type(e).__name__)
+            reason = " ".join(str(e).split()) or type(e).__name__
+            self._malformed(channel.name, self.transport.type_name(channel), data,
+                            self.transport.why_malformed(channel, data, reason))
             return
         self.last_arrival = time.monotonic()
         self.newest[channel.name] = max(stamp, self.newest.get(channel.name, stamp))
@@ -234,20 +302,21 @@ class Link:
         elif stamp >= self.floor_utime:
             self.inbox[channel.name][stamp] = value
 
-    def _receive_hello(self, _name: str, data: bytes) -> None:
-        from manta_drake.lcmtypes import lcmt_manta_handshake
-
+    def _receive_hello(self, data: bytes) -> None:
         try:
-            msg = lcmt_manta_handshake.decode(data)
-            theirs = hello_from_message(msg)
+            greeting = self.transport.decode_greeting(data)
         except DECODE_ERRORS as e:  # skipped like any other malformed message
-            self._malformed(HANDSHAKE_CHANNEL, "manta_drake.lcmtypes.lcmt_manta_handshake",
-                            data, lcmt_manta_handshake._get_packed_fingerprint(),
-                            " ".join(str(e).split()) or type(e).__name__)
+            reason = " ".join(str(e).split()) or type(e).__name__
+            self._malformed(self.transport.handshake_name, self.transport.handshake_type, data,
+                            self.transport.why_malformed(None, data, reason))
             return
-        self.handshake.receive(msg, theirs)
+        self.handshake.receive(greeting)
         if self.handshake.error is not None and self._error is None:
             self._error = self.handshake.error
+
+    def message(self, channel: Channel, t: float, value):
+        """The transport's message of ``value`` at ``t`` on ``channel`` (for ``publish``)."""
+        return self.transport.message(channel, t, value)
 
     def shake_hands(self, timeout: float) -> Hello:
         """Sends this side's Hello every ``RESEND_PERIOD_S`` until a matching peer has named
@@ -265,7 +334,7 @@ class Link:
                 peer = hs.mine.peer_role
                 raise SeamError(f"{self.who}: no {peer} answered on {self.url} within "
                                 f"{now - start:.1f} s; is `manta-drake {peer}` running with the "
-                                "same --lcm URL?")
+                                f"same {self.transport.medium.option}?")
             if now - last_send >= RESEND_PERIOD_S:
                 hs.send()
                 last_send = now
@@ -280,7 +349,7 @@ class Link:
 
     def poll(self, timeout_ms: int = 0) -> int:
         """Handles one message, waiting up to ``timeout_ms`` for it; returns 1 or 0."""
-        n = self.lcm.handle_timeout(int(timeout_ms))
+        n = self.transport.handle(timeout_ms)
         if self._error is not None:
             raise self._error
         return int(n > 0)
@@ -291,9 +360,10 @@ class Link:
             pass
 
     def publish(self, name: str, msg, utime: int) -> None:
-        """Publishes ``msg`` (stamped ``utime``) and keeps it for ``resend``."""
-        data = msg.encode()
-        self.lcm.publish(name, data)
+        """Publishes ``msg`` (a transport's message, ``message``; stamped ``utime``) and keeps
+        it for ``resend``."""
+        data = self.transport.pack(name, msg)
+        self.transport.send(name, data)
         if name in self._sticky:
             self._sticky[name] = data
         else:
@@ -314,7 +384,7 @@ class Link:
         again = [(name, data) for _, name, data in self._unacked]
         again += [(name, data) for name, data in self._sticky.items() if data is not None]
         for name, data in again:
-            self.lcm.publish(name, data)
+            self.transport.send(name, data)
         self.resends += bool(again)
 
     def take(self, wanted: dict[str, int]) -> dict | None:

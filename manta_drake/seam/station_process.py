@@ -26,7 +26,6 @@ from manta_drake.seam.link import (
     STALE_AFTER_S,
     Link,
 )
-from manta_drake.seam.messages import CODECS
 from manta_drake.seam.result import SeamResult
 from manta_drake.seam.schedule import (
     BEFORE_START_TIME,
@@ -71,7 +70,7 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
 
     Args:
         scenario: a validated Scenario (its duration is the run's).
-        url: the LCM URL (the controller must use the same).
+        url: the LCM URL (the controller must use the same), or a transport (``Link``).
         wall_clock: paced to real time with the latest command, instead of lockstep.
         timeout: lockstep: give up after this long without the awaited command [s].
         startup_timeout: the same for the handshake and the first command (the controller
@@ -105,13 +104,13 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     # Lockstep: the sensors before initialization, encoded now (the messages copy the values),
     # for the controller's initialization events (``BEFORE_START_UTIME``).
     before_start = {} if wall_clock else {
-        c.name: CODECS[c.codec].encode(BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(
+        c.name: link.message(c, BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(
             context)) for c in sends if not c.clock}
     simulator.Initialize()
     mode = "wall-clock" if wall_clock else "lockstep"
     if progress:
         warn(f"station: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
-             f"controller on {url}")
+             f"controller on {link.url}")
     try:
         peer = link.shake_hands(startup_timeout)
         missing = [c.name for c in reads if c.name not in peer.channels]
@@ -169,8 +168,8 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
         skipped = link.incidents.count(kind="malformed")
         return SeamError(
             f"station: no command for t = {context.get_time():.3f} s within {waited:.1f} s; "
-            "is `manta-drake controller` running with the same scenario, --lcm URL and "
-            "--wall-clock setting?" + (f" ({skipped} malformed messages skipped)" if skipped
+            f"is `manta-drake controller` running with the same scenario, "
+            f"{link.transport.medium.option} and --wall-clock setting?" + (f" ({skipped} malformed messages skipped)" if skipped
                                        else ""))
 
     mode = "wall-clock" if wall_clock else "lockstep"
@@ -194,7 +193,7 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
             if name in sending:
                 channel = CHANNEL_BY_NAME[name]
                 value = station.GetOutputPort(channel.port).Eval(context)
-                link.publish(name, CODECS[channel.codec].encode(ex.time, value), ex.utime)
+                link.publish(name, link.message(channel, ex.time, value), ex.utime)
                 if name in logged:
                     log[f"t_{channel.port}"].append(ex.time)
                     log[channel.port].append(np.array(value, dtype=float))

@@ -63,7 +63,7 @@ CONSTANTS = Constants(
     imu_covariances=tuple(np.diag(v).ravel() for v in ([1e-4] * 3, [2e-4] * 3, [3e-3] * 3)),
     density=997.0, gravity=9.80665, depth_std=0.002, capacity_ah=5.0, cells=4,
     fin_links=lambda q: [LINK])
-CASES = [(name, ros_type) for name, s in SIGNALS.items() for ros_type in s.types]
+CASES = [(name, ros_type) for name, s in SIGNALS.items() if s.bagged for ros_type in s.types]
 
 
 def _decoders(ros_type: str) -> dict:

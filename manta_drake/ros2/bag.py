@@ -72,6 +72,16 @@ def decimate(times, rate_hz: float) -> np.ndarray:
     return np.unique(index[index < len(times)])
 
 
+def camera_intrinsics(camera) -> tuple:
+    """(width, height, fx, fy, cx, cy) [px] of the scenario's ``camera`` section, as the
+    station's camera has them (``model.camera.camera_info``)."""
+    from manta_drake.model.camera import camera_info
+
+    info = camera_info(camera.width, camera.height, camera.fov_y_deg)
+    return (info.width(), info.height(), info.focal_x(), info.focal_y(), info.center_x(),
+            info.center_y())
+
+
 def bag_constants(scenario, topic_map: TopicMap, fin_links=True) -> Constants:
     """The conversions' constants of ``scenario`` (``signals.Constants``); ``fin_links``:
     the fin links in ``/tf`` (builds the robot's plant) or the hull only."""
@@ -87,6 +97,7 @@ def bag_constants(scenario, topic_map: TopicMap, fin_links=True) -> Constants:
         links = FinLinks(scenario.robot_params(), topic_map.frames.base)
     return Constants(
         joint_names=JOINT_NAMES, world=topic_map.frames.world, base=topic_map.frames.base,
+        camera=topic_map.frames.camera, camera_intrinsics=camera_intrinsics(scenario.camera),
         imu_covariances=tuple(np.diag(variances[k:k + 3]).ravel() for k in (0, 3, 6)),
         density=hydro.water_density.value if hydro else 1000.0,
         gravity=hydro.gravity.value if hydro else 9.81,

@@ -67,6 +67,30 @@ def yaw_of_quaternion(w: float, x: float, y: float, z: float) -> float:
     return math.atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z)
 
 
+def rpy_of_quaternion(w: float, x: float, y: float, z: float) -> np.ndarray:
+    """(roll, pitch, yaw) [rad] of a unit quaternion, the inverse of ``quaternion_from_rpy``
+    (R = Rz(yaw) Ry(pitch) Rx(roll)): roll and yaw in (-pi, pi], pitch in [-pi/2, pi/2]
+    (clipped at the poles, where roll and yaw share one angle). NaN in: NaN out."""
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    sine = 2.0 * (w * y - z * x)
+    pitch = math.asin(min(1.0, max(-1.0, sine))) if not math.isnan(sine) else math.nan
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return np.array([roll, pitch, yaw])
+
+
+def rotation_of_quaternion(w: float, x: float, y: float, z: float) -> np.ndarray:
+    """The 3x3 rotation matrix of a unit quaternion (w, x, y, z); one off unit norm gives a
+    matrix that is not a rotation (the reader's check refuses it)."""
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def from_nanoseconds(stamp) -> int:
+    """A ``builtin_interfaces/Time`` as a count of nanoseconds (negative before 0)."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
 def _vector3(v):
     return T["geometry_msgs/msg/Vector3"](x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
@@ -172,6 +196,87 @@ def battery_state_msg(t_ns: int, frame_id: str, soc: float, voltage: float, curr
         serial_number="")
 
 
+def joint_arrays(msg, names) -> tuple[np.ndarray, np.ndarray]:
+    """(positions, velocities) of a ``sensor_msgs/JointState`` in ``names`` order, matched by
+    joint name (a driver may send another order).
+
+    Raises:
+        ValueError: the joints are not exactly ``names``, or position and velocity do not
+            have one value per joint.
+    """
+    index = {name: i for i, name in enumerate(msg.name)}
+    if sorted(index) != sorted(names) or len(index) != len(msg.name):
+        missing = sorted(set(names) - set(index))
+        extra = sorted(set(index) - set(names))
+        raise ValueError(f"joint state: joints differ from the robot's (missing {missing}, "
+                         f"unknown {extra})")
+    n = len(names)
+    if len(msg.position) != n or len(msg.velocity) != n:
+        raise ValueError(f"joint state: {len(msg.position)} positions and {len(msg.velocity)} "
+                         f"velocities for {n} joints")
+    order = [index[name] for name in names]
+    return (np.asarray(msg.position, dtype=float)[order],
+            np.asarray(msg.velocity, dtype=float)[order])
+
+
+DEPTH_ENCODING = "32FC1"  # sensor_msgs/image_encodings: one float32 channel, metres
+
+
+def depth_image_msg(t_ns: int, frame_id: str, pixels):
+    """``sensor_msgs/Image`` of a depth image [m] (``pixels``: height x width, float32),
+    encoding ``32FC1`` little endian, as ROS depth cameras publish it."""
+    data = np.ascontiguousarray(pixels, dtype="<f4")
+    height, width = data.shape
+    return T["sensor_msgs/msg/Image"](header=header(t_ns, frame_id), height=height,
+                                      width=width, encoding=DEPTH_ENCODING, is_bigendian=0,
+                                      step=4 * width,
+                                      data=np.frombuffer(data.tobytes(), dtype=np.uint8))
+
+
+def depth_pixels(msg) -> np.ndarray:
+    """The float32 pixels (height x width) of a ``32FC1`` ``sensor_msgs/Image``.
+
+    Raises:
+        ValueError: another encoding, or a size that does not add up.
+    """
+    if msg.encoding != DEPTH_ENCODING:
+        raise ValueError(f"depth image: encoding {msg.encoding!r}; expected {DEPTH_ENCODING}")
+    if msg.width < 1 or msg.height < 1 or msg.step != 4 * msg.width \
+            or len(msg.data) != msg.step * msg.height:
+        raise ValueError(f"depth image: {len(msg.data)} bytes, step {msg.step} for "
+                         f"{msg.width} x {msg.height} float32 pixels")
+    order = ">f4" if msg.is_bigendian else "<f4"
+    return np.frombuffer(bytes(msg.data), dtype=order).astype(np.float32).reshape(
+        msg.height, msg.width)
+
+
+def camera_info_msg(t_ns: int, frame_id: str, width: int, height: int, fx: float, fy: float,
+                    cx: float, cy: float):
+    """``sensor_msgs/CameraInfo`` of a pinhole camera without distortion (``plumb_bob`` with
+    zero coefficients): K, the identity R and P = [K | 0]."""
+    k = np.array([fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0])
+    p = np.array([fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0])
+    return T["sensor_msgs/msg/CameraInfo"](
+        header=header(t_ns, frame_id), height=int(height), width=int(width),
+        distortion_model="plumb_bob", d=np.zeros(5), k=k, r=np.eye(3).ravel(), p=p,
+        binning_x=0, binning_y=0,
+        roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0,
+                                                 do_rectify=False))
+
+
+# diagnostic_msgs/DiagnosticStatus levels (the message's own constants).
+DIAGNOSTIC_OK, DIAGNOSTIC_ERROR = 0, 2
+
+
+def diagnostic_status_msg(level: int, name: str, message: str, hardware_id: str,
+                          values: dict[str, str]):
+    """``diagnostic_msgs/DiagnosticStatus`` with ``values`` as its key-value pairs."""
+    pairs = [T["diagnostic_msgs/msg/KeyValue"](key=k, value=v) for k, v in values.items()]
+    return T["diagnostic_msgs/msg/DiagnosticStatus"](level=int(level), name=name,
+                                                     message=message, hardware_id=hardware_id,
+                                                     values=pairs)
+
+
 def pose_msg(xyz, quat_wxyz):
     """``geometry_msgs/Pose`` of a position [m] and a (w, x, y, z) quaternion."""
     return T["geometry_msgs/msg/Pose"](
@@ -197,6 +302,12 @@ def transform_stamped(t_ns: int, parent: str, child: str, xyz, quat_wxyz):
 def tf_msg(transforms):
     """``tf2_msgs/TFMessage`` of ``transform_stamped`` messages."""
     return T["tf2_msgs/msg/TFMessage"](transforms=list(transforms))
+
+
+def deserialize(raw: bytes, typename: str):
+    """The message of CDR bytes (with their encapsulation header); raises what rosbags'
+    decoder raises on bytes that are not one (the seam counts and skips them)."""
+    return TYPESTORE.deserialize_cdr(raw, typename)
 
 
 def serialize(msg) -> bytes:

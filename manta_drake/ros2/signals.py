@@ -4,12 +4,13 @@ conversion of one logged sample into each (``SIGNALS``). The topic map names a t
 type, a QoS profile and a rate per signal (``topic_map``); ``bag`` writes them.
 
 A signal whose arrays a run did not log (a sensor the scenario lacks) is not written.
-The station's ports and the controller's commands each have a signal, except the depth
-image and the camera pose (``log.npz`` holds neither) and the altimeter's range and the
-electrical power (the ``altitude`` and ``electrical_power`` arrays): ``sensor_msgs/Range``
-gained a ``variance`` field in Jazzy, so one bag cannot carry it for Humble and Jazzy
-alike, and no standard message is a power reading (the battery's voltage and current are
-in ``battery``).
+The station's ports and the controller's commands each have a signal. Some are carried
+only live, by the seam over ROS 2 (``manta_drake.seam.ros2_link``; no log arrays, never in
+a bag): the depth image with its camera info and the camera pose (``log.npz`` holds
+neither), the altimeter's range, the balloon volume and the electrical power as
+``std_msgs/Float64`` (``sensor_msgs/Range`` gained a ``variance`` field in Jazzy, so one
+type cannot carry it for Humble and Jazzy alike, and no standard message is a power
+reading), and the seam's handshake.
 """
 
 from __future__ import annotations
@@ -28,18 +29,20 @@ class Constants:
 
     Attributes:
         joint_names: the plant's 16 joint names, the log's joint columns' order.
-        world, base: the world's and the hull's frame ids.
+        world, base, camera: the world's, the hull's and the depth camera's frame ids.
         imu_covariances: the IMU's three (9,) covariances (``messages.imu_msg``), or None.
         density, gravity: the water's [kg/m^3] and gravity [m/s^2] (the pressure).
         depth_std: the pressure sensor's noise [m].
         capacity_ah, cells: the battery pack's capacity and cells in series.
         fin_links: q (16,) -> [(parent, child, xyz, quat_wxyz)], the fin links' transforms
             (``tf.FinLinks``), or None: the hull only.
+        camera_intrinsics: the depth camera's (width, height, fx, fy, cx, cy) [px], or None.
     """
 
     joint_names: tuple
     world: str = "world"
     base: str = "base_link"
+    camera: str = "camera_depth_optical_frame"
     imu_covariances: tuple | None = None
     density: float = 1000.0
     gravity: float = 9.81
@@ -47,6 +50,7 @@ class Constants:
     capacity_ah: float = 1.0
     cells: int = 1
     fin_links: Callable | None = None
+    camera_intrinsics: tuple | None = None  # (width, height, fx, fy, cx, cy) [px]
 
 
 # A conversion: (log, sample index, stamp [ns], constants) -> message.
@@ -71,8 +75,13 @@ class Signal:
     types: dict[str, Convert]
     what: str
 
+    @property
+    def bagged(self) -> bool:
+        """Whether a bag may carry it (it has log arrays); else the live seam only."""
+        return bool(self.times)
+
     def present(self, log) -> bool:
-        return all(k in log and len(log[k]) for k in (self.times, *self.arrays))
+        return self.bagged and all(k in log and len(log[k]) for k in (self.times, *self.arrays))
 
 
 def held(t_samples, values, t: float):
@@ -158,4 +167,19 @@ SIGNALS = {s.name: s for s in (
            {"std_msgs/msg/Float64": lambda log, i, t_ns, c:
             m.float64_msg(log["balloon_command"][i][0])},
            "the commanded balloon fill, 0 (empty) to 1 (full)"),
+    # Live only (the seam over ROS 2): no log arrays, no conversion from a log.
+    Signal("depth_image", "", (), {"sensor_msgs/msg/Image": None},
+           "the head camera's noisy depth image [m], `32FC1`"),
+    Signal("camera_info", "", (), {"sensor_msgs/msg/CameraInfo": None},
+           "the depth camera's intrinsics, with every image"),
+    Signal("camera_pose", "", (), {"geometry_msgs/msg/PoseStamped": None},
+           "the camera's pose X_WC (on the robot: IMU attitude + pressure depth)"),
+    Signal("altitude", "", (), {"std_msgs/msg/Float64": None},
+           "the echo sounder's range to the floor [m] (NaN without an echo)"),
+    Signal("balloon_volume", "", (), {"std_msgs/msg/Float64": None},
+           "the balloon's volume [m^3]"),
+    Signal("electrical_power", "", (), {"std_msgs/msg/Float64": None},
+           "what the servos and the computers draw [W]"),
+    Signal("seam_handshake", "", (), {"diagnostic_msgs/msg/DiagnosticStatus": None},
+           "the seam's handshake: who runs, how, and its end"),
 )}

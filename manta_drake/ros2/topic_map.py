@@ -59,10 +59,12 @@ class TopicEntry:
 
 @dc.dataclass
 class Frames:
-    """The frame ids: Drake's world and the hull."""
+    """The frame ids: Drake's world, the hull and the depth camera (its optical frame: z
+    forward, x right, y down, as Drake's and ROS's cameras have it)."""
 
     world: str = "world"
     base: str = "base_link"
+    camera: str = "camera_depth_optical_frame"
 
 
 @dc.dataclass
@@ -128,14 +130,15 @@ def _checked(data: dict, path: pathlib.Path) -> TopicMap:
 
 def check_topic_map(topic_map: TopicMap) -> None:
     """Checks every value (``load_topic_map`` says what); TopicMapError naming the field."""
-    for field in ("world", "base"):
+    for field in ("world", "base", "camera"):
         value = getattr(topic_map.frames, field)
         if not isinstance(value, str) or not _FRAME.fullmatch(value):
             raise TopicMapError(f"topic_map.frames.{field}: {short_repr(value)} is not a frame "
                                 "id (letters, digits, _ and /, not starting with / or a digit)")
-    if topic_map.frames.world == topic_map.frames.base:
-        raise TopicMapError(f"topic_map.frames: world and base are both "
-                            f"{topic_map.frames.world!r}; they must differ")
+    frames = [topic_map.frames.world, topic_map.frames.base, topic_map.frames.camera]
+    if len(set(frames)) < len(frames):
+        raise TopicMapError(f"topic_map.frames: world, base and camera are {frames}; they "
+                            "must differ")
     missing = [name for name in SIGNALS if name not in topic_map.topics]
     if missing:
         raise TopicMapError(f"topic_map.topics: no entry for {', '.join(missing)}")
@@ -179,7 +182,8 @@ def topic_table_markdown(topic_map: TopicMap | None = None) -> str:
         signal = SIGNALS[name]
         others = [t for t in signal.types if t != entry.type]
         kind = f"`{entry.type}`" + "".join(f" (or `{t}`)" for t in others)
-        arrays = ", ".join(f"`{a}`" for a in (signal.times, *signal.arrays))
+        arrays = (", ".join(f"`{a}`" for a in (signal.times, *signal.arrays))
+                  if signal.bagged else "(live only)")
         rows.append(f"| `{name}` | `{entry.topic}` | {kind} | `{entry.qos}` | "
                     f"{entry.rate_hz:g} Hz | {arrays} | {signal.what} |")
     return "\n".join(rows) + "\n"

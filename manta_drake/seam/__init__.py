@@ -1,10 +1,12 @@
-"""The seam over LCM: the station and the controller in two processes.
+"""The seam: the station and the controller in two processes, over LCM or ROS 2.
 
 ``build_station`` and ``build_controller`` meet at ports of the same names; here each
-half runs alone, in its own process, and the ports cross the seam as LCM messages::
+half runs alone, in its own process, and the ports cross the seam as LCM messages, or as
+standard ROS 2 messages over DDS (``--ros2``: ``ros2_link``, docs/ros2.md)::
 
     manta-drake station SCENARIO --lcm URL       # the simulated robot (or: the robot)
     manta-drake controller SCENARIO --lcm URL    # what runs on the robot
+    manta-drake station SCENARIO --ros2 [--domain N]     # the same over ROS 2
 
 ``CHANNELS`` is the one table of what crosses the seam: channel, port, sender,
 message type and period (docs/lcm.md prints it, ``channel_table_markdown``).
@@ -47,14 +49,16 @@ skipped. Each kind is named once per channel and every one is counted (``Inciden
 
 Either side re-sends what the other may not have received while it waits (lost
 UDP datagrams, a peer that starts later), warns on stderr when its peer has been
-silent for ``STALE_AFTER_S`` (the controller then holds its last command: it stops and
-re-sends it) and gives up with a one-line error after ``--timeout`` seconds: nothing
-waits forever. docs/lcm.md has the whole story.
+silent for ``STALE_AFTER_S`` and gives up with a one-line error after ``--timeout``
+seconds: nothing waits forever. The controller does not hold its last command when the
+station falls silent: it commands the safe state (``failsafe``: the start stance, the
+balloon full). docs/lcm.md has the whole story.
 
 The package, one module per part: ``messages`` (the codecs), ``channels`` (the channel
 table), ``schedule`` (the exchange schedule), ``handshake``, ``limits`` (what passes),
-``link`` (the transport), ``result``, ``plant_step_tick``, ``station_process``
-(``run_station``), ``controller_process`` (``run_controller``), ``errors`` and ``cli``.
+``link`` (the Link and the LCM transport), ``ros2_link`` (the ROS 2 transport),
+``failsafe``, ``result``, ``plant_step_tick``, ``station_process`` (``run_station``),
+``controller_process`` (``run_controller``), ``errors`` and ``cli``.
 """
 
 from manta_drake.seam.channels import (
@@ -86,8 +90,15 @@ from manta_drake.seam.controller_process import (
     run_controller,
 )
 from manta_drake.seam.errors import Incidents, PeerStopped, SeamError
+from manta_drake.seam.failsafe import (
+    DEFAULT_FAILSAFE_AFTER_S,
+    FAILSAFE_UTIME,
+    Failsafe,
+    safe_commands,
+)
 from manta_drake.seam.handshake import (
     HANDSHAKE_CHANNEL,
+    Greeting,
     Handshake,
     Hello,
     hello_for,
@@ -112,6 +123,7 @@ from manta_drake.seam.link import (
     QUEUE_CAPACITY,
     RESEND_PERIOD_S,
     STALE_AFTER_S,
+    LcmTransport,
     Link,
     check_url,
 )
@@ -129,6 +141,7 @@ from manta_drake.seam.messages import (
     vector_message,
 )
 from manta_drake.seam.plant_step_tick import PlantStepTick, controller_with_tick
+from manta_drake.seam.ros2_link import Ros2Transport
 from manta_drake.seam.result import SeamResult
 from manta_drake.seam.schedule import (
     BEFORE_START_TIME,
@@ -146,24 +159,30 @@ __all__ = [
     "CHANNEL_BY_NAME",
     "CLOCK",
     "CODECS",
+    "DEFAULT_FAILSAFE_AFTER_S",
     "DEFAULT_STARTUP_TIMEOUT_S",
     "DEFAULT_TIMEOUT_S",
     "DEFAULT_URL",
     "ENERGY_ESTIMATOR_PERIOD_S",
+    "FAILSAFE_UTIME",
     "HANDSHAKE_CHANNEL",
     "MAX_LEAD_STEPS",
     "MONITORED_OUTPUTS",
     "QUEUE_CAPACITY",
     "RESEND_PERIOD_S",
+    "Ros2Transport",
     "STALE_AFTER_S",
     "Channel",
     "Codec",
     "Exchange",
+    "Failsafe",
+    "Greeting",
     "Guard",
     "Handshake",
     "Hello",
     "Incidents",
     "JointLimits",
+    "LcmTransport",
     "Link",
     "PeerStopped",
     "PlantStepTick",
@@ -197,6 +216,7 @@ __all__ = [
     "reads_battery",
     "run_controller",
     "run_station",
+    "safe_commands",
     "sample_times",
     "screen_balloon_command",
     "screen_battery",

@@ -19,6 +19,7 @@ from manta_drake.seam.channels import (
     unexchanged_reads,
 )
 from manta_drake.seam.errors import Incidents, PeerStopped, SeamError, warn
+from manta_drake.seam.failsafe import DEFAULT_FAILSAFE_AFTER_S, Failsafe
 from manta_drake.seam.handshake import failure_status, hello_for
 from manta_drake.seam.limits import Guard
 from manta_drake.seam.link import (
@@ -26,7 +27,6 @@ from manta_drake.seam.link import (
     DEFAULT_TIMEOUT_S,
     DEFAULT_URL,
     RESEND_PERIOD_S,
-    STALE_AFTER_S,
     Link,
 )
 from manta_drake.seam.messages import to_utime
@@ -121,8 +121,10 @@ class StationLog:
 def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
                    timeout: float = DEFAULT_TIMEOUT_S,
                    startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
-                   progress: bool = False) -> SeamResult:
-    """Runs the controller of ``scenario`` alone against a station over LCM.
+                   progress: bool = False,
+                   failsafe_after: float = DEFAULT_FAILSAFE_AFTER_S) -> SeamResult:
+    """Runs the controller of ``scenario`` alone against a station over LCM (or ROS 2: a
+    transport in ``url``).
 
     It first shakes hands with the station (``manta_drake.seam.handshake``), and checks
     that the station publishes every sensor it reads. Lockstep: at each exchange time tau
@@ -146,11 +148,13 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         url: the LCM URL (the station's), or a transport (``Link``).
         wall_clock: run on this machine's clock with the latest sensor messages (as on
             the robot), instead of lockstep with the station's time.
-        timeout: give up after the station has been silent this long [s]; meanwhile the
-            last command is held (re-sent) and stderr says so.
+        timeout: give up after the station has been silent this long [s]; meanwhile it
+            commands the safe state (``manta_drake.seam.failsafe``) and stderr says so.
         startup_timeout: the same for the handshake and the first message (the station
             may start later).
         progress: print the controller's time on stderr every second of it.
+        failsafe_after: on the wall clock, the silence [s] after which it commands the safe
+            state (lockstep: ``STALE_AFTER_S``).
 
     Returns:
         SeamResult; its log has ``t_command`` and ``commanded_joint_angles`` (the
@@ -162,7 +166,8 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         (``balloon_volume``, ``battery``, ``electrical_power``), as received.
 
     Raises:
-        SeamError: the handshake failed, or the station was silent for ``timeout`` s.
+        SeamError: the handshake failed, or the station was silent for ``timeout`` s (then
+            with ``result``: what it did until then, its failsafe in its metrics).
     """
     controller, _ = build_controller(scenario)
     controller = controller_with_tick(controller, scenario.time_step)
@@ -185,7 +190,12 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         for line in unexchanged_reads(controller, scenario):
             warn(f"controller: {line}; this lockstep run will differ from the single diagram")
 
+    failsafe = Failsafe(scenario, link, sends, lockstep=not wall_clock)
+
     def command(t: float) -> None:
+        if failsafe.active:
+            failsafe.release("resumed")
+            link.holding = None
         for channel in sends:
             value = controller.GetOutputPort(channel.port).Eval(context)
             link.publish(channel.name, link.message(channel, t, value), to_utime(t))
@@ -196,12 +206,12 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
             log[p].append(controller.GetOutputPort(p).Eval(context).copy())
         state["last_t"] = t
 
-    def on_stale(waited):
-        warn(f"controller: no message from the station for {waited:.1f} s (last command "
-             f"stamped t = {state['last_t']:.3f} s); holding the last command "
-             f"(gives up after {timeout:g} s)")
+    def on_stale(waited):  # lockstep: the failsafe at the link-loss point
+        failsafe.engage(state["last_t"], waited, timeout)
+        link.holding = failsafe.hold
 
     def on_timeout(waited):
+        failsafe.release("gave up")
         skipped = incidents.count(kind="malformed")
         skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
         if link.last_arrival is None:
@@ -210,13 +220,23 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
                              f"{link.transport.medium.option} and --wall-clock setting?"
                              f"{skipped}")
         return SeamError(f"controller: the station has been silent for {waited:.1f} s "
-                         f"(last command stamped t = {state['last_t']:.3f} s, held until now); "
-                         f"stopped{skipped}")
+                         f"(last command stamped t = {state['last_t']:.3f} s; the safe state "
+                         f"commanded since); stopped{skipped}")
+
+    def result(exchanges, wall, peer_run_id="", **ended) -> SeamResult:
+        arrays = {k: np.array(v) for k, v in log.items() if len(v)}
+        if station_log is not None:
+            arrays.update(station_log.arrays())
+        return SeamResult("controller", mode, link.url, float(context.get_time()), wall,
+                          exchanges, link.resends, arrays, incidents=incidents.counts,
+                          run_id=hello.run_id, peer_run_id=peer_run_id,
+                          failsafe=failsafe.metrics(), **ended)
 
     if progress:
         warn(f"controller: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
              f"station on {link.url}")
     stopped = ""
+    station_log = None
     try:
         peer = link.shake_hands(startup_timeout)
         missing = [c.name for c in reads if c.name not in peer.channels]
@@ -231,7 +251,7 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
             if wall_clock:
                 wall_start, exchanges = _controller_wall_clock(
                     scenario, simulator, link, reads, command, timeout, startup_timeout,
-                    on_stale, on_timeout, progress, guard, station_log)
+                    failsafe, failsafe_after, on_timeout, progress, guard, station_log)
                 wall = time.monotonic() - wall_start
             else:
                 exchanges, wall = _controller_lockstep(
@@ -245,13 +265,11 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         station_log.take_arrived()
     except BaseException as e:
         link.say_goodbye(failure_status(e))
+        if isinstance(e, SeamError) and failsafe.events:  # what it did, for its metrics
+            e.result = result(len(log["t_command"]), 0.0, failed=str(e))
         raise
     link.say_goodbye("finished")
-    arrays = {k: np.array(v) for k, v in log.items() if len(v)}
-    arrays.update(station_log.arrays())
-    return SeamResult("controller", mode, link.url, float(context.get_time()), wall, exchanges,
-                      link.resends, arrays, incidents=incidents.counts, stopped=stopped,
-                      run_id=hello.run_id, peer_run_id=peer.run_id)
+    return result(exchanges, wall, stopped=stopped, peer_run_id=peer.run_id)
 
 
 def has_feedthrough(controller, inputs, outputs) -> bool:
@@ -337,10 +355,12 @@ def _linger(link: Link, quiet_s: float = 0.3) -> None:
 
 
 def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
-                           startup_timeout, on_stale, on_timeout, progress, guard, station_log):
+                           startup_timeout, failsafe, failsafe_after, on_timeout, progress,
+                           guard, station_log):
     """The controller on this machine's clock: latest sensor values, a command after every
-    plant step of its own time; holds (stops, re-sends its last command) while the
-    station is silent. Returns (wall start, number of commands)."""
+    plant step of its own time; after ``failsafe_after`` s of silence from the station its
+    clock stops and it commands the safe state (``failsafe``) until the station is back.
+    Returns (wall start, number of commands)."""
     controller, context = simulator.get_system(), simulator.get_mutable_context()
     h = scenario.time_step
     start = time.monotonic()
@@ -371,18 +391,19 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
         station_log.take_arrived()
         now = time.monotonic()
         silent = now - link.last_arrival
-        if silent > STALE_AFTER_S:  # hold: stop the clock, re-send the last command
+        if silent > failsafe_after:  # the clock stops; the safe state instead of the gait
             if holding_since is None:
                 holding_since = now - silent
-                on_stale(silent)
+                failsafe.engage(k * h, silent, timeout)
+                last_resend = now
             if silent > timeout:
                 raise on_timeout(silent)
             if now - last_resend > RESEND_PERIOD_S:
-                link.resend()
+                failsafe.send(k * h)
                 last_resend = now
             continue
         if holding_since is not None:
-            warn(f"controller: the station is back after {now - holding_since:.1f} s; resuming")
+            failsafe.release("resumed")
             held_for += now - holding_since
             holding_since = None
         k_target = min(int((now - wall_start - held_for) / h), n_steps)

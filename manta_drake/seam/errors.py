@@ -9,7 +9,16 @@ import sys
 
 
 class SeamError(RuntimeError):
-    """The seam failed: a peer is silent or does not match, a URL cannot open."""
+    """The seam failed: a peer is silent or does not match, a URL cannot open.
+
+    Attributes:
+        result: what the side did before it failed (a ``SeamResult``, written like a
+            finished side's), or None.
+    """
+
+    def __init__(self, *args, result=None):
+        super().__init__(*args)
+        self.result = result
 
 
 class PeerStopped(SeamError):

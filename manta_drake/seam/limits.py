@@ -366,7 +366,7 @@ class Guard:
         """The value of one message on ``channel`` to use (None: drop it); ``before_start``:
         see ``screen``."""
         screen = self._screens.get(channel.port)
-        if screen is None:
+        if screen is None or value is None:  # None: a clock tick (ROS 2's /clock), no value
             return value
         value, problems = screen(value, self.last.get(channel.port))
         if before_start:  # a sensor that has not sampled yet has dropped nothing

@@ -263,6 +263,9 @@ class Link:
         self._unacked: collections.deque[tuple[int, str, object]] = collections.deque()
         self._sticky = {name: None for name in sticky}
         self._channels: dict[str, Channel] = {}
+        # While set, ``resend`` calls it first: True, it sent what is due instead (the
+        # controller's failsafe); False, the re-send goes on.
+        self.holding: Callable[[], bool] | None = None
         for channel in subscribe:
             self._subscribe(channel, channel.name in set(monitor))
         self.handshake = None
@@ -379,7 +382,10 @@ class Link:
         self._unacked.clear()
 
     def resend(self) -> None:
-        """Publishes again what the peer may not have."""
+        """Publishes again what the peer may not have (or what ``holding`` sends instead)."""
+        if self.holding is not None and self.holding():
+            self.resends += 1
+            return
         self._forget_acknowledged()
         again = [(name, data) for _, name, data in self._unacked]
         again += [(name, data) for name, data in self._sticky.items() if data is not None]

@@ -19,6 +19,9 @@ class SeamResult:
             skipped (``manta_drake.seam.errors.Incidents``).
         stopped: why the run ended before its duration (the battery at its cut-off), or "".
         run_id, peer_run_id: this side's and its peer's run ids (the handshake).
+        failed: why the side failed after it had run (its one line), or "".
+        failsafe: the controller's failsafe events (``seam.failsafe.FailsafeEvent`` as
+            dicts): when it began, after how much silence, how long, how it ended.
     """
 
     who: str
@@ -33,6 +36,8 @@ class SeamResult:
     stopped: str = ""
     run_id: str = ""
     peer_run_id: str = ""
+    failed: str = ""
+    failsafe: list = dc.field(default_factory=list)
 
     @property
     def real_time_factor(self) -> float:
@@ -41,7 +46,8 @@ class SeamResult:
     def metrics(self) -> dict:
         return {"who": self.who, "mode": self.mode, "url": self.url,
                 "run_id": self.run_id, "peer_run_id": self.peer_run_id,
-                "status": "stopped" if self.stopped else "ok", "stopped": self.stopped,
+                "status": "failed" if self.failed else "stopped" if self.stopped else "ok",
+                "stopped": self.stopped, "failed": self.failed, "failsafe": self.failsafe,
                 "sim_time_s": self.sim_time_s, "wall_time_s": self.wall_time_s,
                 "real_time_factor": self.real_time_factor, "exchanges": self.exchanges,
                 "resends": self.resends, "incidents": self.incidents}
@@ -64,4 +70,5 @@ class SeamResult:
                 f"(real-time factor {self.real_time_factor:.2f}), {self.mode}, "
                 f"{self.exchanges} exchanges, {self.resends} re-sends, over {self.url}"
                 + (f"; {incidents}" if incidents else "")
+                + (f"; failsafe {len(self.failsafe)} time(s)" if self.failsafe else "")
                 + (f"; stopped {self.stopped}" if self.stopped else ""))

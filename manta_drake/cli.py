@@ -128,7 +128,7 @@ _OPTION_FIELDS = {"--duration": "duration", "--no-meshcat": "visualization.meshc
 
 
 def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True,
-                  settings=(), received=(), topic_map=None):
+                  settings=(), received=(), topic_map=None, live_address=None):
     """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
     KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it; with a
     ``topic_map`` (``ros2.topic_map.TopicMap``) the run writes its ROS 2 bag too.
@@ -154,7 +154,27 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
             options["visualization.meshcat"] = False
         scenario = _scenario(path, settings, options)
         stop_if_signalled(received)
-        return run(scenario, out_dir, progress=progress, inputs=[path], bag=topic_map), scenario
+        live = _live_view(scenario, topic_map, live_address)
+        try:
+            return (run(scenario, out_dir, progress=progress, inputs=[path], bag=topic_map,
+                        live=live), scenario)
+        finally:
+            if live is not None:
+                live.close()
+
+
+def _live_view(scenario, topic_map, address):
+    """The live view of ``--foxglove HOST:PORT`` (None without it); says where it is."""
+    if address is None:
+        return None
+    from manta_drake.ros2.live import LiveView, parse_address
+    from manta_drake.ros2.topic_map import load_topic_map
+
+    host, port = parse_address(address)
+    live = LiveView(scenario, topic_map or load_topic_map(), host, port)
+    print(f"live view: {live.url} (Foxglove: Open connection, Foxglove WebSocket; served "
+          "while the run runs)", file=sys.stderr, flush=True)
+    return live
 
 
 def _scenario(path, settings, options: dict):
@@ -265,9 +285,13 @@ def print_bag(summary) -> None:
 
 def _run(args, received=()) -> int:
     topic_map = _topic_map(args)
+    if args.foxglove is not None:  # checked before anything is built
+        from manta_drake.ros2.live import parse_address
+
+        parse_address(args.foxglove)
     result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
                               progress=not args.quiet, settings=args.set, received=received,
-                              topic_map=topic_map)
+                              topic_map=topic_map, live_address=args.foxglove)
     print_metrics(result.metrics, result.out_dir)
     if result.bag is not None:
         print_bag(result.bag)
@@ -288,8 +312,8 @@ def _bag(args) -> int:
 # `manta-drake run` does not load the seam, the sweep or the studies, and `--help` loads
 # nothing heavy.
 EXTENSIONS = {
-    "station": ("manta_drake.seam", "run the simulated robot alone, over LCM"),
-    "controller": ("manta_drake.seam", "run the controller alone, over LCM"),
+    "station": ("manta_drake.seam", "run the simulated robot alone, over LCM or ROS 2"),
+    "controller": ("manta_drake.seam", "run the controller alone, over LCM or ROS 2"),
     "sweep": ("manta_drake.sweep",
               "many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)"),
     "calibrate": ("manta_drake.calibrate",
@@ -332,6 +356,9 @@ def _parser(argv) -> argparse.ArgumentParser:
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
+    p_run.add_argument("--foxglove", nargs="?", const="127.0.0.1:8765", metavar="HOST:PORT",
+                       help="serve the run's ROS 2 topics live to the Foxglove app while it "
+                       "runs (default 127.0.0.1:8765; port 0: any free port; docs/ros2.md)")
     _add_bag_options(p_run, with_flag=True)
     p_bag = sub.add_parser("bag", help="write a run folder's log.npz as a ROS 2 bag "
                            "(docs/ros2.md)")

@@ -329,7 +329,7 @@ def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseEx
 
 
 def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True,
-        inputs=(), prepare=None, bag=None) -> RunResult:
+        inputs=(), prepare=None, bag=None, live=None) -> RunResult:
     """Simulates ``scenario`` and writes its outputs into ``out_dir``.
 
     The folder is checked before anything is built (``check_output_folder``). This
@@ -356,6 +356,8 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
         bag: a ``ros2.topic_map.TopicMap``: write the log as a ROS 2 bag too (``run.mcap``
             and ``metadata.yaml``, ``ros2.bag.write_run_bag``), unless interrupted; None: no
             bag.
+        live: a live view (``ros2.live.LiveView``): given the log so far after every chunk
+            simulated (``live.update(log)``) and at the end; None: none.
 
     Returns:
         RunResult with ``.metrics``, ``.log``, ``.handles`` and the final ``.context``.
@@ -369,7 +371,8 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     out_dir = check_output_folder(out_dir, inputs)
     with interrupts_as_exceptions() as received:
         try:
-            return _run(scenario, out_dir, progress, write_outputs, prepare, received, bag)
+            return _run(scenario, out_dir, progress, write_outputs, prepare, received, bag,
+                        live)
         except RunInterrupted as stop:
             with signals_deferred():
                 _story_of_a_signal_between_stages(scenario, out_dir, stop)
@@ -428,7 +431,7 @@ def _build(scenario: Scenario, out_dir: pathlib.Path, prepare, received):
 
 
 def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
-         write_outputs: bool, prepare, received, bag=None) -> RunResult:
+         write_outputs: bool, prepare, received, bag=None, live=None) -> RunResult:
     diagram, handles, simulator = _build(scenario, out_dir, prepare, received)
     root_context = simulator.get_mutable_context()
     failure, interrupted = None, None
@@ -453,6 +456,8 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
                           else round(k * n_steps / n_chunks) * scenario.time_step)
                 status = simulator.AdvanceTo(t_next)
                 stop_if_signalled(signals)
+                if live is not None:  # outside the steps: it adds no event to the run
+                    live.update(extract_log(handles, root_context))
                 if bar is not None:
                     bar.update(root_context.get_time() - bar.n)
                 if status.reason() == \

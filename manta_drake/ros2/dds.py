@@ -157,6 +157,22 @@ def qos(profile: str, typename: str):
                Policy.Userdata(user_data(typename)))
 
 
+_DOMAINS: dict[int, tuple[str, object]] = {}
+
+
+def _domain(domain: int, config: str):
+    """The process's Cyclone domain ``domain`` with ``config`` (Cyclone makes each domain
+    once per process: every participant of it shares the first one's configuration)."""
+    from cyclonedds.domain import Domain
+
+    if domain not in _DOMAINS:
+        _DOMAINS[domain] = (config, Domain(domain, config))
+    elif _DOMAINS[domain][0] != config:
+        raise DdsError(f"domain {domain} already runs in this process with another "
+                       "Cyclone configuration")
+    return _DOMAINS[domain][1]
+
+
 class Participant:
     """A DDS domain participant that writes and reads ROS 2 topics as raw CDR bytes.
 
@@ -167,11 +183,11 @@ class Participant:
 
     def __init__(self, domain: int, config=None):
         from cyclonedds.core import WaitSet
-        from cyclonedds.domain import Domain, DomainParticipant
+        from cyclonedds.domain import DomainParticipant
 
         self.domain = check_domain(domain)
         self.config = pathlib.Path(config or LOOPBACK_CONFIG)
-        self._domain = Domain(self.domain, read_config(self.config))
+        self._domain = _domain(self.domain, read_config(self.config))
         self.participant = DomainParticipant(self.domain)
         self._topics: dict[str, object] = {}
         self._writers: dict[str, object] = {}
@@ -210,10 +226,12 @@ class Participant:
 
     def write(self, writer, data: bytes, source_timestamp_ns: int) -> None:
         """Writes CDR bytes (with their encapsulation header) as one sample, with the given
-        DDS source timestamp (>= 0)."""
+        DDS source timestamp (>= 0), padded to a multiple of 4 bytes as the binding's
+        ``DataWriter.write`` pads (CDR's padding: no reader sees it)."""
         from cyclonedds._clayer import ddspy_write_ts
         from cyclonedds.core import DDSException
 
+        data = data.ljust((len(data) + 3) & ~3, b"\0")
         ret = ddspy_write_ts(writer._ref, data, int(source_timestamp_ns))
         if ret < 0:
             raise DDSException(ret, f"writing a sample of {writer.topic.name}")

@@ -198,7 +198,8 @@ def battery_state_msg(t_ns: int, frame_id: str, soc: float, voltage: float, curr
 
 def joint_arrays(msg, names) -> tuple[np.ndarray, np.ndarray]:
     """(positions, velocities) of a ``sensor_msgs/JointState`` in ``names`` order, matched by
-    joint name (a driver may send another order).
+    joint name (a driver may send another order); no velocities (an empty array, the
+    message's "not known") are zeros: a position-only command holds still at its angles.
 
     Raises:
         ValueError: the joints are not exactly ``names``, or position and velocity do not
@@ -211,12 +212,13 @@ def joint_arrays(msg, names) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"joint state: joints differ from the robot's (missing {missing}, "
                          f"unknown {extra})")
     n = len(names)
-    if len(msg.position) != n or len(msg.velocity) != n:
+    if len(msg.position) != n or len(msg.velocity) not in (0, n):
         raise ValueError(f"joint state: {len(msg.position)} positions and {len(msg.velocity)} "
                          f"velocities for {n} joints")
     order = [index[name] for name in names]
+    velocity = np.asarray(msg.velocity, dtype=float)
     return (np.asarray(msg.position, dtype=float)[order],
-            np.asarray(msg.velocity, dtype=float)[order])
+            velocity[order] if len(velocity) else np.zeros(n))
 
 
 DEPTH_ENCODING = "32FC1"  # sensor_msgs/image_encodings: one float32 channel, metres

@@ -182,8 +182,12 @@ class Participant:
     """
 
     def __init__(self, domain: int, config=None):
-        from cyclonedds.core import WaitSet
-        from cyclonedds.domain import DomainParticipant
+        try:
+            from cyclonedds.core import WaitSet
+            from cyclonedds.domain import DomainParticipant
+        except ImportError as e:
+            raise DdsError(f"the seam over ROS 2 needs the cyclonedds package ({e}); PyPI has "
+                           "wheels for x86_64 only") from None
 
         self.domain = check_domain(domain)
         self.config = pathlib.Path(config or LOOPBACK_CONFIG)

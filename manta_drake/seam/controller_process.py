@@ -367,7 +367,7 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
     latest: dict = {}
     while len(latest) < len(reads):  # every input once before starting
         link.poll(50)
-        latest.update({c.name: m for c in reads if (m := link.latest(c.name)) is not None})
+        latest.update(link.newest_values(c.name for c in reads))
         if time.monotonic() - start > startup_timeout:
             missing = sorted(c.name for c in reads if c.name not in latest)
             raise SeamError(f"controller: nothing on {', '.join(missing)} within "
@@ -386,7 +386,7 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
         link.poll(1)
         if link.handshake.peer_status == "finished":  # nothing more to command
             break
-        fresh = {c.name: m for c in reads if (m := link.latest(c.name)) is not None}
+        fresh = link.newest_values(c.name for c in reads)
         fix_inputs(controller, context, guard.screen(fresh, context.get_time()))
         station_log.take_arrived()
         now = time.monotonic()

@@ -415,6 +415,11 @@ class Link:
         box.clear()
         return msg
 
+    def newest_values(self, names) -> dict:
+        """``{name: latest(name)}`` of the named channels that have something new (a value
+        may be None: a ROS 2 clock tick, which carries only its stamp)."""
+        return {name: self.latest(name) for name in names if self.inbox[name]}
+
     def wait_for(self, ready: Callable[[], object], timeout: float,
                  on_stale: Callable[[float], None], on_timeout: Callable[[float], Exception]):
         """Polls until ``ready()`` returns something other than None and returns it,

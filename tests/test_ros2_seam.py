@@ -550,3 +550,50 @@ def test_failsafe_commands_the_safe_state_when_the_station_dies(tmp_path, transp
     assert event["ended"] == "gave up" and event["commands_sent"] >= 3
     print(f"{transport} {mode}: safe state {reaction:.3f} s after the kill, exit "
           f"{exited:.1f} s after it")
+
+
+def test_the_docs_hold_the_seams_topic_table():
+    from manta_drake.seam.ros2_link import seam_topic_table_markdown
+
+    docs = (REPO / "docs" / "ros2.md").read_text()
+    assert seam_topic_table_markdown(TOPICS) in docs, \
+        "docs/ros2.md: paste seam_topic_table_markdown(load_topic_map())"
+
+
+def test_a_station_that_pauses_gets_the_failsafe_then_the_run_resumes_unchanged(tmp_path):
+    """The station is stopped (SIGSTOP) for 1.6 s mid-run, then goes on: the lockstep
+    controller enters its failsafe at the link-loss point, says the station is back, resumes,
+    and the run still equals the single diagram bit for bit (the safe state, stamped
+    FAILSAFE_UTIME, never reached the lockstep station's servos; the pressure crosses as
+    Float64, exactly); its metrics record the failsafe as resumed."""
+    import signal
+
+    path = _scenario_file(tmp_path, 2.0)
+    topic_map = tmp_path / "topics.yaml"
+    topic_map.write_text("topics:\n  pressure: {type: std_msgs/msg/Float64}\n")
+    args = ["--ros2", "--domain", str(fresh_domain()), "--startup-timeout", "90",
+            "--topic-map", str(topic_map)]
+    station, serr = _start("station", path, tmp_path, *args)
+    controller, cerr = _start("controller", path, tmp_path, *args)
+    try:
+        assert _wait(lambda: "t = 1.0 s" in (tmp_path / "controller.err").read_text()
+                     or controller.poll() is not None, 120)
+        station.send_signal(signal.SIGSTOP)
+        time.sleep(1.6)
+        station.send_signal(signal.SIGCONT)
+        for proc in (station, controller):
+            proc.wait(timeout=60)
+    finally:
+        for proc in (station, controller):
+            if proc.poll() is None:
+                proc.kill()
+        serr.close()
+        cerr.close()
+    err = (tmp_path / "controller.err").read_text()
+    assert station.returncode == 0 and controller.returncode == 0, err
+    assert "failsafe, commanding the safe state" in err and "the station is back after" in err
+    metrics = json.loads((tmp_path / "controller_metrics.json").read_text())
+    assert [e["ended"] for e in metrics["failsafe"]] == ["resumed"]
+    station_log = dict(np.load(tmp_path / "station_log.npz"))
+    single = _single(path)
+    np.testing.assert_array_equal(station_log["joint_angles"], single["joint_angles"])

@@ -167,7 +167,7 @@ SIGNALS = {s.name: s for s in (
            {"std_msgs/msg/Float64": lambda log, i, t_ns, c:
             m.float64_msg(log["balloon_command"][i][0])},
            "the commanded balloon fill, 0 (empty) to 1 (full)"),
-    # Live only (the seam over ROS 2): no log arrays, no conversion from a log.
+    # The seam over ROS 2 only: no log arrays, no conversion from a log.
     Signal("depth_image", "", (), {"sensor_msgs/msg/Image": None},
            "the head camera's noisy depth image [m], `32FC1`"),
     Signal("camera_info", "", (), {"sensor_msgs/msg/CameraInfo": None},

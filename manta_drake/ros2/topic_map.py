@@ -183,7 +183,7 @@ def topic_table_markdown(topic_map: TopicMap | None = None) -> str:
         others = [t for t in signal.types if t != entry.type]
         kind = f"`{entry.type}`" + "".join(f" (or `{t}`)" for t in others)
         arrays = (", ".join(f"`{a}`" for a in (signal.times, *signal.arrays))
-                  if signal.bagged else "(live only)")
+                  if signal.bagged else "(seam only)")
         rows.append(f"| `{name}` | `{entry.topic}` | {kind} | `{entry.qos}` | "
                     f"{entry.rate_hz:g} Hz | {arrays} | {signal.what} |")
     return "\n".join(rows) + "\n"

@@ -47,6 +47,28 @@ def channel_signals(channel: Channel, sending: bool) -> list[str]:
     return signals + (["camera_info"] if channel.port == "depth_image" else [])
 
 
+def seam_topic_table_markdown(topic_map) -> str:
+    """What crosses the seam over ROS 2 with ``topic_map`` (default: the shipped one), as a
+    Markdown table: per channel, its port, sender, topics, types, QoS and period
+    (docs/ros2.md holds the shipped map's; a test checks)."""
+    from manta_drake.ros2.topic_map import QOS_PROFILES
+
+    rows = ["| port | from | topic | type | QoS | period |", "| --- | --- | --- | --- | --- | --- |"]
+    for c in CHANNELS:
+        for signal in channel_signals(c, sending=True):
+            e = topic_map.topics[signal]
+            p = QOS_PROFILES[e.qos]
+            qos = (f"`{e.qos}` ({'reliable' if p['reliability'] == 1 else 'best effort'}, "
+                   f"keep last {p['depth']})")
+            port = "(clock)" if signal == "clock" else f"`{c.port}`"
+            rows.append(f"| {port} | {c.sender} | `{e.topic}` | `{e.type}` | {qos} | "
+                        f"{c.period_text} |")
+    hs = topic_map.topics["seam_handshake"]
+    rows.append(f"| (handshake) | both | `{hs.topic}` | `{hs.type}` | `{hs.qos}` | every 0.1 s "
+                "until paired, then on a peer's request and at the end |")
+    return "\n".join(rows) + "\n"
+
+
 def greeting_msg(greeting: Greeting, topics: list[str]):
     """A Greeting as ``diagnostic_msgs/DiagnosticStatus`` (``topics``: those it publishes)."""
     h = greeting.hello

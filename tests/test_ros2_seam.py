@@ -170,6 +170,57 @@ def test_every_seam_channel_has_an_enabled_topic_and_a_conversion():
 
 
 # ---------------------------------------------------------------------------------------
+# Options: each refused in one line, before anything is built
+
+
+@pytest.fixture
+def nothing_built(monkeypatch):
+    """Fails the test if a side builds its diagram."""
+    from manta_drake.seam import controller_process, station_process
+
+    def built(*_args, **_kwargs):
+        raise AssertionError("a side was built before its options were checked")
+
+    monkeypatch.setattr(station_process, "build_station", built)
+    monkeypatch.setattr(controller_process, "build_controller", built)
+
+
+@pytest.mark.parametrize("side", ["station", "controller"])
+@pytest.mark.parametrize("args, env, line", [
+    (["--domain", "3"], {}, "--domain is an option of the seam over ROS 2: give --ros2 too"),
+    (["--ros2", "--domain", "233"], {}, "--domain 233: a ROS 2 (DDS) domain id is an integer "
+     "in 0-232"),
+    (["--ros2"], {"ROS_DOMAIN_ID": "seven"}, "ROS_DOMAIN_ID='seven': a ROS 2 domain id is an "
+     "integer in 0-232 (or give --domain N)"),
+    (["--ros2", "--lcm", "udpm://239.255.76.67:7667"], {}, "--lcm and --ros2: the seam runs "
+     "over one transport; give one"),
+    (["--ros2", "--dds-config", "/nonexistent/cyclone.xml"], {}, "--dds-config "
+     "/nonexistent/cyclone.xml: cannot be read"),
+    (["--ros2", "--dds-config", str(REPO / "models" / "ros2_topics.yaml")], {}, "not XML"),
+    (["--ros2", "--topic-map", str(REPO / "models" / "cyclonedds_loopback.xml")], {},
+     "cyclonedds_loopback.xml"),
+])
+def test_bad_ros2_options_are_one_line_each_before_anything_is_built(
+        capfd, nothing_built, monkeypatch, side, args, env, line):
+    from manta_drake.cli import main
+
+    for key, value in env.items():
+        monkeypatch.setenv(key, value)
+    assert main([side, "stand", "--quiet", *args]) == 2
+    err = [e for e in capfd.readouterr().err.splitlines() if e.strip()]
+    assert len(err) == 1, err
+    assert err[0].startswith("manta-drake: error: ") and line in err[0], err[0]
+
+
+def test_the_failsafe_delay_is_checked(capfd, nothing_built):
+    from manta_drake.cli import main
+
+    assert main(["controller", "stand", "--quiet", "--failsafe-after", "0"]) == 2
+    assert "--failsafe-after: 0.0 is outside the allowed range (0, inf) s" in \
+        capfd.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------
 # Real DDS traffic, in this process
 
 

@@ -135,10 +135,12 @@ def check_topic_map(topic_map: TopicMap) -> None:
         if not isinstance(value, str) or not _FRAME.fullmatch(value):
             raise TopicMapError(f"topic_map.frames.{field}: {short_repr(value)} is not a frame "
                                 "id (letters, digits, _ and /, not starting with / or a digit)")
-    frames = [topic_map.frames.world, topic_map.frames.base, topic_map.frames.camera]
-    if len(set(frames)) < len(frames):
-        raise TopicMapError(f"topic_map.frames: world, base and camera are {frames}; they "
-                            "must differ")
+    frames = dc.asdict(topic_map.frames)
+    for i, (a, frame) in enumerate(frames.items()):
+        for b in list(frames)[i + 1:]:
+            if frames[b] == frame:
+                raise TopicMapError(f"topic_map.frames: {a} and {b} are both {frame!r}; they "
+                                    "must differ")
     missing = [name for name in SIGNALS if name not in topic_map.topics]
     if missing:
         raise TopicMapError(f"topic_map.topics: no entry for {', '.join(missing)}")

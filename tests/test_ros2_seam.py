@@ -611,6 +611,7 @@ def test_the_docs_hold_the_seams_topic_table():
         "docs/ros2.md: paste seam_topic_table_markdown(load_topic_map())"
 
 
+@pytest.mark.slow
 def test_a_station_that_pauses_gets_the_failsafe_then_the_run_resumes_unchanged(tmp_path):
     """The station is stopped (SIGSTOP) for 1.6 s mid-run, then goes on: the lockstep
     controller enters its failsafe at the link-loss point, says the station is back, resumes,
@@ -644,7 +645,7 @@ def test_a_station_that_pauses_gets_the_failsafe_then_the_run_resumes_unchanged(
     assert station.returncode == 0 and controller.returncode == 0, err
     assert "failsafe, commanding the safe state" in err and "the station is back after" in err
     metrics = json.loads((tmp_path / "controller_metrics.json").read_text())
-    assert [e["ended"] for e in metrics["failsafe"]] == ["resumed"]
+    assert metrics["failsafe"] and {e["ended"] for e in metrics["failsafe"]} == {"resumed"}
     station_log = dict(np.load(tmp_path / "station_log.npz"))
     single = _single(path)
     np.testing.assert_array_equal(station_log["joint_angles"], single["joint_angles"])

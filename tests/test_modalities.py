@@ -178,3 +178,18 @@ def test_the_altimeter_reads_the_hulls_height_and_the_tree_starts_on_the_floor(t
     assert np.max(np.degrees(tilt)) > 15.0  # the run pitches past the beam
     np.testing.assert_array_equal(log["floor_hat"][:, 0], 1.0)
     np.testing.assert_array_equal(log["behaviour_weights"][:, 1], 1.0)  # the nose-up trot
+
+
+def test_the_behaviours_page_names_every_modality_and_carries_the_registry_section():
+    """docs/behaviours.md (written by the behaviours study) names each registered modality's
+    estimate, and holds the registry/altimeter section the study copies in verbatim: a page
+    regenerated from an older generator, without the altimeter, fails here."""
+    import pathlib
+
+    from manta_drake.modalities import MODALITIES
+    from manta_drake.studies import behaviours
+
+    page = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "behaviours.md").read_text()
+    assert behaviours.MODALITIES_SECTION.read_text().rstrip("\n") in page
+    for modality in MODALITIES:
+        assert f"`{modality.estimate}`" in page, modality.estimate

@@ -33,6 +33,10 @@ SCENARIOS = ("two_behaviors", "three_behaviors", "locomotion_swim", "swim_headin
 # Runs that are a shipped scenario with overrides: name -> (scenario, overrides).
 VARIANTS = {"swim_heading_hold_reversed": ("swim_heading_hold", {"heading_hold.turn_sign": -1})}
 COMMAND = "`manta-drake study behaviours`"
+# The modalities' registry and the altimeter's floor detection: prose and a measurement the
+# study does not rerun (diagrams/nose_up_trot.py makes it), kept beside the generator.
+MODALITIES_SECTION = pathlib.Path(__file__).resolve().parent / "templates" / \
+    "behaviours_modalities.md"
 # What drove each of four_behaviors' changes: the estimate whose node changed the target.
 DRIVERS = {("trot", "walk"): "flow (flow_hat rises: the cross current on the floor)",
            ("walk", "trot"): "flow (flow_hat falls)",
@@ -189,8 +193,10 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "A node with N children places them at x = k / (N - 1) and blends neighbours. The "
         "estimates are `z_hat` (depth, Eq. 9), `s_hat` (walls, Eq. 10), `flow_hat` "
         "(`FlowEstimator`: the flow sensor's speed on a chosen axis between two thresholds), "
-        "`posture_hat` (`PostureEstimator`: the IMU's tilt between 10 and 30 deg) and "
-        "`energy_hat` (`EnergyEstimator`: the charge below a reserve). Every node's field can be "
+        "`posture_hat` (`PostureEstimator`: the IMU's tilt between 10 and 30 deg) "
+        "`energy_hat` (`EnergyEstimator`: the charge below a reserve) and `floor_hat` "
+        "(`AltimeterEstimator`: the altimeter's range below a floor band); "
+        "`manta_drake.modalities` lists them. Every node's field can be "
         "set or swept as `transition.tree.NODE.FIELD`. Without a tree the target is Eq. (12) to "
         "the last bit: two_behaviors and three_behaviors give the same metrics and the same log "
         "arrays, every one, as before trees existed (tests/test_behaviour_tree.py checks the "
@@ -210,8 +216,8 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "estimate uses the charge, a fuel gauge's count, without added noise (its error is the "
         "capacity's uncertainty, which the actuator scales of the energy band cover).",
         "",
-        "All three cross the LCM seam (docs/lcm.md). `balloon.rule` fills the balloon from an "
-        "estimate (above a band: one fill; below it: another; from `after` on), and "
+        MODALITIES_SECTION.read_text().rstrip("\n") + " `balloon.rule` fills the balloon "
+        "from an estimate (above a band: one fill; below it: another; from `after` on), and "
         "`heading_hold` trims the swim from the IMU.",
         "",
         "## Feedback from posture: the heading hold",

@@ -286,9 +286,11 @@ def print_bag(summary) -> None:
 def _run(args, received=()) -> int:
     topic_map = _topic_map(args)
     if args.foxglove is not None:  # checked before anything is built
+        from manta_drake.ros2 import require
         from manta_drake.ros2.live import parse_address
 
         parse_address(args.foxglove)
+        require("foxglove")
     result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
                               progress=not args.quiet, settings=args.set, received=received,
                               topic_map=topic_map, live_address=args.foxglove)

@@ -212,6 +212,30 @@ def test_bad_ros2_options_are_one_line_each_before_anything_is_built(
     assert err[0].startswith("manta-drake: error: ") and line in err[0], err[0]
 
 
+@pytest.mark.parametrize("argv, line", [
+    (["station", "stand", "--quiet", "--ros2"], "--ros2 needs the cyclonedds package"),
+    (["controller", "stand", "--quiet", "--ros2"], "--ros2 needs the cyclonedds package"),
+    (["run", "stand", "--out", "unused", "--quiet", "--foxglove"],
+     "--foxglove needs the foxglove-sdk package"),
+])
+def test_without_the_ros2_extra_its_options_are_refused_in_one_line(
+        capfd, nothing_built, monkeypatch, argv, line):
+    """The live ROS 2 packages are an optional extra: an install without them refuses
+    --ros2 and --foxglove in one line that says what to install, before anything runs."""
+    import importlib.util
+
+    from manta_drake import simulate
+    from manta_drake.cli import main
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name in (
+        "cyclonedds", "foxglove") else real(name, *a))
+    monkeypatch.setattr(simulate, "run", lambda *a, **k: pytest.fail("the run started"))
+    assert main(argv) == 2
+    err = [e for e in capfd.readouterr().err.splitlines() if e.strip()]
+    assert len(err) == 1 and line in err[0] and "pip install 'manta_drake[ros2]'" in err[0], err
+
+
 def test_the_failsafe_delay_is_checked(capfd, nothing_built):
     from manta_drake.cli import main
 

@@ -22,3 +22,22 @@ BAG_FILE = "run.mcap"
 METADATA_FILE = "metadata.yaml"
 # The files a bag is, in the order they are written (the metadata last: it names the rest).
 BAG_FILES = (BAG_FILE, METADATA_FILE)
+
+# The optional packages of the live ROS 2 parts: module -> (the option that needs it, its
+# PyPI name). pip install 'manta_drake[ros2]' installs both.
+OPTIONAL = {"cyclonedds": ("--ros2", "cyclonedds"), "foxglove": ("--foxglove", "foxglove-sdk")}
+
+
+class MissingExtraError(ImportError):
+    """An option's optional package is not installed; one line naming both."""
+
+
+def require(module: str) -> None:
+    """Raises MissingExtraError, naming the option and the install command, unless
+    ``module`` (a key of ``OPTIONAL``) can be imported."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        option, package = OPTIONAL[module]
+        raise MissingExtraError(f"{option} needs the {package} package, not installed here: "
+                                "pip install 'manta_drake[ros2]'")

@@ -130,11 +130,13 @@ def check_options(args) -> None:
 def _check_ros2_options(args) -> None:
     """``--ros2``'s options, each in one line (the domain from ROS_DOMAIN_ID when not
     given); sets ``args.domain``."""
+    from manta_drake.ros2 import require
     from manta_drake.ros2.dds import check_domain, read_config
     from manta_drake.ros2.topic_map import load_topic_map
 
     if args.lcm is not None:
         raise SeamError("--lcm and --ros2: the seam runs over one transport; give one")
+    require("cyclonedds")
     if args.domain is None:
         text = os.environ.get("ROS_DOMAIN_ID", "").strip() or "0"
         try:

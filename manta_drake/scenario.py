@@ -51,18 +51,18 @@ from manta_drake.config_io import (
 )
 from manta_drake.control.balloon_rule import BalloonRuleParams
 from manta_drake.control.behaviour_tree import BlendNode, compile_tree, default_tree
-from manta_drake.control.heading_hold import HeadingHoldParams
 from manta_drake.control.gait_files import gait_library
 from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
+from manta_drake.control.heading_hold import HeadingHoldParams
 from manta_drake.control.transition import check_parameters
 from manta_drake.control.vision import WallDetectorParams
+from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE, NAMES, SECTIONS
 from manta_drake.model import MODELS_DIR, PACKAGE_URL, resolve_path
 from manta_drake.model.actuators import load_actuators, load_energy_model, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
 from manta_drake.model.servo import SERVO_MODELS, back_emf_damping, servo_robot_params
 from manta_drake.model.start_pose import start_pose_problem
-from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE, NAMES, SECTIONS
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
 from manta_drake.station.foil import FIN_MODELS
 

@@ -144,8 +144,8 @@ def test_the_residual_trims_the_deflated_robot_level_under_water():
     """The plant's centre of mass (MultibodyPlant, zero pose) lies under the centre of
     buoyancy of the water model's sealed volumes (``build_elements``, fully submerged,
     balloon empty) to 0.5 mm: the ballast's chosen position does what its source says."""
-    from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import MultibodyPlant
 
     from manta_drake.model.coefficients import load_coefficients
     from manta_drake.model.kinematics import link_poses_at_zero

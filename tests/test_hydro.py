@@ -391,8 +391,8 @@ def test_deflated_robot_with_foil_fins_sinks_and_rests(tmp_path):
 
 
 def test_surge_step_force_accelerates_with_added_mass():
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.25]),
                         balloon=BalloonConfig(initial_fill=0.25))
@@ -498,8 +498,8 @@ def test_spinning_plate_gets_torque_and_no_net_force():
 
 def test_held_forces_start_from_the_initial_state():
     """With update_period > 0 the first held forces are those of the initial state."""
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
                         balloon=BalloonConfig(initial_fill=1.0))
@@ -532,9 +532,9 @@ def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt, t
     import yaml
 
     import manta_drake.station.hydro as hydro_module
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     def swim(coefficients=None):
         s = load_scenario("locomotion_swim")

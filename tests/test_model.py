@@ -10,8 +10,8 @@ from pydrake.geometry import Role, Shape
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RevoluteJoint
 
-from manta_drake.model.model_sdf import pool_sdf, robot_sdf
 from manta_drake.model import MODELS_DIR
+from manta_drake.model.model_sdf import pool_sdf, robot_sdf
 from manta_drake.model.plant import add_plant, make_parser
 from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES
 

@@ -7,12 +7,12 @@ from hypothesis import strategies as st
 
 from manta_drake.control.gaits import GAITS
 from manta_drake.control.transition import (
-    PotentialTransition,
     TIE_BAND,
+    PotentialTransition,
     descent_step,
-    tie_broken_sine,
     potential,
     target_params,
+    tie_broken_sine,
     vision_weight,
     wrap,
 )

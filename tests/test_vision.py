@@ -258,9 +258,9 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     m from the end wall (x = 7.5 m), body yawed by each of ``yaws_deg``: the detector's
     Detection of one frame through the controller's real chain (station depth noise,
     median filter, DepthImageToPointCloud), and the camera's distance to the wall."""
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.model.plant import body_pose, set_initial_state
     from manta_drake.model.robot_params import RobotParams
+    from manta_drake.wiring.diagram import build_diagram
 
     s = Scenario(name="camera", duration=0.45, initial_stance="trot",
                  controller=ControllerConfig(mode="hold", gait="trot"),

@@ -13,7 +13,7 @@ import dataclasses as dc
 
 import numpy as np
 from pydrake.geometry import RoleAssign
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
@@ -21,7 +21,6 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
     MultibodyPlantConfig,
 )
-from pydrake.math import RotationMatrix
 from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 

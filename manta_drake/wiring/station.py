@@ -117,6 +117,7 @@ from pydrake.systems.primitives import (
 )
 from pydrake.systems.sensors import RgbdSensor
 
+from manta_drake.modalities import MODALITIES, fill_docstring
 from manta_drake.model.camera import camera_info
 from manta_drake.model.coefficients import HydroCoefficients
 from manta_drake.model.plant import (
@@ -128,7 +129,6 @@ from manta_drake.model.plant import (
     joint_torque_port,
     set_contact_friction,
 )
-from manta_drake.modalities import MODALITIES, fill_docstring
 from manta_drake.model.servo import joint_gains, saturation_angle
 from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery

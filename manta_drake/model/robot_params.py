@@ -172,7 +172,7 @@ class RobotParams:
         return (naca_section_area(t, self.proximal_chord) * self.d3,
                 naca_section_area(t, self.distal_chord) * self.dE)
 
-    def with_fin_sweep(self, sweep: float) -> "RobotParams":
+    def with_fin_sweep(self, sweep: float) -> RobotParams:
         """These parameters with every leg-fin swept back by ``sweep`` [rad] at theta_1 = 0
         (negative: swept forward)."""
         return replace(self, mounts=tuple(replace(m, sweep=sweep) for m in self.mounts))

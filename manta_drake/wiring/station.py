@@ -111,7 +111,6 @@ from pydrake.systems.primitives import (
     Gain,
     MatrixGain,
     Multiplexer,
-    PassThrough,
     RandomSource,
     ZeroOrderHold,
 )

@@ -37,7 +37,7 @@ class Part:
     vertices: np.ndarray
     triangles: np.ndarray
 
-    def transformed(self, R: np.ndarray) -> "Part":
+    def transformed(self, R: np.ndarray) -> Part:
         """This part rotated by R (3x3) about the origin."""
         return Part(self.name, self.vertices @ np.asarray(R).T, self.triangles)
 

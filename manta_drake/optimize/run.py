@@ -196,7 +196,7 @@ class _Runner:
             for job in jobs:
                 try:
                     outcome = self.evaluate(job["task"])
-                except Exception as e:  # an evaluator's raise is the candidate's failure
+                except Exception as e:  # noqa: BLE001 - the evaluator's raise fails the candidate
                     outcome = {"status": "error",
                                "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
                 self._finish(job, outcome, done)

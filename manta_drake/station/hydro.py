@@ -84,8 +84,8 @@ def effective_inertia(plant, robot) -> tuple[float, np.ndarray]:
         bodies += plant.GetBodyIndices(plant.GetModelInstanceByName("manta_added_mass"))
     hull = plant.GetBodyByName("body", robot)
     M = plant.CalcSpatialInertia(context, hull.body_frame(), bodies)
-    I = M.Shift(M.get_com()).CalcRotationalInertia().CopyToFullMatrix3()
-    return float(M.get_mass()), np.diag(I).copy()
+    I_com = M.Shift(M.get_com()).CalcRotationalInertia().CopyToFullMatrix3()
+    return float(M.get_mass()), np.diag(I_com).copy()
 
 
 def _fixed(name: str, doc: str) -> property:

@@ -127,12 +127,12 @@ def _four_figure(out: pathlib.Path, metrics: dict, path: pathlib.Path) -> None:
 
 def _estimates_at(out: pathlib.Path, times) -> list:
     log = np.load(out / "four_behaviors" / "log.npz")
-    rows = []
-    for t in times:
-        def at(key):
-            return float(log[key][min(np.searchsorted(log[f"t_{key}"], t), len(log[key]) - 1), 0])
-        rows.append((t, at("z_hat"), at("flow_hat"), at("energy_hat"), at("balloon_command")))
-    return rows
+
+    def at(key, t):
+        return float(log[key][min(np.searchsorted(log[f"t_{key}"], t), len(log[key]) - 1), 0])
+
+    return [(t, at("z_hat", t), at("flow_hat", t), at("energy_hat", t),
+             at("balloon_command", t)) for t in times]
 
 
 def page(metrics: dict, out: pathlib.Path) -> str:

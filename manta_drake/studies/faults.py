@@ -62,6 +62,7 @@ wall); 0 otherwise. docs/fault_campaign.md describes the summary.
 from __future__ import annotations
 
 import collections
+import contextlib
 import copy
 import csv
 import json
@@ -667,10 +668,8 @@ def _end_worker(client, marker: dict) -> None:
     """Ends the worker process that wrote ``marker`` (a run past its timeout): by its pid when
     it runs on this machine, else through its nanny (a pid names another process here)."""
     if marker.get("host") == socket.gethostname():
-        try:
+        with contextlib.suppress(OSError):
             os.kill(int(marker["pid"]), 9)
-        except OSError:
-            pass
     elif marker.get("worker"):
         client.restart_workers([marker["worker"]], timeout=60, raise_for_error=False)
 

@@ -618,7 +618,8 @@ class Scenario:
             raise ScenarioError(f"initial_pose: {problem}")
         check_one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
         check_one_of("controller.gait", self.controller.gait, tuple(gaits))
-        check_in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True)
+        check_in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz",
+                       open_low=True)
         for name in ("chain_weight", "fcs_weight"):
             check_in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 100.0, "[0, 100] rad/s")
         for name in ("a", "b"):

@@ -80,7 +80,8 @@ def test_the_model_carries_each_part_where_the_bill_puts_it():
 
 
 def test_composite_inertia_agrees_with_drake():
-    parts = [(0.3, (0.0, 0.0, 0.1), (1e-3, 2e-3, 3e-3)), (0.2, (0.05, -0.02, 0.2), (4e-4, 5e-4, 6e-4))]
+    parts = [(0.3, (0.0, 0.0, 0.1), (1e-3, 2e-3, 3e-3)),
+             (0.2, (0.05, -0.02, 0.2), (4e-4, 5e-4, 6e-4))]
     mass, com, inertia = composite_inertia(parts)
     total = SpatialInertia.Zero()
     for m, c, moments in parts:

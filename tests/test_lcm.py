@@ -276,8 +276,8 @@ def test_link_waits_resends_and_gives_up():
     station = seam.Link("memq://", [desired], "station", sticky=(clock.name,))
     sent = {clock.name: [], depth.name: []}
     for name, box in sent.items():
-        station.transport.lcm.subscribe(name, functools.partial(lambda box, _, data: box.append(data),
-                                                      box))
+        station.transport.lcm.subscribe(
+            name, functools.partial(lambda box, _, data: box.append(data), box))
     station.publish(clock.name, seam.joint_state_message(0.0, np.zeros(32)), 0)
     station.publish(depth.name, seam.vector_message(0.0, [0.1]), 0)
     station.publish(depth.name, seam.vector_message(0.02, [0.2]), 20000)
@@ -285,7 +285,8 @@ def test_link_waits_resends_and_gives_up():
     assert [len(sent[clock.name]), len(sent[depth.name])] == [1, 2]
     # A command stamped 0.02 s says the controller has what was sent before 0.02 s:
     # only the depth of 0.02 s and the newest clock message are sent again.
-    station.transport.lcm.publish(desired.name, seam.joint_state_message(0.02, np.ones(32)).encode())
+    station.transport.lcm.publish(desired.name,
+                                  seam.joint_state_message(0.02, np.ones(32)).encode())
     station.drain()
     assert station.newest[desired.name] == 20000
     station.resend()

@@ -55,7 +55,8 @@ def test_wall_meeting_floor_is_two_clusters_but_plain_dbscan_merges(rng):
             assert c.centroid[0] == pytest.approx(1.0, abs=0.08)
             assert c.centroid[2] == pytest.approx(-0.5, abs=0.08)
     wall_cluster = next(c for c in planes if c.label == "wall")
-    assert abs(wall_cluster.normal[0]) > 0.95 and wall_cluster.centroid[0] == pytest.approx(1.0, abs=0.02)
+    assert abs(wall_cluster.normal[0]) > 0.95
+    assert wall_cluster.centroid[0] == pytest.approx(1.0, abs=0.02)
     # The same cloud, the same eps and min_points, without the normal test: one cluster.
     down, normals, _ = downsample_with_normals(cloud, P)
     plain = normal_dbscan(down, None, P.eps, P.min_points, None)

@@ -25,8 +25,8 @@ Pipeline (each step a plain function the tests call directly):
    of the size c (points after downsampling) of the largest wall cluster *ahead*
    (its normal within ``frontal_angle_deg`` of the camera's horizontal viewing
    direction; in the 2 m wide pool the side walls are always in view and must not
-   trigger the turn); 0 when no such wall is seen. The default k = 10 / (c_max - c_min) puts s_hat at 0.7 % at c_min
-   and 99.3 % at c_max.
+   trigger the turn); 0 when no such wall is seen. The default k = 10 / (c_max - c_min) puts
+   s_hat at 0.7 % at c_min and 99.3 % at c_max.
 """
 
 import dataclasses as dc

@@ -6,9 +6,10 @@ the start gait itself, injected), save the state (``state.json``, module ``state
 candidates and costs told so far and the asked ones), simulate every (candidate, point,
 seed) not already in ``history.csv``, write each result as it comes (its folder and the
 table, atomically), aggregate each candidate's costs, tell CMA-ES, keep the logs of the
-best candidate so far only, save the state again. Then the best gait is re-run at the scenario as it is (``best_run/``, with its
-figures) and at the held-out points (``held_out/``), and ``best_gait.yaml``,
-``convergence.png`` and ``summary.json`` are written.
+best candidate so far only, save the state again. Then the best gait is re-run at the
+scenario as it is (``best_run/``, with its figures) and at the held-out points
+(``held_out/``), and ``best_gait.yaml``, ``convergence.png`` and ``summary.json`` are
+written.
 
 A restart (the same spec and options, the same ``--out``) loads ``state.json``, rebuilds
 CMA-ES by replaying its asks and tells (each replayed candidate checked against the saved

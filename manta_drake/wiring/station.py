@@ -362,9 +362,9 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
 
 
 def _add_modalities(builder, scenario: Scenario, handles: StationHandles) -> None:
-    """The modalities' sensors on the hull (``manta_drake.modalities``), each with its Drake noise sources, in the table's order (added
-    after every other random source, so that a scenario without them draws the same noise
-    as before they existed)."""
+    """The modalities' sensors on the hull (``manta_drake.modalities``), each with its Drake
+    noise sources, in the table's order (added after every other random source, so that a
+    scenario without them draws the same noise as before they existed)."""
     for m in MODALITIES:
         if m.reading is not None and m.available(scenario):
             sensor = m.reading.add(builder, handles.plant_handles, scenario)

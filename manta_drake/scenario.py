@@ -806,7 +806,8 @@ def _walk_key(dotted: str):
     if not dotted or not isinstance(dotted, str):
         raise ScenarioError(f"{dotted!r}: not a dotted scenario key")
     parts = dotted.split(".")
-    schema, path = Scenario, []
+    schema: type[typing.Any] = Scenario
+    path: list[str] = []
     i = 0
     while i < len(parts):
         part = parts[i]
@@ -819,7 +820,7 @@ def _walk_key(dotted: str):
         tp = fields[part]
         if typing.get_origin(tp) is dict and i + 1 < len(parts):
             value_type = typing.get_args(tp)[1]
-            if dc.is_dataclass(value_type):
+            if isinstance(value_type, type) and dc.is_dataclass(value_type):
                 # A mapping of named sections (transition.tree.NODE.FIELD): the next part
                 # is the name, the rest a field of that section.
                 path.append(parts[i + 1])

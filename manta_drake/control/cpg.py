@@ -212,7 +212,7 @@ class CpgOscillators(LeafSystem):
         if not compiled:
             # pybind looks the override up on the instance, so this replaces the kernel
             # version for this system only (and the kernel path has no extra call).
-            self.DoCalcTimeDerivatives = self._derivatives_numpy
+            self.DoCalcTimeDerivatives = self._derivatives_numpy  # type: ignore[method-assign]
         self.DeclareVectorOutputPort(
             "joint_angles", NUM_OSC,
             self._calc_joint_angles if compiled else self._calc_joint_angles_numpy,

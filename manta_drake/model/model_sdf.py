@@ -96,6 +96,8 @@ def link_inertias(leg: str, p: RobotParams) -> dict[int, tuple]:
     the servo the link carries (links 1-3, ``model.bill_of_materials``) as a solid block
     at the next joint's axis, and the rest of the link's mass spread over its solid (the
     servo block on links 1 and 2, the fin plate on links 3 and 4)."""
+    # The masses and the servo's size are set by RobotParams.__post_init__.
+    assert p.link_masses is not None and p.servo_mass is not None and p.servo_size is not None
     poses = link_poses_at_zero(leg, p)
     plates = fin_plate_geometry(p)
     solids = {1: (None, p.servo_size), 2: (None, p.servo_size),
@@ -119,6 +121,9 @@ def body_inertia(p: RobotParams) -> tuple:
     ellipsoid of the hull's shape, the residual as the same ellipsoid centred at
     ``residual_position`` (the ballast's trim), and each yaw servo as a solid block at its
     leg's mount."""
+    # The masses and the servo's size are set by RobotParams.__post_init__.
+    assert p.body_mass is not None and p.residual_mass is not None
+    assert p.servo_mass is not None and p.servo_size is not None
     servo = box_inertia(p.servo_mass, p.servo_size)
     rest = p.body_mass - len(p.mounts) * p.servo_mass - p.residual_mass
     parts = [(rest, (0.0, 0.0, 0.0), ellipsoid_inertia(rest, p.body_semi_axes)),

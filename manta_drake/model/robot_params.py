@@ -160,6 +160,7 @@ class RobotParams:
     @property
     def servo_volume(self) -> float:
         """The water one servo's case displaces [m^3]: its envelope."""
+        assert self.servo_size is not None  # set by __post_init__
         return math.prod(self.servo_size)
 
     @property
@@ -179,6 +180,7 @@ class RobotParams:
 
     @property
     def total_mass(self) -> float:
+        assert self.body_mass is not None and self.link_masses is not None  # __post_init__
         return self.body_mass + len(self.mounts) * sum(self.link_masses)
 
     def mount(self, leg: str) -> LegMount:

@@ -276,7 +276,7 @@ def is_ahead(cluster: Cluster, view_direction, p: WallDetectorParams) -> bool:
     d = np.array([view_direction[0], view_direction[1], 0.0])
     n = np.array([cluster.normal[0], cluster.normal[1], 0.0])
     norms = np.linalg.norm(d) * np.linalg.norm(n)
-    return norms > 0 and abs(d @ n) / norms >= np.cos(np.radians(p.frontal_angle_deg))
+    return bool(norms > 0 and abs(d @ n) / norms >= np.cos(np.radians(p.frontal_angle_deg)))
 
 
 def detect(xyz, p: WallDetectorParams, viewpoint=(0.0, 0.0, 0.0), time: float = 0.0,

@@ -12,7 +12,7 @@ DOCS_OUT ?= docs/_build/html
 # checkout when DOCS_OUT is (DOCS_OUT=/tmp/site/html caches in /tmp/site/doctrees).
 DOCS_CACHE ?= $(dir $(abspath $(DOCS_OUT)))doctrees
 
-.PHONY: demo test setup clean syslibs models experiments benchmark docs cfd FORCE
+.PHONY: demo test lint setup clean syslibs models experiments benchmark docs cfd FORCE
 
 setup: syslibs $(STAMP)
 
@@ -29,9 +29,17 @@ FORCE:
 demo: setup
 	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors
 
+# ruff's lint of the whole checkout, then mypy on its scope: both configured in pyproject.toml
+# ([tool.ruff], [tool.mypy]), both the venv's pinned versions (the test extra). The same
+# checks run before each commit with .pre-commit-config.yaml.
+lint: setup
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/mypy
+
+# The lint first: a finding stops the run before the (long) suite.
 # scripts/ensure_debian.sh openfoam: Debian's OpenFOAM (about 80 s the first time, quiet once
 # installed) for the CFD study's one slow end-to-end test.
-test: setup
+test: setup lint
 	@bash scripts/ensure_debian.sh openfoam
 	$(PY) -m pytest -q
 
@@ -65,4 +73,5 @@ docs: setup
 	@echo "API reference: $(DOCS_OUT)/index.html"
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis build dist *.egg-info docs/_build
+	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis .mypy_cache .ruff_cache build dist *.egg-info \
+		docs/_build

@@ -10,9 +10,9 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from manta_drake.cli import run_experiment  # noqa: E402
+from manta_drake.cli import run_experiment
 
 HERE = pathlib.Path(__file__).resolve().parent
 

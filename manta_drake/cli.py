@@ -98,7 +98,7 @@ def _stderr_held(received):
         except OSError:  # no standard error to hold
             saved = None
         if saved is not None:
-            held = tempfile.TemporaryFile()
+            held = tempfile.TemporaryFile()  # noqa: SIM115 - closed in the finally below
             os.dup2(held.fileno(), 2)
     if saved is None:
         stop_if_signalled(pending)

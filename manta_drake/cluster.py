@@ -226,7 +226,7 @@ def completed_resubmitting_lost(client, function, jobs, argument, key, window=No
             job, attempt = futures.pop(future)
             try:
                 outcome = future.result()
-            except Exception as e:
+            except Exception as e:  # noqa: BLE001 - the task's raise is its outcome
                 outcome = e
             future.release()
             if isinstance(outcome, Exception):

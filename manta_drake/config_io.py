@@ -220,10 +220,11 @@ class LimitedLoader(UniqueKeyLoader):
         if parent is not None and parent.is_mapping and parent.children % 2 == 0:
             parent.key = event.value if isinstance(event, yaml.ScalarEvent) else None
         if isinstance(event, yaml.AliasEvent):
-            if any(f.anchor == event.anchor for f in self._frames):
-                self._refuse(event, f"the alias *{short_text(event.anchor, 40)} is inside "
+            anchor = typing.cast(str, event.anchor)  # an alias always names its anchor
+            if any(f.anchor == anchor for f in self._frames):
+                self._refuse(event, f"the alias *{short_text(anchor, 40)} is inside "
                                     "the value it names (a recursive structure)")
-            self._nodes += self._sizes.get(event.anchor, 1)  # undefined: the composer says
+            self._nodes += self._sizes.get(anchor, 1)  # undefined: the composer says
             self._child_done()
         elif isinstance(event, yaml.ScalarEvent):
             self._nodes += 1
@@ -417,7 +418,7 @@ def check_integer(field: str, value, lo: int, hi: int) -> None:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise ScenarioError(f"{field}: {short_repr(value)} is not an integer (allowed: {lo} to "
                             f"{hi})")
-    if not lo <= value <= hi:
+    if not lo <= int(value) <= hi:
         raise ScenarioError(f"{field}: {short_repr(value)} is outside the allowed range "
                             f"[{lo}, {hi}]")
 
@@ -482,7 +483,7 @@ def check_writable_folder(out_dir, option: str = "--out", example: str = "out/ru
         try:
             out_dir.mkdir(parents=True, exist_ok=True)
         except OSError as e:
-            raise error(f"{option} {out_dir}: cannot be created ({e.strerror})") from None
+            raise error(f"{option} {out_dir}: cannot be created ({e.strerror or e})") from None
         existing = out_dir
 
     def refuse(reason: str):
@@ -497,5 +498,5 @@ def check_writable_folder(out_dir, option: str = "--out", example: str = "out/ru
         with tempfile.TemporaryFile(dir=existing, prefix=".write-check-"):
             pass
     except OSError as e:
-        raise refuse(e.strerror) from None
+        raise refuse(e.strerror or str(e)) from None
     return out_dir

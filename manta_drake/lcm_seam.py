@@ -4,5 +4,5 @@ Kept importable for one release: ``from manta_drake import lcm_seam`` still give
 seam's public names (its ``__all__``). New code imports ``manta_drake.seam``.
 """
 
-from manta_drake.seam import *  # noqa: F401,F403  (every public name, one list: the seam's)
+from manta_drake.seam import *  # noqa: F403  (every public name, one list: the seam's)
 from manta_drake.seam import __all__  # noqa: F401

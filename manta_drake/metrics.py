@@ -315,10 +315,11 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         ``electrical_energy_j`` (integral of the electrical power), ``mean_electrical_power_w``
         (over the run), ``hotel_power_w``, ``dry_weight_n``, ``weight_in_water_n``, the six
         costs of transport of ``COT_KEYS`` (``costs_of_transport`` of the window's mean
-        powers) and their ``COT_ALIASES``, ``battery_soc_end``, ``operation_time_h`` (usable energy / mean electrical
-        power), and ``steady_electrical_power_w``, ``steady_mechanical_power_w``,
-        ``transport_speed_m_s``, ``battery_cutoff_at_s`` (first time at the cut-off, or
-        None) and ``cost_of_transport_note`` (why the costs of transport are None).
+        powers) and their ``COT_ALIASES``, ``battery_soc_end``, ``operation_time_h``
+        (usable energy / mean electrical power), and ``steady_electrical_power_w``,
+        ``steady_mechanical_power_w``, ``transport_speed_m_s``, ``battery_cutoff_at_s``
+        (first time at the cut-off, or None) and ``cost_of_transport_note`` (why the costs
+        of transport are None).
     """
     t_p, power = log["t_electrical_power"], log["electrical_power"]
     t_m, mech = log["t_joint_mechanical_power"], np.abs(log["joint_mechanical_power"])

@@ -51,18 +51,18 @@ from manta_drake.config_io import (
 )
 from manta_drake.control.balloon_rule import BalloonRuleParams
 from manta_drake.control.behaviour_tree import BlendNode, compile_tree, default_tree
-from manta_drake.control.heading_hold import HeadingHoldParams
 from manta_drake.control.gait_files import gait_library
 from manta_drake.control.gaits import BALANCED_FIN_SWEEP_DEG, READINGS
+from manta_drake.control.heading_hold import HeadingHoldParams
 from manta_drake.control.transition import check_parameters
 from manta_drake.control.vision import WallDetectorParams
+from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE, NAMES, SECTIONS
 from manta_drake.model import MODELS_DIR, PACKAGE_URL, resolve_path
 from manta_drake.model.actuators import load_actuators, load_energy_model, scale_actuators
 from manta_drake.model.coefficients import HydroCoefficients, load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import NUM_JOINTS, robot_with_fin_sweep_deg
 from manta_drake.model.servo import SERVO_MODELS, back_emf_damping, servo_robot_params
 from manta_drake.model.start_pose import start_pose_problem
-from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE, NAMES, SECTIONS
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
 from manta_drake.station.foil import FIN_MODELS
 
@@ -618,7 +618,8 @@ class Scenario:
             raise ScenarioError(f"initial_pose: {problem}")
         check_one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
         check_one_of("controller.gait", self.controller.gait, tuple(gaits))
-        check_in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True)
+        check_in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz",
+                       open_low=True)
         for name in ("chain_weight", "fcs_weight"):
             check_in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 100.0, "[0, 100] rad/s")
         for name in ("a", "b"):
@@ -805,7 +806,8 @@ def _walk_key(dotted: str):
     if not dotted or not isinstance(dotted, str):
         raise ScenarioError(f"{dotted!r}: not a dotted scenario key")
     parts = dotted.split(".")
-    schema, path = Scenario, []
+    schema: type[typing.Any] = Scenario
+    path: list[str] = []
     i = 0
     while i < len(parts):
         part = parts[i]
@@ -818,7 +820,7 @@ def _walk_key(dotted: str):
         tp = fields[part]
         if typing.get_origin(tp) is dict and i + 1 < len(parts):
             value_type = typing.get_args(tp)[1]
-            if dc.is_dataclass(value_type):
+            if isinstance(value_type, type) and dc.is_dataclass(value_type):
                 # A mapping of named sections (transition.tree.NODE.FIELD): the next part
                 # is the name, the rest a field of that section.
                 path.append(parts[i + 1])

@@ -470,7 +470,7 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
         except KeyboardInterrupt as e:
             interrupted = interruption(e)
             failure = interrupted_failure("simulation", root_context.get_time(), interrupted)
-        except (Exception, SystemExit) as e:  # keep the log of what happened up to the failure
+        except (Exception, SystemExit) as e:  # noqa: BLE001 - keep the log up to the failure
             # SystemExit: a Drake abort surfacing in Python; it must not end the process
             # without the log.
             failure = {"time_s": float(root_context.get_time()),

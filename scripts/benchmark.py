@@ -60,9 +60,9 @@ T_IMPORT_START = time.perf_counter()
 
 import numpy as np  # noqa: E402
 
-from manta_drake.wiring.diagram import build_diagram  # noqa: E402
 from manta_drake.scenario import load_scenario  # noqa: E402
 from manta_drake.simulate import make_simulator  # noqa: E402
+from manta_drake.wiring.diagram import build_diagram  # noqa: E402
 
 T_IMPORTED = time.perf_counter()
 

@@ -21,7 +21,6 @@ import time
 import numpy as np
 
 from manta_drake.control.vision import detect
-from manta_drake.wiring.diagram import build_diagram
 from manta_drake.scenario import (
     ControllerConfig,
     InitialPose,
@@ -29,6 +28,7 @@ from manta_drake.scenario import (
     VisualizationConfig,
 )
 from manta_drake.simulate import make_simulator
+from manta_drake.wiring.diagram import build_diagram
 
 
 def main() -> int:

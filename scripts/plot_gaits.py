@@ -18,16 +18,16 @@ import time
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator  # noqa: E402
-from pydrake.systems.framework import DiagramBuilder  # noqa: E402
-from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from manta_drake.control.cpg import CpgOscillators  # noqa: E402
-from manta_drake.control.gaits import GAITS  # noqa: E402
-from manta_drake.model.robot_params import JOINTS  # noqa: E402
-from manta_drake.scenario import Scenario  # noqa: E402
+from manta_drake.control.cpg import CpgOscillators
+from manta_drake.control.gaits import GAITS
+from manta_drake.model.robot_params import JOINTS
+from manta_drake.scenario import Scenario
 
 LEGS = ("front-left", "front-right", "rear-left", "rear-right")
 

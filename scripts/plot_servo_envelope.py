@@ -19,11 +19,11 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from manta_drake.model import servo as S  # noqa: E402
-from manta_drake.scenario import load_scenario  # noqa: E402
+from manta_drake.model import servo as S
+from manta_drake.scenario import load_scenario
 
 
 def run_samples(folder: pathlib.Path):

@@ -80,7 +80,8 @@ def test_the_model_carries_each_part_where_the_bill_puts_it():
 
 
 def test_composite_inertia_agrees_with_drake():
-    parts = [(0.3, (0.0, 0.0, 0.1), (1e-3, 2e-3, 3e-3)), (0.2, (0.05, -0.02, 0.2), (4e-4, 5e-4, 6e-4))]
+    parts = [(0.3, (0.0, 0.0, 0.1), (1e-3, 2e-3, 3e-3)),
+             (0.2, (0.05, -0.02, 0.2), (4e-4, 5e-4, 6e-4))]
     mass, com, inertia = composite_inertia(parts)
     total = SpatialInertia.Zero()
     for m, c, moments in parts:
@@ -144,8 +145,8 @@ def test_the_residual_trims_the_deflated_robot_level_under_water():
     """The plant's centre of mass (MultibodyPlant, zero pose) lies under the centre of
     buoyancy of the water model's sealed volumes (``build_elements``, fully submerged,
     balloon empty) to 0.5 mm: the ballast's chosen position does what its source says."""
-    from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import MultibodyPlant
 
     from manta_drake.model.coefficients import load_coefficients
     from manta_drake.model.kinematics import link_poses_at_zero

@@ -27,10 +27,10 @@ def hand_eq5(x, params, f, w_chain, w_fcs, a, b):
             i = 4 * k + j
             W[i, i + 1] = W[i + 1, i] = w_chain
             B[i, i + 1], B[i + 1, i] = Phi[k, j], -Phi[k, j]
-        for l in range(4):  # FCS among bases: phi_4l - phi_4k -> Phi'[k, l]
-            if l != k:
-                W[4 * k, 4 * l] = w_fcs
-                B[4 * k, 4 * l] = Phip[k, l]
+        for m in range(4):  # FCS among bases: phi_4m - phi_4k -> Phi'[k, m]
+            if m != k:
+                W[4 * k, 4 * m] = w_fcs
+                B[4 * k, 4 * m] = Phip[k, m]
     dphi = np.array([2 * np.pi * f + sum(W[i, j] * np.sin(phi[j] - phi[i] - B[i, j])
                                          for j in range(16)) for i in range(16)])
     ddr = a * (a / 4 * (R - r) - dr)
@@ -147,11 +147,11 @@ def test_phase_lock_after_settling(name, rng):
     # biases are consistent (all but swim, see gaits.py).
     target = phase_lock_targets(gait.Phi_prime)
     for k in range(4):
-        for l in range(4):
-            err = _wrap(phi[4 * l] - phi[4 * k] - (target[l] - target[k]))
-            assert abs(err) < 0.05, (name, "FCS", k, l, err)
+        for m in range(4):
+            err = _wrap(phi[4 * m] - phi[4 * k] - (target[m] - target[k]))
+            assert abs(err) < 0.05, (name, "FCS", k, m, err)
             if not name.startswith("swim"):
-                assert abs(_wrap(phi[4 * l] - phi[4 * k] - gait.Phi_prime[k, l])) < 0.05
+                assert abs(_wrap(phi[4 * m] - phi[4 * k] - gait.Phi_prime[k, m])) < 0.05
 
 
 def test_desired_rates_equal_finite_difference_of_angles():

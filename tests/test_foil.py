@@ -185,7 +185,8 @@ def test_slider_reaction_plus_correction_is_kirchhoffs_force():
 def test_compiled_strip_wrenches_and_lag_equal_the_numpy_reference():
     from scipy.spatial.transform import Rotation
 
-    from manta_drake.station import foil, foil_kernels as FK
+    from manta_drake.station import foil
+    from manta_drake.station import foil_kernels as FK
 
     rng = np.random.default_rng(11)
     nb, ns, ne = 5, 12, 15
@@ -266,7 +267,8 @@ def test_added_mass_body_emerged_share_and_centring():
 def test_compiled_added_mass_body_wrenches_equal_the_numpy_reference():
     from scipy.spatial.transform import Rotation
 
-    from manta_drake.station import foil, foil_kernels as FK
+    from manta_drake.station import foil
+    from manta_drake.station import foil_kernels as FK
 
     rng = np.random.default_rng(5)
     nb, nm = 7, 3

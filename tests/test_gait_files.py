@@ -25,8 +25,10 @@ PHI_PRIME_SWIM = np.array([[0, -PI / 18, 0, 0], [PI / 18, 0, 0, 0], [0, 0, 0, -P
                            [0, 0, PI / 18, 0]])
 R_GAIT = np.array([[PI / 9, PI / 18, PI / 12, 0], [-PI / 9, PI / 18, PI / 12, 0],
                    [PI / 9, PI / 18, PI / 12, 0], [-PI / 9, PI / 18, PI / 12, 0]])
-X_GAIT = np.array([[PI / 9, -PI / 6, -PI / 6, -5 * PI / 18], [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
-                   [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18], [PI / 9, -PI / 6, PI / 6, -5 * PI / 18]])
+X_GAIT = np.array([[PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
+                   [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
+                   [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
+                   [PI / 9, -PI / 6, PI / 6, -5 * PI / 18]])
 PHI_GAIT = rows([2 * PI / 3, -PI, PI, 0])
 PHI_PRIME_GAIT = np.array([[0, PI, PI, 0], [-PI, 0, 0, -PI], [-PI, 0, 0, -PI], [0, PI, PI, 0]])
 PHI_PRIME_WALK = np.array([[0, 3 * PI / 2, PI, PI / 2], [-3 * PI / 2, 0, -PI / 2, -PI],
@@ -147,9 +149,11 @@ def test_base_takes_the_missing_matrices(tmp_path):
      r"gaits\.g\.R_deg: expected 4 rows .* got 3 rows"),
     ("gaits:\n  g: {base: trot, X_deg: [[1, 2, 3], [1, 2, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4]]}\n",
      r"gaits\.g\.X_deg\[fl\]: expected 4 rows .* got 3 numbers"),
-    ("gaits:\n  g: {base: trot, Phi_deg: [[1, 2, a, 4], [1, 2, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4]]}\n",
+    ("gaits:\n  g: {base: trot, Phi_deg: [[1, 2, a, 4], [1, 2, 3, 4], [1, 2, 3, 4], "
+     "[1, 2, 3, 4]]}\n",
      r"gaits\.g\.Phi_deg\[fl, pitch\]: 'a' is not a number"),
-    ("gaits:\n  g: {base: trot, Phi_deg: [[1, 2, 3, 4], [1, .nan, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4]]}\n",
+    ("gaits:\n  g: {base: trot, Phi_deg: [[1, 2, 3, 4], [1, .nan, 3, 4], [1, 2, 3, 4], "
+     "[1, 2, 3, 4]]}\n",
      r"gaits\.g\.Phi_deg\[fr, roll1\]: nan is outside \[-720, 720\] deg"),
     ("gaits:\n  g: {base: trot, R_dg: []}\n", r"gaits\.g: unknown key 'R_dg'; allowed: R_deg"),
     ("gaits:\n  g: {R_deg: [[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]}\n",
@@ -199,7 +203,8 @@ def test_scenario_gait_files_relative_to_the_scenario_and_by_set(tmp_path, monke
 
 def test_scenario_refuses_a_missing_or_unknown_gait(tmp_path):
     with pytest.raises(ScenarioError, match=r"controller\.gait_files\[0\]: gait file not found"):
-        load_scenario("locomotion_trot", overrides={"controller.gait_files": [str(tmp_path / "x.yaml")]})
+        load_scenario("locomotion_trot",
+                      overrides={"controller.gait_files": [str(tmp_path / "x.yaml")]})
     with pytest.raises(ScenarioError, match=r"controller\.gait: 'slow_trot' is not one of"):
         load_scenario("locomotion_trot", overrides={"controller.gait": "slow_trot"})
 
@@ -214,13 +219,15 @@ def test_the_finest_simple_fraction_still_converts_to_the_constants_double():
 def test_written_degrees_snap_to_whole_only_within_1e9():
     # 7e-10 deg from a whole number is written as the whole number; 1.2e-9 deg away it is
     # not, or the file would no longer read back to within 1e-9 deg.
-    near, far = GF.radians_to_degrees(np.radians(np.array([[10 + 7e-10, 10 + 1.2e-9, 0, 0]] * 4)))[0][:2]
+    degrees = np.array([[10 + 7e-10, 10 + 1.2e-9, 0, 0]] * 4)
+    near, far = GF.radians_to_degrees(np.radians(degrees))[0][:2]
     assert near == 10 and isinstance(near, int)
     assert abs(far - (10 + 1.2e-9)) <= 1e-9 and far != 10
 
 
 def test_entries_up_to_720_degrees_are_accepted(tmp_path):
-    text = "gaits:\n  g: {base: trot, Phi_deg: [[720, -720, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]}\n"
+    text = ("gaits:\n  g: {base: trot, Phi_deg: [[720, -720, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], "
+            "[0, 0, 0, 0]]}\n")
     g = GF.gait_entries([_file(tmp_path, text)])["g"]
     assert g.matrices["Phi"][0, 0] == 4 * PI and g.matrices["Phi"][0, 1] == -4 * PI
     with pytest.raises(ScenarioError, match=r"720\.5 is outside"):

@@ -95,8 +95,8 @@ def test_swim_fins_mirror_each_other_and_the_legged_gaits_keep_the_print():
 
     for name, mirrored in (("swim", True), ("swim_printed", False)):
         g = GAITS[name]
-        same = all(np.allclose(M[r], MIRROR_SIGNS * M[l]) for M in (g.R, g.X)
-                   for l, r in ((0, 1), (2, 3)))
+        same = all(np.allclose(M[right], MIRROR_SIGNS * M[left]) for M in (g.R, g.X)
+                   for left, right in ((0, 1), (2, 3)))
         assert same is mirrored, name
 
 
@@ -141,8 +141,8 @@ def test_consistent_fcs_lock_equals_the_biases(name):
     phi = phase_lock_targets(GAITS[name].Phi_prime)
     P = GAITS[name].Phi_prime
     for k in range(4):
-        for l in range(4):
-            err = np.angle(np.exp(1j * (phi[l] - phi[k] - P[k, l])))
+        for m in range(4):
+            err = np.angle(np.exp(1j * (phi[m] - phi[k] - P[k, m])))
             assert abs(err) < 1e-6
 
 

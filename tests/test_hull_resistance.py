@@ -72,9 +72,11 @@ def test_rotational_damping_is_the_strip_integral():
     a, b, c, rho = 0.19, 0.12, 0.07, 1000.0
     cd = (1.7, 1.6, 0.6)
 
-    def strip(l, h, c_d):  # Integral of s * 1/2 rho C_D 2 h sqrt(1 - s^2/l^2) |s| s over s
-        f = lambda s: 0.5 * rho * c_d * 2 * h * math.sqrt(1 - (s / l) ** 2) * abs(s) ** 3
-        return integrate.quad(f, -l, l)[0]
+    def strip(L, h, c_d):  # Integral of s * 1/2 rho C_D 2 h sqrt(1 - s^2/L^2) |s| s over s
+        def f(s):
+            return 0.5 * rho * c_d * 2 * h * math.sqrt(1 - (s / L) ** 2) * abs(s) ** 3
+
+        return integrate.quad(f, -L, L)[0]
 
     expected = [strip(b, a, cd[0]), strip(a, b, cd[1]), strip(a, c, cd[2])]
     np.testing.assert_allclose(hr.cross_flow_rotational_damping((a, b, c), cd, rho), expected,

@@ -174,9 +174,10 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
 
     root = __import__("pathlib").Path(__file__).resolve().parent.parent
     csv = tmp_path / "s.csv"
-    lines = ["# test", "# source: a closed-form test table"] + [f"{a},{u},{(1.0 + i + 2.0 * (i + 1) * abs(u)) * u}"
-                          for i, a in enumerate(("surge", "sway", "heave", "roll", "pitch", "yaw"))
-                          for u in (-1.0, -0.5, 0.5, 1.0, 1.5)]
+    lines = ["# test", "# source: a closed-form test table"] + [
+        f"{a},{u},{(1.0 + i + 2.0 * (i + 1) * abs(u)) * u}"
+        for i, a in enumerate(("surge", "sway", "heave", "roll", "pitch", "yaw"))
+        for u in (-1.0, -0.5, 0.5, 1.0, 1.5)]
     csv.write_text("\n".join(lines) + "\n")
     target = tmp_path / "h.yaml"
     shutil.copy(MODELS_DIR / "hydrodynamics.yaml", target)
@@ -391,8 +392,8 @@ def test_deflated_robot_with_foil_fins_sinks_and_rests(tmp_path):
 
 
 def test_surge_step_force_accelerates_with_added_mass():
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.25]),
                         balloon=BalloonConfig(initial_fill=0.25))
@@ -416,7 +417,8 @@ def test_surge_step_force_accelerates_with_added_mass():
     vx = []
     for t in times:
         simulator.AdvanceTo(t)
-        vx.append(plant.GetVelocities(plant_context)[h.plant_handles.body.floating_velocities_start_in_v() + 3])
+        v_start = h.plant_handles.body.floating_velocities_start_in_v()
+        vx.append(plant.GetVelocities(plant_context)[v_start + 3])
     slope = np.polyfit(times[5:], np.array(vx)[5:], 1)[0]
     expected = F / (P.total_mass + COEFFS.body.added_mass.value[0])
     assert slope == pytest.approx(expected, rel=0.05)
@@ -498,8 +500,8 @@ def test_spinning_plate_gets_torque_and_no_net_force():
 
 def test_held_forces_start_from_the_initial_state():
     """With update_period > 0 the first held forces are those of the initial state."""
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
                         balloon=BalloonConfig(initial_fill=1.0))
@@ -532,9 +534,9 @@ def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt, t
     import yaml
 
     import manta_drake.station.hydro as hydro_module
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     def swim(coefficients=None):
         s = load_scenario("locomotion_swim")

@@ -127,8 +127,8 @@ def test_spinning_body_reads_its_rate_attitude_and_lever_arm_acceleration():
     np.testing.assert_allclose(y[0:3], rpy, rtol=0, atol=1e-12)
     np.testing.assert_allclose(y[3:6], w_B, rtol=0, atol=1e-12)
     a, b, c = SIZE
-    I = MASS / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
-    alpha_B = -np.cross(w_B, I * w_B) / I
+    I_B = MASS / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+    alpha_B = -np.cross(w_B, I_B * w_B) / I_B
     expected = np.cross(alpha_B, p) + np.cross(w_B, np.cross(w_B, p))
     np.testing.assert_allclose(y[6:9], expected, rtol=0, atol=1e-9)
     assert np.linalg.norm(np.cross(alpha_B, p)) > 0.005  # the alpha term matters here

@@ -23,7 +23,6 @@ import numpy as np
 import pytest
 
 from manta_drake import simulate
-from manta_drake.wiring.diagram import build_diagram, logger_data
 from manta_drake.model.robot_params import NUM_JOINTS
 from manta_drake.model.servo import (
     back_emf_damping,
@@ -33,6 +32,7 @@ from manta_drake.model.servo import (
     supply_feed_forward,
 )
 from manta_drake.scenario import load_scenario
+from manta_drake.wiring.diagram import build_diagram, logger_data
 from manta_drake.wiring.station import start_command
 
 

@@ -161,7 +161,7 @@ def test_every_port_set_and_backend_gives_the_same_forces(rng):
         seed = int(rng.integers(1 << 30))
         v_prev = np.r_[rng.normal(size=6), 0.0, np.zeros(6), -1.0]
         spatial, generalized = [], []
-        for (diagram, h, hydro), context in zip(systems, contexts):
+        for (_diagram, h, hydro), context in zip(systems, contexts):
             random_state(h, context, np.random.default_rng(seed))
             context.SetTime(1e-3)
             hydro_context = hydro.GetMyMutableContextFromRoot(context)

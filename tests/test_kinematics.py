@@ -9,10 +9,14 @@ from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
 
 def _elementary(theta, d, a, alpha):
     c, s = np.cos, np.sin
-    Rz = np.array([[c(theta), -s(theta), 0, 0], [s(theta), c(theta), 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
-    Tz = np.eye(4); Tz[2, 3] = d
-    Tx = np.eye(4); Tx[0, 3] = a
-    Rx = np.array([[1, 0, 0, 0], [0, c(alpha), -s(alpha), 0], [0, s(alpha), c(alpha), 0], [0, 0, 0, 1]])
+    Rz = np.array([[c(theta), -s(theta), 0, 0], [s(theta), c(theta), 0, 0], [0, 0, 1, 0],
+                   [0, 0, 0, 1]])
+    Tz = np.eye(4)
+    Tz[2, 3] = d
+    Tx = np.eye(4)
+    Tx[0, 3] = a
+    Rx = np.array([[1, 0, 0, 0], [0, c(alpha), -s(alpha), 0], [0, s(alpha), c(alpha), 0],
+                   [0, 0, 0, 1]])
     return Rz @ Tz @ Tx @ Rx
 
 

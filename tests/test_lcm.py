@@ -124,8 +124,8 @@ def test_the_old_module_name_gives_the_seams_objects():
 
 
 def test_channel_table_matches_the_ports_and_the_docs():
-    from manta_drake.wiring.controller import build_controller
     from manta_drake.scenario import load_scenario
+    from manta_drake.wiring.controller import build_controller
     from manta_drake.wiring.station import build_station
 
     halves = {}
@@ -157,8 +157,8 @@ def test_channel_table_matches_the_ports_and_the_docs():
 
 def test_controller_commands_do_not_depend_directly_on_the_sensors():
     """Why the lockstep controller may publish its commands for t before t's sensors."""
-    from manta_drake.wiring.controller import build_controller
     from manta_drake.scenario import load_scenario
+    from manta_drake.wiring.controller import build_controller
 
     for name in ("three_behaviors", "four_behaviors", "swim_heading_hold"):
         controller, _ = build_controller(load_scenario(name))
@@ -276,8 +276,8 @@ def test_link_waits_resends_and_gives_up():
     station = seam.Link("memq://", [desired], "station", sticky=(clock.name,))
     sent = {clock.name: [], depth.name: []}
     for name, box in sent.items():
-        station.transport.lcm.subscribe(name, functools.partial(lambda box, _, data: box.append(data),
-                                                      box))
+        station.transport.lcm.subscribe(
+            name, functools.partial(lambda box, _, data: box.append(data), box))
     station.publish(clock.name, seam.joint_state_message(0.0, np.zeros(32)), 0)
     station.publish(depth.name, seam.vector_message(0.0, [0.1]), 0)
     station.publish(depth.name, seam.vector_message(0.02, [0.2]), 20000)
@@ -285,7 +285,8 @@ def test_link_waits_resends_and_gives_up():
     assert [len(sent[clock.name]), len(sent[depth.name])] == [1, 2]
     # A command stamped 0.02 s says the controller has what was sent before 0.02 s:
     # only the depth of 0.02 s and the newest clock message are sent again.
-    station.transport.lcm.publish(desired.name, seam.joint_state_message(0.02, np.ones(32)).encode())
+    station.transport.lcm.publish(desired.name,
+                                  seam.joint_state_message(0.02, np.ones(32)).encode())
     station.drain()
     assert station.newest[desired.name] == 20000
     station.resend()
@@ -813,9 +814,9 @@ def _scenario_file(tmp_path, duration=5.0, extra="") -> pathlib.Path:
 def _single_run(path):
     """The single diagram, advanced in one call (simulate.run's 50 ms chunk ends are not
     on the plant's step grid, which adds ~1e-16 s integrator steps)."""
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import extract_log, make_simulator
+    from manta_drake.wiring.diagram import build_diagram
 
     scenario = load_scenario(path)
     diagram, handles = build_diagram(scenario)

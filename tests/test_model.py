@@ -10,8 +10,8 @@ from pydrake.geometry import Role, Shape
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RevoluteJoint
 
-from manta_drake.model.model_sdf import pool_sdf, robot_sdf
 from manta_drake.model import MODELS_DIR
+from manta_drake.model.model_sdf import pool_sdf, robot_sdf
 from manta_drake.model.plant import add_plant, make_parser
 from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES
 
@@ -93,7 +93,8 @@ def test_every_joint_has_limits_effort_and_gains(robot_plant):
         assert actuator.effort_limit() == pytest.approx(DEFAULT_ROBOT.effort_limit)
         assert actuator.has_controller()
         gains = actuator.get_controller_gains()
-        assert gains.p == pytest.approx(DEFAULT_ROBOT.kp) and gains.d == pytest.approx(DEFAULT_ROBOT.kd)
+        assert gains.p == pytest.approx(DEFAULT_ROBOT.kp)
+        assert gains.d == pytest.approx(DEFAULT_ROBOT.kd)
 
 
 def test_collision_geometry_on_body_and_distal_links(robot_plant):

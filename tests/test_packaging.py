@@ -51,8 +51,9 @@ def test_non_editable_install_lists_and_runs_a_shipped_scenario(tmp_path, instal
         return subprocess.run([str(site / "bin" / "manta-drake"), *args], cwd=work, env=env,
                               capture_output=True, text=True, timeout=600)
 
-    where = subprocess.run([sys.executable, "-c", "import manta_drake; print(manta_drake.__file__)"],
-                           cwd=work, env=env, capture_output=True, text=True)
+    where = subprocess.run(
+        [sys.executable, "-c", "import manta_drake; print(manta_drake.__file__)"],
+        cwd=work, env=env, capture_output=True, text=True)
     assert where.stdout.strip().startswith(str(site)), where.stdout + where.stderr
     listed = manta("list")
     assert listed.returncode == 0, listed.stderr

@@ -13,8 +13,9 @@ def test_lamb_integrals_by_quadrature_and_their_sum_is_two():
     a, b, c = 0.19, 0.12, 0.07
 
     def integral(s2):
-        f = lambda lam: 1.0 / ((s2 + lam) * np.sqrt((a * a + lam) * (b * b + lam)
-                                                    * (c * c + lam)))
+        def f(lam):
+            return 1.0 / ((s2 + lam) * np.sqrt((a * a + lam) * (b * b + lam) * (c * c + lam)))
+
         return a * b * c * quad(f, 0.0, np.inf, limit=200)[0]
 
     expected = [integral(a * a), integral(b * b), integral(c * c)]

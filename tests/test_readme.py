@@ -378,7 +378,8 @@ def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
     start = text.index(".venv/bin/manta-drake run my_scenario.yaml --out out/mine --no-meshcat")
     commands = text[start:text.index("```", start)].replace("\\\n", " ")
     assert commands.count("manta-drake run") == 2
-    for line, out in zip([c for c in commands.splitlines() if c.strip()], ("out/mine", "out/mine2")):
+    lines = [c for c in commands.splitlines() if c.strip()]
+    for line, out in zip(lines, ("out/mine", "out/mine2")):
         argv = line.split()[1:] + ["--set", "duration=3", "--quiet"]
         assert argv[0] == "run" and argv[1] == "my_scenario.yaml"
         done = subprocess.run([sys.executable, "-m", "manta_drake.cli", *argv], cwd=tmp_path,

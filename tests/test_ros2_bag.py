@@ -207,7 +207,7 @@ def test_mcaps_crc_checked_reader_decodes_every_message(bagged):
     with open(out / "run.mcap", "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()], validate_crcs=True)
         header, summary = reader.get_header(), reader.get_summary()
-        for schema, channel, message, decoded in reader.iter_decoded_messages():
+        for schema, channel, _message, decoded in reader.iter_decoded_messages():
             assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
             if channel.topic == "/manta/joint_states":

@@ -53,7 +53,7 @@ async def _watch(url: str, until_closed: float) -> tuple[dict, list]:
                 elif message[0] == 0x01:  # messageData: sub id u32, log time u64, payload
                     sub, log_time = struct.unpack_from("<IQ", message, 1)
                     frames.append((subscribed[sub], log_time, bytes(message[13:])))
-        except (ConnectionClosed, asyncio.TimeoutError):
+        except (TimeoutError, ConnectionClosed):
             pass
     return channels, frames
 

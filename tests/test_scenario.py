@@ -112,7 +112,8 @@ def test_defaults_are_consistent_with_each_other():
 
 
 def test_transition_parameters_checked_at_load_time(tmp_path):
-    with pytest.raises(ScenarioError, match=r"transition\.alpha \* g \* T = 4.75 > 1 would overshoot"):
+    with pytest.raises(ScenarioError,
+                       match=r"transition\.alpha \* g \* T = 4.75 > 1 would overshoot"):
         load_scenario(_write(tmp_path, "transition: {g: 5.0, T: 1.0}\n"))
     with pytest.raises(ScenarioError, match=r"transition\.z_t: 1.5 is outside \(0, 1\]"):
         load_scenario(_write(tmp_path, "transition: {z_t: 1.5}\n"))
@@ -127,8 +128,9 @@ def test_layers_apply_in_order_and_keep_what_they_do_not_name(tmp_path):
     path = _write(tmp_path, "name: layered\ncontact: {friction: 0.7}\n"
                             "water: {coefficient_scales: {body.quadratic_damping: 0.9}}\n")
     s = load_scenario(path, data={"contact": {"friction": 0.6}, "random_seed": 9},
-                      defaults=base, overrides={"random_seed": 11, "duration": 2.0,
-                                                "water.coefficient_scales.fins.normal_force_coefficient": 1.2})
+                      defaults=base, overrides={
+                          "random_seed": 11, "duration": 2.0,
+                          "water.coefficient_scales.fins.normal_force_coefficient": 1.2})
     assert s.name == "layered" and s.duration == 2.0 and s.random_seed == 11
     assert s.contact.friction == 0.6
     # Maps merge across the layers; a field no layer names keeps the dataclass default.

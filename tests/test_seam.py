@@ -9,9 +9,9 @@ from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake import build_controller, build_diagram, build_station, load_scenario
 from manta_drake.control.gaits import GAITS
-from manta_drake.wiring.diagram import connect_by_name
 from manta_drake.model.plant import body_pose
 from manta_drake.simulate import make_simulator
+from manta_drake.wiring.diagram import connect_by_name
 
 
 def _scenario(name, **changes):
@@ -178,10 +178,10 @@ def test_the_gait_reading_and_its_fin_sweep_reach_the_station_and_the_controller
     """controller.gait_reading: mirrored builds the robot on its balanced sweep (30 deg: the
     plant's tips equal Eq. (1) with that sweep) and runs the mirrored gaits (the controller's
     first CPG parameters and the start stance are MIRRORED's trot)."""
-    from manta_drake.wiring.controller import initial_cpg_params
     from manta_drake.control.gaits import MIRRORED
     from manta_drake.model.kinematics import fin_tip_pose
     from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
+    from manta_drake.wiring.controller import initial_cpg_params
 
     s = _scenario("locomotion_trot", duration=0.1)
     s.controller.gait_reading = "mirrored"

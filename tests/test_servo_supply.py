@@ -73,7 +73,8 @@ def test_servo_supply_ports_give_the_feed_forward():
         ServoSupply(3, kp_r, theta, 0.0, 1e-3)
 
 
-def test_the_kernel_equals_the_numpy_reference(rng=np.random.default_rng(5)):
+def test_the_kernel_equals_the_numpy_reference():
+    rng = np.random.default_rng(5)
     kp_r, theta = S.joint_gains(SERVO, V_R)[0], S.saturation_angle(SERVO)
     out = np.empty(16)
     for _ in range(50):

@@ -48,7 +48,7 @@ def test_a_run_with_meshcat_listens_on_loopback_only():
     sockets = [x for x in _listening([os.getpid()]) if x not in before]
     assert sockets, "Meshcat should serve its page"
     for pid, ip, port in sockets:
-        assert ipaddress.ip_address(ip).is_loopback, (ip, port)
+        assert ipaddress.ip_address(ip).is_loopback, (pid, ip, port)
     assert "localhost" in handles.meshcat.web_url() or "127.0.0.1" in handles.meshcat.web_url()
 
 

@@ -44,7 +44,8 @@ def test_hull_scale_for_net_weight_closed_form():
 def _net_weight_by_hand(coeffs, robot=DEFAULT_ROBOT) -> float:
     """W = M - rho V with the sealed volume V added up from the robot's parts, apart from the
     water model: the hull ellipsoid 4/3 pi abc, four XW540 cases per leg-fin (33.5 x 58.5 x
-    45.9 mm), and the two NACA0012 fin plates of each leg-fin (0.68508 t c x span, NACA4_SECTION_AREA)."""
+    45.9 mm), and the two NACA0012 fin plates of each leg-fin (0.68508 t c x span,
+    NACA4_SECTION_AREA)."""
     a, b, c = coeffs.body.sealed_semi_axes.value
     hull = 4.0 / 3.0 * np.pi * a * b * c
     servos = 4 * NUM_LEGS * 0.0335 * 0.0585 * 0.0459

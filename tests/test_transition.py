@@ -7,12 +7,12 @@ from hypothesis import strategies as st
 
 from manta_drake.control.gaits import GAITS
 from manta_drake.control.transition import (
-    PotentialTransition,
     TIE_BAND,
+    PotentialTransition,
     descent_step,
-    tie_broken_sine,
     potential,
     target_params,
+    tie_broken_sine,
     vision_weight,
     wrap,
 )
@@ -175,8 +175,10 @@ def test_switch_baseline_is_abrupt_and_direct_follow_takes_the_target_at_once():
     from manta_drake.control.transition import target_params
 
     swim, trot, turning = (GAITS[n].to_vector() for n in ("swim", "trot", "turning"))
-    np.testing.assert_array_equal(target_params(0.49, 0.0, swim, trot, turning, blend="switch"), swim)
-    np.testing.assert_array_equal(target_params(0.51, 0.0, swim, trot, turning, blend="switch"), trot)
+    np.testing.assert_array_equal(
+        target_params(0.49, 0.0, swim, trot, turning, blend="switch"), swim)
+    np.testing.assert_array_equal(
+        target_params(0.51, 0.0, swim, trot, turning, blend="switch"), trot)
     np.testing.assert_array_equal(target_params(0.9, 0.6, swim, trot, turning, blend="switch"),
                                   turning)
     system = PotentialTransition(blend="switch", follow="direct")

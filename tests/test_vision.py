@@ -55,7 +55,8 @@ def test_wall_meeting_floor_is_two_clusters_but_plain_dbscan_merges(rng):
             assert c.centroid[0] == pytest.approx(1.0, abs=0.08)
             assert c.centroid[2] == pytest.approx(-0.5, abs=0.08)
     wall_cluster = next(c for c in planes if c.label == "wall")
-    assert abs(wall_cluster.normal[0]) > 0.95 and wall_cluster.centroid[0] == pytest.approx(1.0, abs=0.02)
+    assert abs(wall_cluster.normal[0]) > 0.95
+    assert wall_cluster.centroid[0] == pytest.approx(1.0, abs=0.02)
     # The same cloud, the same eps and min_points, without the normal test: one cluster.
     down, normals, _ = downsample_with_normals(cloud, P)
     plain = normal_dbscan(down, None, P.eps, P.min_points, None)
@@ -258,9 +259,9 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     m from the end wall (x = 7.5 m), body yawed by each of ``yaws_deg``: the detector's
     Detection of one frame through the controller's real chain (station depth noise,
     median filter, DepthImageToPointCloud), and the camera's distance to the wall."""
-    from manta_drake.wiring.diagram import build_diagram
     from manta_drake.model.plant import body_pose, set_initial_state
     from manta_drake.model.robot_params import RobotParams
+    from manta_drake.wiring.diagram import build_diagram
 
     s = Scenario(name="camera", duration=0.45, initial_stance="trot",
                  controller=ControllerConfig(mode="hold", gait="trot"),

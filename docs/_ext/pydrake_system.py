@@ -34,7 +34,8 @@ from sphinx.util.docutils import SphinxDirective
 KEYS = ("name", "input_ports", "output_ports")
 
 
-class pydrake_system(nodes.General, nodes.Element):  # noqa: N801 (docutils node naming)
+# Lower case, as docutils names its node classes.
+class pydrake_system(nodes.General, nodes.Element):
     """The parsed block: attributes ``name``, ``input_ports``, ``output_ports``."""
 
 

@@ -28,8 +28,9 @@ to), ``calibration.png`` (measured against simulated before and after) and
 
 Checked before any simulation, each refused with one line naming the field or option: the
 file (keys, types, ranges, coefficients, scenarios and override values), every measured CSV
-or bag against its experiment (a bag's topics and their types) (UTF-8 text, the columns, finite numbers, times from 0 that increase
-and end within the run's duration), finite targets, and the output folder. A fit whose
+or bag against its experiment (a bag's topics and their types) (UTF-8 text, the columns,
+finite numbers, times from 0 that increase and end within the run's duration), finite
+targets, and the output folder. A fit whose
 simulations at the fitted point did not all run to their end writes no coefficients file
 (``calibrate`` exits 1).
 

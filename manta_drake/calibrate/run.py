@@ -35,7 +35,7 @@ def simulate_trajectory(scenario_yaml: str, period: float = 0.01) -> dict:
             if (folder / "log.npz").is_file():  # not after a failed build
                 with np.load(folder / "log.npz") as npz:
                     log = {k: npz[k] for k in ("t", "body_xyz", "body_rpy") if k in npz}
-        except Exception as e:  # reported; the optimiser sees a large residual
+        except Exception as e:  # noqa: BLE001 - reported; the optimiser sees a large residual
             out.update(status="error", reason=f"{type(e).__name__}: {' '.join(str(e).split())}")
     if log is not None and len(log.get("t", [])) and "body_xyz" in log:
         t = np.asarray(log["t"])

@@ -31,11 +31,11 @@ class AltimeterEstimatorParams:
 
     Measured with the default altimeter in the paper's 0.5 m pool (docs/behaviours.md,
     "Floor detection from the altimeter"): in the trot's stance the filtered range is
-    0.17-0.18 m, in the nose-up trot's and other floor gaits' 0.17-0.22 m; the swim at the surface porpoises the
-    transducer down to a raw 0.21 m, 0.28-0.36 m once filtered with a 1 s time constant
-    (0.24 m with 0.3 s). The band [0.23, 0.28] m lies between the two with 1-0.5 cm to
-    spare; the 1 s lag averages the swim's 2 s heave and delays the estimate by about
-    1 s, short against the seconds a sink or a rise takes."""
+    0.17-0.18 m, in the nose-up trot's and other floor gaits' 0.17-0.22 m; the swim at the
+    surface porpoises the transducer down to a raw 0.21 m, 0.28-0.36 m once filtered with a
+    1 s time constant (0.24 m with 0.3 s). The band [0.23, 0.28] m lies between the two
+    with 1-0.5 cm to spare; the 1 s lag averages the swim's 2 s heave and delays the
+    estimate by about 1 s, short against the seconds a sink or a rise takes."""
 
     on_floor_range: float = 0.23  # floor_hat = 1 at or below this range
     off_floor_range: float = 0.28  # floor_hat = 0 at or above this range

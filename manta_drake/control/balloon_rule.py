@@ -94,10 +94,10 @@ class BalloonRuleParams:
                                      f"{' and '.join(SWITCH_ONLY)}): leave it out")
         if not self.modality:
             choices = f"one of {', '.join(names)}" if names else "an estimate's name"
-            default = BalloonRuleParams()
+            defaults = BalloonRuleParams()
             for f in dc.fields(self):
                 value = getattr(self, f.name)
-                if f.name != "modality" and value != getattr(default, f.name):
+                if f.name != "modality" and value != getattr(defaults, f.name):
                     raise ValueError(f"{f.name}: {short_repr(value)} is set but the rule's "
                                      "modality is empty (no rule: the schedule alone); set "
                                      f"modality to {choices} or leave {f.name} out")

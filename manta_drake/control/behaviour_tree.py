@@ -91,8 +91,9 @@ class BlendNode:
 
 def switch_parameters(node: BlendNode) -> tuple[float, float]:
     """(threshold, hysteresis) of a switch node, the defaults where unset."""
-    return tuple(SWITCH_DEFAULTS[name] if getattr(node, name) is None else getattr(node, name)
-                 for name in ("threshold", "hysteresis"))
+    threshold = SWITCH_DEFAULTS["threshold"] if node.threshold is None else node.threshold
+    hysteresis = SWITCH_DEFAULTS["hysteresis"] if node.hysteresis is None else node.hysteresis
+    return threshold, hysteresis
 
 
 def potential_weights(x: float) -> tuple[float, float]:
@@ -219,7 +220,8 @@ def _depth_first(nodes: Mapping[str, BlendNode]) -> list[str]:
     more than ``MAX_TREE_DEPTH`` nodes deep (its longest path from the root, shared subtrees
     included). Iterative: a tree of any depth is refused without recursion, and every
     recursive walk of a compiled tree is at most ``MAX_TREE_DEPTH`` deep."""
-    order, path, height = [ROOT], [ROOT], {}  # height: nodes on the longest path below
+    order, path = [ROOT], [ROOT]
+    height: dict[str, int] = {}  # nodes on the longest path below
     pending = [iter(nodes[ROOT].children)]
     while pending:
         child = next(pending[-1], None)
@@ -249,7 +251,7 @@ def _refuse_depth(nodes: Mapping[str, BlendNode], path: list, height: dict) -> N
     path through ``path`` (followed down by ``height``)."""
     while len(path) <= MAX_TREE_DEPTH:
         below = [c for c in nodes[path[-1]].children if c in height]
-        path.append(max(below, key=height.get))
+        path.append(max(below, key=height.__getitem__))
     raise ValueError(f"tree.{path[MAX_TREE_DEPTH]}: {MAX_TREE_DEPTH + 1} nodes deep from "
                      f"root ({' -> '.join(path[:3])} -> ...); a tree may be at most "
                      f"{MAX_TREE_DEPTH} nodes deep")
@@ -310,13 +312,20 @@ class BehaviourTree:
     """
 
     __slots__ = ("_blend_nodes", "_leaves", "_modalities", "_nodes", "_switch_nodes", "_vectors")
+    _blend_nodes: Mapping[str, BlendNode]
+    _leaves: tuple[str, ...]
+    _modalities: tuple[str, ...]
+    _nodes: tuple[_Node, ...]
+    _switch_nodes: tuple[str, ...]
+    _vectors: Mapping[str, np.ndarray]
 
     def __init__(self, key, nodes: dict[str, BlendNode], vectors: dict[str, np.ndarray],
                  modalities: tuple[str, ...]):
         if key is not _PRIVATE:
             raise TypeError("BehaviourTree: build one with compile_tree(nodes, gaits)")
         index = {name: i for i, name in enumerate(nodes)}  # depth-first: the root is 0
-        compiled, switches = [], []
+        compiled: list[_Node] = []
+        switches: list[str] = []
         for name, node in nodes.items():
             children = tuple((c in index, index.get(c, c)) for c in node.children)
             n = len(children)

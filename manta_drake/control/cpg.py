@@ -53,8 +53,8 @@ NUM_STATES = 5 * NUM_OSC  # phi, r, dr, chi, dchi
 _chain_i = np.array([JOINTS_PER_LEG * k + j for k in range(NUM_LEGS)
                      for j in range(JOINTS_PER_LEG - 1)])
 _chain_j = _chain_i + 1
-_fcs_k, _fcs_l = np.array([(k, l) for k in range(NUM_LEGS) for l in range(NUM_LEGS)
-                           if k != l]).T
+_fcs_k, _fcs_l = np.array([(k, m) for k in range(NUM_LEGS) for m in range(NUM_LEGS)
+                           if k != m]).T
 PAIR_I = np.concatenate([_chain_i, _chain_j, JOINTS_PER_LEG * _fcs_k])  # receiving oscillator
 PAIR_J = np.concatenate([_chain_j, _chain_i, JOINTS_PER_LEG * _fcs_l])  # sending oscillator
 _CHAIN_PHI_INDEX = _chain_i  # into Phi.ravel(): Phi[k, j] biases joint j -> j + 1
@@ -212,7 +212,7 @@ class CpgOscillators(LeafSystem):
         if not compiled:
             # pybind looks the override up on the instance, so this replaces the kernel
             # version for this system only (and the kernel path has no extra call).
-            self.DoCalcTimeDerivatives = self._derivatives_numpy
+            self.DoCalcTimeDerivatives = self._derivatives_numpy  # type: ignore[method-assign]
         self.DeclareVectorOutputPort(
             "joint_angles", NUM_OSC,
             self._calc_joint_angles if compiled else self._calc_joint_angles_numpy,

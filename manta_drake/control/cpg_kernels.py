@@ -17,6 +17,7 @@ the cache.
 from __future__ import annotations
 
 import numpy as np
+
 from manta_drake.jit import njit
 
 

@@ -28,6 +28,7 @@ the estimate is used; with a standing robot (the seabed gaits) the reading is th
 import dataclasses as dc
 
 import numpy as np
+
 from manta_drake.config_io import check_one_of
 from manta_drake.control.filtered_estimator import FilteredEstimator
 from manta_drake.control.memberships import check_ramp, ramp_membership

@@ -51,7 +51,7 @@ class GaitParams:
         return np.concatenate([getattr(self, name).ravel() for name in FIELDS])
 
     @classmethod
-    def from_vector(cls, v) -> "GaitParams":
+    def from_vector(cls, v) -> GaitParams:
         """Inverse of ``to_vector``."""
         v = np.asarray(v, dtype=float)
         if v.shape != (NUM_CPG_PARAMS,):

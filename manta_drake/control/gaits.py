@@ -85,7 +85,7 @@ def phase_lock_targets(Phi_prime) -> np.ndarray:
     """Base-oscillator phases (relative to leg 1) that the all-to-all FCS locks to.
 
     With equal symmetric weights and antisymmetric biases the FCS is a gradient flow
-    of ``V = sum_{k<l} (1 - cos(phi_l - phi_k - Phi_prime[k, l]))``; its lock is V's
+    of ``V = sum_{i<j} (1 - cos(phi_j - phi_i - Phi_prime[i, j]))``; its lock is V's
     global minimum, found here by multistart minimisation (independent of the CPG's
     integration). Equal to the biases (mod 2 pi) when they are consistent, the
     compromise when not (Phi'_swim, see the module docstring).
@@ -97,15 +97,15 @@ def phase_lock_targets(Phi_prime) -> np.ndarray:
 
     B = np.asarray(Phi_prime, dtype=float)
     n = len(B)
-    k, l = np.triu_indices(n, 1)
+    i, j = np.triu_indices(n, 1)
 
     def potential(x):
         phi = np.concatenate([[0.0], x])
-        e = phi[l] - phi[k] - B[k, l]
+        e = phi[j] - phi[i] - B[i, j]
         grad_pairs = np.sin(e)
         g = np.zeros(n)
-        np.add.at(g, l, grad_pairs)
-        np.add.at(g, k, -grad_pairs)
+        np.add.at(g, j, grad_pairs)
+        np.add.at(g, i, -grad_pairs)
         return np.sum(1.0 - np.cos(e)), g[1:]
 
     starts = np.stack(np.meshgrid(*[np.linspace(-PI, PI, 5)[:-1]] * (n - 1)), -1).reshape(-1, n - 1)

@@ -248,10 +248,11 @@ class HeadingHold(LeafSystem):
     (``changed_targets``; a change restarts the integral), then ``heading_trim_step``.
     With ``heading_deg`` None the target is the yaw estimate at the first update with a
     finite one (at t = 0 the posture estimator's initialization event has already seeded
-    it). A non-finite yaw or yaw rate holds the state. The output ``cpg_params`` depends directly on the ``cpg_params`` and
-    ``swim_share`` inputs and on the state, never on ``attitude_hat`` or
-    ``yaw_rate_hat``: the estimators read the plant, and a feedthrough from them would
-    close an algebraic loop through the CPG. Disabled, no update is declared.
+    it). A non-finite yaw or yaw rate holds the state. The output ``cpg_params`` depends
+    directly on the ``cpg_params`` and ``swim_share`` inputs and on the state, never on
+    ``attitude_hat`` or ``yaw_rate_hat``: the estimators read the plant, and a feedthrough
+    from them would close an algebraic loop through the CPG. Disabled, no update is
+    declared.
 
     Args:
         params: ``HeadingHoldParams`` (None: the defaults, disabled).

@@ -23,6 +23,7 @@ The specific force is not used: the AHRS attitude already fuses it.
 import dataclasses as dc
 
 import numpy as np
+
 from manta_drake.control.filtered_estimator import FilteredEstimator
 from manta_drake.control.memberships import check_ramp, ramp_membership
 

@@ -67,8 +67,8 @@ from manta_drake.model.robot_params import NUM_CPG_PARAMS
 # The behaviours Eq. (12) blends: swim (surface), and in the gait trot or turning (vision).
 BEHAVIOURS = ("swim", "trot", "turning")
 # Targets: Eq. (12) ("potential"), its convex form ("normalised"), Eq. (11) ("linear"), or an
-# abrupt switch at half depth and half wall rate ("switch", a baseline). How psi follows its target: Eqs. (14)-(15)
-# ("descent") or at once ("direct", the baselines).
+# abrupt switch at half depth and half wall rate ("switch", a baseline). How psi follows its
+# target: Eqs. (14)-(15) ("descent") or at once ("direct", the baselines).
 BLENDS = ("potential", "normalised", "linear", "switch")
 FOLLOWS = ("descent", "direct")
 
@@ -203,10 +203,10 @@ class PotentialTransition(LeafSystem):
     ``initial_params`` (64) is psi at t = 0; None: the tree's first leaf (the surface gait of
     the default tree). ``time_constants`` (modality -> tau [s], 0: raw) overrides
     ``{"s_hat": s_hat_time_constant}`` entry by entry; each key a modality the tree reads
-    (s_hat's default is ignored by a tree without it). ``filter_state_indices`` maps each filtered modality to its discrete state.
-    ``initial_values`` (modality -> estimate) are the estimates at t = 0, which the switches,
-    the filters and ``behaviour_weights`` start from (None or a missing modality: 0, nothing
-    seen yet).
+    (s_hat's default is ignored by a tree without it). ``filter_state_indices`` maps each
+    filtered modality to its discrete state. ``initial_values`` (modality -> estimate) are
+    the estimates at t = 0, which the switches, the filters and ``behaviour_weights`` start
+    from (None or a missing modality: 0, nothing seen yet).
     """
 
     def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
@@ -248,7 +248,8 @@ class PotentialTransition(LeafSystem):
         gains = {m: 1.0 - np.exp(-period / tau)
                  for m, tau in self.time_constants.items() if tau > 0}
         self.s_hat_gain = gains.get("s_hat", 1.0)
-        self.period, self.g, self.T, self.alpha, self.z_t, self.blend = period, g, T, alpha, z_t, blend
+        self.period, self.g, self.T = period, g, T
+        self.alpha, self.z_t, self.blend = alpha, z_t, blend
         self.follow = follow
         self.max_step = alpha * g * T
         initial = (tree.gait_vectors[tree.leaves[0]] if initial_params is None

@@ -25,8 +25,8 @@ Pipeline (each step a plain function the tests call directly):
    of the size c (points after downsampling) of the largest wall cluster *ahead*
    (its normal within ``frontal_angle_deg`` of the camera's horizontal viewing
    direction; in the 2 m wide pool the side walls are always in view and must not
-   trigger the turn); 0 when no such wall is seen. The default k = 10 / (c_max - c_min) puts s_hat at 0.7 % at c_min
-   and 99.3 % at c_max.
+   trigger the turn); 0 when no such wall is seen. The default k = 10 / (c_max - c_min) puts
+   s_hat at 0.7 % at c_min and 99.3 % at c_max.
 """
 
 import dataclasses as dc
@@ -276,7 +276,7 @@ def is_ahead(cluster: Cluster, view_direction, p: WallDetectorParams) -> bool:
     d = np.array([view_direction[0], view_direction[1], 0.0])
     n = np.array([cluster.normal[0], cluster.normal[1], 0.0])
     norms = np.linalg.norm(d) * np.linalg.norm(n)
-    return norms > 0 and abs(d @ n) / norms >= np.cos(np.radians(p.frontal_angle_deg))
+    return bool(norms > 0 and abs(d @ n) / norms >= np.cos(np.radians(p.frontal_angle_deg)))
 
 
 def detect(xyz, p: WallDetectorParams, viewpoint=(0.0, 0.0, 0.0), time: float = 0.0,

@@ -147,8 +147,9 @@ def fin_plates(params) -> tuple[FinPlate, FinPlate]:
     g = fin_plate_geometry(params)
     e = np.eye(3)
     # Link 3: chord y, span +z; link 4: chord z, span -y; normal x on both.
-    proximal = FinPlate("proximal", 3, tuple(map(float, g["proximal"]["center"])), params.proximal_chord,
-                        params.d3, tuple(map(tuple, np.column_stack([e[1], e[2], e[0]]).tolist())))
+    proximal = FinPlate("proximal", 3, tuple(map(float, g["proximal"]["center"])),
+                        params.proximal_chord, params.d3,
+                        tuple(map(tuple, np.column_stack([e[1], e[2], e[0]]).tolist())))
     distal = FinPlate("distal", 4, tuple(map(float, g["distal"]["center"])), params.distal_chord,
                       params.dE, tuple(map(tuple, np.column_stack([e[2], -e[1], e[0]]).tolist())))
     return proximal, distal

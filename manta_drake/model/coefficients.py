@@ -279,7 +279,8 @@ def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -
             "net_weight_kg does)")
 
 
-def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None) -> HydroCoefficients:
+def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE,
+                      field: str | None = None) -> HydroCoefficients:
     """Loads and checks ``hydrodynamics.yaml`` (unknown and duplicate keys, sizes, signs,
     sources); errors are one line naming the file (and ``field``, the scenario field that
     named it)."""
@@ -297,5 +298,7 @@ def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None) 
     except ScenarioError as e:
         message = str(e)
         prefix = f"{path}: "
-        raise ScenarioError(f"{where}: {message[len(prefix):] if message.startswith(prefix) else message}") from None
+        if message.startswith(prefix):
+            message = message[len(prefix):]
+        raise ScenarioError(f"{where}: {message}") from None
     return coeffs

@@ -12,8 +12,8 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
-from pydrake.geometry import RoleAssign
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.geometry import RoleAssign, SceneGraph
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
@@ -21,8 +21,14 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
     MultibodyPlantConfig,
 )
-from pydrake.math import RotationMatrix
-from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, RotationalInertia, SpatialInertia
+from pydrake.multibody.tree import (
+    FixedOffsetFrame,
+    ModelInstanceIndex,
+    PlanarJoint,
+    RigidBody,
+    RotationalInertia,
+    SpatialInertia,
+)
 from pydrake.systems.framework import DiagramBuilder
 
 from manta_drake.model import package_map
@@ -48,10 +54,10 @@ class PlantHandles:
     """What the rest of the diagram needs from the plant."""
 
     plant: MultibodyPlant
-    scene_graph: object
-    robot: object  # ModelInstanceIndex
-    pool: object
-    body: object  # the robot's main body (RigidBody)
+    scene_graph: SceneGraph
+    robot: ModelInstanceIndex
+    pool: ModelInstanceIndex | None  # None: no pool
+    body: RigidBody  # the robot's main body
     joint_names: tuple = JOINT_NAMES
     added_mass_iso: float = 0.0  # kg of isotropic hull added mass in the mass matrix
 

@@ -11,7 +11,8 @@
   alpha0 = 2/3 a b c R_D(b^2, c^2, a^2) (DLMF 19.20.5); alpha0 + beta0 + gamma0 = 2:
 
       m_11 = alpha0 / (2 - alpha0) rho V,
-      I_11 = rho V (b^2 - c^2)^2 (gamma0 - beta0) / (5 (2 (b^2 - c^2) + (b^2 + c^2) (beta0 - gamma0))),
+      I_11 = rho V (b^2 - c^2)^2 (gamma0 - beta0)
+             / (5 (2 (b^2 - c^2) + (b^2 + c^2) (beta0 - gamma0))),
 
   the others by cycling (a, alpha0) -> (b, beta0) -> (c, gamma0).
 """

@@ -160,6 +160,7 @@ class RobotParams:
     @property
     def servo_volume(self) -> float:
         """The water one servo's case displaces [m^3]: its envelope."""
+        assert self.servo_size is not None  # set by __post_init__
         return math.prod(self.servo_size)
 
     @property
@@ -172,13 +173,14 @@ class RobotParams:
         return (naca_section_area(t, self.proximal_chord) * self.d3,
                 naca_section_area(t, self.distal_chord) * self.dE)
 
-    def with_fin_sweep(self, sweep: float) -> "RobotParams":
+    def with_fin_sweep(self, sweep: float) -> RobotParams:
         """These parameters with every leg-fin swept back by ``sweep`` [rad] at theta_1 = 0
         (negative: swept forward)."""
         return replace(self, mounts=tuple(replace(m, sweep=sweep) for m in self.mounts))
 
     @property
     def total_mass(self) -> float:
+        assert self.body_mass is not None and self.link_masses is not None  # __post_init__
         return self.body_mass + len(self.mounts) * sum(self.link_masses)
 
     def mount(self, leg: str) -> LegMount:

@@ -107,7 +107,7 @@ def simulate_candidate(task: dict) -> dict:
                 out["metrics"] = run_metrics(metrics)
                 out.update(status="failed", reason=failure_reason(metrics.get("failure"))
                            or " ".join(str(e).split()))
-            except Exception as e:  # any failure is a result, never a lost optimisation
+            except Exception as e:  # noqa: BLE001 - a result, never a lost optimisation
                 out.update(status="error", reason=f"{type(e).__name__}: {' '.join(str(e).split())}")
         if task.get("keep_log") and (folder / "log.npz").is_file():
             out["log_npz"] = (folder / "log.npz").read_bytes()

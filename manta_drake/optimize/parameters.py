@@ -151,7 +151,7 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
                 raise OptimizeError(f"{where}.tie[{j}]: {text!r} is the entry itself; a tie "
                                     "names another entry")
             targets.append(Target(tm, tr, tc, float(sign), f"tie[{j}]"))
-        for j, t in enumerate(list(targets)):  # Phi' antisymmetry: [l, k] = -[k, l]
+        for t in list(targets):  # Phi' antisymmetry: [l, k] = -[k, l]
             if t.matrix == "Phi_prime_deg":
                 partner = Target(t.matrix, t.col, t.row, -t.sign, t.field)
                 if any((p.matrix, p.row, p.col) == (partner.matrix, partner.row, partner.col)

@@ -6,9 +6,10 @@ the start gait itself, injected), save the state (``state.json``, module ``state
 candidates and costs told so far and the asked ones), simulate every (candidate, point,
 seed) not already in ``history.csv``, write each result as it comes (its folder and the
 table, atomically), aggregate each candidate's costs, tell CMA-ES, keep the logs of the
-best candidate so far only, save the state again. Then the best gait is re-run at the scenario as it is (``best_run/``, with its
-figures) and at the held-out points (``held_out/``), and ``best_gait.yaml``,
-``convergence.png`` and ``summary.json`` are written.
+best candidate so far only, save the state again. Then the best gait is re-run at the
+scenario as it is (``best_run/``, with its figures) and at the held-out points
+(``held_out/``), and ``best_gait.yaml``, ``convergence.png`` and ``summary.json`` are
+written.
 
 A restart (the same spec and options, the same ``--out``) loads ``state.json``, rebuilds
 CMA-ES by replaying its asks and tells (each replayed candidate checked against the saved
@@ -36,6 +37,7 @@ import uuid
 
 import numpy as np
 
+from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
 from manta_drake.optimize.evaluate import simulate_candidate
 from manta_drake.optimize.history import (
     HISTORY,
@@ -66,7 +68,6 @@ from manta_drake.optimize.state import (
 )
 from manta_drake.simulate import interrupts_as_exceptions
 from manta_drake.sweep.config import check_out_folder
-from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
 
 # What run_optimization writes in its output folder (files, then folders).
 OUTPUTS = ("best_gait.yaml", HISTORY, "convergence.png", "summary.json", STATE)
@@ -196,7 +197,7 @@ class _Runner:
             for job in jobs:
                 try:
                     outcome = self.evaluate(job["task"])
-                except Exception as e:  # an evaluator's raise is the candidate's failure
+                except Exception as e:  # noqa: BLE001 - the evaluator's raise fails the candidate
                     outcome = {"status": "error",
                                "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
                 self._finish(job, outcome, done)

@@ -113,8 +113,8 @@ from manta_drake.seam.limits import (
     screen_balloon_command,
     screen_battery,
     screen_depth,
-    screen_reading,
     screen_joint_command,
+    screen_reading,
 )
 from manta_drake.seam.link import (
     DEFAULT_STARTUP_TIMEOUT_S,
@@ -141,8 +141,8 @@ from manta_drake.seam.messages import (
     vector_message,
 )
 from manta_drake.seam.plant_step_tick import PlantStepTick, controller_with_tick
-from manta_drake.seam.ros2_link import Ros2Transport
 from manta_drake.seam.result import SeamResult
+from manta_drake.seam.ros2_link import Ros2Transport
 from manta_drake.seam.schedule import (
     BEFORE_START_TIME,
     BEFORE_START_UTIME,

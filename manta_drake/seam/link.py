@@ -18,9 +18,9 @@ import urllib.parse
 import zlib
 from collections.abc import Callable
 
+from manta_drake.lcmtypes import lcmt_manta_handshake
 from manta_drake.seam.channels import Channel
 from manta_drake.seam.errors import Incidents, SeamError, warn
-from manta_drake.lcmtypes import lcmt_manta_handshake
 from manta_drake.seam.handshake import (
     HANDSHAKE_CHANNEL,
     LCM_MEDIUM,

@@ -53,7 +53,8 @@ def seam_topic_table_markdown(topic_map) -> str:
     (docs/ros2.md holds the shipped map's; a test checks)."""
     from manta_drake.ros2.topic_map import QOS_PROFILES
 
-    rows = ["| port | from | topic | type | QoS | period |", "| --- | --- | --- | --- | --- | --- |"]
+    rows = ["| port | from | topic | type | QoS | period |",
+            "| --- | --- | --- | --- | --- | --- |"]
     for c in CHANNELS:
         for signal in channel_signals(c, sending=True):
             e = topic_map.topics[signal]

@@ -169,8 +169,8 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
         return SeamError(
             f"station: no command for t = {context.get_time():.3f} s within {waited:.1f} s; "
             f"is `manta-drake controller` running with the same scenario, "
-            f"{link.transport.medium.option} and --wall-clock setting?" + (f" ({skipped} malformed messages skipped)" if skipped
-                                       else ""))
+            f"{link.transport.medium.option} and --wall-clock setting?"
+            + (f" ({skipped} malformed messages skipped)" if skipped else ""))
 
     mode = "wall-clock" if wall_clock else "lockstep"
     wall_start = None

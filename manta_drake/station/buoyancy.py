@@ -56,6 +56,7 @@ class BalloonBuoyancy(LeafSystem):
     def set_volume(self, context, volume: float) -> None:
         """Sets the balloon's volume in this system's context."""
         if not 0 <= volume <= self.max_volume:
-            raise ValueError(f"BalloonBuoyancy.set_volume: {volume} is outside [0, {self.max_volume}]")
+            raise ValueError(f"BalloonBuoyancy.set_volume: {volume} is outside "
+                             f"[0, {self.max_volume}]")
         context.get_mutable_discrete_state(self._state).SetAtIndex(0, volume)
 

@@ -98,14 +98,14 @@ def check_current_schedule(points, constant, field: str = "water.current_schedul
     _check_velocity(constant_field, constant)
     if not isinstance(points, (list, tuple)):
         raise ValueError(f"{field}: expected a list of {{time, velocity}} keys, got {points!r}")
-    previous = -math.inf
+    previous: numbers.Real | float = -math.inf
     for i, point in enumerate(points):
         if not (hasattr(point, "time") and hasattr(point, "velocity")):
             raise ValueError(f"{field}[{i}]: {point!r} is not a CurrentPoint "
                              "(a time and a velocity)")
         t = point.time
         if isinstance(t, bool) or not isinstance(t, numbers.Real) or not (
-                math.isfinite(t) and 0.0 <= t <= MAX_TIME):
+                math.isfinite(t) and 0.0 <= float(t) <= MAX_TIME):
             raise ValueError(f"{field}[{i}].time: {t!r} is outside the allowed range "
                              f"[0, {MAX_TIME:g}] s")
         if t < previous:
@@ -132,6 +132,11 @@ class CurrentSchedule:
     """
 
     __slots__ = ("_constant", "_times", "_velocities", "_rows", "_is_constant")
+    _constant: np.ndarray
+    _times: np.ndarray
+    _velocities: np.ndarray
+    _rows: tuple[tuple[float, ...], tuple[tuple[float, ...], ...]]
+    _is_constant: bool
 
     def __init__(self, constant=(0.0, 0.0, 0.0), points=(), *,
                  field: str = "water.current_schedule", constant_field: str = "water.current"):

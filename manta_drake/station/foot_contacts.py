@@ -144,7 +144,7 @@ class FootContacts(LeafSystem):
         output.SetFromVector(carrier_loads(carriers, forces, speeds).ravel())
 
     @staticmethod
-    def AddToBuilder(builder, plant, scene_graph, robot, floor_geometries) -> "FootContacts":
+    def AddToBuilder(builder, plant, scene_graph, robot, floor_geometries) -> FootContacts:
         """Adds the system and connects it to ``plant``'s and ``scene_graph``'s ports."""
         system = builder.AddNamedSystem("foot_contacts",
                                         FootContacts(plant, robot, floor_geometries))

@@ -84,8 +84,8 @@ def effective_inertia(plant, robot) -> tuple[float, np.ndarray]:
         bodies += plant.GetBodyIndices(plant.GetModelInstanceByName("manta_added_mass"))
     hull = plant.GetBodyByName("body", robot)
     M = plant.CalcSpatialInertia(context, hull.body_frame(), bodies)
-    I = M.Shift(M.get_com()).CalcRotationalInertia().CopyToFullMatrix3()
-    return float(M.get_mass()), np.diag(I).copy()
+    I_com = M.Shift(M.get_com()).CalcRotationalInertia().CopyToFullMatrix3()
+    return float(M.get_mass()), np.diag(I_com).copy()
 
 
 def _fixed(name: str, doc: str) -> property:
@@ -322,6 +322,7 @@ class HydrodynamicForces(LeafSystem):
         # The kernels' arrays, once: (elements, strips, damping, parameters).
         elements, strips = K.pack_elements(el)
         if self._foil:  # the strips are the foil model's: none for the cross-flow terms
+            assert added is not None  # read above for the foil model
             strips = np.zeros((0, strips.shape[1]))
             self._foil_reference_args, self._foil_packed = self._pack_foil(coeffs, el, added)
         self._packed = (elements, strips,
@@ -807,8 +808,8 @@ def _added_mass_bodies(plant, hydro_bodies) -> dict:
     instance = plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)
     rows = {int(b): k for k, b in enumerate(hydro_bodies)}
     joints = [plant.get_joint(j) for j in plant.GetJointIndices(instance)]
-    out = {"index": [], "body": [], "plate": [], "mass": [], "inertia_normal": [], "R_PF": [],
-           "p_PF": []}
+    out: dict[str, list] = {"index": [], "body": [], "plate": [], "mass": [],
+                            "inertia_normal": [], "R_PF": [], "p_PF": []}
     for k, joint in enumerate(joints):
         body = joint.child_body()
         X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()

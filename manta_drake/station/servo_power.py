@@ -86,7 +86,8 @@ def servo_power_terms(tau, qdot, servo: ServoConstants) -> dict[str, np.ndarray]
 def servo_electrical_power(tau, qdot, servo: ServoConstants) -> np.ndarray:
     """Each servo's electrical power [W]: R i^2 + max(e i, 0) + standby (the max dropped with
     ``recover_negative_work``), the sum of ``servo_power_terms``; element-wise over any shape."""
-    return sum(servo_power_terms(tau, qdot, servo).values())
+    terms = servo_power_terms(tau, qdot, servo)
+    return terms["copper"] + terms["shaft"] + terms["standby"]
 
 
 def joint_mechanical_power(tau, qdot) -> np.ndarray:
@@ -178,7 +179,7 @@ class ServoPower(LeafSystem):
         self.DeclareVectorOutputPort("servo_power", n, self._calc_servos)
         self.DeclareVectorOutputPort("joint_mechanical_power", n, self._calc_mechanical)
 
-    def _torque_and_rate(self, context):
+    def _torque_and_rate(self, context) -> tuple[np.ndarray, np.ndarray]:
         return self._torque.Eval(context), self._state.Eval(context)[self.num_joints:]
 
     def _calc_total(self, context, output: BasicVector):

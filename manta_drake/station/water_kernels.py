@@ -33,6 +33,7 @@ folder or compiles without a cache instead of failing at import.
 from __future__ import annotations
 
 import numpy as np
+
 from manta_drake.jit import njit
 
 # Joint types in the packed tree.

@@ -75,7 +75,8 @@ def _transitions(m: dict) -> str:
 
 def _walls(m: dict) -> str:
     near = m.get("near_wall_at_s")
-    return (f"within 0.3 m of a wall from {near:.1f} s" if near is not None else "never within 0.3 m") + \
+    return (f"within 0.3 m of a wall from {near:.1f} s" if near is not None
+            else "never within 0.3 m") + \
         f"; closest {max(m['min_wall_clearance_m'], 0.0):.2f} m" + \
         ("; touched" if m["touched_wall"] else "")
 
@@ -98,7 +99,8 @@ def _heading_figure(out: pathlib.Path, path: pathlib.Path) -> None:
         log = np.load(out / name / "log.npz")
         ax1.plot(log["t"], np.degrees(np.unwrap(log["body_rpy"][:, 2])), label=label)
         if "heading_trim" in log.files:
-            ax2.plot(log["t_heading_trim"], log["heading_trim"][:, 0], label="trim u (left x (1+u), right x (1-u))")
+            ax2.plot(log["t_heading_trim"], log["heading_trim"][:, 0],
+                     label="trim u (left x (1+u), right x (1-u))")
     ax1.set_ylabel("yaw [deg]")
     ax1.legend(fontsize=8)
     ax2.set_ylabel("heading trim")
@@ -127,12 +129,12 @@ def _four_figure(out: pathlib.Path, metrics: dict, path: pathlib.Path) -> None:
 
 def _estimates_at(out: pathlib.Path, times) -> list:
     log = np.load(out / "four_behaviors" / "log.npz")
-    rows = []
-    for t in times:
-        def at(key):
-            return float(log[key][min(np.searchsorted(log[f"t_{key}"], t), len(log[key]) - 1), 0])
-        rows.append((t, at("z_hat"), at("flow_hat"), at("energy_hat"), at("balloon_command")))
-    return rows
+
+    def at(key, t):
+        return float(log[key][min(np.searchsorted(log[f"t_{key}"], t), len(log[key]) - 1), 0])
+
+    return [(t, at("z_hat", t), at("flow_hat", t), at("energy_hat", t),
+             at("balloon_command", t)) for t in times]
 
 
 def page(metrics: dict, out: pathlib.Path) -> str:
@@ -184,10 +186,12 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "",
         "| weight | w0 (first child), w1 (second) | |",
         "| --- | --- | --- |",
-        "| `potential` | -sin(a), cos(a), a = pi/2 (x - 1) | Eq. (12)'s depth pair; sums to up to 1.41 |",
+        ("| `potential` | -sin(a), cos(a), a = pi/2 (x - 1) | Eq. (12)'s depth pair; sums to up "
+         "to 1.41 |"),
         "| `cosine` | 1 - w, w with w = (1 - cos(pi x)) / 2 | Eq. (12)'s vision weight |",
         "| `linear` | 1 - x, x | Eq. (11) |",
-        "| `normalised` | the potential's, divided by their sum | a convex blend (docs/transitions.md) |",
+        ("| `normalised` | the potential's, divided by their sum | a convex blend "
+         "(docs/transitions.md) |"),
         "| `switch` | 0/1 at threshold +- hysteresis / 2 | a decision with memory |",
         "",
         "A node with N children places them at x = k / (N - 1) and blends neighbours. The "
@@ -276,7 +280,8 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "## A fourth behaviour from new modalities: four_behaviors",
         "",
         f"The robot starts on the floor in a {speed_now:g} m/s cross current (to its left; "
-        f"0-{on_until:g} s, then down to 0 by {off_at:g} s). The tree: `root` blends `active` and the gait `rest` (a gait file "
+        f"0-{on_until:g} s, then down to 0 by {off_at:g} s). The tree: `root` blends `active` "
+        "and the gait `rest` (a gait file "
         "beside the scenario: no oscillation, the swim's stance) by `energy_hat` (cosine); "
         "`active` blends swim and `floor` by `z_hat` (Eq. 12's potential); `floor` switches "
         "between trot and walk by `flow_hat` (hysteresis 0.6). `balloon.rule` keeps the balloon "

@@ -62,6 +62,7 @@ wall); 0 otherwise. docs/fault_campaign.md describes the summary.
 from __future__ import annotations
 
 import collections
+import contextlib
 import copy
 import csv
 import json
@@ -197,7 +198,8 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
                 expect.append("water.coefficient_scales.fins.strips_per_plate")
         # The sealed volume must stay the semi-axes' ellipsoid volume (coefficients.py):
         # scaling one without the other's cube is refused.
-        volume, axes = scales.get("body.sealed_volume", 1.0), scales.get("body.sealed_semi_axes", 1.0)
+        volume = scales.get("body.sealed_volume", 1.0)
+        axes = scales.get("body.sealed_semi_axes", 1.0)
         if abs(volume - axes**3) > 0.01 * volume:
             expect.append("water.coefficient_scales.body.sealed_volume")
         # The physical constants have ranges (a pool of water on Earth): a scale that takes
@@ -667,10 +669,8 @@ def _end_worker(client, marker: dict) -> None:
     """Ends the worker process that wrote ``marker`` (a run past its timeout): by its pid when
     it runs on this machine, else through its nanny (a pid names another process here)."""
     if marker.get("host") == socket.gethostname():
-        try:
+        with contextlib.suppress(OSError):
             os.kill(int(marker["pid"]), 9)
-        except OSError:
-            pass
     elif marker.get("worker"):
         client.restart_workers([marker["worker"]], timeout=60, raise_for_error=False)
 
@@ -871,7 +871,8 @@ def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
 
 
 def format_summary(s: dict) -> str:
-    lines = [f"fault campaign: {s['runs']} runs", "", f"{'outcome':<14}{'runs':>6}  most common causes"]
+    lines = [f"fault campaign: {s['runs']} runs", "",
+             f"{'outcome':<14}{'runs':>6}  most common causes"]
     for o in OUTCOMES:
         n = s["outcomes"][o]
         causes = s["causes"].get(o, [])
@@ -884,7 +885,8 @@ def format_summary(s: dict) -> str:
             if len(causes) > 1 + len(shown):
                 lines.append(f"{'':<22}... {len(causes) - 1 - len(shown)} more (summary.json)")
     lines.append("")
-    lines.append("expectation: " + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items())))
+    lines.append("expectation: "
+                 + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items())))
     if s["silently_accepted"]:
         lines.append("  SILENTLY ACCEPTED (must be refused): " + "; ".join(
             f"run {x['run']} ({x['expected']} -> {x['outcome']})" for x in s["silently_accepted"]))
@@ -901,10 +903,12 @@ def format_summary(s: dict) -> str:
     def st(d, unit):
         if not d.get("n"):
             return "-"
-        return f"median {d['median']:.4g}, p95 {d['p95']:.4g}, max {d['max']:.4g} {unit} (n {d['n']})"
+        return (f"median {d['median']:.4g}, p95 {d['p95']:.4g}, max {d['max']:.4g} {unit} "
+                f"(n {d['n']})")
 
     p = s["penetration_m_ok_runs"]
-    lines.append(f"penetration (ok runs): {st(p, 'm')}; > {p['flag'] * 1e3:g} mm: {p['above_flag']}")
+    lines.append(f"penetration (ok runs): {st(p, 'm')}; > {p['flag'] * 1e3:g} mm: "
+                 f"{p['above_flag']}")
     sc = s["accepted_starts_in_contact"]
     lines.append(f"accepted starts already > {s['start_contact_flag_m'] * 1e3:g} mm inside the "
                  f"floor or a wall at t = 0: {len(sc)}" + (" " + "; ".join(
@@ -919,7 +923,8 @@ def format_summary(s: dict) -> str:
     lines.append(f"joint speed: {st(js, 'rad/s')}; > {js['limit']:g} rad/s: {js['above_limit']}")
     lines.append(f"body speed, mean per run (ok runs): {st(s['mean_speed_m_s_ok_runs'], 'm/s')}")
     lines.append(f"body speed, max per run (ok runs): {st(s['max_speed_m_s_ok_runs'], 'm/s')}")
-    lines.append(f"body angular rate, max (ok runs): {st(s['max_body_rate_rad_s_ok_runs'], 'rad/s')}")
+    lines.append("body angular rate, max (ok runs): "
+                 f"{st(s['max_body_rate_rad_s_ok_runs'], 'rad/s')}")
     w = s["wall_time_s"]
     camp = f"{w['campaign']:.0f} s" if w.get("campaign") else "-"
     lines.append(f"wall time: campaign {camp}, sum of runs {w['sum_of_runs']:.0f} s, "

@@ -170,14 +170,14 @@ def main(argv=None, prog=None) -> int:
             row = (reading, gait, u, v, float("nan") if yaw is None else yaw,
                    m["min_wall_clearance_m"])
             rows.append(row)
-            print("%-13s %-8s u %+.3f  v %+.3f m/s  yaw %+6.2f deg/s  clearance %.2f m"
-                  % row, flush=True)
+            print("{:<13} {:<8} u {:+.3f}  v {:+.3f} m/s  yaw {:+6.2f} deg/s  clearance {:.2f} m"
+                  .format(*row), flush=True)
     w0, w1 = args.duration / 2, args.duration
     table = [f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`manta-drake study readings"
              f" --duration {w1:g}`):", "",
              "| reading | gait | u m/s | v m/s | yaw rate deg/s | min wall clearance m |",
              "| --- | --- | --- | --- | --- | --- |"]
-    table += ["| %s | %s | %+.3f | %+.3f | %+.2f | %.2f |" % row for row in rows]
+    table += ["| {} | {} | {:+.3f} | {:+.3f} | {:+.2f} | {:.2f} |".format(*row) for row in rows]
     (args.out / "readings.md").write_text("\n".join(table) + "\n")
     print("\n" + "\n".join(table))
     swims = [r for r in readings if (args.out / f"{r}_swim" / "log.npz").exists()]

@@ -96,7 +96,8 @@ def kinematics_rows() -> list[dict]:
         size = zero_pose_size(sweep)
         for reading in READINGS:
             tips = stance_tips(reading, sweep)
-            d1, d2 = support_diagonal_offsets(get_gait("trot", reading).X, robot_with_fin_sweep_deg(sweep))
+            d1, d2 = support_diagonal_offsets(get_gait("trot", reading).X,
+                                              robot_with_fin_sweep_deg(sweep))
             rows.append({"reading": reading, "sweep": sweep, "fl_rr": d1, "fr_rl": d2,
                          "centroid_x": float(tips[:, 0].mean()), "L": size[0], "W": size[1]})
     return rows
@@ -156,7 +157,8 @@ def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
                      f"{p['fr_rl']:+.3f} | {p['centroid_x']:+.3f} | {m['fl_rr']:+.3f} / "
                      f"{m['fr_rl']:+.3f} | {m['centroid_x']:+.3f} |")
     lines += ["", "**Dynamics** (20 s runs at the shipped defaults: friction 0.8, hull damping "
-              "x1, net weight 0.84 kg; means over each run's free-water window; body pitch + is nose down). From `" + table_path + "`:", "",
+              "x1, net weight 0.84 kg; means over each run's free-water window; body pitch + "
+              "is nose down). From `" + table_path + "`:", "",
               "| reading, fin sweep | gait | u m/s | v m/s | yaw rate deg/s | mean roll / pitch "
               "deg | window s |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for reading, sweep in CONFIGS:

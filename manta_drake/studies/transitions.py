@@ -27,6 +27,7 @@ Every number in the table is computed here from the runs; none is typed in.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import pathlib
 import time
@@ -812,10 +813,8 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
     from manta_drake.studies.stamp import stamp_line, write_stamped
 
     rel_fig = pathlib.Path(figure_path).resolve()
-    try:
+    with contextlib.suppress(ValueError):
         rel_fig = rel_fig.relative_to(pathlib.Path(path).resolve().parent)
-    except ValueError:
-        pass
 
     def best(key, transition):
         """The method(s) with the largest value (all of them on a tie, to the shown digits)."""

@@ -58,9 +58,11 @@ def s_hat_samples(s, image, X_WC, noise_std: float, seeds) -> np.ndarray:
     for seed in seeds:
         rng = np.random.default_rng(seed)
         n = image.data.size
-        noisy = noisy_depth(image.data, noise_std, 0.01, rng.standard_normal(n), rng.uniform(size=n))
+        noisy = noisy_depth(image.data, noise_std, 0.01, rng.standard_normal(n),
+                            rng.uniform(size=n))
         filtered = ImageDepth32F(image.width(), image.height())
-        filtered.mutable_data[:] = median_filter_depth(noisy, s.wall_detector.depth_median_filter_px)
+        filtered.mutable_data[:] = median_filter_depth(noisy,
+                                                       s.wall_detector.depth_median_filter_px)
         to_cloud.depth_image_input_port().FixValue(context, filtered)
         xyz = to_cloud.point_cloud_output_port().Eval(context).xyzs()
         det = detect(xyz, s.wall_detector, X_WC.translation(), 0.0, X_WC.rotation().matrix()[:, 2])

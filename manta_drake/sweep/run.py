@@ -35,7 +35,7 @@ def simulate_run(scenario_yaml: str) -> dict:
             metrics = json.loads((out / "metrics.json").read_text()) \
                 if (out / "metrics.json").is_file() else {"status": "failed"}
             metrics["reason"] = failure_reason(metrics.get("failure")) or " ".join(str(e).split())
-        except Exception as e:  # any failure is a row, never a lost sweep
+        except Exception as e:  # noqa: BLE001 - any failure is a row, never a lost sweep
             metrics = {"status": "error",
                        "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
         log = (out / "log.npz").read_bytes() if (out / "log.npz").is_file() else None

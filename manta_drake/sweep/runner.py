@@ -12,8 +12,11 @@ import pathlib
 import sys
 import time
 
-from manta_drake.cluster import ATTEMPTS  # noqa: F401 (the sweep's API: sweep.ATTEMPTS)
-from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
+from manta_drake.cluster import (
+    ATTEMPTS,  # noqa: F401 (the sweep's API: sweep.ATTEMPTS)
+    TaskFailure,
+    completed_resubmitting_lost,
+)
 from manta_drake.sweep.config import RunSpec, SweepConfig, check_out_folder
 from manta_drake.sweep.figure import write_summary_figure
 from manta_drake.sweep.plan import load_base, parameter_names, resolve_run, run_specs

@@ -166,9 +166,9 @@ def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> Non
 
 
 def _add_estimators(builder, scenario: Scenario, handles: ControllerHandles) -> None:
-    """The modalities' estimators (``manta_drake.modalities``), each that the scenario has (``Scenario.has_estimator``), fed by
-    the sensor of its name and started from the start pose (``Estimation.start``); their
-    0-1 estimates join ``handles.estimates``."""
+    """The modalities' estimators (``manta_drake.modalities``), each that the scenario has
+    (``Scenario.has_estimator``), fed by the sensor of its name and started from the start
+    pose (``Estimation.start``); their 0-1 estimates join ``handles.estimates``."""
     for m in MODALITIES:
         if m.estimation is None or not scenario.has_estimator(m.estimate):
             continue
@@ -229,11 +229,13 @@ def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, 
     denoise = builder.AddNamedSystem("depth_filter", DepthImageFilter(
         cam.width, cam.height, scenario.wall_detector.depth_median_filter_px))
     to_cloud = builder.AddNamedSystem("depth_to_cloud", DepthImageToPointCloud(
-        camera_info(cam.width, cam.height, cam.fov_y_deg), PixelType.kDepth32F, 1.0, BaseField.kXYZs))
+        camera_info(cam.width, cam.height, cam.fov_y_deg), PixelType.kDepth32F, 1.0,
+        BaseField.kXYZs))
     detector = builder.AddNamedSystem("wall_detector", WallDetector(
         period=1.0 / cam.rate_hz, params=scenario.wall_detector, meshcat=meshcat))
     builder.ExportInput(denoise.GetInputPort("depth_image"), "depth_image")
-    builder.Connect(denoise.GetOutputPort("filtered_depth_image"), to_cloud.depth_image_input_port())
+    builder.Connect(denoise.GetOutputPort("filtered_depth_image"),
+                    to_cloud.depth_image_input_port())
     builder.ConnectInput(builder.ExportInput(to_cloud.camera_pose_input_port(), "camera_pose"),
                          detector.GetInputPort("camera_pose"))
     builder.Connect(to_cloud.point_cloud_output_port(), detector.GetInputPort("point_cloud"))

@@ -22,6 +22,7 @@ from manta_drake.scenario import Scenario
 from manta_drake.wiring.controller import ControllerHandles, build_controller
 from manta_drake.wiring.station import StationHandles, build_station
 
+
 def _modality_loggers() -> tuple:
     """(source, port, period) of each modality's sensor and estimator outputs."""
     out = []

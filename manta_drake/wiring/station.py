@@ -111,12 +111,12 @@ from pydrake.systems.primitives import (
     Gain,
     MatrixGain,
     Multiplexer,
-    PassThrough,
     RandomSource,
     ZeroOrderHold,
 )
 from pydrake.systems.sensors import RgbdSensor
 
+from manta_drake.modalities import MODALITIES, fill_docstring
 from manta_drake.model.camera import camera_info
 from manta_drake.model.coefficients import HydroCoefficients
 from manta_drake.model.plant import (
@@ -128,7 +128,6 @@ from manta_drake.model.plant import (
     joint_torque_port,
     set_contact_friction,
 )
-from manta_drake.modalities import MODALITIES, fill_docstring
 from manta_drake.model.servo import joint_gains, saturation_angle
 from manta_drake.scenario import Scenario
 from manta_drake.station.battery import Battery
@@ -363,9 +362,9 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
 
 
 def _add_modalities(builder, scenario: Scenario, handles: StationHandles) -> None:
-    """The modalities' sensors on the hull (``manta_drake.modalities``), each with its Drake noise sources, in the table's order (added
-    after every other random source, so that a scenario without them draws the same noise
-    as before they existed)."""
+    """The modalities' sensors on the hull (``manta_drake.modalities``), each with its Drake
+    noise sources, in the table's order (added after every other random source, so that a
+    scenario without them draws the same noise as before they existed)."""
     for m in MODALITIES:
         if m.reading is not None and m.available(scenario):
             sensor = m.reading.add(builder, handles.plant_handles, scenario)

@@ -37,7 +37,7 @@ class Part:
     vertices: np.ndarray
     triangles: np.ndarray
 
-    def transformed(self, R: np.ndarray) -> "Part":
+    def transformed(self, R: np.ndarray) -> Part:
         """This part rotated by R (3x3) about the origin."""
         return Part(self.name, self.vertices @ np.asarray(R).T, self.triangles)
 
@@ -55,20 +55,20 @@ def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
          (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
     verts = [np.array(p, float) / np.linalg.norm(p) for p in v]
     faces = list(f)
+
+    def mid(midpoint, i, j):
+        key = (min(i, j), max(i, j))
+        if key not in midpoint:
+            m = verts[i] + verts[j]
+            verts.append(m / np.linalg.norm(m))
+            midpoint[key] = len(verts) - 1
+        return midpoint[key]
+
     for _ in range(subdivisions):
-        midpoint = {}
-
-        def mid(i, j):
-            key = (min(i, j), max(i, j))
-            if key not in midpoint:
-                m = verts[i] + verts[j]
-                verts.append(m / np.linalg.norm(m))
-                midpoint[key] = len(verts) - 1
-            return midpoint[key]
-
+        midpoint: dict = {}
         new = []
         for a, b, c in faces:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            ab, bc, ca = mid(midpoint, a, b), mid(midpoint, b, c), mid(midpoint, c, a)
             new += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
         faces = new
     return np.array(verts), np.array(faces, dtype=np.int64)

@@ -332,7 +332,7 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False,
     if folder.exists():
         shutil.rmtree(folder)  # a half-run case starts again from nothing
     folder.mkdir(parents=True)
-    started = datetime.datetime.now(datetime.timezone.utc)
+    started = datetime.datetime.now(datetime.UTC)
     result = {"case": spec.name, "spec": spec.to_json(), "status": "running",
               "started": started.isoformat(timespec="seconds"),
               "openfoam": openfoam_version(), "mesh": spec.mesh, "command": command,
@@ -381,7 +381,7 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False,
         result["reason"] = f"{type(e).__name__}: {' '.join(str(e).split())}"[:2000]
     result["wall_s"] = round(sum(s["wall_s"] for s in result["steps"].values()), 1)
     result["cpu_s"] = round(sum(s["cpu_s"] for s in result["steps"].values()), 1)
-    result["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(
+    result["finished"] = datetime.datetime.now(datetime.UTC).isoformat(
         timespec="seconds")
     tmp = folder / (RESULT + ".tmp")
     tmp.write_text(json.dumps(result, indent=1))

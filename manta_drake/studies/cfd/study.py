@@ -378,8 +378,8 @@ def write_report(rows: list[dict], page: pathlib.Path) -> None:
 def write_progress(path: pathlib.Path, out: pathlib.Path, cases, command: str,
                    started: float) -> None:
     results = {r["case"]: r for r in finished_results(out)}
-    lines = [f"# CFD study progress", "",
-             f"Updated {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC by "
+    lines = ["# CFD study progress", "",
+             f"Updated {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC by "
              f"`{command}` (pid {os.getpid()}, {time.time() - started:.0f} s in). Resume: run "
              "the same command again (finished cases are skipped).", "",
              "| case | status | cells | drag (N) | iterations | converged | wall (s) | CPU (s) |",

@@ -809,6 +809,20 @@ def test_energy_block_becomes_energy_columns_in_the_documented_order(tmp_path):
     assert table[1]["energy.cot_electrical_dry_weight"] == "" and table[1]["status"] == "invalid"
 
 
+def test_numpy_floats_are_written_as_plain_numbers(tmp_path):
+    """A metric computed with numpy (numpy 2's float64 is a float whose repr names its type)
+    is written as the number, and reads back as it."""
+    import numpy as np
+
+    metrics = {"status": "ok", "reason": "", "sim_time_s": 20.0,
+               "energy": {"dry_weight_n": np.float64(82.40400000000001)}}
+    spec = S.RunSpec(0, "stand-s0-0000000000", "stand", 0, {}, {})
+    columns, rows = S.table_rows([spec], {spec.run_id: metrics})
+    S.write_table(tmp_path / "results.csv", columns, rows)
+    cell = S.read_table(tmp_path / "results.csv")[0]["energy.dry_weight_n"]
+    assert cell == "82.40400000000001" and float(cell) == 82.40400000000001
+
+
 # --- the summary figure -----------------------------------------------------------------------
 
 def _figure_rows():

@@ -161,8 +161,8 @@ def table_rows(specs: list[RunSpec], records: dict) -> tuple[list[str], list[dic
 def _cell(value) -> str:
     if value is None:
         return ""
-    if isinstance(value, float):
-        return repr(value)  # shortest exact form: tables compare equal across machines
+    if isinstance(value, float):  # numpy's float64 too, whose own repr names its type
+        return repr(float(value))  # shortest exact form: tables compare equal across machines
     if isinstance(value, (list, dict)):
         return json.dumps(value)
     return str(value)

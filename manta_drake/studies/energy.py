@@ -3,10 +3,12 @@
 Reads the table of the sweep ``diagrams/sweeps/energy.yaml``: the five gaits of section 4.1
 at the shipped point, one parameter at a time at each end of its band, and at a Latin
 hypercube of band points (foot-floor friction, hull damping, deflated net weight, servo
-standby current, winding resistance, gearbox efficiency, the Jetson's power mode), each at
-four passive pitches of the fins (0 = rigid, 15, 25 = shipped, 35 deg). Each run's metrics
-give its free-water window's mean velocity, electrical and mechanical power, both costs of
-transport and, with the pack's usable energy, an operation time.
+standby current, winding resistance, gearbox efficiency and position gain, the foil fins'
+lift slope, leading-edge suction and added mass shared with the hull, the Jetson's power
+mode), each at four stall angles of the fins' strips (10, 15 = shipped, 20, 25 deg: the
+foil parameter that moves the thrust most, docs/validation.md). Each run's metrics give its
+free-water window's mean velocity, electrical and mechanical power, every cost of transport
+and, with the pack's usable energy, an operation time.
 
 It reports, in ``docs/energy.md`` between ``<!-- energy-report:begin -->`` and
 ``<!-- energy-report:end -->`` (the hand-written text around the block is kept):
@@ -20,7 +22,7 @@ It reports, in ``docs/energy.md`` between ``<!-- energy-report:begin -->`` and
 * the predicted operation time against Table 1's "approx. 1.0 h", and which parameter moves
   it most (one at a time, and Spearman rank correlations over the band);
 * whether "swimming is slower than walking" and "the walk is the most efficient gait" hold
-  over the band, per passive pitch;
+  over the band, per stall angle;
 
 and the figures ``docs/figures/energy_speed_cot.png``, ``energy_operation_time.png`` and
 ``energy_findings.png``.
@@ -51,6 +53,7 @@ import pathlib
 
 import numpy as np
 
+from manta_drake.metrics import COT_KEYS
 from manta_drake.studies.findings import Tally, _and, gait_of, read_results
 
 # ---------------------------------------------------------------------------------------------
@@ -59,32 +62,43 @@ from manta_drake.studies.findings import Tally, _and, gait_of, read_results
 # The band's parameters by the sweep's names (links in diagrams/sweeps/energy.yaml), in the
 # table's order, and their shipped values.
 PARAMS = ("contact.friction", "hull_damping", "net_weight_kg", "standby_current",
-          "winding_resistance", "gearbox_efficiency", "actuators.electronics_mode",
-          "passive_pitch")
+          "winding_resistance", "gearbox_efficiency", "position_gain", "lift_slope",
+          "suction_efficiency", "fin_hull_added_mass", "actuators.electronics_mode",
+          "stall_angle")
 SHIPPED_NET_WEIGHT_KG = 0.845  # the shipped coefficients' deflated net weight, 3 decimals
-PITCH_MAX_DEG = 25.0  # models/hydrodynamics.yaml fins.passive_pitch_max_deg
+STALL_ANGLE_DEG = 15.0  # models/hydrodynamics.yaml fins.stall_angle_deg
 SHIPPED = {"contact.friction": 0.8, "hull_damping": 1.0, "net_weight_kg": SHIPPED_NET_WEIGHT_KG,
            "standby_current": 1.0, "winding_resistance": 1.0, "gearbox_efficiency": 1.0,
-           "actuators.electronics_mode": "10W", "passive_pitch": 1.0}
+           "position_gain": 1.0, "lift_slope": 1.0, "suction_efficiency": 1.0,
+           "fin_hull_added_mass": 1.0, "actuators.electronics_mode": "10W", "stall_angle": 1.0}
 LABELS = {"contact.friction": "friction", "hull_damping": "hull damping",
           "net_weight_kg": "net weight", "standby_current": "standby current",
           "winding_resistance": "winding resistance", "gearbox_efficiency": "gearbox efficiency",
-          "actuators.electronics_mode": "Jetson mode", "passive_pitch": "passive pitch"}
-FACTORS = ("hull_damping", "standby_current", "winding_resistance", "gearbox_efficiency")
+          "position_gain": "servo position gain", "lift_slope": "fin lift slope",
+          "suction_efficiency": "leading-edge suction",
+          "fin_hull_added_mass": "fin-hull added mass",
+          "actuators.electronics_mode": "Jetson mode", "stall_angle": "stall angle"}
+FACTORS = ("hull_damping", "standby_current", "winding_resistance", "gearbox_efficiency",
+           "position_gain", "lift_slope", "suction_efficiency", "fin_hull_added_mass")
 CONTINUOUS = {"contact.friction": (0.5, 0.8), "hull_damping": (0.7, 1.3),
               "net_weight_kg": (0.6, 1.1), "standby_current": (0.8, 1.2),
-              "winding_resistance": (0.8, 1.2), "gearbox_efficiency": (0.8, 1.1)}
+              "winding_resistance": (0.8, 1.2), "gearbox_efficiency": (0.8, 1.1),
+              "position_gain": (0.5, 2.0), "lift_slope": (1.0, 1.39),
+              "suction_efficiency": (0.5, 1.0), "fin_hull_added_mass": (0.28, 1.0)}
 MODES = ("5W", "10W")
 MODE_WATTS = {"5W": 5.0, "10W": 10.0}  # the Jetson's budget in each mode
-PITCH_FACTORS = (0.0, 0.6, 1.0, 1.4)  # x 25 deg: 0 (rigid), 15, 25 (shipped), 35 deg
+STALL_FACTORS = (0.667, 1.0, 1.333, 1.667)  # x 15 deg: 10, 15 (shipped), 20, 25 deg
 ONE_AT_A_TIME = (("contact.friction", 0.5), ("contact.friction", 0.65),
                  ("hull_damping", 0.7), ("hull_damping", 1.3),
                  ("net_weight_kg", 0.6), ("net_weight_kg", 1.1),
                  ("standby_current", 0.8), ("standby_current", 1.2),
                  ("winding_resistance", 0.8), ("winding_resistance", 1.2),
                  ("gearbox_efficiency", 0.8), ("gearbox_efficiency", 1.1),
+                 ("position_gain", 0.5), ("position_gain", 2.0),
+                 ("lift_slope", 1.39), ("suction_efficiency", 0.5),
+                 ("fin_hull_added_mass", 0.28),
                  ("actuators.electronics_mode", "5W"),
-                 ("passive_pitch", 0.0), ("passive_pitch", 0.6), ("passive_pitch", 1.4))
+                 ("stall_angle", 0.667), ("stall_angle", 1.333), ("stall_angle", 1.667))
 SAMPLE_SEED = 2026
 SAMPLE_POINTS = 12
 
@@ -92,11 +106,11 @@ SAMPLE_POINTS = 12
 def band_rows(n: int = SAMPLE_POINTS, seed: int = SAMPLE_SEED) -> list[dict]:
     """The sweep's parameter sets: the shipped point ({}), one parameter at a time at each
     end of its band (ONE_AT_A_TIME), then ``n`` points over the whole band
-    (``band_sample``), each at the four passive pitches of PITCH_FACTORS."""
+    (``band_sample``), each at the four stall angles of STALL_FACTORS."""
     rows: list[dict] = [{}]
     rows += [{name: value} for name, value in ONE_AT_A_TIME]
     for point in band_sample(n, seed):
-        rows += [{**point, "passive_pitch": p} for p in PITCH_FACTORS]
+        rows += [{**point, "stall_angle": f} for f in STALL_FACTORS]
     return rows
 
 
@@ -146,7 +160,7 @@ def band_sample(n: int = SAMPLE_POINTS, seed: int = SAMPLE_SEED) -> list[dict]:
 def rank_correlations(points: list[dict], names=None) -> dict:
     """{(a, b): Spearman rho} between every pair of the points' parameters (the Jetson mode
     as its watts)."""
-    names = list(names or [k for k in PARAMS if k != "passive_pitch"])
+    names = list(names or [k for k in PARAMS if k != "stall_angle"])
     values = {k: [MODE_WATTS[p[k]] if isinstance(p[k], str) else float(p[k]) for p in points]
               for k in names}
     return {(a, b): spearman(values[a], values[b])
@@ -185,11 +199,20 @@ class GaitEnergy:
     mech_w: float | None = None  # mean sum |tau qdot| over the window [W]
     cot: float | None = None  # electrical cost of transport P / (m g |u, v|)
     cot_mech: float | None = None  # mechanical cost of transport
+    # The metrics' every convention (manta_drake.metrics.COT_KEYS): {key: value}, inf as above.
+    cots: dict = dc.field(default_factory=dict)
+
+    @property
+    def cot_net(self) -> float | None:
+        """The electrical cost of transport net of the hotel load, by the dry weight."""
+        return self.cots.get("cot_net_of_hotel_dry_weight")
     hours: float | None = None  # operation time at the window's power [h]
     run_hours: float | None = None  # the metrics' operation_time_h (the whole run's power)
     window_s: tuple | None = None  # (start, end) of the free-water window [s]
     near_wall_at_s: float | None = None
     touched_wall: bool | None = None
+    # The metrics' power_breakdown over the window: {column: W} (BUDGET_PARTS' columns).
+    breakdown: dict = dc.field(default_factory=dict)
 
 
 UNDETERMINED = GaitEnergy()
@@ -280,23 +303,26 @@ def _ranks(x: np.ndarray) -> np.ndarray:
     return ranks
 
 
-def power_budget(shipped: GaitEnergy, oat: dict) -> dict | None:
-    """The shipped point's window power split into its parts, from the one-at-a-time runs
-    (``oat``: {(parameter, value): GaitEnergy}) and the file's electronics draw.
+# The parts of the electrical draw each run's metrics give (``power_breakdown``): name in the
+# budget -> its column.
+BUDGET_PARTS = {"electronics": "computers_w", "standby": "standby_w", "copper": "copper_w",
+                "conversion": "shaft_w"}
 
-    The servo draw is linear in the standby current (I_standby V per servo) and in the
-    winding resistance (R i^2, with i set by the joint torques, which the energy model does
-    not change): standby = (P(x1.2) - P(x0.8)) / 0.4 and copper = (P(R x1.2) - P(R x0.8)) /
-    0.4; the electronics' draw is the file's (Jetson 10 W mode and Teensy over the
-    regulator), checked against the 5W run's difference; the rest is the motors' conversion
-    of mechanical power (tau qdot over the gearbox). Returns None when a run is missing;
-    ``moves_alike`` says whether those runs' u equals the shipped run's (to 1e-9 m/s)."""
-    keys = [("standby_current", 0.8), ("standby_current", 1.2), ("winding_resistance", 0.8),
-            ("winding_resistance", 1.2), ("actuators.electronics_mode", "5W")]
-    runs = [oat.get(k, UNDETERMINED) for k in keys]
-    if shipped.power_w is None or any(r.power_w is None for r in runs):
+
+def power_budget(shipped: GaitEnergy, oat: dict) -> dict | None:
+    """The shipped point's window power split into its parts, from the run's own
+    ``power_breakdown`` (the computers' draw, the servos' standby I_standby V, their copper
+    loss R i^2 and the power converted to the motors' shafts: the joints' work and the
+    gearbox's loss; ``manta_drake.metrics``), with two checks: ``closure``, the logged draw
+    less the parts' sum [W], and the 5W run's draw below the shipped one
+    (``mode_step_measured``) against the file's electronics (``mode_step_file``). The
+    one-at-a-time runs cannot split the draw by differences: the servos' standby and
+    winding resistance move the battery's terminal voltage, and with it the servos and the
+    motion. Returns None without the breakdown or the 5W run."""
+    mode5 = oat.get(("actuators.electronics_mode", "5W"), UNDETERMINED)
+    parts = {name: shipped.breakdown.get(column) for name, column in BUDGET_PARTS.items()}
+    if shipped.power_w is None or mode5.power_w is None or None in parts.values():
         return None
-    sb_lo, sb_hi, r_lo, r_hi, mode5 = runs
     from manta_drake.model.actuators import (
         DEFAULT_ACTUATORS_FILE,
         electronics_power,
@@ -304,17 +330,10 @@ def power_budget(shipped: GaitEnergy, oat: dict) -> dict | None:
     )
 
     params = load_actuators(DEFAULT_ACTUATORS_FILE)
-    electronics = electronics_power(params, "10W")
-    mode_step = electronics - electronics_power(params, "5W")
-    standby = (sb_hi.power_w - sb_lo.power_w) / 0.4
-    copper = (r_hi.power_w - r_lo.power_w) / 0.4
-    alike = all(r.u is not None and shipped.u is not None and abs(r.u - shipped.u) < 1e-9
-                for r in runs)
-    return {"total": shipped.power_w, "electronics": electronics, "standby": standby,
-            "copper": copper,
-            "conversion": shipped.power_w - electronics - standby - copper,
-            "mode_step_measured": shipped.power_w - mode5.power_w, "mode_step_file": mode_step,
-            "moves_alike": alike}
+    mode_step = electronics_power(params, "10W") - electronics_power(params, "5W")
+    return {"total": shipped.power_w, **parts,
+            "closure": shipped.power_w - sum(parts.values()),
+            "mode_step_measured": shipped.power_w - mode5.power_w, "mode_step_file": mode_step}
 
 
 def needed_for_table1(budget: dict, usable_wh: float, hours: float = TABLE1_HOURS) -> dict:
@@ -360,20 +379,24 @@ def energy_of(row: dict) -> GaitEnergy:
     speed = math.hypot(u, v) if speed is None else speed
     cot, cot_mech = (_float(row.get("energy.cot_electrical_dry_weight")),
                      _float(row.get("energy.cot_mechanical_dry_weight")))
+    cots = {key: _float(row.get(f"energy.{key}")) for key in COT_KEYS}
     if cot is None:  # a window but too slow for a cost of transport: it does not travel
         cot = cot_mech = math.inf
+        cots = {key: math.inf for key in COT_KEYS}
     run_hours = _float(row.get("energy.operation_time_h"))
     mean_power = _float(row.get("energy.mean_electrical_power_w"))
     usable = run_hours * mean_power if run_hours is not None and mean_power else None
     start, end = _float(row.get("steady_start_s")), _float(row.get("steady_end_s"))
     return GaitEnergy(u=u, v=v, speed=speed, power_w=power,
                       mech_w=_float(row.get("energy.steady_mechanical_power_w")),
-                      cot=cot, cot_mech=cot_mech,
+                      cot=cot, cot_mech=cot_mech, cots=cots,
                       hours=usable / power if usable is not None else None,
                       run_hours=run_hours,
                       window_s=None if start is None or end is None else (start, end),
                       near_wall_at_s=_float(row.get("near_wall_at_s")),
-                      touched_wall=_bool(row.get("touched_wall")))
+                      touched_wall=_bool(row.get("touched_wall")),
+                      breakdown={column: _float(row.get(f"power_breakdown.{column}"))
+                                 for column in BUDGET_PARTS.values()})
 
 
 def parameters_of(row: dict) -> dict:
@@ -481,21 +504,31 @@ def tally(points, findings=FINDINGS) -> list[Tally]:
     return tallies
 
 
-def pitch_deg(key) -> float:
-    """A band point's passive pitch [deg]."""
-    return round(float(key[PARAMS.index("passive_pitch")]) * PITCH_MAX_DEG, 6)
+def stall_deg(key) -> float:
+    """A band point's stall angle [deg], to the degree."""
+    return stall_of(float(key[PARAMS.index("stall_angle")]))
 
 
-def by_pitch(band: dict) -> dict:
-    """{pitch deg: [points]} of the band, in order of pitch."""
+def stall_of(factor: float) -> float:
+    """The stall angle [deg] a factor on the shipped one gives, to the degree."""
+    return float(round(factor * STALL_ANGLE_DEG))
+
+
+def by_stall(band: dict) -> dict:
+    """{stall angle deg: [points]} of the band, in order of the angle."""
     out: dict = {}
     for key, point in band.items():
-        out.setdefault(pitch_deg(key), []).append(point)
+        out.setdefault(stall_deg(key), []).append(point)
     return dict(sorted(out.items()))
 
 
+COT_LABELS = {f"cot_{p}_{w}": f"{pl}, {wl}"
+              for p, pl in (("electrical", "electrical"), ("net_of_hotel", "net of hotel"),
+                            ("mechanical", "mechanical"))
+              for w, wl in (("dry_weight", "dry weight"), ("weight_in_water", "in water"))}
 FIELDS = (("speed", "speed m/s", 3), ("power_w", "P el W", 1), ("mech_w", "P mech W", 2),
-          ("cot", "CoT el", 2), ("cot_mech", "CoT mech", 2), ("hours", "operation h", 2))
+          ("cot", "CoT el", 2), ("cot_net", "CoT net", 2), ("cot_mech", "CoT mech", 2),
+          ("hours", "operation h", 2))
 
 
 def quantiles(values) -> tuple | None:
@@ -526,7 +559,7 @@ def band_stats(points) -> dict:
 def drivers(table: Table, field: str = "hours") -> dict:
     """Per gait, per parameter: the one-at-a-time change of ``field`` from the shipped run at
     each end of the band ({value: delta}) and the Spearman correlation over the band points
-    (the Jetson mode as its watts, the pitch in degrees)."""
+    (the Jetson mode as its watts, the stall angle as its factor)."""
     out = {}
     keys = list(table.band)
     for gait in GAITS:
@@ -592,10 +625,10 @@ def _fmt_q(q, digits: int) -> str:
 
 
 def _fmt_value(name: str, value) -> str:
-    """A parameter's value as the tables and figures show it (factors as x1.2, the pitch in
-    degrees, the weight in kg)."""
-    if name == "passive_pitch":
-        return f"{float(value) * PITCH_MAX_DEG:g} deg"
+    """A parameter's value as the tables and figures show it (factors as x1.2, the stall
+    angle in degrees, the weight in kg)."""
+    if name == "stall_angle":
+        return f"{stall_of(float(value)):g} deg"
     if name == "actuators.electronics_mode":
         return str(value)
     if name == "net_weight_kg":
@@ -619,13 +652,13 @@ def markdown_block(table: Table, source: str) -> str:
     band = list(table.band.values())
     n_band, n_oat = len(band), len(table.oat)
     lines += [(f"The table: {table.runs} runs; the shipped point, {n_oat} one-at-a-time sets "
-              f"and {n_band} band points ({len(by_pitch(table.band))} passive pitches), each "
+              f"and {n_band} band points ({len(by_stall(table.band))} stall angles), each "
               f"with the five gaits. Usable energy of the pack (full to the cut-off, at "
               f"open circuit): {_fmt(table.usable_wh, 2)} Wh."), ""]
-    sample = [dict(zip(PARAMS, key)) for key in table.band if pitch_deg(key) == PITCH_MAX_DEG]
+    sample = [dict(zip(PARAMS, key)) for key in table.band if stall_deg(key) == STALL_ANGLE_DEG]
     corr = [abs(r) for r in rank_correlations(sample).values() if r is not None]
     if corr:
-        lines[-2] += (f" The band's {len(sample)} points (each at every pitch): the largest "
+        lines[-2] += (f" The band's {len(sample)} points (each at every stall angle): the largest "
                       f"rank correlation between two of their parameters is {max(corr):.2f}.")
 
     # The shipped point.
@@ -642,6 +675,18 @@ def markdown_block(table: Table, source: str) -> str:
                      f"{_fmt(r.mech_w, 2)} | {_fmt(r.cot, 2)} | {_fmt(r.cot_mech, 2)} | "
                      f"{_fmt(r.hours, 2)} ({_fmt(r.run_hours, 2)}) | {window} |")
 
+    lines += ["", ("Every cost of transport the metrics give, at the shipped point (P / (W "
+              "|(u, v)|): the electrical power, the same net of the hotel load (the "
+              "computers and the servos' standby, drawn whatever the joints do) and the "
+              "joints' mechanical power, each over the dry weight W = m g and over the "
+              "deflated robot's weight in water):"), "",
+              "| gait | " + " | ".join(COT_LABELS[k] for k in COT_KEYS) + " |",
+              "| --- | " + " | ".join("---" for _ in COT_KEYS) + " |"]
+    for gait in GAITS:
+        r = _get(table.shipped, gait)
+        lines.append(f"| {gait} | " + " | ".join(_fmt(r.cots.get(k), 2) for k in COT_KEYS)
+                     + " |")
+
     # Over the band.
     stats = band_stats(band)
     lines += ["", (f"**Over the band** ({n_band} points): median (10 % to 90 %). A run slower "
@@ -655,9 +700,10 @@ def markdown_block(table: Table, source: str) -> str:
                      + " | ".join(_fmt_q(s[f], d) for f, _, d in FIELDS) + " |")
 
     # Power budget and Table 1.
-    lines += ["", ("**The shipped point's power budget** (W, window means; standby and copper "
-              "from the one-at-a-time runs' differences, electronics from "
-              "`models/actuators.yaml`, conversion the rest), and what 1.0 h would take:"), "",
+    lines += ["", ("**The shipped point's power budget** (W, window means, from each run's "
+              "`power_breakdown`: the computers, the servos' standby, their copper loss and the "
+              "power converted to the motors' shafts, i.e. the joints' work and the gearbox's "
+              "loss), and what 1.0 h would take:"), "",
               ("| gait | total | electronics | servo standby | copper loss | conversion | "
               "constant share | 1.0 h needs W | or standby x | or copper x | = torques x |"),
               "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -678,12 +724,12 @@ def markdown_block(table: Table, source: str) -> str:
                      f"{need['torque_factor']:.1f} |")
     checks = [b for b in budgets.values() if b is not None]
     if checks:
-        alike = all(b["moves_alike"] for b in checks)
+        closure = max(abs(b["closure"]) for b in checks)
         steps = [b["mode_step_measured"] for b in checks]
-        lines += ["", (f"Checks of the budget: the actuator-only runs move exactly like the "
-                  f"shipped ones ({'yes' if alike else '**no**'}, u equal to 1e-9 m/s); the "
-                  f"5W run draws {min(steps):.3f} to {max(steps):.3f} W less (the file: "
-                  f"{checks[0]['mode_step_file']:.3f} W).")]
+        lines += ["", (f"Checks of the budget: the parts add up to the logged draw within "
+                  f"{closure:.1e} W; the 5W run draws {min(steps):.3f} to {max(steps):.3f} W "
+                  f"less (the file's electronics: {checks[0]['mode_step_file']:.3f} W; the "
+                  "rest is the battery's and the servos' response to the lower current).")]
 
     # Operation time.
     all_hours = [r.hours for pt in [table.shipped, *table.oat.values(), *band]
@@ -705,7 +751,7 @@ def markdown_block(table: Table, source: str) -> str:
                   "at the shipped point."]
     lines += ["", ("What moves it, per gait: the one-at-a-time change from the shipped run "
               "(h, at each end of the band) and Spearman's rho over the band points (the "
-              "Jetson mode as its watts, the pitch in degrees):"), ""]
+              "Jetson mode as its watts, the stall angle as its factor):"), ""]
     drv = drivers(table, "hours")
     header = "| parameter | band end | " + " | ".join(GAITS) + " |"
     lines += [header, "| --- | --- | " + " | ".join("---" for _ in GAITS) + " |"]
@@ -740,22 +786,22 @@ def markdown_block(table: Table, source: str) -> str:
               "| --- | --- | --- | --- | --- | --- |"]
     lines += [_row(t) for t in tally(band)]
     lines += [_row(t) for t in tally(band, VARIANTS)]
-    pitches = by_pitch(table.band)
-    oat_pitch = {float(v) * PITCH_MAX_DEG: p for (n, v), p in table.oat.items()
-                 if n == "passive_pitch"}
-    oat_pitch[SHIPPED["passive_pitch"] * PITCH_MAX_DEG] = table.shipped
+    stalls = by_stall(table.band)
+    oat_stall = {stall_of(float(v)): p for (n, v), p in table.oat.items()
+                 if n == "stall_angle"}
+    oat_stall[stall_of(SHIPPED["stall_angle"])] = table.shipped
     everything = FINDINGS + VARIANTS
-    lines += ["", "Per passive pitch: the band points where each holds, the swim's and the "
+    lines += ["", "Per stall angle: the band points where each holds, the swim's and the "
               "walk's speed and the swim's cost (median, 10 % to 90 %), and at the shipped "
-              "point with that pitch (the one-at-a-time runs; yes / **no** / ?, in the order "
+              "point with that stall angle (the one-at-a-time runs; yes / **no** / ?, in the order "
               + ", ".join(key for key, _, _, _ in everything) + "):", "",
-              "| passive pitch deg | points | swim u m/s | walk u m/s | swim CoT el | "
+              "| stall angle deg | points | swim u m/s | walk u m/s | swim CoT el | "
               + " | ".join(key for key, _, _, _ in everything) + " | at the shipped point |",
               "| --- | --- | --- | --- | --- | " + " | ".join("---" for _ in everything)
               + " | --- |"]
-    for deg, points in pitches.items():
+    for deg, points in stalls.items():
         ts = tally(points, everything)
-        ref = oat_pitch.get(deg)
+        ref = oat_stall.get(deg)
         marks = "-" if ref is None else ", ".join(
             {True: "yes", False: "**no**", None: "?"}[fn(ref)] for _, _, _, fn in everything)
         lines.append(f"| {deg:g} | {len(points)} | "
@@ -797,16 +843,16 @@ def write_markdown(path: pathlib.Path, block: str,
 # ---------------------------------------------------------------------------------------------
 # Figures
 
-PITCH_COLOURS = {0.0: "tab:red", 15.0: "tab:orange", 25.0: "tab:green", 35.0: "tab:blue"}
+STALL_COLOURS = {10.0: "tab:red", 15.0: "tab:green", 20.0: "tab:orange", 25.0: "tab:blue"}
 
 
 def _colour(deg):
-    return PITCH_COLOURS.get(deg, "0.4")
+    return STALL_COLOURS.get(deg, "0.4")
 
 
 def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
     """Speed of travel against the electrical (top) and mechanical (bottom) cost of transport,
-    per gait: every band point a dot coloured by passive pitch (a circle in the Jetson's 10W
+    per gait: every band point a dot coloured by stall angle (a circle in the Jetson's 10W
     mode, a triangle in its 5W mode), the shipped point a star, curves of constant window
     power through the band's lowest and highest."""
     import matplotlib
@@ -821,7 +867,7 @@ def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
     fig, axes = plt.subplots(2, 5, figsize=(17, 7.5), sharex="col")
     for c, gait in enumerate(GAITS):
         mode_i = PARAMS.index("actuators.electronics_mode")
-        runs = [(pitch_deg(k), k[mode_i], _get(p, gait)) for k, p in table.band.items()]
+        runs = [(stall_deg(k), k[mode_i], _get(p, gait)) for k, p in table.band.items()]
         marker = {"10W": "o", "5W": "^"}
         runs = [(d, m, r) for d, m, r in runs if r.power_w is not None]
         ship = _get(table.shipped, gait)
@@ -859,11 +905,11 @@ def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
                 ax.set_ylabel(("electrical" if row == 0 else "mechanical")
                               + " cost of transport", fontsize=9)
     handles = [Line2D([], [], ls="none", marker="o", color=col, mec="k", mew=0.3,
-                      label=f"passive pitch {deg:g} deg") for deg, col in PITCH_COLOURS.items()]
+                      label=f"stall angle {deg:g} deg") for deg, col in STALL_COLOURS.items()]
     handles += [Line2D([], [], ls="none", marker=m, color="0.6", mec="k", mew=0.3,
                        label=f"Jetson {mode}") for mode, m in (("10W", "o"), ("5W", "^"))]
     handles += [Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold",
-                       label="shipped point (25 deg)"),
+                       label="shipped point (15 deg)"),
                 Line2D([], [], color="0.5", ls=":", label="constant power: the band's lowest"),
                 Line2D([], [], color="0.5", ls="--", label="... and highest (per gait)")]
     fig.legend(handles=handles, loc="upper center", ncol=9, fontsize=8, frameon=False)
@@ -941,7 +987,7 @@ def plot_operation_time(table: Table, path: pathlib.Path) -> None:
 
 def plot_findings(table: Table, path: pathlib.Path) -> None:
     """Left: u_swim against u_walk at every band point; right: the swim's electrical cost of
-    transport against the walk's; colour: passive pitch; the diagonal: where a finding
+    transport against the walk's; colour: stall angle; the diagonal: where a finding
     turns."""
     import matplotlib
 
@@ -958,7 +1004,7 @@ def plot_findings(table: Table, path: pathlib.Path) -> None:
                 continue
             xs.append(x)
             ys.append(y)
-            ax.plot(x, y, marker="o", ms=6, ls="none", color=_colour(pitch_deg(key)),
+            ax.plot(x, y, marker="o", ms=6, ls="none", color=_colour(stall_deg(key)),
                     mec="k", mew=0.3)
         x, y = getattr(_get(table.shipped, "walk"), field), \
             getattr(_get(table.shipped, "swim"), field)
@@ -977,7 +1023,7 @@ def plot_findings(table: Table, path: pathlib.Path) -> None:
     axes[0].set_title("swimming slower than walking: below the diagonal", fontsize=10)
     axes[1].set_title("the walk more efficient than the swim: above the diagonal", fontsize=10)
     handles = [Line2D([], [], ls="none", marker="o", color=col, mec="k", mew=0.3,
-                      label=f"passive pitch {deg:g} deg") for deg, col in PITCH_COLOURS.items()]
+                      label=f"stall angle {deg:g} deg") for deg, col in STALL_COLOURS.items()]
     handles.append(Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold",
                           label="shipped point"))
     fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)

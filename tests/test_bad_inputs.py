@@ -104,14 +104,19 @@ def _coefficients_with(tmp_path, old, new):
 
 
 @pytest.mark.parametrize("make, field", [
-    (lambda p: _coefficients_with(p, "strips_per_plate:\n    value: 4", "strips_per_plate:\n    value: 2.5"),
+    (lambda p: _coefficients_with(p, "strips_per_plate:\n    value: 4",
+                                  "strips_per_plate:\n    value: 2.5"),
      "fins.strips_per_plate = 2.5 must be a whole number"),
-    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784", "sealed_volume:\n    value: 0.0"),
+    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784",
+                                  "sealed_volume:\n    value: 0.0"),
      "body.sealed_volume = 0.0 must be > 0"),
     # The buoyancy comes from the semi-axes: a volume edited alone would have no effect.
-    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784", "sealed_volume:\n    value: 0.0061"),
-     "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes (4/3 pi abc = 0.00478401 m^3"),
-    (lambda p: _coefficients_with(p, "water_density:\n  value: 1000.0", "water_density:\n  value: 1.0e9"),
+    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784",
+                                  "sealed_volume:\n    value: 0.0061"),
+     "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes "
+     "(4/3 pi abc = 0.00478401 m^3"),
+    (lambda p: _coefficients_with(p, "water_density:\n  value: 1000.0",
+                                  "water_density:\n  value: 1.0e9"),
      "water_density = 1000000000.0 is outside the allowed range [900, 1300] kg/m^3"),
     (lambda p: _coefficients_with(p, "gravity:\n  value: 9.81", "gravity:\n  value: 98.1"),
      "gravity = 98.1 is outside the allowed range [9.7, 9.9] m/s^2"),
@@ -295,7 +300,7 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
         (("findings", "--only", "swim"), "--only needs --diagnose: it chooses the diagnostic "
          "runs"),
         (("findings", "--diagnose", str(tmp_path / "d"), "--only", "swim", "gallop"),
-         "--only: 'gallop' is not one of swim, swim_rigid_fins"),
+         "--only: 'gallop' is not one of swim, swim_stall_10deg"),
         (("findings", "--diagnose", str(tmp_path / "d"), "--only"), "--only: name at least one"),
         (("findings", "--results", shipped, "--out-fig", str(tmp_path / "f.txt")),
          f"--out-fig {tmp_path / 'f.txt'}: the name must end in one of"),
@@ -600,9 +605,10 @@ def _bounded_cli_error(capsys, *argv, seconds: float = 5.0, mb: float = 200.0):
     import resource
     import time
 
-    import manta_drake.calibrate  # noqa: F401 - the commands' imports are not what is timed
-    import manta_drake.optimize  # noqa: F401
-    import manta_drake.simulate  # noqa: F401
+    # The commands' imports are not what is timed.
+    import manta_drake.calibrate
+    import manta_drake.optimize
+    import manta_drake.simulate
     import manta_drake.sweep  # noqa: F401
 
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

@@ -327,7 +327,6 @@ def test_foil_share_closes_the_robots_momentum_balance(fr):
 
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import make_simulator
-    from manta_drake.station import water as W
     from manta_drake.wiring.diagram import build_diagram
 
     s = load_scenario("locomotion_swim")
@@ -363,3 +362,36 @@ def test_foil_share_closes_the_robots_momentum_balance(fr):
     mean = np.mean(forces, axis=0)
     assert np.linalg.norm(rate) > 0.3  # the swim is heaving and turning: a real test
     np.testing.assert_allclose(mean, rate, atol=0.01)  # N; measured: within 1e-3 N
+
+
+def _sweep_row(gait, params, motion):
+    """A sweep results row: run_id, base, seed, the parameter cells, status, u, v, yaw."""
+    u, v, yaw = motion
+    return {"run_id": f"{gait}-x", "base": f"locomotion_{gait}", "seed": "0",
+            "stall_angle": params.get("stall_angle", ""),
+            "lift_slope": params.get("lift_slope", ""), "status": "ok", "reason": "",
+            "u": repr(u), "v": repr(v), "yaw_rate_deg_s": repr(yaw),
+            "steady_start_s": "6.0", "steady_end_s": "20.0"}
+
+
+def test_parameter_sets_group_a_sweep_by_its_set_cells(fr):
+    """The sensitivity table: the shipped point, one parameter at a time (each with its
+    verdicts and speeds) and a tally over the sets that move more than one."""
+    slow_walk = dict(GOOD, walk=(0.03, 0.0, -1.0))  # the swim (0.05) now beats the walk
+    rows = [_sweep_row(g, {}, m) for g, m in GOOD.items()]
+    rows += [_sweep_row(g, {"stall_angle": "0.667"}, m) for g, m in slow_walk.items()]
+    both = {"stall_angle": "1.667", "lift_slope": "1.2"}
+    rows += [_sweep_row(g, both, m) for g, m in GOOD.items()]
+    sets = fr.parameter_sets(rows)
+    assert list(sets) == [(), (("stall_angle", "0.667"),),
+                          (("stall_angle", "1.667"), ("lift_slope", "1.2"))]
+    assert sets[()]["walk"].u == 0.08 and sets[(("stall_angle", "0.667"),)]["walk"].u == 0.03
+    lines = fr.sensitivity_lines(sets, "t.csv")
+    shipped = next(x for x in lines if x.startswith("| shipped |"))
+    assert shipped == "| shipped | yes | yes | yes | yes | yes | 0.050 | 0.080 | -0.015 | -8.0 |"
+    stall = next(x for x in lines if x.startswith("| stall_angle = 0.667 |"))
+    # Walk no longer fastest (2) and the swim faster than the walk (3).
+    assert stall.split(" | ")[1:6] == ["yes", "**no**", "**no**", "yes", "yes"]
+    assert "Over the 1 hypercube points: 1. holds at 1/1" in lines[-1]
+    with pytest.raises(ValueError, match="twice"):
+        fr.parameter_sets(rows + rows[:1])

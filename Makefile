@@ -41,7 +41,7 @@ lint: setup
 # installed) for the CFD study's one slow end-to-end test.
 test: setup lint
 	@bash scripts/ensure_debian.sh openfoam
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=25
 
 experiments: setup
 	$(PY) diagrams/locomotion.py --out $(OUT)/locomotion

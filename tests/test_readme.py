@@ -15,7 +15,7 @@ import yaml
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 REPORTS = ("findings.md", "stance.md", "transitions.md", "performance.md", "energy.md",
-           "behaviours.md", "fault_campaign.md")
+           "behaviours.md", "fault_campaign.md", "validation.md", "cfd.md", "physics_changes.md")
 
 
 def _flat(text: str) -> str:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Section 4.1: each gait from rest; the paper's Fig. 7 (velocities) and Fig. 9 (joints).
 
-Runs diagrams/locomotion_<gait>.yaml for swim, trot, walk, crab and turning (each into
+Runs models/scenarios/locomotion_<gait>.yaml for swim, trot, walk, crab and turning (each into
 <out>/<gait>/), then writes <out>/fig7_velocities.png, <out>/fig9_left_front_joints.png and
 <out>/velocities.json, and prints the velocity table.
 

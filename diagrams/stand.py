@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The robot stands on the pool floor in the gait stance (gravity only, no water).
 
-Usage: python diagrams/stand.py [--scenario diagrams/stand.yaml] [--out out/stand]
+Usage: python diagrams/stand.py [--scenario models/scenarios/stand.yaml] [--out out/stand]
 Writes recording.html, joints.png, states.png, trajectory.png, log.npz, metrics.json.
 """
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Float, sink and rise with the balloon (BVBS); writes the run's outputs and float_sink.png.
 
-Usage: python diagrams/float_sink.py [--scenario models/scenarios/float_sink.yaml] [--out out/float_sink]
+Usage: python diagrams/float_sink.py [--scenario models/scenarios/float_sink.yaml]
+       [--out out/float_sink]
 """
 
 import pathlib

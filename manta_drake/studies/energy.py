@@ -16,9 +16,8 @@ It reports, in ``docs/energy.md`` between ``<!-- energy-report:begin -->`` and
 * per gait at the shipped point and over the band (median and 10-90 % range): speed,
   electrical and mechanical power, both costs of transport, operation time;
 * the shipped point's power budget (electronics, servo standby, copper loss, the motors'
-  conversion of mechanical power), measured from the one-at-a-time runs (the draw is linear
-  in the standby current and in the winding resistance, and the energy model applies no
-  force, so those runs move exactly like the shipped one);
+  conversion of mechanical power), from each run's own ``power_breakdown`` (the metrics'),
+  checked against its logged draw and against the 5W run;
 * the predicted operation time against Table 1's "approx. 1.0 h", and which parameter moves
   it most (one at a time, and Spearman rank correlations over the band);
 * whether "swimming is slower than walking" and "the walk is the most efficient gait" hold

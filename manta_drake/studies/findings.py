@@ -217,40 +217,45 @@ def motion_of(row: dict) -> Motion:
     return Motion(u, v, _float(row.get("yaw_rate_deg_s")), window)
 
 
+def _grouped(rows, key_of, where) -> dict:
+    """{key_of(row): {gait: Motion}}; ValueError naming ``where(key)`` on a gait that
+    appears twice under one key."""
+    groups: dict = {}
+    for row in rows:
+        key = key_of(row)
+        gait = gait_of(row["base"])
+        group = groups.setdefault(key, {})
+        if gait in group:
+            raise ValueError(f"{gait} appears twice at {where(key)}")
+        group[gait] = motion_of(row)
+    return groups
+
+
 def band_points(rows) -> dict:
     """{(friction, damping, weight): {gait: Motion}} from results rows (dicts of strings).
 
     Raises ValueError on a gait that appears twice at one point (two seeds are not averaged
     silently)."""
-    points: dict = {}
-    for row in rows:
-        key = tuple(float(row[k]) for k in BAND_KEYS)
-        gait = gait_of(row["base"])
-        point = points.setdefault(key, {})
-        if gait in point:
-            raise ValueError(f"{gait} appears twice at band point {key} "
-                             f"(more than one seed?); give one row per gait and point")
-        point[gait] = motion_of(row)
+    points = _grouped(rows, lambda row: tuple(float(row[k]) for k in BAND_KEYS),
+                      lambda key: f"band point {key} (more than one seed?); give one row "
+                                  "per gait and point")
     return dict(sorted(points.items()))
+
+
+def _set_cells(row) -> tuple:
+    """The row's parameter cells that are set: the columns between ``seed`` and
+    ``status``, in the table's order."""
+    names = list(row)
+    params = names[names.index("seed") + 1:names.index("status")]
+    return tuple((k, row[k]) for k in params if str(row[k]).strip())
 
 
 def parameter_sets(rows) -> dict:
     """{((name, value), ...): {gait: Motion}}: the rows grouped by the sweep's parameter
-    cells that are set (the columns between ``seed`` and ``status``, in the table's order;
-    () is the shipped point).
+    cells that are set (``_set_cells``; () is the shipped point).
 
     Raises ValueError on a gait that appears twice in one set."""
-    sets: dict = {}
-    for row in rows:
-        names = list(row)
-        params = names[names.index("seed") + 1:names.index("status")]
-        key = tuple((k, row[k]) for k in params if str(row[k]).strip())
-        point = sets.setdefault(key, {})
-        gait = gait_of(row["base"])
-        if gait in point:
-            raise ValueError(f"{gait} appears twice at parameter set {dict(key)}")
-        point[gait] = motion_of(row)
-    return sets
+    return _grouped(rows, _set_cells, lambda key: f"parameter set {dict(key)}")
 
 
 def read_results(path) -> list[dict]:

@@ -197,7 +197,7 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "A node with N children places them at x = k / (N - 1) and blends neighbours. The "
         "estimates are `z_hat` (depth, Eq. 9), `s_hat` (walls, Eq. 10), `flow_hat` "
         "(`FlowEstimator`: the flow sensor's speed on a chosen axis between two thresholds), "
-        "`posture_hat` (`PostureEstimator`: the IMU's tilt between 10 and 30 deg) "
+        "`posture_hat` (`PostureEstimator`: the IMU's tilt between 10 and 30 deg), "
         "`energy_hat` (`EnergyEstimator`: the charge below a reserve) and `floor_hat` "
         "(`AltimeterEstimator`: the altimeter's range below a floor band); "
         "`manta_drake.modalities` lists them. Every node's field can be "

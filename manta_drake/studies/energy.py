@@ -200,11 +200,6 @@ class GaitEnergy:
     cot_mech: float | None = None  # mechanical cost of transport
     # The metrics' every convention (manta_drake.metrics.COT_KEYS): {key: value}, inf as above.
     cots: dict = dc.field(default_factory=dict)
-
-    @property
-    def cot_net(self) -> float | None:
-        """The electrical cost of transport net of the hotel load, by the dry weight."""
-        return self.cots.get("cot_net_of_hotel_dry_weight")
     hours: float | None = None  # operation time at the window's power [h]
     run_hours: float | None = None  # the metrics' operation_time_h (the whole run's power)
     window_s: tuple | None = None  # (start, end) of the free-water window [s]
@@ -212,6 +207,11 @@ class GaitEnergy:
     touched_wall: bool | None = None
     # The metrics' power_breakdown over the window: {column: W} (BUDGET_PARTS' columns).
     breakdown: dict = dc.field(default_factory=dict)
+
+    @property
+    def cot_net(self) -> float | None:
+        """The electrical cost of transport net of the hotel load, by the dry weight."""
+        return self.cots.get("cot_net_of_hotel_dry_weight")
 
 
 UNDETERMINED = GaitEnergy()

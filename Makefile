@@ -29,11 +29,12 @@ FORCE:
 demo: setup
 	$(PY) diagrams/three_behaviors.py --out $(OUT)/three_behaviors
 
-# ruff's lint of the whole checkout, then mypy on its scope: both configured in pyproject.toml
+# ruff's lint and format check of the whole checkout, then mypy on its scope: both configured in pyproject.toml
 # ([tool.ruff], [tool.mypy]), both the venv's pinned versions (the test extra). The same
 # checks run before each commit with .pre-commit-config.yaml.
 lint: setup
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy
 
 # The lint first: a finding stops the run before the (long) suite.

@@ -17,9 +17,13 @@ from manta_drake.cli import run_experiment
 
 def figures(result, scenario):
     path = result.out_dir / "fig_four_behaviors.png"
-    plots.fig_transition_run(result.log, result.metrics, path,
-                             "Four behaviours from flow, depth and the battery (cf. paper Fig. 11)",
-                             leaves=scenario.behaviour_tree().leaves)
+    plots.fig_transition_run(
+        result.log,
+        result.metrics,
+        path,
+        "Four behaviours from flow, depth and the battery (cf. paper Fig. 11)",
+        leaves=scenario.behaviour_tree().leaves,
+    )
     return [path]
 
 

@@ -38,15 +38,25 @@ def main() -> int:
             scenario.visualization.meshcat = False
         print(f"--- {gait}", file=sys.stderr)
         result = run(scenario, out / gait)
-        speeds[gait] = {k: result.metrics[k] for k in
-                        ("mean_velocity_body", "yaw_rate_deg_s", "distance_m", "real_time_factor",
-                         "steady_window_s", "near_wall_at_s")}
+        speeds[gait] = {
+            k: result.metrics[k]
+            for k in (
+                "mean_velocity_body",
+                "yaw_rate_deg_s",
+                "distance_m",
+                "real_time_factor",
+                "steady_window_s",
+                "near_wall_at_s",
+            )
+        }
         logs[gait] = result.log
     plots.fig_velocities(speeds, out / "fig7_velocities.png")
     plots.fig_left_front_joints(logs, out / "fig9_left_front_joints.png")
     (out / "velocities.json").write_text(json.dumps(speeds, indent=2) + "\n")
-    print(f"\n{'gait':8s} {'u [m/s]':>9s} {'v [m/s]':>9s} {'yaw [deg/s]':>12s} "
-          f"{'free-water window [s]':>22s}")
+    print(
+        f"\n{'gait':8s} {'u [m/s]':>9s} {'v [m/s]':>9s} {'yaw [deg/s]':>12s} "
+        f"{'free-water window [s]':>22s}"
+    )
     for gait, m in speeds.items():
         u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
         yaw = float("nan") if m["yaw_rate_deg_s"] is None else m["yaw_rate_deg_s"]

@@ -32,16 +32,19 @@ def plot(logs, path):
     fig = Figure(figsize=(10, 9))
     ax_pitch, ax_est, ax_w, ax_h = fig.subplots(4, 1, sharex=True)
     for log, (label, color) in zip(logs, RUNS):
-        ax_pitch.plot(log["t"], -np.degrees(log["body_rpy"][:, 1]), color=color, lw=0.8,
-                      label=label)
+        ax_pitch.plot(
+            log["t"], -np.degrees(log["body_rpy"][:, 1]), color=color, lw=0.8, label=label
+        )
         swim = log["behaviour_weights"][:, 0]
         ax_w.plot(log["t_behaviour_weights"], swim, color=color, label=label)
-        ax_h.plot(log["t"], log["body_xyz"][:, 2] + DEFAULT_POOL.depth, color=color, lw=0.8,
-                  label=label)
+        ax_h.plot(
+            log["t"], log["body_xyz"][:, 2] + DEFAULT_POOL.depth, color=color, lw=0.8, label=label
+        )
     log = logs[1]  # both estimates, from the run whose tree reads z_hat
     ax_est.plot(log["t_z_hat"], log["z_hat"][:, 0], color="tab:red", label="z_hat (pressure)")
-    ax_est.plot(log["t_floor_hat"], log["floor_hat"][:, 0], color="tab:green",
-                label="floor_hat (altimeter)")
+    ax_est.plot(
+        log["t_floor_hat"], log["floor_hat"][:, 0], color="tab:green", label="floor_hat (altimeter)"
+    )
     ax_pitch.set_ylabel("nose-up pitch [deg]")
     ax_est.set_ylabel("estimate (1: on the floor)")
     ax_w.set_ylabel("swim's weight")
@@ -50,15 +53,15 @@ def plot(logs, path):
     for ax in (ax_pitch, ax_est, ax_w, ax_h):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="best")
-    ax_pitch.set_title("A nose-up trot: the depth estimate follows the pitch, the altimeter's "
-                       "does not")
+    ax_pitch.set_title(
+        "A nose-up trot: the depth estimate follows the pitch, the altimeter's does not"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
 
 def figures(result, scenario):
-    other = simulate.run(tree_on_z_hat(scenario), result.out_dir / "tree_on_z_hat",
-                         progress=False)
+    other = simulate.run(tree_on_z_hat(scenario), result.out_dir / "tree_on_z_hat", progress=False)
     path = result.out_dir / "fig_nose_up_trot.png"
     plot([result.log, other.log], path)
     return [path]

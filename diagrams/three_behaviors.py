@@ -21,19 +21,23 @@ PAPER_WINDOWS = (("swim -> trot", 6.0, 14.0), ("trot -> turning", 20.0, 36.0))
 
 def figures(result, scenario):
     fig11 = result.out_dir / "fig11_three_behaviors.png"
-    plots.fig_transition_run(result.log, result.metrics, fig11,
-                             "Three behaviours: swim, trot, turning by depth and vision "
-                             "(cf. paper Fig. 11)", paper_windows=PAPER_WINDOWS)
+    plots.fig_transition_run(
+        result.log,
+        result.metrics,
+        fig11,
+        "Three behaviours: swim, trot, turning by depth and vision (cf. paper Fig. 11)",
+        paper_windows=PAPER_WINDOWS,
+    )
     fig12 = result.out_dir / "fig12_point_cloud.png"
     controller = result.handles.controller
     best = None
     if controller.HasOutputPort("best_clusters"):
         best = controller.GetOutputPort("best_clusters").Eval(
-            controller.GetMyContextFromRoot(result.context))
+            controller.GetMyContextFromRoot(result.context)
+        )
     plots.fig_point_cloud(best, fig12)
     return [fig11, fig12]
 
 
 if __name__ == "__main__":
-    sys.exit(run_experiment(__doc__, "three_behaviors", "out/three_behaviors",
-                            figures))
+    sys.exit(run_experiment(__doc__, "three_behaviors", "out/three_behaviors", figures))

@@ -23,10 +23,15 @@ PAPER_WINDOWS = (("swim -> trot", 13.0, 21.0), ("trot -> swim", 50.0, 63.0))
 
 def figures(result, scenario):
     path = result.out_dir / "fig10_two_behaviors.png"
-    plots.fig_transition_run(result.log, result.metrics, path,
-                             "Two behaviours: swim <-> trot by depth (cf. paper Fig. 10)",
-                             paper_windows=PAPER_WINDOWS,
-                             wall_margin=scenario.free_water_margin, wall_label="at a side wall")
+    plots.fig_transition_run(
+        result.log,
+        result.metrics,
+        path,
+        "Two behaviours: swim <-> trot by depth (cf. paper Fig. 10)",
+        paper_windows=PAPER_WINDOWS,
+        wall_margin=scenario.free_water_margin,
+        wall_label="at a side wall",
+    )
     return [path]
 
 

@@ -18,10 +18,14 @@ from manta_drake.cli import run_experiment
 
 def figures(result, scenario):
     path = result.out_dir / "fig_wall_and_back.png"
-    plots.fig_transition_run(result.log, result.metrics, path,
-                             "Sink, walk to a wall, rise and swim back: a mission from estimates",
-                             leaves=scenario.behaviour_tree().leaves,
-                             wall_margin=scenario.free_water_margin)
+    plots.fig_transition_run(
+        result.log,
+        result.metrics,
+        path,
+        "Sink, walk to a wall, rise and swim back: a mission from estimates",
+        leaves=scenario.behaviour_tree().leaves,
+        wall_margin=scenario.free_water_margin,
+    )
     return [path]
 
 

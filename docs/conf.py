@@ -56,10 +56,12 @@ def _redirect_index(app, exception):
     """The reference's front page is api/index.html; index.html at the top points to it."""
     if exception is None and app.builder.format == "html" and app.builder.name != "singlehtml":
         target = pathlib.Path(app.outdir) / "index.html"
-        target.write_text('<!DOCTYPE html>\n<meta charset="utf-8">\n'
-                          '<meta http-equiv="refresh" content="0; url=api/index.html">\n'
-                          '<title>manta_drake API reference</title>\n'
-                          '<a href="api/index.html">manta_drake API reference</a>\n')
+        target.write_text(
+            '<!DOCTYPE html>\n<meta charset="utf-8">\n'
+            '<meta http-equiv="refresh" content="0; url=api/index.html">\n'
+            "<title>manta_drake API reference</title>\n"
+            '<a href="api/index.html">manta_drake API reference</a>\n'
+        )
 
 
 def setup(app):

@@ -33,14 +33,31 @@ import tempfile
 def print_metrics(metrics: dict, out_dir) -> None:
     """A short table of a run's metrics and where its outputs are."""
     keys = [
-        "scenario", "status", "sim_time_s", "wall_time_s", "real_time_factor",
-        "mean_velocity_body", "yaw_rate_deg_s", "steady_window_s", "near_wall_at_s",
-        "min_wall_clearance_m", "touched_wall", "distance_m", "max_joint_step_rad",
-        "max_penetration_m", "final_max_joint_error_rad",
+        "scenario",
+        "status",
+        "sim_time_s",
+        "wall_time_s",
+        "real_time_factor",
+        "mean_velocity_body",
+        "yaw_rate_deg_s",
+        "steady_window_s",
+        "near_wall_at_s",
+        "min_wall_clearance_m",
+        "touched_wall",
+        "distance_m",
+        "max_joint_step_rad",
+        "max_penetration_m",
+        "final_max_joint_error_rad",
     ]
-    energy_keys = ["mean_electrical_power_w", "hotel_power_w", "cot_electrical_dry_weight",
-                   "cot_net_of_hotel_dry_weight", "cot_mechanical_dry_weight",
-                   "operation_time_h", "battery_soc_end"]
+    energy_keys = [
+        "mean_electrical_power_w",
+        "hotel_power_w",
+        "cot_electrical_dry_weight",
+        "cot_net_of_hotel_dry_weight",
+        "cot_mechanical_dry_weight",
+        "operation_time_h",
+        "battery_soc_end",
+    ]
     print()
     for key in keys:
         if key in metrics:
@@ -65,8 +82,10 @@ def print_metrics(metrics: dict, out_dir) -> None:
         print(f"  {'':<28} ({energy['cost_of_transport_note']})")
     failure = metrics.get("failure")
     if failure:
-        print(f"  {'failure':<28} {failure.get('stage')} at {failure.get('time_s', 0):.3f} s: "
-              f"{failure.get('reason')}")
+        print(
+            f"  {'failure':<28} {failure.get('stage')} at {failure.get('time_s', 0):.3f} s: "
+            f"{failure.get('reason')}"
+        )
     for tr in metrics.get("transitions", []):
         from manta_drake.metrics import transition_span
 
@@ -127,8 +146,17 @@ def _stderr_held(received):
 _OPTION_FIELDS = {"--duration": "duration", "--no-meshcat": "visualization.meshcat"}
 
 
-def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=True,
-                  settings=(), received=(), topic_map=None, live_address=None):
+def _load_and_run(
+    scenario_path,
+    out,
+    duration=None,
+    no_meshcat=False,
+    progress=True,
+    settings=(),
+    received=(),
+    topic_map=None,
+    live_address=None,
+):
     """Loads a scenario (with the command line's overrides: ``--duration``, ``--set
     KEY=VALUE`` for any dotted scenario field, checked like the file) and runs it; with a
     ``topic_map`` (``ros2.topic_map.TopicMap``) the run writes its ROS 2 bag too.
@@ -140,8 +168,7 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
     from manta_drake.run_folder import starting_run, stop_if_signalled
 
     given = pathlib.Path(scenario_path)  # a shipped scenario's name is never in the folder
-    with starting_run(out, given.stem, [given] if given.is_file() else [],
-                      received) as out_dir:
+    with starting_run(out, given.stem, [given] if given.is_file() else [], received) as out_dir:
         with _stderr_held(received):
             from manta_drake.scenario import find_scenario
             from manta_drake.simulate import run
@@ -156,8 +183,10 @@ def _load_and_run(scenario_path, out, duration=None, no_meshcat=False, progress=
         stop_if_signalled(received)
         live = _live_view(scenario, topic_map, live_address)
         try:
-            return (run(scenario, out_dir, progress=progress, inputs=[path], bag=topic_map,
-                        live=live), scenario)
+            return (
+                run(scenario, out_dir, progress=progress, inputs=[path], bag=topic_map, live=live),
+                scenario,
+            )
         finally:
             if live is not None:
                 live.close()
@@ -172,8 +201,12 @@ def _live_view(scenario, topic_map, address):
 
     host, port = parse_address(address)
     live = LiveView(scenario, topic_map or load_topic_map(), host, port)
-    print(f"live view: {live.url} (Foxglove: Open connection, Foxglove WebSocket; served "
-          "while the run runs)", file=sys.stderr, flush=True)
+    print(
+        f"live view: {live.url} (Foxglove: Open connection, Foxglove WebSocket; served "
+        "while the run runs)",
+        file=sys.stderr,
+        flush=True,
+    )
     return live
 
 
@@ -185,8 +218,12 @@ def _scenario(path, settings, options: dict):
     from manta_drake.scenario import ScenarioError, load_scenario, parse_set, with_overrides
 
     overrides = parse_set(list(settings))
-    replaced = {key: option for key in overrides for option, field in _OPTION_FIELDS.items()
-                if field in options and (field == key or field.startswith(key + "."))}
+    replaced = {
+        key: option
+        for key in overrides
+        for option, field in _OPTION_FIELDS.items()
+        if field in options and (field == key or field.startswith(key + "."))
+    }
     if not replaced:
         return load_scenario(path, overrides={**overrides, **options})
     try:
@@ -197,13 +234,17 @@ def _scenario(path, settings, options: dict):
         kept = {key: value for key, value in overrides.items() if key not in replaced}
         load_scenario(path, overrides={**kept, **options})
         key, option = next(iter(replaced.items()))
-        raise ScenarioError(f"--set {key}: {str(e).removeprefix(f'{path}: ')} (checked "
-                            f"although {option} replaces it)") from None
+        raise ScenarioError(
+            f"--set {key}: {str(e).removeprefix(f'{path}: ')} (checked "
+            f"although {option} replaces it)"
+        ) from None
     return with_overrides(scenario, options)
 
 
-_SET_HELP = ("override a scenario field, e.g. --set contact.friction=0.6 or --set "
-             "water.coefficient_scales.body.linear_damping=1.2 (repeatable; checked like the file)")
+_SET_HELP = (
+    "override a scenario field, e.g. --set contact.friction=0.6 or --set "
+    "water.coefficient_scales.body.linear_damping=1.2 (repeatable; checked like the file)"
+)
 
 
 def _error(e: Exception) -> int:
@@ -226,17 +267,21 @@ def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) ->
     parser.add_argument("--out", default=default_out)
     parser.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     parser.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help=_SET_HELP)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     args = parser.parse_args()
     from manta_drake.run_folder import interruption, interrupts_as_exceptions
 
     with interrupts_as_exceptions() as received:
         try:
-            result, scenario = _load_and_run(args.scenario, args.out, args.duration,
-                                             args.no_meshcat, settings=args.set,
-                                             received=received)
+            result, scenario = _load_and_run(
+                args.scenario,
+                args.out,
+                args.duration,
+                args.no_meshcat,
+                settings=args.set,
+                received=received,
+            )
             figures = after_run(result, scenario) if after_run else []
         except (KeyboardInterrupt, Exception) as e:  # one clear line; --debug: the traceback
             if interruption(e, received):
@@ -257,8 +302,10 @@ def _list() -> int:
     for path in shipped_scenarios():
         data, _ = load_yaml_mapping(path, "scenario")
         print(f"{path.stem:<22} {data.get('description', '')}")
-    print("\n(run one with `manta-drake run NAME --out DIR`; the files are in "
-          f"{shipped_scenarios()[0].parent})")
+    print(
+        "\n(run one with `manta-drake run NAME --out DIR`; the files are in "
+        f"{shipped_scenarios()[0].parent})"
+    )
     return 0
 
 
@@ -277,8 +324,10 @@ def print_bag(summary) -> None:
     """One line per topic of a bag (``ros2.bag.BagSummary``) and where it is."""
     from manta_drake.ros2 import BAG_FILE, METADATA_FILE
 
-    print(f"\n  ROS 2 bag: {summary.folder}/ ({BAG_FILE}, {summary.size_bytes / 1e3:.0f} kB, "
-          f"and {METADATA_FILE}), {summary.start_ns / 1e9:g} to {summary.end_ns / 1e9:g} s")
+    print(
+        f"\n  ROS 2 bag: {summary.folder}/ ({BAG_FILE}, {summary.size_bytes / 1e3:.0f} kB, "
+        f"and {METADATA_FILE}), {summary.start_ns / 1e9:g} to {summary.end_ns / 1e9:g} s"
+    )
     for topic, (ros_type, count) in summary.topics.items():
         print(f"  {topic:<28} {ros_type:<34} {count} messages")
 
@@ -291,9 +340,17 @@ def _run(args, received=()) -> int:
 
         parse_address(args.foxglove)
         require("foxglove")
-    result, _ = _load_and_run(args.scenario, args.out, args.duration, args.no_meshcat,
-                              progress=not args.quiet, settings=args.set, received=received,
-                              topic_map=topic_map, live_address=args.foxglove)
+    result, _ = _load_and_run(
+        args.scenario,
+        args.out,
+        args.duration,
+        args.no_meshcat,
+        progress=not args.quiet,
+        settings=args.set,
+        received=received,
+        topic_map=topic_map,
+        live_address=args.foxglove,
+    )
     print_metrics(result.metrics, result.out_dir)
     if result.bag is not None:
         print_bag(result.bag)
@@ -316,13 +373,18 @@ def _bag(args) -> int:
 EXTENSIONS = {
     "station": ("manta_drake.seam", "run the simulated robot alone, over LCM or ROS 2"),
     "controller": ("manta_drake.seam", "run the controller alone, over LCM or ROS 2"),
-    "sweep": ("manta_drake.sweep",
-              "many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)"),
-    "calibrate": ("manta_drake.calibrate",
-                  "fit hydrodynamic coefficients to measured runs on Dask (Sim2Real; "
-                  "docs/sweeps.md)"),
-    "optimize": ("manta_drake.optimize",
-                 "design a gait by CMA-ES on a Dask cluster (docs/optimize.md)"),
+    "sweep": (
+        "manta_drake.sweep",
+        "many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)",
+    ),
+    "calibrate": (
+        "manta_drake.calibrate",
+        "fit hydrodynamic coefficients to measured runs on Dask (Sim2Real; docs/sweeps.md)",
+    ),
+    "optimize": (
+        "manta_drake.optimize",
+        "design a gait by CMA-ES on a Dask cluster (docs/optimize.md)",
+    ),
     "study": ("manta_drake.studies", "run a study that regenerates a report of docs/"),
 }
 
@@ -351,19 +413,24 @@ def _parser(argv) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="manta-drake", description="Manta-ray robot simulator")
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="simulate a scenario YAML file")
-    p_run.add_argument("scenario", help="scenario YAML file, or a shipped scenario's name "
-                       "(see `manta-drake list`)")
+    p_run.add_argument(
+        "scenario", help="scenario YAML file, or a shipped scenario's name (see `manta-drake list`)"
+    )
     p_run.add_argument("--out", required=True, help="output folder")
     p_run.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     p_run.add_argument("--no-meshcat", action="store_true", help="no Meshcat recording")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
-    p_run.add_argument("--foxglove", nargs="?", const="127.0.0.1:8765", metavar="HOST:PORT",
-                       help="serve the run's ROS 2 topics live to the Foxglove app while it "
-                       "runs (default 127.0.0.1:8765; port 0: any free port; docs/ros2.md)")
+    p_run.add_argument(
+        "--foxglove",
+        nargs="?",
+        const="127.0.0.1:8765",
+        metavar="HOST:PORT",
+        help="serve the run's ROS 2 topics live to the Foxglove app while it "
+        "runs (default 127.0.0.1:8765; port 0: any free port; docs/ros2.md)",
+    )
     _add_bag_options(p_run, with_flag=True)
-    p_bag = sub.add_parser("bag", help="write a run folder's log.npz as a ROS 2 bag "
-                           "(docs/ros2.md)")
+    p_bag = sub.add_parser("bag", help="write a run folder's log.npz as a ROS 2 bag (docs/ros2.md)")
     p_bag.add_argument("run_dir", help="a run's output folder (with log.npz and scenario.yaml)")
     _add_bag_options(p_bag, with_flag=False)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
@@ -381,19 +448,26 @@ def _parser(argv) -> argparse.ArgumentParser:
 def _add_bag_options(parser, with_flag: bool) -> None:
     """``--bag`` (``with_flag``) and ``--topic-map FILE`` (which then implies it)."""
     if with_flag:
-        parser.add_argument("--bag", action="store_true", help="also write the run as a ROS 2 "
-                            "bag (run.mcap and metadata.yaml; docs/ros2.md)")
-    parser.add_argument("--topic-map", metavar="FILE",
-                        help="the bag's topics, types, QoS and rates: your changes to the "
-                        "shipped models/ros2_topics.yaml"
-                        + (" (implies --bag)" if with_flag else ""))
+        parser.add_argument(
+            "--bag",
+            action="store_true",
+            help="also write the run as a ROS 2 bag (run.mcap and metadata.yaml; docs/ros2.md)",
+        )
+    parser.add_argument(
+        "--topic-map",
+        metavar="FILE",
+        help="the bag's topics, types, QoS and rates: your changes to the "
+        "shipped models/ros2_topics.yaml" + (" (implies --bag)" if with_flag else ""),
+    )
 
 
 def _interrupted(e: KeyboardInterrupt) -> int:
     """One line for Ctrl-C (or SIGTERM/SIGHUP during a run); the exit status 128 + signal."""
     name = getattr(e, "signal_name", "SIGINT")
-    print(f"manta-drake: {'interrupted' if name == 'SIGINT' else 'terminated'} ({name})",
-          file=sys.stderr)
+    print(
+        f"manta-drake: {'interrupted' if name == 'SIGINT' else 'terminated'} ({name})",
+        file=sys.stderr,
+    )
     return 128 + int(getattr(signal.Signals, name, signal.SIGINT))
 
 

@@ -51,8 +51,9 @@ DEFAULT_DASHBOARD = f"{LOCAL_HOST}:0"  # port 0: any free port (8787 may be anot
 
 
 @contextlib.contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None,
-                dashboard: str = DEFAULT_DASHBOARD):
+def dask_client(
+    scheduler: str | None = None, workers: int | None = None, dashboard: str = DEFAULT_DASHBOARD
+):
     """A ``distributed.Client``: connected to ``scheduler`` (an address such as
     ``tcp://host:8786``), or to a new LocalCluster of ``workers`` processes with one thread
     each (Drake runs are single-threaded and hold the GIL: processes, not threads, run them
@@ -69,11 +70,17 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
             yield client
         return
     # The nannies hand this configuration to the worker processes they start.
-    with dask.config.set(_WORKER_CONFIG), \
-            LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                         processes=True, host=LOCAL_HOST,
-                         dashboard_address=dashboard or None) as cluster, \
-            Client(cluster) as client:
+    with (
+        dask.config.set(_WORKER_CONFIG),
+        LocalCluster(
+            n_workers=workers or default_workers(),
+            threads_per_worker=1,
+            processes=True,
+            host=LOCAL_HOST,
+            dashboard_address=dashboard or None,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         yield client
 
 
@@ -88,32 +95,47 @@ def check_workers(client) -> None:
     try:
         versions = client.run(_worker_version)
     except ModuleNotFoundError as e:
-        raise ClusterError(f"a Dask worker cannot import manta_drake ({e}); install this "
-                         "package (pip install -e .) in every worker's environment") from None
+        raise ClusterError(
+            f"a Dask worker cannot import manta_drake ({e}); install this "
+            "package (pip install -e .) in every worker's environment"
+        ) from None
     if not versions:
-        raise ClusterError("the Dask cluster has no workers; start some with "
-                         "`dask worker ADDRESS`")
+        raise ClusterError("the Dask cluster has no workers; start some with `dask worker ADDRESS`")
     mine = _worker_version()
     other = {w: v for w, v in versions.items() if v != mine}
     if other:
-        raise ClusterError(f"Dask workers run manta_drake {sorted(set(other.values()))}, this "
-                         f"client {mine}: install the same version everywhere")
+        raise ClusterError(
+            f"Dask workers run manta_drake {sorted(set(other.values()))}, this "
+            f"client {mine}: install the same version everywhere"
+        )
 
 
 def add_cluster_arguments(parser) -> None:
     """``--scheduler`` and ``--workers`` (shared with ``manta-drake calibrate``)."""
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="a running Dask scheduler, e.g. tcp://host:8786 (default: a "
-                             "local cluster on this machine)")
-    parser.add_argument("--workers", type=int, default=default_workers(), metavar="N",
-                        help="worker processes of the local cluster (default: the CPU count, "
-                             f"{default_workers()} here); 0: one run after another in this "
-                             "process, without Dask")
-    parser.add_argument("--dashboard", default=DEFAULT_DASHBOARD, metavar="HOST:PORT",
-                        help="where the local cluster serves its Dask dashboard (default: "
-                             f"{DEFAULT_DASHBOARD}, this machine only, any free port; e.g. "
-                             "0.0.0.0:8787 to expose it, which has no authentication; '' for "
-                             "none)")
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://host:8786 (default: a "
+        "local cluster on this machine)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=default_workers(),
+        metavar="N",
+        help="worker processes of the local cluster (default: the CPU count, "
+        f"{default_workers()} here); 0: one run after another in this "
+        "process, without Dask",
+    )
+    parser.add_argument(
+        "--dashboard",
+        default=DEFAULT_DASHBOARD,
+        metavar="HOST:PORT",
+        help="where the local cluster serves its Dask dashboard (default: "
+        f"{DEFAULT_DASHBOARD}, this machine only, any free port; e.g. "
+        "0.0.0.0:8787 to expose it, which has no authentication; '' for "
+        "none)",
+    )
 
 
 def check_cluster_arguments(args) -> None:
@@ -124,14 +146,18 @@ def check_cluster_arguments(args) -> None:
     if args.workers > 256:
         raise ClusterError(f"--workers: {args.workers} is outside the allowed range [0, 256]")
     scheduler = getattr(args, "scheduler", None)
-    if scheduler is not None and not re.fullmatch(r"(tcp|tls|inproc|ucx|ws|wss)://\S+:\d+",
-                                                  scheduler):
-        raise ClusterError(f"--scheduler {scheduler!r}: expected an address such as "
-                           "tcp://HOST:8786")
+    if scheduler is not None and not re.fullmatch(
+        r"(tcp|tls|inproc|ucx|ws|wss)://\S+:\d+", scheduler
+    ):
+        raise ClusterError(
+            f"--scheduler {scheduler!r}: expected an address such as tcp://HOST:8786"
+        )
     dashboard = getattr(args, "dashboard", DEFAULT_DASHBOARD)
     if dashboard and not re.fullmatch(r"[^\s:]*:\d{1,5}", dashboard):
-        raise ClusterError(f"--dashboard {dashboard!r}: expected HOST:PORT (e.g. "
-                           f"{DEFAULT_DASHBOARD}) or '' for none")
+        raise ClusterError(
+            f"--dashboard {dashboard!r}: expected HOST:PORT (e.g. "
+            f"{DEFAULT_DASHBOARD}) or '' for none"
+        )
 
 
 def cluster_client(args):
@@ -139,8 +165,9 @@ def cluster_client(args):
     a running scheduler, a new local cluster, or None (``--workers 0``: in this process)."""
     check_cluster_arguments(args)
     if args.scheduler or args.workers > 0:
-        return dask_client(args.scheduler, args.workers,
-                           getattr(args, "dashboard", DEFAULT_DASHBOARD))
+        return dask_client(
+            args.scheduler, args.workers, getattr(args, "dashboard", DEFAULT_DASHBOARD)
+        )
     return contextlib.nullcontext()
 
 
@@ -148,8 +175,13 @@ def cluster_client(args):
 
 # Exceptions of the cluster, not of a task: distributed raises them from a task's result when
 # the worker running (or holding) the task died or the connection to it closed.
-INFRASTRUCTURE_ERRORS = ("KilledWorker", "CommClosedError", "StreamClosedError",
-                         "FutureCancelledError", "CancelledError")
+INFRASTRUCTURE_ERRORS = (
+    "KilledWorker",
+    "CommClosedError",
+    "StreamClosedError",
+    "FutureCancelledError",
+    "CancelledError",
+)
 # Attempts of one task on the cluster before it counts as lost. Each attempt is itself
 # rescheduled by distributed after a worker's death up to
 # ``distributed.scheduler.allowed-failures`` times, so a task that kills every worker it
@@ -208,8 +240,7 @@ def completed_resubmitting_lost(client, function, jobs, argument, key, window=No
     none_left = object()
 
     def submit(job, attempt: int) -> None:
-        future = client.submit(function, argument(job), pure=False,
-                               key=f"{key(job)}-a{attempt}")
+        future = client.submit(function, argument(job), pure=False, key=f"{key(job)}-a{attempt}")
         futures[future] = (job, attempt)
         pending.add(future)
 

@@ -58,10 +58,11 @@ def short_repr(value, limit: int = 80) -> str:
 def short_text(text: str, limit: int = 80) -> str:
     """``text`` on one line, cut to ``limit`` characters ending in ``...``."""
     text = " ".join(text.split())
-    return text if len(text) <= limit else text[:max(limit - 3, 0)] + "..."
+    return text if len(text) <= limit else text[: max(limit - 3, 0)] + "..."
 
 
 # --- the strict YAML reader --------------------------------------------------------------
+
 
 class UniqueKeyLoader(yaml.SafeLoader):
     """A safe YAML loader that refuses a key given twice in one mapping, and reads YAML 1.2
@@ -74,10 +75,12 @@ class UniqueKeyLoader(yaml.SafeLoader):
             key = self.construct_object(key_node, deep=deep)
             if not isinstance(key, typing.Hashable):
                 raise yaml.constructor.ConstructorError(
-                    None, None, f"a {type(key).__name__} as a mapping key", key_node.start_mark)
+                    None, None, f"a {type(key).__name__} as a mapping key", key_node.start_mark
+                )
             if key in seen:
                 raise yaml.constructor.ConstructorError(
-                    None, None, f"duplicate key {short_repr(key)}", key_node.start_mark)
+                    None, None, f"duplicate key {short_repr(key)}", key_node.start_mark
+                )
             seen.add(key)
         return super().construct_mapping(node, deep)
 
@@ -85,7 +88,8 @@ class UniqueKeyLoader(yaml.SafeLoader):
 UniqueKeyLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-    list("-+0123456789."))
+    list("-+0123456789."),
+)
 
 
 # --- input limits: every file is bounded before it is parsed ------------------------------
@@ -126,13 +130,16 @@ def check_file_size(path, limit: int, what: str = "YAML", error=ScenarioError) -
     except OSError as e:
         raise error(f"{path}: cannot be read: {e.strerror}") from None
     if size > limit:
-        raise error(f"{path}: the file is {_size_text(size)}, larger than the "
-                    f"{_size_text(limit)} limit for {_kind(what)} files")
+        raise error(
+            f"{path}: the file is {_size_text(size)}, larger than the "
+            f"{_size_text(limit)} limit for {_kind(what)} files"
+        )
     return size
 
 
-def read_text_file(path, error=ScenarioError, limit: int = MAX_YAML_BYTES,
-                   what: str = "YAML", fmt: str = "YAML") -> str:
+def read_text_file(
+    path, error=ScenarioError, limit: int = MAX_YAML_BYTES, what: str = "YAML", fmt: str = "YAML"
+) -> str:
     """The text of a UTF-8 file of at most ``limit`` bytes (checked before reading; at most
     ``limit`` bytes are read even if the file grows); one-line errors naming the file,
     ``what`` it is for the size and ``fmt`` (YAML, CSV) for the encoding."""
@@ -146,8 +153,9 @@ def read_text_file(path, error=ScenarioError, limit: int = MAX_YAML_BYTES,
     except OSError as e:
         raise error(f"{path}: cannot be read: {e.strerror}") from None
     if len(data) > limit:
-        raise error(f"{path}: the file is larger than the {_size_text(limit)} limit for "
-                    f"{_kind(what)} files")
+        raise error(
+            f"{path}: the file is larger than the {_size_text(limit)} limit for {_kind(what)} files"
+        )
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError:
@@ -208,8 +216,9 @@ class LimitedLoader(UniqueKeyLoader):
     def _refuse(self, event, problem: str):
         prefix = f"{self._where}: " if self._where else ""
         path = _path_text(self._frames)
-        raise self._error(f"{prefix}line {event.start_mark.line + 1}: "
-                          f"{path + ': ' if path else ''}{problem}")
+        raise self._error(
+            f"{prefix}line {event.start_mark.line + 1}: {path + ': ' if path else ''}{problem}"
+        )
 
     def _child_done(self):
         if self._frames:
@@ -222,8 +231,11 @@ class LimitedLoader(UniqueKeyLoader):
         if isinstance(event, yaml.AliasEvent):
             anchor = typing.cast(str, event.anchor)  # an alias always names its anchor
             if any(f.anchor == anchor for f in self._frames):
-                self._refuse(event, f"the alias *{short_text(anchor, 40)} is inside "
-                                    "the value it names (a recursive structure)")
+                self._refuse(
+                    event,
+                    f"the alias *{short_text(anchor, 40)} is inside "
+                    "the value it names (a recursive structure)",
+                )
             self._nodes += self._sizes.get(anchor, 1)  # undefined: the composer says
             self._child_done()
         elif isinstance(event, yaml.ScalarEvent):
@@ -233,15 +245,22 @@ class LimitedLoader(UniqueKeyLoader):
             self._child_done()
         else:
             if len(self._frames) >= MAX_YAML_DEPTH:
-                self._refuse(event, f"nested more than {MAX_YAML_DEPTH} levels deep (mappings "
-                                    f"and lists); a file may nest at most {MAX_YAML_DEPTH}")
-            self._frames.append(_Frame(isinstance(event, yaml.MappingStartEvent),
-                                       event.anchor, self._nodes))
+                self._refuse(
+                    event,
+                    f"nested more than {MAX_YAML_DEPTH} levels deep (mappings "
+                    f"and lists); a file may nest at most {MAX_YAML_DEPTH}",
+                )
+            self._frames.append(
+                _Frame(isinstance(event, yaml.MappingStartEvent), event.anchor, self._nodes)
+            )
             self._nodes += 1
         if self._nodes > MAX_YAML_NODES:
-            self._refuse(event, f"more than {MAX_YAML_NODES} values with its aliases "
-                                f"expanded (an alias bomb?); a file may hold at most "
-                                f"{MAX_YAML_NODES}")
+            self._refuse(
+                event,
+                f"more than {MAX_YAML_NODES} values with its aliases "
+                f"expanded (an alias bomb?); a file may hold at most "
+                f"{MAX_YAML_NODES}",
+            )
 
 
 def parse_yaml(text: str, where: str = "", error=ScenarioError):
@@ -250,8 +269,10 @@ def parse_yaml(text: str, where: str = "", error=ScenarioError):
     ``where``."""
     prefix = f"{where}: " if where else ""
     if len(text) > MAX_YAML_BYTES:
-        raise error(f"{prefix}{len(text)} characters of YAML, more than the "
-                    f"{_size_text(MAX_YAML_BYTES)} allowed")
+        raise error(
+            f"{prefix}{len(text)} characters of YAML, more than the "
+            f"{_size_text(MAX_YAML_BYTES)} allowed"
+        )
     loader = None
     try:
         loader = LimitedLoader(text, where, error)  # its reader refuses control characters
@@ -288,13 +309,13 @@ def load_yaml_mapping(path, what: str = "YAML", error=ScenarioError) -> tuple[di
     if data is None:
         data = {}
     if not isinstance(data, dict):
-        raise error(f"{path}: the {what} file's root must be a mapping, got "
-                    f"{type(data).__name__}")
+        raise error(f"{path}: the {what} file's root must be a mapping, got {type(data).__name__}")
     return data, text
 
 
-def read_csv_table(path, error=ScenarioError, what: str = "table CSV",
-                   limit: int = MAX_TABLE_CSV_BYTES) -> list[dict]:
+def read_csv_table(
+    path, error=ScenarioError, what: str = "table CSV", limit: int = MAX_TABLE_CSV_BYTES
+) -> list[dict]:
     """A CSV file with a header row as a list of dicts of strings (``csv.DictReader``), the
     file at most ``limit`` bytes (checked before reading).
 
@@ -309,11 +330,13 @@ def read_csv_table(path, error=ScenarioError, what: str = "table CSV",
     try:
         return list(reader)
     except csv.Error as e:
-        raise error(f"{path}: line {reader.line_num}: not valid CSV: {short_text(str(e))}") \
-            from None
+        raise error(
+            f"{path}: line {reader.line_num}: not valid CSV: {short_text(str(e))}"
+        ) from None
 
 
 # --- key checks ----------------------------------------------------------------------------
+
 
 def schema_fields(schema) -> dict | None:
     """Field name -> type of a dataclass or a pydrake config struct, else None."""
@@ -331,7 +354,7 @@ def _key_text(key, limit: int = 40) -> str:
         text = str(key) if isinstance(key, (str, numbers.Number)) else short_repr(key, limit)
     except ValueError:  # an int too long to print
         text = short_repr(key, limit)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _type_name(tp) -> str:
@@ -385,16 +408,20 @@ def check_keys(data, schema, path: str = "scenario") -> None:
     if data is None:
         return
     if not isinstance(data, dict):
-        raise ScenarioError(f"{path}: expected a mapping with keys {sorted(fields)}, got "
-                            f"{short_repr(data)}")
+        raise ScenarioError(
+            f"{path}: expected a mapping with keys {sorted(fields)}, got {short_repr(data)}"
+        )
     for key, value in data.items():
         if key not in fields:
-            raise ScenarioError(f"{path}.{_key_text(key)}: unknown key (a typo?); allowed keys: "
-                                f"{', '.join(sorted(fields))}")
+            raise ScenarioError(
+                f"{path}.{_key_text(key)}: unknown key (a typo?); allowed keys: "
+                f"{', '.join(sorted(fields))}"
+            )
         check_keys(value, fields[key], f"{path}.{key}")
 
 
 # --- value checks --------------------------------------------------------------------------
+
 
 def check_number(field: str, value) -> None:
     """A finite real number (int, float or a numpy scalar; not a bool)."""
@@ -416,11 +443,13 @@ def check_in_range(field, value, lo, hi, text, open_low=False, open_high=False) 
 def check_integer(field: str, value, lo: int, hi: int) -> None:
     """An int (or a numpy integer; not a bool, not 1.7) in [lo, hi]."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ScenarioError(f"{field}: {short_repr(value)} is not an integer (allowed: {lo} to "
-                            f"{hi})")
+        raise ScenarioError(
+            f"{field}: {short_repr(value)} is not an integer (allowed: {lo} to {hi})"
+        )
     if not lo <= int(value) <= hi:
-        raise ScenarioError(f"{field}: {short_repr(value)} is outside the allowed range "
-                            f"[{lo}, {hi}]")
+        raise ScenarioError(
+            f"{field}: {short_repr(value)} is outside the allowed range [{lo}, {hi}]"
+        )
 
 
 def check_boolean(field: str, value) -> None:
@@ -430,14 +459,16 @@ def check_boolean(field: str, value) -> None:
 
 def check_text(field: str, value, allow_empty: bool = False) -> None:
     if not isinstance(value, str) or (not allow_empty and not value.strip()):
-        raise ScenarioError(f"{field}: {short_repr(value)} is not a "
-                            f"{'' if allow_empty else 'non-empty '}string")
+        raise ScenarioError(
+            f"{field}: {short_repr(value)} is not a {'' if allow_empty else 'non-empty '}string"
+        )
 
 
 def check_one_of(field: str, value, allowed) -> None:
     if not isinstance(value, str) or value not in allowed:
-        raise ScenarioError(f"{field}: {short_repr(value)} is not one of "
-                            f"{', '.join(map(str, allowed))}")
+        raise ScenarioError(
+            f"{field}: {short_repr(value)} is not one of {', '.join(map(str, allowed))}"
+        )
 
 
 def check_vector(field: str, value, n: int, bound: float = math.inf, unit: str = "") -> None:
@@ -450,14 +481,21 @@ def check_vector(field: str, value, n: int, bound: float = math.inf, unit: str =
     for i, v in enumerate(value):
         check_number(f"{field}[{i}]", v)
     if math.isfinite(bound) and math.sqrt(sum(v * v for v in value)) > bound:
-        raise ScenarioError(f"{field}: {short_repr(value)} has magnitude above the allowed "
-                            f"{bound}{unit}")
+        raise ScenarioError(
+            f"{field}: {short_repr(value)} has magnitude above the allowed {bound}{unit}"
+        )
 
 
 # --- output folders --------------------------------------------------------------------------
 
-def check_writable_folder(out_dir, option: str = "--out", example: str = "out/run",
-                          error=ScenarioError, create: bool = False) -> pathlib.Path:
+
+def check_writable_folder(
+    out_dir,
+    option: str = "--out",
+    example: str = "out/run",
+    error=ScenarioError,
+    create: bool = False,
+) -> pathlib.Path:
     """Checks that an output folder can be written, before anything expensive starts; the
     one check every command's ``--out`` goes through (runs, the seam's sides, sweeps,
     calibrations), each adding what its own outputs need.
@@ -489,8 +527,9 @@ def check_writable_folder(out_dir, option: str = "--out", example: str = "out/ru
     def refuse(reason: str):
         if existing == out_dir:
             return error(f"{option} {out_dir}: cannot be written ({reason})")
-        return error(f"{option} {out_dir}: cannot be created ({existing} is not writable: "
-                     f"{reason})")
+        return error(
+            f"{option} {out_dir}: cannot be created ({existing} is not writable: {reason})"
+        )
 
     if not os.access(existing, os.W_OK | os.X_OK):
         raise refuse("no write permission")

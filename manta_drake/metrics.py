@@ -37,7 +37,7 @@ def euler_rpy(quat_wxyz: np.ndarray) -> np.ndarray:
     r20 = 2 * (x * z - w * y)
     r21 = 2 * (y * z + w * x)
     r22 = 1 - 2 * (x * x + y * y)
-    pitch = np.arctan2(-r20, np.sqrt((r00 ** 2 + r10 ** 2 + r21 ** 2 + r22 ** 2) / 2))
+    pitch = np.arctan2(-r20, np.sqrt((r00**2 + r10**2 + r21**2 + r22**2) / 2))
     eps = np.finfo(float).eps
 
     def half(sine, cosine):
@@ -50,8 +50,9 @@ def euler_rpy(quat_wxyz: np.ndarray) -> np.ndarray:
 
 def _wrap_once(angle: np.ndarray) -> np.ndarray:
     """An angle in [-2 pi, 2 pi] moved into [-pi, pi]."""
-    return np.where(angle > np.pi, angle - 2 * np.pi,
-                    np.where(angle < -np.pi, angle + 2 * np.pi, angle))
+    return np.where(
+        angle > np.pi, angle - 2 * np.pi, np.where(angle < -np.pi, angle + 2 * np.pi, angle)
+    )
 
 
 def velocity_in_body(quat_wxyz: np.ndarray, v_world: np.ndarray) -> np.ndarray:
@@ -73,8 +74,9 @@ def wall_clearance(xyz, quat_wxyz, semi_axes, half_length: float, half_width: fl
     # An ellipsoid's half-extent along world axis k: sqrt(sum_i (R[k, i] a_i)^2).
     extent = np.sqrt(((R * np.asarray(semi_axes, dtype=float)) ** 2).sum(axis=2))
     p = np.asarray(xyz, dtype=float)
-    return np.minimum(half_length - np.abs(p[:, 0]) - extent[:, 0],
-                      half_width - np.abs(p[:, 1]) - extent[:, 1])
+    return np.minimum(
+        half_length - np.abs(p[:, 0]) - extent[:, 0], half_width - np.abs(p[:, 1]) - extent[:, 1]
+    )
 
 
 def free_water_end(t, clearance, margin: float) -> float | None:
@@ -83,8 +85,14 @@ def free_water_end(t, clearance, margin: float) -> float | None:
     return float(t[near[0]]) if len(near) else None
 
 
-def short_window_note(start: float, end: float, min_window: float, sim_time: float,
-                      near_wall_at: float | None, margin: float) -> str:
+def short_window_note(
+    start: float,
+    end: float,
+    min_window: float,
+    sim_time: float,
+    near_wall_at: float | None,
+    margin: float,
+) -> str:
     """Why a run's steady window [start, end] [s] (shorter than ``min_window``) gives no
     mean velocity, naming only the causes that happened: the hull came within ``margin``
     [m] of a wall at ``near_wall_at`` [s] (None: it never did; the window ends there), and
@@ -95,12 +103,15 @@ def short_window_note(start: float, end: float, min_window: float, sim_time: flo
     if sim_time - start < min_window:
         causes.append(f"the run ended at {sim_time:.2f} s")
     why = f" ({'; '.join(causes)})" if causes else ""
-    return (f"steady window {start:.2f}-{end:.2f} s is shorter than {min_window} s{why}: "
-            "no mean velocity")
+    return (
+        f"steady window {start:.2f}-{end:.2f} s is shorter than {min_window} s{why}: "
+        "no mean velocity"
+    )
 
 
-def mean_velocity_from_displacement(t, quat_wxyz, xyz, steady_after: float,
-                                    until: float = np.inf) -> list:
+def mean_velocity_from_displacement(
+    t, quat_wxyz, xyz, steady_after: float, until: float = np.inf
+) -> list:
     """Mean [u, v] from the displacement over [steady_after, until], in the mean-heading
     frame.
 
@@ -176,9 +187,17 @@ def dominant_leaves(t, weights, min_lead: float = 0.0) -> np.ndarray:
     return lead
 
 
-def leaf_transitions(t_weights, weights, leaves, t_params, params, gait_vectors: dict,
-                     tolerance: float, onset: float = TRANSITION_ONSET_SHARE,
-                     min_lead: float = TRANSITION_MIN_LEAD) -> list:
+def leaf_transitions(
+    t_weights,
+    weights,
+    leaves,
+    t_params,
+    params,
+    gait_vectors: dict,
+    tolerance: float,
+    onset: float = TRANSITION_ONSET_SHARE,
+    min_lead: float = TRANSITION_MIN_LEAD,
+) -> list:
     """Every change of the behaviour tree's dominant leaf (the gait with the largest weight,
     ``behaviour_weights``, leading for at least ``min_lead`` s: ``dominant_leaves``), as
     ``{from, to, start_s, dominant_s, end_s}``:
@@ -211,11 +230,16 @@ def leaf_transitions(t_weights, weights, leaves, t_params, params, gait_vectors:
         start = t_w[before[-1]] if len(before) else t_w[since]
         until = t_w[changes[n + 1]] if n + 1 < len(changes) else np.inf
         window = (t_p >= start) & (t_p < until)
-        there = np.flatnonzero(window & at_behaviour(params, gait_vectors[leaves[new]],
-                                                     tolerance))
-        out.append({"from": leaves[lead[i - 1]], "to": leaves[new], "start_s": float(start),
-                    "dominant_s": float(t_w[i]),
-                    "end_s": float(t_p[there[0]]) if len(there) else None})
+        there = np.flatnonzero(window & at_behaviour(params, gait_vectors[leaves[new]], tolerance))
+        out.append(
+            {
+                "from": leaves[lead[i - 1]],
+                "to": leaves[new],
+                "start_s": float(start),
+                "dominant_s": float(t_w[i]),
+                "end_s": float(t_p[there[0]]) if len(there) else None,
+            }
+        )
     return out
 
 
@@ -267,29 +291,51 @@ COT_WEIGHTS = ("dry_weight", "weight_in_water")
 COT_KEYS = tuple(f"cot_{p}_{w}" for p in COT_POWERS for w in COT_WEIGHTS)
 # The energy block's two original names, kept for the tools that read them: each is the
 # same number as the named cost it stands for (by the dry weight, as they always were).
-COT_ALIASES = {"cost_of_transport": "cot_electrical_dry_weight",
-               "cost_of_transport_mechanical": "cot_mechanical_dry_weight"}
+COT_ALIASES = {
+    "cost_of_transport": "cot_electrical_dry_weight",
+    "cost_of_transport_mechanical": "cot_mechanical_dry_weight",
+}
 
 
-def costs_of_transport(electrical_w: float, mechanical_w: float, hotel_w: float,
-                       dry_weight_n: float, weight_in_water_n: float | None,
-                       speed: float) -> dict:
+def costs_of_transport(
+    electrical_w: float,
+    mechanical_w: float,
+    hotel_w: float,
+    dry_weight_n: float,
+    weight_in_water_n: float | None,
+    speed: float,
+) -> dict:
     """P / (W u) for every entry of ``COT_KEYS``: the steady electrical power, the same less
     the hotel load, and the joints' mechanical power sum |tau qdot|, each over the dry weight
     and over the weight in water [N] (None where that weight is None or not positive: a
     deflated robot that floats has no weight in water to carry)."""
-    powers = {"electrical": electrical_w, "net_of_hotel": electrical_w - hotel_w,
-              "mechanical": mechanical_w}
+    powers = {
+        "electrical": electrical_w,
+        "net_of_hotel": electrical_w - hotel_w,
+        "mechanical": mechanical_w,
+    }
     weights = {"dry_weight": dry_weight_n, "weight_in_water": weight_in_water_n}
-    return {f"cot_{p}_{w}": (powers[p] / (weights[w] * speed)
-                             if weights[w] is not None and weights[w] > 0 else None)
-            for p in COT_POWERS for w in COT_WEIGHTS}
+    return {
+        f"cot_{p}_{w}": (
+            powers[p] / (weights[w] * speed) if weights[w] is not None and weights[w] > 0 else None
+        )
+        for p in COT_POWERS
+        for w in COT_WEIGHTS
+    }
 
 
-def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: float,
-                   steady_window=None, mean_velocity=None, weight_in_water_kg=None,
-                   hotel_power_w: float = 0.0, min_speed: float = MIN_TRANSPORT_SPEED,
-                   gravity: float = STANDARD_GRAVITY) -> dict:
+def energy_metrics(
+    log: dict,
+    mass: float,
+    usable_energy_wh: float,
+    cutoff_soc: float,
+    steady_window=None,
+    mean_velocity=None,
+    weight_in_water_kg=None,
+    hotel_power_w: float = 0.0,
+    min_speed: float = MIN_TRANSPORT_SPEED,
+    gravity: float = STANDARD_GRAVITY,
+) -> dict:
     """The run's ``energy`` block from the logged energy model.
 
     Args:
@@ -335,10 +381,12 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         "hotel_power_w": float(hotel_power_w),
         "dry_weight_n": mass * gravity,
         "weight_in_water_n": wet,
-        **dict.fromkeys(COT_KEYS), **dict.fromkeys(COT_ALIASES),
+        **dict.fromkeys(COT_KEYS),
+        **dict.fromkeys(COT_ALIASES),
         "battery_soc_end": float(battery[-1, 0]) if len(battery) else None,
-        "operation_time_h": (usable_energy_wh / mean_power
-                             if mean_power is not None and mean_power > 0 else None),
+        "operation_time_h": (
+            usable_energy_wh / mean_power if mean_power is not None and mean_power > 0 else None
+        ),
         "steady_electrical_power_w": None,
         "steady_mechanical_power_w": None,
         "transport_speed_m_s": None,
@@ -353,9 +401,11 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
         return out
     start, end = steady_window
     if mean_velocity is None:
-        out["cost_of_transport_note"] = (f"no mean velocity over the steady window "
-                                         f"{start:.2f}-{end:.2f} s (the run's note says why): "
-                                         "no cost of transport")
+        out["cost_of_transport_note"] = (
+            f"no mean velocity over the steady window "
+            f"{start:.2f}-{end:.2f} s (the run's note says why): "
+            "no cost of transport"
+        )
         return out
     e_steady, t_steady = _step_integral(t_p, power, start, end)
     m_steady, t_steady_m = _step_integral(t_m, mech, start, end)
@@ -367,16 +417,25 @@ def energy_metrics(log: dict, mass: float, usable_energy_wh: float, cutoff_soc: 
     speed = float(np.hypot(*mean_velocity))
     out["transport_speed_m_s"] = speed
     if speed < min_speed:
-        out["cost_of_transport_note"] = (f"speed of travel {speed:.4f} m/s is below "
-                                         f"{min_speed} m/s: no cost of transport")
+        out["cost_of_transport_note"] = (
+            f"speed of travel {speed:.4f} m/s is below {min_speed} m/s: no cost of transport"
+        )
         return out
-    out.update(costs_of_transport(out["steady_electrical_power_w"],
-                                  out["steady_mechanical_power_w"], hotel_power_w,
-                                  out["dry_weight_n"], wet, speed))
+    out.update(
+        costs_of_transport(
+            out["steady_electrical_power_w"],
+            out["steady_mechanical_power_w"],
+            hotel_power_w,
+            out["dry_weight_n"],
+            wet,
+            speed,
+        )
+    )
     out.update({alias: out[name] for alias, name in COT_ALIASES.items()})
     if wet is not None and wet <= 0:
-        out["cost_of_transport_note"] = (f"the deflated robot floats (weight in water "
-                                         f"{wet:.2f} N): no cost of transport by it")
+        out["cost_of_transport_note"] = (
+            f"the deflated robot floats (weight in water {wet:.2f} N): no cost of transport by it"
+        )
     return out
 
 
@@ -418,11 +477,15 @@ def envelope_summary(t: np.ndarray, ratio: np.ndarray, joint_names, voltage) -> 
     volts = np.broadcast_to(np.asarray(voltage, dtype=float), ratio.shape[:1])
     outside = ratio > 1.0 + ENVELOPE_TOLERANCE
     i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-    return {"voltage_V": float(volts[i]),
-            "voltage_range_V": [float(volts.min()), float(volts.max())],
-            "samples_outside": int(outside.sum()),
-            "fraction_outside": float(outside.mean()), "worst_ratio": float(ratio[i, j]),
-            "worst_joint": str(joint_names[j]), "worst_time_s": float(t[i])}
+    return {
+        "voltage_V": float(volts[i]),
+        "voltage_range_V": [float(volts.min()), float(volts.max())],
+        "samples_outside": int(outside.sum()),
+        "fraction_outside": float(outside.mean()),
+        "worst_ratio": float(ratio[i, j]),
+        "worst_joint": str(joint_names[j]),
+        "worst_time_s": float(t[i]),
+    }
 
 
 # A carrier bearing more of the floor's normal force than this stands on it [N].
@@ -462,10 +525,16 @@ def foot_summary(t, loads, yaw, carriers, window=None, loaded: float = LOADED_N)
             "normal_force_n": float(fn[:, k].mean()) if len(down) else None,
             "stance_force_n": float(fn[down, k].mean()) if down.any() else None,
             "load_share": float(weight / total) if total > 0 else None,
-            "slip_speed_m_s": (float(fn[:, k] @ np.linalg.norm(slip[:, k], axis=1) / weight)
-                               if weight > 0 else None),
-            "slip_forward_m_s": (float(fn[:, k] @ np.einsum("ij,ij->i", slip[:, k], heading)
-                                       / weight) if weight > 0 else None),
+            "slip_speed_m_s": (
+                float(fn[:, k] @ np.linalg.norm(slip[:, k], axis=1) / weight)
+                if weight > 0
+                else None
+            ),
+            "slip_forward_m_s": (
+                float(fn[:, k] @ np.einsum("ij,ij->i", slip[:, k], heading) / weight)
+                if weight > 0
+                else None
+            ),
         }
     legs = [k for k, name in enumerate(carriers) if name != "hull"]
     out["legs_down_mean"] = float((fn[:, legs] > loaded).sum(axis=1).mean()) if len(fn) else None

@@ -151,8 +151,13 @@ def _add_imu(builder, plant_handles, scenario):
 
 
 def _add_flow_sensor(builder, plant_handles, scenario):
-    return add_flow_sensor(builder, plant_handles.plant, plant_handles.body,
-                           scenario.flow_sensor, scenario.current_schedule())
+    return add_flow_sensor(
+        builder,
+        plant_handles.plant,
+        plant_handles.body,
+        scenario.flow_sensor,
+        scenario.current_schedule(),
+    )
 
 
 def _add_altimeter(builder, plant_handles, scenario):
@@ -167,8 +172,9 @@ def initial_sensor_depth(scenario) -> float:
 def _initial_depth_estimate(scenario) -> float:
     """z_hat of the pressure sensor's depth at the start pose (Eq. 9)."""
     de = scenario.depth_estimator
-    return float(fuzzy_depth(initial_sensor_depth(scenario), de.floor_distance,
-                             de.surface_depth)[1])
+    return float(
+        fuzzy_depth(initial_sensor_depth(scenario), de.floor_distance, de.surface_depth)[1]
+    )
 
 
 def initial_altitude(scenario) -> float:
@@ -185,6 +191,7 @@ def _initial_floor_estimate(scenario) -> float:
 def _sensor_on(section: str, needs_water: bool = False) -> Callable:
     def on(scenario) -> bool:
         return getattr(scenario, section).enabled and (scenario.water.enabled or not needs_water)
+
     return on
 
 
@@ -199,56 +206,133 @@ IMU_SPECIFIC_FORCE_RANGE_M_S2 = 160.0
 FLOW_RANGE_M_S = 5.0
 
 MODALITIES = (
-    Modality("z_hat", None, "depth", "water.enabled", lambda s: s.water.enabled,
-             initial=_initial_depth_estimate),
+    Modality(
+        "z_hat",
+        None,
+        "depth",
+        "water.enabled",
+        lambda s: s.water.enabled,
+        initial=_initial_depth_estimate,
+    ),
     Modality("s_hat", None, "wall", "camera.enabled", lambda s: s.camera.enabled),
     Modality(
-        "posture_hat", "posture", "tilt", "imu.enabled", _sensor_on("imu"),
-        Reading("imu", "imu", ImuParams, _add_imu, "MANTA_IMU",
-                ("roll", "pitch", "yaw", "wx", "wy", "wz", "fx", "fy", "fz"),
-                ("rad",) * 3 + ("rad/s",) * 3 + ("m/s^2",) * 3,
-                (IMU_ATTITUDE_RANGE_RAD,) * 3 + (IMU_RATE_RANGE_RAD_S,) * 3
-                + (IMU_SPECIFIC_FORCE_RANGE_M_S2,) * 3,
-                "the AHRS's roll, pitch, yaw [rad], body rates [rad/s] and body specific "
-                "force [m/s^2] (9 values, NaN on a dropout); imu on"),
-        Estimation("posture_estimator", PostureEstimatorParams, PostureEstimator, 0.02,
-                   ("attitude_hat", "yaw_rate_hat", "posture_hat"))),
+        "posture_hat",
+        "posture",
+        "tilt",
+        "imu.enabled",
+        _sensor_on("imu"),
+        Reading(
+            "imu",
+            "imu",
+            ImuParams,
+            _add_imu,
+            "MANTA_IMU",
+            ("roll", "pitch", "yaw", "wx", "wy", "wz", "fx", "fy", "fz"),
+            ("rad",) * 3 + ("rad/s",) * 3 + ("m/s^2",) * 3,
+            (IMU_ATTITUDE_RANGE_RAD,) * 3
+            + (IMU_RATE_RANGE_RAD_S,) * 3
+            + (IMU_SPECIFIC_FORCE_RANGE_M_S2,) * 3,
+            "the AHRS's roll, pitch, yaw [rad], body rates [rad/s] and body specific "
+            "force [m/s^2] (9 values, NaN on a dropout); imu on",
+        ),
+        Estimation(
+            "posture_estimator",
+            PostureEstimatorParams,
+            PostureEstimator,
+            0.02,
+            ("attitude_hat", "yaw_rate_hat", "posture_hat"),
+        ),
+    ),
     Modality(
-        "flow_hat", "flow", "flow", "flow_sensor.enabled", _sensor_on("flow_sensor", True),
-        Reading("flow_velocity", "flow_sensor", FlowSensorParams, _add_flow_sensor,
-                "MANTA_FLOW_VELOCITY", ("u", "v", "w"), ("m/s",) * 3, (FLOW_RANGE_M_S,) * 3,
-                "the water's velocity past the head probe, body frame [m/s] (3 values, NaN "
-                "on a dropout); flow sensor and water on", needs_water=True),
-        Estimation("flow_estimator", FlowEstimatorParams, FlowEstimator, 0.02,
-                   ("flow_speed_hat", "flow_hat"))),
+        "flow_hat",
+        "flow",
+        "flow",
+        "flow_sensor.enabled",
+        _sensor_on("flow_sensor", True),
+        Reading(
+            "flow_velocity",
+            "flow_sensor",
+            FlowSensorParams,
+            _add_flow_sensor,
+            "MANTA_FLOW_VELOCITY",
+            ("u", "v", "w"),
+            ("m/s",) * 3,
+            (FLOW_RANGE_M_S,) * 3,
+            "the water's velocity past the head probe, body frame [m/s] (3 values, NaN "
+            "on a dropout); flow sensor and water on",
+            needs_water=True,
+        ),
+        Estimation(
+            "flow_estimator",
+            FlowEstimatorParams,
+            FlowEstimator,
+            0.02,
+            ("flow_speed_hat", "flow_hat"),
+        ),
+    ),
     Modality(
-        "energy_hat", "energy", "low charge", "actuators.enabled",
-        lambda s: s.actuators.enabled, None,
-        Estimation("energy_estimator", EnergyEstimatorParams, EnergyEstimator, 0.1,
-                   ("soc_hat", "energy_hat"), when_read=True)),
+        "energy_hat",
+        "energy",
+        "low charge",
+        "actuators.enabled",
+        lambda s: s.actuators.enabled,
+        None,
+        Estimation(
+            "energy_estimator",
+            EnergyEstimatorParams,
+            EnergyEstimator,
+            0.1,
+            ("soc_hat", "energy_hat"),
+            when_read=True,
+        ),
+    ),
     Modality(
-        "floor_hat", "altitude", "on the floor", "altimeter.enabled",
+        "floor_hat",
+        "altitude",
+        "on the floor",
+        "altimeter.enabled",
         _sensor_on("altimeter", True),
-        Reading("altitude", "altimeter", AltimeterParams, _add_altimeter, "MANTA_ALTITUDE",
-                ("range",), ("m",), (AltimeterParams.MAX_RANGE_M,),
-                "the downward echo sounder's range to the floor [m] (1 value, NaN on a "
-                "dropout or without an echo); altimeter and water on", needs_water=True),
-        Estimation("altimeter_estimator", AltimeterEstimatorParams, AltimeterEstimator,
-                   0.1, ("altitude_hat", "floor_hat"),
-                   start=lambda s: {"initial_range": initial_altitude(s)}),
-        _initial_floor_estimate),
+        Reading(
+            "altitude",
+            "altimeter",
+            AltimeterParams,
+            _add_altimeter,
+            "MANTA_ALTITUDE",
+            ("range",),
+            ("m",),
+            (AltimeterParams.MAX_RANGE_M,),
+            "the downward echo sounder's range to the floor [m] (1 value, NaN on a "
+            "dropout or without an echo); altimeter and water on",
+            needs_water=True,
+        ),
+        Estimation(
+            "altimeter_estimator",
+            AltimeterEstimatorParams,
+            AltimeterEstimator,
+            0.1,
+            ("altitude_hat", "floor_hat"),
+            start=lambda s: {"initial_range": initial_altitude(s)},
+        ),
+        _initial_floor_estimate,
+    ),
 )
 
 MODALITY_BY_ESTIMATE = {m.estimate: m for m in MODALITIES}
 # Every name a scenario may give an estimate by: its own and its alias.
-NAMES = {**{m.estimate: m.estimate for m in MODALITIES},
-         **{m.alias: m.estimate for m in MODALITIES if m.alias}}
+NAMES = {
+    **{m.estimate: m.estimate for m in MODALITIES},
+    **{m.alias: m.estimate for m in MODALITIES if m.alias},
+}
 ESTIMATES = tuple(MODALITY_BY_ESTIMATE)
 READINGS = tuple(m.reading for m in MODALITIES if m.reading is not None)
 ESTIMATIONS = tuple(m.estimation for m in MODALITIES if m.estimation is not None)
 # The scenario's sections, (name, parameter dataclass), in the table's order.
-SECTIONS = tuple((part.section, part.params) for m in MODALITIES
-                 for part in (m.reading, m.estimation) if part is not None)
+SECTIONS = tuple(
+    (part.section, part.params)
+    for m in MODALITIES
+    for part in (m.reading, m.estimation)
+    if part is not None
+)
 
 
 def estimator_outputs() -> tuple[str, ...]:
@@ -267,8 +351,12 @@ def docstring_ports(kind: str) -> str:
     if kind == "sensors":
         lines = [f"- {m.reading.port} ({m.needs})" for m in MODALITIES if m.reading]
     else:
-        lines = [f"- {port} ({_note(m)})" for m in MODALITIES if m.estimation
-                 for port in m.estimation.outputs]
+        lines = [
+            f"- {port} ({_note(m)})"
+            for m in MODALITIES
+            if m.estimation
+            for port in m.estimation.outputs
+        ]
     return "".join(f"    {line}\n" for line in lines)
 
 
@@ -282,16 +370,20 @@ def docstring_estimators() -> str:
     return "".join(
         f"  * ``{m.estimation.system.__name__}`` ({m.reading.port if m.reading else 'battery'}"
         f" -> {', '.join(m.estimation.outputs)}; {_note(m)})\n"
-        for m in MODALITIES if m.estimation)
+        for m in MODALITIES
+        if m.estimation
+    )
 
 
 def fill_docstring(doc: str) -> str:
     """``doc`` with its markers replaced by the registry's text: ``    - <sensor ports>``,
     ``    - <estimate ports>``, ``  * <sensors>``, ``  * <estimators>`` (each a whole
     line)."""
-    for marker, text in (("    - <sensor ports>\n", docstring_ports("sensors")),
-                         ("    - <estimate ports>\n", docstring_ports("estimates")),
-                         ("  * <sensors>\n", docstring_sensors()),
-                         ("  * <estimators>\n", docstring_estimators())):
+    for marker, text in (
+        ("    - <sensor ports>\n", docstring_ports("sensors")),
+        ("    - <estimate ports>\n", docstring_ports("estimates")),
+        ("  * <sensors>\n", docstring_sensors()),
+        ("  * <estimators>\n", docstring_estimators()),
+    ):
         doc = doc.replace(marker, text)
     return doc

@@ -41,8 +41,15 @@ def plot_joints(t, q, t_cmd, q_cmd, path, title="", shade=None):
         for start, end, label in shade or []:
             ax.axvspan(start, end, alpha=0.12, color="gray")
             if k == 0:
-                ax.text((start + end) / 2, 1.02, label, transform=ax.get_xaxis_transform(),
-                        ha="center", va="bottom", fontsize=8)
+                ax.text(
+                    (start + end) / 2,
+                    1.02,
+                    label,
+                    transform=ax.get_xaxis_transform(),
+                    ha="center",
+                    va="bottom",
+                    fontsize=8,
+                )
         ax.set_ylabel(f"{LEG_TITLES[leg]}\n[deg]")
         ax.grid(alpha=0.3)
     axes[0].legend(ncol=4, fontsize=8, loc="upper right")
@@ -58,17 +65,27 @@ def plot_states(log: dict, path, title="", leaves=None):
     t = log["t"]
     rpy = log["body_rpy"].copy()
     rpy[:, 2] = np.unwrap(rpy[:, 2])
-    panels = [("Euler angles [deg]\n(yaw unwrapped)",
-               [(np.degrees(rpy[:, i]), n) for i, n in enumerate(("roll", "pitch", "yaw"))])]
+    panels = [
+        (
+            "Euler angles [deg]\n(yaw unwrapped)",
+            [(np.degrees(rpy[:, i]), n) for i, n in enumerate(("roll", "pitch", "yaw"))],
+        )
+    ]
     panels.append(("body depth below surface [m]", [(-log["body_xyz"][:, 2], "depth")]))
     for key, label in (("z_hat", "z_hat"), ("s_hat", "s_hat"), ("balloon_volume", "balloon [L]")):
         if key in log and len(log[key]):
             scale = 1000.0 if key == "balloon_volume" else 1.0
             panels.append((label, [(log[key][:, 0] * scale, key, log[f"t_{key}"])]))
     if leaves is not None and len(log.get("behaviour_weights", [])):
-        panels.append(("behaviour weights", [(log["behaviour_weights"][:, i], leaf,
-                                              log["t_behaviour_weights"])
-                                             for i, leaf in enumerate(leaves)]))
+        panels.append(
+            (
+                "behaviour weights",
+                [
+                    (log["behaviour_weights"][:, i], leaf, log["t_behaviour_weights"])
+                    for i, leaf in enumerate(leaves)
+                ],
+            )
+        )
     fig = Figure(figsize=(10, 2.2 * len(panels) + 1))
     axes = fig.subplots(len(panels), 1, sharex=True)
     axes = np.atleast_1d(axes)
@@ -111,13 +128,23 @@ def plot_trajectory(log: dict, path, title="", pool=(15.0, 2.0)):
     fig = Figure(figsize=(8, max(3.0, min(8.0, 8 * (y1 - y0) / (x1 - x0)))))
     ax = fig.subplots()
     L, W = pool
-    ax.add_patch(Rectangle((-L / 2, -W / 2), L, W, fill=False, lw=2.0, color="gray",
-                           label="pool walls"))
+    ax.add_patch(
+        Rectangle((-L / 2, -W / 2), L, W, fill=False, lw=2.0, color="gray", label="pool walls")
+    )
     ax.plot(xyz[:, 0], xyz[:, 1], lw=1.5)
     step = max(1, len(xyz) // 12)
     yaw = log["body_rpy"][::step, 2]
-    ax.quiver(xyz[::step, 0], xyz[::step, 1], np.cos(yaw), np.sin(yaw), width=0.004,
-              scale=25, color="tab:blue", alpha=0.6, label="heading")
+    ax.quiver(
+        xyz[::step, 0],
+        xyz[::step, 1],
+        np.cos(yaw),
+        np.sin(yaw),
+        width=0.004,
+        scale=25,
+        color="tab:blue",
+        alpha=0.6,
+        label="heading",
+    )
     ax.plot(*xyz[0, :2], "go", label="start")
     ax.plot(*xyz[-1, :2], "rs", label="end")
     ax.set_xlim(x0, x1)
@@ -137,14 +164,22 @@ def write_run_plots(log: dict, out_dir, title="", shade=None, leaves=None) -> No
     out_dir = pathlib.Path(out_dir)
     if len(log["t"]) == 0:
         return
-    plot_joints(log["t"], log["joint_angles"], log.get("t_command"),
-                log.get("commanded_joint_angles"), out_dir / "joints.png", title, shade)
+    plot_joints(
+        log["t"],
+        log["joint_angles"],
+        log.get("t_command"),
+        log.get("commanded_joint_angles"),
+        out_dir / "joints.png",
+        title,
+        shade,
+    )
     if "body_xyz" in log:
         plot_states(log, out_dir / "states.png", title, leaves)
         plot_trajectory(log, out_dir / "trajectory.png", title)
 
 
 # --- the paper's figures ----------------------------------------------------------------------
+
 
 def behaviour_spans(transitions: list, end: float) -> list:
     """(start, end, label) spans for shading: each behaviour held, and each transition
@@ -167,8 +202,16 @@ def wall_spans(log: dict, margin: float) -> list:
     """(start, end) of each stretch of the log where the hull is within ``margin`` [m] of a
     pool wall (``metrics.wall_clearance``, the rule of metrics.json's ``near_wall_at_s``)."""
     t = log["t"]
-    near = M.wall_clearance(log["body_xyz"], log["body_quat_wxyz"], DEFAULT_ROBOT.body_semi_axes,
-                            DEFAULT_POOL.length / 2, DEFAULT_POOL.width / 2) < margin
+    near = (
+        M.wall_clearance(
+            log["body_xyz"],
+            log["body_quat_wxyz"],
+            DEFAULT_ROBOT.body_semi_axes,
+            DEFAULT_POOL.length / 2,
+            DEFAULT_POOL.width / 2,
+        )
+        < margin
+    )
     edges = np.flatnonzero(np.diff(np.r_[0, near.astype(int), 0]))
     return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
 
@@ -177,9 +220,17 @@ def wall_spans(log: dict, margin: float) -> list:
 ESTIMATES = tuple((m.estimate, m.label) for m in MODALITIES)
 
 
-def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",),
-                       paper_windows=(), wall_margin=None, wall_label="near a wall",
-                       leaves=None):
+def fig_transition_run(
+    log: dict,
+    metrics: dict,
+    path,
+    title: str,
+    joints=("fl",),
+    paper_windows=(),
+    wall_margin=None,
+    wall_label="near a wall",
+    leaves=None,
+):
     """Fig. 10 / 11 style: commanded joint outputs, Euler angles, depth and every modality
     estimate in the log (``ESTIMATES``: z_hat, s_hat, posture_hat, ...) over time, with the
     behaviour phases shaded (grey: a behaviour held, orange: a transition). ``leaves``: the
@@ -194,8 +245,12 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
     spans = behaviour_spans(metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
     walls = wall_spans(log, wall_margin) if wall_margin is not None and len(t) else []
     estimates = [(key, label) for key, label in ESTIMATES if key in log]
-    rows = [("joint outputs [deg]", "joints"), ("Euler angles [deg]", "euler"),
-            ("depth [m]", "depth"), ("estimates (0-1)", "sensing")]
+    rows = [
+        ("joint outputs [deg]", "joints"),
+        ("Euler angles [deg]", "euler"),
+        ("depth [m]", "depth"),
+        ("estimates (0-1)", "sensing"),
+    ]
     if leaves is not None and "behaviour_weights" in log:
         rows.append(("behaviour weights", "weights"))
     fig = Figure(figsize=(11, 2.5 * len(rows)))
@@ -203,30 +258,64 @@ def fig_transition_run(log: dict, metrics: dict, path, title: str, joints=("fl",
     for ax, (ylabel, kind) in zip(axes, rows):
         for start, end, label in spans:
             transition = "->" in label
-            ax.axvspan(start, end, color="tab:orange" if transition else "gray",
-                       alpha=0.18 if transition else 0.07)
+            ax.axvspan(
+                start,
+                end,
+                color="tab:orange" if transition else "gray",
+                alpha=0.18 if transition else 0.07,
+            )
             if kind == "joints":
-                ax.text((start + end) / 2, 1.01, label, transform=ax.get_xaxis_transform(),
-                        ha="center", va="bottom", fontsize=8)
+                ax.text(
+                    (start + end) / 2,
+                    1.01,
+                    label,
+                    transform=ax.get_xaxis_transform(),
+                    ha="center",
+                    va="bottom",
+                    fontsize=8,
+                )
         for k, (start, end) in enumerate(walls):  # labelled once, in each panel's legend
-            ax.axvspan(start, end, facecolor="none", edgecolor="tab:red", hatch="//", lw=0,
-                       alpha=0.35, label=wall_label if k == 0 else None)
+            ax.axvspan(
+                start,
+                end,
+                facecolor="none",
+                edgecolor="tab:red",
+                hatch="//",
+                lw=0,
+                alpha=0.35,
+                label=wall_label if k == 0 else None,
+            )
         for label, start, end in paper_windows:
             for x in (start, end):
                 ax.axvline(x, color="tab:purple", ls="--", lw=1.0, alpha=0.8)
             if kind == "sensing":
-                ax.annotate("", xy=(end, 0.5), xytext=(start, 0.5),
-                            xycoords=ax.get_xaxis_transform(),
-                            arrowprops=dict(arrowstyle="<->", color="tab:purple"))
-                ax.text((start + end) / 2, 0.53, f"paper: {label}", color="tab:purple",
-                        transform=ax.get_xaxis_transform(), ha="center", va="bottom",
-                        fontsize=8)
+                ax.annotate(
+                    "",
+                    xy=(end, 0.5),
+                    xytext=(start, 0.5),
+                    xycoords=ax.get_xaxis_transform(),
+                    arrowprops=dict(arrowstyle="<->", color="tab:purple"),
+                )
+                ax.text(
+                    (start + end) / 2,
+                    0.53,
+                    f"paper: {label}",
+                    color="tab:purple",
+                    transform=ax.get_xaxis_transform(),
+                    ha="center",
+                    va="bottom",
+                    fontsize=8,
+                )
         if kind == "joints":
             for leg in joints:
                 k = LEGS.index(leg)
                 for j, joint in enumerate(JOINTS):
-                    ax.plot(tc, np.degrees(log["commanded_joint_angles"][:, 4 * k + j]),
-                            lw=1.0, label=f"{LEG_TITLES[leg]} {joint}")
+                    ax.plot(
+                        tc,
+                        np.degrees(log["commanded_joint_angles"][:, 4 * k + j]),
+                        lw=1.0,
+                        label=f"{LEG_TITLES[leg]} {joint}",
+                    )
             ax.legend(ncol=4, fontsize=7, loc="lower left")
         elif kind == "euler":
             for i, name in enumerate(("roll", "pitch", "yaw")):
@@ -265,8 +354,10 @@ def fig_velocities(speeds: dict, path):
     # None (no free-water steady window) plots as a gap.
     vel = [speeds[n]["mean_velocity_body"] or [np.nan, np.nan] for n in names]
     u, v = [x[0] for x in vel], [x[1] for x in vel]
-    yaw = [np.nan if speeds[n]["yaw_rate_deg_s"] is None else speeds[n]["yaw_rate_deg_s"]
-           for n in names]
+    yaw = [
+        np.nan if speeds[n]["yaw_rate_deg_s"] is None else speeds[n]["yaw_rate_deg_s"]
+        for n in names
+    ]
     x = np.arange(len(names))
     fig = Figure(figsize=(11, 4))
     (ax1, ax2) = fig.subplots(1, 2)

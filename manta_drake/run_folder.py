@@ -32,10 +32,20 @@ from manta_drake.ros2 import BAG_FILES
 
 # The files a run writes (and the only ones it removes from an old output folder): the bag's
 # (``manta-drake run --bag``) too, so a run without one leaves no earlier run's bag.
-OUTPUT_FILES = ("scenario.yaml", "recording.html", "log.npz", "metrics.json", "joints.png",
-                "states.png", "trajectory.png", *BAG_FILES)
-SCENARIO_HEADER = ("# The resolved scenario of this run (every field, overrides applied); run it "
-                   "again\n# with: manta-drake run scenario.yaml --out DIR\n")
+OUTPUT_FILES = (
+    "scenario.yaml",
+    "recording.html",
+    "log.npz",
+    "metrics.json",
+    "joints.png",
+    "states.png",
+    "trajectory.png",
+    *BAG_FILES,
+)
+SCENARIO_HEADER = (
+    "# The resolved scenario of this run (every field, overrides applied); run it "
+    "again\n# with: manta-drake run scenario.yaml --out DIR\n"
+)
 # The signals that stop a run with its story written: Ctrl-C, kill / a service manager, a
 # closed terminal.
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -70,17 +80,19 @@ def check_output_folder(out_dir, inputs=(), create: bool = True) -> pathlib.Path
         if path is not None and pathlib.Path(path).resolve() in ours:
             raise OutputFolderError(
                 f"--out {out_dir}: the run would overwrite its own input {path}; choose "
-                "another output folder")
+                "another output folder"
+            )
     existing = out_dir / "scenario.yaml"
     if existing.is_file():
         try:
-            head = existing.read_text(encoding="utf-8", errors="replace")[:len(SCENARIO_HEADER)]
+            head = existing.read_text(encoding="utf-8", errors="replace")[: len(SCENARIO_HEADER)]
         except OSError:
             head = ""
         if head != SCENARIO_HEADER:
             raise OutputFolderError(
                 f"--out {out_dir}: holds a scenario.yaml that no run wrote; a run would "
-                "replace it: choose another output folder")
+                "replace it: choose another output folder"
+            )
     return out_dir
 
 
@@ -107,10 +119,14 @@ def running_metrics(name: str, stage: str) -> dict:
     """The metrics.json of a run under way at ``stage`` (``load``: the scenario is being
     imported and loaded; ``build``: the run has replaced the folder's files): a run that
     ends replaces it, so a folder that keeps it holds a run still going or killed."""
-    return {"scenario": name, "status": "running", "stage": stage,
-            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "note": "written when the run started; a run that ends replaces it, so this one is "
-                    "still running or was killed"}
+    return {
+        "scenario": name,
+        "status": "running",
+        "stage": stage,
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "note": "written when the run started; a run that ends replaces it, so this one is "
+        "still running or was killed",
+    }
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -122,8 +138,11 @@ class RunInterrupted(KeyboardInterrupt):
 
     @property
     def reason(self) -> str:
-        return "interrupted (Ctrl-C)" if self.signal_name == "SIGINT" else \
-            f"terminated ({self.signal_name})"
+        return (
+            "interrupted (Ctrl-C)"
+            if self.signal_name == "SIGINT"
+            else f"terminated ({self.signal_name})"
+        )
 
 
 def interruption(error: BaseException, received=()) -> RunInterrupted | None:
@@ -150,8 +169,12 @@ def stop_if_signalled(received) -> None:
 
 def interrupted_failure(stage: str, time_s: float, stop: RunInterrupted) -> dict:
     """The failure block of a run a signal stopped at ``stage`` and sim time ``time_s``."""
-    return {"stage": stage, "time_s": float(time_s), "reason": stop.reason,
-            "signal": stop.signal_name}
+    return {
+        "stage": stage,
+        "time_s": float(time_s),
+        "reason": stop.reason,
+        "signal": stop.signal_name,
+    }
 
 
 def write_interrupted_start(out_dir: pathlib.Path, name: str, error: BaseException) -> None:
@@ -160,8 +183,14 @@ def write_interrupted_start(out_dir: pathlib.Path, name: str, error: BaseExcepti
     started and why (``status: interrupted``, the signal)."""
     stop = interruption(error) or RunInterrupted("SIGINT")
     remove_outputs(out_dir)
-    write_metrics(out_dir, {"scenario": name, "status": "interrupted",
-                            "failure": interrupted_failure("load", 0.0, stop)})
+    write_metrics(
+        out_dir,
+        {
+            "scenario": name,
+            "status": "interrupted",
+            "failure": interrupted_failure("load", 0.0, stop),
+        },
+    )
 
 
 def _install(handler) -> dict:

@@ -20,7 +20,6 @@ Example (``models/scenarios/stand.yaml``)::
     controller: {mode: hold, gait: trot}
 """
 
-
 import copy
 import dataclasses as dc
 import functools
@@ -66,8 +65,17 @@ from manta_drake.model.start_pose import start_pose_problem
 from manta_drake.station.current import CurrentPoint, CurrentSchedule
 from manta_drake.station.foil import FIN_MODELS
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "find_scenario", "shipped_scenarios",
-           "resolve_path", "set_override", "check_override_key", "scenario_yaml"]
+__all__ = [
+    "Scenario",
+    "ScenarioError",
+    "load_scenario",
+    "find_scenario",
+    "shipped_scenarios",
+    "resolve_path",
+    "set_override",
+    "check_override_key",
+    "scenario_yaml",
+]
 
 
 def _default_simulator_config() -> SimulatorConfig:
@@ -135,8 +143,10 @@ def resolve_fin_sweep_deg(fin_sweep_deg: float | None, gait_reading: str) -> flo
     try:
         return BALANCED_FIN_SWEEP_DEG[gait_reading]
     except KeyError:
-        raise ScenarioError(f"controller.gait_reading: {gait_reading!r} is not one of "
-                            f"{', '.join(BALANCED_FIN_SWEEP_DEG)}") from None
+        raise ScenarioError(
+            f"controller.gait_reading: {gait_reading!r} is not one of "
+            f"{', '.join(BALANCED_FIN_SWEEP_DEG)}"
+        ) from None
 
 
 @dc.dataclass
@@ -311,6 +321,7 @@ def with_modality_sections(after: str):
     """A class decorator (under ``dc.dataclass``) adding a field per section of the
     modalities' sensors and estimators (``manta_drake.modalities.SECTIONS``), each
     defaulting to its dataclass's defaults, after the field ``after``."""
+
     def add(cls):
         fields = {}
         for name, tp in cls.__annotations__.items():
@@ -321,6 +332,7 @@ def with_modality_sections(after: str):
             setattr(cls, name, dc.field(default_factory=params))
         cls.__annotations__ = fields
         return cls
+
     return add
 
 
@@ -374,8 +386,9 @@ class Scenario:
         gains, effort limit and damping of ``actuators.servo_model`` (model.servo)."""
         params = robot_with_fin_sweep_deg(self.fin_sweep_deg())
         if self.actuators.servo_model == "datasheet":
-            params = servo_robot_params(params, self.energy_model().servo,
-                                        self.bus_reference_voltage())
+            params = servo_robot_params(
+                params, self.energy_model().servo, self.bus_reference_voltage()
+            )
         return params
 
     def bus_reference_voltage(self) -> float:
@@ -407,8 +420,9 @@ class Scenario:
         w = self.water
         if not w.enabled:
             return None
-        return scale_coefficients(load_coefficients(resolve_path(w.coefficients)),
-                                  w.coefficient_scales)
+        return scale_coefficients(
+            load_coefficients(resolve_path(w.coefficients)), w.coefficient_scales
+        )
 
     def gaits(self):
         """The gait library of this scenario (name -> GaitParams, read-only): the shipped
@@ -421,8 +435,9 @@ class Scenario:
         try:
             return library[name]
         except KeyError:
-            raise ScenarioError(f"unknown gait {name!r}; known gaits: "
-                                f"{', '.join(library)}") from None
+            raise ScenarioError(
+                f"unknown gait {name!r}; known gaits: {', '.join(library)}"
+            ) from None
 
     def behaviour_nodes(self) -> dict:
         """The behaviour tree's nodes: ``transition.tree``, or if empty Eq. (12)'s tree
@@ -435,9 +450,11 @@ class Scenario:
         scenario's gait library."""
         library = self.gaits()
         try:
-            return compile_tree(self.behaviour_nodes(),
-                                {name: gait.to_vector() for name, gait in library.items()},
-                                ESTIMATES)
+            return compile_tree(
+                self.behaviour_nodes(),
+                {name: gait.to_vector() for name, gait in library.items()},
+                ESTIMATES,
+            )
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
 
@@ -470,8 +487,13 @@ class Scenario:
         (``posture_hat``) and its changes."""
         used = {}
         if self.controller.mode == "transition":
-            used.update({m: "transition.tree" for m in self.behaviour_tree().modalities
-                         if self.transition.tree or m != "s_hat" or self.camera.enabled})
+            used.update(
+                {
+                    m: "transition.tree"
+                    for m in self.behaviour_tree().modalities
+                    if self.transition.tree or m != "s_hat" or self.camera.enabled
+                }
+            )
         rule = self.balloon.rule.estimate(NAMES)
         if rule:
             used[rule] = "balloon.rule.modality"
@@ -498,8 +520,10 @@ class Scenario:
         """The sensors, estimators, heading hold and balloon rule; and that every estimate
         the behaviour tree, the balloon rule or the heading hold reads has its sensor."""
         self._validate_modality_sections()
-        for section, call in (("heading_hold", lambda: self.heading_hold.validate(ESTIMATES)),
-                              ("balloon.rule", lambda: self.balloon.rule.validate(NAMES))):
+        for section, call in (
+            ("heading_hold", lambda: self.heading_hold.validate(ESTIMATES)),
+            ("balloon.rule", lambda: self.balloon.rule.validate(NAMES)),
+        ):
             try:
                 call()
             except ValueError as e:
@@ -510,8 +534,10 @@ class Scenario:
             if not m.available(self):
                 raise ScenarioError(f"{where}: reads {estimate}, which needs {m.needs}: true")
         if self.heading_hold.enabled and self.controller.mode == "hold":
-            raise ScenarioError("heading_hold.enabled: true trims a CPG gait; controller.mode "
-                                "hold runs none (use gait or transition)")
+            raise ScenarioError(
+                "heading_hold.enabled: true trims a CPG gait; controller.mode "
+                "hold runs none (use gait or transition)"
+            )
         self._validate_heading_hold_behaviours()
 
     def _validate_water_users(self) -> None:
@@ -521,14 +547,18 @@ class Scenario:
         if self.water.enabled:
             return
         if self.balloon.rule.modality:
-            raise ScenarioError(f"balloon.rule.modality: {short_repr(self.balloon.rule.modality)}"
-                                " needs water.enabled: true (the balloon acts through the "
-                                "water's buoyancy)")
+            raise ScenarioError(
+                f"balloon.rule.modality: {short_repr(self.balloon.rule.modality)}"
+                " needs water.enabled: true (the balloon acts through the "
+                "water's buoyancy)"
+            )
         for m in MODALITIES:
             r = m.reading
             if r is not None and r.needs_water and getattr(self, r.section).enabled:
-                raise ScenarioError(f"{r.section}.enabled: true needs water.enabled: true (the "
-                                    "sensor reads through the water)")
+                raise ScenarioError(
+                    f"{r.section}.enabled: true needs water.enabled: true (the "
+                    "sensor reads through the water)"
+                )
 
     def _validate_heading_hold_behaviours(self) -> None:
         """``heading_hold.behaviours`` are gaits of the library, and in transition mode with
@@ -537,14 +567,18 @@ class Scenario:
         gaits = self.gaits()
         for i, name in enumerate(hold.behaviours):
             if name not in gaits:
-                raise ScenarioError(f"heading_hold.behaviours[{i}]: {short_repr(name)} is not a "
-                                    f"gait; allowed: {', '.join(gaits)}")
+                raise ScenarioError(
+                    f"heading_hold.behaviours[{i}]: {short_repr(name)} is not a "
+                    f"gait; allowed: {', '.join(gaits)}"
+                )
         if hold.enabled and self.controller.mode == "transition":
             leaves = self.behaviour_tree().leaves
             if not any(name in leaves for name in hold.behaviours):
-                raise ScenarioError(f"heading_hold.behaviours: {short_repr(hold.behaviours)} "
-                                    "names none of the behaviour tree's gaits, so the hold "
-                                    f"would never engage; allowed: {', '.join(leaves)}")
+                raise ScenarioError(
+                    f"heading_hold.behaviours: {short_repr(hold.behaviours)} "
+                    "names none of the behaviour tree's gaits, so the hold "
+                    f"would never engage; allowed: {', '.join(leaves)}"
+                )
 
     def initial_joint_angles(self) -> np.ndarray:
         """The initial joint angles (16, the plant's order): the stance X of
@@ -568,31 +602,51 @@ class Scenario:
         except ValueError as e:
             message = str(e)
             if message.startswith("scales: "):  # a scaled value refused
-                message = "scales." + message[len("scales: "):]
+                message = "scales." + message[len("scales: ") :]
             raise ScenarioError(f"actuators.{message}") from None
         modes = tuple(params.electronics.jetson_power.value)
         if a.electronics_mode is not None:
             check_one_of("actuators.electronics_mode", a.electronics_mode, modes)
         cutoff = params.battery.cutoff_soc.value
-        check_in_range("actuators.initial_soc", a.initial_soc, cutoff, 1.0,
-                       f"(cutoff_soc = {cutoff:g}, 1]", open_low=True)
+        check_in_range(
+            "actuators.initial_soc",
+            a.initial_soc,
+            cutoff,
+            1.0,
+            f"(cutoff_soc = {cutoff:g}, 1]",
+            open_low=True,
+        )
         check_one_of("actuators.servo_model", a.servo_model, SERVO_MODELS)
         if a.bus_period != 0.0:
-            check_in_range("actuators.bus_period", a.bus_period, self.time_step, 0.1,
-                           f"0 or [time_step = {self.time_step:g}, 0.1] s")
+            check_in_range(
+                "actuators.bus_period",
+                a.bus_period,
+                self.time_step,
+                0.1,
+                f"0 or [time_step = {self.time_step:g}, 0.1] s",
+            )
 
     def validate(self) -> "Scenario":
         """Checks every value (type, finite, range, integer where it must be); raises
         ScenarioError naming the field, the value and the allowed range."""
         check_text("name", self.name)
         check_text("description", self.description, allow_empty=True)
-        check_in_range("duration", self.duration, 0.0, MAX_DURATION_S,
-                       f"(0, {MAX_DURATION_S:g}] s", open_low=True)
+        check_in_range(
+            "duration",
+            self.duration,
+            0.0,
+            MAX_DURATION_S,
+            f"(0, {MAX_DURATION_S:g}] s",
+            open_low=True,
+        )
         # Below 0.1 ms a run takes hours (1e-7 s is an effective hang); above 10 ms the
         # contact and the CPG's RK2 lose accuracy.
         check_in_range("time_step", self.time_step, 1e-4, 0.01, "[0.0001, 0.01] s")
-        check_one_of("discrete_contact_approximation", self.discrete_contact_approximation,
-                ("sap", "lagged", "similar", "tamsi"))
+        check_one_of(
+            "discrete_contact_approximation",
+            self.discrete_contact_approximation,
+            ("sap", "lagged", "similar", "tamsi"),
+        )
         check_in_range("contact.friction", self.contact.friction, 0.0, 2.0, "(0, 2]", open_low=True)
         check_integer("random_seed", self.random_seed, 0, MAX_RANDOM_SEED)
         check_vector("initial_pose.xyz", self.initial_pose.xyz, 3)
@@ -600,8 +654,13 @@ class Scenario:
         check_one_of("controller.gait_reading", self.controller.gait_reading, tuple(READINGS))
         if self.robot.fin_sweep_deg is not None:
             # Beyond +-60 deg the yaw joint's +-60 deg range cannot bring a fin to the side.
-            check_in_range("robot.fin_sweep_deg", self.robot.fin_sweep_deg, -60.0, 60.0,
-                      "[-60, 60] deg (or null: the gait reading's balanced sweep)")
+            check_in_range(
+                "robot.fin_sweep_deg",
+                self.robot.fin_sweep_deg,
+                -60.0,
+                60.0,
+                "[-60, 60] deg (or null: the gait reading's balanced sweep)",
+            )
         files = self.controller.gait_files
         if not isinstance(files, list):
             raise ScenarioError(f"controller.gait_files: expected a list of paths, got {files!r}")
@@ -611,48 +670,71 @@ class Scenario:
                 raise ScenarioError(f"controller.gait_files[{i}]: gait file not found: {f}")
         gaits = self.gaits()
         check_one_of("initial_stance", self.initial_stance, ("zero",) + tuple(gaits))
-        problem = start_pose_problem(self.initial_pose.xyz, self.initial_pose.rpy_deg,
-                                     self.initial_joint_angles(), self.fin_sweep_deg(),
-                                     self.initial_stance)
+        problem = start_pose_problem(
+            self.initial_pose.xyz,
+            self.initial_pose.rpy_deg,
+            self.initial_joint_angles(),
+            self.fin_sweep_deg(),
+            self.initial_stance,
+        )
         if problem:
             raise ScenarioError(f"initial_pose: {problem}")
         check_one_of("controller.mode", self.controller.mode, ("hold", "gait", "transition"))
         check_one_of("controller.gait", self.controller.gait, tuple(gaits))
-        check_in_range("cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz",
-                       open_low=True)
+        check_in_range(
+            "cpg.frequency_hz", self.cpg.frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True
+        )
         for name in ("chain_weight", "fcs_weight"):
             check_in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 100.0, "[0, 100] rad/s")
         for name in ("a", "b"):
-            check_in_range(f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s",
-                      open_low=True)
+            check_in_range(
+                f"cpg.{name}", getattr(self.cpg, name), 0.0, 200.0, "(0, 200] 1/s", open_low=True
+            )
         tr = self.transition
         for name in ("period", "g", "T", "alpha", "z_t", "s_hat_time_constant"):
             check_number(f"transition.{name}", getattr(tr, name))
         check_text("transition.blend", tr.blend)
         check_text("transition.follow", tr.follow)
         try:
-            check_parameters(tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend,
-                             tr.s_hat_time_constant, tr.follow)
+            check_parameters(
+                tr.period, tr.g, tr.T, tr.alpha, tr.z_t, tr.blend, tr.s_hat_time_constant, tr.follow
+            )
         except ValueError as e:
             raise ScenarioError(f"transition.{e}") from None
-        check_in_range("transition.period", tr.period, self.time_step, 1.0,
-                  f"[time_step = {self.time_step}, 1] s")
-        check_in_range("transition.arrival_tolerance", tr.arrival_tolerance, 0.0, math.pi,
-                  "(0, pi] rad", open_low=True)
+        check_in_range(
+            "transition.period",
+            tr.period,
+            self.time_step,
+            1.0,
+            f"[time_step = {self.time_step}, 1] s",
+        )
+        check_in_range(
+            "transition.arrival_tolerance",
+            tr.arrival_tolerance,
+            0.0,
+            math.pi,
+            "(0, pi] rad",
+            open_low=True,
+        )
         if not isinstance(tr.tree, dict):
-            raise ScenarioError(f"transition.tree: expected a mapping of node names to nodes, "
-                                f"got {tr.tree!r}")
+            raise ScenarioError(
+                f"transition.tree: expected a mapping of node names to nodes, got {tr.tree!r}"
+            )
         if tr.tree and (tr.blend != "potential" or tr.z_t != 1.0):
             field = "blend" if tr.blend != "potential" else "z_t"
-            raise ScenarioError(f"transition.{field}: {getattr(tr, field)!r} is set beside "
-                                "transition.tree; a tree gives each node's weight and full_at "
-                                "itself (blend and z_t shape the default tree only)")
+            raise ScenarioError(
+                f"transition.{field}: {getattr(tr, field)!r} is set beside "
+                "transition.tree; a tree gives each node's weight and full_at "
+                "itself (blend and z_t shape the default tree only)"
+            )
         self.behaviour_tree()  # every node's fields, children and gaits
         w = self.water
         check_boolean("water.enabled", w.enabled)
         if self.controller.mode == "transition" and not w.enabled:
-            raise ScenarioError("controller.mode: 'transition' needs water.enabled: true "
-                                "(z_hat comes from the pressure sensor)")
+            raise ScenarioError(
+                "controller.mode: 'transition' needs water.enabled: true "
+                "(z_hat comes from the pressure sensor)"
+            )
         # A pool's current; beyond ~1 m/s the robot's 0.1 m/s swim means nothing and the
         # quadratic damping's stiffness needs a smaller step.
         check_vector("water.current", w.current, 3, bound=1.0, unit=" m/s")
@@ -661,18 +743,21 @@ class Scenario:
         except ValueError as e:
             raise ScenarioError(str(e)) from None
         if w.current_schedule and any(v != 0.0 for v in w.current):
-            raise ScenarioError(f"water.current: {short_repr(w.current)} is set beside "
-                                "water.current_schedule; they are exclusive (the schedule "
-                                "replaces the constant: make it a key of the schedule, or clear "
-                                "the schedule with water.current_schedule: [])")
+            raise ScenarioError(
+                f"water.current: {short_repr(w.current)} is set beside "
+                "water.current_schedule; they are exclusive (the schedule "
+                "replaces the constant: make it a key of the schedule, or clear "
+                "the schedule with water.current_schedule: [])"
+            )
         check_in_range("water.update_period", w.update_period, 0.0, 0.02, "[0, 0.02] s")
         check_one_of("water.fin_model", w.fin_model, FIN_MODELS)
         check_text("water.coefficients", w.coefficients)
         # The URL is checked with the water off too (the file is read only with it on).
         coefficients = resolve_path(w.coefficients, "water.coefficients")
         if not isinstance(w.coefficient_scales, dict):
-            raise ScenarioError(f"water.coefficient_scales: expected a mapping, got "
-                                f"{w.coefficient_scales!r}")
+            raise ScenarioError(
+                f"water.coefficient_scales: expected a mapping, got {w.coefficient_scales!r}"
+            )
         if w.enabled or w.coefficient_scales:  # scales are checked even with water off
             coeffs = load_coefficients(coefficients, "water.coefficients")
             try:
@@ -680,7 +765,7 @@ class Scenario:
             except ValueError as e:
                 message = str(e)
                 if message.startswith("coefficient_scales: "):  # a scaled value refused
-                    message = "coefficient_scales." + message[len("coefficient_scales: "):]
+                    message = "coefficient_scales." + message[len("coefficient_scales: ") :]
                 raise ScenarioError(f"water.{message}") from None
         self._validate_actuators()
         self._validate_modalities()
@@ -690,63 +775,118 @@ class Scenario:
             check_in_range(f"balloon.schedule[{i}].fill", cmd.fill, 0.0, 1.0, "[0, 1]")
             check_in_range(f"balloon.schedule[{i}].time", cmd.time, 0.0, 3600.0, "[0, 3600] s")
             if cmd.time < last:
-                raise ScenarioError(f"balloon.schedule[{i}].time: {cmd.time} is before the "
-                                    f"previous command's time {last}; times must not decrease")
+                raise ScenarioError(
+                    f"balloon.schedule[{i}].time: {cmd.time} is before the "
+                    f"previous command's time {last}; times must not decrease"
+                )
             last = cmd.time
         ps = self.pressure_sensor
-        check_in_range("pressure_sensor.rate_hz", ps.rate_hz, 0.0, 1.0 / self.time_step,
-                  f"(0, 1/time_step = {1.0 / self.time_step:g}] Hz", open_low=True)
+        check_in_range(
+            "pressure_sensor.rate_hz",
+            ps.rate_hz,
+            0.0,
+            1.0 / self.time_step,
+            f"(0, 1/time_step = {1.0 / self.time_step:g}] Hz",
+            open_low=True,
+        )
         check_in_range("pressure_sensor.noise_std", ps.noise_std, 0.0, 0.1, "[0, 0.1] m")
         check_in_range("pressure_sensor.dropout_rate", ps.dropout_rate, 0.0, 1.0, "[0, 1]")
         check_vector("pressure_sensor.position", ps.position, 3, bound=0.5, unit=" m")
-        check_in_range("depth_estimator.floor_distance", self.depth_estimator.floor_distance, 0.0,
-                  10.0, "(0, 10] m", open_low=True)
-        check_in_range("depth_estimator.surface_depth", self.depth_estimator.surface_depth, 0.0,
-                  self.depth_estimator.floor_distance,
-                  f"[0, floor_distance = {self.depth_estimator.floor_distance}) m",
-                  open_high=True)
+        check_in_range(
+            "depth_estimator.floor_distance",
+            self.depth_estimator.floor_distance,
+            0.0,
+            10.0,
+            "(0, 10] m",
+            open_low=True,
+        )
+        check_in_range(
+            "depth_estimator.surface_depth",
+            self.depth_estimator.surface_depth,
+            0.0,
+            self.depth_estimator.floor_distance,
+            f"[0, floor_distance = {self.depth_estimator.floor_distance}) m",
+            open_high=True,
+        )
         cam = self.camera
         check_boolean("camera.enabled", cam.enabled)
         for name in ("width", "height"):
             check_integer(f"camera.{name}", getattr(cam, name), 8, 1024)
         check_in_range("camera.fov_y_deg", cam.fov_y_deg, 0.0, 170.0, "(0, 170] deg", open_low=True)
         check_in_range("camera.max_range", cam.max_range, 0.0, 10.0, "(0, 10] m", open_low=True)
-        check_in_range("camera.min_range", cam.min_range, 0.0, cam.max_range,
-                  f"(0, max_range = {cam.max_range}) m", open_low=True, open_high=True)
+        check_in_range(
+            "camera.min_range",
+            cam.min_range,
+            0.0,
+            cam.max_range,
+            f"(0, max_range = {cam.max_range}) m",
+            open_low=True,
+            open_high=True,
+        )
         check_in_range("camera.rate_hz", cam.rate_hz, 0.0, 60.0, "(0, 60] Hz", open_low=True)
-        check_in_range("camera.depth_noise_std", cam.depth_noise_std, 0.0, MAX_DEPTH_NOISE,
-                  f"[0, {MAX_DEPTH_NOISE}] m (the depth-camera model: a RealSense-class "
-                  "sensor's range noise within its 0.8 m underwater range)")
+        check_in_range(
+            "camera.depth_noise_std",
+            cam.depth_noise_std,
+            0.0,
+            MAX_DEPTH_NOISE,
+            f"[0, {MAX_DEPTH_NOISE}] m (the depth-camera model: a RealSense-class "
+            "sensor's range noise within its 0.8 m underwater range)",
+        )
         check_in_range("camera.pixel_dropout", cam.pixel_dropout, 0.0, 0.5, "[0, 0.5]")
         try:
             self.wall_detector.validate()
         except ValueError as e:
             raise ScenarioError(f"wall_detector.{e}") from None
         sim = self.simulator
-        check_one_of("simulator.integration_scheme", sim.integration_scheme,
-                ("explicit_euler", "runge_kutta2", "runge_kutta3", "semi_explicit_euler"))
+        check_one_of(
+            "simulator.integration_scheme",
+            sim.integration_scheme,
+            ("explicit_euler", "runge_kutta2", "runge_kutta3", "semi_explicit_euler"),
+        )
         check_in_range("simulator.max_step_size", sim.max_step_size, 1e-5, 0.01, "[1e-05, 0.01] s")
         check_in_range("simulator.accuracy", sim.accuracy, 0.0, 1.0, "(0, 1]", open_low=True)
         check_boolean("simulator.use_error_control", sim.use_error_control)
-        check_in_range("simulator.start_time", sim.start_time, 0.0, 0.0,
-                  "[0, 0] s (schedules and metrics count from t = 0)")
-        check_in_range("simulator.target_realtime_rate", sim.target_realtime_rate, 0.0, 100.0,
-                  "[0, 100] (0: as fast as possible)")
+        check_in_range(
+            "simulator.start_time",
+            sim.start_time,
+            0.0,
+            0.0,
+            "[0, 0] s (schedules and metrics count from t = 0)",
+        )
+        check_in_range(
+            "simulator.target_realtime_rate",
+            sim.target_realtime_rate,
+            0.0,
+            100.0,
+            "[0, 100] (0: as fast as possible)",
+        )
         if hasattr(sim, "publish_every_time_step"):  # in Drake 1.51, gone in 1.58
             check_boolean("simulator.publish_every_time_step", sim.publish_every_time_step)
         vis = self.visualization
         check_boolean("visualization.meshcat", vis.meshcat)
-        check_in_range("visualization.recording_fps", vis.recording_fps, 0.0, 120.0, "(0, 120] fps",
-                  open_low=True)
+        check_in_range(
+            "visualization.recording_fps",
+            vis.recording_fps,
+            0.0,
+            120.0,
+            "(0, 120] fps",
+            open_low=True,
+        )
         steps = 1.0 / vis.recording_fps / self.time_step
         if vis.meshcat and abs(steps - round(steps)) > 1e-6:
             raise ScenarioError(
                 f"visualization.recording_fps: {vis.recording_fps!r} gives a publish period "
                 f"of {1e3 / vis.recording_fps:.4g} ms, not a multiple of time_step = "
                 f"{self.time_step} s; recording would add integrator steps and change the run "
-                "(40 fps = 25 ms is on a 1 ms grid)")
-        check_in_range("log_period", self.log_period, self.time_step, 1.0,
-                  f"[time_step = {self.time_step}, 1] s")
+                "(40 fps = 25 ms is on a 1 ms grid)"
+            )
+        check_in_range(
+            "log_period",
+            self.log_period,
+            self.time_step,
+            1.0,
+            f"[time_step = {self.time_step}, 1] s",
+        )
         check_in_range("steady_after", self.steady_after, 0.0, 3600.0, "[0, 3600] s")
         check_in_range("free_water_margin", self.free_water_margin, 0.0, 1.0, "[0, 1] m")
         return self
@@ -828,10 +968,12 @@ def _walk_key(dotted: str):
                     return path, value_type, None
                 schema, i = value_type, i + 2
                 continue
-            key = ".".join(parts[i + 1:])
+            key = ".".join(parts[i + 1 :])
             if ".".join(path) == _COEFFICIENT_SCALES and key not in coefficient_names():
-                raise ScenarioError(f"{dotted}: unknown coefficient {key!r}; allowed: "
-                                    f"{', '.join(coefficient_names())}")
+                raise ScenarioError(
+                    f"{dotted}: unknown coefficient {key!r}; allowed: "
+                    f"{', '.join(coefficient_names())}"
+                )
             return path, tp, key
         if typing.get_origin(tp) in (typing.Union, types.UnionType):
             args = [a for a in typing.get_args(tp) if a is not type(None)]
@@ -862,8 +1004,9 @@ def overrides_data(overrides: dict) -> dict:
         for part in parts[:-1]:
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
-                raise ScenarioError(f"{dotted}: sets a field inside one that another "
-                                    "override sets whole")
+                raise ScenarioError(
+                    f"{dotted}: sets a field inside one that another override sets whole"
+                )
         if parts[-1] in node:
             raise ScenarioError(f"{dotted}: set twice (or with a field inside it)")
         node[parts[-1]] = value
@@ -881,11 +1024,11 @@ def parse_set(items, option: str = "--set") -> dict:
         key, sep, value = str(item).partition("=")
         key = key.strip()
         if not sep or not key:
-            raise ScenarioError(f"{option} {short_text(str(item), 60)}: expected KEY=VALUE, "
-                                "e.g. duration=2")
+            raise ScenarioError(
+                f"{option} {short_text(str(item), 60)}: expected KEY=VALUE, e.g. duration=2"
+            )
         if key in out:
-            raise ScenarioError(f"{option} {short_text(key, 60)}: given twice; give each key "
-                                "once")
+            raise ScenarioError(f"{option} {short_text(key, 60)}: given twice; give each key once")
         out[key] = parse_yaml(value, f"{option} {short_text(key, 60)}")
     return out
 
@@ -893,9 +1036,14 @@ def parse_set(items, option: str = "--set") -> dict:
 # SimulatorConfig fields a newer Drake removed, with the value that means what the newer
 # Drake does anyway: a scenario.yaml written under Drake 1.51 (every field dumped) loads
 # under 1.58, and a file that asks for the removed behaviour is told so.
-_REMOVED_SIMULATOR_FIELDS = {"publish_every_time_step": (False, "removed from Drake's "
-                             "SimulatorConfig in Drake 1.58, which this run uses: a run "
-                             "publishes at its publish periods only")}
+_REMOVED_SIMULATOR_FIELDS = {
+    "publish_every_time_step": (
+        False,
+        "removed from Drake's "
+        "SimulatorConfig in Drake 1.58, which this run uses: a run "
+        "publishes at its publish periods only",
+    )
+}
 
 
 def _without_removed_simulator_fields(data: dict) -> dict:
@@ -940,13 +1088,23 @@ def _anchor_gait_files(scenario: Scenario, data: dict, base_dir: pathlib.Path) -
     files = scenario.controller.gait_files
     if isinstance(files, list):
         scenario.controller.gait_files = [
-            f if not isinstance(f, str) or not f or f.startswith(PACKAGE_URL)
-            or pathlib.Path(f).is_absolute() else str((base_dir / f).resolve())
-            for f in files]
+            f
+            if not isinstance(f, str)
+            or not f
+            or f.startswith(PACKAGE_URL)
+            or pathlib.Path(f).is_absolute()
+            else str((base_dir / f).resolve())
+            for f in files
+        ]
 
 
-def load_scenario(name_or_path=None, data=None, defaults: Scenario | None = None,
-                  overrides: dict | None = None, validate: bool = True) -> Scenario:
+def load_scenario(
+    name_or_path=None,
+    data=None,
+    defaults: Scenario | None = None,
+    overrides: dict | None = None,
+    validate: bool = True,
+) -> Scenario:
     """Loads a scenario in layers, as the manipulation course's ``LoadScenario``, and
     validates it.
 
@@ -978,8 +1136,9 @@ def load_scenario(name_or_path=None, data=None, defaults: Scenario | None = None
         if isinstance(data, str):
             data = parse_yaml(data, "scenario data")
         if not isinstance(data, dict):
-            raise ScenarioError(f"scenario data: expected a mapping of scenario fields, got "
-                                f"{type(data).__name__}")
+            raise ScenarioError(
+                f"scenario data: expected a mapping of scenario fields, got {type(data).__name__}"
+            )
         scenario = _layer(scenario, data, "scenario data")
         _anchor_gait_files(scenario, data, pathlib.Path.cwd())
     if overrides:

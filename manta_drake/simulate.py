@@ -61,8 +61,15 @@ from manta_drake.station.water import deflated_net_weight_kg
 from manta_drake.wiring.diagram import DiagramHandles, build_diagram, logger_data
 
 LOG_KEYS = (
-    "t", "joint_angles", "joint_velocities", "commanded_joint_angles",
-    "body_xyz", "body_quat_wxyz", "body_rpy", "body_v_world", "body_w_world",
+    "t",
+    "joint_angles",
+    "joint_velocities",
+    "commanded_joint_angles",
+    "body_xyz",
+    "body_quat_wxyz",
+    "body_rpy",
+    "body_v_world",
+    "body_w_world",
 )
 
 
@@ -89,8 +96,13 @@ def _progress(total: float, enabled: bool):
         from tqdm import tqdm
     except ImportError:
         return None
-    return tqdm(total=total, unit="sim s", desc="simulating", file=sys.stderr,
-                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+    return tqdm(
+        total=total,
+        unit="sim s",
+        desc="simulating",
+        file=sys.stderr,
+        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
+    )
 
 
 def extract_log(handles: DiagramHandles, root_context) -> dict:
@@ -98,8 +110,10 @@ def extract_log(handles: DiagramHandles, root_context) -> dict:
     plant, body = handles.plant, handles.plant_handles.body
     t, x = logger_data(handles.loggers["plant_state"], root_context)
     nq = plant.num_positions()
-    joints = [plant.GetJointByName(n, handles.plant_handles.robot)
-              for n in handles.plant_handles.joint_names]
+    joints = [
+        plant.GetJointByName(n, handles.plant_handles.robot)
+        for n in handles.plant_handles.joint_names
+    ]
     qi = np.array([j.position_start() for j in joints])
     vi = np.array([nq + j.velocity_start() for j in joints])
     log = {"t": t, "joint_angles": x[:, qi], "joint_velocities": x[:, vi]}
@@ -157,8 +171,9 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         # The steady window: from steady_after (at most half the run) until the hull first
         # comes within free_water_margin of a wall, so no speed is averaged over a robot
         # pressed against a wall.
-        clearance = M.wall_clearance(xyz, q, DEFAULT_ROBOT.body_semi_axes,
-                                     DEFAULT_POOL.length / 2, DEFAULT_POOL.width / 2)
+        clearance = M.wall_clearance(
+            xyz, q, DEFAULT_ROBOT.body_semi_axes, DEFAULT_POOL.length / 2, DEFAULT_POOL.width / 2
+        )
         near = M.free_water_end(t, clearance, scenario.free_water_margin)
         start = min(scenario.steady_after, 0.5 * sim_time)
         end = sim_time if near is None else near
@@ -172,8 +187,9 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
         else:
             m["mean_velocity_body"] = None
             m["yaw_rate_deg_s"] = None
-            m["note"] = M.short_window_note(start, end, MIN_STEADY_WINDOW, sim_time, near,
-                                            scenario.free_water_margin)
+            m["note"] = M.short_window_note(
+                start, end, MIN_STEADY_WINDOW, sim_time, near, scenario.free_water_margin
+            )
         m["heading_change_deg"] = M.heading_change_deg(q)
         m["distance_m"] = M.horizontal_distance(xyz)
         m["final_body_xyz"] = xyz[-1].tolist()
@@ -181,9 +197,14 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
     if len(log.get("behaviour_weights", [])) and len(log.get("cpg_params", [])):
         tree = scenario.behaviour_tree()
         m["transitions"] = M.leaf_transitions(
-            log["t_behaviour_weights"], log["behaviour_weights"], tree.leaves,
-            log["t_cpg_params"], log["cpg_params"], tree.gait_vectors,
-            scenario.transition.arrival_tolerance)
+            log["t_behaviour_weights"],
+            log["behaviour_weights"],
+            tree.leaves,
+            log["t_cpg_params"],
+            log["cpg_params"],
+            tree.gait_vectors,
+            scenario.transition.arrival_tolerance,
+        )
     if len(log.get("commanded_joint_angles", [])) >= 2:
         m["max_joint_step_rad"] = M.max_joint_step(log["commanded_joint_angles"])
         n = min(len(log["joint_angles"]), len(log["commanded_joint_angles"]))
@@ -194,13 +215,21 @@ def compute_metrics(scenario: Scenario, log: dict, wall_time: float) -> dict:
     if len(log.get("foot_contacts", [])) and "body_quat_wxyz" in log:
         m["feet"] = feet(log, m["steady_window_s"] if m.get("mean_velocity_body") else None)
     if "electrical_power" in log:  # the energy model is on (actuators.enabled)
-        model, params, coeffs = (scenario.energy_model(), scenario.robot_params(),
-                                 scenario.hydro_coefficients())
+        model, params, coeffs = (
+            scenario.energy_model(),
+            scenario.robot_params(),
+            scenario.hydro_coefficients(),
+        )
         m["energy"] = M.energy_metrics(
-            log, params.total_mass, model.pack.usable_energy_wh(), model.pack.cutoff_soc,
-            m.get("steady_window_s"), m.get("mean_velocity_body"),
+            log,
+            params.total_mass,
+            model.pack.usable_energy_wh(),
+            model.pack.cutoff_soc,
+            m.get("steady_window_s"),
+            m.get("mean_velocity_body"),
             weight_in_water_kg=None if coeffs is None else deflated_net_weight_kg(coeffs, params),
-            hotel_power_w=model.electronics_power + NUM_JOINTS * model.servo.standby_power)
+            hotel_power_w=model.electronics_power + NUM_JOINTS * model.servo.standby_power,
+        )
         if len(log.get("joint_torque", [])):
             window = m["steady_window_s"] if m.get("mean_velocity_body") else None
             m["power_breakdown"] = power_breakdown(scenario, log, window)
@@ -224,20 +253,24 @@ def power_breakdown(scenario: Scenario, log: dict, window=None) -> dict:
     ``total_w`` when the log period is the plant's step)."""
     model, t = scenario.energy_model(), log["t"]
     tau = _on_times(t, log["t_joint_torque"], log["joint_torque"])
-    terms = servo_power_terms(tau, log["joint_velocities"][:len(tau)], model.servo)
-    out = M.power_breakdown(t[:len(tau)], {"computers": np.full(len(tau), model.electronics_power),
-                                           **terms}, window)
+    terms = servo_power_terms(tau, log["joint_velocities"][: len(tau)], model.servo)
+    out = M.power_breakdown(
+        t[: len(tau)], {"computers": np.full(len(tau), model.electronics_power), **terms}, window
+    )
     start, end = out["window_s"] or (0.0, 0.0)
-    out["electrical_w"] = M.step_mean(log["t_electrical_power"], log["electrical_power"],
-                                      start, end)
+    out["electrical_w"] = M.step_mean(
+        log["t_electrical_power"], log["electrical_power"], start, end
+    )
     return out
 
 
 def _on_times(t, t_samples, samples) -> np.ndarray:
     """``samples`` (N, k) logged at ``t_samples``, interpolated to the times ``t``."""
     n = min(len(t), len(t_samples))
-    return np.stack([np.interp(t[:n], t_samples, column)
-                     for column in np.asarray(samples, dtype=float).T], axis=1)
+    return np.stack(
+        [np.interp(t[:n], t_samples, column) for column in np.asarray(samples, dtype=float).T],
+        axis=1,
+    )
 
 
 def actuator_envelope(scenario: Scenario, log: dict) -> dict:
@@ -249,7 +282,7 @@ def actuator_envelope(scenario: Scenario, log: dict) -> dict:
     from manta_drake.model.servo import envelope_ratio
 
     servo, t, qdot = scenario.energy_model().servo, log["t"], log["joint_velocities"]
-    tau = _on_times(t[:len(qdot)], log["t_joint_torque"], log["joint_torque"])
+    tau = _on_times(t[: len(qdot)], log["t_joint_torque"], log["joint_torque"])
     n = len(tau)
     volts = np.full(n, servo.supply_voltage)
     if len(log.get("battery", [])):
@@ -293,8 +326,9 @@ def make_simulator(diagram, scenario: Scenario, context=None, seed: int | None =
     """
     simulator = Simulator(diagram) if context is None else Simulator(diagram, context)
     ApplySimulatorConfig(scenario.simulator, simulator)
-    seed_context(diagram, simulator.get_mutable_context(),
-                 scenario.random_seed if seed is None else seed)
+    seed_context(
+        diagram, simulator.get_mutable_context(), scenario.random_seed if seed is None else seed
+    )
     return simulator
 
 
@@ -304,8 +338,7 @@ def _write_scenario(scenario: Scenario, folder: pathlib.Path) -> None:
     write_atomic(folder / "scenario.yaml", SCENARIO_HEADER + scenario_yaml(scenario))
 
 
-def _start_outputs(scenario: Scenario, out_dir: pathlib.Path,
-                   write_scenario: bool = True) -> None:
+def _start_outputs(scenario: Scenario, out_dir: pathlib.Path, write_scenario: bool = True) -> None:
     """Removes our own outputs of an earlier run in ``out_dir`` (so no stale recording or
     metrics stays beside this run's) and writes this run's scenario and a ``metrics.json``
     that says it is running (``stage: build``): a run killed outright (SIGKILL, power)
@@ -316,20 +349,47 @@ def _start_outputs(scenario: Scenario, out_dir: pathlib.Path,
     write_metrics(out_dir, running_metrics(scenario.name, "build"))
 
 
-def _write_failed_build(scenario: Scenario, out_dir: pathlib.Path, error: BaseException,
-                        stop: RunInterrupted | None = None) -> None:
+def _write_failed_build(
+    scenario: Scenario,
+    out_dir: pathlib.Path,
+    error: BaseException,
+    stop: RunInterrupted | None = None,
+) -> None:
     """The story of a run whose build failed, or was interrupted (``stop``)."""
     if stop is not None:
-        write_metrics(out_dir, {"scenario": scenario.name, "status": "interrupted",
-                                "failure": interrupted_failure("build", 0.0, stop)})
+        write_metrics(
+            out_dir,
+            {
+                "scenario": scenario.name,
+                "status": "interrupted",
+                "failure": interrupted_failure("build", 0.0, stop),
+            },
+        )
         return
-    write_metrics(out_dir, {"scenario": scenario.name, "status": "failed",
-                            "failure": {"stage": "build", "time_s": 0.0,
-                                        "reason": f"{type(error).__name__}: {error}"}})
+    write_metrics(
+        out_dir,
+        {
+            "scenario": scenario.name,
+            "status": "failed",
+            "failure": {
+                "stage": "build",
+                "time_s": 0.0,
+                "reason": f"{type(error).__name__}: {error}",
+            },
+        },
+    )
 
 
-def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool = True,
-        inputs=(), prepare=None, bag=None, live=None) -> RunResult:
+def run(
+    scenario: Scenario,
+    out_dir,
+    progress: bool = True,
+    write_outputs: bool = True,
+    inputs=(),
+    prepare=None,
+    bag=None,
+    live=None,
+) -> RunResult:
     """Simulates ``scenario`` and writes its outputs into ``out_dir``.
 
     The folder is checked before anything is built (``check_output_folder``). This
@@ -371,16 +431,16 @@ def run(scenario: Scenario, out_dir, progress: bool = True, write_outputs: bool 
     out_dir = check_output_folder(out_dir, inputs)
     with interrupts_as_exceptions() as received:
         try:
-            return _run(scenario, out_dir, progress, write_outputs, prepare, received, bag,
-                        live)
+            return _run(scenario, out_dir, progress, write_outputs, prepare, received, bag, live)
         except RunInterrupted as stop:
             with signals_deferred():
                 _story_of_a_signal_between_stages(scenario, out_dir, stop)
             raise
 
 
-def _story_of_a_signal_between_stages(scenario: Scenario, out_dir: pathlib.Path,
-                                      stop: RunInterrupted) -> None:
+def _story_of_a_signal_between_stages(
+    scenario: Scenario, out_dir: pathlib.Path, stop: RunInterrupted
+) -> None:
     """A signal that came between two stages (after the build's story was settled, before
     the run's own signal handling took over) left ``metrics.json`` saying ``running``: it
     now says ``interrupted`` at that stage."""
@@ -389,9 +449,14 @@ def _story_of_a_signal_between_stages(scenario: Scenario, out_dir: pathlib.Path,
     except (OSError, ValueError):
         return
     if metrics.get("status") == "running":
-        write_metrics(out_dir, {"scenario": scenario.name, "status": "interrupted",
-                                "failure": interrupted_failure(metrics.get("stage", "build"),
-                                                               0.0, stop)})
+        write_metrics(
+            out_dir,
+            {
+                "scenario": scenario.name,
+                "status": "interrupted",
+                "failure": interrupted_failure(metrics.get("stage", "build"), 0.0, stop),
+            },
+        )
 
 
 def _start_recording(handles: DiagramHandles, scenario: Scenario) -> None:
@@ -425,13 +490,23 @@ def _build(scenario: Scenario, out_dir: pathlib.Path, prepare, received):
             raise
         if stop is not None:
             raise stop from e
-        raise SimulationError(f"{scenario.name}: building the diagram failed: "
-                              f"{type(e).__name__}: {e} (metrics.json in {out_dir})") from e
+        raise SimulationError(
+            f"{scenario.name}: building the diagram failed: "
+            f"{type(e).__name__}: {e} (metrics.json in {out_dir})"
+        ) from e
     return diagram, handles, simulator
 
 
-def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
-         write_outputs: bool, prepare, received, bag=None, live=None) -> RunResult:
+def _run(
+    scenario: Scenario,
+    out_dir: pathlib.Path,
+    progress: bool,
+    write_outputs: bool,
+    prepare,
+    received,
+    bag=None,
+    live=None,
+) -> RunResult:
     diagram, handles, simulator = _build(scenario, out_dir, prepare, received)
     root_context = simulator.get_mutable_context()
     failure, interrupted = None, None
@@ -443,8 +518,13 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
     with signals_flagged() as signals:
         try:
             # Between steps: a signal noted while a step ran ends the loop here.
-            simulator.set_monitor(lambda c: EventStatus.ReachedTermination(diagram, "signal")
-                                  if signals else EventStatus.Succeeded())
+            simulator.set_monitor(
+                lambda c: (
+                    EventStatus.ReachedTermination(diagram, "signal")
+                    if signals
+                    else EventStatus.Succeeded()
+                )
+            )
             simulator.Initialize()
             # Chunk ends on the plant's step grid (an end between two steps would add a
             # tiny integrator step and change the run at round-off level); the last one is
@@ -452,20 +532,24 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
             n_steps = max(1, int(round(scenario.duration / scenario.time_step)))
             n_chunks = max(1, min(200, int(np.ceil(scenario.duration / 0.05))))
             for k in range(1, n_chunks + 1):
-                t_next = (scenario.duration if k == n_chunks
-                          else round(k * n_steps / n_chunks) * scenario.time_step)
+                t_next = (
+                    scenario.duration
+                    if k == n_chunks
+                    else round(k * n_steps / n_chunks) * scenario.time_step
+                )
                 status = simulator.AdvanceTo(t_next)
                 stop_if_signalled(signals)
                 if live is not None:  # outside the steps: it adds no event to the run
                     live.update(extract_log(handles, root_context))
                 if bar is not None:
                     bar.update(root_context.get_time() - bar.n)
-                if status.reason() == \
-                        SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+                if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
                     # A System ended the run (the battery at its cut-off): the run stops
                     # there and says why, rather than going on.
-                    failure = {"time_s": float(root_context.get_time()),
-                               "reason": status.message() or "a system ended the run"}
+                    failure = {
+                        "time_s": float(root_context.get_time()),
+                        "reason": status.message() or "a system ended the run",
+                    }
                     break
         except KeyboardInterrupt as e:
             interrupted = interruption(e)
@@ -473,24 +557,35 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
         except (Exception, SystemExit) as e:  # noqa: BLE001 - keep the log up to the failure
             # SystemExit: a Drake abort surfacing in Python; it must not end the process
             # without the log.
-            failure = {"time_s": float(root_context.get_time()),
-                       "reason": f"{type(e).__name__}: {e}"}
+            failure = {
+                "time_s": float(root_context.get_time()),
+                "reason": f"{type(e).__name__}: {e}",
+            }
         finally:
             if bar is not None:
                 bar.close()
         wall_time = time.perf_counter() - wall_start
         try:
-            log, metrics = _finish(scenario, handles, diagram, root_context, wall_time,
-                                   failure, interrupted)
+            log, metrics = _finish(
+                scenario, handles, diagram, root_context, wall_time, failure, interrupted
+            )
         except Exception as e:  # the story still says how the run ended
             _write_failed_metrics(scenario, out_dir, root_context.get_time(), e, interrupted)
             if interrupted:
                 raise interrupted from e
-            raise SimulationError(f"{scenario.name}: the run's log or metrics failed: "
-                                  f"{type(e).__name__}: {e} (metrics.json in {out_dir})") from e
-        summary = _write_outputs(scenario, out_dir, handles, log, metrics,
-                                 write_outputs and not interrupted,
-                                 None if interrupted else bag)
+            raise SimulationError(
+                f"{scenario.name}: the run's log or metrics failed: "
+                f"{type(e).__name__}: {e} (metrics.json in {out_dir})"
+            ) from e
+        summary = _write_outputs(
+            scenario,
+            out_dir,
+            handles,
+            log,
+            metrics,
+            write_outputs and not interrupted,
+            None if interrupted else bag,
+        )
     if interrupted:
         raise interrupted
     stop_if_signalled(signals)  # a signal after the last step: the story was written first
@@ -503,27 +598,48 @@ def _run(scenario: Scenario, out_dir: pathlib.Path, progress: bool,
     return RunResult(metrics, out_dir, log, handles, root_context, summary)
 
 
-def _write_failed_metrics(scenario: Scenario, out_dir: pathlib.Path, time_s: float,
-                          error: Exception, interrupted) -> None:
+def _write_failed_metrics(
+    scenario: Scenario, out_dir: pathlib.Path, time_s: float, error: Exception, interrupted
+) -> None:
     """The story of a run whose log or metrics could not be computed (``stage: metrics``),
     or, if a signal had stopped it, of that interruption."""
-    failure = (interrupted_failure("simulation", time_s, interrupted) if interrupted else
-               {"stage": "metrics", "time_s": float(time_s),
-                "reason": f"{type(error).__name__}: {error}"})
-    write_metrics(out_dir, {"scenario": scenario.name,
-                            "status": "interrupted" if interrupted else "failed",
-                            "failure": failure})
+    failure = (
+        interrupted_failure("simulation", time_s, interrupted)
+        if interrupted
+        else {
+            "stage": "metrics",
+            "time_s": float(time_s),
+            "reason": f"{type(error).__name__}: {error}",
+        }
+    )
+    write_metrics(
+        out_dir,
+        {
+            "scenario": scenario.name,
+            "status": "interrupted" if interrupted else "failed",
+            "failure": failure,
+        },
+    )
 
 
-def _finish(scenario: Scenario, handles: DiagramHandles, diagram, root_context,
-            wall_time: float, failure: dict | None, interrupted) -> tuple[dict, dict]:
+def _finish(
+    scenario: Scenario,
+    handles: DiagramHandles,
+    diagram,
+    root_context,
+    wall_time: float,
+    failure: dict | None,
+    interrupted,
+) -> tuple[dict, dict]:
     """The run's log and metrics, with its status (``ok``, ``failed`` or ``interrupted``)."""
     log = extract_log(handles, root_context)
     log["sim_time"] = np.array(root_context.get_time())
     metrics = compute_metrics(scenario, log, wall_time)
     if failure is None and "body_xyz" in log and not np.all(np.isfinite(log["body_xyz"])):
-        failure = {"time_s": float(log["t"][np.argmax(~np.isfinite(log["body_xyz"]).any(1))]),
-                   "reason": "non-finite body state"}
+        failure = {
+            "time_s": float(log["t"][np.argmax(~np.isfinite(log["body_xyz"]).any(1))]),
+            "reason": "non-finite body state",
+        }
     metrics["status"] = "interrupted" if interrupted else "failed" if failure else "ok"
     if failure:
         metrics["failure"] = {"stage": "simulation", **failure}
@@ -532,8 +648,15 @@ def _finish(scenario: Scenario, handles: DiagramHandles, diagram, root_context,
     return log, metrics
 
 
-def _write_outputs(scenario: Scenario, out_dir: pathlib.Path, handles: DiagramHandles,
-                   log: dict, metrics: dict, plots_and_recording: bool, bag=None):
+def _write_outputs(
+    scenario: Scenario,
+    out_dir: pathlib.Path,
+    handles: DiagramHandles,
+    log: dict,
+    metrics: dict,
+    plots_and_recording: bool,
+    bag=None,
+):
     """The log, the plots and the recording, the bag (with a topic map ``bag``), then
     metrics.json (last: its presence says the others are complete). Returns the bag's
     summary (None: no bag)."""
@@ -541,12 +664,16 @@ def _write_outputs(scenario: Scenario, out_dir: pathlib.Path, handles: DiagramHa
     np.savez_compressed(tmp_log, **log)
     os.replace(tmp_log, out_dir / "log.npz")
     if plots_and_recording:
-        leaves = (scenario.behaviour_tree().leaves if len(log.get("behaviour_weights", []))
-                  else None)
-        plots.write_run_plots(log, out_dir, title=scenario.name,
-                              shade=plots.behaviour_spans(metrics.get("transitions", []),
-                                                          float(log["t"][-1]))
-                              if metrics.get("transitions") else None, leaves=leaves)
+        leaves = scenario.behaviour_tree().leaves if len(log.get("behaviour_weights", [])) else None
+        plots.write_run_plots(
+            log,
+            out_dir,
+            title=scenario.name,
+            shade=plots.behaviour_spans(metrics.get("transitions", []), float(log["t"][-1]))
+            if metrics.get("transitions")
+            else None,
+            leaves=leaves,
+        )
         if handles.visualizer is not None:
             handles.visualizer.StopRecording()
             handles.visualizer.PublishRecording()

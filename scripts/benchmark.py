@@ -148,7 +148,7 @@ def record_replay(case_b: Case, warmup: float, duration: float) -> dict:
         volume = float(balloon[max(0, np.searchsorted(tb, t[k], "right") - 1), 0])
         F = hydro.compute_from_state(x[k], volume, t[k], v_prev)
         tau[k] = hydro.generalized_forces(x[k], F)
-        v_prev = np.r_[x[k, hull + 3:hull + 6], x[k, hull:hull + 3], t[k], v_prev[:7]]
+        v_prev = np.r_[x[k, hull + 3 : hull + 6], x[k, hull : hull + 3], t[k], v_prev[:7]]
     return {"t": t, "tau": tau, "t_desired": td, "desired": desired}
 
 
@@ -166,18 +166,28 @@ def physical_limit_builder(s, replay: dict):
     from manta_drake.wiring.station import _set_default_start, fin_added_mass
 
     builder = DiagramBuilder()
-    coeffs = scale_coefficients(load_coefficients(resolve_path(s.water.coefficients)),
-                                s.water.coefficient_scales)
-    ph = add_plant(builder, time_step=s.time_step,
-                   discrete_contact_approximation=s.discrete_contact_approximation, hydro=coeffs,
-                   robot_params=s.robot_params(), fin_added_mass=fin_added_mass(s))
+    coeffs = scale_coefficients(
+        load_coefficients(resolve_path(s.water.coefficients)), s.water.coefficient_scales
+    )
+    ph = add_plant(
+        builder,
+        time_step=s.time_step,
+        discrete_contact_approximation=s.discrete_contact_approximation,
+        hydro=coeffs,
+        robot_params=s.robot_params(),
+        fin_added_mass=fin_added_mass(s),
+    )
     set_contact_friction(ph, s.contact.friction)
     _set_default_start(ph, s)
     plant = ph.plant
-    forces = builder.AddSystem(TrajectorySource(
-        PiecewisePolynomial.ZeroOrderHold(replay["t"], replay["tau"].T)))
-    targets = builder.AddSystem(TrajectorySource(
-        PiecewisePolynomial.ZeroOrderHold(replay["t_desired"], replay["desired"].T)))
+    forces = builder.AddSystem(
+        TrajectorySource(PiecewisePolynomial.ZeroOrderHold(replay["t"], replay["tau"].T))
+    )
+    targets = builder.AddSystem(
+        TrajectorySource(
+            PiecewisePolynomial.ZeroOrderHold(replay["t_desired"], replay["desired"].T)
+        )
+    )
     builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
     builder.Connect(targets.get_output_port(), plant.get_desired_state_input_port(ph.robot))
     LogVectorOutput(plant.get_state_output_port(), builder, s.log_period)
@@ -187,8 +197,7 @@ def physical_limit_builder(s, replay: dict):
 
 def build_physical_limit(case_b: Case, warmup: float, duration: float) -> Case:
     """LB: (b)'s plant with C++ sources replaying (b)'s desired state and water forces."""
-    builder, _, _ = physical_limit_builder(case_b.scenario,
-                                           record_replay(case_b, warmup, duration))
+    builder, _, _ = physical_limit_builder(case_b.scenario, record_replay(case_b, warmup, duration))
     return Case("LB", case_b.scenario, builder.Build())
 
 
@@ -219,8 +228,13 @@ def measure_startup() -> dict:
     out = {}
     with tempfile.TemporaryDirectory() as empty:
         for label, env in (("compile", {"NUMBA_CACHE_DIR": empty}), ("cached", {})):
-            result = subprocess.run([sys.executable, "-c", STARTUP_CODE], capture_output=True,
-                                    text=True, env={**os.environ, **env}, check=True)
+            result = subprocess.run(
+                [sys.executable, "-c", STARTUP_CODE],
+                capture_output=True,
+                text=True,
+                env={**os.environ, **env},
+                check=True,
+            )
             out[label] = tuple(float(v) for v in result.stdout.split())
     return out
 
@@ -242,6 +256,7 @@ def first_frame_cost(case_c: Case) -> tuple[float, float]:
 
 # --- per-step cost table ---------------------------------------------------------------------
 
+
 class CallbackTimer:
     """Times the callbacks of this package's Python systems (outermost call only, so a
     helper called inside a callback is not counted twice). Installed on the classes
@@ -256,8 +271,11 @@ class CallbackTimer:
     def install(self, classes):
         for cls in classes:
             for name, value in list(vars(cls).items()):
-                if callable(value) and not name.startswith("__") and not isinstance(
-                        value, (staticmethod, classmethod, type)):
+                if (
+                    callable(value)
+                    and not name.startswith("__")
+                    and not isinstance(value, (staticmethod, classmethod, type))
+                ):
                     self._patched.append((cls, name, value))
                     setattr(cls, name, self._wrap(cls.__name__, value))
 
@@ -300,12 +318,22 @@ def python_system_classes():
     import manta_drake.control
     import manta_drake.station
 
-    modules = [importlib.import_module(info.name)
-               for package in (manta_drake.control, manta_drake.station)
-               for info in pkgutil.iter_modules(package.__path__, package.__name__ + ".")]
-    return sorted({obj for m in modules for obj in vars(m).values()
-                   if isinstance(obj, type) and issubclass(obj, LeafSystem)
-                   and obj.__module__.startswith("manta_drake")}, key=lambda c: c.__name__)
+    modules = [
+        importlib.import_module(info.name)
+        for package in (manta_drake.control, manta_drake.station)
+        for info in pkgutil.iter_modules(package.__path__, package.__name__ + ".")
+    ]
+    return sorted(
+        {
+            obj
+            for m in modules
+            for obj in vars(m).values()
+            if isinstance(obj, type)
+            and issubclass(obj, LeafSystem)
+            and obj.__module__.startswith("manta_drake")
+        },
+        key=lambda c: c.__name__,
+    )
 
 
 def cost_table(cases, warmup: float, duration: float, per_step_a: float, per_step_lb: float):
@@ -323,15 +351,21 @@ def cost_table(cases, warmup: float, duration: float, per_step_a: float, per_ste
             simulator.AdvanceTo(warmup + duration)
             wall = time.perf_counter() - start
             steps = duration / s.time_step
-            rows[label] = (wall / steps, {k: (timer.time[k] / steps, timer.calls[k] / steps)
-                                          for k in timer.time})
+            rows[label] = (
+                wall / steps,
+                {k: (timer.time[k] / steps, timer.calls[k] / steps) for k in timer.time},
+            )
     finally:
         timer.uninstall()
     labels = [label for label, _ in cases]
-    systems = sorted({k for _, per in rows.values() for k in per},
-                     key=lambda k: -max(rows[lab][1].get(k, (0, 0))[0] for lab in labels))
-    print("\nPer-step cost (us per 1 ms step; Python callbacks timed, outermost call only;"
-          " calls per step in brackets):")
+    systems = sorted(
+        {k for _, per in rows.values() for k in per},
+        key=lambda k: -max(rows[lab][1].get(k, (0, 0))[0] for lab in labels),
+    )
+    print(
+        "\nPer-step cost (us per 1 ms step; Python callbacks timed, outermost call only;"
+        " calls per step in brackets):"
+    )
     print(f"  {'':38s}" + "".join(f"{lab:>20s}" for lab in labels))
     for k in systems:
         cells = []
@@ -340,17 +374,26 @@ def cost_table(cases, warmup: float, duration: float, per_step_a: float, per_ste
             cells.append(f"{cost * 1e6:9.1f} [{calls:5.2f}]  " if calls else f"{'-':>18s}  ")
         print(f"  {k:38s}" + "".join(cells))
     python = {lab: sum(c for c, _ in rows[lab][1].values()) for lab in labels}
-    print(f"  {'Python systems, total':38s}" + "".join(
-        f"{python[lab] * 1e6:9.1f}{'':11s}" for lab in labels))
-    print(f"  {'plant + Drake C++ + crossings (rest)':38s}" + "".join(
-        f"{(rows[lab][0] - python[lab]) * 1e6:9.1f}{'':11s}" for lab in labels))
-    print(f"  {'step (timed run)':38s}" + "".join(
-        f"{rows[lab][0] * 1e6:9.1f}{'':11s}" for lab in labels))
-    print(f"  for comparison: (a) plant alone {per_step_a * 1e6:.1f} us/step, LB (the plant "
-          f"of (b) with C++ sources) {per_step_lb * 1e6:.1f} us/step (medians above)")
+    print(
+        f"  {'Python systems, total':38s}"
+        + "".join(f"{python[lab] * 1e6:9.1f}{'':11s}" for lab in labels)
+    )
+    print(
+        f"  {'plant + Drake C++ + crossings (rest)':38s}"
+        + "".join(f"{(rows[lab][0] - python[lab]) * 1e6:9.1f}{'':11s}" for lab in labels)
+    )
+    print(
+        f"  {'step (timed run)':38s}"
+        + "".join(f"{rows[lab][0] * 1e6:9.1f}{'':11s}" for lab in labels)
+    )
+    print(
+        f"  for comparison: (a) plant alone {per_step_a * 1e6:.1f} us/step, LB (the plant "
+        f"of (b) with C++ sources) {per_step_lb * 1e6:.1f} us/step (medians above)"
+    )
 
 
 # --- main ------------------------------------------------------------------------------------
+
 
 def summary(values):
     return statistics.median(values), min(values), max(values)
@@ -358,47 +401,76 @@ def summary(values):
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration", type=float, default=10.0,
-                        help="timed sim s per case and round")
+    parser.add_argument(
+        "--duration", type=float, default=10.0, help="timed sim s per case and round"
+    )
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--warmup", type=float, default=0.3, help="untimed sim s per round")
-    parser.add_argument("--chunk", type=float, default=0.25,
-                        help="sim s each case runs before the next takes its turn")
-    parser.add_argument("--reference", action="store_true",
-                        help="also time (b) on the reference paths (the water's per-body "
-                             "ports, the CPG's numpy functions)")
-    parser.add_argument("--camera-in-plant-scene", action="store_true",
-                        help="also time (c) with the camera rendering in the plant's SceneGraph")
-    parser.add_argument("--two-ms", action="store_true",
-                        help="also time (b) and (c) with a 2 ms plant and integrator step")
-    parser.add_argument("--cross-flow", action="store_true",
-                        help="also time (b) with the cross-flow fins (water.fin_model: "
-                             "cross_flow): what the foil fins' terms cost")
+    parser.add_argument(
+        "--chunk",
+        type=float,
+        default=0.25,
+        help="sim s each case runs before the next takes its turn",
+    )
+    parser.add_argument(
+        "--reference",
+        action="store_true",
+        help="also time (b) on the reference paths (the water's per-body "
+        "ports, the CPG's numpy functions)",
+    )
+    parser.add_argument(
+        "--camera-in-plant-scene",
+        action="store_true",
+        help="also time (c) with the camera rendering in the plant's SceneGraph",
+    )
+    parser.add_argument(
+        "--two-ms",
+        action="store_true",
+        help="also time (b) and (c) with a 2 ms plant and integrator step",
+    )
+    parser.add_argument(
+        "--cross-flow",
+        action="store_true",
+        help="also time (b) with the cross-flow fins (water.fin_model: "
+        "cross_flow): what the foil fins' terms cost",
+    )
     parser.add_argument("--no-table", action="store_true", help="skip the per-step table")
     parser.add_argument("--no-startup", action="store_true", help="skip the startup costs")
     args = parser.parse_args()
     w, d = args.warmup, args.duration
-    print(f"machine: {os.cpu_count()} cores; load average before: "
-          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(
+        f"machine: {os.cpu_count()} cores; load average before: "
+        f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}"
+    )
 
     t0 = time.perf_counter()
     s_b = scenario("two_behaviors")
-    cases = [build_case("(a)", scenario("stand")), build_case("(b)", s_b),
-             build_case("(b exact)", scenario("two_behaviors", update_period=0.0)),
-             build_case("(c)", scenario("three_behaviors"))]
+    cases = [
+        build_case("(a)", scenario("stand")),
+        build_case("(b)", s_b),
+        build_case("(b exact)", scenario("two_behaviors", update_period=0.0)),
+        build_case("(c)", scenario("three_behaviors")),
+    ]
     t_build = time.perf_counter() - t0
     if args.reference:
-        cases.append(build_case("(b ref)", scenario("two_behaviors"), hydro_plant_state=False,
-                                compiled_cpg=False))
+        cases.append(
+            build_case(
+                "(b ref)", scenario("two_behaviors"), hydro_plant_state=False, compiled_cpg=False
+            )
+        )
     if args.camera_in_plant_scene:
-        cases.append(build_case("(c) plant SG", scenario("three_behaviors"),
-                                camera_own_scene=False))
+        cases.append(
+            build_case("(c) plant SG", scenario("three_behaviors"), camera_own_scene=False)
+        )
     if args.cross_flow:
-        cases.append(build_case("(b) cross-flow", scenario("two_behaviors",
-                                                           fin_model="cross_flow")))
+        cases.append(
+            build_case("(b) cross-flow", scenario("two_behaviors", fin_model="cross_flow"))
+        )
     if args.two_ms:
-        cases += [build_case("(b) 2 ms", scenario("two_behaviors", time_step=0.002)),
-                  build_case("(c) 2 ms", scenario("three_behaviors", time_step=0.002))]
+        cases += [
+            build_case("(b) 2 ms", scenario("two_behaviors", time_step=0.002)),
+            build_case("(c) 2 ms", scenario("three_behaviors", time_step=0.002)),
+        ]
     t0 = time.perf_counter()
     cases.insert(1, build_physical_limit(cases[1], w, d))
     t_lb = time.perf_counter() - t0
@@ -409,49 +481,79 @@ def main() -> int:
         a = cases[0].rtf[-1]
         for case in cases:
             ratios[case.label].append(case.rtf[-1] / a)
-        print(f"round {r + 1}/{args.rounds}: " + ", ".join(
-            f"{c.label} {c.rtf[-1]:.2f}x" for c in cases), flush=True)
+        print(
+            f"round {r + 1}/{args.rounds}: "
+            + ", ".join(f"{c.label} {c.rtf[-1]:.2f}x" for c in cases),
+            flush=True,
+        )
 
-    print(f"\nReal-time factors over {args.rounds} interleaved rounds of {d:g} sim s each "
-          f"(after {w:g} s untimed), median [min, max]; ratio to (a) in the same round:")
+    print(
+        f"\nReal-time factors over {args.rounds} interleaved rounds of {d:g} sim s each "
+        f"(after {w:g} s untimed), median [min, max]; ratio to (a) in the same round:"
+    )
     for case in cases:
         med, lo, hi = summary(case.rtf)
         rmed, rlo, rhi = summary(ratios[case.label])
         goal = GOALS.get(case.label)
-        verdict = "" if goal is None else (
-            f"   goal >= {goal:.2f} (a): {'met' if rmed >= goal else 'NOT met'}")
-        print(f"  {case.label:10s} {med:6.2f}x real time [{lo:5.2f}, {hi:5.2f}]   "
-              f"/(a) = {rmed:.2f} [{rlo:.2f}, {rhi:.2f}]{verdict}")
+        verdict = (
+            ""
+            if goal is None
+            else (f"   goal >= {goal:.2f} (a): {'met' if rmed >= goal else 'NOT met'}")
+        )
+        print(
+            f"  {case.label:10s} {med:6.2f}x real time [{lo:5.2f}, {hi:5.2f}]   "
+            f"/(a) = {rmed:.2f} [{rlo:.2f}, {rhi:.2f}]{verdict}"
+        )
     lb = statistics.median(ratios["LB"])
     b = statistics.median(ratios["(b)"])
     print(f"  (b) runs at {b / lb:.2f} of LB's speed (LB/(a) = {lb:.2f})")
     for label in ("(b)", "(c)"):
         if f"{label} 2 ms" in ratios:
-            gain = statistics.median(r2 / r1 for r1, r2 in zip(ratios[label],
-                                                               ratios[f"{label} 2 ms"]))
+            gain = statistics.median(
+                r2 / r1 for r1, r2 in zip(ratios[label], ratios[f"{label} 2 ms"])
+            )
             print(f"  {label} with a 2 ms step: {gain:.2f}x the speed of {label} at 1 ms")
     print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
     print("\nStartup (not in the ratios):")
-    print(f"  imports (pydrake, manta_drake, numba kernels from cache) in this process: "
-          f"{T_IMPORTED - T_IMPORT_START:.2f} s")
-    print(f"  building (a), (b), (b exact) and (c): {t_build:.2f} s; recording (b) and "
-          f"building LB: {t_lb:.2f} s")
+    print(
+        f"  imports (pydrake, manta_drake, numba kernels from cache) in this process: "
+        f"{T_IMPORTED - T_IMPORT_START:.2f} s"
+    )
+    print(
+        f"  building (a), (b), (b exact) and (c): {t_build:.2f} s; recording (b) and "
+        f"building LB: {t_lb:.2f} s"
+    )
     if not args.no_startup:
         startup = measure_startup()
         for label, (imports, build, first) in startup.items():
-            what = ("empty numba cache, the kernels compile" if label == "compile"
-                    else "with the compile cache")
-            print(f"  fresh interpreter ({what}): imports {imports:.2f} s, building (b) "
-                  f"{build:.2f} s, its first 10 steps {first:.2f} s")
+            what = (
+                "empty numba cache, the kernels compile"
+                if label == "compile"
+                else "with the compile cache"
+            )
+            print(
+                f"  fresh interpreter ({what}): imports {imports:.2f} s, building (b) "
+                f"{build:.2f} s, its first 10 steps {first:.2f} s"
+            )
         first, later = first_frame_cost(next(c for c in cases if c.label == "(c)"))
-        print(f"  camera: first rendered frame in a new context {first * 1e3:.0f} ms, a later "
-              f"frame {later * 1e3:.1f} ms")
+        print(
+            f"  camera: first rendered frame in a new context {first * 1e3:.0f} ms, a later "
+            f"frame {later * 1e3:.1f} ms"
+        )
     if not args.no_table:
         per_step = {c.label: c.scenario.time_step / statistics.median(c.rtf) for c in cases}
-        cost_table([("(b)", s_b), ("(b exact)", scenario("two_behaviors", update_period=0.0)),
-                    ("(c)", scenario("three_behaviors"))], w, d, per_step["(a)"],
-                   per_step["LB"])
+        cost_table(
+            [
+                ("(b)", s_b),
+                ("(b exact)", scenario("two_behaviors", update_period=0.0)),
+                ("(c)", scenario("three_behaviors")),
+            ],
+            w,
+            d,
+            per_step["(a)"],
+            per_step["LB"],
+        )
     return 0
 
 

@@ -42,14 +42,22 @@ def make(inputs: str, backend: str):
     coeffs = load_coefficients()
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=coeffs)
-    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, coeffs, 1e-3,
-                                            added_mass_iso=h.added_mass_iso, inputs=inputs,
-                                            backend=backend)
+    hydro = HydrodynamicForces.AddToBuilder(
+        builder,
+        h.plant,
+        h.robot,
+        coeffs,
+        1e-3,
+        added_mass_iso=h.added_mass_iso,
+        inputs=inputs,
+        backend=backend,
+    )
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant_context = h.plant.GetMyMutableContextFromRoot(context)
-    set_initial_state(h, plant_context, body_pose([0, 0, -0.04], [3, 2, 10]),
-                      GAITS["swim"].R.ravel() * 0.7)
+    set_initial_state(
+        h, plant_context, body_pose([0, 0, -0.04], [3, 2, 10]), GAITS["swim"].R.ravel() * 0.7
+    )
     v0 = np.random.default_rng(0).normal(scale=0.3, size=h.plant.num_velocities())
     h.plant.SetVelocities(plant_context, v0)
     hydro_context = hydro.GetMyMutableContextFromRoot(context)
@@ -80,19 +88,21 @@ def main() -> int:
     bodies = [plant.get_body(BodyIndex(i)) for i in fast.body_indices]
 
     def all_poses():  # pydrake binds no CalcAllBodyPosesInWorld: the per-body Eval calls
-        X = np.array([plant.EvalBodyPoseInWorld(plant_context, b).GetAsMatrix34()
-                      for b in bodies])
-        V = np.array([plant.EvalBodySpatialVelocityInWorld(plant_context, b).get_coeffs()
-                      for b in bodies])
+        X = np.array([plant.EvalBodyPoseInWorld(plant_context, b).GetAsMatrix34() for b in bodies])
+        V = np.array(
+            [plant.EvalBodySpatialVelocityInWorld(plant_context, b).get_coeffs() for b in bodies]
+        )
         return X, V
 
     gen_port = fast.GetOutputPort("generalized_forces")
     list_port = slow.GetOutputPort("spatial_forces")
     rows = {
-        "maths, numpy reference (compute_reference)":
-            lambda: fast.compute_reference(R, p, w, v, 1.5e-3, a, alpha),
-        "maths, numba kernel (compute_compiled)":
-            lambda: fast.compute_compiled(R, p, w, v, 1.5e-3, a, alpha),
+        "maths, numpy reference (compute_reference)": lambda: fast.compute_reference(
+            R, p, w, v, 1.5e-3, a, alpha
+        ),
+        "maths, numba kernel (compute_compiled)": lambda: fast.compute_compiled(
+            R, p, w, v, 1.5e-3, a, alpha
+        ),
         "kinematics: per-body ports -> arrays": lambda: slow._kinematics(slow_context),
         "kinematics: EvalBodyPose/SpatialVelocityInWorld": all_poses,
         "kinematics: state port + kernel FK": lambda: fast._kinematics(fast_context),
@@ -100,10 +110,14 @@ def main() -> int:
         "output: 17 ExternallyAppliedSpatialForce": lambda: fast._write(F, out),
         "output: J^T F kernel at the current state": lambda: fast.generalized_forces(x, F),
         "set a new plant state (subtracted below)": lambda: new_state(h, plant_context, v0),
-        "port eval, contract path (numpy, lists)":
-            lambda: (new_state(h2, plant_context2, v2), list_port.Eval(slow_context)),
-        "port eval, compiled path (state, kernels, J^T F)":
-            lambda: (new_state(h, plant_context, v0), gen_port.Eval(fast_context)),
+        "port eval, contract path (numpy, lists)": lambda: (
+            new_state(h2, plant_context2, v2),
+            list_port.Eval(slow_context),
+        ),
+        "port eval, compiled path (state, kernels, J^T F)": lambda: (
+            new_state(h, plant_context, v0),
+            gen_port.Eval(fast_context),
+        ),
     }
     times = {k: [] for k in rows}
     for _ in range(args.rounds):
@@ -115,17 +129,20 @@ def main() -> int:
             times[name].append((time.perf_counter() - start) / args.calls)
     med = {k: statistics.median(v) * 1e6 for k, v in times.items()}
     n_el, n_strips = len(fast.el["body"]), len(fast.el["strip_body"])
-    print(f"HydrodynamicForces: {len(fast.body_indices)} bodies, {n_el} volume elements, "
-          f"{n_strips} blade-element strips; medians of {args.rounds} rounds x {args.calls} calls")
+    print(
+        f"HydrodynamicForces: {len(fast.body_indices)} bodies, {n_el} volume elements, "
+        f"{n_strips} blade-element strips; medians of {args.rounds} rounds x {args.calls} calls"
+    )
     set_state = med["set a new plant state (subtracted below)"]
     for name, value in med.items():
         offset = set_state if name.startswith("port eval") else 0.0
         value -= offset
-        spread = (f"[{min(times[name]) * 1e6 - offset:7.1f}, "
-                  f"{max(times[name]) * 1e6 - offset:7.1f}]")
+        spread = f"[{min(times[name]) * 1e6 - offset:7.1f}, {max(times[name]) * 1e6 - offset:7.1f}]"
         print(f"  {name:52s} {value:8.1f} us   {spread}")
-    speedup = (med["maths, numpy reference (compute_reference)"]
-               / med["maths, numba kernel (compute_compiled)"])
+    speedup = (
+        med["maths, numpy reference (compute_reference)"]
+        / med["maths, numba kernel (compute_compiled)"]
+    )
     print(f"  kernel vs reference maths: {speedup:.0f}x faster")
     return 0
 

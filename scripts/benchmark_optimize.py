@@ -43,15 +43,28 @@ REPO = pathlib.Path(__file__).resolve().parents[1]
 
 def _instant(task):
     """An evaluator that costs nothing: every candidate the same."""
-    return {"status": "ok", "metrics": {m: 0.0 for m in ("u", "v", "abs_u", "abs_v",
-                                                         "speed", "yaw_rate", "abs_yaw_rate",
-                                                         "cot_electrical",
-                                                         "cot_net_of_hotel",
-                                                         "cot_mechanical",
-                                                         "mean_power_w",
-                                                         "joint_limit_margin_deg",
-                                                         "max_penetration_m")},
-            "wall_time_s": 0.0}
+    return {
+        "status": "ok",
+        "metrics": {
+            m: 0.0
+            for m in (
+                "u",
+                "v",
+                "abs_u",
+                "abs_v",
+                "speed",
+                "yaw_rate",
+                "abs_yaw_rate",
+                "cot_electrical",
+                "cot_net_of_hotel",
+                "cot_mechanical",
+                "mean_power_w",
+                "joint_limit_margin_deg",
+                "max_penetration_m",
+            )
+        },
+        "wall_time_s": 0.0,
+    }
 
 
 def _problem(spec: pathlib.Path, candidates: int, duration: float):
@@ -68,8 +81,9 @@ def _generation(problem, client, evaluate=None) -> dict:
     from manta_drake.optimize import run_optimization
 
     with tempfile.TemporaryDirectory(prefix="bench_opt_") as tmp:
-        result = run_optimization(problem, pathlib.Path(tmp) / "out", client=client,
-                                  evaluate=evaluate, progress=False)
+        result = run_optimization(
+            problem, pathlib.Path(tmp) / "out", client=client, evaluate=evaluate, progress=False
+        )
     (timing,) = result.timings
     return timing
 
@@ -82,19 +96,38 @@ def _warm(client, problem) -> None:
     from manta_drake.scenario import load_scenario, scenario_yaml
 
     space = problem.space
-    task = {"key": "warm", "scenario_yaml": problem.base_yaml, "gait_name": problem.spec.name,
-            "gait_text": candidate_gait_text(problem.spec.name, space.gait(space.start_vector())),
-            "overrides": {}, "seed": 0, "set_stance": problem.set_stance, "keep_log": False,
-            "parameters": {}}
-    short = dict(task, scenario_yaml=scenario_yaml(load_scenario(
-        data=problem.base_yaml, overrides={"duration": 0.2})))
+    task = {
+        "key": "warm",
+        "scenario_yaml": problem.base_yaml,
+        "gait_name": problem.spec.name,
+        "gait_text": candidate_gait_text(problem.spec.name, space.gait(space.start_vector())),
+        "overrides": {},
+        "seed": 0,
+        "set_stance": problem.set_stance,
+        "keep_log": False,
+        "parameters": {},
+    }
+    short = dict(
+        task,
+        scenario_yaml=scenario_yaml(
+            load_scenario(data=problem.base_yaml, overrides={"duration": 0.2})
+        ),
+    )
     if client is None:
         simulate_candidate(short)
         return
     workers = list(client.scheduler_info()["workers"])
-    futures = [client.submit(simulate_candidate, short, pure=False, workers=[w],
-                             allow_other_workers=False, key=f"warm-{i}")
-               for i, w in enumerate(workers)]
+    futures = [
+        client.submit(
+            simulate_candidate,
+            short,
+            pure=False,
+            workers=[w],
+            allow_other_workers=False,
+            key=f"warm-{i}",
+        )
+        for i, w in enumerate(workers)
+    ]
     for f in futures:
         f.result()
 
@@ -103,18 +136,22 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--spec", default=str(REPO / "diagrams" / "optimize" / "fast_walk.yaml"))
     parser.add_argument("--candidates", type=int, default=8)
-    parser.add_argument("--duration", type=float, default=10.0,
-                        help="simulated seconds per candidate (default 10)")
+    parser.add_argument(
+        "--duration", type=float, default=10.0, help="simulated seconds per candidate (default 10)"
+    )
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--rounds", type=int, default=1,
-                        help="serial/parallel pairs, alternated (default 1)")
+    parser.add_argument(
+        "--rounds", type=int, default=1, help="serial/parallel pairs, alternated (default 1)"
+    )
     args = parser.parse_args()
 
     from manta_drake.cluster import dask_client
 
     problem = _problem(pathlib.Path(args.spec), args.candidates, args.duration)
-    print(f"{problem.spec.name}: one generation of {args.candidates} candidates x "
-          f"{args.duration:g} s, {args.workers} workers, {args.rounds} round(s)")
+    print(
+        f"{problem.spec.name}: one generation of {args.candidates} candidates x "
+        f"{args.duration:g} s, {args.workers} workers, {args.rounds} round(s)"
+    )
     _warm(None, problem)
     started = time.perf_counter()
     with dask_client(workers=args.workers) as client:
@@ -129,19 +166,29 @@ def main() -> int:
     for k, (serial, parallel) in enumerate(pairs, 1):
         t_s, t_p = serial["wall_s"], parallel["wall_s"]
         print(f"round {k}:")
-        print(f"  serial    {t_s:7.2f} s  (simulations {serial['sum_simulation_s']:.2f} s summed; "
-              f"fixed {t_s - serial['sum_simulation_s']:.2f} s)")
-        print(f"  parallel  {t_p:7.2f} s  (longest simulation "
-              f"{parallel['longest_simulation_s']:.2f} s, summed "
-              f"{parallel['sum_simulation_s']:.2f} s; T_parallel - longest "
-              f"{t_p - parallel['longest_simulation_s']:.2f} s, T_parallel - summed / "
-              f"{args.workers} {t_p - parallel['sum_simulation_s'] / args.workers:.2f} s)")
-        print(f"  slowdown of a simulation while {args.workers} run side by side: "
-              f"{parallel['sum_simulation_s'] / serial['sum_simulation_s']:.2f}")
-        print(f"  efficiency {t_s / (args.workers * t_p):.3f}  "
-              f"(T_serial / ({args.workers} x T_parallel))")
-    print(f"no-simulation generation on the cluster: {overhead['wall_s']:.3f} s for "
-          f"{overhead['simulated']} tasks")
+        print(
+            f"  serial    {t_s:7.2f} s  (simulations {serial['sum_simulation_s']:.2f} s summed; "
+            f"fixed {t_s - serial['sum_simulation_s']:.2f} s)"
+        )
+        print(
+            f"  parallel  {t_p:7.2f} s  (longest simulation "
+            f"{parallel['longest_simulation_s']:.2f} s, summed "
+            f"{parallel['sum_simulation_s']:.2f} s; T_parallel - longest "
+            f"{t_p - parallel['longest_simulation_s']:.2f} s, T_parallel - summed / "
+            f"{args.workers} {t_p - parallel['sum_simulation_s'] / args.workers:.2f} s)"
+        )
+        print(
+            f"  slowdown of a simulation while {args.workers} run side by side: "
+            f"{parallel['sum_simulation_s'] / serial['sum_simulation_s']:.2f}"
+        )
+        print(
+            f"  efficiency {t_s / (args.workers * t_p):.3f}  "
+            f"(T_serial / ({args.workers} x T_parallel))"
+        )
+    print(
+        f"no-simulation generation on the cluster: {overhead['wall_s']:.3f} s for "
+        f"{overhead['simulated']} tasks"
+    )
     return 0
 
 

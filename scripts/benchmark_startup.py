@@ -53,18 +53,27 @@ def main() -> int:
     rows = []
     for _ in range(args.repeats):
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "manta_drake.cli", "--help"], check=True,
-                       capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "manta_drake.cli", "--help"], check=True, capture_output=True
+        )
         helped = time.perf_counter() - start
-        out = subprocess.run([sys.executable, "-c", STAGES, args.scenario], check=True,
-                             capture_output=True, text=True).stdout
+        out = subprocess.run(
+            [sys.executable, "-c", STAGES, args.scenario],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
         rows.append({"manta-drake --help": helped, **json.loads(out.strip().splitlines()[-1])})
-    print(f"{args.scenario}, {args.repeats} fresh processes; machine: {os.cpu_count()} cores, "
-          f"load average {os.getloadavg()[0]:.2f}")
+    print(
+        f"{args.scenario}, {args.repeats} fresh processes; machine: {os.cpu_count()} cores, "
+        f"load average {os.getloadavg()[0]:.2f}"
+    )
     for stage in rows[0]:
         values = [r[stage] for r in rows]
-        print(f"  {stage:<30} {statistics.median(values):6.2f} s  "
-              f"({min(values):.2f}-{max(values):.2f})")
+        print(
+            f"  {stage:<30} {statistics.median(values):6.2f} s  "
+            f"({min(values):.2f}-{max(values):.2f})"
+        )
     return 0
 
 

@@ -35,20 +35,27 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--resolutions", nargs="+", default=["160x120", "320x240", "640x480"])
-    parser.add_argument("--camera-in-plant-scene", action="store_true",
-                        help="render in the plant's SceneGraph instead of the camera's own")
+    parser.add_argument(
+        "--camera-in-plant-scene",
+        action="store_true",
+        help="render in the plant's SceneGraph instead of the camera's own",
+    )
     args = parser.parse_args()
-    print(f"{'resolution':>10s} {'points':>7s} {'1st frame':>9s} {'render':>9s} {'noise':>9s} "
-          f"{'filter':>9s} {'to cloud':>9s} {'detector':>9s} {'s_hat':>6s}")
+    print(
+        f"{'resolution':>10s} {'points':>7s} {'1st frame':>9s} {'render':>9s} {'noise':>9s} "
+        f"{'filter':>9s} {'to cloud':>9s} {'detector':>9s} {'s_hat':>6s}"
+    )
     for res in args.resolutions:
         width, height = (int(x) for x in res.split("x"))
-        s = Scenario(name="bench", initial_stance="trot",
-                     controller=ControllerConfig(mode="hold", gait="trot"),
-                     initial_pose=InitialPose(xyz=[7.5 - 0.6 - 0.19, 0.0, -0.235]),
-                     visualization=VisualizationConfig(meshcat=False))
+        s = Scenario(
+            name="bench",
+            initial_stance="trot",
+            controller=ControllerConfig(mode="hold", gait="trot"),
+            initial_pose=InitialPose(xyz=[7.5 - 0.6 - 0.19, 0.0, -0.235]),
+            visualization=VisualizationConfig(meshcat=False),
+        )
         s.camera.enabled, s.camera.width, s.camera.height = True, width, height
-        diagram, h = build_diagram(s.validate(),
-                                   camera_own_scene=not args.camera_in_plant_scene)
+        diagram, h = build_diagram(s.validate(), camera_own_scene=not args.camera_in_plant_scene)
         simulator = make_simulator(diagram, s)  # the scenario's start, noise seeded
         context = simulator.get_mutable_context()
         plant, plant_context = h.plant, h.plant.GetMyMutableContextFromRoot(context)
@@ -56,8 +63,11 @@ def main() -> int:
         cam, noise = h.systems["camera"], h.systems["depth_noise"]
         to_cloud, detector = h.systems["depth_to_cloud"], h.systems["wall_detector"]
         # The controller's depth-image filter, where it has one (between noise and cloud).
-        depth_filter = (h.controller.GetSubsystemByName("depth_filter")
-                        if h.controller.HasSubsystemNamed("depth_filter") else None)
+        depth_filter = (
+            h.controller.GetSubsystemByName("depth_filter")
+            if h.controller.HasSubsystemNamed("depth_filter")
+            else None
+        )
         cam_context = cam.GetMyContextFromRoot(context)
         noise_context = noise.GetMyContextFromRoot(context)
         cloud_context = to_cloud.GetMyContextFromRoot(context)
@@ -79,8 +89,13 @@ def main() -> int:
             cloud = to_cloud.point_cloud_output_port().Eval(cloud_context)
             t3 = time.perf_counter()
             X_WC = cam.body_pose_in_world_output_port().Eval(cam_context)
-            det = detect(cloud.xyzs(), detector.params, X_WC.translation(), 0.0,
-                         X_WC.rotation().matrix()[:, 2])
+            det = detect(
+                cloud.xyzs(),
+                detector.params,
+                X_WC.translation(),
+                0.0,
+                X_WC.rotation().matrix()[:, 2],
+            )
             t4 = time.perf_counter()
             if k == 0:  # the first frame pays for the renderer's set-up
                 first = t1 - start
@@ -90,11 +105,13 @@ def main() -> int:
             t_filter.append(t2f - t2)
             t_cloud.append(t3 - t2f)
             t_detect.append(t4 - t3)
-        print(f"{res:>10s} {det.num_points:7d} {first * 1e3:7.1f}ms "
-              f"{np.median(t_render) * 1e3:7.1f}ms {np.median(t_noise) * 1e3:7.1f}ms "
-              f"{np.median(t_filter) * 1e3:7.1f}ms "
-              f"{np.median(t_cloud) * 1e3:7.1f}ms {np.median(t_detect) * 1e3:7.1f}ms "
-              f"{det.s_hat:6.2f}")
+        print(
+            f"{res:>10s} {det.num_points:7d} {first * 1e3:7.1f}ms "
+            f"{np.median(t_render) * 1e3:7.1f}ms {np.median(t_noise) * 1e3:7.1f}ms "
+            f"{np.median(t_filter) * 1e3:7.1f}ms "
+            f"{np.median(t_cloud) * 1e3:7.1f}ms {np.median(t_detect) * 1e3:7.1f}ms "
+            f"{det.s_hat:6.2f}"
+        )
     print("(medians per frame; points = after voxel downsampling)")
     return 0
 

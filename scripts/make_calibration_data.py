@@ -36,8 +36,10 @@ def parse_truth(items) -> dict[str, float]:
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or name not in coefficient_names():
-            raise SystemExit(f"--truth {item}: expected COEFFICIENT=FACTOR with a coefficient "
-                             f"of {', '.join(coefficient_names())}")
+            raise SystemExit(
+                f"--truth {item}: expected COEFFICIENT=FACTOR with a coefficient "
+                f"of {', '.join(coefficient_names())}"
+            )
         truth[name] = float(value)
     return truth
 
@@ -45,8 +47,12 @@ def parse_truth(items) -> dict[str, float]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--config", default=str(ROOT / "diagrams/sweeps/calibration.yaml"))
-    parser.add_argument("--truth", action="append", metavar="COEFFICIENT=FACTOR",
-                        help=f"the known perturbation (default: {' '.join(DEFAULT_TRUTH)})")
+    parser.add_argument(
+        "--truth",
+        action="append",
+        metavar="COEFFICIENT=FACTOR",
+        help=f"the known perturbation (default: {' '.join(DEFAULT_TRUTH)})",
+    )
     parser.add_argument("--noise-position", type=float, default=0.002, help="m (std)")
     parser.add_argument("--noise-yaw-deg", type=float, default=0.2, help="deg (std)")
     parser.add_argument("--seed", type=int, default=11, help="seed of the noise")
@@ -62,23 +68,35 @@ def main(argv=None) -> int:
     for e in config.experiments:
         if e.name in data:
             path = config.folder / e.measured
-            write_measured(path, data[e.name], comment=(
-                f"synthetic measurement for {config.name}/{e.name}: {e.scenario} with "
-                f"{e.overrides}, coefficients scaled by {truth},\nnoise position "
-                f"{args.noise_position} m, yaw {args.noise_yaw_deg} deg (seed {args.seed}); "
-                "made by scripts/make_calibration_data.py"))
+            write_measured(
+                path,
+                data[e.name],
+                comment=(
+                    f"synthetic measurement for {config.name}/{e.name}: {e.scenario} with "
+                    f"{e.overrides}, coefficients scaled by {truth},\nnoise position "
+                    f"{args.noise_position} m, yaw {args.noise_yaw_deg} deg (seed {args.seed}); "
+                    "made by scripts/make_calibration_data.py"
+                ),
+            )
             written.append(path)
-    truth_file = (config.folder / config.experiments[0].measured).parent / "truth.yaml" \
-        if written else None
+    truth_file = (
+        (config.folder / config.experiments[0].measured).parent / "truth.yaml" if written else None
+    )
     if truth_file is not None:
         truth_file.write_text(
             "# The known perturbation behind the synthetic data "
             "(scripts/make_calibration_data.py)\n"
-            + yaml.safe_dump({"calibration": pathlib.Path(args.config).name,
-                              "coefficient_scales": truth,
-                              "noise": {"position_m": args.noise_position,
-                                        "yaw_deg": args.noise_yaw_deg},
-                              "seed": args.seed, "period_s": args.period}, sort_keys=False))
+            + yaml.safe_dump(
+                {
+                    "calibration": pathlib.Path(args.config).name,
+                    "coefficient_scales": truth,
+                    "noise": {"position_m": args.noise_position, "yaw_deg": args.noise_yaw_deg},
+                    "seed": args.seed,
+                    "period_s": args.period,
+                },
+                sort_keys=False,
+            )
+        )
     for path in written + ([truth_file] if truth_file else []):
         print(f"wrote {path}")
     print(f"({time.perf_counter() - start:.1f} s)")

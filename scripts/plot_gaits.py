@@ -36,8 +36,11 @@ def run_cpg(name: str, duration: float, seed: int):
     """Simulates the CPG alone; returns (t, theta (N,16), phi (N,16), wall seconds)."""
     config = Scenario().cpg
     builder = DiagramBuilder()
-    cpg = builder.AddSystem(CpgOscillators(config.frequency_hz, config.chain_weight,
-                                           config.fcs_weight, config.a, config.b))
+    cpg = builder.AddSystem(
+        CpgOscillators(
+            config.frequency_hz, config.chain_weight, config.fcs_weight, config.a, config.b
+        )
+    )
     src = builder.AddSystem(ConstantVectorSource(GAITS[name].to_vector()))
     builder.Connect(src.get_output_port(), cpg.GetInputPort("cpg_params"))
     angles = LogVectorOutput(cpg.GetOutputPort("joint_angles"), builder, 1e-3)
@@ -78,8 +81,11 @@ def main() -> int:
         ax1.legend(ncol=4, fontsize=8, loc="upper right")
         ax1.grid(alpha=0.3)
         for k, leg in enumerate(LEGS):
-            ax2.plot(tp, np.degrees(np.angle(np.exp(1j * (phi[:, 4 * k] - phi[:, 0])))),
-                     label=f"{leg} - front-left")
+            ax2.plot(
+                tp,
+                np.degrees(np.angle(np.exp(1j * (phi[:, 4 * k] - phi[:, 0])))),
+                label=f"{leg} - front-left",
+            )
         ax2.set_ylabel("base phase difference [deg]")
         ax2.set_yticks([-180, -90, 0, 90, 180])
         ax2.set_xlabel("time [s]")
@@ -91,8 +97,10 @@ def main() -> int:
         fig.savefig(path, dpi=110)
         plt.close(fig)
         print(f"{name:8s} wrote {path}   cost {wall / args.duration * 1e3:6.1f} ms per simulated s")
-    print(f"CPG alone: {np.mean(costs) * 1e3:.1f} ms wall per simulated second "
-          f"({1 / np.mean(costs):.0f}x real time)")
+    print(
+        f"CPG alone: {np.mean(costs) * 1e3:.1f} ms wall per simulated second "
+        f"({1 / np.mean(costs):.0f}x real time)"
+    )
     return 0
 
 

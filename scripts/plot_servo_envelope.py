@@ -33,8 +33,11 @@ def run_samples(folder: pathlib.Path):
     log = np.load(folder / "log.npz")
     t, qdot = log["t"], log["joint_velocities"]
     tau = np.stack([np.interp(t, log["t_joint_torque"], c) for c in log["joint_torque"].T], 1)
-    volts = (log["battery"][:, 1] if "battery" in log
-             else np.array([scenario.energy_model().servo.supply_voltage]))
+    volts = (
+        log["battery"][:, 1]
+        if "battery" in log
+        else np.array([scenario.energy_model().servo.supply_voltage])
+    )
     return scenario, qdot, tau, volts
 
 
@@ -48,8 +51,9 @@ def envelope_lines(servo, voltage: float, speed: float):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=pathlib.Path, help="run output folders")
-    parser.add_argument("--out", type=pathlib.Path,
-                        default=pathlib.Path("docs/figures/servo_envelope.png"))
+    parser.add_argument(
+        "--out", type=pathlib.Path, default=pathlib.Path("docs/figures/servo_envelope.png")
+    )
     args = parser.parse_args(argv)
     for folder in args.runs:
         if not (folder / "log.npz").is_file() or not (folder / "scenario.yaml").is_file():
@@ -61,15 +65,16 @@ def main(argv=None) -> int:
         scenario, qdot, tau, volts = run_samples(folder)
         low, high = min(low, volts.min()), max(high, volts.max())
         envelope = json.loads((folder / "metrics.json").read_text()).get("actuator_envelope", {})
-        print(f"{folder}: |qdot| <= {np.abs(qdot).max():.2f} rad/s, |tau| <= "
-              f"{np.abs(tau).max():.2f} N m, worst envelope ratio "
-              f"{envelope.get('worst_ratio', float('nan')):.2f}")
+        print(
+            f"{folder}: |qdot| <= {np.abs(qdot).max():.2f} rad/s, |tau| <= "
+            f"{np.abs(tau).max():.2f} N m, worst envelope ratio "
+            f"{envelope.get('worst_ratio', float('nan')):.2f}"
+        )
         ax.plot(qdot.ravel(), tau.ravel(), ".", ms=1, alpha=0.3, label=folder.name)
         speed = max(speed, np.abs(qdot).max())
     servo = scenario.energy_model().servo
     for volts, style in ((high, "k-"), (low, "k--")):
-        w, upper, lower = envelope_lines(servo, volts,
-                                         max(speed, S.no_load_speed(servo, volts)))
+        w, upper, lower = envelope_lines(servo, volts, max(speed, S.no_load_speed(servo, volts)))
         ax.plot(w, upper, style, lw=1.2, label=f"envelope at {volts:.2f} V")
         ax.plot(w, lower, style, lw=1.2)
         if high - low < 1e-9:

@@ -19,8 +19,14 @@ import tempfile
 
 import numpy as np
 
-SCENARIOS = ("locomotion_swim", "locomotion_trot", "locomotion_walk", "locomotion_crab",
-             "locomotion_turning", "float_sink")
+SCENARIOS = (
+    "locomotion_swim",
+    "locomotion_trot",
+    "locomotion_walk",
+    "locomotion_crab",
+    "locomotion_turning",
+    "float_sink",
+)
 STEPS = (0.001, 0.002, 0.005, 0.01)
 MAX_RATE = 20.0  # rad/s, hull
 MAX_JOINT_SPEED = 30.0  # rad/s
@@ -30,8 +36,14 @@ def run_one(name: str, dt: float, duration: float, fin_model: str) -> dict:
     from manta_drake.scenario import load_scenario
     from manta_drake.simulate import run
 
-    s = load_scenario(name, overrides={"visualization.meshcat": False, "duration": duration,
-                                       "water.fin_model": fin_model})
+    s = load_scenario(
+        name,
+        overrides={
+            "visualization.meshcat": False,
+            "duration": duration,
+            "water.fin_model": fin_model,
+        },
+    )
     s.time_step = s.simulator.max_step_size = dt
     s.log_period = max(s.log_period, dt)
     s.steady_after = min(s.steady_after, duration / 2)
@@ -53,13 +65,18 @@ def main() -> int:
     parser.add_argument("--fin-model", default="foil", choices=("foil", "cross_flow"))
     args = parser.parse_args()
     print(f"fin model {args.fin_model}, {args.duration:g} s runs")
-    print(f"{'scenario':20s} {'step ms':>7} {'status':>7} {'stable':>6} {'hull rad/s':>10} "
-          f"{'joint rad/s':>11} {'u m/s':>7}")
+    print(
+        f"{'scenario':20s} {'step ms':>7} {'status':>7} {'stable':>6} {'hull rad/s':>10} "
+        f"{'joint rad/s':>11} {'u m/s':>7}"
+    )
     for name in SCENARIOS:
         for dt in args.steps:
             r = run_one(name, dt, args.duration, args.fin_model)
-            print(f"{name:20s} {dt * 1e3:7.1f} {r['status']:>7} {str(r['stable']):>6} "
-                  f"{r['rate']:10.2f} {r['joint']:11.2f} {r['u']:7.3f}", flush=True)
+            print(
+                f"{name:20s} {dt * 1e3:7.1f} {r['status']:>7} {str(r['stable']):>6} "
+                f"{r['rate']:10.2f} {r['joint']:11.2f} {r['u']:7.3f}",
+                flush=True,
+            )
     return 0
 
 

@@ -53,6 +53,7 @@ def servo(params):
 
 # --- the file -------------------------------------------------------------------------------
 
+
 def test_every_entry_has_a_source_and_the_servo_is_said_to_be_chosen(params):
     for name, entry in params.entries():
         assert entry.source.strip(), name
@@ -64,8 +65,13 @@ def test_every_entry_has_a_source_and_the_servo_is_said_to_be_chosen(params):
 def test_constants_reproduce_the_datasheet(servo):
     # Stall at the supply: i = V / R, tau = k_t N eta i.
     assert VOLTS / servo.winding_resistance == pytest.approx(STALL_CURRENT, rel=1e-3)
-    stall = servo.torque_constant * servo.gear_ratio * servo.gearbox_efficiency \
-        * VOLTS / servo.winding_resistance
+    stall = (
+        servo.torque_constant
+        * servo.gear_ratio
+        * servo.gearbox_efficiency
+        * VOLTS
+        / servo.winding_resistance
+    )
     assert stall == pytest.approx(STALL_TORQUE, rel=2e-3)
     # No load: the back-EMF equals the supply at the no-load speed.
     no_load = VOLTS / (servo.torque_constant * servo.gear_ratio)
@@ -85,8 +91,13 @@ def test_the_servo_class_covers_the_plants_limits(servo, robot_plant):
     effort = max(a.effort_limit() for a in actuators)
     rate = max(float(a.joint().velocity_upper_limits()[0]) for a in actuators)
     assert effort == DEFAULT_ROBOT.effort_limit and rate == DEFAULT_ROBOT.velocity_limit
-    stall = servo.torque_constant * servo.gear_ratio * servo.gearbox_efficiency \
-        * servo.supply_voltage / servo.winding_resistance
+    stall = (
+        servo.torque_constant
+        * servo.gear_ratio
+        * servo.gearbox_efficiency
+        * servo.supply_voltage
+        / servo.winding_resistance
+    )
     no_load = servo.supply_voltage / (servo.torque_constant * servo.gear_ratio)
     assert stall > effort and no_load > rate
 
@@ -103,8 +114,12 @@ def test_pack_in_series_and_in_parallel(params):
     assert (series.cells_in_series, series.capacity_ah) == (4, 5.0)
     assert series.internal_resistance == pytest.approx(4 * 0.0127)
     assert series.open_circuit_voltage(1.0) == pytest.approx(4 * 4.1029)
-    parallel = dc.replace(params, battery=dc.replace(
-        params.battery, connection=dc.replace(params.battery.connection, value="parallel")))
+    parallel = dc.replace(
+        params,
+        battery=dc.replace(
+            params.battery, connection=dc.replace(params.battery.connection, value="parallel")
+        ),
+    )
     p = pack_constants(parallel)
     assert (p.cells_in_series, p.capacity_ah) == (2, 10.0)
     assert p.internal_resistance == pytest.approx(2 * 0.0127 / 2)
@@ -115,12 +130,18 @@ def test_pack_in_series_and_in_parallel(params):
 def test_usable_energy_closed_form():
     # A linear cell curve V = 3.0 + 1.2 s: the energy above a cut-off c is
     # cells Q (3.0 (1 - c) + 0.6 (1 - c^2)); the cut-off falls between table points.
-    pack = PackConstants(cells_in_series=4, capacity_ah=5.0, ocv_soc=(0.0, 0.5, 1.0),
-                         ocv_cell_voltage=(3.0, 3.6, 4.2), internal_resistance=0.05,
-                         cutoff_soc=0.3)
+    pack = PackConstants(
+        cells_in_series=4,
+        capacity_ah=5.0,
+        ocv_soc=(0.0, 0.5, 1.0),
+        ocv_cell_voltage=(3.0, 3.6, 4.2),
+        internal_resistance=0.05,
+        cutoff_soc=0.3,
+    )
     c = 0.3
-    assert pack.usable_energy_wh() == pytest.approx(4 * 5.0 * (3.0 * (1 - c) + 0.6 * (1 - c * c)),
-                                                    rel=1e-12)
+    assert pack.usable_energy_wh() == pytest.approx(
+        4 * 5.0 * (3.0 * (1 - c) + 0.6 * (1 - c * c)), rel=1e-12
+    )
     # The shipped curve against a fine numerical integral of its interpolation.
     shipped = pack_constants(load_actuators())
     s = np.linspace(shipped.cutoff_soc, 1.0, 200_001)
@@ -132,6 +153,7 @@ def test_usable_energy_closed_form():
 
 # --- loader errors ---------------------------------------------------------------------------
 
+
 def _broken(tmp_path, old, new):
     text = DEFAULT_ACTUATORS_FILE.read_text()
     assert old in text, old
@@ -140,20 +162,37 @@ def _broken(tmp_path, old, new):
     return path
 
 
-@pytest.mark.parametrize("old, new, match", [
-    ("  gear_ratio:\n", "  gear_ration:\n", r"servo\.gear_ration: unknown key"),
-    ("    value: 0.876", "    value: 1.2", r"servo\.gearbox_efficiency = 1\.2 must be in \(0, 1\]"),
-    ("    value: 2.508", "    value: -2.508", r"servo\.winding_resistance = -2\.508 must be >= 0"),
-    ("    value: series", "    value: diagonal", r"battery\.connection = 'diagonal'"),
-    ("    value: 10W\n", "    value: 7W\n", r"electronics\.jetson_mode = '7W'"),
-    ("[2.654, 3.5164", "[2.654, 2.5164", r"battery\.ocv_cell_voltage .* must rise"),
-    ("    value: 0.2  #", "    value: 1.0  #", r"battery\.cutoff_soc = 1\.0 is outside"),
-    ("    value: 2\n    source: 'a 7.4 V", "    value: 2.5\n    source: 'a 7.4 V",
-     r"battery\.cells_per_pack = 2\.5 must be a whole number"),
-    ("    source: XW540-T140 datasheet (ROBOTIS e-Manual), standby current 40 mA",
-     "    source: ''", r"servo\.standby_current has no source"),
-    ("  supply_voltage:\n", "  standby_current:\n", r"duplicate key 'standby_current'"),
-])
+@pytest.mark.parametrize(
+    "old, new, match",
+    [
+        ("  gear_ratio:\n", "  gear_ration:\n", r"servo\.gear_ration: unknown key"),
+        (
+            "    value: 0.876",
+            "    value: 1.2",
+            r"servo\.gearbox_efficiency = 1\.2 must be in \(0, 1\]",
+        ),
+        (
+            "    value: 2.508",
+            "    value: -2.508",
+            r"servo\.winding_resistance = -2\.508 must be >= 0",
+        ),
+        ("    value: series", "    value: diagonal", r"battery\.connection = 'diagonal'"),
+        ("    value: 10W\n", "    value: 7W\n", r"electronics\.jetson_mode = '7W'"),
+        ("[2.654, 3.5164", "[2.654, 2.5164", r"battery\.ocv_cell_voltage .* must rise"),
+        ("    value: 0.2  #", "    value: 1.0  #", r"battery\.cutoff_soc = 1\.0 is outside"),
+        (
+            "    value: 2\n    source: 'a 7.4 V",
+            "    value: 2.5\n    source: 'a 7.4 V",
+            r"battery\.cells_per_pack = 2\.5 must be a whole number",
+        ),
+        (
+            "    source: XW540-T140 datasheet (ROBOTIS e-Manual), standby current 40 mA",
+            "    source: ''",
+            r"servo\.standby_current has no source",
+        ),
+        ("  supply_voltage:\n", "  standby_current:\n", r"duplicate key 'standby_current'"),
+    ],
+)
 def test_bad_files_give_one_line_errors_naming_file_and_entry(tmp_path, old, new, match):
     path = _broken(tmp_path, old, new)
     with pytest.raises(ScenarioError, match=match) as info:
@@ -170,10 +209,16 @@ def test_a_missing_file_is_named(tmp_path):
 
 # --- scales ------------------------------------------------------------------------------------
 
+
 def test_scales_multiply_and_say_so(params):
-    scaled = scale_actuators(params, {"servo.winding_resistance": 1.2,
-                                      "electronics.jetson_power": 0.5,
-                                      "battery.ocv_cell_voltage": 1.01})
+    scaled = scale_actuators(
+        params,
+        {
+            "servo.winding_resistance": 1.2,
+            "electronics.jetson_power": 0.5,
+            "battery.ocv_cell_voltage": 1.01,
+        },
+    )
     assert scaled.servo.winding_resistance.value == pytest.approx(1.2 * 2.508)
     assert scaled.servo.winding_resistance.source.startswith("x1.2 of: ")
     assert scaled.electronics.jetson_power.value == {"10W": 5.0, "5W": 2.5}
@@ -182,14 +227,17 @@ def test_scales_multiply_and_say_so(params):
     assert energy_model(scaled).servo.winding_resistance == pytest.approx(1.2 * 2.508)
 
 
-@pytest.mark.parametrize("scales, match", [
-    ({"servo.resistance": 1.2}, r"scales\.servo\.resistance: unknown"),
-    ({"servo.model": 1.2}, r"scales\.servo\.model: unknown or not a numeric entry"),
-    ({"battery.ocv_soc": 0.5}, r"scales\.battery\.ocv_soc: unknown or not a numeric"),
-    ({"servo.gear_ratio": -1.0}, r"must be a finite number >= 0"),
-    ({"servo.gear_ratio": True}, r"must be a finite number >= 0"),
-    ({"servo.gearbox_efficiency": 1.2}, r"servo\.gearbox_efficiency = 1\.05.* must be in"),
-])
+@pytest.mark.parametrize(
+    "scales, match",
+    [
+        ({"servo.resistance": 1.2}, r"scales\.servo\.resistance: unknown"),
+        ({"servo.model": 1.2}, r"scales\.servo\.model: unknown or not a numeric entry"),
+        ({"battery.ocv_soc": 0.5}, r"scales\.battery\.ocv_soc: unknown or not a numeric"),
+        ({"servo.gear_ratio": -1.0}, r"must be a finite number >= 0"),
+        ({"servo.gear_ratio": True}, r"must be a finite number >= 0"),
+        ({"servo.gearbox_efficiency": 1.2}, r"servo\.gearbox_efficiency = 1\.05.* must be in"),
+    ],
+)
 def test_bad_scales_are_refused(params, scales, match):
     with pytest.raises(ValueError, match=match):
         scale_actuators(params, scales)
@@ -198,11 +246,17 @@ def test_bad_scales_are_refused(params, scales, match):
 def test_scalable_names_are_the_numeric_entries():
     names = scalable_names()
     assert "servo.winding_resistance" in names and "battery.pack_capacity" in names
-    assert not {"servo.model", "servo.recover_negative_work", "battery.connection",
-                "battery.packs", "battery.ocv_soc"} & set(names)
+    assert not {
+        "servo.model",
+        "servo.recover_negative_work",
+        "battery.connection",
+        "battery.packs",
+        "battery.ocv_soc",
+    } & set(names)
 
 
 # --- the servo maths --------------------------------------------------------------------------
+
 
 def _i_drive(tau, s):
     return tau / (s.torque_constant * s.gear_ratio * s.gearbox_efficiency)
@@ -229,8 +283,11 @@ def test_a_dry_joint_draws_only_standby(servo):
 def test_driving_a_constant_torque(servo):
     tau, qdot = 2.0, 3.0  # the motor does positive work
     i = _i_drive(tau, servo)
-    expected = servo.winding_resistance * i ** 2 + tau * qdot / servo.gearbox_efficiency \
+    expected = (
+        servo.winding_resistance * i**2
+        + tau * qdot / servo.gearbox_efficiency
         + servo.standby_power
+    )
     assert servo_electrical_power(tau, qdot, servo) == pytest.approx(expected, rel=1e-12)
     # The back-EMF times the current is the motor's shaft power tau qdot / eta.
     assert back_emf(qdot, servo) * i == pytest.approx(tau * qdot / servo.gearbox_efficiency)
@@ -241,28 +298,36 @@ def test_driving_a_constant_torque(servo):
 def test_power_terms_split_the_draw_by_where_it_goes(servo):
     tau, qdot = np.array([2.0, 2.0, 0.0]), np.array([3.0, -3.0, 5.0])  # drive, back-driven, dry
     terms = servo_power_terms(tau, qdot, servo)
-    eta, kn, r = servo.gearbox_efficiency, servo.torque_constant * servo.gear_ratio, \
-        servo.winding_resistance
-    np.testing.assert_allclose(terms["copper"], r * np.array([(2 / (kn * eta)) ** 2,
-                                                              (2 * eta / kn) ** 2, 0.0]))
+    eta, kn, r = (
+        servo.gearbox_efficiency,
+        servo.torque_constant * servo.gear_ratio,
+        servo.winding_resistance,
+    )
+    np.testing.assert_allclose(
+        terms["copper"], r * np.array([(2 / (kn * eta)) ** 2, (2 * eta / kn) ** 2, 0.0])
+    )
     # Driving: the shaft takes tau qdot / eta; back-driven work is lost; a dry joint takes none.
     np.testing.assert_allclose(terms["shaft"], [6.0 / eta, 0.0, 0.0], atol=1e-12)
     np.testing.assert_array_equal(terms["standby"], np.full(3, 0.040 * 14.8))
-    np.testing.assert_allclose(sum(terms.values()), servo_electrical_power(tau, qdot, servo),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        sum(terms.values()), servo_electrical_power(tau, qdot, servo), rtol=1e-12
+    )
 
 
 def test_back_driven_work_is_lost_unless_recovered(servo):
     tau, qdot = 2.0, -3.0  # the load drives the motor: negative work
-    eta, kn, r = servo.gearbox_efficiency, servo.torque_constant * servo.gear_ratio, \
-        servo.winding_resistance
+    eta, kn, r = (
+        servo.gearbox_efficiency,
+        servo.torque_constant * servo.gear_ratio,
+        servo.winding_resistance,
+    )
     i = tau * eta / kn
     assert motor_current(tau, qdot, servo) == pytest.approx(i, rel=1e-12)
     lost = servo_electrical_power(tau, qdot, servo)
-    assert lost == pytest.approx(r * i ** 2 + servo.standby_power, rel=1e-12)
+    assert lost == pytest.approx(r * i**2 + servo.standby_power, rel=1e-12)
     recovering = dc.replace(servo, recover_negative_work=True)
     back = servo_electrical_power(tau, qdot, recovering)
-    assert back == pytest.approx(r * i ** 2 + tau * qdot * eta + servo.standby_power, rel=1e-12)
+    assert back == pytest.approx(r * i**2 + tau * qdot * eta + servo.standby_power, rel=1e-12)
     assert back < servo.standby_power  # the battery gets some of it back
 
 
@@ -289,8 +354,9 @@ def test_shapes_and_total(servo, rng):
     assert servo_electrical_power(tau, qdot, servo).shape == (50, NUM_JOINTS)
     np.testing.assert_array_equal(joint_mechanical_power(tau, qdot), tau * qdot)
     total = total_electrical_power(tau[0], qdot[0], servo, 11.0)
-    assert total == pytest.approx(np.sum(servo_electrical_power(tau[0], qdot[0], servo)) + 11.0,
-                                  rel=1e-12)
+    assert total == pytest.approx(
+        np.sum(servo_electrical_power(tau[0], qdot[0], servo)) + 11.0, rel=1e-12
+    )
 
 
 @pytest.mark.parametrize("recover, backdrive_speed", [(False, 0.1), (True, 0.1), (False, 0.0)])
@@ -302,28 +368,39 @@ def test_compiled_total_equals_the_reference(servo, rng, recover, backdrive_spee
         tau[rng.random(NUM_JOINTS) < 0.2] = 0.0
         qdot[rng.random(NUM_JOINTS) < 0.2] = 0.0
         compiled = total_electrical_power_kernel(
-            tau, qdot, s.gear_ratio, s.gearbox_efficiency, s.torque_constant,
-            s.winding_resistance, s.standby_power, s.recover_negative_work,
-            s.backdrive_speed, 11.0)
+            tau,
+            qdot,
+            s.gear_ratio,
+            s.gearbox_efficiency,
+            s.torque_constant,
+            s.winding_resistance,
+            s.standby_power,
+            s.recover_negative_work,
+            s.backdrive_speed,
+            11.0,
+        )
         assert compiled == pytest.approx(total_electrical_power(tau, qdot, s, 11.0), rel=1e-12)
 
 
 # --- the System --------------------------------------------------------------------------------
+
 
 def _evaluated(servo, tau, qdot, electronics=11.0):
     system = ServoPower(servo, electronics, NUM_JOINTS)
     context = system.CreateDefaultContext()
     system.GetInputPort("joint_torque").FixValue(context, tau)
     system.GetInputPort("measured_joint_state").FixValue(
-        context, np.concatenate([np.full(NUM_JOINTS, 0.3), qdot]))  # angles do not matter
-    return {name: system.GetOutputPort(name).Eval(context)
-            for name in ("electrical_power", "servo_power", "joint_mechanical_power")}
+        context, np.concatenate([np.full(NUM_JOINTS, 0.3), qdot])
+    )  # angles do not matter
+    return {
+        name: system.GetOutputPort(name).Eval(context)
+        for name in ("electrical_power", "servo_power", "joint_mechanical_power")
+    }
 
 
 def test_system_dry_joints_draw_standby_and_electronics(servo):
     out = _evaluated(servo, np.zeros(NUM_JOINTS), np.linspace(-5, 5, NUM_JOINTS))
-    assert out["electrical_power"][0] == pytest.approx(NUM_JOINTS * 0.040 * 14.8 + 11.0,
-                                                       rel=1e-12)
+    assert out["electrical_power"][0] == pytest.approx(NUM_JOINTS * 0.040 * 14.8 + 11.0, rel=1e-12)
     np.testing.assert_array_equal(out["joint_mechanical_power"], 0.0)
 
 
@@ -332,7 +409,8 @@ def test_system_holding_torque_closed_form(servo):
     out = _evaluated(servo, tau, np.zeros(NUM_JOINTS))
     copper = servo.winding_resistance * _i_drive(tau, servo) ** 2
     assert out["electrical_power"][0] == pytest.approx(
-        copper.sum() + NUM_JOINTS * servo.standby_power + 11.0, rel=1e-12)
+        copper.sum() + NUM_JOINTS * servo.standby_power + 11.0, rel=1e-12
+    )
     np.testing.assert_allclose(out["servo_power"], copper + servo.standby_power, rtol=1e-12)
 
 
@@ -340,8 +418,9 @@ def test_system_reads_rates_not_angles(servo):
     tau, qdot = np.full(NUM_JOINTS, 1.5), np.linspace(-2, 2, NUM_JOINTS)
     out = _evaluated(servo, tau, qdot)
     np.testing.assert_allclose(out["joint_mechanical_power"], tau * qdot, rtol=1e-15)
-    np.testing.assert_allclose(out["servo_power"], servo_electrical_power(tau, qdot, servo),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        out["servo_power"], servo_electrical_power(tau, qdot, servo), rtol=1e-12
+    )
 
 
 def test_system_bad_parameters(servo):

@@ -24,8 +24,9 @@ FACTORS = (0.68, 0.64)
 def _plant(fin_added_mass):
     coeffs = copy.deepcopy(load_coefficients())
     coeffs.fins.added_mass_factor.value = list(FACTORS)
-    handles = add_plant(DiagramBuilder(), hydro=coeffs, with_pool=False,
-                        fin_added_mass=fin_added_mass)
+    handles = add_plant(
+        DiagramBuilder(), hydro=coeffs, with_pool=False, fin_added_mass=fin_added_mass
+    )
     return handles, coeffs
 
 
@@ -36,10 +37,15 @@ def _hull_effective(handles):
     plant = handles.plant
     context = plant.CreateDefaultContext()
     M = plant.CalcMassMatrix(context)
-    hull = list(range(handles.body.floating_velocities_start_in_v(),
-                      handles.body.floating_velocities_start_in_v() + 6))
-    robot_joints = [plant.GetJointByName(n, handles.robot).velocity_start()
-                    for n in handles.joint_names]
+    hull = list(
+        range(
+            handles.body.floating_velocities_start_in_v(),
+            handles.body.floating_velocities_start_in_v() + 6,
+        )
+    )
+    robot_joints = [
+        plant.GetJointByName(n, handles.robot).velocity_start() for n in handles.joint_names
+    ]
     free = [i for i in range(plant.num_velocities()) if i not in hull + robot_joints]
     A = M[np.ix_(hull, hull)]
     if not free:
@@ -87,18 +93,22 @@ def test_bodies_add_their_mass_along_the_plate_normals_only():
     m_h = heave.default_mass()
     expected[5, 5] += m_h
     expected[:3, :3] += np.diag(heave_body_inertia(m_h)) * [1.0, 1.0, 0.0]
-    expected += _about_hull(with_bodies, context) - _about_hull(hinge,
-                                                               hinge.plant.CreateDefaultContext())
+    expected += _about_hull(with_bodies, context) - _about_hull(
+        hinge, hinge.plant.CreateDefaultContext()
+    )
     np.testing.assert_allclose(M_b - M_h, expected, atol=1e-9)
     # At the zero pose the plates are level: heave gets all of it, surge none.
-    total = sum(plate_added_mass(pl.chord, pl.span, rho, k)[0]
-                for pl, k in zip(fin_plates(P), FACTORS)) * len(LEGS)
-    iso_b, _, m_heave = split_hull_added_mass(coeffs.body.added_mass.value,
-                                              coeffs.fins.hull_interaction_added_mass.value)
+    total = sum(
+        plate_added_mass(pl.chord, pl.span, rho, k)[0] for pl, k in zip(fin_plates(P), FACTORS)
+    ) * len(LEGS)
+    iso_b, _, m_heave = split_hull_added_mass(
+        coeffs.body.added_mass.value, coeffs.fins.hull_interaction_added_mass.value
+    )
     assert m_heave == pytest.approx(m_h)
     iso_h = hinge.plant.GetBodyByName("added_mass").default_mass()
-    assert iso_h == pytest.approx(0.5 * (min(coeffs.body.added_mass.value)
-                                             + max(coeffs.body.added_mass.value)))
+    assert iso_h == pytest.approx(
+        0.5 * (min(coeffs.body.added_mass.value) + max(coeffs.body.added_mass.value))
+    )
     assert (M_b - M_h)[5, 5] == pytest.approx(total + m_h + iso_b - iso_h, rel=1e-9)
     assert (M_b - M_h)[3, 3] == pytest.approx(iso_b - iso_h, rel=1e-9)  # surge: the split only
 
@@ -109,8 +119,10 @@ def test_bodies_replace_the_hinges_reflected_inertia():
     for handles, expect_rotor in ((with_bodies, False), (hinge, True)):
         plant = handles.plant
         context = plant.CreateDefaultContext()
-        rotor = [plant.get_joint_actuator(i).calc_reflected_inertia(context)
-                 for i in plant.GetJointActuatorIndices(handles.robot)]
+        rotor = [
+            plant.get_joint_actuator(i).calc_reflected_inertia(context)
+            for i in plant.GetJointActuatorIndices(handles.robot)
+        ]
         assert (max(rotor) > 0) == expect_rotor
 
 

@@ -48,14 +48,17 @@ def test_a_sample_is_nan_on_a_dropout_or_out_of_range_else_the_range_plus_noise(
     assert altimeter_sample(2.0, p, 0.0, 0.9) == 2.0  # the range's ends are readings
 
 
-@pytest.mark.parametrize("field, value, allowed", [
-    ("rate_hz", 0.0, r"\(0, 100\] Hz"),
-    ("beam_half_angle_deg", 70.0, r"\[0, 60\] deg"),
-    ("max_range", 150.0, r"\(0, 100\] m"),
-    ("min_range", 6.0, r"\[0, max_range = 5\) m"),
-    ("noise_std", -0.1, r"\[0, 0.5\] m"),
-    ("dropout_rate", 1.5, r"\[0, 1\]"),
-])
+@pytest.mark.parametrize(
+    "field, value, allowed",
+    [
+        ("rate_hz", 0.0, r"\(0, 100\] Hz"),
+        ("beam_half_angle_deg", 70.0, r"\[0, 60\] deg"),
+        ("max_range", 150.0, r"\(0, 100\] m"),
+        ("min_range", 6.0, r"\[0, max_range = 5\) m"),
+        ("noise_std", -0.1, r"\[0, 0.5\] m"),
+        ("dropout_rate", 1.5, r"\[0, 1\]"),
+    ],
+)
 def test_bad_parameters_name_the_field_and_the_range(field, value, allowed):
     with pytest.raises(ValueError, match=rf"altimeter\.{field}.*{allowed}"):
         AltimeterParams(**{field: value}).validate()
@@ -68,8 +71,9 @@ def _welded(xyz, rpy_deg, **params):
     builder = DiagramBuilder()
     X_WB = RigidTransform(RollPitchYaw(np.radians(rpy_deg)), xyz)
     handles = add_plant(builder, weld_body=X_WB)
-    sensor = add_altimeter(builder, handles, AltimeterParams(
-        enabled=True, position=list(P_BS), **params))
+    sensor = add_altimeter(
+        builder, handles, AltimeterParams(enabled=True, position=list(P_BS), **params)
+    )
     diagram = builder.Build()
     return diagram, sensor, X_WB
 
@@ -113,8 +117,7 @@ def test_readings_scatter_by_noise_std_and_drop_out_at_dropout_rate():
     """200 pings at a fixed pose: the mean is the height within 4 standard errors, the
     spread is noise_std within 15 %, and the share of NaN is within 4 binomial sigmas."""
     std, rate = 0.01, 0.3
-    diagram, sensor, X_WB = _welded([0.5, -0.2, -0.2], (0, 5, 0), noise_std=std,
-                                    dropout_rate=rate)
+    diagram, sensor, X_WB = _welded([0.5, -0.2, -0.2], (0, 5, 0), noise_std=std, dropout_rate=rate)
     simulator = Simulator(diagram)
     diagram.SetRandomContext(simulator.get_mutable_context(), RandomGenerator(7))
     context = sensor.GetMyContextFromRoot(simulator.get_context())

@@ -34,29 +34,47 @@ BAD_SCENARIOS = [
     ("transition: {g: 1.0, T: 1.0, alpha: 2.0}\n", "transition.alpha * g * T", "overshoot"),
     ("transition: {period: 0.0001}\n", "transition.period", "[time_step"),
     ("contact: {friction: 0}\n", "contact.friction", "(0, 2]"),
-    ("depth_estimator: {surface_depth: 0.25}\n", "depth_estimator.surface_depth",
-     "[0, floor_distance = 0.2)"),
-    ("depth_estimator: {surface_depth: 0.2}\n", "depth_estimator.surface_depth",
-     "[0, floor_distance = 0.2)"),
+    (
+        "depth_estimator: {surface_depth: 0.25}\n",
+        "depth_estimator.surface_depth",
+        "[0, floor_distance = 0.2)",
+    ),
+    (
+        "depth_estimator: {surface_depth: 0.2}\n",
+        "depth_estimator.surface_depth",
+        "[0, floor_distance = 0.2)",
+    ),
     ("camera: {min_range: 0.8, max_range: 0.8}\n", "camera.min_range", "max_range = 0.8)"),
     ("water: {current: [100, 0, 0]}\n", "water.current", "1.0 m/s"),
     ("water: {current: [.nan, 0, 0]}\n", "water.current[0]", "not finite"),
     ("water: {update_period: -0.004}\n", "water.update_period", "[0, 0.02]"),
     ("water: {coefficients: nope.yaml}\n", "water.coefficients", "not found"),
-    ("water: {coefficient_scales: {body.linear_damping: -1}}\n",
-     "water.coefficient_scales.body.linear_damping", ">= 0"),
-    ("water: {coefficient_scales: {body.dampin: 2}}\n", "water.coefficient_scales.body.dampin",
-     "unknown coefficient"),
+    (
+        "water: {coefficient_scales: {body.linear_damping: -1}}\n",
+        "water.coefficient_scales.body.linear_damping",
+        ">= 0",
+    ),
+    (
+        "water: {coefficient_scales: {body.dampin: 2}}\n",
+        "water.coefficient_scales.body.dampin",
+        "unknown coefficient",
+    ),
     ("balloon: {initial_fill: 2}\n", "balloon.initial_fill", "[0, 1]"),
-    ("balloon: {schedule: [{time: 5, fill: 0}, {time: 2, fill: 1}]}\n",
-     "balloon.schedule[1].time", "must not decrease"),
+    (
+        "balloon: {schedule: [{time: 5, fill: 0}, {time: 2, fill: 1}]}\n",
+        "balloon.schedule[1].time",
+        "must not decrease",
+    ),
     ("pressure_sensor: {rate_hz: 5000}\n", "pressure_sensor.rate_hz", "1/time_step"),
     ("pressure_sensor: {noise_std: 1.0}\n", "pressure_sensor.noise_std", "[0, 0.1]"),
     ("camera: {depth_noise_std: 0.1}\n", "camera.depth_noise_std", "[0, 0.03]"),
     ("camera: {width: 100.5}\n", "camera.width", "int"),
     ("camera: {min_range: 1.0, max_range: 0.8}\n", "camera.min_range", "max_range"),
-    ("wall_detector: {normal_max_neighbors: 0}\n", "wall_detector.normal_max_neighbors",
-     "[3, 200]"),
+    (
+        "wall_detector: {normal_max_neighbors: 0}\n",
+        "wall_detector.normal_max_neighbors",
+        "[3, 200]",
+    ),
     ("wall_detector: {planarity: .nan}\n", "wall_detector.planarity", "(0, 1]"),
     ("wall_detector: {min_cluster_size: 2.5}\n", "wall_detector.min_cluster_size", "int"),
     ("wall_detector: {c_min: 80}\n", "wall_detector.c_min", "below c_max"),
@@ -80,8 +98,11 @@ def _cli_error(capsys, *argv):
     return err[0]
 
 
-@pytest.mark.parametrize("text, field, more", BAD_SCENARIOS,
-                         ids=[f"{i:02d}-{case[1]}" for i, case in enumerate(BAD_SCENARIOS)])
+@pytest.mark.parametrize(
+    "text, field, more",
+    BAD_SCENARIOS,
+    ids=[f"{i:02d}-{case[1]}" for i, case in enumerate(BAD_SCENARIOS)],
+)
 def test_bad_scenario_is_one_line_naming_the_field(tmp_path, capsys, text, field, more):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -103,26 +124,43 @@ def _coefficients_with(tmp_path, old, new):
     return coeffs
 
 
-@pytest.mark.parametrize("make, field", [
-    (lambda p: _coefficients_with(p, "strips_per_plate:\n    value: 4",
-                                  "strips_per_plate:\n    value: 2.5"),
-     "fins.strips_per_plate = 2.5 must be a whole number"),
-    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784",
-                                  "sealed_volume:\n    value: 0.0"),
-     "body.sealed_volume = 0.0 must be > 0"),
-    # The buoyancy comes from the semi-axes: a volume edited alone would have no effect.
-    (lambda p: _coefficients_with(p, "sealed_volume:\n    value: 0.004784",
-                                  "sealed_volume:\n    value: 0.0061"),
-     "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes "
-     "(4/3 pi abc = 0.00478401 m^3"),
-    (lambda p: _coefficients_with(p, "water_density:\n  value: 1000.0",
-                                  "water_density:\n  value: 1.0e9"),
-     "water_density = 1000000000.0 is outside the allowed range [900, 1300] kg/m^3"),
-    (lambda p: _coefficients_with(p, "gravity:\n  value: 9.81", "gravity:\n  value: 98.1"),
-     "gravity = 98.1 is outside the allowed range [9.7, 9.9] m/s^2"),
-    (lambda p: _file(p / "empty.yaml", b""), "must be a mapping"),
-    (lambda p: _file(p / "bin.yaml", b"\xff\xfe\x00\x81binary"), "not a UTF-8 text"),
-])
+@pytest.mark.parametrize(
+    "make, field",
+    [
+        (
+            lambda p: _coefficients_with(
+                p, "strips_per_plate:\n    value: 4", "strips_per_plate:\n    value: 2.5"
+            ),
+            "fins.strips_per_plate = 2.5 must be a whole number",
+        ),
+        (
+            lambda p: _coefficients_with(
+                p, "sealed_volume:\n    value: 0.004784", "sealed_volume:\n    value: 0.0"
+            ),
+            "body.sealed_volume = 0.0 must be > 0",
+        ),
+        # The buoyancy comes from the semi-axes: a volume edited alone would have no effect.
+        (
+            lambda p: _coefficients_with(
+                p, "sealed_volume:\n    value: 0.004784", "sealed_volume:\n    value: 0.0061"
+            ),
+            "body.sealed_volume = 0.0061 m^3 disagrees with body.sealed_semi_axes "
+            "(4/3 pi abc = 0.00478401 m^3",
+        ),
+        (
+            lambda p: _coefficients_with(
+                p, "water_density:\n  value: 1000.0", "water_density:\n  value: 1.0e9"
+            ),
+            "water_density = 1000000000.0 is outside the allowed range [900, 1300] kg/m^3",
+        ),
+        (
+            lambda p: _coefficients_with(p, "gravity:\n  value: 9.81", "gravity:\n  value: 98.1"),
+            "gravity = 98.1 is outside the allowed range [9.7, 9.9] m/s^2",
+        ),
+        (lambda p: _file(p / "empty.yaml", b""), "must be a mapping"),
+        (lambda p: _file(p / "bin.yaml", b"\xff\xfe\x00\x81binary"), "not a UTF-8 text"),
+    ],
+)
 def test_bad_coefficients_file_named_at_load_time(tmp_path, capsys, make, field):
     coeffs = make(tmp_path)
     scenario = tmp_path / "s.yaml"
@@ -157,18 +195,24 @@ def test_bad_python_calls_name_the_argument():
 
     cases = [
         (lambda: PotentialTransition(initial_params=np.zeros(10)), "initial_params"),
-        (lambda: WallDetector(period=0.2, params=WallDetectorParams(normal_max_neighbors=0)),
-         "normal_max_neighbors: 0 is outside the allowed range [3, 200]"),
+        (
+            lambda: WallDetector(period=0.2, params=WallDetectorParams(normal_max_neighbors=0)),
+            "normal_max_neighbors: 0 is outside the allowed range [3, 200]",
+        ),
         (lambda: WallDetector(period=0.0), "period"),
         (lambda: FuzzyDepthEstimator(math.nan, period=0.02), "floor_distance"),
         (lambda: BalloonBuoyancy(-1.0, 1e-4, 0.01), "max_volume"),
         (lambda: CpgOscillators(frequency_hz=0.0), "frequency_hz"),
         (lambda: CpgOscillators(initial_state=np.zeros(3)), "initial_state"),
-        (lambda: CpgOscillators(frequency_hz=1e9),
-         "CpgOscillators.frequency_hz: 1000000000.0 is outside the allowed range (0, 5] Hz"),
+        (
+            lambda: CpgOscillators(frequency_hz=1e9),
+            "CpgOscillators.frequency_hz: 1000000000.0 is outside the allowed range (0, 5] Hz",
+        ),
         (lambda: CpgOscillators(chain_weight=-1.0), "chain_weight: -1.0 is outside"),
-        (lambda: FuzzyDepthEstimator(0.2, period=0.02, initial_depth=math.nan),
-         "FuzzyDepthEstimator.initial_depth: nan is not finite"),
+        (
+            lambda: FuzzyDepthEstimator(0.2, period=0.02, initial_depth=math.nan),
+            "FuzzyDepthEstimator.initial_depth: nan is not finite",
+        ),
         (lambda: seed_context(None, None, 1.7), "seed: 1.7 is not an integer"),
         (lambda: add_plant(DiagramBuilder(), time_step=0.0), "time_step"),
         (lambda: DepthImageFilter(160, 120, size=20), "size"),
@@ -188,8 +232,9 @@ def test_recording_frame_rate_is_checked_only_with_meshcat_on():
 
     with pytest.raises(ScenarioError, match=r"visualization\.recording_fps.*not a multiple"):
         load_scenario("stand", overrides={"visualization.recording_fps": 30.0})
-    s = load_scenario("stand", overrides={"visualization.recording_fps": 30.0,
-                                          "visualization.meshcat": False})
+    s = load_scenario(
+        "stand", overrides={"visualization.recording_fps": 30.0, "visualization.meshcat": False}
+    )
     assert s.visualization.recording_fps == 30.0 and not s.visualization.meshcat
 
 
@@ -203,18 +248,23 @@ def _table(path, text: str):
     return str(path)
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--duration", "0.2"], "--duration: 0.2 is outside the allowed range [0.3, 3600] s"),
-    (["--duration", "nan"], "--duration: nan is not finite"),
-    (["--seed", "-1"], "--seed: -1 is outside the allowed range [0, 4294967295]"),
-    (["--run-timeout", "0"], "--run-timeout: 0.0 is outside the allowed range [30, 86400] s"),
-    (["--strict"], "--strict needs --check"),
-    (["--runs", "0"], "--runs: 0 is outside the allowed range [1, 10000]"),
-    (["--runs", "3", "--inject-crash", "3"],
-     "--inject-crash (a run index of --runs 3): 3 is outside the allowed range [0, 2]"),
-    (["--runs", "abc"], "argument --runs: invalid int value: 'abc'"),
-    (["--workers", "-1"], "--workers: -1 must be >= 0"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--duration", "0.2"], "--duration: 0.2 is outside the allowed range [0.3, 3600] s"),
+        (["--duration", "nan"], "--duration: nan is not finite"),
+        (["--seed", "-1"], "--seed: -1 is outside the allowed range [0, 4294967295]"),
+        (["--run-timeout", "0"], "--run-timeout: 0.0 is outside the allowed range [30, 86400] s"),
+        (["--strict"], "--strict needs --check"),
+        (["--runs", "0"], "--runs: 0 is outside the allowed range [1, 10000]"),
+        (
+            ["--runs", "3", "--inject-crash", "3"],
+            "--inject-crash (a run index of --runs 3): 3 is outside the allowed range [0, 2]",
+        ),
+        (["--runs", "abc"], "argument --runs: invalid int value: 'abc'"),
+        (["--workers", "-1"], "--workers: -1 must be >= 0"),
+    ],
+)
 def test_study_faults_option_out_of_range_is_one_line(tmp_path, capsys, argv, needle):
     out = tmp_path / "fc"
     message = _cli_error(capsys, "study", "faults", "--out", str(out), "--workers", "0", *argv)
@@ -222,8 +272,7 @@ def test_study_faults_option_out_of_range_is_one_line(tmp_path, capsys, argv, ne
     assert not out.exists()  # nothing was drawn or written
 
 
-def test_study_faults_out_is_a_file_and_the_duration_floor_is_the_drawn_interval(tmp_path,
-                                                                                 capsys):
+def test_study_faults_out_is_a_file_and_the_duration_floor_is_the_drawn_interval(tmp_path, capsys):
     """--out naming a file is one line; the floor of --duration is where a drawn balloon
     command's interval [BALLOON_COMMAND_AFTER_S, duration] stays valid: at it the draws work
     (and draw balloon commands), just below it numpy would refuse them."""
@@ -232,38 +281,57 @@ def test_study_faults_out_is_a_file_and_the_duration_floor_is_the_drawn_interval
     a_file = tmp_path / "a_file"
     a_file.write_text("")
     assert _cli_error(capsys, "study", "faults", "--out", str(a_file)) == (
-        f"manta-drake: error: --out {a_file}: is a file, not a folder (--debug shows the "
-        "traceback)")
+        f"manta-drake: error: --out {a_file}: is a file, not a folder (--debug shows the traceback)"
+    )
     floor = fc.BALLOON_COMMAND_AFTER_S
     specs = fc.draw_specs(60, 0, floor)
-    balloons = [s["overrides"]["balloon.schedule"][0]["time"] for s in specs
-                if "balloon" in s["faults"]]
+    balloons = [
+        s["overrides"]["balloon.schedule"][0]["time"] for s in specs if "balloon" in s["faults"]
+    ]
     assert balloons and all(t == floor for t in balloons)
     with pytest.raises(ValueError, match="high - low < 0"):
         fc.draw_specs(60, 0, floor - 0.01)
-    assert f"[{floor:g}, 3600] s" in _cli_error(capsys, "study", "faults", "--duration",
-                                                f"{floor - 0.01:g}", "--out", str(tmp_path / "o"))
+    assert f"[{floor:g}, 3600] s" in _cli_error(
+        capsys, "study", "faults", "--duration", f"{floor - 0.01:g}", "--out", str(tmp_path / "o")
+    )
 
 
-FINDINGS_HEADER = ("run_id,base,contact.friction,hull_damping,net_weight_kg,status,u,v,"
-                   "yaw_rate_deg_s,steady_start_s,steady_end_s\n")
+FINDINGS_HEADER = (
+    "run_id,base,contact.friction,hull_damping,net_weight_kg,status,u,v,"
+    "yaw_rate_deg_s,steady_start_s,steady_end_s\n"
+)
 
 
-@pytest.mark.parametrize("study, text, needle", [
-    ("findings", "", "an empty file"),
-    ("findings", FINDINGS_HEADER, "a header but no rows"),
-    ("findings", FINDINGS_HEADER + "\n\n", "a header but no rows"),
-    ("findings", FINDINGS_HEADER.replace("contact.friction,", "") + "r,locomotion_walk,1,1,ok,"
-     "0.1,0,0,6,20\n", "no column contact.friction in its header"),
-    ("findings", "run_id,u\nr,0.1\n", "no columns base, contact.friction, hull_damping, "
-     "net_weight_kg, status, v, yaw_rate_deg_s, steady_start_s, steady_end_s in its header"),
-    ("findings", "x" * 70000 + "\n", "its first line is longer than 65536 characters"),
-    ("energy", "", "an empty file"),
-    ("energy", FINDINGS_HEADER.replace("base,", "") + "r,0.8,1,0.8,ok,0.1,0,0,6,20\n",
-     "no columns base, standby_current"),
-])
-def test_study_results_table_without_rows_or_columns_is_one_line(tmp_path, capsys, study,
-                                                                  text, needle):
+@pytest.mark.parametrize(
+    "study, text, needle",
+    [
+        ("findings", "", "an empty file"),
+        ("findings", FINDINGS_HEADER, "a header but no rows"),
+        ("findings", FINDINGS_HEADER + "\n\n", "a header but no rows"),
+        (
+            "findings",
+            FINDINGS_HEADER.replace("contact.friction,", "") + "r,locomotion_walk,1,1,ok,"
+            "0.1,0,0,6,20\n",
+            "no column contact.friction in its header",
+        ),
+        (
+            "findings",
+            "run_id,u\nr,0.1\n",
+            "no columns base, contact.friction, hull_damping, "
+            "net_weight_kg, status, v, yaw_rate_deg_s, steady_start_s, steady_end_s in its header",
+        ),
+        ("findings", "x" * 70000 + "\n", "its first line is longer than 65536 characters"),
+        ("energy", "", "an empty file"),
+        (
+            "energy",
+            FINDINGS_HEADER.replace("base,", "") + "r,0.8,1,0.8,ok,0.1,0,0,6,20\n",
+            "no columns base, standby_current",
+        ),
+    ],
+)
+def test_study_results_table_without_rows_or_columns_is_one_line(
+    tmp_path, capsys, study, text, needle
+):
     results = _table(tmp_path / "results.csv", text)
     page = tmp_path / "page.md"
     message = _cli_error(capsys, "study", study, "--results", results, "--out-md", str(page))
@@ -276,12 +344,16 @@ def test_study_results_table_that_is_missing_binary_or_a_folder(tmp_path, capsys
     binary.write_bytes(b"\xff\xfe\x00\x81")
     for study in ("findings", "energy"):
         assert f"--results {binary}: not a UTF-8 text (CSV) file" in _cli_error(
-            capsys, "study", study, "--results", str(binary))
+            capsys, "study", study, "--results", str(binary)
+        )
         assert f"--results {tmp_path}: is a folder" in _cli_error(
-            capsys, "study", study, "--results", str(tmp_path))
+            capsys, "study", study, "--results", str(tmp_path)
+        )
         message = _cli_error(capsys, "study", study, "--results", str(tmp_path / "no.csv"))
-        assert f"--results {tmp_path / 'no.csv'}: file not found; run `manta-drake sweep " \
-               f"diagrams/sweeps/{study}.yaml" in message
+        assert (
+            f"--results {tmp_path / 'no.csv'}: file not found; run `manta-drake sweep "
+            f"diagrams/sweeps/{study}.yaml" in message
+        )
 
 
 def test_study_shipped_tables_have_the_columns_their_studies_read():
@@ -297,44 +369,75 @@ def test_study_shipped_tables_have_the_columns_their_studies_read():
 def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
     shipped = str(STUDY_DATA / "findings_results.csv")
     cases = [
-        (("findings", "--only", "swim"), "--only needs --diagnose: it chooses the diagnostic "
-         "runs"),
-        (("findings", "--diagnose", str(tmp_path / "d"), "--only", "swim", "gallop"),
-         "--only: 'gallop' is not one of swim, swim_stall_10deg"),
+        (("findings", "--only", "swim"), "--only needs --diagnose: it chooses the diagnostic runs"),
+        (
+            ("findings", "--diagnose", str(tmp_path / "d"), "--only", "swim", "gallop"),
+            "--only: 'gallop' is not one of swim, swim_stall_10deg",
+        ),
         (("findings", "--diagnose", str(tmp_path / "d"), "--only"), "--only: name at least one"),
-        (("findings", "--results", shipped, "--out-fig", str(tmp_path / "f.txt")),
-         f"--out-fig {tmp_path / 'f.txt'}: the name must end in one of"),
-        (("findings", "--results", shipped, "--out-md", str(tmp_path)),
-         f"--out-md {tmp_path}: is a folder, not a file"),
-        (("energy", "--check-logs", str(tmp_path)),
-         f"--check-logs {tmp_path / 'results.csv'}: file not found"),
-        (("energy", "--results", str(STUDY_DATA / "energy_results.csv"), "--out-fig-dir",
-          shipped), f"--out-fig-dir {shipped}: is a file, not a folder"),
-        (("stance", "--table", _table(tmp_path / "t.csv", "gait_reading,gait\n")),
-         f"--table {tmp_path / 't.csv'}: no columns fin_sweep_deg, u, v"),
-        (("stance", "--sweep-out", str(tmp_path)),
-         f"--sweep-out {tmp_path / 'results.csv'}: file not found"),
+        (
+            ("findings", "--results", shipped, "--out-fig", str(tmp_path / "f.txt")),
+            f"--out-fig {tmp_path / 'f.txt'}: the name must end in one of",
+        ),
+        (
+            ("findings", "--results", shipped, "--out-md", str(tmp_path)),
+            f"--out-md {tmp_path}: is a folder, not a file",
+        ),
+        (
+            ("energy", "--check-logs", str(tmp_path)),
+            f"--check-logs {tmp_path / 'results.csv'}: file not found",
+        ),
+        (
+            (
+                "energy",
+                "--results",
+                str(STUDY_DATA / "energy_results.csv"),
+                "--out-fig-dir",
+                shipped,
+            ),
+            f"--out-fig-dir {shipped}: is a file, not a folder",
+        ),
+        (
+            ("stance", "--table", _table(tmp_path / "t.csv", "gait_reading,gait\n")),
+            f"--table {tmp_path / 't.csv'}: no columns fin_sweep_deg, u, v",
+        ),
+        (
+            ("stance", "--sweep-out", str(tmp_path)),
+            f"--sweep-out {tmp_path / 'results.csv'}: file not found",
+        ),
     ]
     for argv, needle in cases:
         assert needle in _cli_error(capsys, "study", *argv), argv
     assert not (tmp_path / "d").exists()
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["wall-noise", "--seeds", "0"], "--seeds: 0 is outside the allowed range [1, 1000]"),
-    (["wall-noise", "--out", "{tmp}"], "--out {tmp}: is a folder, not a file"),
-    (["readings", "--duration", "1"], "--duration: 1.0 is outside the allowed range [2, 3600] s"),
-    (["readings", "--readings", "printed,sideways"],
-     "--readings: 'sideways' is not one of printed, shipped"),
-    (["readings", "--gaits", "swim,swim"], "--gaits: 'swim' is given twice"),
-    (["readings", "--fin-sweep", "70"], "--fin-sweep 70: "),
-    (["transitions", "--duration", "5"],
-     "--duration: 5.0 is outside the allowed range [20, 3600] s"),
-    (["transitions", "--reuse", "--out", "{tmp}"],
-     "--out {tmp}: no potential_descent/log.npz to reuse"),
-    (["behaviours", "--out", "{tmp}/a_file"], "--out {tmp}/a_file: is a file, not a folder"),
-    (["behaviours", "--scheduler", "nowhere"], "--scheduler 'nowhere': expected an address"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["wall-noise", "--seeds", "0"], "--seeds: 0 is outside the allowed range [1, 1000]"),
+        (["wall-noise", "--out", "{tmp}"], "--out {tmp}: is a folder, not a file"),
+        (
+            ["readings", "--duration", "1"],
+            "--duration: 1.0 is outside the allowed range [2, 3600] s",
+        ),
+        (
+            ["readings", "--readings", "printed,sideways"],
+            "--readings: 'sideways' is not one of printed, shipped",
+        ),
+        (["readings", "--gaits", "swim,swim"], "--gaits: 'swim' is given twice"),
+        (["readings", "--fin-sweep", "70"], "--fin-sweep 70: "),
+        (
+            ["transitions", "--duration", "5"],
+            "--duration: 5.0 is outside the allowed range [20, 3600] s",
+        ),
+        (
+            ["transitions", "--reuse", "--out", "{tmp}"],
+            "--out {tmp}: no potential_descent/log.npz to reuse",
+        ),
+        (["behaviours", "--out", "{tmp}/a_file"], "--out {tmp}/a_file: is a file, not a folder"),
+        (["behaviours", "--scheduler", "nowhere"], "--scheduler 'nowhere': expected an address"),
+    ],
+)
 def test_study_run_options_out_of_range_are_one_line(tmp_path, capsys, argv, needle):
     (tmp_path / "a_file").write_text("")
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
@@ -352,57 +455,120 @@ def test_study_run_options_out_of_range_are_one_line(tmp_path, capsys, argv, nee
 
 SILENT_SETTINGS = [
     # (YAML text, the field the message must name, a further text it must contain)
-    ("imu: {enabled: true}\ncontroller: {mode: gait, gait: swim}\n"
-     "heading_hold: {enabled: true, behaviours: [swimm]}\n",
-     "heading_hold.behaviours[0]", "'swimm' is not a gait; allowed: swim, trot"),
-    ("imu: {enabled: true}\ncontroller: {mode: transition, gait: swim}\n"
-     "heading_hold: {enabled: true, behaviours: [walk]}\n",
-     "heading_hold.behaviours", "would never engage; allowed: swim, trot, turning"),
-    ("water: {current: [0.05, 0, 0], current_schedule: [{time: 0, velocity: [0, 0.05, 0]}]}\n",
-     "water.current", "is set beside water.current_schedule; they are exclusive"),
-    ("controller: {mode: transition}\ntransition:\n  tree:\n"
-     "    root: {modality: s_hat, weight: cosine, children: [trot, turning]}\n",
-     "transition.tree", "reads s_hat, which needs camera.enabled: true"),
-    ("water: {enabled: false}\nimu: {enabled: true}\nballoon: {rule: {modality: posture}}\n",
-     "balloon.rule.modality", "'posture' needs water.enabled: true"),
-    ("water: {enabled: false}\nflow_sensor: {enabled: true}\n",
-     "flow_sensor.enabled", "needs water.enabled: true"),
-    ("water: {enabled: false}\naltimeter: {enabled: true}\n",
-     "altimeter.enabled", "needs water.enabled: true"),
-    ("controller: {mode: transition}\ntransition:\n  tree:\n"
-     "    root: {modality: floor_hat, weight: potential, children: [swim, trot]}\n",
-     "transition.tree", "reads floor_hat, which needs altimeter.enabled: true"),
-    ("altimeter: {enabled: true}\nballoon: {rule: {modality: altitud}}\n",
-     "balloon.rule.modality", "'altitud' is not an estimate's name"),
-    ("controller: {mode: transition}\ntransition:\n  tree:\n"
-     "    root: {modality: z_hat, weight: potential, threshold: 0.3, children: [swim, trot]}\n",
-     "transition.tree.root.threshold", "0.3 is set on a potential node, which ignores it"),
-    ("controller: {mode: transition}\ntransition:\n  tree:\n"
-     "    root: {modality: z_hat, weight: cosine, hysteresis: 0.1, children: [swim, trot]}\n",
-     "transition.tree.root.hysteresis", "0.1 is set on a cosine node, which ignores it"),
-    ("balloon: {rule: {threshold: 0.3}}\n", "balloon.rule.threshold",
-     "0.3 is set but the rule's modality is empty"),
-    ("balloon: {rule: {fill_above: 1.0}}\n", "balloon.rule.fill_above",
-     "the rule's modality is empty"),
-    ("actuators: {scales: {servo.gear_ratio: 1.0e9}}\n", "actuators.scales.servo.gear_ratio",
-     "1000000000.0 is outside the allowed range [0, 10]"),
-    ("actuators: {scales: {battery.ocv_cell_voltage: 2.0}}\n",
-     "actuators.scales.battery.ocv_cell_voltage", "outside the allowed range [0.5, 1.5]"),
-    ("actuators: {file: 'package://manta_drake/../../../etc/hostname'}\n", "actuators.file",
-     "'package://manta_drake/../../../etc/hostname' leaves the package manta_drake"),
-    ("water: {coefficients: 'package://manta_drake/../../../etc/hostname'}\n",
-     "water.coefficients", "leaves the package manta_drake"),
-    ("water: {enabled: false, coefficients: 'package://manta_drake//etc/hostname'}\n",
-     "water.coefficients", "leaves the package manta_drake"),
-    ("controller: {gait_files: ['package://manta_drake/scenarios/../../../etc/hostname']}\n",
-     "controller.gait_files[0]", "leaves the package manta_drake"),
-    ("actuators: {file: 'package://manta_drake/nope.yaml'}\n", "actuators.file",
-     "actuators file not found"),
+    (
+        "imu: {enabled: true}\ncontroller: {mode: gait, gait: swim}\n"
+        "heading_hold: {enabled: true, behaviours: [swimm]}\n",
+        "heading_hold.behaviours[0]",
+        "'swimm' is not a gait; allowed: swim, trot",
+    ),
+    (
+        "imu: {enabled: true}\ncontroller: {mode: transition, gait: swim}\n"
+        "heading_hold: {enabled: true, behaviours: [walk]}\n",
+        "heading_hold.behaviours",
+        "would never engage; allowed: swim, trot, turning",
+    ),
+    (
+        "water: {current: [0.05, 0, 0], current_schedule: [{time: 0, velocity: [0, 0.05, 0]}]}\n",
+        "water.current",
+        "is set beside water.current_schedule; they are exclusive",
+    ),
+    (
+        "controller: {mode: transition}\ntransition:\n  tree:\n"
+        "    root: {modality: s_hat, weight: cosine, children: [trot, turning]}\n",
+        "transition.tree",
+        "reads s_hat, which needs camera.enabled: true",
+    ),
+    (
+        "water: {enabled: false}\nimu: {enabled: true}\nballoon: {rule: {modality: posture}}\n",
+        "balloon.rule.modality",
+        "'posture' needs water.enabled: true",
+    ),
+    (
+        "water: {enabled: false}\nflow_sensor: {enabled: true}\n",
+        "flow_sensor.enabled",
+        "needs water.enabled: true",
+    ),
+    (
+        "water: {enabled: false}\naltimeter: {enabled: true}\n",
+        "altimeter.enabled",
+        "needs water.enabled: true",
+    ),
+    (
+        "controller: {mode: transition}\ntransition:\n  tree:\n"
+        "    root: {modality: floor_hat, weight: potential, children: [swim, trot]}\n",
+        "transition.tree",
+        "reads floor_hat, which needs altimeter.enabled: true",
+    ),
+    (
+        "altimeter: {enabled: true}\nballoon: {rule: {modality: altitud}}\n",
+        "balloon.rule.modality",
+        "'altitud' is not an estimate's name",
+    ),
+    (
+        "controller: {mode: transition}\ntransition:\n  tree:\n"
+        "    root: {modality: z_hat, weight: potential, threshold: 0.3, children: [swim, trot]}\n",
+        "transition.tree.root.threshold",
+        "0.3 is set on a potential node, which ignores it",
+    ),
+    (
+        "controller: {mode: transition}\ntransition:\n  tree:\n"
+        "    root: {modality: z_hat, weight: cosine, hysteresis: 0.1, children: [swim, trot]}\n",
+        "transition.tree.root.hysteresis",
+        "0.1 is set on a cosine node, which ignores it",
+    ),
+    (
+        "balloon: {rule: {threshold: 0.3}}\n",
+        "balloon.rule.threshold",
+        "0.3 is set but the rule's modality is empty",
+    ),
+    (
+        "balloon: {rule: {fill_above: 1.0}}\n",
+        "balloon.rule.fill_above",
+        "the rule's modality is empty",
+    ),
+    (
+        "actuators: {scales: {servo.gear_ratio: 1.0e9}}\n",
+        "actuators.scales.servo.gear_ratio",
+        "1000000000.0 is outside the allowed range [0, 10]",
+    ),
+    (
+        "actuators: {scales: {battery.ocv_cell_voltage: 2.0}}\n",
+        "actuators.scales.battery.ocv_cell_voltage",
+        "outside the allowed range [0.5, 1.5]",
+    ),
+    (
+        "actuators: {file: 'package://manta_drake/../../../etc/hostname'}\n",
+        "actuators.file",
+        "'package://manta_drake/../../../etc/hostname' leaves the package manta_drake",
+    ),
+    (
+        "water: {coefficients: 'package://manta_drake/../../../etc/hostname'}\n",
+        "water.coefficients",
+        "leaves the package manta_drake",
+    ),
+    (
+        "water: {enabled: false, coefficients: 'package://manta_drake//etc/hostname'}\n",
+        "water.coefficients",
+        "leaves the package manta_drake",
+    ),
+    (
+        "controller: {gait_files: ['package://manta_drake/scenarios/../../../etc/hostname']}\n",
+        "controller.gait_files[0]",
+        "leaves the package manta_drake",
+    ),
+    (
+        "actuators: {file: 'package://manta_drake/nope.yaml'}\n",
+        "actuators.file",
+        "actuators file not found",
+    ),
 ]
 
 
-@pytest.mark.parametrize("text, field, more", SILENT_SETTINGS,
-                         ids=[f"{i:02d}-{case[1]}" for i, case in enumerate(SILENT_SETTINGS)])
+@pytest.mark.parametrize(
+    "text, field, more",
+    SILENT_SETTINGS,
+    ids=[f"{i:02d}-{case[1]}" for i, case in enumerate(SILENT_SETTINGS)],
+)
 def test_silent_setting_is_refused_naming_the_field(tmp_path, capsys, text, field, more):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -411,21 +577,41 @@ def test_silent_setting_is_refused_naming_the_field(tmp_path, capsys, text, fiel
     assert not (tmp_path / "out").exists()  # nothing was started
 
 
-@pytest.mark.parametrize("scenario, setting, needle", [
-    ("four_behaviors", "transition.tree.root.threshold=0.3",
-     "transition.tree.root.threshold: 0.3 is set on a cosine node, which ignores it"),
-    ("four_behaviors", "transition.tree.active.hysteresis=0.2",
-     "transition.tree.active.hysteresis: 0.2 is set on a potential node"),
-    ("four_behaviors", "water.current=[0.05, 0, 0]", "water.current: [0.05, 0.0, 0.0] is set "
-     "beside water.current_schedule; they are exclusive"),
-    ("two_behaviors", "balloon.rule.hysteresis=0.3",
-     "balloon.rule.hysteresis: 0.3 is set but the rule's modality is empty"),
-    ("two_behaviors", "actuators.scales.servo.gear_ratio=1.0e9",
-     "actuators.scales.servo.gear_ratio: 1000000000.0 is outside the allowed range [0, 10]"),
-    ("three_behaviors", "camera.enabled=false", None),  # Eq. (12)'s default tree: accepted
-])
-def test_silent_setting_through_set_is_refused_the_same(tmp_path, capsys, scenario, setting,
-                                                       needle):
+@pytest.mark.parametrize(
+    "scenario, setting, needle",
+    [
+        (
+            "four_behaviors",
+            "transition.tree.root.threshold=0.3",
+            "transition.tree.root.threshold: 0.3 is set on a cosine node, which ignores it",
+        ),
+        (
+            "four_behaviors",
+            "transition.tree.active.hysteresis=0.2",
+            "transition.tree.active.hysteresis: 0.2 is set on a potential node",
+        ),
+        (
+            "four_behaviors",
+            "water.current=[0.05, 0, 0]",
+            "water.current: [0.05, 0.0, 0.0] is set "
+            "beside water.current_schedule; they are exclusive",
+        ),
+        (
+            "two_behaviors",
+            "balloon.rule.hysteresis=0.3",
+            "balloon.rule.hysteresis: 0.3 is set but the rule's modality is empty",
+        ),
+        (
+            "two_behaviors",
+            "actuators.scales.servo.gear_ratio=1.0e9",
+            "actuators.scales.servo.gear_ratio: 1000000000.0 is outside the allowed range [0, 10]",
+        ),
+        ("three_behaviors", "camera.enabled=false", None),  # Eq. (12)'s default tree: accepted
+    ],
+)
+def test_silent_setting_through_set_is_refused_the_same(
+    tmp_path, capsys, scenario, setting, needle
+):
     """``--set`` layers before validation: the same checks refuse the same settings."""
     from manta_drake.scenario import load_scenario, parse_set
 
@@ -433,8 +619,9 @@ def test_silent_setting_through_set_is_refused_the_same(tmp_path, capsys, scenar
         s = load_scenario(scenario, overrides=parse_set([setting]))
         assert not s.camera.enabled and "s_hat" in s.behaviour_tree().modalities
         return
-    message = _cli_error(capsys, "run", scenario, "--out", str(tmp_path / "out"),
-                         "--no-meshcat", "--set", setting)
+    message = _cli_error(
+        capsys, "run", scenario, "--out", str(tmp_path / "out"), "--no-meshcat", "--set", setting
+    )
     assert needle in message
     assert not (tmp_path / "out").exists()
 
@@ -449,11 +636,15 @@ def test_a_written_tree_on_s_hat_needs_the_camera_the_default_tree_does_not():
 
     assert "s_hat" in load_scenario("two_behaviors").behaviour_tree().modalities
     tree = {name: vars(node) for name, node in default_tree().items()}
-    with pytest.raises(ScenarioError, match=r"two_behaviors\.yaml: transition\.tree: reads "
-                                            r"s_hat, which needs camera\.enabled: true$"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"two_behaviors\.yaml: transition\.tree: reads "
+        r"s_hat, which needs camera\.enabled: true$",
+    ):
         load_scenario("two_behaviors", data={"transition": {"tree": tree}})
-    s = load_scenario("two_behaviors", data={"transition": {"tree": tree},
-                                             "camera": {"enabled": True}})
+    s = load_scenario(
+        "two_behaviors", data={"transition": {"tree": tree}, "camera": {"enabled": True}}
+    )
     assert set(s.transition.tree) == {"root", "gait"}
 
 
@@ -473,23 +664,29 @@ def test_switch_fields_unset_read_their_defaults_and_round_trip():
     assert load_scenario(data=text).transition.tree == four.transition.tree
 
 
-@pytest.mark.parametrize("url, inside", [
-    ("package://manta_drake/actuators.yaml", "actuators.yaml"),
-    ("package://manta_drake/scenarios/../gaits.yaml", "gaits.yaml"),
-    ("package://manta_drake/scenarios/stand.yaml", "scenarios/stand.yaml"),
-])
+@pytest.mark.parametrize(
+    "url, inside",
+    [
+        ("package://manta_drake/actuators.yaml", "actuators.yaml"),
+        ("package://manta_drake/scenarios/../gaits.yaml", "gaits.yaml"),
+        ("package://manta_drake/scenarios/stand.yaml", "scenarios/stand.yaml"),
+    ],
+)
 def test_package_urls_inside_the_package_resolve(url, inside):
     from manta_drake.model import MODELS_DIR, resolve_path
 
     assert resolve_path(url) == (MODELS_DIR / inside).resolve()
 
 
-@pytest.mark.parametrize("url", [
-    "package://manta_drake/../../../etc/hostname",
-    "package://manta_drake//etc/hostname",
-    "package://manta_drake/scenarios/../../pyproject.toml",
-    "package://manta_drake/..",
-])
+@pytest.mark.parametrize(
+    "url",
+    [
+        "package://manta_drake/../../../etc/hostname",
+        "package://manta_drake//etc/hostname",
+        "package://manta_drake/scenarios/../../pyproject.toml",
+        "package://manta_drake/..",
+    ],
+)
 def test_package_urls_leaving_the_package_are_refused(url):
     from manta_drake.config_io import ScenarioError
     from manta_drake.model import resolve_path
@@ -513,35 +710,63 @@ def test_bad_sensor_constructor_arguments_name_the_argument():
     h = add_plant(DiagramBuilder(), with_pool=False)
     p = [0.19, 0.0, 0.03]
     cases = [
-        (lambda: PressureSensor(h.plant, h.body, [0.19, 0], 0.02),
-         "PressureSensor.p_BS: [0.19, 0] must be 3 finite numbers"),
-        (lambda: PressureSensor(h.plant, h.body, [0.19, 0.0, math.nan], 0.02),
-         "PressureSensor.p_BS: [0.19, 0.0, nan] must be 3 finite numbers"),
+        (
+            lambda: PressureSensor(h.plant, h.body, [0.19, 0], 0.02),
+            "PressureSensor.p_BS: [0.19, 0] must be 3 finite numbers",
+        ),
+        (
+            lambda: PressureSensor(h.plant, h.body, [0.19, 0.0, math.nan], 0.02),
+            "PressureSensor.p_BS: [0.19, 0.0, nan] must be 3 finite numbers",
+        ),
         (lambda: PressureSensor(h.plant, h.body, "head", 0.02), "PressureSensor.p_BS: 'head'"),
-        (lambda: PressureSensor(None, h.body, p, 0.02),
-         "PressureSensor.plant: expected a MultibodyPlant, got NoneType"),
-        (lambda: PressureSensor(h.plant, "body", p, 0.02),
-         "PressureSensor.body: expected a RigidBody, got str"),
-        (lambda: PressureSensor(h.plant, h.body, p, "fast"),
-         "PressureSensor.period: 'fast' is not a number"),
-        (lambda: PressureSensor(h.plant, h.body, p, 0.02, noise_std=-1.0),
-         "PressureSensor.noise_std: -1.0 is outside the allowed range [0, inf) m"),
-        (lambda: PressureSensor(h.plant, h.body, p, 0.02, dropout_rate=1.5),
-         "PressureSensor.dropout_rate: 1.5 is outside the allowed range [0, 1]"),
-        (lambda: DepthImageNoise(width=-1, height=120),
-         "DepthImageNoise.width: -1 is outside the allowed range [1, 4096]"),
-        (lambda: DepthImageNoise(160, 10**6),
-         "DepthImageNoise.height: 1000000 is outside the allowed range [1, 4096]"),
-        (lambda: DepthImageNoise(160.5, 120),
-         "DepthImageNoise.width: 160.5 is not an integer (allowed: 1 to 4096)"),
-        (lambda: DepthImageNoise(160, 120, noise_std=math.inf),
-         "DepthImageNoise.noise_std: inf is not finite"),
-        (lambda: DepthImageNoise(160, 120, dropout_rate=-0.1),
-         "DepthImageNoise.dropout_rate: -0.1 is outside the allowed range [0, 1]"),
-        (lambda: DepthImageNoise(160, 120, max_range=0.0, camera_info=object()),
-         "DepthImageNoise.max_range: 0.0 is outside the allowed range (0, inf) m"),
-        (lambda: DepthImageNoise(160, 120, max_range=0.8, camera_info="camera"),
-         "DepthImageNoise.camera_info: expected a CameraInfo, got str"),
+        (
+            lambda: PressureSensor(None, h.body, p, 0.02),
+            "PressureSensor.plant: expected a MultibodyPlant, got NoneType",
+        ),
+        (
+            lambda: PressureSensor(h.plant, "body", p, 0.02),
+            "PressureSensor.body: expected a RigidBody, got str",
+        ),
+        (
+            lambda: PressureSensor(h.plant, h.body, p, "fast"),
+            "PressureSensor.period: 'fast' is not a number",
+        ),
+        (
+            lambda: PressureSensor(h.plant, h.body, p, 0.02, noise_std=-1.0),
+            "PressureSensor.noise_std: -1.0 is outside the allowed range [0, inf) m",
+        ),
+        (
+            lambda: PressureSensor(h.plant, h.body, p, 0.02, dropout_rate=1.5),
+            "PressureSensor.dropout_rate: 1.5 is outside the allowed range [0, 1]",
+        ),
+        (
+            lambda: DepthImageNoise(width=-1, height=120),
+            "DepthImageNoise.width: -1 is outside the allowed range [1, 4096]",
+        ),
+        (
+            lambda: DepthImageNoise(160, 10**6),
+            "DepthImageNoise.height: 1000000 is outside the allowed range [1, 4096]",
+        ),
+        (
+            lambda: DepthImageNoise(160.5, 120),
+            "DepthImageNoise.width: 160.5 is not an integer (allowed: 1 to 4096)",
+        ),
+        (
+            lambda: DepthImageNoise(160, 120, noise_std=math.inf),
+            "DepthImageNoise.noise_std: inf is not finite",
+        ),
+        (
+            lambda: DepthImageNoise(160, 120, dropout_rate=-0.1),
+            "DepthImageNoise.dropout_rate: -0.1 is outside the allowed range [0, 1]",
+        ),
+        (
+            lambda: DepthImageNoise(160, 120, max_range=0.0, camera_info=object()),
+            "DepthImageNoise.max_range: 0.0 is outside the allowed range (0, inf) m",
+        ),
+        (
+            lambda: DepthImageNoise(160, 120, max_range=0.8, camera_info="camera"),
+            "DepthImageNoise.camera_info: expected a CameraInfo, got str",
+        ),
     ]
     for make, needle in cases:
         with pytest.raises(ValueError) as info:
@@ -553,19 +778,31 @@ def test_bad_sensor_constructor_arguments_name_the_argument():
 # --- `manta-drake run`'s --set values: each one checked, also one an option replaces ---------
 # --- (manta_drake/cli.py, scenario.parse_set) ---------------------------------------------------
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--duration", "0.3", "--set", "duration={a: 1}"],
-     "--set duration: scenario.duration: expected a float, got {'a': 1} (checked although "
-     "--duration replaces it)"),
-    (["--duration", "0.3", "--set", "duration=-4"],
-     "--set duration: duration: -4.0 is outside the allowed range (0, 3600] s (checked "
-     "although --duration replaces it)"),
-    (["--no-meshcat", "--set", "visualization={meshcat: maybe}"],
-     "--set visualization: scenario.visualization.meshcat: expected a bool, got 'maybe' "
-     "(checked although --no-meshcat replaces it)"),
-    (["--set", "duration=1", "--set", " duration=2"],
-     "--set duration: given twice; give each key once"),
-])
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (
+            ["--duration", "0.3", "--set", "duration={a: 1}"],
+            "--set duration: scenario.duration: expected a float, got {'a': 1} (checked although "
+            "--duration replaces it)",
+        ),
+        (
+            ["--duration", "0.3", "--set", "duration=-4"],
+            "--set duration: duration: -4.0 is outside the allowed range (0, 3600] s (checked "
+            "although --duration replaces it)",
+        ),
+        (
+            ["--no-meshcat", "--set", "visualization={meshcat: maybe}"],
+            "--set visualization: scenario.visualization.meshcat: expected a bool, got 'maybe' "
+            "(checked although --no-meshcat replaces it)",
+        ),
+        (
+            ["--set", "duration=1", "--set", " duration=2"],
+            "--set duration: given twice; give each key once",
+        ),
+    ],
+)
 def test_set_value_is_checked_even_when_an_option_replaces_it(tmp_path, capsys, argv, needle):
     message = _cli_error(capsys, "run", "stand", "--out", str(tmp_path / "o"), *argv)
     assert message == f"manta-drake: error: {needle} (--debug shows the traceback)"
@@ -575,8 +812,19 @@ def test_set_value_is_checked_even_when_an_option_replaces_it(tmp_path, capsys, 
 def test_set_error_of_another_value_is_not_blamed_on_the_replaced_one(tmp_path, capsys):
     """With --duration replacing a good --set duration, a bad --set contact.friction is told
     as it always is (the file and the field), not as the replaced value's."""
-    message = _cli_error(capsys, "run", "stand", "--out", str(tmp_path / "o"), "--duration",
-                         "0.3", "--set", "duration=2", "--set", "contact.friction=9")
+    message = _cli_error(
+        capsys,
+        "run",
+        "stand",
+        "--out",
+        str(tmp_path / "o"),
+        "--duration",
+        "0.3",
+        "--set",
+        "duration=2",
+        "--set",
+        "contact.friction=9",
+    )
     assert "contact.friction: 9.0 is outside the allowed range (0, 2]" in message
     assert "--set duration" not in message and "replaces" not in message
 
@@ -584,6 +832,7 @@ def test_set_error_of_another_value_is_not_blamed_on_the_replaced_one(tmp_path, 
 # --- input limits: sizes, nesting, YAML aliases, tree depth, bounded messages ----------------
 # --- (manta_drake/config_io.py, control/gait_files.py, control/behaviour_tree.py, ------------
 # --- calibrate/measured.py, sweep/results.py, sweep/loading.py) ------------------------------
+
 
 def _alias_bomb(indent: str = "", n: int = 9) -> str:
     """A list of ``n`` anchors of ``n`` references each: ``n ** n`` leaves once expanded
@@ -622,20 +871,33 @@ def _bounded_cli_error(capsys, *argv, seconds: float = 5.0, mb: float = 200.0):
 def _kinds(tmp_path, text: str):
     """(kind, argv) running each of the 7 YAML file kinds holding ``text`` (the scenario
     naming the coefficients, actuators and gait file)."""
-    files = {kind: tmp_path / f"{kind}.yaml" for kind in
-             ("scenario", "coefficients", "actuators", "gaits", "sweep", "calibration",
-              "optimisation")}
+    files = {
+        kind: tmp_path / f"{kind}.yaml"
+        for kind in (
+            "scenario",
+            "coefficients",
+            "actuators",
+            "gaits",
+            "sweep",
+            "calibration",
+            "optimisation",
+        )
+    }
     for path in files.values():
         path.write_text(text)
     run = ["--out", str(tmp_path / "out")]
-    for kind, field in (("coefficients", "water: {coefficients: %s}"),
-                        ("actuators", "actuators: {file: %s}"),
-                        ("gaits", "controller: {gait_files: [%s]}")):
+    for kind, field in (
+        ("coefficients", "water: {coefficients: %s}"),
+        ("actuators", "actuators: {file: %s}"),
+        ("gaits", "controller: {gait_files: [%s]}"),
+    ):
         (tmp_path / f"s_{kind}.yaml").write_text(field % files[kind] + "\n")
     return [
         ("scenario", files["scenario"], ["run", str(files["scenario"]), *run, "--no-meshcat"]),
-        *[(kind, files[kind], ["run", str(tmp_path / f"s_{kind}.yaml"), *run, "--no-meshcat"])
-          for kind in ("coefficients", "actuators", "gaits")],
+        *[
+            (kind, files[kind], ["run", str(tmp_path / f"s_{kind}.yaml"), *run, "--no-meshcat"])
+            for kind in ("coefficients", "actuators", "gaits")
+        ],
         ("sweep", files["sweep"], ["sweep", str(files["sweep"]), *run]),
         ("calibration", files["calibration"], ["calibrate", str(files["calibration"]), *run]),
         ("optimisation", files["optimisation"], ["optimize", str(files["optimisation"]), *run]),
@@ -647,10 +909,13 @@ def test_limits_gait_file_alias_bomb_is_refused_at_once(tmp_path, capsys):
     bomb.write_text("gaits:\n  wide:\n    base: trot\n    mirror_keep:\n" + _alias_bomb("    "))
     scenario = tmp_path / "scen.yaml"
     scenario.write_text(f"controller: {{gait_files: [{bomb}]}}\n")
-    message = _bounded_cli_error(capsys, "run", str(scenario), "--out", str(tmp_path / "x"),
-                                 "--no-meshcat")
-    assert f"{scenario}: {bomb}: line 9: gaits.wide.mirror_keep[4][6]: more than 50000 " \
-           "values with its aliases expanded (an alias bomb?)" in message
+    message = _bounded_cli_error(
+        capsys, "run", str(scenario), "--out", str(tmp_path / "x"), "--no-meshcat"
+    )
+    assert (
+        f"{scenario}: {bomb}: line 9: gaits.wide.mirror_keep[4][6]: more than 50000 "
+        "values with its aliases expanded (an alias bomb?)" in message
+    )
     assert "R_deg" not in message  # no value is printed
     assert not (tmp_path / "x").exists()
 
@@ -667,8 +932,7 @@ def test_limits_recursive_alias_is_refused_naming_the_line(tmp_path, capsys):
     scenario = tmp_path / "r.yaml"
     scenario.write_text("duration: 1\nwater: &w {current: [0, 0, 0], self: *w}\n")
     message = _bounded_cli_error(capsys, "run", str(scenario), "--out", str(tmp_path / "o"))
-    assert f"{scenario}: line 2: water.self: the alias *w is inside the value it names" \
-           in message
+    assert f"{scenario}: line 2: water.self: the alias *w is inside the value it names" in message
 
 
 def test_limits_aliases_within_the_limits_still_read():
@@ -692,11 +956,15 @@ def test_limits_100_mb_measured_csv_is_refused_before_reading(tmp_path, capsys):
     calibration.write_text(
         "name: t\nparameters:\n  - {name: hull, coefficients: [body.linear_damping], "
         "bounds: [0.3, 3]}\nexperiments:\n  - {name: swim, scenario: locomotion_swim, "
-        "overrides: {duration: 2.0}, measured: m.csv, columns: [x, y, yaw]}\n")
-    message = _bounded_cli_error(capsys, "calibrate", str(calibration), "--out",
-                                 str(tmp_path / "o"), seconds=3.0, mb=50.0)
-    assert (f"calibration.experiments[0].measured: {csv}: the file is 100 MB, larger than the "
-            "50 MB limit for measured CSV files") in message
+        "overrides: {duration: 2.0}, measured: m.csv, columns: [x, y, yaw]}\n"
+    )
+    message = _bounded_cli_error(
+        capsys, "calibrate", str(calibration), "--out", str(tmp_path / "o"), seconds=3.0, mb=50.0
+    )
+    assert (
+        f"calibration.experiments[0].measured: {csv}: the file is 100 MB, larger than the "
+        "50 MB limit for measured CSV files"
+    ) in message
 
 
 def test_limits_big_results_table_and_long_csv_field_are_one_line(tmp_path):
@@ -704,8 +972,10 @@ def test_limits_big_results_table_and_long_csv_field_are_one_line(tmp_path):
     from manta_drake.sweep import SweepError, read_table
 
     table = _sparse(tmp_path / "results.csv")
-    with pytest.raises(SweepError, match=f"^{table}: the file is 100 MB, larger than the "
-                                         "16 MB limit for results CSV files$"):
+    with pytest.raises(
+        SweepError,
+        match=f"^{table}: the file is 100 MB, larger than the 16 MB limit for results CSV files$",
+    ):
         read_table(table)
     long = tmp_path / "long.csv"
     long.write_text("t,x,y,z,yaw\n0,0,0,0," + "1" * 200_000 + "\n")
@@ -722,22 +992,33 @@ def test_limits_20000_deep_nesting_of_every_kind_names_the_file_and_line(tmp_pat
         assert f"{path}: line 1: deep[0][0]" in message, kind
         assert "nested more than 64 levels deep (mappings and lists)" in message, kind
         assert "recursion" not in message, kind
-    message = _bounded_cli_error(capsys, "run", "stand", "--out", str(tmp_path / "o"),
-                                 "--set", "water.current=" + "[" * 20000 + "]" * 20000)
+    message = _bounded_cli_error(
+        capsys,
+        "run",
+        "stand",
+        "--out",
+        str(tmp_path / "o"),
+        "--set",
+        "water.current=" + "[" * 20000 + "]" * 20000,
+    )
     assert "--set water.current: line 1: [0][0]" in message and "64 levels" in message
 
 
 def test_limits_3000_deep_behaviour_tree_names_the_field(tmp_path, capsys):
     nodes = "".join(f"    n{i}: {{children: [n{i + 1}, swim]}}\n" for i in range(1, 2999))
     scenario = tmp_path / "deep_tree.yaml"
-    scenario.write_text("controller: {mode: transition}\ntransition:\n  tree:\n"
-                        "    root: {children: [n1, swim]}\n" + nodes +
-                        "    n2999: {children: [trot, swim]}\n")
+    scenario.write_text(
+        "controller: {mode: transition}\ntransition:\n  tree:\n"
+        "    root: {children: [n1, swim]}\n" + nodes + "    n2999: {children: [trot, swim]}\n"
+    )
     # 36 000 values: the scenario's layers read them three times (~1.5 s on an idle machine)
-    message = _bounded_cli_error(capsys, "run", str(scenario), "--out", str(tmp_path / "o"),
-                                 seconds=60.0)
-    assert (f"{scenario}: transition.tree.n32: 33 nodes deep from root (root -> n1 -> n2 -> "
-            "...); a tree may be at most 32 nodes deep") in message
+    message = _bounded_cli_error(
+        capsys, "run", str(scenario), "--out", str(tmp_path / "o"), seconds=60.0
+    )
+    assert (
+        f"{scenario}: transition.tree.n32: 33 nodes deep from root (root -> n1 -> n2 -> "
+        "...); a tree may be at most 32 nodes deep"
+    ) in message
 
 
 def test_limits_shared_subtrees_are_walked_once():
@@ -746,8 +1027,9 @@ def test_limits_shared_subtrees_are_walked_once():
 
     from manta_drake.control.behaviour_tree import BlendNode, compile_tree
 
-    nodes = {"root" if i == 0 else f"n{i}": BlendNode(children=[f"n{i + 1}"] * 2)
-             for i in range(31)}
+    nodes = {
+        "root" if i == 0 else f"n{i}": BlendNode(children=[f"n{i + 1}"] * 2) for i in range(31)
+    }
     nodes["n31"] = BlendNode(children=["a", "b"])
     start = time.perf_counter()
     tree = compile_tree(nodes, {"a": np.zeros(64), "b": np.ones(64)})
@@ -760,8 +1042,11 @@ def test_limits_gait_base_that_is_not_a_name(tmp_path, capsys):
     scenario = tmp_path / "s.yaml"
     scenario.write_text(f"controller: {{gait_files: [{gaits}]}}\n")
     message = _cli_error(capsys, "run", str(scenario), "--out", str(tmp_path / "o"))
-    assert f"{gaits}: gaits.wide.base: ['trot']: expected the name of a gait defined before " \
-           "it" in message and "unhashable" not in message
+    assert (
+        f"{gaits}: gaits.wide.base: ['trot']: expected the name of a gait defined before it"
+        in message
+        and "unhashable" not in message
+    )
 
 
 def test_limits_messages_show_a_bounded_value():
@@ -789,21 +1074,28 @@ def test_limits_the_readme_gives_are_the_codes():
 
     text = " ".join((MODELS_DIR.parent / "README.md").read_text().split())
     paragraph = text.split("Every input is bounded before it is parsed")[1].split("## ")[0]
-    for shown in (f"is at most {io.MAX_YAML_BYTES / io.MB:g} MB",
-                  f"at most {io.MAX_YAML_DEPTH} deep",
-                  f"at most {io.MAX_YAML_NODES:,} values".replace(",", " "),
-                  f"CSV is at most {io.MAX_MEASURED_CSV_BYTES / io.MB:g} MB",
-                  f"CSV at most {io.MAX_TABLE_CSV_BYTES / io.MB:g} MB",
-                  f"at most {MAX_TREE_DEPTH} nodes deep"):
+    for shown in (
+        f"is at most {io.MAX_YAML_BYTES / io.MB:g} MB",
+        f"at most {io.MAX_YAML_DEPTH} deep",
+        f"at most {io.MAX_YAML_NODES:,} values".replace(",", " "),
+        f"CSV is at most {io.MAX_MEASURED_CSV_BYTES / io.MB:g} MB",
+        f"CSV at most {io.MAX_TABLE_CSV_BYTES / io.MB:g} MB",
+        f"at most {MAX_TREE_DEPTH} nodes deep",
+    ):
         assert shown in paragraph, shown
 
 
-@pytest.mark.parametrize("text, needle", [
-    ("duration: 2020-02-30\n", "a value cannot be read: day is out of range for month"),
-    ("random_seed: 1" + "0" * 5000 + "\n", "a value cannot be read: Exceeds the limit (4300 "
-     "digits) for integer string conversion"),
-    ("? [duration]\n: 1\n", "not valid YAML: a list as a mapping key"),
-])
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ("duration: 2020-02-30\n", "a value cannot be read: day is out of range for month"),
+        (
+            "random_seed: 1" + "0" * 5000 + "\n",
+            "a value cannot be read: Exceeds the limit (4300 digits) for integer string conversion",
+        ),
+        ("? [duration]\n: 1\n", "not valid YAML: a list as a mapping key"),
+    ],
+)
 def test_limits_values_yaml_cannot_build_name_the_file(tmp_path, capsys, text, needle):
     path = tmp_path / "v.yaml"
     path.write_text(text)

@@ -23,8 +23,13 @@ from manta_drake.control.balloon_rule import (
 T = 0.02
 SCHEDULED = 0.3
 # threshold 0.5, hysteresis 0.25: the band [0.375, 0.625]; the fills differ from the schedule.
-RULE = {"modality": "flow", "fill_above": 0.9, "fill_below": 0.05, "threshold": 0.5,
-        "hysteresis": 0.25}
+RULE = {
+    "modality": "flow",
+    "fill_above": 0.9,
+    "fill_below": 0.05,
+    "threshold": 0.5,
+    "hysteresis": 0.25,
+}
 
 
 def test_decision_switches_only_past_the_band():
@@ -57,8 +62,9 @@ def _simulate(params, times, modality_knots, schedule=None):
     t, m = np.array(modality_knots, dtype=float).T
     modality = builder.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(t, m[None])))
     builder.Connect(modality.get_output_port(), rule.GetInputPort("modality"))
-    fill = builder.AddSystem(schedule if schedule is not None
-                             else ConstantVectorSource([SCHEDULED]))
+    fill = builder.AddSystem(
+        schedule if schedule is not None else ConstantVectorSource([SCHEDULED])
+    )
     builder.Connect(fill.get_output_port(), rule.GetInputPort("scheduled_fill"))
     simulator = Simulator(builder.Build())
     context = rule.GetMyContextFromRoot(simulator.get_context())
@@ -96,8 +102,9 @@ def test_after_gates_the_rule():
 
 
 def test_without_a_modality_the_schedule_passes_through():
-    schedule = TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
-        [0.0, 0.7, 1.5, 5.0], np.array([[0.2, 1.0, 0.0, 0.0]])))
+    schedule = TrajectorySource(
+        PiecewisePolynomial.ZeroOrderHold([0.0, 0.7, 1.5, 5.0], np.array([[0.2, 1.0, 0.0, 0.0]]))
+    )
     rule = BalloonRule(period=T)
     assert rule.params.modality == "" and rule.GetUniquePeriodicDiscreteUpdateAttribute() is None
     out = _simulate(BalloonRuleParams(), [0.5, 1.0, 2.0, 3.5], TRIANGLE, schedule)
@@ -111,7 +118,8 @@ def test_nan_keeps_the_decision():
     for m, expected in ((0.7, 0.9), (np.nan, 0.9), (0.2, 0.05), (np.nan, 0.05), (0.5, 0.05)):
         rule.GetInputPort("modality").FixValue(context, [m])
         context.SetDiscreteState(
-            rule.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
+            rule.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector()
+        )
         assert rule.get_output_port().Eval(context)[0] == expected
     assert not rule.HasDirectFeedthrough(rule.GetInputPort("modality").get_index(), 0)
     assert rule.HasDirectFeedthrough(rule.GetInputPort("scheduled_fill").get_index(), 0)
@@ -135,15 +143,23 @@ def test_a_continuous_rule_follows_the_estimate_by_the_trees_weights(weight):
     weights; a NaN holds the last fill; the schedule until the first finite estimate."""
     from manta_drake.control.behaviour_tree import pair_weights
 
-    p = BalloonRuleParams(modality="z_hat", weight=weight, fill_below=1.0, fill_above=0.2,
-                          full_at=0.5, threshold=0.5, hysteresis=0.2).validate()
+    p = BalloonRuleParams(
+        modality="z_hat",
+        weight=weight,
+        fill_below=1.0,
+        fill_above=0.2,
+        full_at=0.5,
+        threshold=0.5,
+        hysteresis=0.2,
+    ).validate()
     rule = BalloonRule(p, period=0.02)
     context = rule.CreateDefaultContext()
     rule.GetInputPort("scheduled_fill").FixValue(context, [SCHEDULED])
     for m, x in ((np.nan, None), (0.1, 0.2), (np.nan, 0.2), (0.3, 0.6), (0.9, 1.0)):
         rule.GetInputPort("modality").FixValue(context, [m])
         context.SetDiscreteState(
-            rule.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
+            rule.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector()
+        )
         got = rule.get_output_port().Eval(context)[0]
         if x is None:
             assert got == SCHEDULED
@@ -162,22 +178,33 @@ def test_a_switch_reads_the_estimate_through_full_at():
     assert next_decision(NONE, 0.35, dc.replace(p, full_at=1.0)) == BELOW
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"modality": "bad name"}, r"modality: 'bad name' is not an estimate's name"),
-    ({"weight": "step"}, r"weight: 'step' is not one of potential, cosine"),
-    ({"full_at": 0.0}, r"full_at: 0.0 is outside the allowed range \(0, 1\]"),
-    ({"modality": "z_hat", "weight": "linear", "hysteresis": 0.3},
-     r"hysteresis: 0.3 is set on a linear rule, which ignores it"),
-    ({"fill_above": 1.5}, r"fill_above: 1.5 is outside the allowed range \[0, 1\]"),
-    ({"fill_below": -0.1}, r"fill_below: -0.1 is outside the allowed range \[0, 1\]"),
-    ({"threshold": np.nan}, r"threshold: nan is not finite"),
-    ({"threshold": 1.2}, r"threshold: 1.2 is outside the allowed range \[0, 1\]"),
-    ({"hysteresis": -0.2}, r"hysteresis: -0.2 is outside the allowed range \[0, 1\]"),
-    ({"threshold": 0.9, "hysteresis": 0.4},
-     r"hysteresis: 0.4 puts the band threshold -\+ hysteresis/2 = \[0.7, 1.1\] outside \[0, 1\]"),
-    ({"threshold": 0.05, "hysteresis": 0.2}, r"hysteresis: 0.2 puts the band .*\[-0.05, 0.15\]"),
-    ({"after": -1.0}, r"after: -1.0 is outside the allowed range \[0, 1e6\] s"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"modality": "bad name"}, r"modality: 'bad name' is not an estimate's name"),
+        ({"weight": "step"}, r"weight: 'step' is not one of potential, cosine"),
+        ({"full_at": 0.0}, r"full_at: 0.0 is outside the allowed range \(0, 1\]"),
+        (
+            {"modality": "z_hat", "weight": "linear", "hysteresis": 0.3},
+            r"hysteresis: 0.3 is set on a linear rule, which ignores it",
+        ),
+        ({"fill_above": 1.5}, r"fill_above: 1.5 is outside the allowed range \[0, 1\]"),
+        ({"fill_below": -0.1}, r"fill_below: -0.1 is outside the allowed range \[0, 1\]"),
+        ({"threshold": np.nan}, r"threshold: nan is not finite"),
+        ({"threshold": 1.2}, r"threshold: 1.2 is outside the allowed range \[0, 1\]"),
+        ({"hysteresis": -0.2}, r"hysteresis: -0.2 is outside the allowed range \[0, 1\]"),
+        (
+            {"threshold": 0.9, "hysteresis": 0.4},
+            r"hysteresis: 0.4 puts the band threshold -\+ hysteresis/2 = \[0.7, 1.1\] "
+            r"outside \[0, 1\]",
+        ),
+        (
+            {"threshold": 0.05, "hysteresis": 0.2},
+            r"hysteresis: 0.2 puts the band .*\[-0.05, 0.15\]",
+        ),
+        ({"after": -1.0}, r"after: -1.0 is outside the allowed range \[0, 1e6\] s"),
+    ],
+)
 def test_every_parameter_error_names_the_field_and_range(change, message):
     with pytest.raises(ValueError, match=message):
         dc.replace(BalloonRuleParams(), **change).validate()
@@ -190,15 +217,26 @@ def test_period_is_checked_at_construction():
         BalloonRule(period=0.0)
 
 
-@pytest.mark.parametrize("field, value", [("fill_above", 1.0), ("fill_below", 0.0),
-                                          ("threshold", 0.3), ("hysteresis", 0.1),
-                                          ("after", 5.0)])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("fill_above", 1.0),
+        ("fill_below", 0.0),
+        ("threshold", 0.3),
+        ("hysteresis", 0.1),
+        ("after", 5.0),
+    ],
+)
 def test_a_rule_parameter_without_a_modality_is_refused(field, value):
     """Without a modality the schedule alone commands the balloon: a rule parameter set there
     would be ignored, so it is refused naming the field; with a modality it is the rule's."""
-    with pytest.raises(ValueError, match=rf"^{field}: {value} is set but the rule's modality "
-                                         r"is empty .*set modality to an estimate's name"):
+    with pytest.raises(
+        ValueError,
+        match=rf"^{field}: {value} is set but the rule's modality "
+        r"is empty .*set modality to an estimate's name",
+    ):
         BalloonRuleParams(**{field: value}).validate()
-    assert getattr(BalloonRuleParams(modality="energy", **{field: value}).validate(),
-                   field) == value
+    assert (
+        getattr(BalloonRuleParams(modality="energy", **{field: value}).validate(), field) == value
+    )
     BalloonRuleParams().validate()  # the defaults: no rule

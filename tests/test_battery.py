@@ -32,7 +32,8 @@ def test_open_circuit_voltage_is_the_cell_table_times_the_cells(pack):
         assert pack.open_circuit_voltage(s) == pytest.approx(4 * v, rel=1e-15)
     mid = 0.5 * (pack.ocv_soc[3] + pack.ocv_soc[4])
     assert pack.open_circuit_voltage(mid) == pytest.approx(
-        2 * (pack.ocv_cell_voltage[3] + pack.ocv_cell_voltage[4]), rel=1e-12)
+        2 * (pack.ocv_cell_voltage[3] + pack.ocv_cell_voltage[4]), rel=1e-12
+    )
     # Outside [0, 1] the table's ends hold.
     assert pack.open_circuit_voltage(1.2) == pack.open_circuit_voltage(1.0)
     assert pack.open_circuit_voltage(-0.1) == pack.open_circuit_voltage(0.0)
@@ -58,7 +59,8 @@ def test_current_closed_forms():
     ocv, r = 16.0, 0.05
     # The quadratic's smaller root, written out.
     assert current_from_power(100.0, ocv, r) == pytest.approx(
-        (ocv - np.sqrt(ocv ** 2 - 4 * r * 100.0)) / (2 * r), rel=1e-12)
+        (ocv - np.sqrt(ocv**2 - 4 * r * 100.0)) / (2 * r), rel=1e-12
+    )
     # Above the maximum power OCV^2 / (4 R) = 1280 W: the maximum-power current.
     assert current_from_power(2000.0, ocv, r) == pytest.approx(ocv / (2 * r))
     np.testing.assert_allclose(current_from_power(np.array([0.0, 60.0]), 15.0, 0.0), [0.0, 4.0])
@@ -70,10 +72,15 @@ def test_compiled_battery_maths_equals_the_reference(pack, rng):
     for soc, power in zip(rng.uniform(-0.1, 1.1, 300), rng.uniform(-100, 1500, 300)):
         ocv, current = battery_kernel(soc, power, grid, table, pack.internal_resistance)
         assert ocv == pytest.approx(pack.open_circuit_voltage(soc), rel=1e-14)
-        assert current == pytest.approx(float(current_from_power(
-            power, pack.open_circuit_voltage(soc), pack.internal_resistance)), rel=1e-12)
+        assert current == pytest.approx(
+            float(
+                current_from_power(power, pack.open_circuit_voltage(soc), pack.internal_resistance)
+            ),
+            rel=1e-12,
+        )
     assert battery_kernel(0.5, 2e5, grid, table, pack.internal_resistance)[1] == pytest.approx(
-        pack.open_circuit_voltage(0.5) / (2 * pack.internal_resistance))
+        pack.open_circuit_voltage(0.5) / (2 * pack.internal_resistance)
+    )
 
 
 def test_state_of_charge_step():
@@ -110,12 +117,14 @@ def test_state_of_charge_falls_by_exactly_the_integrated_current(pack):
     np.testing.assert_array_equal(soc, expected)
     # And the closed form: about P / V amperes for 2 s out of 5 Ah.
     assert 1.0 - soc[-1] == pytest.approx(amps[1:].sum() * DT / (3600 * 5.0), rel=1e-12)
-    assert 1.0 - soc[-1] == pytest.approx(2.0 * power / volts[1:].mean() / (3600 * 5.0),
-                                          rel=1e-3)
+    assert 1.0 - soc[-1] == pytest.approx(2.0 * power / volts[1:].mean() / (3600 * 5.0), rel=1e-3)
     # The output is consistent: the step's V = OCV(SoC at its start) - R I, and V I = P;
     # at the start the open-circuit voltage and no current.
-    np.testing.assert_allclose(volts[1:], pack.open_circuit_voltage(soc[:-1])
-                               - pack.internal_resistance * amps[1:], rtol=1e-14)
+    np.testing.assert_allclose(
+        volts[1:],
+        pack.open_circuit_voltage(soc[:-1]) - pack.internal_resistance * amps[1:],
+        rtol=1e-14,
+    )
     np.testing.assert_allclose(volts[1:] * amps[1:], power, rtol=1e-12)
     assert (volts[0], amps[0]) == (pack.open_circuit_voltage(1.0), 0.0)
     # The last sample is published at the end of the last step, before the next update.

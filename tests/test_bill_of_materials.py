@@ -18,8 +18,7 @@ ROWS = B.parts(SHIPPED, DEFAULT_ROBOT.geometry())
 
 def test_naca_section_area_is_the_integral_of_the_thickness_distribution():
     x = np.linspace(0.0, 1.0, 200001)
-    half = 5 * (0.2969 * np.sqrt(x) - 0.1260 * x - 0.3516 * x**2 + 0.2843 * x**3
-                - 0.1015 * x**4)
+    half = 5 * (0.2969 * np.sqrt(x) - 0.1260 * x - 0.3516 * x**2 + 0.2843 * x**3 - 0.1015 * x**4)
     assert B.NACA4_SECTION_AREA == pytest.approx(2 * np.trapezoid(half, x), rel=1e-6)
     assert B.NACA4_SECTION_AREA == pytest.approx(0.68508, abs=5e-6)
     assert B.naca_section_area(0.012, 0.14) == pytest.approx(0.68508 * 0.012 * 0.14, rel=1e-5)
@@ -56,8 +55,14 @@ def test_the_parts_sum_to_table_1_and_the_residual_is_what_is_left():
     assert servos[0].volume == pytest.approx(0.0335 * 0.0585 * 0.0459)  # 90.0 mL
     # Only the servos and the plates displace water of their own (the rest is in the hull).
     wet = {r.name for r in ROWS if r.volume > 0}
-    assert wet == {"yaw servo", "roll1 servo", "pitch servo", "roll2 servo",
-                   "proximal fin plate", "distal fin plate"}
+    assert wet == {
+        "yaw servo",
+        "roll1 servo",
+        "pitch servo",
+        "roll2 servo",
+        "proximal fin plate",
+        "distal fin plate",
+    }
     plate = next(r for r in ROWS if r.name == "proximal fin plate")
     assert plate.volume == pytest.approx(0.68508 * 0.012 * 0.14 * 0.20, rel=1e-5)
     assert plate.mass == pytest.approx(1240.0 * plate.volume)
@@ -70,8 +75,7 @@ def test_the_model_carries_each_part_where_the_bill_puts_it():
     assert p.total_mass == pytest.approx(8.4, abs=1e-12)
     # Links 1 and 2 carry one servo each; link 3 the proximal plate and the roll2 servo.
     assert p.link_masses[0] == p.link_masses[1] == pytest.approx(0.185)
-    assert p.link_masses[2] == pytest.approx(0.185 + 1240 * 0.68508 * 0.012 * 0.14 * 0.20,
-                                             rel=1e-5)
+    assert p.link_masses[2] == pytest.approx(0.185 + 1240 * 0.68508 * 0.012 * 0.14 * 0.20, rel=1e-5)
     assert p.link_masses[3] == pytest.approx(1240 * 0.68508 * 0.012 * 0.10 * 0.125, rel=1e-5)
     assert p.body_mass == pytest.approx(8.4 - 4 * sum(p.link_masses))
     assert p.servo_volume == pytest.approx(89.95e-6, rel=1e-3)
@@ -80,8 +84,10 @@ def test_the_model_carries_each_part_where_the_bill_puts_it():
 
 
 def test_composite_inertia_agrees_with_drake():
-    parts = [(0.3, (0.0, 0.0, 0.1), (1e-3, 2e-3, 3e-3)),
-             (0.2, (0.05, -0.02, 0.2), (4e-4, 5e-4, 6e-4))]
+    parts = [
+        (0.3, (0.0, 0.0, 0.1), (1e-3, 2e-3, 3e-3)),
+        (0.2, (0.05, -0.02, 0.2), (4e-4, 5e-4, 6e-4)),
+    ]
     mass, com, inertia = composite_inertia(parts)
     total = SpatialInertia.Zero()
     for m, c, moments in parts:
@@ -117,20 +123,26 @@ def test_link_and_body_inertias_put_the_servos_at_their_joints():
     a, b, _ = p.body_semi_axes
     x, y, _ = p.servo_size
     rest = p.body_mass - 4 * p.servo_mass - p.residual_mass
-    expected = ((rest + p.residual_mass) / 5 * (a * a + b * b) + rest * c * c
-                + p.residual_mass * (xr - c) ** 2
-                + p.servo_mass * sum((sx - c) ** 2 + 0.01 + (x * x + y * y) / 12
-                                     for sx in (0.1, 0.1, -0.1, -0.1)))
+    expected = (
+        (rest + p.residual_mass) / 5 * (a * a + b * b)
+        + rest * c * c
+        + p.residual_mass * (xr - c) ** 2
+        + p.servo_mass
+        * sum((sx - c) ** 2 + 0.01 + (x * x + y * y) / 12 for sx in (0.1, 0.1, -0.1, -0.1))
+    )
     assert inertia[2, 2] == pytest.approx(expected)
 
 
-@pytest.mark.parametrize("old, new, match", [
-    ("value: 0.185  # kg each", "value: -0.185", "servo.mass = -0.185 must be finite and > 0"),
-    ("value: 16", "value: 12", "servo.count = 12.0 must be 16"),
-    ("    mass: 0.20\n", "    mass: 9.0\n", "the parts weigh .* more than total_mass"),
-    ("    count: 2\n", "    count: 2\n    colour: red\n", "battery_packs.colour: unknown key"),
-    ("  source: 'Table 1: \"Total Mass 8.4 kg\"'", "  source: ''", "total_mass has no source"),
-])
+@pytest.mark.parametrize(
+    "old, new, match",
+    [
+        ("value: 0.185  # kg each", "value: -0.185", "servo.mass = -0.185 must be finite and > 0"),
+        ("value: 16", "value: 12", "servo.count = 12.0 must be 16"),
+        ("    mass: 0.20\n", "    mass: 9.0\n", "the parts weigh .* more than total_mass"),
+        ("    count: 2\n", "    count: 2\n    colour: red\n", "battery_packs.colour: unknown key"),
+        ("  source: 'Table 1: \"Total Mass 8.4 kg\"'", "  source: ''", "total_mass has no source"),
+    ],
+)
 def test_bad_files_give_one_line_errors(tmp_path, old, new, match):
     text = B.DEFAULT_BILL_OF_MATERIALS_FILE.read_text()
     assert old in text
@@ -167,8 +179,9 @@ def test_the_residual_trims_the_deflated_robot_level_under_water():
             X = X if X_next is None else X @ X_next
             frames[1 + 4 * k + i] = X
     el = build_elements(load_coefficients(), DEFAULT_ROBOT)
-    centres = np.array([frames[int(b)][:3, :3] @ p + frames[int(b)][:3, 3]
-                        for b, p in zip(el["body"], el["p"])])
+    centres = np.array(
+        [frames[int(b)][:3, :3] @ p + frames[int(b)][:3, 3] for b, p in zip(el["body"], el["p"])]
+    )
     cob = el["volume"] @ centres / el["volume"].sum()
     assert abs(com[0] - cob[0]) < 5e-4 and abs(com[1] - cob[1]) < 1e-9
     assert cob[2] - com[2] > 0.01  # and above it: stable

@@ -31,6 +31,7 @@ def measured_csv(path: pathlib.Path, n: int = 5) -> pathlib.Path:
 
 # --- residuals -------------------------------------------------------------------------------
 
+
 def test_trajectory_residuals_are_standard_scores():
     t = np.linspace(0.0, 1.0, 11)
     measured = {"t": t, "x": t.copy(), "yaw": np.zeros_like(t)}
@@ -45,13 +46,15 @@ def test_trajectory_residuals_are_standard_scores():
     short = {k: v[:51] for k, v in same.items()}
     r = C.trajectory_residuals(measured, short, ["x"], SIGMA)
     assert np.allclose(r[:6], 0.0) and np.all(r[6:] == C.FAILED_RESIDUAL)
-    assert np.all(C.trajectory_residuals(measured, {"status": "error"}, ["x"], SIGMA)
-                  == C.FAILED_RESIDUAL)
+    assert np.all(
+        C.trajectory_residuals(measured, {"status": "error"}, ["x"], SIGMA) == C.FAILED_RESIDUAL
+    )
 
 
 def test_target_residuals():
-    r = C.target_residuals({"u": 0.05, "yaw_rate_deg_s": -3.0},
-                           {"u": 0.056, "yaw_rate_deg_s": -2.0}, SIGMA)
+    r = C.target_residuals(
+        {"u": 0.05, "yaw_rate_deg_s": -3.0}, {"u": 0.056, "yaw_rate_deg_s": -2.0}, SIGMA
+    )
     assert r == pytest.approx([3.0, 5.0])
     r = C.target_residuals({"u": 0.05}, {"u": math.nan}, SIGMA)  # no mean velocity
     assert r.tolist() == [C.FAILED_RESIDUAL]
@@ -87,18 +90,23 @@ experiments:
 """
 
 
-@pytest.mark.parametrize("change, message", [
-    (("name: t", "nme: t"), "calibration.nme: unknown key"),
-    (("body.quadratic_damping]", "body.quadratic]"), "unknown coefficient 'body.quadratic'"),
-    (("bounds: [0.3, 3]", "bounds: [0.3, 3], initial: 4.0"), "parameters\\[0\\].initial"),
-    (("measured: m.csv", "measured: none.csv"), "experiments\\[0\\].measured: file not found"),
-    (("columns: [x, y, yaw]", "columns: [x, roll]"), "experiments\\[0\\].columns"),
-    (("target: {u: 0.07}", "target: {speed: 0.07}"), "experiments\\[1\\].target.speed"),
-    (("overrides: {duration: 2.0}", "overrides: {duraton: 2.0}"),
-     "experiments\\[0\\].overrides.duraton"),
-    (("scenario: locomotion_walk", "scenario: no_such"), "experiments\\[1\\].scenario"),
-    (("target: {u: 0.07}", "weight: 2.0"), "experiments\\[1\\]: give `measured`"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (("name: t", "nme: t"), "calibration.nme: unknown key"),
+        (("body.quadratic_damping]", "body.quadratic]"), "unknown coefficient 'body.quadratic'"),
+        (("bounds: [0.3, 3]", "bounds: [0.3, 3], initial: 4.0"), "parameters\\[0\\].initial"),
+        (("measured: m.csv", "measured: none.csv"), "experiments\\[0\\].measured: file not found"),
+        (("columns: [x, y, yaw]", "columns: [x, roll]"), "experiments\\[0\\].columns"),
+        (("target: {u: 0.07}", "target: {speed: 0.07}"), "experiments\\[1\\].target.speed"),
+        (
+            ("overrides: {duration: 2.0}", "overrides: {duraton: 2.0}"),
+            "experiments\\[0\\].overrides.duraton",
+        ),
+        (("scenario: locomotion_walk", "scenario: no_such"), "experiments\\[1\\].scenario"),
+        (("target: {u: 0.07}", "weight: 2.0"), "experiments\\[1\\]: give `measured`"),
+    ],
+)
 def test_bad_calibration_files_fail_at_load_naming_the_path(tmp_path, change, message):
     measured_csv(tmp_path / "m.csv")
     assert C.load_calibration(write(tmp_path / "c.yaml", GOOD)).parameters[0].name == "hull"
@@ -108,17 +116,22 @@ def test_bad_calibration_files_fail_at_load_naming_the_path(tmp_path, change, me
 
 def test_two_parameters_may_not_scale_one_coefficient(tmp_path):
     measured_csv(tmp_path / "m.csv")
-    text = GOOD.replace("bounds: [0.3, 3]}", "bounds: [0.3, 3]}\n  - {name: lin, coefficients: "
-                        "[body.linear_damping]}")
+    text = GOOD.replace(
+        "bounds: [0.3, 3]}",
+        "bounds: [0.3, 3]}\n  - {name: lin, coefficients: [body.linear_damping]}",
+    )
     with pytest.raises(SweepError, match="body.linear_damping is also fitted by hull"):
         C.load_calibration(write(tmp_path / "c.yaml", text))
 
 
-@pytest.mark.parametrize("text, message", [
-    ("t,x\n0,1\n1,2\n", "no column 'y'"),
-    ("t,x,y\n0,1,2\n0,1,2\n", "t must increase"),
-    ("t,x,y\n0,1,2\n1,a,2\n", "data row 2: column x"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("t,x\n0,1\n1,2\n", "no column 'y'"),
+        ("t,x,y\n0,1,2\n0,1,2\n", "t must increase"),
+        ("t,x,y\n0,1,2\n1,a,2\n", "data row 2: column x"),
+    ],
+)
 def test_bad_measured_files(tmp_path, text, message):
     with pytest.raises(SweepError, match=message):
         C.load_measured(write(tmp_path / "m.csv", text), ["x", "y"])
@@ -126,14 +139,23 @@ def test_bad_measured_files(tmp_path, text, message):
 
 def test_experiment_scenario_multiplies_scales_and_sets_seed_and_prior(tmp_path):
     measured_csv(tmp_path / "m.csv")
-    config = C.load_calibration(write(tmp_path / "c.yaml", GOOD.replace(
-        "overrides: {duration: 2.0}",
-        "overrides: {duration: 2.0, water.coefficient_scales.body.linear_damping: 2.0}")
-        + "seed: 5\n"))
-    scenario = C.experiment_scenario(config, config.experiments[0],
-                                     C.parameter_scales(config, [1.5]))
-    assert scenario.water.coefficient_scales == {"body.linear_damping": 3.0,
-                                                 "body.quadratic_damping": 1.5}
+    config = C.load_calibration(
+        write(
+            tmp_path / "c.yaml",
+            GOOD.replace(
+                "overrides: {duration: 2.0}",
+                "overrides: {duration: 2.0, water.coefficient_scales.body.linear_damping: 2.0}",
+            )
+            + "seed: 5\n",
+        )
+    )
+    scenario = C.experiment_scenario(
+        config, config.experiments[0], C.parameter_scales(config, [1.5])
+    )
+    assert scenario.water.coefficient_scales == {
+        "body.linear_damping": 3.0,
+        "body.quadratic_damping": 1.5,
+    }
     assert scenario.random_seed == 5 and scenario.duration == 2.0
     assert scenario.water.coefficients == "package://manta_drake/hydrodynamics.yaml"
     assert scenario.visualization.meshcat is False
@@ -143,9 +165,18 @@ def test_written_coefficients_are_a_loadable_coefficients_file(tmp_path):
     measured_csv(tmp_path / "m.csv")
     config = C.load_calibration(write(tmp_path / "c.yaml", GOOD))
     result = C.CalibrationResult(
-        x=np.array([1.2]), x0=np.array([1.0]), names=["hull"], cost=1.0, initial_cost=9.0,
-        standard_error=np.array([0.01]), success=True, message="ok", evaluations=3,
-        simulations=6, wall_time_s=1.0)
+        x=np.array([1.2]),
+        x0=np.array([1.0]),
+        names=["hull"],
+        cost=1.0,
+        initial_cost=9.0,
+        standard_error=np.array([0.01]),
+        success=True,
+        message="ok",
+        evaluations=3,
+        simulations=6,
+        wall_time_s=1.0,
+    )
     path = C.write_calibrated_coefficients(tmp_path / "coefficients.yaml", config, result)
     prior, fitted = dict(load_coefficients().entries()), dict(load_coefficients(path).entries())
     assert fitted.keys() == prior.keys()
@@ -165,8 +196,10 @@ def test_shipped_calibration_and_its_synthetic_data():
     coefficients = [c for p in config.parameters for c in p.coefficients]
     assert coefficients == ["body.linear_damping", "body.quadratic_damping"]
     truth = yaml.safe_load((SWEEPS / "data" / "truth.yaml").read_text())
-    assert truth["coefficient_scales"] == {"body.linear_damping": 1.25,
-                                           "body.quadratic_damping": 1.25}
+    assert truth["coefficient_scales"] == {
+        "body.linear_damping": 1.25,
+        "body.quadratic_damping": 1.25,
+    }
     for e in config.experiments:
         data = C.load_measured(config.folder / e.measured, C.TRAJECTORY_COLUMNS)
         assert len(data["t"]) > 20
@@ -210,8 +243,14 @@ def test_calibration_recovers_a_known_hull_damping_on_a_cluster(tmp_path):
     config = C.load_calibration(path, require_data=False)
     truth = {"body.linear_damping": 1.25, "body.quadratic_damping": 1.25}
     with dask_client(workers=2) as client:
-        data = C.synthesize_measurements(config, truth, C.Sigma(position_m=0.001, yaw_deg=0.1),
-                                         seed=11, period=0.1, client=client)
+        data = C.synthesize_measurements(
+            config,
+            truth,
+            C.Sigma(position_m=0.001, yaw_deg=0.1),
+            seed=11,
+            period=0.1,
+            client=client,
+        )
         C.write_measured(tmp_path / "swim.csv", data["swim"])
         config = C.load_calibration(path)
         result = C.calibrate(config, tmp_path / "out", client=client, progress=False)
@@ -227,7 +266,8 @@ def test_calibration_recovers_a_known_hull_damping_on_a_cluster(tmp_path):
     written = dict(load_coefficients(result.coefficients_file).entries())
     prior = dict(load_coefficients().entries())
     assert written["body.linear_damping"].value[0] == pytest.approx(
-        fitted * prior["body.linear_damping"].value[0], rel=1e-6)
+        fitted * prior["body.linear_damping"].value[0], rel=1e-6
+    )
     assert result.figure.exists() and result.history_file.exists()
     import json
 
@@ -236,6 +276,7 @@ def test_calibration_recovers_a_known_hull_damping_on_a_cluster(tmp_path):
 
 
 # --- measured data checked against the experiment, before any simulation ---------------------
+
 
 def _csv(path: pathlib.Path, t) -> pathlib.Path:
     t = np.asarray(t, dtype=float)
@@ -262,44 +303,86 @@ def no_simulation(monkeypatch):
     monkeypatch.setattr(evaluator, "simulate_trajectory", refuse)
 
 
-@pytest.mark.parametrize("data, change, message", [
-    # GOOD's swim runs 2.0 s: samples up to 3 s cannot be compared with it.
-    (lambda p: _csv(p, np.linspace(0.0, 3.0, 7)), None,
-     "calibration.experiments[0].measured: {csv}: t ends at 3.0 s, after the run's end "
-     "(duration 2.0 s; allowed: 0 <= t <= 2.0); shorten the data or set the experiment's "
-     "overrides: {{duration: ...}}"),
-    (lambda p: _csv(p, [-0.5, 0.0, 0.5]), None,
-     "calibration.experiments[0].measured: {csv}: t starts at -0.5 s; times are seconds from "
-     "the start of the run (allowed: t >= 0)"),
-    (lambda p: _csv(p, [0.0, 0.5, 0.5, 1.0]), None,
-     "calibration.experiments[0].measured: {csv}: t must increase, with at least two samples "
-     "(data row 3: 0.5 s after 0.5 s)"),
-    (lambda p: _csv(p, [0.0, 0.5]), ("target: {u: 0.07}", "target: {u: .nan}"),
-     "calibration.experiments[1].target.u: nan is not a finite number (a measured mean "
-     "velocity)"),
-    (lambda p: _csv(p, [0.0, 0.5]), ("target: {u: 0.07}", "target: {u: 0.07, v: .inf}"),
-     "calibration.experiments[1].target.v: inf is not a finite number (a measured mean "
-     "velocity)"),
-    (lambda p: _put(p, b"\x89PNG\r\n\x1a\n\x00\xff\xfe"), None,
-     "calibration.experiments[0].measured: {csv}: not a UTF-8 text (CSV) file"),
-    (lambda p: _put(p, b"t,x,y,z,yaw\n0,0,0,0,0\x00\n"), None,
-     "calibration.experiments[0].measured: {csv}: not a text (CSV) file (it holds NUL bytes)"),
-    (lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,0,0,0\n"),
-     ("columns: [x, y, yaw]", "columns: [x, z]"),
-     "calibration.experiments[0].measured: {csv} has no column 'z' (header: t, x, y, yaw)"),
-    (lambda p: _put(p, "t,x,y,x,yaw\n0,0,0,0,0\n1,0,0,0,0\n"), None,
-     "calibration.experiments[0].measured: {csv}: column 'x' appears twice in the header"),
-    (lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,0,0\n"), None,
-     "calibration.experiments[0].measured: {csv}: data row 2 has 3 fields, the header 4"),
-    (lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,nan,0,0\n"), None,
-     "calibration.experiments[0].measured: {csv}: data row 2: column x is nan, not a finite "
-     "number"),
-    (lambda p: _csv(p, [0.0, 0.5]), ("overrides: {duration: 2.0}", "overrides: {duration: -2.0}"),
-     "calibration.experiments[0].overrides: duration: -2.0 is outside the allowed range "
-     "(0, 3600] s"),
-])
-def test_measured_data_are_checked_against_the_experiment(tmp_path, no_simulation, data,
-                                                          change, message):
+@pytest.mark.parametrize(
+    "data, change, message",
+    [
+        # GOOD's swim runs 2.0 s: samples up to 3 s cannot be compared with it.
+        (
+            lambda p: _csv(p, np.linspace(0.0, 3.0, 7)),
+            None,
+            "calibration.experiments[0].measured: {csv}: t ends at 3.0 s, after the run's end "
+            "(duration 2.0 s; allowed: 0 <= t <= 2.0); shorten the data or set the experiment's "
+            "overrides: {{duration: ...}}",
+        ),
+        (
+            lambda p: _csv(p, [-0.5, 0.0, 0.5]),
+            None,
+            "calibration.experiments[0].measured: {csv}: t starts at -0.5 s; times are "
+            "seconds from "
+            "the start of the run (allowed: t >= 0)",
+        ),
+        (
+            lambda p: _csv(p, [0.0, 0.5, 0.5, 1.0]),
+            None,
+            "calibration.experiments[0].measured: {csv}: t must increase, with at least two "
+            "samples "
+            "(data row 3: 0.5 s after 0.5 s)",
+        ),
+        (
+            lambda p: _csv(p, [0.0, 0.5]),
+            ("target: {u: 0.07}", "target: {u: .nan}"),
+            "calibration.experiments[1].target.u: nan is not a finite number (a measured mean "
+            "velocity)",
+        ),
+        (
+            lambda p: _csv(p, [0.0, 0.5]),
+            ("target: {u: 0.07}", "target: {u: 0.07, v: .inf}"),
+            "calibration.experiments[1].target.v: inf is not a finite number (a measured mean "
+            "velocity)",
+        ),
+        (
+            lambda p: _put(p, b"\x89PNG\r\n\x1a\n\x00\xff\xfe"),
+            None,
+            "calibration.experiments[0].measured: {csv}: not a UTF-8 text (CSV) file",
+        ),
+        (
+            lambda p: _put(p, b"t,x,y,z,yaw\n0,0,0,0,0\x00\n"),
+            None,
+            "calibration.experiments[0].measured: {csv}: not a text (CSV) file (it holds NUL "
+            "bytes)",
+        ),
+        (
+            lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,0,0,0\n"),
+            ("columns: [x, y, yaw]", "columns: [x, z]"),
+            "calibration.experiments[0].measured: {csv} has no column 'z' (header: t, x, y, yaw)",
+        ),
+        (
+            lambda p: _put(p, "t,x,y,x,yaw\n0,0,0,0,0\n1,0,0,0,0\n"),
+            None,
+            "calibration.experiments[0].measured: {csv}: column 'x' appears twice in the header",
+        ),
+        (
+            lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,0,0\n"),
+            None,
+            "calibration.experiments[0].measured: {csv}: data row 2 has 3 fields, the header 4",
+        ),
+        (
+            lambda p: _put(p, "t,x,y,yaw\n0,0,0,0\n1,nan,0,0\n"),
+            None,
+            "calibration.experiments[0].measured: {csv}: data row 2: column x is nan, not a finite "
+            "number",
+        ),
+        (
+            lambda p: _csv(p, [0.0, 0.5]),
+            ("overrides: {duration: 2.0}", "overrides: {duration: -2.0}"),
+            "calibration.experiments[0].overrides: duration: -2.0 is outside the allowed range "
+            "(0, 3600] s",
+        ),
+    ],
+)
+def test_measured_data_are_checked_against_the_experiment(
+    tmp_path, no_simulation, data, change, message
+):
     csv = data(tmp_path / "m.csv")
     text = GOOD.replace(*change) if change else GOOD
     with pytest.raises(SweepError) as e:
@@ -312,8 +395,19 @@ def test_data_beyond_the_run_fail_the_command_in_one_line(tmp_path, capsys, no_s
 
     _csv(tmp_path / "m.csv", np.linspace(0.0, 3.0, 7))
     out = tmp_path / "out"
-    assert main(["calibrate", str(write(tmp_path / "c.yaml", GOOD)), "--out", str(out),
-                 "--workers", "0"]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                str(write(tmp_path / "c.yaml", GOOD)),
+                "--out",
+                str(out),
+                "--workers",
+                "0",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "t ends at 3.0 s, after the run's end (duration 2.0 s" in err[0]
     assert not out.exists()  # no coefficients file labelled calibrated
@@ -328,6 +422,7 @@ def test_the_shipped_data_lie_within_their_runs():
 
 # --- the output folder, checked before the fit -----------------------------------------------
 
+
 @pytest.mark.parametrize("case", ["a file", "under a file", "the prior", "unwritable"])
 def test_calibrate_out_is_checked_before_the_fit(tmp_path, capsys, no_simulation, case):
     import os
@@ -339,9 +434,11 @@ def test_calibrate_out_is_checked_before_the_fit(tmp_path, capsys, no_simulation
     prior_dir = tmp_path / "earlier"
     prior_dir.mkdir()
     (prior_dir / "coefficients.yaml").write_text(
-        (ROOT / "models" / "hydrodynamics.yaml").read_text())
-    text = GOOD + (f"coefficients: {prior_dir / 'coefficients.yaml'}\n"
-                   if case == "the prior" else "")
+        (ROOT / "models" / "hydrodynamics.yaml").read_text()
+    )
+    text = GOOD + (
+        f"coefficients: {prior_dir / 'coefficients.yaml'}\n" if case == "the prior" else ""
+    )
     config_path = write(tmp_path / "c.yaml", text)
     if case == "unwritable":
         if os.geteuid() != 0:
@@ -352,13 +449,16 @@ def test_calibrate_out_is_checked_before_the_fit(tmp_path, capsys, no_simulation
         else:
             pytest.skip("no read-only folder for root here")
     else:
-        out = {"a file": tmp_path / "file", "under a file": tmp_path / "file" / "out",
-               "the prior": prior_dir}[case]
+        out = {
+            "a file": tmp_path / "file",
+            "under a file": tmp_path / "file" / "out",
+            "the prior": prior_dir,
+        }[case]
     message = {
         "a file": f"--out {out}: is a file, not a folder",
         "under a file": f"--out {out}: cannot be created ({tmp_path / 'file'} is a file)",
         "the prior": f"--out {out}: writing coefficients.yaml would overwrite the input "
-                     f"{prior_dir / 'coefficients.yaml'}; choose another output folder",
+        f"{prior_dir / 'coefficients.yaml'}; choose another output folder",
         "unwritable": f"--out {out}: ",
     }[case]
     assert main(["calibrate", str(config_path), "--out", str(out), "--workers", "0"]) == 2
@@ -374,19 +474,35 @@ def test_a_fit_whose_simulations_fail_writes_no_coefficients(tmp_path, capsys, m
     from manta_drake.calibrate import evaluator
     from manta_drake.cli import main
 
-    monkeypatch.setattr(evaluator, "simulate_trajectory", lambda text: {
-        "status": "failed", "reason": "simulation failed at t = 0.1 s: diverged"})
+    monkeypatch.setattr(
+        evaluator,
+        "simulate_trajectory",
+        lambda text: {"status": "failed", "reason": "simulation failed at t = 0.1 s: diverged"},
+    )
     measured_csv(tmp_path / "m.csv")
     out = tmp_path / "out"
     out.mkdir()
     (out / "coefficients.yaml").write_text("# an earlier fit's\n")
-    assert main(["calibrate", str(write(tmp_path / "c.yaml", GOOD)), "--out", str(out),
-                 "--workers", "0", "--quiet"]) == 1
+    assert (
+        main(
+            [
+                "calibrate",
+                str(write(tmp_path / "c.yaml", GOOD)),
+                "--out",
+                str(out),
+                "--workers",
+                "0",
+                "--quiet",
+            ]
+        )
+        == 1
+    )
     captured = capsys.readouterr()
     assert captured.err.strip().splitlines() == [
         "manta-drake: calibrate t: not calibrated: a simulation at the fitted point did not "
         "run to its end (swim: failed (simulation failed at t = 0.1 s: diverged); walk: "
-        "failed (simulation failed at t = 0.1 s: diverged))"]
+        "failed (simulation failed at t = 0.1 s: diverged))"
+    ]
     assert not (out / "coefficients.yaml").exists()
     assert "coefficients: none written" in captured.out
     import json

@@ -23,6 +23,7 @@ ABC = DEFAULT_ROBOT.body_semi_axes
 
 # --- geometry ---------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("subdivisions", [3, 4, 5])
 def test_hull_stl_volume_and_frontal_area_match_the_ellipsoid(tmp_path, subdivisions):
     path = geometry.write_stl(tmp_path / "hull.stl", geometry.hull_parts(subdivisions=subdivisions))
@@ -30,7 +31,7 @@ def test_hull_stl_volume_and_frontal_area_match_the_ellipsoid(tmp_path, subdivis
     assert geometry.is_closed(hull)
     # An inscribed polyhedron: low by about the squared edge over the radius; the icosphere's
     # longest edge at level s is ~1.1 / 2^s of the unit radius: bound (edge)^2 / 2.
-    tol = 0.5 * (1.1 / 2 ** subdivisions) ** 2
+    tol = 0.5 * (1.1 / 2**subdivisions) ** 2
     v_err = geometry.volume(hull) / geometry.ellipsoid_volume(ABC) - 1
     a_err = geometry.projected_area(hull) / geometry.ellipsoid_frontal_area(ABC) - 1
     assert -tol < v_err < 0, v_err
@@ -52,8 +53,15 @@ def test_robot_parts_are_closed_and_the_fins_have_their_plates_volume(tmp_path):
     transition = geometry.FIN_TRANSITION
     # The first `transition` of the distal plate lofts between the two sections (ruled:
     # between their two areas).
-    expected = coeff * t * (p.proximal_chord * p.d3 + p.distal_chord * (p.dE - transition)
-                            + 0.5 * (p.proximal_chord + p.distal_chord) * transition)
+    expected = (
+        coeff
+        * t
+        * (
+            p.proximal_chord * p.d3
+            + p.distal_chord * (p.dE - transition)
+            + 0.5 * (p.proximal_chord + p.distal_chord) * transition
+        )
+    )
     for fin in parts[1:]:
         # 25 cosine-spaced stations per side: the polygon is low by well under 1 %.
         assert geometry.volume(fin) == pytest.approx(expected, rel=0.01)
@@ -61,7 +69,8 @@ def test_robot_parts_are_closed_and_the_fins_have_their_plates_volume(tmp_path):
     for fin in geometry.robot_parts(fin_section="plate")[1:]:
         assert geometry.is_closed(fin)
         assert geometry.volume(fin) == pytest.approx(
-            t * (p.proximal_chord * p.d3 + p.distal_chord * p.dE), rel=1e-12)
+            t * (p.proximal_chord * p.d3 + p.distal_chord * p.dE), rel=1e-12
+        )
     # The tips reach the robot's width at the zero pose (Table 1: 0.85 m): the distal plates'
     # outer corners sit at |y| = 0.1 + (d3 + dE) cos(sweep) + (distal_chord / 2) sin(sweep).
     sweep = DEFAULT_ROBOT.mounts[0].sweep
@@ -82,15 +91,18 @@ def test_rotation_is_the_papers_pitch_and_yaw_senses():
 
 # --- the case dictionaries --------------------------------------------------------------------
 
+
 def _parsed(spec):
     return {path: cfdcase.parse_foam(text) for path, text in cfdcase.render(spec).items()}
 
 
 def test_robot_domain_is_the_papers_in_body_widths():
     W = cfdcase.W
-    for spec, sym in ((cfdcase.CaseSpec("robot", 0.8, pitch_deg=15), [1]),
-                      (cfdcase.CaseSpec("robot", 0.8, yaw_deg=30), [2]),
-                      (cfdcase.CaseSpec("robot", 0.4), [1, 2])):
+    for spec, sym in (
+        (cfdcase.CaseSpec("robot", 0.8, pitch_deg=15), [1]),
+        (cfdcase.CaseSpec("robot", 0.8, yaw_deg=30), [2]),
+        (cfdcase.CaseSpec("robot", 0.4), [1, 2]),
+    ):
         d = _parsed(spec)
         verts = np.array(d["system/blockMeshDict"]["vertices"], float)
         lo, hi = verts.min(axis=0), verts.max(axis=0)
@@ -126,15 +138,19 @@ def test_turbulence_model_wall_functions_and_forces_function_object():
     d = _parsed(spec)
     ras = d["constant/turbulenceProperties"]
     assert ras["simulationType"] == "RAS" and ras["RAS"]["RASModel"] == "kEpsilon"
-    wall = {f: d[f"0/{f}"]["boundaryField"]["body.*"]["type"]
-            for f in ("U", "k", "epsilon", "nut")}
-    assert wall == {"U": "noSlip", "k": "kqRWallFunction", "epsilon": "epsilonWallFunction",
-                    "nut": "nutkWallFunction"}
+    wall = {f: d[f"0/{f}"]["boundaryField"]["body.*"]["type"] for f in ("U", "k", "epsilon", "nut")}
+    assert wall == {
+        "U": "noSlip",
+        "k": "kqRWallFunction",
+        "epsilon": "epsilonWallFunction",
+        "nut": "nutkWallFunction",
+    }
     # Inlet turbulence: k = 3/2 (I U)^2 with I = 1 %, epsilon = C_mu k^2 / (10 nu).
     k = 1.5 * (0.01 * 1.2) ** 2
     assert d["0/k"]["boundaryField"]["inlet"]["value"][1] == pytest.approx(k, rel=1e-5)
     assert d["0/epsilon"]["boundaryField"]["inlet"]["value"][1] == pytest.approx(
-        0.09 * k * k / (10 * 1e-6), rel=1e-5)
+        0.09 * k * k / (10 * 1e-6), rel=1e-5
+    )
     assert d["constant/transportProperties"]["nu"] == pytest.approx(1e-6)
     fo = d["system/controlDict"]["functions"]
     forces = fo["forces"]
@@ -147,7 +163,11 @@ def test_turbulence_model_wall_functions_and_forces_function_object():
     assert simple["consistent"] == "yes"  # SIMPLEC
     assert simple["residualControl"]["p"] == pytest.approx(1e-4)
     assert d["system/fvSchemes"]["divSchemes"]["div(phi,U)"] == [
-        "bounded", "Gauss", "linearUpwind", "grad(U)"]
+        "bounded",
+        "Gauss",
+        "linearUpwind",
+        "grad(U)",
+    ]
     snappy = d["system/snappyHexMeshDict"]
     body = snappy["castellatedMeshControls"]["refinementSurfaces"]["body"]
     mesh = spec.mesh_spec
@@ -186,8 +206,12 @@ def test_full_body_from_symmetry_planes():
 def test_study_options_are_one_line_errors(tmp_path, capsys):
     from manta_drake import cli
 
-    for argv, needle in ((["--cases", "bogus"], "--cases"), (["--mesh", "huge"], "--mesh"),
-                         (["--workers", "3"], "--workers"), (["--workers", "x"], "--workers")):
+    for argv, needle in (
+        (["--cases", "bogus"], "--cases"),
+        (["--mesh", "huge"], "--mesh"),
+        (["--workers", "3"], "--workers"),
+        (["--workers", "x"], "--workers"),
+    ):
         status = cli.main(["study", "cfd", "--out", str(tmp_path / "o"), *argv])
         err = capsys.readouterr().err.strip()
         assert status == 2 and needle in err and "\n" not in err, (argv, err)
@@ -203,9 +227,11 @@ TINY_SPHERE_TOL = 0.02
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not run.openfoam_available(),
-                    reason="OpenFOAM (simpleFoam) is not installed: run "
-                           "scripts/ensure_debian.sh openfoam (make test does)")
+@pytest.mark.skipif(
+    not run.openfoam_available(),
+    reason="OpenFOAM (simpleFoam) is not installed: run "
+    "scripts/ensure_debian.sh openfoam (make test does)",
+)
 def test_tiny_sphere_case_end_to_end(tmp_path):
     spec = cfdcase.CaseSpec("sphere", 1.0, mesh="tiny")
     result = run.run_case(spec, tmp_path)
@@ -215,7 +241,8 @@ def test_tiny_sphere_case_end_to_end(tmp_path):
     # The pressure and viscous parts add up to the total, and the quarter domain's
     # reconstruction leaves no side force on the axisymmetric body.
     assert result["drag_pressure_n"] + result["drag_viscous_n"] == pytest.approx(
-        result["drag_n"], rel=1e-6)
+        result["drag_n"], rel=1e-6
+    )
     f = result["final"]["force"]["total"]
     assert f[1] == 0 and f[2] == 0
     assert result["yplus"] and result["yplus_max"] > result["yplus_avg"] > 0
@@ -233,8 +260,7 @@ def test_tiny_sphere_case_end_to_end(tmp_path):
     lines = (tmp_path / "csv" / "validation_samples.csv").read_text().splitlines()
     assert lines[0].startswith("#")
     row = dict(zip(lines[1].split(","), lines[2].split(",")))
-    assert float(row["u"]) == 1.0 and float(row["Fx"]) == pytest.approx(-result["drag_n"],
-                                                                        rel=1e-5)
+    assert float(row["u"]) == 1.0 and float(row["Fx"]) == pytest.approx(-result["drag_n"], rel=1e-5)
     assert row["mesh"] == "tiny" and int(row["cells"]) == result["cells"]
 
 
@@ -254,8 +280,9 @@ def test_forces_settled_needs_a_quiet_window_of_every_component():
 
 
 def test_the_robot_writes_its_hull_and_fins_forces_apart():
-    fo = _parsed(cfdcase.CaseSpec("robot", 0.8, yaw_deg=15, mesh="coarse"))[
-        "system/controlDict"]["functions"]
+    fo = _parsed(cfdcase.CaseSpec("robot", 0.8, yaw_deg=15, mesh="coarse"))["system/controlDict"][
+        "functions"
+    ]
     assert fo["forces_hull"]["patches"] == ["body_hull"]
     assert fo["forces_fins"]["patches"] == ["body_fin_.*"]
     assert fo["forces_hull"]["CofR"] == fo["forces"]["CofR"]
@@ -268,14 +295,15 @@ def test_level_and_sweep_sets_and_the_sweeps_order():
 
     level = study.cases_for("level", "coarse")
     assert [(c.speed, c.pitch_deg, c.yaw_deg, c.mesh) for c in level] == [
-        (u, 0.0, 0.0, "coarse") for u in study.SPEEDS]
+        (u, 0.0, 0.0, "coarse") for u in study.SPEEDS
+    ]
     sweep = study.cases_for("sweep", "coarse")
     assert len(sweep) == len(study.SPEEDS) * (len(study.PITCHES) - 1 + len(study.YAWS))
     angles = [abs(c.pitch_deg) + abs(c.yaw_deg) for c in sweep]
     assert angles == sorted(angles)  # every axis at 15 deg before any at 30 deg
     n = len(study.SPEEDS)
-    assert {c.pitch_deg for c in sweep[:2 * n]} == {-15.0, 15.0}
-    assert {c.yaw_deg for c in sweep[2 * n:3 * n]} == {15.0}
+    assert {c.pitch_deg for c in sweep[: 2 * n]} == {-15.0, 15.0}
+    assert {c.yaw_deg for c in sweep[2 * n : 3 * n]} == {15.0}
 
 
 def test_committed_robot_samples_parts_add_up_to_the_whole_body():
@@ -301,16 +329,20 @@ def test_the_committed_page_is_the_report_of_the_committed_samples():
 
     rows = study.samples(ROOT / "models" / "cfd")
     page = (ROOT / "docs" / "cfd.md").read_text()
-    block = page[page.index(study.BEGIN):page.index(study.END) + len(study.END)]
+    block = page[page.index(study.BEGIN) : page.index(study.END) + len(study.END)]
     assert study.report_block(rows) == block
     assert study.sweep_mesh_of(rows) == "coarse"
     assert "Not run yet (0): none." in block
     # The grid-convergence drags are the samples' own (coarse, medium, fine at 0.4 m/s).
-    level = {r["mesh"]: float(r["drag"]) for r in rows if r["shape"] == "robot"
-             and float(r["speed"]) == 0.4 and float(r["pitch_deg"]) == 0
-             and float(r["yaw_deg"]) == 0}
-    assert f"| {level['fine']:.4f} | {100 * (level['fine'] / level['medium'] - 1):+.1f} %" \
-        in block
+    level = {
+        r["mesh"]: float(r["drag"])
+        for r in rows
+        if r["shape"] == "robot"
+        and float(r["speed"]) == 0.4
+        and float(r["pitch_deg"]) == 0
+        and float(r["yaw_deg"]) == 0
+    }
+    assert f"| {level['fine']:.4f} | {100 * (level['fine'] / level['medium'] - 1):+.1f} %" in block
 
 
 def test_tables_only_without_cases_needs_the_samples_marker(tmp_path, capsys):

@@ -18,8 +18,7 @@ from manta_drake.config_io import (
 
 def test_yaml_1_2_floats_are_numbers_and_other_scalars_keep_their_types():
     data = parse_yaml("a: 1e-3\nb: 1.0e9\nc: -2.5E+1\nd: 12\ne: 1e\nf: v1e3\ng: .5e2\n")
-    assert data == {"a": 1e-3, "b": 1e9, "c": -25.0, "d": 12, "e": "1e", "f": "v1e3",
-                    "g": 50.0}
+    assert data == {"a": 1e-3, "b": 1e9, "c": -25.0, "d": 12, "e": "1e", "f": "v1e3", "g": 50.0}
     assert isinstance(data["d"], int)
 
 
@@ -45,19 +44,29 @@ def test_files_are_named_in_every_refusal(tmp_path):
     assert load_yaml_mapping(empty)[0] == {}
 
 
-@pytest.mark.parametrize("check, words", [
-    (lambda: check_number("f", True), "f: True is not a number"),
-    (lambda: check_number("f", math.inf), "f: inf is not finite"),
-    (lambda: check_number("f", "1"), "f: '1' is not a number"),
-    (lambda: check_in_range("f", 0.0, 0.0, 1.0, "(0, 1]", open_low=True),
-     "outside the allowed range (0, 1]"),
-    (lambda: check_in_range("f", 1.0, 0.0, 1.0, "[0, 1)", open_high=True),
-     "outside the allowed range [0, 1)"),
-    (lambda: check_integer("n", 1.7, 0, 5), "n: 1.7 is not an integer (allowed: 0 to 5)"),
-    (lambda: check_integer("n", 6, 0, 5), "n: 6 is outside the allowed range [0, 5]"),
-    (lambda: check_vector("v", [3.0, 4.0, 0.0], 3, bound=4.9), "magnitude above the allowed 4.9"),
-    (lambda: check_vector("v", [1.0, math.nan, 0.0], 3), "v[1]: nan is not finite"),
-])
+@pytest.mark.parametrize(
+    "check, words",
+    [
+        (lambda: check_number("f", True), "f: True is not a number"),
+        (lambda: check_number("f", math.inf), "f: inf is not finite"),
+        (lambda: check_number("f", "1"), "f: '1' is not a number"),
+        (
+            lambda: check_in_range("f", 0.0, 0.0, 1.0, "(0, 1]", open_low=True),
+            "outside the allowed range (0, 1]",
+        ),
+        (
+            lambda: check_in_range("f", 1.0, 0.0, 1.0, "[0, 1)", open_high=True),
+            "outside the allowed range [0, 1)",
+        ),
+        (lambda: check_integer("n", 1.7, 0, 5), "n: 1.7 is not an integer (allowed: 0 to 5)"),
+        (lambda: check_integer("n", 6, 0, 5), "n: 6 is outside the allowed range [0, 5]"),
+        (
+            lambda: check_vector("v", [3.0, 4.0, 0.0], 3, bound=4.9),
+            "magnitude above the allowed 4.9",
+        ),
+        (lambda: check_vector("v", [1.0, math.nan, 0.0], 3), "v[1]: nan is not finite"),
+    ],
+)
 def test_value_checks_are_one_line_naming_the_field(check, words):
     with pytest.raises(ScenarioError) as info:
         check()

@@ -11,8 +11,9 @@ from manta_drake.control.cpg import CpgOscillators, locked_phases
 from manta_drake.control.gaits import GAITS, phase_lock_targets
 from manta_drake.model.plant import add_plant
 
-RK2 = SimulatorConfig(integration_scheme="runge_kutta2", max_step_size=1e-3,
-                      use_error_control=False)
+RK2 = SimulatorConfig(
+    integration_scheme="runge_kutta2", max_step_size=1e-3, use_error_control=False
+)
 
 
 def hand_eq5(x, params, f, w_chain, w_fcs, a, b):
@@ -31,8 +32,12 @@ def hand_eq5(x, params, f, w_chain, w_fcs, a, b):
             if m != k:
                 W[4 * k, 4 * m] = w_fcs
                 B[4 * k, 4 * m] = Phip[k, m]
-    dphi = np.array([2 * np.pi * f + sum(W[i, j] * np.sin(phi[j] - phi[i] - B[i, j])
-                                         for j in range(16)) for i in range(16)])
+    dphi = np.array(
+        [
+            2 * np.pi * f + sum(W[i, j] * np.sin(phi[j] - phi[i] - B[i, j]) for j in range(16))
+            for i in range(16)
+        ]
+    )
     ddr = a * (a / 4 * (R - r) - dr)
     ddchi = b * (b / 4 * (X - chi) - dchi)
     return np.concatenate([dphi, dr, ddr, dchi, ddchi])
@@ -98,11 +103,13 @@ def test_amplitude_and_bias_settle_without_overshoot_in_closed_form_time(rng):
     params = np.concatenate([R, X, np.zeros(32)])
     sim, cpg, _, _ = cpg_diagram(params, a=a, b=b)
     context = sim.get_mutable_context()
-    cpg.set_state(cpg.GetMyMutableContextFromRoot(context), phi=0.0, r=0.0, dr=0.0, chi=0.0,
-                  dchi=0.0)
+    cpg.set_state(
+        cpg.GetMyMutableContextFromRoot(context), phi=0.0, r=0.0, dr=0.0, chi=0.0, dchi=0.0
+    )
     omega = a / 2  # critically damped double pole
     # 2 % settling time of 1 - (1 + w t) e^{-w t}: (1 + w t) e^{-w t} = 0.02.
     from scipy.optimize import brentq
+
     t_settle = brentq(lambda t: (1 + omega * t) * np.exp(-omega * t) - 0.02, 0.01, 5.0)
     times = np.arange(0.0, 1.5, 0.01)
     rs, chis = [], []
@@ -119,7 +126,7 @@ def test_amplitude_and_bias_settle_without_overshoot_in_closed_form_time(rng):
     after = times >= t_settle + 0.01
     assert np.all(np.abs(rs[after] / R - 1) <= 0.02)
     assert np.all(np.abs(chis[after] / X - 1) <= 0.02)
-    before = (times < t_settle - 0.05)
+    before = times < t_settle - 0.05
     assert np.all(np.abs(rs[before] / R - 1) > 0.02)  # and not faster: the time is tight
     assert t_settle == pytest.approx(0.583, abs=0.002)
 
@@ -129,8 +136,9 @@ def _wrap(x):
 
 
 # The distinct gaits (trot_printed and the like are the same matrices as trot in this reading).
-@pytest.mark.parametrize("name", sorted(n for n in GAITS if not n.endswith("_printed"))
-                         + ["swim_printed"])
+@pytest.mark.parametrize(
+    "name", sorted(n for n in GAITS if not n.endswith("_printed")) + ["swim_printed"]
+)
 def test_phase_lock_after_settling(name, rng):
     gait = GAITS[name]
     sim, cpg, _, _ = cpg_diagram(gait.to_vector())
@@ -157,8 +165,12 @@ def test_phase_lock_after_settling(name, rng):
 def test_desired_rates_equal_finite_difference_of_angles():
     sim, cpg, angles, desired = cpg_diagram(GAITS["walk"].to_vector())
     context = sim.get_mutable_context()
-    cpg.set_state(cpg.GetMyMutableContextFromRoot(context),
-                  phi=locked_phases(GAITS["walk"].to_vector()), r=0.0, chi=0.0)
+    cpg.set_state(
+        cpg.GetMyMutableContextFromRoot(context),
+        phi=locked_phases(GAITS["walk"].to_vector()),
+        r=0.0,
+        chi=0.0,
+    )
     sim.AdvanceTo(3.0)
     t = angles.FindLog(context).sample_times()
     theta = angles.FindLog(context).data().T
@@ -187,16 +199,18 @@ def test_plant_tracks_cpg_with_body_welded_in_air(name):
     cpg = builder.AddSystem(CpgOscillators())
     src = builder.AddSystem(ConstantVectorSource(GAITS[name].to_vector()))
     builder.Connect(src.get_output_port(), cpg.GetInputPort("cpg_params"))
-    builder.Connect(cpg.GetOutputPort("desired_state"),
-                    h.plant.get_desired_state_input_port(h.robot))
+    builder.Connect(
+        cpg.GetOutputPort("desired_state"), h.plant.get_desired_state_input_port(h.robot)
+    )
     cmd = LogVectorOutput(cpg.GetOutputPort("joint_angles"), builder, 1e-3)
     state = LogVectorOutput(h.plant.get_state_output_port(h.robot), builder, 1e-3)
     diagram = builder.Build()
     sim = Simulator(diagram)
     ApplySimulatorConfig(RK2, sim)
     context = sim.get_mutable_context()
-    cpg.set_state(cpg.GetMyMutableContextFromRoot(context),
-                  phi=locked_phases(GAITS[name].to_vector()))
+    cpg.set_state(
+        cpg.GetMyMutableContextFromRoot(context), phi=locked_phases(GAITS[name].to_vector())
+    )
     sim.AdvanceTo(5.0)
     t = cmd.FindLog(context).sample_times()
     q_cmd = cmd.FindLog(context).data().T

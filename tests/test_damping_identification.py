@@ -24,8 +24,7 @@ def test_the_yaml_is_the_fit_of_the_committed_samples(rows):
     fit = di.identify(rows, AXES)
     body = load_coefficients().body
     np.testing.assert_allclose(body.linear_damping.value, fit.linear, atol=1e-5)
-    np.testing.assert_allclose(body.quadratic_damping.value, fit.quadratic, rtol=1e-5,
-                               atol=1e-5)
+    np.testing.assert_allclose(body.quadratic_damping.value, fit.quadratic, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(body.body_lift.value, fit.lift, rtol=1e-5, atol=1e-5)
     assert "robot_samples.csv" in body.quadratic_damping.source
     assert fit.samples == {"surge": len(di.LOW_SPEEDS) + 3, "heave": 12, "sway": 6}
@@ -40,12 +39,22 @@ def _synthetic_rows(x_uu, z_ww, z_uw, y_vv, y_uv, m_uw, n_uv, cdp):
             th, ps = math.radians(pitch), math.radians(yaw)
             u = speed * math.cos(th) * math.cos(ps)
             v, w = speed * math.sin(ps), -speed * math.sin(th)
-            out.append({"speed": speed, "pitch_deg": pitch, "yaw_deg": yaw, "u": u, "v": v,
-                        "w": w, "Fx_hull": -x_uu * u * u,
-                        "Fx_hull_pressure": -0.5 * 1000 * cdp * frontal * u * u,
-                        "Fy_hull": -(y_vv * v * abs(v) + y_uv * u * v),
-                        "Fz_hull": -(z_ww * w * abs(w) + z_uw * u * w),
-                        "My_hull": -m_uw * u * w, "Mz_hull": -n_uv * u * v})
+            out.append(
+                {
+                    "speed": speed,
+                    "pitch_deg": pitch,
+                    "yaw_deg": yaw,
+                    "u": u,
+                    "v": v,
+                    "w": w,
+                    "Fx_hull": -x_uu * u * u,
+                    "Fx_hull_pressure": -0.5 * 1000 * cdp * frontal * u * u,
+                    "Fy_hull": -(y_vv * v * abs(v) + y_uv * u * v),
+                    "Fz_hull": -(z_ww * w * abs(w) + z_uw * u * w),
+                    "My_hull": -m_uw * u * w,
+                    "Mz_hull": -n_uv * u * v,
+                }
+            )
     return out
 
 
@@ -56,8 +65,10 @@ def test_the_fit_recovers_known_lift_and_cross_flow_coefficients():
     assert fit.form_drag_coefficient == pytest.approx(0.04, rel=1e-12)
     assert fit.relative_rms["heave"] < 1e-10 and fit.relative_rms["yaw moment"] < 1e-10
     # Rotation is the strips' closed form, whatever the samples.
-    np.testing.assert_allclose(fit.quadratic[3:], hr.cross_flow_rotational_damping(
-        AXES, di.ROTATIONAL_DRAG_COEFFICIENTS, 1000.0))
+    np.testing.assert_allclose(
+        fit.quadratic[3:],
+        hr.cross_flow_rotational_damping(AXES, di.ROTATIONAL_DRAG_COEFFICIENTS, 1000.0),
+    )
 
 
 def test_the_cfd_hull_friction_is_laminar_and_the_surge_fit_holds_at_the_robots_speeds(rows):

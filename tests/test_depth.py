@@ -22,8 +22,10 @@ def test_membership_shapes():
     np.testing.assert_allclose(mu[:, 2], [0, 0, 0, 0, 0.5, 1, 1])  # trapezoid (deep)
     # the layers are evenly divided: each membership peaks in its own third
     h = np.linspace(0, D, 3001)
-    peaks = [h[np.argmax(memberships(h, D)[:, i] - 1e-9 * np.abs(h - c))]
-             for i, c in enumerate((D / 6, D / 2, 5 * D / 6))]
+    peaks = [
+        h[np.argmax(memberships(h, D)[:, i] - 1e-9 * np.abs(h - c))]
+        for i, c in enumerate((D / 6, D / 2, 5 * D / 6))
+    ]
     assert D / 6 <= peaks[0] + 1e-9 and abs(peaks[1] - D / 2) < 1e-3
     assert peaks[2] >= 5 * D / 6 - 1e-9
 
@@ -76,7 +78,8 @@ def test_default_surface_depth_is_the_sensors_depth_floating_at_rest(tmp_path):
     log = run(s.validate(), tmp_path, progress=False, write_outputs=False).log
     at_rest = log["t_depth"] > 1.5
     assert np.nanmean(log["depth"][at_rest, 0]) == pytest.approx(
-        Scenario().depth_estimator.surface_depth, abs=0.002)
+        Scenario().depth_estimator.surface_depth, abs=0.002
+    )
 
 
 def test_z_hat_spans_0_to_1_continuous_and_monotone():
@@ -97,9 +100,13 @@ def test_estimate_stays_in_range_for_any_depth(D_, h):
 
 def _step(system, context, depth):
     system.GetInputPort("depth").FixValue(context, [depth])
-    context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
-    return (system.GetOutputPort("h_hat").Eval(context)[0],
-            system.GetOutputPort("z_hat").Eval(context)[0])
+    context.SetDiscreteState(
+        system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector()
+    )
+    return (
+        system.GetOutputPort("h_hat").Eval(context)[0],
+        system.GetOutputPort("z_hat").Eval(context)[0],
+    )
 
 
 def test_system_holds_last_valid_estimate_on_nan_and_clamps():

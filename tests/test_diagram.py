@@ -55,8 +55,9 @@ def test_two_behaviours_swim_to_trot_by_depth(tmp_path):
     last = tc >= tc[-1] - 2.0
     q = log["commanded_joint_angles"][last]
     np.testing.assert_allclose(0.5 * (q.max(0) + q.min(0)), GAITS["trot"].X.ravel(), atol=0.05)
-    np.testing.assert_allclose(0.5 * (q.max(0) - q.min(0)), np.abs(GAITS["trot"].R.ravel()),
-                               atol=0.05)
+    np.testing.assert_allclose(
+        0.5 * (q.max(0) - q.min(0)), np.abs(GAITS["trot"].R.ravel()), atol=0.05
+    )
     assert [(tr["from"], tr["to"]) for tr in m["transitions"]] == [("swim", "trot")]
     assert m["max_joint_step_rad"] < 0.01  # no jump in any commanded joint angle
 
@@ -72,8 +73,9 @@ def test_a_switch_tree_arrives_at_the_trot(tmp_path):
 
     s = _scenario("two_behaviors", duration=14.0)
     s.balloon.schedule[0].time = 1.0
-    s.transition.tree = {"root": BlendNode(modality="z_hat", weight="switch",
-                                           children=["swim", "trot"])}
+    s.transition.tree = {
+        "root": BlendNode(modality="z_hat", weight="switch", children=["swim", "trot"])
+    }
     result = run(s.validate(), tmp_path, progress=False, write_outputs=False)
     swim, trot = s.gaits()["swim"].to_vector(), s.gaits()["trot"].to_vector()
     assert (np.abs(np.abs(wrap(trot - swim)) - np.pi) < 1e-9).sum() >= 8  # the antipodes
@@ -152,8 +154,9 @@ def test_meshcat_recording_does_not_change_the_simulation(tmp_path):
 
 
 @pytest.mark.parametrize("sweep_deg", [None, 10.0])
-def test_mirrored_trot_stands_level_and_goes_straight_only_on_its_balanced_sweep(sweep_deg,
-                                                                                  tmp_path):
+def test_mirrored_trot_stands_level_and_goes_straight_only_on_its_balanced_sweep(
+    sweep_deg, tmp_path
+):
     """The mirror rule makes the trot's command symmetric under "mirror, then half a period
     later", so on a balanced stance it goes straight: no side drift, no turn (docs/stance.md).
     On the paper reading's 10 deg sweep its support is ahead of the CG and it stands nose

@@ -30,9 +30,27 @@ def sphinx_build(source: pathlib.Path, out: pathlib.Path, builder: str = "html")
     to write bytecode)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     return subprocess.run(
-        [sys.executable, "-m", "sphinx", "-b", builder, "-E", "-W", "--keep-going", "-q",
-         "-d", str(out.parent / f"doctrees-{builder}"), str(source), str(out)],
-        capture_output=True, text=True, timeout=600, cwd=ROOT, env=env)
+        [
+            sys.executable,
+            "-m",
+            "sphinx",
+            "-b",
+            builder,
+            "-E",
+            "-W",
+            "--keep-going",
+            "-q",
+            "-d",
+            str(out.parent / f"doctrees-{builder}"),
+            str(source),
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+        env=env,
+    )
 
 
 EXT_CACHE = DOCS / "_ext" / "__pycache__"
@@ -55,8 +73,9 @@ def test_a_build_writes_nothing_into_the_checkout(html_out):
     assert (html_out.parent / "doctrees-html").is_dir()
 
     def sphinx_line(*args):
-        done = subprocess.run(["make", "-n", "docs", *args], cwd=ROOT, capture_output=True,
-                              text=True, timeout=60)
+        done = subprocess.run(
+            ["make", "-n", "docs", *args], cwd=ROOT, capture_output=True, text=True, timeout=60
+        )
         assert done.returncode == 0, done.stderr
         return next(line for line in done.stdout.splitlines() if "-m sphinx" in line)
 
@@ -82,7 +101,8 @@ class DiagramParser(html.parser.HTMLParser):
         classes = (a.get("class") or "").split()
         if tag == "div" and "pydrake-system" in classes:
             self._current = self.diagrams.setdefault(
-                a["data-system"], {"inputs": [], "outputs": [], "noted": set(), "x": {}})
+                a["data-system"], {"inputs": [], "outputs": [], "noted": set(), "x": {}}
+            )
         elif self._current is None:
             return
         elif tag == "rect":
@@ -135,16 +155,26 @@ def leaf_systems():
         for info in pkgutil.iter_modules(package.__path__):
             module = importlib.import_module(f"manta_drake.{group}.{info.name}")
             for value in vars(module).values():
-                if (isinstance(value, type) and issubclass(value, LeafSystem)
-                        and value.__module__ == module.__name__):
+                if (
+                    isinstance(value, type)
+                    and issubclass(value, LeafSystem)
+                    and value.__module__ == module.__name__
+                ):
                     found.append((group, info.name, value))
     return found
 
 
 def test_the_package_has_systems():
     names = {cls.__name__ for _, _, cls in leaf_systems()}
-    assert {"FuzzyDepthEstimator", "CpgOscillators", "WallDetector", "PotentialTransition",
-            "HydrodynamicForces", "BalloonBuoyancy", "PressureSensor"} <= names
+    assert {
+        "FuzzyDepthEstimator",
+        "CpgOscillators",
+        "WallDetector",
+        "PotentialTransition",
+        "HydrodynamicForces",
+        "BalloonBuoyancy",
+        "PressureSensor",
+    } <= names
 
 
 def test_every_system_page_draws_its_ports(html_out):
@@ -174,11 +204,17 @@ def test_the_builders_pages_draw_the_halves(html_out):
     controller = diagrams(html_out / "api" / "wiring" / "controller.html")["controller"]
     assert station["inputs"] == ["desired_state", "balloon_command"]
     assert {"depth", "depth_image", "camera_pose", "measured_joint_state"} <= set(
-        station["outputs"])
+        station["outputs"]
+    )
     from manta_drake.modalities import READINGS
 
-    assert controller["inputs"] == ["depth", "depth_image", "camera_pose",
-                                   *(r.port for r in READINGS), "battery"]
+    assert controller["inputs"] == [
+        "depth",
+        "depth_image",
+        "camera_pose",
+        *(r.port for r in READINGS),
+        "battery",
+    ]
     assert {"imu", "flow_velocity", "altitude"} <= set(controller["inputs"])
     assert controller["outputs"][:2] == ["desired_state", "balloon_command"]
 
@@ -191,8 +227,10 @@ def _walk(system):
 
 
 def _ports(system):
-    return ([system.get_input_port(i).get_name() for i in range(system.num_input_ports())],
-            [system.get_output_port(i).get_name() for i in range(system.num_output_ports())])
+    return (
+        [system.get_input_port(i).get_name() for i in range(system.num_input_ports())],
+        [system.get_output_port(i).get_name() for i in range(system.num_output_ports())],
+    )
 
 
 def _check_drawn_against_built(name, drawn, built):
@@ -201,10 +239,13 @@ def _check_drawn_against_built(name, drawn, built):
     for side, real in zip(("inputs", "outputs"), built):
         documented = set(drawn[side])
         unconditional = documented - drawn["noted"]
-        assert set(real) <= documented, f"{name}: {side} {sorted(set(real) - documented)} " \
-                                        "are not in its diagram"
-        assert unconditional <= set(real), f"{name}: {side} " \
+        assert set(real) <= documented, (
+            f"{name}: {side} {sorted(set(real) - documented)} are not in its diagram"
+        )
+        assert unconditional <= set(real), (
+            f"{name}: {side} "
             f"{sorted(unconditional - set(real))} are drawn but the built system lacks them"
+        )
 
 
 def test_diagrams_match_the_built_systems(html_out):
@@ -214,8 +255,9 @@ def test_diagrams_match_the_built_systems(html_out):
 
     scenario = load_scenario("three_behaviors", overrides={"visualization.meshcat": False})
     diagram, _ = build_diagram(scenario)
-    pages = {cls: html_out / "api" / group / f"{module}.html"
-             for group, module, cls in leaf_systems()}
+    pages = {
+        cls: html_out / "api" / group / f"{module}.html" for group, module, cls in leaf_systems()
+    }
     checked = set()
     for system in _walk(diagram):
         if type(system) in pages:
@@ -227,9 +269,12 @@ def test_diagrams_match_the_built_systems(html_out):
             drawn = diagrams(page)[system.get_name()]
             _check_drawn_against_built(system.get_name(), drawn, _ports(system))
             checked.add(system.get_name())
-    public = {name for name in manta_drake.__all__
-              if isinstance(getattr(manta_drake, name), type)
-              and issubclass(getattr(manta_drake, name), LeafSystem)}
+    public = {
+        name
+        for name in manta_drake.__all__
+        if isinstance(getattr(manta_drake, name), type)
+        and issubclass(getattr(manta_drake, name), LeafSystem)
+    }
     assert public | {"station", "controller"} <= checked, checked
 
 
@@ -247,9 +292,11 @@ def test_every_public_name_is_documented_and_linked(html_out):
 
 # --- the directive itself -----------------------------------------------------------------
 
+
 def _extension():
-    spec = importlib.util.spec_from_file_location("pydrake_system_ext",
-                                                  DOCS / "_ext" / "pydrake_system.py")
+    spec = importlib.util.spec_from_file_location(
+        "pydrake_system_ext", DOCS / "_ext" / "pydrake_system.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -260,13 +307,16 @@ def _tiny_project(folder: pathlib.Path, body: str) -> pathlib.Path:
     source.mkdir()
     (source / "conf.py").write_text(
         "import sys\nsys.dont_write_bytecode = True\n"
-        f"sys.path.insert(0, {str(DOCS / '_ext')!r})\nextensions = ['pydrake_system']\n")
+        f"sys.path.insert(0, {str(DOCS / '_ext')!r})\nextensions = ['pydrake_system']\n"
+    )
     (source / "index.rst").write_text("Ports\n=====\n\n" + textwrap.dedent(body))
     return source
 
 
 def test_text_builders_get_ascii_art(tmp_path):
-    source = _tiny_project(tmp_path, """\
+    source = _tiny_project(
+        tmp_path,
+        """\
         .. pydrake_system::
 
             name: FuzzyDepthEstimator
@@ -275,38 +325,48 @@ def test_text_builders_get_ascii_art(tmp_path):
             output_ports:
             - h_hat
             - z_hat
-        """)
+        """,
+    )
     result = sphinx_build(source, tmp_path / "text", "text")
     assert result.returncode == 0, result.stderr
     text = (tmp_path / "text" / "index.txt").read_text()
-    expected = textwrap.indent(textwrap.dedent("""\
+    expected = textwrap.indent(
+        textwrap.dedent("""\
                 +---------------------+
                 |                     |-> h_hat
         depth ->| FuzzyDepthEstimator |
                 |                     |-> z_hat
-                +---------------------+"""), "   ")
+                +---------------------+"""),
+        "   ",
+    )
     assert expected in text
 
 
-@pytest.mark.parametrize("body, message", [
-    ("name: X\ninput_ports: [a]\noutputs: [b]\n", "unknown key"),
-    ("input_ports: [a]\n", "'name' must be a non-empty string"),
-    ("name: X\ninput_ports: a\n", "must be a list"),
-    ("name: X\ninput_ports: [{a: 1}]\n", "a port must be a name"),
-    ("name: [X\n", "invalid YAML"),
-])
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ("name: X\ninput_ports: [a]\noutputs: [b]\n", "unknown key"),
+        ("input_ports: [a]\n", "'name' must be a non-empty string"),
+        ("name: X\ninput_ports: a\n", "must be a list"),
+        ("name: X\ninput_ports: [{a: 1}]\n", "a port must be a name"),
+        ("name: [X\n", "invalid YAML"),
+    ],
+)
 def test_a_malformed_block_is_refused(body, message):
     with pytest.raises(ValueError, match=message):
         _extension().parse_system_yaml(body)
 
 
 def test_a_malformed_block_fails_the_build_at_its_line(tmp_path):
-    source = _tiny_project(tmp_path, """\
+    source = _tiny_project(
+        tmp_path,
+        """\
         .. pydrake_system::
 
             name: X
             outputs: [y]
-        """)
+        """,
+    )
     result = sphinx_build(source, tmp_path / "html")
     assert result.returncode != 0
     assert "index.rst:4: ERROR: pydrake_system: unknown key(s) ['outputs']" in result.stderr
@@ -314,8 +374,10 @@ def test_a_malformed_block_fails_the_build_at_its_line(tmp_path):
 
 def test_labels_are_escaped_and_notes_split():
     ext = _extension()
-    assert ext.split_label('body_poses (inputs="contract")') == ("body_poses",
-                                                                '(inputs="contract")')
+    assert ext.split_label('body_poses (inputs="contract")') == (
+        "body_poses",
+        '(inputs="contract")',
+    )
     assert ext.split_label("noise") == ("noise", "")
     svg = ext.render_svg("A<B", ["x (optional)"], ["y&z"])
     assert "A&lt;B" in svg and "y&amp;z" in svg and "<B" not in svg
@@ -338,8 +400,11 @@ def test_the_gait_page_is_linked_where_the_gait_file_format_is_named():
     assert "](gaits.md)" in (DOCS / "index.md").read_text()
     assert "](docs/gaits.md)" in (ROOT / "README.md").read_text()
     header = (ROOT / "models" / "gaits.yaml").read_text().split("\ngaits:")[0]
-    named = [word.strip("`.,;:()") for word in header.split() if word.startswith(("docs/",
-                                                                                "manta_drake/"))]
+    named = [
+        word.strip("`.,;:()")
+        for word in header.split()
+        if word.startswith(("docs/", "manta_drake/"))
+    ]
     assert "docs/gaits.md" in named
     assert all((ROOT / path).exists() for path in named), named
 
@@ -364,8 +429,7 @@ def test_the_gait_pages_example_loads_as_written(tmp_path):
     assert s.controller.gait_files == [str(tmp_path / "my_gaits.yaml")]
     text = GAITS_PAGE.read_text()
     assert "--set controller.gait=wide_walk" in text
-    again = load_scenario(tmp_path / "my_scenario.yaml",
-                          overrides={"controller.gait": "wide_walk"})
+    again = load_scenario(tmp_path / "my_scenario.yaml", overrides={"controller.gait": "wide_walk"})
     assert again.controller.gait == "wide_walk"
 
 
@@ -382,8 +446,11 @@ def test_the_gait_pages_limits_are_the_codes():
     keys = re.search(r"A gait's keys: (.*?); nothing else", text).group(1)
     assert re.findall(r"`(\w+)`", keys) == list(G.GAIT_KEYS)
     assert f"within +-{G.MAX_DEGREES:g} deg" in text
-    shown = re.search(r"the joints' ranges \(yaw \+-(\d+), roll1 \+-(\d+), pitch \+-(\d+), "
-                      r"roll2 \+-(\d+) deg\)", text)
+    shown = re.search(
+        r"the joints' ranges \(yaw \+-(\d+), roll1 \+-(\d+), pitch \+-(\d+), "
+        r"roll2 \+-(\d+) deg\)",
+        text,
+    )
     assert shown, "docs/gaits.md: the joints' ranges are not given"
     for value, (lo, hi) in zip(shown.groups(), DEFAULT_ROBOT.position_limits):
         assert float(value) == pytest.approx(math.degrees(hi)) == pytest.approx(-math.degrees(lo))

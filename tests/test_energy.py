@@ -15,16 +15,25 @@ from manta_drake.scenario import load_scenario
 from manta_drake.station.servo_power import motor_current
 from manta_drake.station.water import build_elements
 
-ENERGY_KEYS = ("mechanical_energy_j", "electrical_energy_j", "mean_electrical_power_w",
-               "hotel_power_w", "dry_weight_n", "weight_in_water_n", *COT_KEYS,
-               "battery_soc_end", "operation_time_h")
+ENERGY_KEYS = (
+    "mechanical_energy_j",
+    "electrical_energy_j",
+    "mean_electrical_power_w",
+    "hotel_power_w",
+    "dry_weight_n",
+    "weight_in_water_n",
+    *COT_KEYS,
+    "battery_soc_end",
+    "operation_time_h",
+)
 MODEL = load_energy_model("package://manta_drake/actuators.yaml")
 IDLE_W = NUM_JOINTS * MODEL.servo.standby_power + MODEL.electronics_power
 
 
 def _run(tmp_path, name, duration, **overrides):
-    scenario = load_scenario(name, overrides={"duration": duration,
-                                              "visualization.meshcat": False, **overrides})
+    scenario = load_scenario(
+        name, overrides={"duration": duration, "visualization.meshcat": False, **overrides}
+    )
     folder = tmp_path / f"{name}_{len(overrides)}"
     return scenario, simulate.run(scenario, folder, progress=False, write_outputs=False)
 
@@ -32,9 +41,15 @@ def _run(tmp_path, name, duration, **overrides):
 @pytest.fixture(scope="module")
 def trot_runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("trot")
-    return {on: _run(tmp, "locomotion_trot", 2.0, **{"actuators.enabled": on,
-                                                     "actuators.servo_model": "ideal"})
-            for on in (True, False)}
+    return {
+        on: _run(
+            tmp,
+            "locomotion_trot",
+            2.0,
+            **{"actuators.enabled": on, "actuators.servo_model": "ideal"},
+        )
+        for on in (True, False)
+    }
 
 
 def test_with_the_ideal_servo_the_energy_model_changes_no_force(trot_runs):
@@ -67,8 +82,7 @@ def test_the_battery_counts_the_logged_current(trot_runs):
         expected[k] = expected[k - 1] - amps[k] * per_coulomb
     np.testing.assert_array_equal(soc, expected)
     # P = V I of every step, the power the servo model logged at its start.
-    np.testing.assert_allclose(volts[1:] * amps[1:], log["electrical_power"][:-1, 0],
-                               rtol=1e-12)
+    np.testing.assert_allclose(volts[1:] * amps[1:], log["electrical_power"][:-1, 0], rtol=1e-12)
     assert amps[0] == 0.0 and volts[0] == pytest.approx(MODEL.pack.open_circuit_voltage(1.0))
 
 
@@ -103,8 +117,10 @@ def test_standing_draws_the_holding_current(tmp_path):
     assert log["electrical_power"][0, 0] == pytest.approx(IDLE_W, rel=1e-12)
 
 
-@pytest.mark.parametrize("name, duration", [("stand", 2.5), ("float_sink", 1.0),
-                                            ("locomotion_swim", 2.5), ("two_behaviors", 1.0)])
+@pytest.mark.parametrize(
+    "name, duration",
+    [("stand", 2.5), ("float_sink", 1.0), ("locomotion_swim", 2.5), ("two_behaviors", 1.0)],
+)
 def test_energy_block_of_each_kind_of_scenario(tmp_path, name, duration):
     scenario, result = _run(tmp_path, name, duration)
     e, log = result.metrics["energy"], result.log
@@ -115,10 +131,12 @@ def test_energy_block_of_each_kind_of_scenario(tmp_path, name, duration):
     assert e["electrical_energy_j"] == pytest.approx(energy, rel=1e-12)
     assert e["mean_electrical_power_w"] == pytest.approx(energy / duration, rel=1e-12)
     assert e["operation_time_h"] == pytest.approx(
-        MODEL.pack.usable_energy_wh() / e["mean_electrical_power_w"], rel=1e-12)
+        MODEL.pack.usable_energy_wh() / e["mean_electrical_power_w"], rel=1e-12
+    )
     mech = np.abs(log["joint_mechanical_power"])
-    assert e["mechanical_energy_j"] == pytest.approx(np.sum(mech[1:].sum(1) * np.diff(t)),
-                                                     rel=1e-12)
+    assert e["mechanical_energy_j"] == pytest.approx(
+        np.sum(mech[1:].sum(1) * np.diff(t)), rel=1e-12
+    )
     # Idle draw plus the copper losses and the motors' share: above idle, and above the
     # positive work done (no servo converts better than its motor and gearbox).
     positive = np.sum(np.maximum(log["joint_mechanical_power"][1:], 0).sum(1) * np.diff(t))
@@ -142,8 +160,11 @@ def test_energy_block_of_each_kind_of_scenario(tmp_path, name, duration):
     if speed is not None and speed >= MIN_TRANSPORT_SPEED:
         p_el, p_mech = e["steady_electrical_power_w"], e["steady_mechanical_power_w"]
         for w_name, w in (("dry_weight", weight), ("weight_in_water", wet)):
-            for p_name, p_w in (("electrical", p_el), ("net_of_hotel", p_el - IDLE_W),
-                                ("mechanical", p_mech)):
+            for p_name, p_w in (
+                ("electrical", p_el),
+                ("net_of_hotel", p_el - IDLE_W),
+                ("mechanical", p_mech),
+            ):
                 expected = None if w is None else pytest.approx(p_w / (w * speed), rel=1e-12)
                 assert e[f"cot_{p_name}_{w_name}"] == expected
         assert speed == pytest.approx(np.hypot(*result.metrics["mean_velocity_body"]))
@@ -151,8 +172,12 @@ def test_energy_block_of_each_kind_of_scenario(tmp_path, name, duration):
         assert all(e[k] is None for k in COT_KEYS)
         assert e["cost_of_transport_note"]
     if name == "locomotion_swim":  # it travels: a cost of transport is reported
-        assert e["cot_electrical_dry_weight"] > e["cot_net_of_hotel_dry_weight"] \
-            > e["cot_mechanical_dry_weight"] > 0
+        assert (
+            e["cot_electrical_dry_weight"]
+            > e["cot_net_of_hotel_dry_weight"]
+            > e["cot_mechanical_dry_weight"]
+            > 0
+        )
     if name == "stand":  # it does not
         assert e["cot_electrical_dry_weight"] is None and "below" in e["cost_of_transport_note"]
     # The breakdown adds up to what the energy model drew over the same window (the log is

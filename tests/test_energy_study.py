@@ -22,9 +22,13 @@ def run(**kw):
 
 
 # A point where both findings hold: the walk fastest and cheapest.
-GOOD = {"swim": run(u=0.05, cot=6.0, cot_mech=1.0), "trot": run(u=0.06, cot=5.0, cot_mech=0.3),
-        "walk": run(u=0.07, cot=4.0, cot_mech=0.2), "crab": run(u=0.01, cot=25.0, cot_mech=1.4),
-        "turning": run(u=0.001, cot=INF, cot_mech=INF)}
+GOOD = {
+    "swim": run(u=0.05, cot=6.0, cot_mech=1.0),
+    "trot": run(u=0.06, cot=5.0, cot_mech=0.3),
+    "walk": run(u=0.07, cot=4.0, cot_mech=0.2),
+    "crab": run(u=0.01, cot=25.0, cot_mech=1.4),
+    "turning": run(u=0.001, cot=INF, cot_mech=INF),
+}
 
 
 def test_swim_slower_than_walk():
@@ -49,8 +53,7 @@ def test_walk_most_efficient_strict_with_infinite_and_undetermined_costs():
     assert E.walk_most_efficient({**GOOD, "walk": run(cot=INF)}) is False
     # Kleene: an unknown gait leaves it undetermined, unless another comparison fails.
     assert E.walk_most_efficient({**GOOD, "crab": E.UNDETERMINED}) is None
-    assert E.walk_most_efficient({**GOOD, "crab": E.UNDETERMINED,
-                                  "swim": run(cot=3.0)}) is False
+    assert E.walk_most_efficient({**GOOD, "crab": E.UNDETERMINED, "swim": run(cot=3.0)}) is False
     assert E.walk_most_efficient({**GOOD, "walk": E.UNDETERMINED}) is None
 
 
@@ -74,7 +77,8 @@ def test_spearman():
     # Ties get their average rank (a binary parameter such as the Jetson mode): the
     # Pearson correlation of the ranks (1.5, 1.5, 3.5, 3.5) and (1, 2, 3, 4).
     assert E.spearman([5, 5, 10, 10], [1, 2, 3, 4]) == pytest.approx(
-        np.corrcoef([1.5, 1.5, 3.5, 3.5], [1, 2, 3, 4])[0, 1])
+        np.corrcoef([1.5, 1.5, 3.5, 3.5], [1, 2, 3, 4])[0, 1]
+    )
     with pytest.raises(ValueError):
         E.spearman([1, 2, 3], [1, 2])
 
@@ -88,7 +92,8 @@ def test_power_budget_is_the_runs_own_breakdown_and_checks_it():
     oat = {("actuators.electronics_mode", "5W"): run(power_w=sum(parts.values()) - 5.5)}
     b = E.power_budget(shipped, oat)
     assert (b["electronics"], b["standby"], b["copper"], b["conversion"]) == pytest.approx(
-        (10.5 / 0.9, 9.0, 2.0, 3.0))
+        (10.5 / 0.9, 9.0, 2.0, 3.0)
+    )
     assert b["closure"] == pytest.approx(0.01)
     assert b["mode_step_measured"] == pytest.approx(5.51)
     assert b["mode_step_file"] == pytest.approx(5 / 0.9)
@@ -109,19 +114,37 @@ def test_needed_for_table1():
 # Rows of a results.csv.
 
 
-def _row(gait, params=None, status="ok", u=0.07, v=0.0, power=25.0, mean_power=26.0,
-         hours=2.4, cot=4.3, speed=None):
-    row = {"run_id": f"locomotion_{gait}-x", "base": f"locomotion_{gait}", "status": status,
-           "u": repr(u), "v": repr(v), "steady_start_s": "6.0", "steady_end_s": "20.0",
-           "near_wall_at_s": "", "touched_wall": "False",
-           "energy.steady_electrical_power_w": repr(power),
-           "energy.steady_mechanical_power_w": "1.5",
-           "energy.mean_electrical_power_w": repr(mean_power),
-           "energy.operation_time_h": repr(hours),
-           "energy.cot_electrical_dry_weight": "" if cot is None else repr(cot),
-           "energy.cot_mechanical_dry_weight": "" if cot is None else "0.25",
-           "energy.cot_net_of_hotel_dry_weight": "" if cot is None else "1.9",
-           "energy.transport_speed_m_s": repr(math.hypot(u, v) if speed is None else speed)}
+def _row(
+    gait,
+    params=None,
+    status="ok",
+    u=0.07,
+    v=0.0,
+    power=25.0,
+    mean_power=26.0,
+    hours=2.4,
+    cot=4.3,
+    speed=None,
+):
+    row = {
+        "run_id": f"locomotion_{gait}-x",
+        "base": f"locomotion_{gait}",
+        "status": status,
+        "u": repr(u),
+        "v": repr(v),
+        "steady_start_s": "6.0",
+        "steady_end_s": "20.0",
+        "near_wall_at_s": "",
+        "touched_wall": "False",
+        "energy.steady_electrical_power_w": repr(power),
+        "energy.steady_mechanical_power_w": "1.5",
+        "energy.mean_electrical_power_w": repr(mean_power),
+        "energy.operation_time_h": repr(hours),
+        "energy.cot_electrical_dry_weight": "" if cot is None else repr(cot),
+        "energy.cot_mechanical_dry_weight": "" if cot is None else "0.25",
+        "energy.cot_net_of_hotel_dry_weight": "" if cot is None else "1.9",
+        "energy.transport_speed_m_s": repr(math.hypot(u, v) if speed is None else speed),
+    }
     for name in E.PARAMS:
         row[name] = ""
     row.update({k: str(x) for k, x in (params or {}).items()})
@@ -146,14 +169,28 @@ def test_a_row_becomes_its_energy_figures():
 
 
 def test_the_table_is_sorted_into_its_blocks():
-    band = {"contact.friction": 0.6, "hull_damping": 1.1, "net_weight_kg": 0.9,
-            "standby_current": 1.0, "winding_resistance": 1.0, "gearbox_efficiency": 1.0,
-            "position_gain": 1.5, "lift_slope": 1.2, "suction_efficiency": 0.7,
-            "fin_hull_added_mass": 0.5, "actuators.electronics_mode": "5W",
-            "stall_angle": 0.667}
-    rows = [_row("walk"), _row("swim"), _row("walk", {"stall_angle": 1.333}),
-            _row("walk", {"actuators.electronics_mode": "5W"}), _row("walk", band),
-            _row("swim", {**band, "stall_angle": 1.667})]
+    band = {
+        "contact.friction": 0.6,
+        "hull_damping": 1.1,
+        "net_weight_kg": 0.9,
+        "standby_current": 1.0,
+        "winding_resistance": 1.0,
+        "gearbox_efficiency": 1.0,
+        "position_gain": 1.5,
+        "lift_slope": 1.2,
+        "suction_efficiency": 0.7,
+        "fin_hull_added_mass": 0.5,
+        "actuators.electronics_mode": "5W",
+        "stall_angle": 0.667,
+    }
+    rows = [
+        _row("walk"),
+        _row("swim"),
+        _row("walk", {"stall_angle": 1.333}),
+        _row("walk", {"actuators.electronics_mode": "5W"}),
+        _row("walk", band),
+        _row("swim", {**band, "stall_angle": 1.667}),
+    ]
     t = E.read_table(rows)
     assert set(t.shipped) == {"walk", "swim"} and t.runs == 6
     assert set(t.oat) == {("stall_angle", 1.333), ("actuators.electronics_mode", "5W")}
@@ -170,9 +207,11 @@ def test_the_table_is_sorted_into_its_blocks():
 
 def test_drivers_rank_the_parameter_that_moves_a_field_most():
     shipped = {"walk": run(hours=2.4)}
-    oat = {("standby_current", 0.8): {"walk": run(hours=2.6)},
-           ("standby_current", 1.2): {"walk": run(hours=2.2)},
-           ("actuators.electronics_mode", "5W"): {"walk": run(hours=3.0)}}
+    oat = {
+        ("standby_current", 0.8): {"walk": run(hours=2.6)},
+        ("standby_current", 1.2): {"walk": run(hours=2.2)},
+        ("actuators.electronics_mode", "5W"): {"walk": run(hours=3.0)},
+    }
     band = {}
     for mode, sb in [("5W", 0.9), ("10W", 1.1), ("5W", 1.0), ("10W", 0.8)]:
         key = (0.6, 1.0, 0.8, sb, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, mode, 1.0)
@@ -181,8 +220,9 @@ def test_drivers_rank_the_parameter_that_moves_a_field_most():
     d = E.drivers(t, "hours")["walk"]
     assert d["standby_current"]["oat"] == {0.8: pytest.approx(0.2), 1.2: pytest.approx(-0.2)}
     # Hours 2.91, 2.29, 2.90, 2.32: ranks 4, 1, 3, 2 against the modes' 1.5, 3.5, 1.5, 3.5.
-    assert d["actuators.electronics_mode"]["rho"] == pytest.approx(np.corrcoef(
-        [1.5, 3.5, 1.5, 3.5], [4, 1, 3, 2])[0, 1])
+    assert d["actuators.electronics_mode"]["rho"] == pytest.approx(
+        np.corrcoef([1.5, 3.5, 1.5, 3.5], [4, 1, 3, 2])[0, 1]
+    )
     assert d["contact.friction"]["rho"] is None  # constant over the band
     assert E.largest_driver(d, "oat") == ("actuators.electronics_mode", pytest.approx(0.6))
     name, rho = E.largest_driver(d, "rho")
@@ -207,23 +247,32 @@ def test_the_sweep_file_is_band_rows():
     config = load_sweep(SWEEP)
     assert [dict(r) for r in config.rows] == E.band_rows()
     assert [b.removeprefix("locomotion_") for b in config.base] == list(E.GAITS)
-    assert set(config.links) >= {"hull_damping", "standby_current", "winding_resistance",
-                                 "gearbox_efficiency", "position_gain", "lift_slope",
-                                 "suction_efficiency", "fin_hull_added_mass", "stall_angle"}
+    assert set(config.links) >= {
+        "hull_damping",
+        "standby_current",
+        "winding_resistance",
+        "gearbox_efficiency",
+        "position_gain",
+        "lift_slope",
+        "suction_efficiency",
+        "fin_hull_added_mass",
+        "stall_angle",
+    }
     # Each link names the model entry the band's parameter is on.
     assert config.links["stall_angle"] == ["water.coefficient_scales.fins.stall_angle_deg"]
     assert config.links["fin_hull_added_mass"] == [
-        "water.coefficient_scales.fins.hull_interaction_added_mass"]
+        "water.coefficient_scales.fins.hull_interaction_added_mass"
+    ]
 
 
 def test_band_rows_is_a_latin_hypercube_at_four_stall_angles():
     rows = E.band_rows()
     n_oat = len(E.ONE_AT_A_TIME)
     assert rows[0] == {} and len(rows) == 1 + n_oat + 4 * E.SAMPLE_POINTS
-    assert rows[1:1 + n_oat] == [{k: v} for k, v in E.ONE_AT_A_TIME]
+    assert rows[1 : 1 + n_oat] == [{k: v} for k, v in E.ONE_AT_A_TIME]
     # Every band parameter but the stall angle (the grouping) is in the hypercube.
     assert set(E.CONTINUOUS) | {"actuators.electronics_mode", "stall_angle"} == set(E.PARAMS)
-    sample = rows[1 + n_oat:]
+    sample = rows[1 + n_oat :]
     points = sample[::4]
     for name, (lo, hi) in E.CONTINUOUS.items():
         # One value in each of the n equal strata (to the 3 decimals the values keep).
@@ -233,10 +282,13 @@ def test_band_rows_is_a_latin_hypercube_at_four_stall_angles():
     modes = [p["actuators.electronics_mode"] for p in points]
     assert modes.count("5W") == modes.count("10W") == E.SAMPLE_POINTS // 2
     for i, p in enumerate(points):
-        group = sample[4 * i:4 * i + 4]
+        group = sample[4 * i : 4 * i + 4]
         assert [E.stall_of(g["stall_angle"]) for g in group] == [10.0, 15.0, 20.0, 25.0]
-        assert all({k: v for k, v in g.items() if k != "stall_angle"}
-                   == {k: v for k, v in p.items() if k != "stall_angle"} for g in group)
+        assert all(
+            {k: v for k, v in g.items() if k != "stall_angle"}
+            == {k: v for k, v in p.items() if k != "stall_angle"}
+            for g in group
+        )
     assert E.band_rows() == rows  # seeded
     # Decorrelated: no two parameters of the sample rank-correlate by more than 0.2.
     assert max(abs(r) for r in E.rank_correlations(points).values()) < 0.2
@@ -269,8 +321,7 @@ def test_the_shipped_values_are_the_models():
     params = load_actuators(DEFAULT_ACTUATORS_FILE)
     assert params.electronics.jetson_mode.value == E.SHIPPED["actuators.electronics_mode"]
     assert set(params.electronics.jetson_power.value) == set(E.MODES)
-    assert {k: v * 1.0 for k, v in params.electronics.jetson_power.value.items()} \
-        == E.MODE_WATTS
+    assert {k: v * 1.0 for k, v in params.electronics.jetson_power.value.items()} == E.MODE_WATTS
 
 
 @pytest.mark.skipif(not SHIPPED.exists(), reason="no shipped sweep table")
@@ -281,8 +332,11 @@ def test_the_shipped_table_is_the_whole_sweep():
     assert all(r["status"] == "ok" for r in rows)
     # Each gait at exactly the sweep file's parameter sets, in its order.
     for gait in E.GAITS:
-        sets = [{k: r[k] for k in E.PARAMS if r[k] != ""} for r in rows
-                if r["base"] == f"locomotion_{gait}"]
+        sets = [
+            {k: r[k] for k in E.PARAMS if r[k] != ""}
+            for r in rows
+            if r["base"] == f"locomotion_{gait}"
+        ]
         assert sets == [{k: str(v) for k, v in row.items()} for row in E.band_rows()], gait
     t = E.read_table(rows)
     assert set(t.shipped) == set(E.GAITS)
@@ -300,8 +354,21 @@ def test_the_study_command_writes_the_committed_energy_page(tmp_path, monkeypatc
     committed = (ROOT / "docs" / "energy.md").read_bytes()
     page.write_bytes(committed)
     monkeypatch.chdir(ROOT)  # the page names the table by its path in the repository
-    assert main(["study", "energy", "--results", str(SHIPPED.relative_to(ROOT)),
-                 "--out-md", str(page), "--out-fig-dir", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "study",
+                "energy",
+                "--results",
+                str(SHIPPED.relative_to(ROOT)),
+                "--out-md",
+                str(page),
+                "--out-fig-dir",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     assert page.read_bytes() == committed
     for name in ("energy_speed_cot.png", "energy_operation_time.png", "energy_findings.png"):
         assert (tmp_path / name).stat().st_size > 0

@@ -41,10 +41,12 @@ T_STEP = 0.51  # the inputs step here, between the updates at 0.50 and 0.52
 
 # --- the shared maths --------------------------------------------------------------------------
 
+
 def test_ramp_membership_at_and_between_the_thresholds():
     x = [-1.0, 0.1, 0.15, 0.2, 0.25, 0.3, 0.5]
-    np.testing.assert_allclose(ramp_membership(x, 0.1, 0.3), [0, 0, 0.25, 0.5, 0.75, 1, 1],
-                               atol=1e-15)
+    np.testing.assert_allclose(
+        ramp_membership(x, 0.1, 0.3), [0, 0, 0.25, 0.5, 0.75, 1, 1], atol=1e-15
+    )
     assert ramp_membership(0.1, 0.1, 0.3) == 0.0 and ramp_membership(0.3, 0.1, 0.3) == 1.0
     assert np.isnan(ramp_membership(np.nan, 0.1, 0.3))
     for low, high in ((0.3, 0.3), (0.3, 0.1), (np.nan, 1.0)):
@@ -92,6 +94,7 @@ def test_angles_are_filtered_the_short_way_round_the_circle():
 
 # --- posture -----------------------------------------------------------------------------------
 
+
 def test_tilt_angle_is_the_angle_between_body_z_and_the_vertical(rng):
     """Against Drake's roll-pitch-yaw rotation: the angle between R e_z and e_z."""
     rpy = rng.uniform([-np.pi, -np.pi / 2, -np.pi], [np.pi, np.pi / 2, np.pi], (200, 3))
@@ -105,12 +108,14 @@ def test_tilt_angle_is_the_angle_between_body_z_and_the_vertical(rng):
 def test_posture_membership_at_and_between_the_thresholds():
     p = PostureEstimatorParams()  # 10 and 30 deg
     roll = np.radians([0.0, 10.0, 15.0, 20.0, -30.0, 90.0])
-    np.testing.assert_allclose(posture_membership(roll, 0.0, p), [0, 0, 0.25, 0.5, 1, 1],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        posture_membership(roll, 0.0, p), [0, 0, 0.25, 0.5, 1, 1], atol=1e-12
+    )
     # A 60 deg tilt from 45 deg of roll and of pitch; yaw never enters.
     assert posture_membership(np.radians(45.0), np.radians(45.0), p) == 1.0
     assert posture_membership(np.radians(8.0), np.radians(8.0), p) == pytest.approx(
-        (np.degrees(np.arccos(np.cos(np.radians(8.0)) ** 2)) - 10.0) / 20.0)
+        (np.degrees(np.arccos(np.cos(np.radians(8.0)) ** 2)) - 10.0) / 20.0
+    )
 
 
 def _imu(roll=0.0, pitch=0.0, yaw=0.0, wz=0.0):
@@ -124,7 +129,8 @@ def _simulate_step(system, port, before, after, times):
     builder.AddSystem(system)
     before, after = np.asarray(before, float), np.asarray(after, float)
     trajectory = PiecewisePolynomial.ZeroOrderHold(
-        [0.0, T_STEP, 100.0], np.column_stack([before, after, after]))
+        [0.0, T_STEP, 100.0], np.column_stack([before, after, after])
+    )
     source = builder.AddSystem(TrajectorySource(trajectory))
     builder.Connect(source.get_output_port(), system.GetInputPort(port))
     diagram = builder.Build()
@@ -171,8 +177,9 @@ def test_posture_estimator_follows_a_step_with_the_first_order_lag():
     np.testing.assert_allclose(out["attitude_hat"][:, 2], np.angle(np.exp(1j * yaw)), atol=1e-12)
     np.testing.assert_allclose(out["yaw_rate_hat"][:, 0], _lagged(0.1, -0.3, tau), rtol=1e-12)
     tilt_deg = np.degrees(np.arccos(np.cos(roll) * np.cos(p)))
-    np.testing.assert_allclose(out["posture_hat"][:, 0], np.clip((tilt_deg - 10) / 20, 0, 1),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        out["posture_hat"][:, 0], np.clip((tilt_deg - 10) / 20, 0, 1), atol=1e-12
+    )
     assert out["posture_hat"][0, 0] == 0.0 and out["posture_hat"][-1, 0] == pytest.approx(1.0)
     # Within one period's discretisation of the continuous lag.
     bound = (r1 - r0) * (1.0 - np.exp(-T / tau))
@@ -193,22 +200,25 @@ def test_posture_estimator_starts_at_the_first_reading():
     np.testing.assert_array_equal(system.GetOutputPort("attitude_hat").Eval(context), 0.0)
     simulator.Initialize()  # the initialization event only, before the update at t = 0
     assert simulator.get_num_discrete_updates() == 1
-    np.testing.assert_allclose(system.GetOutputPort("attitude_hat").Eval(context),
-                               reading[:3], rtol=1e-12)
+    np.testing.assert_allclose(
+        system.GetOutputPort("attitude_hat").Eval(context), reading[:3], rtol=1e-12
+    )
     for t in (0.0, 0.3, 1.0):
         simulator.AdvanceTo(t)
-        np.testing.assert_allclose(system.GetOutputPort("attitude_hat").Eval(context),
-                                   reading[:3], rtol=1e-12)
+        np.testing.assert_allclose(
+            system.GetOutputPort("attitude_hat").Eval(context), reading[:3], rtol=1e-12
+        )
         assert system.GetOutputPort("yaw_rate_hat").Eval(context)[0] == pytest.approx(0.25)
         assert system.GetOutputPort("posture_hat").Eval(context)[0] == pytest.approx(
-            (np.degrees(np.arccos(np.cos(np.radians(20.0)) * np.cos(np.radians(4.0)))) - 10)
-            / 20)
+            (np.degrees(np.arccos(np.cos(np.radians(20.0)) * np.cos(np.radians(4.0)))) - 10) / 20
+        )
 
 
 def _update(system, context, port, value):
     system.GetInputPort(port).FixValue(context, np.asarray(value, dtype=float))
     context.SetDiscreteState(
-        system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
+        system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector()
+    )
 
 
 def test_posture_estimator_holds_channels_through_dropout():
@@ -217,8 +227,11 @@ def test_posture_estimator_holds_channels_through_dropout():
     alpha = 1.0 - np.exp(-T / 0.1)
     _update(system, context, "imu", _imu(0.1, 0.2, 0.3, 0.4))
     _update(system, context, "imu", [np.nan, 0.3, np.nan, 0, 0, np.nan, np.nan, 0, 0])
-    np.testing.assert_allclose(system.GetOutputPort("attitude_hat").Eval(context),
-                               [0.1, 0.2 + 0.1 * alpha, 0.3], rtol=1e-12)
+    np.testing.assert_allclose(
+        system.GetOutputPort("attitude_hat").Eval(context),
+        [0.1, 0.2 + 0.1 * alpha, 0.3],
+        rtol=1e-12,
+    )
     assert system.GetOutputPort("yaw_rate_hat").Eval(context)[0] == 0.4
     held = context.get_discrete_state_vector().CopyToVector()
     _update(system, context, "imu", np.full(9, np.nan))
@@ -227,6 +240,7 @@ def test_posture_estimator_holds_channels_through_dropout():
 
 
 # --- flow --------------------------------------------------------------------------------------
+
 
 def test_flow_speed_along_each_axis():
     v = np.array([[-0.06, -0.08, 0.0], [0.03, 0.04, 0.12]])
@@ -246,11 +260,13 @@ def test_flow_estimator_follows_a_step_with_the_first_order_lag(axis):
     a, b = np.array([-0.01, 0.015, 0.0]), np.array([-0.09, -0.09, 0.02])
     out = _simulate_step(FlowEstimator(params, period=T), "flow_velocity", a, b, _TIMES)
     v = b + np.outer(np.exp(-_J * T / tau), a - b)
-    speed = {"magnitude": np.linalg.norm(v, axis=1), "surge": -v[:, 0],
-             "sway": np.abs(v[:, 1])}[axis]
+    speed = {"magnitude": np.linalg.norm(v, axis=1), "surge": -v[:, 0], "sway": np.abs(v[:, 1])}[
+        axis
+    ]
     np.testing.assert_allclose(out["flow_speed_hat"][:, 0], speed, rtol=1e-12)
-    np.testing.assert_allclose(out["flow_hat"][:, 0], np.clip((speed - 0.03) / 0.05, 0, 1),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        out["flow_hat"][:, 0], np.clip((speed - 0.03) / 0.05, 0, 1), atol=1e-12
+    )
     assert out["flow_hat"][0, 0] == 0.0 and out["flow_hat"][-1, 0] > 0.75
 
 
@@ -273,10 +289,12 @@ def test_flow_estimator_filters_the_vector_not_the_noisy_speed(rng):
 
 # --- energy ------------------------------------------------------------------------------------
 
+
 def test_energy_membership_at_and_between_the_thresholds():
     soc = [0.0, 0.2, 0.25, 0.3, 0.4, 0.9]
-    np.testing.assert_allclose(energy_membership(soc, EnergyEstimatorParams()),
-                               [1, 1, 0.75, 0.5, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(
+        energy_membership(soc, EnergyEstimatorParams()), [1, 1, 0.75, 0.5, 0, 0], atol=1e-12
+    )
 
 
 def test_energy_estimator_follows_a_step_with_the_first_order_lag():
@@ -285,8 +303,9 @@ def test_energy_estimator_follows_a_step_with_the_first_order_lag():
     out = _simulate_step(system, "battery", [0.55, 7.4, 1.2], [0.1, 6.9, 2.5], _TIMES)
     soc = _lagged(0.55, 0.1, tau)
     np.testing.assert_allclose(out["soc_hat"][:, 0], soc, rtol=1e-12)
-    np.testing.assert_allclose(out["energy_hat"][:, 0], 1 - np.clip((soc - 0.2) / 0.2, 0, 1),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        out["energy_hat"][:, 0], 1 - np.clip((soc - 0.2) / 0.2, 0, 1), atol=1e-12
+    )
     assert out["energy_hat"][0, 0] == 0.0 and out["energy_hat"][-1, 0] == 1.0
 
 
@@ -304,16 +323,17 @@ def test_energy_estimator_reads_full_until_the_first_reading_and_holds_nan():
     assert system.GetOutputPort("soc_hat").Eval(context)[0] == 0.3
     _update(system, context, "battery", [0.1, np.nan, np.nan])  # voltage, current unused
     assert system.GetOutputPort("soc_hat").Eval(context)[0] == pytest.approx(
-        0.3 - 0.2 * (1 - np.exp(-0.1)))
+        0.3 - 0.2 * (1 - np.exp(-0.1))
+    )
 
 
 # --- altitude ----------------------------------------------------------------------------------
 
+
 def test_floor_membership_falls_from_the_on_floor_to_the_off_floor_range():
     p = AltimeterEstimatorParams()  # 0.23 and 0.28 m
     r = [0.0, 0.2, 0.23, 0.2425, 0.255, 0.28, 0.4, 50.0]
-    np.testing.assert_allclose(floor_membership(r, p), [1, 1, 1, 0.75, 0.5, 0, 0, 0],
-                               atol=1e-12)
+    np.testing.assert_allclose(floor_membership(r, p), [1, 1, 1, 0.75, 0.5, 0, 0, 0], atol=1e-12)
 
 
 def test_altimeter_estimator_follows_a_step_with_the_first_order_lag():
@@ -324,8 +344,7 @@ def test_altimeter_estimator_follows_a_step_with_the_first_order_lag():
     out = _simulate_step(system, "altitude", [0.18], [0.40], _TIMES)
     r = _lagged(0.18, 0.40, tau)
     np.testing.assert_allclose(out["altitude_hat"][:, 0], r, rtol=1e-12)
-    np.testing.assert_allclose(out["floor_hat"][:, 0], np.clip((0.28 - r) / 0.05, 0, 1),
-                               atol=1e-12)
+    np.testing.assert_allclose(out["floor_hat"][:, 0], np.clip((0.28 - r) / 0.05, 0, 1), atol=1e-12)
     assert out["floor_hat"][0, 0] == 1.0 and out["floor_hat"][-1, 0] == 0.0
 
 
@@ -342,60 +361,109 @@ def test_altimeter_estimator_reads_free_water_until_an_echo_and_holds_dropouts()
     assert system.GetOutputPort("altitude_hat").Eval(context)[0] == 0.2
     _update(system, context, "altitude", [0.5])
     assert system.GetOutputPort("altitude_hat").Eval(context)[0] == pytest.approx(
-        0.2 + 0.3 * (1 - np.exp(-0.1)))
+        0.2 + 0.3 * (1 - np.exp(-0.1))
+    )
 
 
 # --- parameters --------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("make, message", [
-    (lambda: PostureEstimatorParams(tilt_low_deg=-1.0),
-     r"tilt_low_deg: -1.0 is outside the allowed range \[0, 180\) deg"),
-    (lambda: PostureEstimatorParams(tilt_low_deg=180.0),
-     r"tilt_low_deg: 180.0 is outside the allowed range \[0, 180\) deg"),
-    (lambda: PostureEstimatorParams(tilt_high_deg=10.0),
-     r"tilt_high_deg: 10.0 is outside the allowed range \(tilt_low_deg = 10, 180\] deg"),
-    (lambda: PostureEstimatorParams(tilt_high_deg=181.0),
-     r"tilt_high_deg: 181.0 is outside the allowed range"),
-    (lambda: PostureEstimatorParams(time_constant=-0.1),
-     r"time_constant: -0.1 is outside the allowed range \[0, 100\] s"),
-    (lambda: PostureEstimatorParams(time_constant=np.nan), r"time_constant: nan is not finite"),
-    (lambda: PostureEstimatorParams(tilt_low_deg="10"), r"tilt_low_deg: '10' is not a number"),
-    (lambda: FlowEstimatorParams(speed_low=-0.01),
-     r"speed_low: -0.01 is outside the allowed range \[0, 10\) m/s"),
-    (lambda: FlowEstimatorParams(speed_high=0.02),
-     r"speed_high: 0.02 is outside the allowed range \(speed_low = 0.03, 10\] m/s"),
-    (lambda: FlowEstimatorParams(time_constant=200.0),
-     r"time_constant: 200.0 is outside the allowed range \[0, 100\] s"),
-    (lambda: FlowEstimatorParams(axis="heave"),
-     r"axis: 'heave' is not one of magnitude, surge, sway"),
-    (lambda: EnergyEstimatorParams(soc_low=1.0),
-     r"soc_low: 1.0 is outside the allowed range \[0, 1\)"),
-    (lambda: EnergyEstimatorParams(soc_high=0.1),
-     r"soc_high: 0.1 is outside the allowed range \(soc_low = 0.2, 1\]"),
-    (lambda: EnergyEstimatorParams(time_constant=-5.0),
-     r"time_constant: -5.0 is outside the allowed range \[0, 1000\] s"),
-    (lambda: AltimeterEstimatorParams(on_floor_range=-0.1),
-     r"on_floor_range: -0.1 is outside the allowed range \[0, 100\) m"),
-    (lambda: AltimeterEstimatorParams(off_floor_range=0.23),
-     r"off_floor_range: 0.23 is outside the allowed range \(on_floor_range = 0.23, 100\] m"),
-    (lambda: AltimeterEstimatorParams(time_constant=-1.0),
-     r"time_constant: -1.0 is outside the allowed range \[0, 100\] s"),
-])
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (
+            lambda: PostureEstimatorParams(tilt_low_deg=-1.0),
+            r"tilt_low_deg: -1.0 is outside the allowed range \[0, 180\) deg",
+        ),
+        (
+            lambda: PostureEstimatorParams(tilt_low_deg=180.0),
+            r"tilt_low_deg: 180.0 is outside the allowed range \[0, 180\) deg",
+        ),
+        (
+            lambda: PostureEstimatorParams(tilt_high_deg=10.0),
+            r"tilt_high_deg: 10.0 is outside the allowed range \(tilt_low_deg = 10, 180\] deg",
+        ),
+        (
+            lambda: PostureEstimatorParams(tilt_high_deg=181.0),
+            r"tilt_high_deg: 181.0 is outside the allowed range",
+        ),
+        (
+            lambda: PostureEstimatorParams(time_constant=-0.1),
+            r"time_constant: -0.1 is outside the allowed range \[0, 100\] s",
+        ),
+        (lambda: PostureEstimatorParams(time_constant=np.nan), r"time_constant: nan is not finite"),
+        (lambda: PostureEstimatorParams(tilt_low_deg="10"), r"tilt_low_deg: '10' is not a number"),
+        (
+            lambda: FlowEstimatorParams(speed_low=-0.01),
+            r"speed_low: -0.01 is outside the allowed range \[0, 10\) m/s",
+        ),
+        (
+            lambda: FlowEstimatorParams(speed_high=0.02),
+            r"speed_high: 0.02 is outside the allowed range \(speed_low = 0.03, 10\] m/s",
+        ),
+        (
+            lambda: FlowEstimatorParams(time_constant=200.0),
+            r"time_constant: 200.0 is outside the allowed range \[0, 100\] s",
+        ),
+        (
+            lambda: FlowEstimatorParams(axis="heave"),
+            r"axis: 'heave' is not one of magnitude, surge, sway",
+        ),
+        (
+            lambda: EnergyEstimatorParams(soc_low=1.0),
+            r"soc_low: 1.0 is outside the allowed range \[0, 1\)",
+        ),
+        (
+            lambda: EnergyEstimatorParams(soc_high=0.1),
+            r"soc_high: 0.1 is outside the allowed range \(soc_low = 0.2, 1\]",
+        ),
+        (
+            lambda: EnergyEstimatorParams(time_constant=-5.0),
+            r"time_constant: -5.0 is outside the allowed range \[0, 1000\] s",
+        ),
+        (
+            lambda: AltimeterEstimatorParams(on_floor_range=-0.1),
+            r"on_floor_range: -0.1 is outside the allowed range \[0, 100\) m",
+        ),
+        (
+            lambda: AltimeterEstimatorParams(off_floor_range=0.23),
+            r"off_floor_range: 0.23 is outside the allowed range \(on_floor_range = 0.23, 100\] m",
+        ),
+        (
+            lambda: AltimeterEstimatorParams(time_constant=-1.0),
+            r"time_constant: -1.0 is outside the allowed range \[0, 100\] s",
+        ),
+    ],
+)
 def test_every_parameter_error_names_the_field_and_range(make, message):
     with pytest.raises(ValueError, match=message):
         make().validate()
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda: PostureEstimator(period=0.0), r"PostureEstimator.period: 0.0 is outside .*\(0, 1\]"),
-    (lambda: FlowEstimator(period=2.0), r"FlowEstimator.period: 2.0 is outside .*\(0, 1\]"),
-    (lambda: EnergyEstimator(period=-1.0), r"EnergyEstimator.period: -1.0 is outside .*\(0, 10\]"),
-    (lambda: AltimeterEstimator(period=1.5),
-     r"AltimeterEstimator.period: 1.5 is outside .*\(0, 1\]"),
-    (lambda: PostureEstimator(PostureEstimatorParams(tilt_high_deg=5.0)), r"tilt_high_deg: 5.0"),
-    (lambda: FlowEstimator(FlowEstimatorParams(axis="")), r"axis: '' is not one of"),
-    (lambda: EnergyEstimator(EnergyEstimatorParams(soc_low=0.5)), r"soc_high: 0.4 is outside"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (
+            lambda: PostureEstimator(period=0.0),
+            r"PostureEstimator.period: 0.0 is outside .*\(0, 1\]",
+        ),
+        (lambda: FlowEstimator(period=2.0), r"FlowEstimator.period: 2.0 is outside .*\(0, 1\]"),
+        (
+            lambda: EnergyEstimator(period=-1.0),
+            r"EnergyEstimator.period: -1.0 is outside .*\(0, 10\]",
+        ),
+        (
+            lambda: AltimeterEstimator(period=1.5),
+            r"AltimeterEstimator.period: 1.5 is outside .*\(0, 1\]",
+        ),
+        (
+            lambda: PostureEstimator(PostureEstimatorParams(tilt_high_deg=5.0)),
+            r"tilt_high_deg: 5.0",
+        ),
+        (lambda: FlowEstimator(FlowEstimatorParams(axis="")), r"axis: '' is not one of"),
+        (lambda: EnergyEstimator(EnergyEstimatorParams(soc_low=0.5)), r"soc_high: 0.4 is outside"),
+    ],
+)
 def test_systems_check_at_construction(make, message):
     with pytest.raises(ValueError, match=message):
         make()
@@ -405,6 +473,7 @@ def test_flow_estimator_ports_and_default_period():
     """The ports are the documented sizes, and the default update period is the flow
     sensor's default sample period (1 / 50 Hz), so each reading is filtered once."""
     from manta_drake.station.flow_sensor import FlowSensorParams
+
     system = FlowEstimator()
     assert system.GetInputPort("flow_velocity").size() == 3
     assert system.GetOutputPort("flow_hat").size() == 1
@@ -413,22 +482,34 @@ def test_flow_estimator_ports_and_default_period():
     assert system.GetUniquePeriodicDiscreteUpdateAttribute().period_sec() == system.period
 
 
-@pytest.mark.parametrize("good", [
-    {"speed_low": 9.99, "speed_high": 10.0}, {"time_constant": 100.0}, {"time_constant": 0.0},
-])
+@pytest.mark.parametrize(
+    "good",
+    [
+        {"speed_low": 9.99, "speed_high": 10.0},
+        {"time_constant": 100.0},
+        {"time_constant": 0.0},
+    ],
+)
 def test_flow_parameter_edges_pass(good):
     FlowEstimatorParams(**good).validate()
     FlowEstimator(period=1.0)
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda: FlowEstimatorParams(speed_low=10.0, speed_high=10.0).validate(),
-     r"speed_low: 10.0 is outside the allowed range \[0, 10\) m/s"),
-    (lambda: FlowEstimatorParams(speed_high=12.0).validate(), r"speed_high: 12.0 is outside"),
-    (lambda: FlowEstimatorParams(time_constant=120.0).validate(),
-     r"time_constant: 120.0 is outside"),
-    (lambda: FlowEstimator(period=1.2), r"FlowEstimator.period: 1.2 is outside"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (
+            lambda: FlowEstimatorParams(speed_low=10.0, speed_high=10.0).validate(),
+            r"speed_low: 10.0 is outside the allowed range \[0, 10\) m/s",
+        ),
+        (lambda: FlowEstimatorParams(speed_high=12.0).validate(), r"speed_high: 12.0 is outside"),
+        (
+            lambda: FlowEstimatorParams(time_constant=120.0).validate(),
+            r"time_constant: 120.0 is outside",
+        ),
+        (lambda: FlowEstimator(period=1.2), r"FlowEstimator.period: 1.2 is outside"),
+    ],
+)
 def test_flow_parameters_just_past_the_edges_are_refused(make, message):
     with pytest.raises(ValueError, match=message):
         make()

@@ -31,25 +31,40 @@ def test_draws_are_seeded_and_well_formed(fc):
 
 def test_rows_in_process(fc, tmp_path):
     specs = [
-        fc.make_spec(0, "locomotion_swim", {"water.current": [0.1, -0.05, 0.0],
-                                            "pressure_sensor.dropout_rate": 0.3}),
-        fc.make_spec(1, "locomotion_trot", {"water.current": [1.2, 0.3, 0.0]},
-                     expect=["water.current"]),
-        fc.make_spec(2, "float_sink", {"camera.depth_noise_std": 0.05},
-                     expect=["camera.depth_noise_std"]),
-        fc.make_spec(3, "locomotion_walk", {"initial_pose.xyz": [7.6, 0.0, -0.24]},
-                     expect=["initial_pose"]),
+        fc.make_spec(
+            0,
+            "locomotion_swim",
+            {"water.current": [0.1, -0.05, 0.0], "pressure_sensor.dropout_rate": 0.3},
+        ),
+        fc.make_spec(
+            1, "locomotion_trot", {"water.current": [1.2, 0.3, 0.0]}, expect=["water.current"]
+        ),
+        fc.make_spec(
+            2, "float_sink", {"camera.depth_noise_std": 0.05}, expect=["camera.depth_noise_std"]
+        ),
+        fc.make_spec(
+            3, "locomotion_walk", {"initial_pose.xyz": [7.6, 0.0, -0.24]}, expect=["initial_pose"]
+        ),
     ]
     rows = fc.run_campaign(specs, tmp_path, workers=0, echo=lambda *_: None)
     ok, current, depth, wall = rows
     assert ok["outcome"] == "ok" and ok["expectation"] == "as_expected"
     assert ok["nan_in_log"] is False and ok["left_pool"] is False  # dropout NaNs are modelled
-    for key in ("max_penetration_m", "max_joint_limit_violation_rad", "max_joint_speed_rad_s",
-                "mean_speed_m_s", "max_body_rate_rad_s", "wall_time_s"):
+    for key in (
+        "max_penetration_m",
+        "max_joint_limit_violation_rad",
+        "max_joint_speed_rad_s",
+        "mean_speed_m_s",
+        "max_body_rate_rad_s",
+        "wall_time_s",
+    ):
         assert math.isfinite(ok[key]), key
     assert ok["sim_time_reached_s"] == pytest.approx(0.3)
-    for row, field in ((current, "water.current"), (depth, "camera.depth_noise_std"),
-                       (wall, "initial_pose")):
+    for row, field in (
+        (current, "water.current"),
+        (depth, "camera.depth_noise_std"),
+        (wall, "initial_pose"),
+    ):
         assert row["outcome"] == "refused" and row["cause"] == field, row["message"]
         assert row["message"].startswith(field) and row["expectation"] == "as_expected"
     # The reproduction file loads to the same (accepted) scenario.
@@ -84,8 +99,15 @@ def test_log_stats_flags_pool_exit_limits_and_nan(fc):
     xyz = np.tile([0.0, 0.0, -0.2], (5, 1))
     xyz[4] = [7.6, 0.0, -0.2]  # through the end wall
     v = np.zeros((5, 3))
-    log = {"t": t, "joint_angles": q, "joint_velocities": qd, "body_xyz": xyz,
-           "body_v_world": v, "body_w_world": v, "depth": np.full((5, 1), np.nan)}
+    log = {
+        "t": t,
+        "joint_angles": q,
+        "joint_velocities": qd,
+        "body_xyz": xyz,
+        "body_v_world": v,
+        "body_w_world": v,
+        "depth": np.full((5, 1), np.nan),
+    }
     s = fc.log_stats(log, dropout=0.2)
     assert s["nan_in_log"] is False  # depth NaNs are the modelled dropout
     assert s["left_pool"] and s["pool_exit"] == "x=7.600"
@@ -108,58 +130,100 @@ def test_initial_penetration_of_an_accepted_start(fc):
 REFUSAL_FORMS = [
     # check_in_range, check_number, check_integer, check_one_of, check_vector
     ("time_step: 0.05 is outside the allowed range [0.0001, 0.01] s", "time_step"),
-    ("camera.depth_noise_std: 0.05 is outside the allowed range [0, 0.03] m (the depth-camera "
-     "model: a RealSense-class sensor's range noise within its 0.8 m underwater range)",
-     "camera.depth_noise_std"),
+    (
+        "camera.depth_noise_std: 0.05 is outside the allowed range [0, 0.03] m (the depth-camera "
+        "model: a RealSense-class sensor's range noise within its 0.8 m underwater range)",
+        "camera.depth_noise_std",
+    ),
     ("pressure_sensor.noise_std: 'a' is not a number", "pressure_sensor.noise_std"),
     ("duration: inf is not finite", "duration"),
     ("camera.width: 7.5 is not an integer (allowed: 8 to 1024)", "camera.width"),
     ("controller.gait: 'fly' is not one of swim, trot, walk, turning, crab", "controller.gait"),
     ("water.current: [1.2, 0.0, 0.0] has magnitude above the allowed 1.0 m/s", "water.current"),
     ("water.current[0]: nan is not finite", "water.current[0]"),
-    ("balloon.schedule[1].time: 0.5 is before the previous command's time 1.0; times must "
-     "not decrease", "balloon.schedule[1].time"),
+    (
+        "balloon.schedule[1].time: 0.5 is before the previous command's time 1.0; times must "
+        "not decrease",
+        "balloon.schedule[1].time",
+    ),
     # check_keys (layering) and the dotted-key walk (overrides)
-    ("scenario.water.curent: unknown key (a typo?); allowed keys: coefficient_scales, "
-     "coefficients, current, enabled, update_period", "water.curent"),
+    (
+        "scenario.water.curent: unknown key (a typo?); allowed keys: coefficient_scales, "
+        "coefficients, current, enabled, update_period",
+        "water.curent",
+    ),
     ("scenario.time_step: expected a float, got 'abc'", "time_step"),
     ("scenario.water.coefficient_scales key: expected a str, got 1", "water.coefficient_scales"),
-    ("water.curent: scenario.water has no field 'curent'; allowed: coefficient_scales, "
-     "coefficients, current, enabled, update_period", "water.curent"),
-    ("water.coefficient_scales.body.linear_dampnig: unknown coefficient 'body.linear_dampnig'; "
-     "allowed: water_density, gravity", "water.coefficient_scales.body.linear_dampnig"),
+    (
+        "water.curent: scenario.water has no field 'curent'; allowed: coefficient_scales, "
+        "coefficients, current, enabled, update_period",
+        "water.curent",
+    ),
+    (
+        "water.coefficient_scales.body.linear_dampnig: unknown coefficient 'body.linear_dampnig'; "
+        "allowed: water_density, gravity",
+        "water.coefficient_scales.body.linear_dampnig",
+    ),
     # the start-pose check
-    ("initial_pose: the body at [0.0, 0.0, -0.9] m is not in the pool's water (x in (-7.5, "
-     "7.5), y in (-1.0, 1.0), z in (-0.5, 0])", "initial_pose"),
+    (
+        "initial_pose: the body at [0.0, 0.0, -0.9] m is not in the pool's water (x in (-7.5, "
+        "7.5), y in (-1.0, 1.0), z in (-0.5, 0])",
+        "initial_pose",
+    ),
     # coefficient scales: a bad factor, and a scaled set the coefficient checks refuse
-    ("water.coefficient_scales.body.added_mass: -0.5 must be a finite number >= 0",
-     "water.coefficient_scales.body.added_mass"),
-    ("water.coefficient_scales.fins.strips_per_plate = 5.2 must be a whole number",
-     "water.coefficient_scales.fins.strips_per_plate"),
-    ("water.coefficient_scales.water_density = 0.0 must be > 0",
-     "water.coefficient_scales.water_density"),
-    ("water.coefficient_scales.body.sealed_volume = 0.00663 m^3 disagrees with "
-     "body.sealed_semi_axes (4/3 pi abc = 0.0051 m^3, more than 1% apart); the buoyancy comes "
-     "from the semi-axes: change both together", "water.coefficient_scales.body.sealed_volume"),
+    (
+        "water.coefficient_scales.body.added_mass: -0.5 must be a finite number >= 0",
+        "water.coefficient_scales.body.added_mass",
+    ),
+    (
+        "water.coefficient_scales.fins.strips_per_plate = 5.2 must be a whole number",
+        "water.coefficient_scales.fins.strips_per_plate",
+    ),
+    (
+        "water.coefficient_scales.water_density = 0.0 must be > 0",
+        "water.coefficient_scales.water_density",
+    ),
+    (
+        "water.coefficient_scales.body.sealed_volume = 0.00663 m^3 disagrees with "
+        "body.sealed_semi_axes (4/3 pi abc = 0.0051 m^3, more than 1% apart); the buoyancy comes "
+        "from the semi-axes: change both together",
+        "water.coefficient_scales.body.sealed_volume",
+    ),
     # a coefficient or actuator file: filed under the scenario field that names it
-    ("water.coefficients = /tmp/bad_hydro.yaml: bad_hydro.yaml: body.added_mass = "
-     "[-1.0, 1.0, 1.0] must be >= 0 (magnitudes)", "water.coefficients"),
-    ("actuators.file = /tmp/bad_act.yaml: actuators file not found: /tmp/bad_act.yaml",
-     "actuators.file"),
+    (
+        "water.coefficients = /tmp/bad_hydro.yaml: bad_hydro.yaml: body.added_mass = "
+        "[-1.0, 1.0, 1.0] must be >= 0 (magnitudes)",
+        "water.coefficients",
+    ),
+    (
+        "actuators.file = /tmp/bad_act.yaml: actuators file not found: /tmp/bad_act.yaml",
+        "actuators.file",
+    ),
     # actuators: a bad factor, a scaled set refused, the initial charge
-    ("actuators.scales.servo.winding_resistance: -1.0 must be a finite number >= 0",
-     "actuators.scales.servo.winding_resistance"),
-    ("actuators.scales.battery.cutoff_soc = 2.0 is outside the allowed range [0, 1)",
-     "actuators.scales.battery.cutoff_soc"),
-    ("actuators.initial_soc: 0.01 is outside the allowed range (cutoff_soc = 0.2, 1]",
-     "actuators.initial_soc"),
+    (
+        "actuators.scales.servo.winding_resistance: -1.0 must be a finite number >= 0",
+        "actuators.scales.servo.winding_resistance",
+    ),
+    (
+        "actuators.scales.battery.cutoff_soc = 2.0 is outside the allowed range [0, 1)",
+        "actuators.scales.battery.cutoff_soc",
+    ),
+    (
+        "actuators.initial_soc: 0.01 is outside the allowed range (cutoff_soc = 0.2, 1]",
+        "actuators.initial_soc",
+    ),
     # a scenario file's path in front (load_scenario with validation)
-    ("/work/main/models/scenarios/locomotion_swim.yaml: time_step: 0.5 is outside the allowed "
-     "range [0.0001, 0.01] s", "time_step"),
+    (
+        "/work/main/models/scenarios/locomotion_swim.yaml: time_step: 0.5 is outside the allowed "
+        "range [0.0001, 0.01] s",
+        "time_step",
+    ),
     # the System constructors' ValueErrors (build stage)
     ("BalloonBuoyancy.max_volume: 0.0 must be a finite number > 0", "BalloonBuoyancy.max_volume"),
-    ("HydrodynamicForces.update_period: -1.0 must be a finite number >= 0",
-     "HydrodynamicForces.update_period"),
+    (
+        "HydrodynamicForces.update_period: -1.0 must be a finite number >= 0",
+        "HydrodynamicForces.update_period",
+    ),
     # no field at the start: grouped by the message's first clause
     ("scenario file not found: nope (shipped scenarios: stand)", "scenario file not found: nope"),
 ]
@@ -173,8 +237,9 @@ def test_refused_field_of_each_message_form(fc, message, field):
 def test_refusal_naming_the_scaled_entry_is_as_expected(fc):
     """A scaled coefficient set refused in the ``X = v must ...`` form names the expected
     field (not refused_other_field); an index names its vector."""
-    spec = fc.make_spec(0, "locomotion_swim", expect=[
-        "water.coefficient_scales.fins.strips_per_plate"])
+    spec = fc.make_spec(
+        0, "locomotion_swim", expect=["water.coefficient_scales.fins.strips_per_plate"]
+    )
     message = "water.coefficient_scales.fins.strips_per_plate = 5.2 must be a whole number"
     row = {"outcome": "refused", "cause": fc.refused_field(message), "message": message}
     assert fc.finish_row(spec, row)["expectation"] == "as_expected"
@@ -190,13 +255,19 @@ def test_refused_field_of_the_package_own_refusals(fc):
     from manta_drake.scenario import ScenarioError
 
     cases = [
-        ({"water.coefficient_scales": {"fins.strips_per_plate": 1.3}},
-         "water.coefficient_scales.fins.strips_per_plate"),
+        (
+            {"water.coefficient_scales": {"fins.strips_per_plate": 1.3}},
+            "water.coefficient_scales.fins.strips_per_plate",
+        ),
         ({"water.coefficient_scales": {"gravity": 0.0}}, "water.coefficient_scales.gravity"),
-        ({"water.coefficient_scales": {"body.added_mass": -0.5}},
-         "water.coefficient_scales.body.added_mass"),
-        ({"actuators.scales": {"servo.winding_resistance": -1.0}},
-         "actuators.scales.servo.winding_resistance"),
+        (
+            {"water.coefficient_scales": {"body.added_mass": -0.5}},
+            "water.coefficient_scales.body.added_mass",
+        ),
+        (
+            {"actuators.scales": {"servo.winding_resistance": -1.0}},
+            "actuators.scales.servo.winding_resistance",
+        ),
         ({"actuators.initial_soc": 0.01}, "actuators.initial_soc"),
         ({"time_step": "abc"}, "time_step"),
         ({"initial_pose.xyz": [0.0, 0.0, -0.9]}, "initial_pose"),

@@ -23,8 +23,13 @@ def point(fr, **gaits):
 
 
 # A band point where the paper's five findings all hold: (u, v, yaw).
-GOOD = {"swim": (0.05, 0.0, 0.5), "trot": (0.06, 0.0, 0.5), "walk": (0.08, 0.0, -1.0),
-        "crab": (0.002, -0.015, 0.3), "turning": (0.0, -0.005, -8.0)}
+GOOD = {
+    "swim": (0.05, 0.0, 0.5),
+    "trot": (0.06, 0.0, 0.5),
+    "walk": (0.08, 0.0, -1.0),
+    "crab": (0.002, -0.015, 0.3),
+    "turning": (0.0, -0.005, -8.0),
+}
 
 
 def test_a_point_where_everything_holds(fr):
@@ -98,8 +103,12 @@ def test_turning_turns(fr):
     assert fr.turning_turns(point(fr, **{**base, "turning": (0.0, 0.0, 3.1)})) is True
     # Larger in magnitude, either sense, than every other gait at the point.
     assert fr.turning_turns(point(fr, **{**base, "crab": (0.0, 0.0, -8.5)})) is False
-    assert fr.turning_turns(point(fr, **{**base, "turning": (0.0, 0.0, 9.0),
-                                         "crab": (0.0, 0.0, -8.5)})) is True
+    assert (
+        fr.turning_turns(
+            point(fr, **{**base, "turning": (0.0, 0.0, 9.0), "crab": (0.0, 0.0, -8.5)})
+        )
+        is True
+    )
     # Below 3 deg/s it fails even if another gait's yaw rate is unknown; above, it is undetermined.
     assert fr.turning_turns(point(fr, **{**base, "turning": (0, 0, 1.0), "swim": None})) is False
     assert fr.turning_turns(point(fr, **{**base, "swim": None})) is None
@@ -111,10 +120,20 @@ def _rows(fr, points):
     for (f, d, w), gaits in points.items():
         for g, m in gaits.items():
             u, v, yaw = ("", "", "") if m is None else (repr(m[0]), repr(m[1]), repr(m[2]))
-            rows.append({"base": f"locomotion_{g}", "contact.friction": str(f),
-                         "hull_damping": str(d), "net_weight_kg": str(w), "status": "ok",
-                         "u": u, "v": v, "yaw_rate_deg_s": yaw, "steady_start_s": "6.0",
-                         "steady_end_s": "20.0" if m else "6.5"})
+            rows.append(
+                {
+                    "base": f"locomotion_{g}",
+                    "contact.friction": str(f),
+                    "hull_damping": str(d),
+                    "net_weight_kg": str(w),
+                    "status": "ok",
+                    "u": u,
+                    "v": v,
+                    "yaw_rate_deg_s": yaw,
+                    "steady_start_s": "6.0",
+                    "steady_end_s": "20.0" if m else "6.5",
+                }
+            )
     return rows
 
 
@@ -128,8 +147,11 @@ def test_band_tally_counts_holds_fails_and_undetermined(fr):
     assert len(points) == 3 and points[(0.8, 1.3, 0.85)]["walk"] == fr.UNDETERMINED
     tallies, verdicts = fr.evaluate(points)
     t = {x.key: x for x in tallies}
-    assert (t["walk_fastest"].holds, t["walk_fastest"].fails, t["walk_fastest"].undetermined) \
-        == (1, 1, 1)
+    assert (t["walk_fastest"].holds, t["walk_fastest"].fails, t["walk_fastest"].undetermined) == (
+        1,
+        1,
+        1,
+    )
     assert t["walk_fastest"].fraction == pytest.approx(1 / 3)  # undetermined never counts
     assert t["crab_sideways"].holds == 3
     assert verdicts[(0.8, 1.3, 0.85)]["swim_slower"] is None
@@ -182,8 +204,12 @@ def _samples(yaw, v_hull, contacts):
     import numpy as np
 
     n = len(contacts)
-    return {"t": np.arange(n) * 0.001, "yaw": np.full(n, yaw),
-            "v_world": np.tile(np.asarray(v_hull, dtype=float), (n, 1)), "contacts": contacts}
+    return {
+        "t": np.arange(n) * 0.001,
+        "yaw": np.full(n, yaw),
+        "v_world": np.tile(np.asarray(v_hull, dtype=float), (n, 1)),
+        "contacts": contacts,
+    }
 
 
 def test_contact_summary_stride_and_slip_in_the_heading_frame(fr):
@@ -242,8 +268,21 @@ def test_the_study_command_writes_the_committed_findings_page(tmp_path, monkeypa
     page = tmp_path / "findings.md"
     page.write_text((ROOT / "docs" / "findings.md").read_text())
     monkeypatch.chdir(ROOT)  # the page names the table by its path in the repository
-    assert main(["study", "findings", "--results", str(SHIPPED.relative_to(ROOT)),
-                 "--out-md", str(page), "--out-fig", str(tmp_path / "findings.png")]) == 0
+    assert (
+        main(
+            [
+                "study",
+                "findings",
+                "--results",
+                str(SHIPPED.relative_to(ROOT)),
+                "--out-md",
+                str(page),
+                "--out-fig",
+                str(tmp_path / "findings.png"),
+            ]
+        )
+        == 0
+    )
     assert page.read_text() == (ROOT / "docs" / "findings.md").read_text()
     assert (tmp_path / "findings.png").stat().st_size > 0
     capsys.readouterr()
@@ -251,16 +290,32 @@ def test_the_study_command_writes_the_committed_findings_page(tmp_path, monkeypa
         main(["study", "--help"])
     assert exit_info.value.code == 0
     listing = capsys.readouterr().out
-    assert set(STUDIES) == {"faults", "findings", "transitions", "stance", "readings", "energy",
-                            "wall-noise", "behaviours", "cfd", "validation"}
+    assert set(STUDIES) == {
+        "faults",
+        "findings",
+        "transitions",
+        "stance",
+        "readings",
+        "energy",
+        "wall-noise",
+        "behaviours",
+        "cfd",
+        "validation",
+    }
     assert all(f"  {name} " in listing for name in STUDIES)
 
 
 def _short(name: str, duration: float = 0.2):
     from manta_drake.scenario import load_scenario
 
-    return load_scenario(name, overrides={"duration": duration, "steady_after": duration / 2,
-                                          "visualization.meshcat": False})
+    return load_scenario(
+        name,
+        overrides={
+            "duration": duration,
+            "steady_after": duration / 2,
+            "visualization.meshcat": False,
+        },
+    )
 
 
 def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_alone(tmp_path):
@@ -287,7 +342,8 @@ def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_al
     context = diagram.CreateDefaultContext()
     controller = handles.controller.GetMyContextFromRoot(context)
     np.testing.assert_array_equal(
-        handles.controller.GetOutputPort("cpg_params").Eval(controller), variant.to_vector())
+        handles.controller.GetOutputPort("cpg_params").Eval(controller), variant.to_vector()
+    )
     desired = handles.controller.GetOutputPort("desired_state").Eval(controller)
     np.testing.assert_allclose(desired[:16], X.ravel(), atol=1e-12)
     np.testing.assert_allclose(desired[16:], 0.0, atol=1e-12)
@@ -344,8 +400,7 @@ def test_foil_share_closes_the_robots_momentum_balance(fr):
     assert len(joints) == 9  # 8 plates and the hull's heave body
 
     def momentum():
-        return plant.CalcSpatialMomentumInWorldAboutPoint(pctx, robot,
-                                                          np.zeros(3)).translational()
+        return plant.CalcSpatialMomentumInWorldAboutPoint(pctx, robot, np.zeros(3)).translational()
 
     def share():
         return fr.foil_share(plant, pctx, hydro, root, robot_bodies, joints)
@@ -367,11 +422,20 @@ def test_foil_share_closes_the_robots_momentum_balance(fr):
 def _sweep_row(gait, params, motion):
     """A sweep results row: run_id, base, seed, the parameter cells, status, u, v, yaw."""
     u, v, yaw = motion
-    return {"run_id": f"{gait}-x", "base": f"locomotion_{gait}", "seed": "0",
-            "stall_angle": params.get("stall_angle", ""),
-            "lift_slope": params.get("lift_slope", ""), "status": "ok", "reason": "",
-            "u": repr(u), "v": repr(v), "yaw_rate_deg_s": repr(yaw),
-            "steady_start_s": "6.0", "steady_end_s": "20.0"}
+    return {
+        "run_id": f"{gait}-x",
+        "base": f"locomotion_{gait}",
+        "seed": "0",
+        "stall_angle": params.get("stall_angle", ""),
+        "lift_slope": params.get("lift_slope", ""),
+        "status": "ok",
+        "reason": "",
+        "u": repr(u),
+        "v": repr(v),
+        "yaw_rate_deg_s": repr(yaw),
+        "steady_start_s": "6.0",
+        "steady_end_s": "20.0",
+    }
 
 
 def test_parameter_sets_group_a_sweep_by_its_set_cells(fr):
@@ -383,8 +447,11 @@ def test_parameter_sets_group_a_sweep_by_its_set_cells(fr):
     both = {"stall_angle": "1.667", "lift_slope": "1.2"}
     rows += [_sweep_row(g, both, m) for g, m in GOOD.items()]
     sets = fr.parameter_sets(rows)
-    assert list(sets) == [(), (("stall_angle", "0.667"),),
-                          (("stall_angle", "1.667"), ("lift_slope", "1.2"))]
+    assert list(sets) == [
+        (),
+        (("stall_angle", "0.667"),),
+        (("stall_angle", "1.667"), ("lift_slope", "1.2")),
+    ]
     assert sets[()]["walk"].u == 0.08 and sets[(("stall_angle", "0.667"),)]["walk"].u == 0.03
     lines = fr.sensitivity_lines(sets, "t.csv")
     shipped = next(x for x in lines if x.startswith("| shipped |"))

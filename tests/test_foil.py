@@ -28,8 +28,12 @@ X, Y, Z = np.eye(3)
 def test_theodorsen_against_the_published_table():
     """F and G of Theodorsen (1935, NACA Report 496), as tabulated by Bisplinghoff,
     Ashley & Halfman (1955, table 5-1)."""
-    table = {0.1: (0.8319, -0.1723), 0.2: (0.7276, -0.1886), 0.5: (0.5979, -0.1507),
-             1.0: (0.5394, -0.1003)}
+    table = {
+        0.1: (0.8319, -0.1723),
+        0.2: (0.7276, -0.1886),
+        0.5: (0.5979, -0.1507),
+        1.0: (0.5394, -0.1003),
+    }
     for k, (f, g) in table.items():
         c = theodorsen(k)
         assert (c.real, c.imag) == pytest.approx((f, g), abs=1.5e-4), k
@@ -86,12 +90,19 @@ def _plunge_mean_thrust(k, U=0.3, c=0.12, h0=0.002, cycles=30, steps=400):
     v = np.zeros((nt, 1, 3))
     v[:, 0, 0], v[:, 0, 2] = U, h0 * omega * np.cos(omega * t)
     axes = [np.broadcast_to(e, (nt, 1, 3)) for e in (Z, X, Y)]
-    params = {"rho": RHO, "lift_slope": 2 * np.pi, "suction_efficiency": 1.0,
-              "cross_flow_coefficient": 1.17, "friction_coefficient": 0.0,
-              "stall_angle": np.pi / 2, "stall_width": 1e-3}
-    f = prescribed_motion_forces(dt, v, np.zeros((nt, 1, 3)), *axes, np.full(1, c),
-                                 np.full(1, c), params)
-    return f[-10 * steps:, 0, 0].mean(), omega
+    params = {
+        "rho": RHO,
+        "lift_slope": 2 * np.pi,
+        "suction_efficiency": 1.0,
+        "cross_flow_coefficient": 1.17,
+        "friction_coefficient": 0.0,
+        "stall_angle": np.pi / 2,
+        "stall_width": 1e-3,
+    }
+    f = prescribed_motion_forces(
+        dt, v, np.zeros((nt, 1, 3)), *axes, np.full(1, c), np.full(1, c), params
+    )
+    return f[-10 * steps :, 0, 0].mean(), omega
 
 
 @pytest.mark.parametrize("k", [0.5, 1.0, 2.0])
@@ -115,23 +126,36 @@ def test_pitching_about_mid_chord_gives_sane_and_dickinsons_rotational_force():
     plate (Sane & Dickinson 2002, eq. 5; Fung 1969)."""
     U, c, q = 0.5, 0.1, 0.4
     omega = np.array([[0.0, q, 0.0]])  # nose (+x) down: the 3/4-chord point rises
-    kin = strip_kinematics(np.array([[U, 0.0, 0.0]]), omega, Z[None], X[None], Y[None],
-                           np.full(1, c))
+    kin = strip_kinematics(
+        np.array([[U, 0.0, 0.0]]), omega, Z[None], X[None], Y[None], np.full(1, c)
+    )
     assert kin["w"][0] == pytest.approx(0.25 * c * q)
-    f = strip_forces(kin, kin["w"], Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, 1.17, 0.0,
-                     np.pi / 2, 1e-3)
+    f = strip_forces(
+        kin, kin["w"], Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, 1.17, 0.0, np.pi / 2, 1e-3
+    )
     assert abs(f[0, 2]) == pytest.approx(np.pi * 0.25 * RHO * U * c * c * q, rel=1e-3)
 
 
 def test_broadside_motion_is_the_cross_flow_drag_and_stall_blends_smoothly():
     w, c, cd = 0.4, 0.1, 1.17
-    kin = strip_kinematics(np.array([[0.0, 0.0, w]]), np.zeros((1, 3)), Z[None], X[None],
-                           Y[None], np.full(1, c))
+    kin = strip_kinematics(
+        np.array([[0.0, 0.0, w]]), np.zeros((1, 3)), Z[None], X[None], Y[None], np.full(1, c)
+    )
     assert kin["alpha"][0] == pytest.approx(np.pi / 2)
-    f = strip_forces(kin, kin["w"], Z[None], np.full(1, c), RHO, 2 * np.pi, 1.0, cd, 0.0,
-                     np.radians(15), np.radians(3))
-    np.testing.assert_allclose(f[0], [0.0, 0.0, -0.5 * RHO * c * cd * w * w], rtol=1e-6,
-                               atol=1e-8)
+    f = strip_forces(
+        kin,
+        kin["w"],
+        Z[None],
+        np.full(1, c),
+        RHO,
+        2 * np.pi,
+        1.0,
+        cd,
+        0.0,
+        np.radians(15),
+        np.radians(3),
+    )
+    np.testing.assert_allclose(f[0], [0.0, 0.0, -0.5 * RHO * c * cd * w * w], rtol=1e-6, atol=1e-8)
     alpha = np.radians([0.0, 15.0, 90.0])
     share = attached_fraction(alpha, np.radians(15), np.radians(3))
     assert share[0] > 0.99 and share[1] == 0.5 and share[2] < 1e-9
@@ -140,8 +164,19 @@ def test_broadside_motion_is_the_cross_flow_drag_and_stall_blends_smoothly():
 def test_skin_friction_opposes_the_in_plane_velocity():
     v = np.array([[0.3, 0.4, 0.0]])
     kin = strip_kinematics(v, np.zeros((1, 3)), Z[None], X[None], Y[None], np.full(1, 0.1))
-    f = strip_forces(kin, kin["w"], Z[None], np.full(1, 0.05), RHO, 2 * np.pi, 1.0, 1.17,
-                     0.01, np.radians(15), np.radians(3))
+    f = strip_forces(
+        kin,
+        kin["w"],
+        Z[None],
+        np.full(1, 0.05),
+        RHO,
+        2 * np.pi,
+        1.0,
+        1.17,
+        0.01,
+        np.radians(15),
+        np.radians(3),
+    )
     np.testing.assert_allclose(f[0], -0.5 * RHO * 0.05 * 0.01 * 0.5 * v[0], atol=1e-12)
 
 
@@ -156,8 +191,9 @@ def test_kirchhoff_steady_translation_has_no_force_and_munks_moment():
     moment m U^2 sin(alpha) cos(alpha) that turns it broadside (Munk)."""
     m, U, alpha = 2.0, 0.5, np.radians(20)
     v = np.array([[U * np.cos(alpha), 0.0, -U * np.sin(alpha)]])
-    force, torque = kirchhoff_plate_force(np.full(1, m), Z[None], v, np.zeros((1, 3)),
-                                          np.zeros((1, 3)))
+    force, torque = kirchhoff_plate_force(
+        np.full(1, m), Z[None], v, np.zeros((1, 3)), np.zeros((1, 3))
+    )
     np.testing.assert_allclose(force, 0.0, atol=1e-15)
     assert np.linalg.norm(torque) == pytest.approx(m * U * U * np.sin(alpha) * np.cos(alpha))
 
@@ -194,32 +230,67 @@ def test_compiled_strip_wrenches_and_lag_equal_the_numpy_reference():
     w, v = rng.normal(size=(nb, 3)), rng.normal(size=(nb, 3)) * 0.5
     normal = np.tile(X, (ns, 1))
     chord_dir = np.where(rng.uniform(size=(ns, 1)) < 0.5, Y, -Y)
-    strips = {"body": rng.integers(0, nb, ns), "element": rng.integers(0, ne, ns),
-              "p": rng.normal(size=(ns, 3)) * 0.1, "normal": normal, "chord_dir": chord_dir,
-              "span_dir": np.tile(Z, (ns, 1)), "area": rng.uniform(0.001, 0.01, ns),
-              "chord": rng.uniform(0.08, 0.15, ns)}
-    params = {"rho": RHO, "lift_slope": 3.2, "suction_efficiency": 0.8,
-              "cross_flow_coefficient": 1.17, "friction_coefficient": 0.015,
-              "stall_angle": np.radians(15), "stall_width": np.radians(3)}
+    strips = {
+        "body": rng.integers(0, nb, ns),
+        "element": rng.integers(0, ne, ns),
+        "p": rng.normal(size=(ns, 3)) * 0.1,
+        "normal": normal,
+        "chord_dir": chord_dir,
+        "span_dir": np.tile(Z, (ns, 1)),
+        "area": rng.uniform(0.001, 0.01, ns),
+        "chord": rng.uniform(0.08, 0.15, ns),
+    }
+    params = {
+        "rho": RHO,
+        "lift_slope": 3.2,
+        "suction_efficiency": 0.8,
+        "cross_flow_coefficient": 1.17,
+        "friction_coefficient": 0.015,
+        "stall_angle": np.radians(15),
+        "stall_width": np.radians(3),
+    }
     current = np.array([0.1, -0.05, 0.02])
     frac, lag = rng.uniform(size=ne), rng.normal(size=(ns, 2)) * 0.1
     attached = rng.uniform(size=ns)
-    S, w34, speed, alpha = foil.strip_wrenches(R, w, v, current, strips, frac, lag, params,
-                                               attached)
-    packed = FK.pack_strips(strips["body"], strips["element"], strips["p"], normal, chord_dir,
-                            strips["span_dir"], strips["area"], strips["chord"])
+    S, w34, speed, alpha = foil.strip_wrenches(
+        R, w, v, current, strips, frac, lag, params, attached
+    )
+    packed = FK.pack_strips(
+        strips["body"],
+        strips["element"],
+        strips["p"],
+        normal,
+        chord_dir,
+        strips["span_dir"],
+        strips["area"],
+        strips["chord"],
+    )
     prm = FK.pack_foil_params(**params, current=current, separation_lag=3.0)
     S_k, w34_k, speed_k, alpha_k = FK.strip_wrenches(R, w, v, packed, frac, lag, prm, attached)
     np.testing.assert_allclose(S_k, S, rtol=1e-12, atol=1e-12)
     for got, expected in ((w34_k, w34), (speed_k, speed), (alpha_k, alpha)):
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(FK.lag_step(lag, w34, speed, packed, 1e-3),
-                               wagner_step(lag, w34, speed, strips["chord"], 1e-3),
-                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(
+        FK.lag_step(lag, w34, speed, packed, 1e-3),
+        wagner_step(lag, w34, speed, strips["chord"], 1e-3),
+        rtol=1e-12,
+        atol=1e-15,
+    )
     np.testing.assert_allclose(
         FK.separation_step(attached, alpha, speed, packed, 1e-3, prm),
-        separation_step(attached, alpha, speed, strips["chord"], 1e-3, params["stall_angle"],
-                        params["stall_width"], 3.0), rtol=1e-12, atol=1e-15)
+        separation_step(
+            attached,
+            alpha,
+            speed,
+            strips["chord"],
+            1e-3,
+            params["stall_angle"],
+            params["stall_width"],
+            3.0,
+        ),
+        rtol=1e-12,
+        atol=1e-15,
+    )
 
 
 def _one_plate(U=0.4, alpha=np.radians(25)):
@@ -231,9 +302,14 @@ def _one_plate(U=0.4, alpha=np.radians(25)):
     p = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
     vel = np.array([U * np.cos(alpha), 0.0, -U * np.sin(alpha)])
     v = np.stack([vel, vel])
-    bodies = {"body": np.array([1]), "plate": np.array([0]), "mass": np.array([2.0]),
-              "inertia_normal": np.array([0.01]), "R_PF": np.eye(3)[None],
-              "p_PF": np.zeros((1, 3))}
+    bodies = {
+        "body": np.array([1]),
+        "plate": np.array([0]),
+        "mass": np.array([2.0]),
+        "inertia_normal": np.array([0.01]),
+        "R_PF": np.eye(3)[None],
+        "p_PF": np.zeros((1, 3)),
+    }
     return R, p, np.zeros((2, 3)), v, bodies
 
 
@@ -242,8 +318,9 @@ def test_added_mass_body_adds_munks_moment_and_no_force_in_steady_glide():
 
     U, alpha, m = 0.4, np.radians(25), 2.0
     R, p, w, v, bodies = _one_plate(U, alpha)
-    F, q = added_mass_body_wrenches(R, p, w, v, np.zeros(3), bodies, np.ones(1),
-                                    np.array([np.nan]), 20.0, 1.0)
+    F, q = added_mass_body_wrenches(
+        R, p, w, v, np.zeros(3), bodies, np.ones(1), np.array([np.nan]), 20.0, 1.0
+    )
     np.testing.assert_allclose(F[0, 3:], 0.0, atol=1e-14)
     assert np.linalg.norm(F[0, :3]) == pytest.approx(m * U * U * np.sin(alpha) * np.cos(alpha))
     np.testing.assert_allclose(F[1], 0.0, atol=1e-14)  # centred, aligned: no centring force
@@ -256,11 +333,11 @@ def test_added_mass_body_emerged_share_and_centring():
     m, s, a_n, omega_c = 2.0, 0.3, 1.5, 20.0
     R, p, w, v, bodies = _one_plate(0.0, 0.0)
     p[1] = [0.01, -0.02, 0.0]  # the body 1 cm, -2 cm off the plate's centre, in its plane
-    F, _ = added_mass_body_wrenches(R, p, w, v, np.zeros(3), bodies, np.full(1, s),
-                                    np.array([a_n]), omega_c, 1.0)
+    F, _ = added_mass_body_wrenches(
+        R, p, w, v, np.zeros(3), bodies, np.full(1, s), np.array([a_n]), omega_c, 1.0
+    )
     np.testing.assert_allclose(F[0, 3:], [0.0, 0.0, (1 - s) * m * a_n], atol=1e-14)
-    np.testing.assert_allclose(F[0, :3], np.cross(p[1], [0.0, 0.0, (1 - s) * m * a_n]),
-                               atol=1e-14)
+    np.testing.assert_allclose(F[0, :3], np.cross(p[1], [0.0, 0.0, (1 - s) * m * a_n]), atol=1e-14)
     np.testing.assert_allclose(F[1, 3:], -m * omega_c**2 * p[1], atol=1e-12)
 
 
@@ -274,10 +351,14 @@ def test_compiled_added_mass_body_wrenches_equal_the_numpy_reference():
     nb, nm = 7, 3
     R = Rotation.random(nb, random_state=8).as_matrix()
     p, w, v = (rng.normal(size=(nb, 3)) for _ in range(3))
-    bodies = {"body": np.array([4, 5, 6]), "plate": np.array([1, 2, 2]),
-              "mass": rng.uniform(0.5, 3.0, nm), "inertia_normal": rng.uniform(0.001, 0.01, nm),
-              "R_PF": Rotation.random(nm, random_state=9).as_matrix(),
-              "p_PF": rng.normal(size=(nm, 3)) * 0.1}
+    bodies = {
+        "body": np.array([4, 5, 6]),
+        "plate": np.array([1, 2, 2]),
+        "mass": rng.uniform(0.5, 3.0, nm),
+        "inertia_normal": rng.uniform(0.001, 0.01, nm),
+        "R_PF": Rotation.random(nm, random_state=9).as_matrix(),
+        "p_PF": rng.normal(size=(nm, 3)) * 0.1,
+    }
     frac, a_n = rng.uniform(size=nm), np.array([0.7, np.nan, -1.2])
     current = np.array([0.1, 0.0, -0.05])
     F, q = foil.added_mass_body_wrenches(R, p, w, v, current, bodies, frac, a_n, 20.0, 0.9)
@@ -299,7 +380,10 @@ def test_separation_lag_is_first_order_in_semichords_travelled():
     for dt in np.random.default_rng(2).uniform(1e-4, 0.05, 30):
         f = separation_step(f, alpha, np.full(1, U), np.full(1, c), dt, stall, width, T_f)
         t += dt
-        assert f[0] == pytest.approx(f_inf + (1 - f_inf) * np.exp(-2 * U * t / (c * T_f)),
-                                     rel=1e-12)
-    assert separation_step(np.ones(1), alpha, np.full(1, U), np.full(1, c), 1e-3, stall,
-                           width, 0.0)[0] == f_inf
+        assert f[0] == pytest.approx(
+            f_inf + (1 - f_inf) * np.exp(-2 * U * t / (c * T_f)), rel=1e-12
+        )
+    assert (
+        separation_step(np.ones(1), alpha, np.full(1, U), np.full(1, c), 1e-3, stall, width, 0.0)[0]
+        == f_inf
+    )

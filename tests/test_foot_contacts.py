@@ -12,10 +12,18 @@ def test_carrier_loads_sum_the_normal_force_and_weight_the_slip_by_it():
     # fl: two contacts, 3 N sliding at (0.1, 0) and 1 N holding; rr: one contact pulled
     # off the floor (a negative normal force counts as none); hull: one at (0, -0.2).
     carriers = [0, 0, 3, 4]
-    forces = [np.array([0.5, 0.0, 3.0]), np.array([0.0, 0.2, 1.0]),
-              np.array([0.0, 0.0, -2.0]), np.array([1.0, 1.0, 5.0])]
-    velocities = [np.array([0.1, 0.0, -0.3]), np.zeros(3), np.array([1.0, 1.0, 0.0]),
-                  np.array([0.0, -0.2, 0.0])]
+    forces = [
+        np.array([0.5, 0.0, 3.0]),
+        np.array([0.0, 0.2, 1.0]),
+        np.array([0.0, 0.0, -2.0]),
+        np.array([1.0, 1.0, 5.0]),
+    ]
+    velocities = [
+        np.array([0.1, 0.0, -0.3]),
+        np.zeros(3),
+        np.array([1.0, 1.0, 0.0]),
+        np.array([0.0, -0.2, 0.0]),
+    ]
     out = carrier_loads(carriers, forces, velocities)
     assert out.shape == (len(CARRIERS), 3)
     np.testing.assert_allclose(out[0], [4.0, (3 * 0.1 + 1 * 0.0) / 4.0, 0.0])

@@ -47,8 +47,9 @@ def test_pareto_mask_is_the_non_dominated_set_by_brute_force(rng):
     mask = pareto_mask(up, down)
     finite = np.isfinite(up) & np.isfinite(down)
     for i in range(up.size):
-        dominated = np.any(finite & (up >= up[i]) & (down <= down[i])
-                           & ((up > up[i]) | (down < down[i])))
+        dominated = np.any(
+            finite & (up >= up[i]) & (down <= down[i]) & ((up > up[i]) | (down < down[i]))
+        )
         assert mask[i] == (bool(finite[i]) and not dominated), i
     assert pareto_mask([1.0, 2.0], [1.0, 1.0]).tolist() == [False, True]
     assert pareto_mask([], []).size == 0
@@ -62,23 +63,41 @@ def cost_speed(task):
     u = 0.1 * x["R_deg.fl.yaw"] / 30.0
     cot = 1.0 + 2.0 * u + ((x["Phi_prime_deg.fl.fr"] - 300.0) / 180.0) ** 2
     v = 0.02 if x["R_deg.fl.yaw"] > 27.0 else 0.0
-    return {"status": "ok", "metrics": {"u": u, "v": v, "abs_u": u, "abs_v": v,
-                                        "cot_net_of_hotel": cot}}
+    return {
+        "status": "ok",
+        "metrics": {"u": u, "v": v, "abs_u": u, "abs_v": v, "cot_net_of_hotel": cot},
+    }
 
 
-def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, capsys,
-                                                                      monkeypatch):
+def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, capsys, monkeypatch):
     import manta_drake.optimize.cli as cli
     from manta_drake.optimize.front import pareto_mask
 
     spec = write(tmp_path / "front.yaml", FRONT_SPEC)
-    monkeypatch.setattr(cli, "run_optimization",
-                        lambda problem, out, client, evaluate=None, progress=False:
-                        run_optimization(problem, out, client, evaluate=cost_speed,
-                                         progress=progress))
+    monkeypatch.setattr(
+        cli,
+        "run_optimization",
+        lambda problem, out, client, evaluate=None, progress=False: run_optimization(
+            problem, out, client, evaluate=cost_speed, progress=progress
+        ),
+    )
     out = tmp_path / "out"
-    assert main(["optimize", str(spec), "--out", str(out), "--workers", "0", "--quiet",
-                 "--generations", "4"]) == 0
+    assert (
+        main(
+            [
+                "optimize",
+                str(spec),
+                "--out",
+                str(out),
+                "--workers",
+                "0",
+                "--quiet",
+                "--generations",
+                "4",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "level u >= 0.05" in printed and "on the front: u" in printed
     summary = json.loads((out / "front.json").read_text())
@@ -86,16 +105,27 @@ def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, c
     for k, level in enumerate((0.02, 0.05, 0.08)):  # each level searched under its bound
         rows = read_history(out / f"level_{k:02d}" / "history.csv")
         assert {r["generation"] for r in rows if r["kind"] == "search"} == {1, 2, 3, 4}
-        assert any(f"u {r['u']:.4g} < {level:g}" in r["reason"] for r in rows
-                   if r["u"] is not None and r["u"] < level and r["status"] == "ok")
+        assert any(
+            f"u {r['u']:.4g} < {level:g}" in r["reason"]
+            for r in rows
+            if r["u"] is not None and r["u"] < level and r["status"] == "ok"
+        )
     with open(out / "front.csv") as fh:
         points = list(csv.DictReader(fh))
     # every candidate of every level (each level its own seed), the start gait once
-    assert len({json.loads((out / f"level_{k:02d}" / "state.json").read_text())["identity"]
-                ["seed"] for k in range(3)}) == 3
+    assert (
+        len(
+            {
+                json.loads((out / f"level_{k:02d}" / "state.json").read_text())["identity"]["seed"]
+                for k in range(3)
+            }
+        )
+        == 3
+    )
     assert len(points) == summary["candidates"] <= 3 * 4 * 6 - 2
-    assert len({tuple(p[n] for n in ("R_deg.fl.yaw", "Phi_prime_deg.fl.fr"))
-                for p in points}) == len(points)
+    assert len(
+        {tuple(p[n] for n in ("R_deg.fl.yaw", "Phi_prime_deg.fl.fr")) for p in points}
+    ) == len(points)
     ok = [p for p in points if p["meets_constraints"] == "True"]
     assert all(float(p["R_deg.fl.yaw"]) <= 27.0 for p in ok)  # sideslip breaks the rest
     u = np.array([float(p["u"]) for p in ok])
@@ -110,15 +140,25 @@ def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, c
     assert (out / "front.png").read_bytes()[:4] == b"\x89PNG"
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda s: s.replace("levels: [0.02, 0.05, 0.08]", "levels: [0.05, 0.02]"),
-     "optimize.front.levels[1]: 0.02 is not above the level before it (0.05)"),
-    (lambda s: s.replace("maximise: u,", "maximise: speeed,"),
-     "optimize.front.maximise: 'speeed' is not a metric"),
-    (lambda s: s.replace("objective:\n", "objective:\n  terms: [{metric: u, weight: -1}]\n"),
-     "optimize.objective.terms: a front minimises cot_net_of_hotel at each level of u; leave "
-     "the terms out"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (
+            lambda s: s.replace("levels: [0.02, 0.05, 0.08]", "levels: [0.05, 0.02]"),
+            "optimize.front.levels[1]: 0.02 is not above the level before it (0.05)",
+        ),
+        (
+            lambda s: s.replace("maximise: u,", "maximise: speeed,"),
+            "optimize.front.maximise: 'speeed' is not a metric",
+        ),
+        (
+            lambda s: s.replace("objective:\n", "objective:\n  terms: [{metric: u, weight: -1}]\n"),
+            "optimize.objective.terms: a front minimises cot_net_of_hotel at each level of u; "
+            "leave "
+            "the terms out",
+        ),
+    ],
+)
 def test_a_bad_front_is_refused_in_one_line(tmp_path, edit, message):
     spec = write(tmp_path / "front.yaml", edit(FRONT_SPEC))
     with pytest.raises(OptimizeError, match=re.escape(message)):

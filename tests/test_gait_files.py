@@ -21,20 +21,43 @@ def rows(row):
 
 # The paper's matrices written as the package's Python constants once were (Eqs. 6-8).
 R_SWIM_PRINTED = rows([0, PI / 4, PI / 4, PI / 4])
-PHI_PRIME_SWIM = np.array([[0, -PI / 18, 0, 0], [PI / 18, 0, 0, 0], [0, 0, 0, -PI / 18],
-                           [0, 0, PI / 18, 0]])
-R_GAIT = np.array([[PI / 9, PI / 18, PI / 12, 0], [-PI / 9, PI / 18, PI / 12, 0],
-                   [PI / 9, PI / 18, PI / 12, 0], [-PI / 9, PI / 18, PI / 12, 0]])
-X_GAIT = np.array([[PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
-                   [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
-                   [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
-                   [PI / 9, -PI / 6, PI / 6, -5 * PI / 18]])
+PHI_PRIME_SWIM = np.array(
+    [[0, -PI / 18, 0, 0], [PI / 18, 0, 0, 0], [0, 0, 0, -PI / 18], [0, 0, PI / 18, 0]]
+)
+R_GAIT = np.array(
+    [
+        [PI / 9, PI / 18, PI / 12, 0],
+        [-PI / 9, PI / 18, PI / 12, 0],
+        [PI / 9, PI / 18, PI / 12, 0],
+        [-PI / 9, PI / 18, PI / 12, 0],
+    ]
+)
+X_GAIT = np.array(
+    [
+        [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
+        [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
+        [PI / 9, -PI / 6, -PI / 6, -5 * PI / 18],
+        [PI / 9, -PI / 6, PI / 6, -5 * PI / 18],
+    ]
+)
 PHI_GAIT = rows([2 * PI / 3, -PI, PI, 0])
 PHI_PRIME_GAIT = np.array([[0, PI, PI, 0], [-PI, 0, 0, -PI], [-PI, 0, 0, -PI], [0, PI, PI, 0]])
-PHI_PRIME_WALK = np.array([[0, 3 * PI / 2, PI, PI / 2], [-3 * PI / 2, 0, -PI / 2, -PI],
-                           [-PI, PI / 2, 0, -PI / 2], [-PI / 2, PI, PI / 2, 0]])
-PHI_PRIME_TURNING = np.array([[0, -3 * PI / 2, -PI / 2, -PI], [3 * PI / 2, 0, PI, PI / 2],
-                              [PI / 2, -PI, 0, -PI / 2], [PI, -PI / 2, PI / 2, 0]])
+PHI_PRIME_WALK = np.array(
+    [
+        [0, 3 * PI / 2, PI, PI / 2],
+        [-3 * PI / 2, 0, -PI / 2, -PI],
+        [-PI, PI / 2, 0, -PI / 2],
+        [-PI / 2, PI, PI / 2, 0],
+    ]
+)
+PHI_PRIME_TURNING = np.array(
+    [
+        [0, -3 * PI / 2, -PI / 2, -PI],
+        [3 * PI / 2, 0, PI, PI / 2],
+        [PI / 2, -PI, 0, -PI / 2],
+        [PI, -PI / 2, PI / 2, 0],
+    ]
+)
 R_CRAB = rows([0, PI / 18, PI / 9, PI / 9])
 PHI_CRAB = np.array([[0, 0, -PI, 0], [0, 0, -PI, 0], [0, 0, PI, 0], [0, 0, PI, 0]])
 SIGNS = np.array([-1.0, 1.0, -1.0, 1.0])
@@ -63,8 +86,9 @@ for _name in ("trot", "walk", "turning", "crab"):
 def same_bits(a, b):
     """Equal to the last bit (a signed zero and an unsigned one count as equal)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return np.array_equal(np.abs(a).view(np.int64), np.abs(b).view(np.int64)) and \
-        np.array_equal(np.signbit(a) & (a != 0), np.signbit(b) & (b != 0))
+    return np.array_equal(np.abs(a).view(np.int64), np.abs(b).view(np.int64)) and np.array_equal(
+        np.signbit(a) & (a != 0), np.signbit(b) & (b != 0)
+    )
 
 
 @pytest.mark.parametrize("name", sorted(PAPER))
@@ -99,9 +123,19 @@ def test_the_library_views_are_read_only():
         GAITS["trot"].R[0, 0] = 1.0
 
 
-@pytest.mark.parametrize("degrees, radians", [(10, PI / 18), (-10, -PI / 18), (50, 5 * PI / 18),
-                                              (120, 2 * PI / 3), (270, 3 * PI / 2),
-                                              (-180, -PI), (45, PI / 4), (15, PI / 12)])
+@pytest.mark.parametrize(
+    "degrees, radians",
+    [
+        (10, PI / 18),
+        (-10, -PI / 18),
+        (50, 5 * PI / 18),
+        (120, 2 * PI / 3),
+        (270, 3 * PI / 2),
+        (-180, -PI),
+        (45, PI / 4),
+        (15, PI / 12),
+    ],
+)
 def test_whole_degrees_convert_to_the_constants_double(degrees, radians):
     assert GF.degrees_to_radians([degrees])[0] == radians
 
@@ -112,15 +146,24 @@ def test_other_degrees_convert_by_the_formula():
 
 
 def test_written_file_reads_back(tmp_path):
-    odd = GaitParams(GAITS["trot"].R * 0.8137, GAITS["trot"].X, GAITS["trot"].Phi,
-                     GAITS["walk"].Phi_prime)
-    path = GF.write_gait_file(tmp_path / "g.yaml", {"my_trot": odd, "my_swim": GAITS["swim"]},
-                              provenance={"made_by": "test"})
+    odd = GaitParams(
+        GAITS["trot"].R * 0.8137, GAITS["trot"].X, GAITS["trot"].Phi, GAITS["walk"].Phi_prime
+    )
+    path = GF.write_gait_file(
+        tmp_path / "g.yaml",
+        {"my_trot": odd, "my_swim": GAITS["swim"]},
+        provenance={"made_by": "test"},
+    )
     entries = GF.load_gait_file(path)
-    np.testing.assert_allclose(GaitParams(**entries["my_trot"].matrices).to_vector(),
-                               odd.to_vector(), rtol=0, atol=1e-9 * PI / 180)
-    assert same_bits(GaitParams(**entries["my_swim"].matrices).to_vector(),
-                     GAITS["swim"].to_vector())
+    np.testing.assert_allclose(
+        GaitParams(**entries["my_trot"].matrices).to_vector(),
+        odd.to_vector(),
+        rtol=0,
+        atol=1e-9 * PI / 180,
+    )
+    assert same_bits(
+        GaitParams(**entries["my_swim"].matrices).to_vector(), GAITS["swim"].to_vector()
+    )
 
 
 def _file(tmp_path, text, name="gaits.yaml"):
@@ -144,25 +187,42 @@ def test_base_takes_the_missing_matrices(tmp_path):
     np.testing.assert_array_equal(slow.Phi_prime, GAITS["trot"].Phi_prime)
 
 
-@pytest.mark.parametrize("text, match", [
-    ("gaits:\n  g: {base: trot, R_deg: [[1, 2, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4]]}\n",
-     r"gaits\.g\.R_deg: expected 4 rows .* got 3 rows"),
-    ("gaits:\n  g: {base: trot, X_deg: [[1, 2, 3], [1, 2, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4]]}\n",
-     r"gaits\.g\.X_deg\[fl\]: expected 4 rows .* got 3 numbers"),
-    ("gaits:\n  g: {base: trot, Phi_deg: [[1, 2, a, 4], [1, 2, 3, 4], [1, 2, 3, 4], "
-     "[1, 2, 3, 4]]}\n",
-     r"gaits\.g\.Phi_deg\[fl, pitch\]: 'a' is not a number"),
-    ("gaits:\n  g: {base: trot, Phi_deg: [[1, 2, 3, 4], [1, .nan, 3, 4], [1, 2, 3, 4], "
-     "[1, 2, 3, 4]]}\n",
-     r"gaits\.g\.Phi_deg\[fr, roll1\]: nan is outside \[-720, 720\] deg"),
-    ("gaits:\n  g: {base: trot, R_dg: []}\n", r"gaits\.g: unknown key 'R_dg'; allowed: R_deg"),
-    ("gaits:\n  g: {R_deg: [[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]}\n",
-     r"gaits\.g: X_deg missing"),
-    ("gaits:\n  g: {base: trott}\n", r"gaits\.g\.base: 'trott' is not a gait defined before it"),
-    ("gaits:\n  g: {base: trot, mirror_keep: [R_deg.tilt]}\n", r"gaits\.g\.mirror_keep: "),
-    ("gaits:\n  zero: {base: trot}\n", r"'zero' is not a gait name"),
-    ("gaitz: {}\n", r"unknown key 'gaitz'"),
-])
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        (
+            "gaits:\n  g: {base: trot, R_deg: [[1, 2, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4]]}\n",
+            r"gaits\.g\.R_deg: expected 4 rows .* got 3 rows",
+        ),
+        (
+            "gaits:\n  g: {base: trot, X_deg: [[1, 2, 3], [1, 2, 3, 4], [1, 2, 3, 4], [1, 2, "
+            "3, 4]]}\n",
+            r"gaits\.g\.X_deg\[fl\]: expected 4 rows .* got 3 numbers",
+        ),
+        (
+            "gaits:\n  g: {base: trot, Phi_deg: [[1, 2, a, 4], [1, 2, 3, 4], [1, 2, 3, 4], "
+            "[1, 2, 3, 4]]}\n",
+            r"gaits\.g\.Phi_deg\[fl, pitch\]: 'a' is not a number",
+        ),
+        (
+            "gaits:\n  g: {base: trot, Phi_deg: [[1, 2, 3, 4], [1, .nan, 3, 4], [1, 2, 3, 4], "
+            "[1, 2, 3, 4]]}\n",
+            r"gaits\.g\.Phi_deg\[fr, roll1\]: nan is outside \[-720, 720\] deg",
+        ),
+        ("gaits:\n  g: {base: trot, R_dg: []}\n", r"gaits\.g: unknown key 'R_dg'; allowed: R_deg"),
+        (
+            "gaits:\n  g: {R_deg: [[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]}\n",
+            r"gaits\.g: X_deg missing",
+        ),
+        (
+            "gaits:\n  g: {base: trott}\n",
+            r"gaits\.g\.base: 'trott' is not a gait defined before it",
+        ),
+        ("gaits:\n  g: {base: trot, mirror_keep: [R_deg.tilt]}\n", r"gaits\.g\.mirror_keep: "),
+        ("gaits:\n  zero: {base: trot}\n", r"'zero' is not a gait name"),
+        ("gaitz: {}\n", r"unknown key 'gaitz'"),
+    ],
+)
 def test_file_mistakes_are_one_line_naming_the_gait_and_field(tmp_path, text, match):
     path = _file(tmp_path, text)
     with pytest.raises(ScenarioError, match=match) as e:
@@ -172,8 +232,11 @@ def test_file_mistakes_are_one_line_naming_the_gait_and_field(tmp_path, text, ma
 
 def test_a_name_clash_names_both_files(tmp_path):
     clash = _file(tmp_path, "gaits:\n  trot: {base: walk}\n")
-    with pytest.raises(ScenarioError, match=rf"{clash}: gaits\.trot: the name is already "
-                                            rf"defined in .*models/gaits\.yaml"):
+    with pytest.raises(
+        ScenarioError,
+        match=rf"{clash}: gaits\.trot: the name is already "
+        rf"defined in .*models/gaits\.yaml",
+    ):
         GF.gait_entries([clash])
     first = _file(tmp_path, TROT_TEXT, "a.yaml")
     second = _file(tmp_path, TROT_TEXT, "b.yaml")
@@ -185,15 +248,19 @@ def test_scenario_gait_files_relative_to_the_scenario_and_by_set(tmp_path, monke
     (tmp_path / "sub").mkdir()
     _file(tmp_path / "sub", TROT_TEXT, "mine.yaml")
     scenario_path = tmp_path / "sub" / "run.yaml"
-    scenario_path.write_text("controller: {mode: gait, gait: slow_trot, gait_files: [mine.yaml]}\n"
-                             "initial_stance: slow_trot\n")
+    scenario_path.write_text(
+        "controller: {mode: gait, gait: slow_trot, gait_files: [mine.yaml]}\n"
+        "initial_stance: slow_trot\n"
+    )
     monkeypatch.chdir(tmp_path)  # the scenario's folder, not the working directory, anchors it
     s = load_scenario(scenario_path)
     assert s.controller.gait_files == [str((tmp_path / "sub" / "mine.yaml").resolve())]
     np.testing.assert_array_equal(s.gait("slow_trot").R, GAITS["trot"].R / 2)
     # --set is relative to the working directory.
-    s2 = load_scenario("locomotion_trot", overrides={"controller.gait_files": ["sub/mine.yaml"],
-                                                     "controller.gait": "slow_trot"})
+    s2 = load_scenario(
+        "locomotion_trot",
+        overrides={"controller.gait_files": ["sub/mine.yaml"], "controller.gait": "slow_trot"},
+    )
     assert s2.controller.gait_files == [str((tmp_path / "sub" / "mine.yaml").resolve())]
     assert get_gait("slow_trot", "paper", s2.controller.gait_files).R[0, 0] == PI / 18
     # The mirrored reading applies its rule to the user's gait too.
@@ -203,8 +270,9 @@ def test_scenario_gait_files_relative_to_the_scenario_and_by_set(tmp_path, monke
 
 def test_scenario_refuses_a_missing_or_unknown_gait(tmp_path):
     with pytest.raises(ScenarioError, match=r"controller\.gait_files\[0\]: gait file not found"):
-        load_scenario("locomotion_trot",
-                      overrides={"controller.gait_files": [str(tmp_path / "x.yaml")]})
+        load_scenario(
+            "locomotion_trot", overrides={"controller.gait_files": [str(tmp_path / "x.yaml")]}
+        )
     with pytest.raises(ScenarioError, match=r"controller\.gait: 'slow_trot' is not one of"):
         load_scenario("locomotion_trot", overrides={"controller.gait": "slow_trot"})
 
@@ -226,8 +294,10 @@ def test_written_degrees_snap_to_whole_only_within_1e9():
 
 
 def test_entries_up_to_720_degrees_are_accepted(tmp_path):
-    text = ("gaits:\n  g: {base: trot, Phi_deg: [[720, -720, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], "
-            "[0, 0, 0, 0]]}\n")
+    text = (
+        "gaits:\n  g: {base: trot, Phi_deg: [[720, -720, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], "
+        "[0, 0, 0, 0]]}\n"
+    )
     g = GF.gait_entries([_file(tmp_path, text)])["g"]
     assert g.matrices["Phi"][0, 0] == 4 * PI and g.matrices["Phi"][0, 1] == -4 * PI
     with pytest.raises(ScenarioError, match=r"720\.5 is outside"):

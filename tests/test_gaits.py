@@ -13,8 +13,11 @@ def rows(*r):
 
 
 EQ6_SWIM = dict(
-    R=rows(0, 45, 45, 45), X=np.zeros((4, 4)), Phi=rows(0, -180, 0, 0),
-    Phi_prime=D([[0, -10, 0, 0], [10, 0, 0, 0], [0, 0, 0, -10], [0, 0, 10, 0]]))
+    R=rows(0, 45, 45, 45),
+    X=np.zeros((4, 4)),
+    Phi=rows(0, -180, 0, 0),
+    Phi_prime=D([[0, -10, 0, 0], [10, 0, 0, 0], [0, 0, 0, -10], [0, 0, 10, 0]]),
+)
 R_GAIT = D([[20, 10, 15, 0], [-20, 10, 15, 0], [20, 10, 15, 0], [-20, 10, 15, 0]])
 X_GAIT = D([[20, -30, -30, -50], [20, -30, 30, -50], [20, -30, -30, -50], [20, -30, 30, -50]])
 PHI_GAIT = rows(120, -180, 180, 0)
@@ -29,14 +32,18 @@ EXPECTED = {
     "trot": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_GAIT),
     "walk": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_WALK),
     "turning": dict(R=R_GAIT, X=X_GAIT, Phi=PHI_GAIT, Phi_prime=PHIP_TURN),
-    "crab": dict(R=rows(0, 10, 20, 20), X=X_GAIT,
-                 Phi=D([[0, 0, -180, 0], [0, 0, -180, 0], [0, 0, 180, 0], [0, 0, 180, 0]]),
-                 Phi_prime=PHIP_GAIT),
+    "crab": dict(
+        R=rows(0, 10, 20, 20),
+        X=X_GAIT,
+        Phi=D([[0, 0, -180, 0], [0, 0, -180, 0], [0, 0, 180, 0], [0, 0, 180, 0]]),
+        Phi_prime=PHIP_GAIT,
+    ),
 }
 
 
-EXPECTED.update({f"{name}_printed": EXPECTED[name]
-                 for name in ("trot", "walk", "turning", "crab")})  # the paper reading's
+EXPECTED.update(
+    {f"{name}_printed": EXPECTED[name] for name in ("trot", "walk", "turning", "crab")}
+)  # the paper reading's
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))
@@ -53,8 +60,9 @@ def test_every_printed_matrix_is_a_named_gait_in_both_readings(name):
     for reading in READINGS:
         gait = get_gait(name, reading)
         for field, expected in EXPECTED[name].items():
-            np.testing.assert_allclose(getattr(gait, field), expected, atol=1e-12,
-                                       err_msg=f"{reading} {field}")
+            np.testing.assert_allclose(
+                getattr(gait, field), expected, atol=1e-12, err_msg=f"{reading} {field}"
+            )
 
 
 def test_library_has_exactly_the_contract_gaits():
@@ -83,8 +91,9 @@ def test_mirror_signs_mirror_the_leg_geometry():
         return err
 
     assert mirror_error(MIRROR_SIGNS) < 1e-12
-    others = [np.array(s) for s in product((1.0, -1.0), repeat=4)
-              if not np.array_equal(s, MIRROR_SIGNS)]
+    others = [
+        np.array(s) for s in product((1.0, -1.0), repeat=4) if not np.array_equal(s, MIRROR_SIGNS)
+    ]
     assert min(mirror_error(s) for s in others) > 1e-3
 
 
@@ -95,8 +104,11 @@ def test_swim_fins_mirror_each_other_and_the_legged_gaits_keep_the_print():
 
     for name, mirrored in (("swim", True), ("swim_printed", False)):
         g = GAITS[name]
-        same = all(np.allclose(M[right], MIRROR_SIGNS * M[left]) for M in (g.R, g.X)
-                   for left, right in ((0, 1), (2, 3)))
+        same = all(
+            np.allclose(M[right], MIRROR_SIGNS * M[left])
+            for M in (g.R, g.X)
+            for left, right in ((0, 1), (2, 3))
+        )
         assert same is mirrored, name
 
 

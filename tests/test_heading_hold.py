@@ -29,6 +29,7 @@ def _params(**kw):
 
 # --- the autopilot -----------------------------------------------------------------------------
 
+
 def test_positive_error_asks_for_a_right_turn_as_more_left_flapping():
     """yaw above the target (turned left, counter-clockwise from above) gives u > 0, which
     raises the left fins' flapping and lowers the right fins' (turn_sign = +1); turn_sign
@@ -89,8 +90,9 @@ def test_saturation_and_anti_windup():
     # A proportional action alone beyond the bound: u = max_trim and the integral never grows.
     integral = 0.0
     for _ in range(100):
-        integral, u = heading_trim_step(integral, 1.0, 0.0, 0.0, _params(kp=0.5, ki=1.0,
-                                                                         max_trim=0.3))
+        integral, u = heading_trim_step(
+            integral, 1.0, 0.0, 0.0, _params(kp=0.5, ki=1.0, max_trim=0.3)
+        )
         assert integral == 0.0 and u == 0.3
     # The error reverses: the held integral starts unwinding at the first update.
     integral2, u2 = heading_trim_step(integrals[-1], -0.1, 0.0, 0.0, p)
@@ -106,6 +108,7 @@ def test_integral_clamped_to_the_trim_bound_and_zero_without_integral_action():
 
 # --- the trim ----------------------------------------------------------------------------------
 
+
 def test_trim_scales_only_the_roll_amplitudes_in_the_stated_ratio():
     u, share = 0.2, 0.5  # s u = 0.1
     out = apply_trim(SWIM, u, share)
@@ -118,8 +121,11 @@ def test_trim_scales_only_the_roll_amplitudes_in_the_stated_ratio():
     np.testing.assert_allclose(R[[1, 3]][:, [1, 3]], 0.9 * np.pi / 4, rtol=1e-15)
     np.testing.assert_allclose(R[0, [1, 3]] / R[1, [1, 3]], 1.1 / 0.9, rtol=1e-14)
     assert R0[0, 1] == np.pi / 4  # the input is not modified
-    np.testing.assert_allclose(apply_trim(SWIM, -u, share)[:16].reshape(4, 4)[[0, 2]][:, [1, 3]],
-                               0.9 * np.pi / 4, rtol=1e-15)
+    np.testing.assert_allclose(
+        apply_trim(SWIM, -u, share)[:16].reshape(4, 4)[[0, 2]][:, [1, 3]],
+        0.9 * np.pi / 4,
+        rtol=1e-15,
+    )
 
 
 def test_no_trim_is_the_input_itself():
@@ -135,6 +141,7 @@ def test_no_trim_is_the_input_itself():
 
 # --- the system --------------------------------------------------------------------------------
 
+
 def _fix(system, context, cpg=SWIM, yaw=0.0, yaw_rate=0.0, share=1.0):
     system.GetInputPort("cpg_params").FixValue(context, cpg)
     system.GetInputPort("attitude_hat").FixValue(context, [0.01, -0.02, yaw])
@@ -145,7 +152,8 @@ def _fix(system, context, cpg=SWIM, yaw=0.0, yaw_rate=0.0, share=1.0):
 def _update(system, context, **inputs):
     _fix(system, context, **inputs)
     context.SetDiscreteState(
-        system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector())
+        system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector()
+    )
     return system.GetOutputPort("heading_trim").Eval(context)[0]
 
 
@@ -206,8 +214,10 @@ def test_feedthrough_on_the_cpg_params_and_share_only():
     system = HeadingHold(_params(kp=1.0))
     out = system.GetOutputPort("cpg_params").get_index()
     trim = system.GetOutputPort("heading_trim").get_index()
-    port = {name: system.GetInputPort(name).get_index()
-            for name in ("cpg_params", "attitude_hat", "yaw_rate_hat", "swim_share")}
+    port = {
+        name: system.GetInputPort(name).get_index()
+        for name in ("cpg_params", "attitude_hat", "yaw_rate_hat", "swim_share")
+    }
     assert system.HasDirectFeedthrough(port["cpg_params"], out)
     assert system.HasDirectFeedthrough(port["swim_share"], out)
     assert not system.HasDirectFeedthrough(port["attitude_hat"], out)
@@ -221,8 +231,12 @@ def test_in_a_simulator_the_pi_trim_reaches_its_closed_form():
     are pi/4 (1 + u), the right ones pi/4 (1 - u)."""
     builder = DiagramBuilder()
     system = builder.AddSystem(HeadingHold(_params(kp=0.5, ki=0.1, heading_deg=0.0)))
-    for name, value in (("cpg_params", SWIM), ("attitude_hat", [0.0, 0.0, 0.1]),
-                        ("yaw_rate_hat", [0.0]), ("swim_share", [1.0])):
+    for name, value in (
+        ("cpg_params", SWIM),
+        ("attitude_hat", [0.0, 0.0, 0.1]),
+        ("yaw_rate_hat", [0.0]),
+        ("swim_share", [1.0]),
+    ):
         source = builder.AddSystem(ConstantVectorSource(np.asarray(value, dtype=float)))
         builder.Connect(source.get_output_port(), system.GetInputPort(name))
     simulator = Simulator(builder.Build())
@@ -258,19 +272,22 @@ def test_behind_the_posture_estimator_the_first_heading_is_the_imus():
     assert system.GetOutputPort("heading_trim").Eval(context)[0] == 0.0
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"enabled": 1}, r"enabled: 1 is not true or false"),
-    ({"kp": -0.1}, r"kp: -0.1 is outside the allowed range \[0, 100\] 1/rad"),
-    ({"ki": 101.0}, r"ki: 101.0 is outside the allowed range \[0, 100\] 1/\(rad s\)"),
-    ({"kd": np.inf}, r"kd: inf is not finite"),
-    ({"max_trim": 1.0}, r"max_trim: 1.0 is outside the allowed range \[0, 1\)"),
-    ({"max_trim": -0.1}, r"max_trim: -0.1 is outside the allowed range \[0, 1\)"),
-    ({"heading_deg": 190.0}, r"heading_deg: 190.0 is outside the allowed range \[-180, 180\]"),
-    ({"heading_deg": "north"}, r"heading_deg: 'north' is not a number"),
-    ({"period": 0.0}, r"period: 0.0 is outside the allowed range \(0, 1\] s"),
-    ({"turn_sign": 0}, r"turn_sign: 0 is not \+1 or -1"),
-    ({"turn_sign": 2.0}, r"turn_sign: 2.0 is not \+1 or -1"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"enabled": 1}, r"enabled: 1 is not true or false"),
+        ({"kp": -0.1}, r"kp: -0.1 is outside the allowed range \[0, 100\] 1/rad"),
+        ({"ki": 101.0}, r"ki: 101.0 is outside the allowed range \[0, 100\] 1/\(rad s\)"),
+        ({"kd": np.inf}, r"kd: inf is not finite"),
+        ({"max_trim": 1.0}, r"max_trim: 1.0 is outside the allowed range \[0, 1\)"),
+        ({"max_trim": -0.1}, r"max_trim: -0.1 is outside the allowed range \[0, 1\)"),
+        ({"heading_deg": 190.0}, r"heading_deg: 190.0 is outside the allowed range \[-180, 180\]"),
+        ({"heading_deg": "north"}, r"heading_deg: 'north' is not a number"),
+        ({"period": 0.0}, r"period: 0.0 is outside the allowed range \(0, 1\] s"),
+        ({"turn_sign": 0}, r"turn_sign: 0 is not \+1 or -1"),
+        ({"turn_sign": 2.0}, r"turn_sign: 2.0 is not \+1 or -1"),
+    ],
+)
 def test_every_parameter_error_names_the_field_and_range(change, message):
     with pytest.raises(ValueError, match=message):
         dc.replace(HeadingHoldParams(), **change).validate()
@@ -297,8 +314,9 @@ def test_swim_share_input_is_clipped_to_0_1_before_it_weights_the_integral():
         system = HeadingHold(_params(ki=1.0, heading_deg=0.0))
         context = system.CreateDefaultContext()
         _update(system, context, yaw=e, share=share)
-        assert context.get_discrete_state_vector().GetAtIndex(0) == pytest.approx(integral,
-                                                                                  abs=1e-15)
+        assert context.get_discrete_state_vector().GetAtIndex(0) == pytest.approx(
+            integral, abs=1e-15
+        )
     assert system.GetOutputPort("cpg_params").Eval(context).tobytes() == SWIM.tobytes()
 
 
@@ -313,14 +331,19 @@ def test_heading_edges_pass_and_wrap_to_the_same_target(heading):
 
 # --- changes of the held heading ---------------------------------------------------------------
 
+
 def test_changed_targets_by_hand():
     from manta_drake.control.heading_hold import HeadingChange, changed_targets
 
-    changes = [HeadingChange(time=5.0, heading_deg=90.0),
-               HeadingChange(modality="s_hat", above=0.8, turn_deg=180.0)]
+    changes = [
+        HeadingChange(time=5.0, heading_deg=90.0),
+        HeadingChange(modality="s_hat", above=0.8, turn_deg=180.0),
+    ]
     # Neither is due: the target stays.
     assert changed_targets(0.3, 1.0, 4.9, {"s_hat": 0.5}, changes, (False, False)) == (
-        0.3, (False, False))
+        0.3,
+        (False, False),
+    )
     # The wall is seen: the heading then (1.0 rad) plus pi, wrapped.
     target, done = changed_targets(0.3, 1.0, 4.9, {"s_hat": 0.9}, changes, (False, False))
     assert target == pytest.approx(1.0 + np.pi - 2 * np.pi) and done == (False, True)
@@ -334,8 +357,12 @@ def test_changed_targets_by_hand():
 def test_the_system_turns_back_when_the_wall_is_seen_and_restarts_its_integral():
     from manta_drake.control.heading_hold import HeadingChange
 
-    p = _params(kp=1.0, ki=0.5, heading_deg=0.0,
-                changes=[HeadingChange(modality="s_hat", above=0.8, turn_deg=180.0)])
+    p = _params(
+        kp=1.0,
+        ki=0.5,
+        heading_deg=0.0,
+        changes=[HeadingChange(modality="s_hat", above=0.8, turn_deg=180.0)],
+    )
     system = HeadingHold(p)
     context = system.CreateDefaultContext()
     system.GetInputPort("s_hat").FixValue(context, [0.1])
@@ -352,14 +379,17 @@ def test_the_system_turns_back_when_the_wall_is_seen_and_restarts_its_integral()
     assert context.get_discrete_state_vector().GetAtIndex(4) == 1.0  # made, once
 
 
-@pytest.mark.parametrize("change, message", [
-    ({}, "changes\\[0\\]: give either time or modality"),
-    ({"time": 3.0, "modality": "s_hat", "turn_deg": 90.0}, "give either time or modality"),
-    ({"time": 3.0}, "changes\\[0\\]: give either heading_deg .* or turn_deg"),
-    ({"modality": "a b", "turn_deg": 90.0}, "changes\\[0\\].modality: 'a b' is not an "),
-    ({"time": 3.0, "turn_deg": 400.0}, "changes\\[0\\].turn_deg: 400.0 is outside"),
-    ({"modality": "s_hat", "above": 1.0, "turn_deg": 90.0}, "changes\\[0\\].above: 1.0"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({}, "changes\\[0\\]: give either time or modality"),
+        ({"time": 3.0, "modality": "s_hat", "turn_deg": 90.0}, "give either time or modality"),
+        ({"time": 3.0}, "changes\\[0\\]: give either heading_deg .* or turn_deg"),
+        ({"modality": "a b", "turn_deg": 90.0}, "changes\\[0\\].modality: 'a b' is not an "),
+        ({"time": 3.0, "turn_deg": 400.0}, "changes\\[0\\].turn_deg: 400.0 is outside"),
+        ({"modality": "s_hat", "above": 1.0, "turn_deg": 90.0}, "changes\\[0\\].above: 1.0"),
+    ],
+)
 def test_a_bad_change_names_its_field(change, message):
     from manta_drake.control.heading_hold import HeadingChange
 

@@ -10,13 +10,19 @@ from scipy import integrate
 from manta_drake.model import hull_resistance as hr
 
 
-@pytest.mark.parametrize("axes, exact", [
-    ((0.3, 0.3, 0.3), 4 * math.pi * 0.09),
-    # prolate spheroid a > b = c: 2 pi b^2 (1 + a / (b e) asin e)
-    ((2.0, 1.0, 1.0), 2 * math.pi * (1 + 2.0 / math.sqrt(0.75) * math.asin(math.sqrt(0.75)))),
-    # oblate spheroid a = b > c: 2 pi a^2 (1 + (1 - e^2) / e atanh e)
-    ((2.0, 2.0, 1.0), 2 * math.pi * 4 * (1 + 0.25 / math.sqrt(0.75) * math.atanh(math.sqrt(0.75)))),
-])
+@pytest.mark.parametrize(
+    "axes, exact",
+    [
+        ((0.3, 0.3, 0.3), 4 * math.pi * 0.09),
+        # prolate spheroid a > b = c: 2 pi b^2 (1 + a / (b e) asin e)
+        ((2.0, 1.0, 1.0), 2 * math.pi * (1 + 2.0 / math.sqrt(0.75) * math.asin(math.sqrt(0.75)))),
+        # oblate spheroid a = b > c: 2 pi a^2 (1 + (1 - e^2) / e atanh e)
+        (
+            (2.0, 2.0, 1.0),
+            2 * math.pi * 4 * (1 + 0.25 / math.sqrt(0.75) * math.atanh(math.sqrt(0.75))),
+        ),
+    ],
+)
 def test_surface_area_of_spheroids_is_the_closed_form(axes, exact):
     assert hr.ellipsoid_surface_area(axes) == pytest.approx(exact, rel=1e-10)
     assert hr.ellipsoid_surface_area(axes[::-1]) == pytest.approx(exact, rel=1e-10)
@@ -57,15 +63,17 @@ def test_surge_law_friction_grows_as_speed_to_the_three_halves_and_form_drag_as_
     only_form = hr.hull_surge_resistance(0.3, 0.1, **{**kw, "wetted_area": 0.0})
     assert only_form == pytest.approx(0.5 * 1000 * 0.09 * 0.1 * 0.026)
     assert hr.hull_surge_resistance(-0.2, 0.1, **kw) == pytest.approx(
-        -hr.hull_surge_resistance(0.2, 0.1, **kw))
+        -hr.hull_surge_resistance(0.2, 0.1, **kw)
+    )
     with pytest.raises(ValueError, match="laminar limit"):
         hr.hull_surge_resistance(2.0, 0.1, **kw)
 
 
 def test_form_drag_coefficient_recovers_a_quadratic_drag():
     u = np.array([0.4, 0.8, 1.2])
-    assert hr.hull_form_drag_coefficient(0.5 * 1000 * u ** 2 * 0.07 * 0.026, u, 0.026,
-                                         1000) == pytest.approx(0.07)
+    assert hr.hull_form_drag_coefficient(
+        0.5 * 1000 * u**2 * 0.07 * 0.026, u, 0.026, 1000
+    ) == pytest.approx(0.07)
 
 
 def test_rotational_damping_is_the_strip_integral():
@@ -79,5 +87,6 @@ def test_rotational_damping_is_the_strip_integral():
         return integrate.quad(f, -L, L)[0]
 
     expected = [strip(b, a, cd[0]), strip(a, b, cd[1]), strip(a, c, cd[2])]
-    np.testing.assert_allclose(hr.cross_flow_rotational_damping((a, b, c), cd, rho), expected,
-                               rtol=1e-8)
+    np.testing.assert_allclose(
+        hr.cross_flow_rotational_damping((a, b, c), cd, rho), expected, rtol=1e-8
+    )

@@ -1,7 +1,6 @@
 """The water: each term's pure function against closed forms (no plant), and
 HydrodynamicForces in the plant against hydrostatics and drag laws by hand."""
 
-
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -37,6 +36,7 @@ RHO, G = COEFFS.water_density.value, COEFFS.gravity.value
 
 
 # --- pure maths ------------------------------------------------------------------------------
+
 
 def test_ellipsoid_submersion_matches_monte_carlo(rng):
     """Submerged fraction and centroid of tilted ellipsoids vs. random sampling."""
@@ -155,8 +155,11 @@ def test_added_mass_split_and_build_time_check():
 def test_identification_recovers_known_coefficients(rng):
     from manta_drake.model.coefficients import fit_damping
 
-    for lin, quad_, (lo, hi) in ((1.7, 4.4, (0.4, 1.2)), (4.7, 37.0, (0.1, 0.6)),
-                                 (0.05, 0.013, (0.5, 6.0))):
+    for lin, quad_, (lo, hi) in (
+        (1.7, 4.4, (0.4, 1.2)),
+        (4.7, 37.0, (0.1, 0.6)),
+        (0.05, 0.013, (0.5, 6.0)),
+    ):
         u = np.concatenate([-np.linspace(lo, hi, 40), np.linspace(lo, hi, 40)])
         force = (lin + quad_ * np.abs(u)) * u * (1 + 0.01 * rng.standard_normal(u.size))
         (got_lin, got_quad), residual = fit_damping(u, force)
@@ -177,19 +180,33 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
     lines = ["# test", "# source: a closed-form test table"] + [
         f"{a},{u},{(1.0 + i + 2.0 * (i + 1) * abs(u)) * u}"
         for i, a in enumerate(("surge", "sway", "heave", "roll", "pitch", "yaw"))
-        for u in (-1.0, -0.5, 0.5, 1.0, 1.5)]
+        for u in (-1.0, -0.5, 0.5, 1.0, 1.5)
+    ]
     csv.write_text("\n".join(lines) + "\n")
     target = tmp_path / "h.yaml"
     shutil.copy(MODELS_DIR / "hydrodynamics.yaml", target)
-    out = subprocess.run([sys.executable, "scripts/identify_damping.py", "--csv", str(csv),
-                          "--yaml", str(target), "--write"], cwd=root, capture_output=True,
-                         text=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "scripts/identify_damping.py",
+            "--csv",
+            str(csv),
+            "--yaml",
+            str(target),
+            "--write",
+        ],
+        cwd=root,
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr
     data = yaml.safe_load(target.read_text())
-    np.testing.assert_allclose(data["body"]["linear_damping"]["value"], [1, 2, 3, 4, 5, 6],
-                               atol=1e-6)
-    np.testing.assert_allclose(data["body"]["quadratic_damping"]["value"],
-                               [2, 4, 6, 8, 10, 12], atol=1e-6)
+    np.testing.assert_allclose(
+        data["body"]["linear_damping"]["value"], [1, 2, 3, 4, 5, 6], atol=1e-6
+    )
+    np.testing.assert_allclose(
+        data["body"]["quadratic_damping"]["value"], [2, 4, 6, 8, 10, 12], atol=1e-6
+    )
     assert "surge" in out.stdout and "rms" in out.stdout
     # The fit's source names the table and what the table says it is.
     assert "s.csv (a closed-form test table)" in data["body"]["linear_damping"]["source"]
@@ -198,8 +215,12 @@ def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
 def _one_element(p_B, axes, body=0):
     """The arrays of build_elements for a single ellipsoid volume element."""
     axes = np.asarray([axes], dtype=float)
-    return {"body": np.array([body]), "p": np.asarray([p_B], dtype=float), "axes": axes,
-            "volume": 4.0 / 3.0 * np.pi * np.prod(axes, axis=1)}
+    return {
+        "body": np.array([body]),
+        "p": np.asarray([p_B], dtype=float),
+        "axes": axes,
+        "volume": 4.0 / 3.0 * np.pi * np.prod(axes, axis=1),
+    }
 
 
 def test_buoyancy_wrench_of_a_submerged_and_a_floating_ellipsoid():
@@ -217,8 +238,9 @@ def test_buoyancy_wrench_of_a_submerged_and_a_floating_ellipsoid():
     d = 0.02
     F, frac, _ = buoyancy_wrenches(R, np.array([[0.0, 0.0, -d]]), el, RHO, G)
     h = c + d
-    assert F[0, 5] == pytest.approx(RHO * G * np.pi * a * b * h * h * (3 * c - h) / (3 * c * c),
-                                    rel=1e-12)
+    assert F[0, 5] == pytest.approx(
+        RHO * G * np.pi * a * b * h * h * (3 * c - h) / (3 * c * c), rel=1e-12
+    )
     assert frac[0] == pytest.approx(F[0, 5] / lift)
 
 
@@ -267,6 +289,7 @@ def test_residual_added_mass_opposes_the_acceleration_per_body_axis():
 
 # --- hydrostatics by hand ----------------------------------------------------------------------
 
+
 def _ellipsoid_cap(a, b, c, depth_of_centre):
     """Volume of a level ellipsoid below z = 0 with its centre at -depth (closed form)."""
     if c <= 0:
@@ -292,9 +315,13 @@ def robot_displacement(z_body, balloon_volume):
 
 
 def _water_scenario(**kw) -> Scenario:
-    s = Scenario(name="test", initial_stance="zero",
-                 controller=ControllerConfig(mode="hold", gait="swim"),
-                 visualization=VisualizationConfig(meshcat=False), steady_after=0.0)
+    s = Scenario(
+        name="test",
+        initial_stance="zero",
+        controller=ControllerConfig(mode="hold", gait="swim"),
+        visualization=VisualizationConfig(meshcat=False),
+        steady_after=0.0,
+    )
     for k, v in kw.items():
         setattr(s, k, v)
     return s.validate()
@@ -306,8 +333,11 @@ def test_inflated_robot_floats_at_the_hydrostatic_draft(tmp_path):
     z_eq = brentq(lambda z: RHO * robot_displacement(z, full) - mass, -0.2, 0.1)
     # 14 s: with the fins' and the hull's added mass (foil fins) the heave settles slowly
     # (about 38 kg of effective heave mass on the waterplane's stiffness).
-    s = _water_scenario(duration=14.0, initial_pose=InitialPose(xyz=[0, 0, z_eq + 0.005]),
-                        balloon=BalloonConfig(initial_fill=1.0))
+    s = _water_scenario(
+        duration=14.0,
+        initial_pose=InitialPose(xyz=[0, 0, z_eq + 0.005]),
+        balloon=BalloonConfig(initial_fill=1.0),
+    )
     result = run(s, tmp_path, progress=False, write_outputs=False)
     z = result.log["body_xyz"][:, 2]
     t = result.log["t"]
@@ -338,8 +368,11 @@ def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
     closed-form terminal velocity in the pool's half metre; with the foil fins (38 kg of
     effective heave mass, the plates' drag building up over a few chords of travel) it does
     not in that depth: ``test_deflated_robot_with_foil_fins_sinks_and_rests``."""
-    s = _water_scenario(duration=7.0, initial_pose=InitialPose(xyz=[0, 0, -0.12]),
-                        balloon=BalloonConfig(initial_fill=0.0))
+    s = _water_scenario(
+        duration=7.0,
+        initial_pose=InitialPose(xyz=[0, 0, -0.12]),
+        balloon=BalloonConfig(initial_fill=0.0),
+    )
     s.water.fin_model = "cross_flow"
     result = run(s, tmp_path, progress=False, write_outputs=False)
     z, w = result.log["body_xyz"][:, 2], result.log["body_v_world"][:, 2]
@@ -347,8 +380,11 @@ def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
     fins_area = 4 * (P.proximal_chord * P.d3 + P.distal_chord * P.dE)
     b, links, fins = COEFFS.body, COEFFS.links, COEFFS.fins
     lin = b.linear_damping.value[2] + 16 * links.linear_damping.value[2]
-    quad_ = (b.quadratic_damping.value[2] + 16 * links.quadratic_damping.value[2]
-             + 0.5 * RHO * fins.normal_force_coefficient.value * fins_area)
+    quad_ = (
+        b.quadratic_damping.value[2]
+        + 16 * links.quadratic_damping.value[2]
+        + 0.5 * RHO * fins.normal_force_coefficient.value * fins_area
+    )
     volume = robot_displacement(-1.0, 0.0)
     net = (P.total_mass - RHO * volume) * G
     assert net > 0  # deflated, heavier than neutral
@@ -367,8 +403,11 @@ def test_deflated_robot_with_foil_fins_sinks_and_rests(tmp_path):
     """The default fins: released at rest, the deflated robot starts down at net weight over
     the plant's own heave mass (M_zz of the mass matrix with the joints held: rigid, hull and
     plates' added mass) and comes to rest on the floor."""
-    s = _water_scenario(duration=7.0, initial_pose=InitialPose(xyz=[0, 0, -0.12]),
-                        balloon=BalloonConfig(initial_fill=0.0))
+    s = _water_scenario(
+        duration=7.0,
+        initial_pose=InitialPose(xyz=[0, 0, -0.12]),
+        balloon=BalloonConfig(initial_fill=0.0),
+    )
     assert s.water.fin_model == "foil"
     result = run(s, tmp_path, progress=False, write_outputs=False)
     t, z, w = result.log["t"], result.log["body_xyz"][:, 2], result.log["body_v_world"][:, 2]
@@ -395,8 +434,11 @@ def test_surge_step_force_accelerates_with_added_mass():
     from manta_drake.simulate import make_simulator
     from manta_drake.wiring.diagram import build_diagram
 
-    s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.25]),
-                        balloon=BalloonConfig(initial_fill=0.25))
+    s = _water_scenario(
+        duration=0.1,
+        initial_pose=InitialPose(xyz=[0, 0, -0.25]),
+        balloon=BalloonConfig(initial_fill=0.25),
+    )
     diagram, h = build_diagram(s)
     plant = h.plant
     simulator = make_simulator(diagram, s)  # the default context is the scenario's start
@@ -426,10 +468,16 @@ def test_surge_step_force_accelerates_with_added_mass():
 
 @pytest.mark.parametrize("dt", [0.5e-3, 1e-3, 2e-3])
 def test_swim_flapping_at_the_surface_moves_forward_stably(dt, tmp_path):
-    s = _water_scenario(duration=6.0, time_step=dt, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
-                        balloon=BalloonConfig(initial_fill=1.0),
-                        controller=ControllerConfig(mode="gait", gait="swim"),
-                        initial_stance="swim", log_period=dt, steady_after=2.0)
+    s = _water_scenario(
+        duration=6.0,
+        time_step=dt,
+        initial_pose=InitialPose(xyz=[0, 0, -0.04]),
+        balloon=BalloonConfig(initial_fill=1.0),
+        controller=ControllerConfig(mode="gait", gait="swim"),
+        initial_stance="swim",
+        log_period=dt,
+        steady_after=2.0,
+    )
     s.simulator.max_step_size = dt
     result = run(s, tmp_path, progress=False, write_outputs=False)
     log = result.log
@@ -447,10 +495,14 @@ def test_held_forces_agree_with_exact_forces(tmp_path):
     """water.update_period trades a small delay for speed; the swim speed barely moves."""
     speeds = []
     for period in (0.0, 0.004):
-        s = _water_scenario(duration=6.0, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
-                            balloon=BalloonConfig(initial_fill=1.0),
-                            controller=ControllerConfig(mode="gait", gait="swim"),
-                            initial_stance="swim", steady_after=2.0)
+        s = _water_scenario(
+            duration=6.0,
+            initial_pose=InitialPose(xyz=[0, 0, -0.04]),
+            balloon=BalloonConfig(initial_fill=1.0),
+            controller=ControllerConfig(mode="gait", gait="swim"),
+            initial_stance="swim",
+            steady_after=2.0,
+        )
         s.water.update_period = period
         result = run(s, tmp_path / str(period), progress=False, write_outputs=False)
         speeds.append(result.metrics["mean_velocity_body"][0])
@@ -503,8 +555,11 @@ def test_held_forces_start_from_the_initial_state():
     from manta_drake.simulate import make_simulator
     from manta_drake.wiring.diagram import build_diagram
 
-    s = _water_scenario(duration=0.1, initial_pose=InitialPose(xyz=[0, 0, -0.04]),
-                        balloon=BalloonConfig(initial_fill=1.0))
+    s = _water_scenario(
+        duration=0.1,
+        initial_pose=InitialPose(xyz=[0, 0, -0.04]),
+        balloon=BalloonConfig(initial_fill=1.0),
+    )
     s.water.update_period = 0.004
     diagram, h = build_diagram(s)
     simulator = make_simulator(diagram, s)
@@ -521,8 +576,9 @@ def test_held_forces_start_from_the_initial_state():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("dt", [0.5e-3, 1e-3, 2e-3])
-def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt, tmp_path,
-                                                                           monkeypatch):
+def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(
+    dt, tmp_path, monkeypatch
+):
     """The build-time criterion |residual| < effective inertia, per axis, is the stability
     bound of the explicit -I_res alpha_prev term (its amplification factor per step is
     -I_res / I_eff): the swim with a pitch residual of 0.9 I_eff stays bounded; at 1.5 I_eff
@@ -559,8 +615,9 @@ def test_explicit_added_inertia_is_stable_below_the_effective_inertia_only(dt, t
         s, diagram, h = swim(path)
         hydro = h.systems["hydro"]
         assert hydro.effective_inertia[1] == pytest.approx(i_eff, rel=1e-12)
-        np.testing.assert_allclose(hydro.residual_added_inertia, [0.0, ratio * i_eff, 0.0],
-                                   rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(
+            hydro.residual_added_inertia, [0.0, ratio * i_eff, 0.0], rtol=1e-9, atol=1e-15
+        )
         simulator = make_simulator(diagram, s)
         plant_context = h.plant.GetMyContextFromRoot(simulator.get_context())
         peak = 0.0
@@ -592,8 +649,7 @@ def test_body_lift_is_the_u_w_and_u_v_law_in_the_body_frame():
     nu = np.array([[0.4, 0.1, -0.2, 0.3, 0.0, 0.0], [-0.4, 0.1, -0.2, 0.0, 0.0, 0.0]])
     d = np.array([[0.5, 45.0, -4.4, 1.3]] * 2)
     out = body_lift(nu, d)
-    np.testing.assert_allclose(out[0], [0, -0.5 * 0.04, -45 * -0.08, 0, 4.4 * -0.08,
-                                        -1.3 * 0.04])
+    np.testing.assert_allclose(out[0], [0, -0.5 * 0.04, -45 * -0.08, 0, 4.4 * -0.08, -1.3 * 0.04])
     # Reversed (a fore-aft reflection): the side and vertical forces stay, the pitch and yaw
     # moments turn over.
     np.testing.assert_allclose(out[1][[1, 2]], out[0][[1, 2]])
@@ -605,7 +661,6 @@ def test_body_lift_is_the_u_w_and_u_v_law_in_the_body_frame():
     R = np.array([[[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]]])
     v = (R[0] @ nu[0, :3])[None]
     zero = np.zeros((1, 6))
-    F = damping_wrenches(R, np.zeros((1, 3)), v, np.zeros(3), zero, zero, np.array([0.5]),
-                         d[:1])
+    F = damping_wrenches(R, np.zeros((1, 3)), v, np.zeros(3), zero, zero, np.array([0.5]), d[:1])
     np.testing.assert_allclose(F[0, 3:], 0.5 * R[0] @ out[0, :3], atol=1e-15)
     np.testing.assert_allclose(F[0, :3], 0.5 * R[0] @ out[0, 3:], atol=1e-15)

@@ -31,8 +31,13 @@ from manta_drake.station.imu import (
 
 MASS, SIZE = 2.0, (0.3, 0.2, 0.1)
 G = 9.81
-QUIET = dict(attitude_noise_std_deg=0.0, gyro_noise_std_deg_s=0.0, gyro_bias_std_deg_s=0.0,
-             accel_noise_std=0.0, accel_bias_std=0.0)
+QUIET = dict(
+    attitude_noise_std_deg=0.0,
+    gyro_noise_std_deg_s=0.0,
+    gyro_bias_std_deg_s=0.0,
+    accel_noise_std=0.0,
+    accel_bias_std=0.0,
+)
 
 
 def _box_diagram(params: ImuParams, gravity=True, hold=False, feedback_gain=None):
@@ -40,8 +45,9 @@ def _box_diagram(params: ImuParams, gravity=True, hold=False, feedback_gain=None
     ports as the station's) with an IMU; ``hold``: an applied force cancelling its weight;
     ``feedback_gain``: a yaw-rate damper fed back from the IMU's gyro z."""
     builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=1e-3,
-                                                      use_sampled_output_ports=False), builder)
+    plant, _ = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=1e-3, use_sampled_output_ports=False), builder
+    )
     box = plant.AddRigidBody("box", SpatialInertia.SolidBoxWithMass(MASS, *SIZE))
     if not gravity:
         plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
@@ -60,8 +66,10 @@ def _box_diagram(params: ImuParams, gravity=True, hold=False, feedback_gain=None
         gain = builder.AddSystem(MatrixGain(K))
         builder.Connect(imu.GetOutputPort("imu"), gain.get_input_port())
         builder.Connect(gain.get_output_port(), plant.get_applied_generalized_force_input_port())
-    logs = {port: LogVectorOutput(imu.GetOutputPort(port), builder, imu.period)
-            for port in ("imu", "imu_true")}
+    logs = {
+        port: LogVectorOutput(imu.GetOutputPort(port), builder, imu.period)
+        for port in ("imu", "imu_true")
+    }
     diagram = builder.Build()
     simulator = Simulator(diagram)
     return diagram, simulator, plant, box, imu, logs
@@ -70,8 +78,9 @@ def _box_diagram(params: ImuParams, gravity=True, hold=False, feedback_gain=None
 def _set_state(plant, box, simulator, X_WB, w_W=(0, 0, 0), v_W=(0, 0, 0)):
     context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
     plant.SetFreeBodyPose(context, box, X_WB)
-    plant.SetFreeBodySpatialVelocity(context, box, SpatialVelocity(np.asarray(w_W, float),
-                                                                   np.asarray(v_W, float)))
+    plant.SetFreeBodySpatialVelocity(
+        context, box, SpatialVelocity(np.asarray(w_W, float), np.asarray(v_W, float))
+    )
 
 
 def _read(imu, simulator, port="imu"):
@@ -79,6 +88,7 @@ def _read(imu, simulator, port="imu"):
 
 
 # --- closed forms on a plant ---------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("rpy", [(0.0, 0.0, 0.7), (0.2, -0.3, 1.0), (-0.4, 0.5, -2.9)])
 def test_body_held_at_rest_reads_gravity_up_in_its_frame(rpy):
@@ -89,8 +99,9 @@ def test_body_held_at_rest_reads_gravity_up_in_its_frame(rpy):
     _set_state(plant, box, simulator, RigidTransform(RollPitchYaw(rpy), [0.1, 0.0, 1.0]))
     simulator.AdvanceTo(0.05)
     roll, pitch, _ = rpy
-    expected_f = G * np.array([-math.sin(pitch), math.sin(roll) * math.cos(pitch),
-                               math.cos(roll) * math.cos(pitch)])
+    expected_f = G * np.array(
+        [-math.sin(pitch), math.sin(roll) * math.cos(pitch), math.cos(roll) * math.cos(pitch)]
+    )
     for port in ("imu", "imu_true"):
         y = _read(imu, simulator, port)
         np.testing.assert_allclose(y[0:3], rpy, rtol=0, atol=1e-9)
@@ -116,8 +127,7 @@ def test_spinning_body_reads_its_rate_attitude_and_lever_arm_acceleration():
     at p reads alpha x p + w x (w x p) (body frame) with alpha from Euler's equations,
     I alpha = -w x I w (the centre of mass is at rest)."""
     p = [0.05, -0.04, 0.03]
-    _, simulator, plant, box, imu, _ = _box_diagram(ImuParams(position=p, **QUIET),
-                                                    gravity=False)
+    _, simulator, plant, box, imu, _ = _box_diagram(ImuParams(position=p, **QUIET), gravity=False)
     rpy = np.array([0.3, -0.4, 2.5])
     R = RotationMatrix(RollPitchYaw(rpy)).matrix()
     w_B = np.array([0.5, -0.2, 1.0])
@@ -140,8 +150,9 @@ def test_yaw_beyond_pi_is_wrapped():
     simulator.Initialize()
     assert _read(imu, simulator)[2] == pytest.approx(3.5 - 2 * math.pi, abs=1e-12)
     assert wrap_angle(-math.pi) == math.pi
-    np.testing.assert_allclose(wrap_angle([math.pi, 3 * math.pi, 0.1 - 2 * math.pi]),
-                               [math.pi, math.pi, 0.1], atol=1e-12)
+    np.testing.assert_allclose(
+        wrap_angle([math.pi, 3 * math.pi, 0.1 - 2 * math.pi]), [math.pi, math.pi, 0.1], atol=1e-12
+    )
 
 
 def test_imu_feeds_back_without_an_algebraic_loop():
@@ -149,14 +160,16 @@ def test_imu_feeds_back_without_an_algebraic_loop():
     is held state, no feedthrough from the plant) and the spin decays as the closed
     loop's exp(-k t / I_zz) (within the one-sample delay)."""
     k = 0.02
-    _, simulator, plant, box, imu, _ = _box_diagram(ImuParams(**QUIET), gravity=False,
-                                                    feedback_gain=k)
+    _, simulator, plant, box, imu, _ = _box_diagram(
+        ImuParams(**QUIET), gravity=False, feedback_gain=k
+    )
     _set_state(plant, box, simulator, RigidTransform(), [0.0, 0.0, 2.0])
     simulator.AdvanceTo(1.0)
     a, b, _ = SIZE
     I_zz = MASS / 12.0 * (a * a + b * b)
     w = plant.EvalBodySpatialVelocityInWorld(
-        plant.GetMyContextFromRoot(simulator.get_context()), box).rotational()[2]
+        plant.GetMyContextFromRoot(simulator.get_context()), box
+    ).rotational()[2]
     assert w == pytest.approx(2.0 * math.exp(-k / I_zz * 1.0), rel=0.02)
     assert _read(imu, simulator)[5] == pytest.approx(w, rel=0.02)  # the gyro follows it
     assert w < 0.5 * 2.0
@@ -164,13 +177,14 @@ def test_imu_feeds_back_without_an_algebraic_loop():
 
 # --- the lever-arm maths against finite differences -----------------------------------------------
 
+
 def test_specific_force_lever_arm_terms_match_finite_differences():
     """A body turning about a fixed axis with constant angular acceleration while its
     origin accelerates: the sensor point's position p_WS(t), differenced twice, gives
     the acceleration imu_true_reading uses (minus gravity, in the body frame)."""
     axis = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5])
     theta0, omega0, alpha = 0.4, 1.3, -0.8
-    p0, v0, a0 = np.array([0.1, 0.2, -0.3]), np.array([0.3, 0.0, 0.1]), np.array([0.2, -1., 0.5])
+    p0, v0, a0 = np.array([0.1, 0.2, -0.3]), np.array([0.3, 0.0, 0.1]), np.array([0.2, -1.0, 0.5])
     R0 = RotationMatrix(RollPitchYaw(0.1, 0.2, 0.3)).matrix()
     p_BS = np.array([0.19, -0.05, 0.03])
     g_W = np.array([0.0, 0.0, -G])
@@ -205,6 +219,7 @@ def test_noisy_reading_adds_scaled_noise_and_bias():
 
 # --- noise and bias in a simulation ---------------------------------------------------------------
 
+
 def _noise_run(params, seed, duration):
     diagram, simulator, plant, box, _, logs = _box_diagram(params, hold=True)
     _set_state(plant, box, simulator, RigidTransform(RollPitchYaw(0.1, -0.1, 0.3), [0, 0, 1]))
@@ -212,8 +227,9 @@ def _noise_run(params, seed, duration):
     diagram.SetRandomContext(context, RandomGenerator(seed))
     _set_state(plant, box, simulator, RigidTransform(RollPitchYaw(0.1, -0.1, 0.3), [0, 0, 1]))
     bias_source = diagram.GetSubsystemByName("imu_bias")
-    bias_sample = bias_source.get_output_port().Eval(
-        bias_source.GetMyContextFromRoot(context)).copy()
+    bias_sample = (
+        bias_source.get_output_port().Eval(bias_source.GetMyContextFromRoot(context)).copy()
+    )
     simulator.AdvanceTo(duration)
     y = logs["imu"].FindLog(context).data()
     true = logs["imu_true"].FindLog(context).data()
@@ -221,8 +237,14 @@ def _noise_run(params, seed, duration):
 
 
 def test_noise_has_the_configured_std_and_is_white():
-    params = ImuParams(rate_hz=500.0, attitude_noise_std_deg=2.0, gyro_noise_std_deg_s=1.0,
-                       gyro_bias_std_deg_s=0.0, accel_noise_std=0.3, accel_bias_std=0.0)
+    params = ImuParams(
+        rate_hz=500.0,
+        attitude_noise_std_deg=2.0,
+        gyro_noise_std_deg_s=1.0,
+        gyro_bias_std_deg_s=0.0,
+        accel_noise_std=0.3,
+        accel_bias_std=0.0,
+    )
     diff, _ = _noise_run(params, seed=7, duration=4.0)
     n = diff.shape[1]
     assert n >= 2000
@@ -234,14 +256,20 @@ def test_noise_has_the_configured_std_and_is_white():
 
 
 def test_bias_is_one_constant_per_run_drawn_from_the_seed():
-    params = ImuParams(attitude_noise_std_deg=0.0, gyro_noise_std_deg_s=0.0,
-                       gyro_bias_std_deg_s=0.8, accel_noise_std=0.0, accel_bias_std=0.1)
+    params = ImuParams(
+        attitude_noise_std_deg=0.0,
+        gyro_noise_std_deg_s=0.0,
+        gyro_bias_std_deg_s=0.8,
+        accel_noise_std=0.0,
+        accel_bias_std=0.1,
+    )
     diff, sample = _noise_run(params, seed=3, duration=0.5)
     assert diff.shape[1] >= 50
     # Constant over the run, from the first reading on: the bias source's seeded sample
     # times the bias std (the attitude has none).
-    np.testing.assert_allclose(diff, np.tile((params.bias_std() * sample)[:, None],
-                                             (1, diff.shape[1])), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        diff, np.tile((params.bias_std() * sample)[:, None], (1, diff.shape[1])), rtol=0, atol=1e-9
+    )
     assert np.all(np.abs(diff[3:, 0]) > 0)
     again, _ = _noise_run(params, seed=3, duration=0.1)
     np.testing.assert_array_equal(again[:, 0], diff[:, 0])  # same seed, same bias
@@ -265,20 +293,26 @@ def test_add_imu_wires_the_plant_and_both_sources():
 
 # --- parameter checks -----------------------------------------------------------------------------
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(rate_hz=0.0), r"imu.rate_hz: 0.0 is outside the allowed range \(0, 1000\] Hz"),
-    (dict(rate_hz=5000.0), r"imu.rate_hz: 5000.0 is outside"),
-    (dict(rate_hz="fast"), r"imu.rate_hz: 'fast' is not a number"),
-    (dict(attitude_noise_std_deg=-1.0),
-     r"imu.attitude_noise_std_deg: -1.0 is outside the allowed range \[0, 10\] deg"),
-    (dict(gyro_noise_std_deg_s=float("nan")), r"imu.gyro_noise_std_deg_s: nan is not finite"),
-    (dict(gyro_bias_std_deg_s=11.0), r"imu.gyro_bias_std_deg_s: 11.0 is outside"),
-    (dict(accel_noise_std=3.0), r"imu.accel_noise_std: 3.0 is outside .* \[0, 2\] m/s\^2"),
-    (dict(accel_bias_std=-0.1), r"imu.accel_bias_std: -0.1 is outside"),
-    (dict(position=[0.0, 0.0]), r"imu.position: expected 3 finite numbers"),
-    (dict(position=[2.0, 0.0, 0.0]), r"imu.position: .* magnitude above the allowed 1.0 m"),
-    (dict(enabled="yes"), r"imu.enabled: 'yes' is not true or false"),
-])
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(rate_hz=0.0), r"imu.rate_hz: 0.0 is outside the allowed range \(0, 1000\] Hz"),
+        (dict(rate_hz=5000.0), r"imu.rate_hz: 5000.0 is outside"),
+        (dict(rate_hz="fast"), r"imu.rate_hz: 'fast' is not a number"),
+        (
+            dict(attitude_noise_std_deg=-1.0),
+            r"imu.attitude_noise_std_deg: -1.0 is outside the allowed range \[0, 10\] deg",
+        ),
+        (dict(gyro_noise_std_deg_s=float("nan")), r"imu.gyro_noise_std_deg_s: nan is not finite"),
+        (dict(gyro_bias_std_deg_s=11.0), r"imu.gyro_bias_std_deg_s: 11.0 is outside"),
+        (dict(accel_noise_std=3.0), r"imu.accel_noise_std: 3.0 is outside .* \[0, 2\] m/s\^2"),
+        (dict(accel_bias_std=-0.1), r"imu.accel_bias_std: -0.1 is outside"),
+        (dict(position=[0.0, 0.0]), r"imu.position: expected 3 finite numbers"),
+        (dict(position=[2.0, 0.0, 0.0]), r"imu.position: .* magnitude above the allowed 1.0 m"),
+        (dict(enabled="yes"), r"imu.enabled: 'yes' is not true or false"),
+    ],
+)
 def test_bad_params_name_the_field_and_range(kwargs, match):
     with pytest.raises(ValueError, match=match):
         ImuParams(**kwargs).validate()
@@ -293,7 +327,8 @@ def test_bad_params_name_the_field_and_range(kwargs, match):
 def test_default_params_are_valid_and_in_si_units():
     p = ImuParams().validate()
     assert not p.enabled and p.rate_hz == 100.0 and p.position == [0.0, 0.0, 0.02]
-    np.testing.assert_allclose(p.noise_std(), np.repeat([math.radians(0.5), math.radians(0.3),
-                                                         0.05], 3))
+    np.testing.assert_allclose(
+        p.noise_std(), np.repeat([math.radians(0.5), math.radians(0.3), 0.05], 3)
+    )
     np.testing.assert_allclose(p.bias_std(), np.repeat([0.0, math.radians(0.5), 0.05], 3))
     assert ImuParams(rate_hz=1000.0, **QUIET).validate().rate_hz == 1000.0  # the edges

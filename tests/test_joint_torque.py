@@ -78,10 +78,15 @@ def _applied(scenario, t, desired):
     return out
 
 
-@pytest.fixture(scope="module", params=[("stand", 0.3, "datasheet"),
-                                        ("locomotion_swim", 0.5, "datasheet"),
-                                        ("stand", 0.3, "ideal")],
-                ids=["stand", "swim", "stand-ideal"])
+@pytest.fixture(
+    scope="module",
+    params=[
+        ("stand", 0.3, "datasheet"),
+        ("locomotion_swim", 0.5, "datasheet"),
+        ("stand", 0.3, "ideal"),
+    ],
+    ids=["stand", "swim", "stand-ideal"],
+)
 def run(request):
     return _short_run(*request.param)
 
@@ -112,35 +117,59 @@ def test_equals_the_implicit_pd_law(run):
     u_ff = 0.0
     if datasheet:  # the battery's voltage at each step's start, as the servos saw it
         servo = scenario.energy_model().servo
-        u_ff = supply_feed_forward(q_a[:-1], q[:-1], v[:-1], log["battery"][:-1, 1:2], kp,
-                                   saturation_angle(servo), scenario.bus_reference_voltage(),
-                                   dt)
+        u_ff = supply_feed_forward(
+            q_a[:-1],
+            q[:-1],
+            v[:-1],
+            log["battery"][:-1, 1:2],
+            kp,
+            saturation_angle(servo),
+            scenario.bus_reference_voltage(),
+            dt,
+        )
         assert np.ptp(log["battery"][:, 1]) > 0.0  # the bus voltage moves
         # The same law as model.servo's closed form of the loop.
         np.testing.assert_allclose(
-            supplied_torque(q_a[:-1], q[:-1], v[:-1], q_next, v[1:], servo,
-                            log["battery"][:-1, 1:2], scenario.bus_reference_voltage(), dt),
+            supplied_torque(
+                q_a[:-1],
+                q[:-1],
+                v[:-1],
+                q_next,
+                v[1:],
+                servo,
+                log["battery"][:-1, 1:2],
+                scenario.bus_reference_voltage(),
+                dt,
+            ),
             np.clip(kp * (q_a[:-1] - q_next) + u_ff, -effort, effort) - b * v[1:],
-            rtol=0, atol=1e-12)
-    expected = np.clip(kp * (q_a[:-1] - q_next) + kd * (v_a[:-1] - v[1:]) + u_ff, -effort,
-                       effort) - b * v[1:]
+            rtol=0,
+            atol=1e-12,
+        )
+    expected = (
+        np.clip(kp * (q_a[:-1] - q_next) + kd * (v_a[:-1] - v[1:]) + u_ff, -effort, effort)
+        - b * v[1:]
+    )
     err = np.abs(tau[1:] - expected)
     assert err.max() < 1e-9, (err.max(), np.unravel_index(err.argmax(), err.shape))
     assert np.abs(tau + b * v).max() <= effort.max() + 1e-12
     # Not a tautology: the torques vary, and the same law at each step's start state (an
     # explicit PD) is a different signal.
     assert np.ptp(tau, axis=0).max() > 0.1
-    explicit = np.clip(kp * (q_a[:-1] - q[:-1]) + kd * (v_a[:-1] - v[:-1]), -effort,
-                       effort) - b * v[:-1]
+    explicit = (
+        np.clip(kp * (q_a[:-1] - q[:-1]) + kd * (v_a[:-1] - v[:-1]), -effort, effort) - b * v[:-1]
+    )
     assert np.abs(tau[1:] - explicit).max() > 0.01
 
 
-@pytest.mark.parametrize("servo_model, pose", [
-    ("ideal", {}),
-    # A drop from 0.17 m above the stance, tilted 30 and 20 deg: the landing back-drives a
-    # distal joint at twice the motor's no-load speed and saturates its duty.
-    ("datasheet", {"initial_pose.xyz": [0.0, 0.0, -0.05], "initial_pose.rpy_deg": [30, 20, 0]}),
-])
+@pytest.mark.parametrize(
+    "servo_model, pose",
+    [
+        ("ideal", {}),
+        # A drop from 0.17 m above the stance, tilted 30 and 20 deg: the landing back-drives a
+        # distal joint at twice the motor's no-load speed and saturates its duty.
+        ("datasheet", {"initial_pose.xyz": [0.0, 0.0, -0.05], "initial_pose.rpy_deg": [30, 20, 0]}),
+    ],
+)
 def test_stand_exercises_the_effort_limit(servo_model, pose):
     """The ideal PD reaches the plant's effort limit; the datasheet servo reaches full duty
     at the battery's voltage, tau_s(V) d_max (its supply feed-forward keeps it there, below
@@ -153,8 +182,9 @@ def test_stand_exercises_the_effort_limit(servo_model, pose):
         assert (np.abs(pd) >= effort - 1e-9).any(), np.abs(pd).max()
         return
     servo = scenario.energy_model().servo
-    ratio = envelope_ratio(log["joint_torque"][1:], log["joint_velocities"][1:], servo,
-                           log["battery"][:-1, 1:2])
+    ratio = envelope_ratio(
+        log["joint_torque"][1:], log["joint_velocities"][1:], servo, log["battery"][:-1, 1:2]
+    )
     assert 0.99 < ratio.max() <= 1.02, ratio.max()
     # The plant's own clamp (at the full pack's 16.41 V) never binds: the battery is below.
     pd = log["joint_torque"][1:] + back_emf_damping(servo) * log["joint_velocities"][1:]
@@ -178,7 +208,8 @@ def test_standing_torques_balance_gravity_and_the_floor():
     plant_context = plant.GetMyContextFromRoot(root)
     assert np.abs(plant.GetVelocities(plant_context)).max() < 1e-2  # at rest
     tau = handles.station.GetOutputPort("joint_torque").Eval(
-        handles.station.GetMyContextFromRoot(root))
+        handles.station.GetMyContextFromRoot(root)
+    )
     joints = [plant.GetJointByName(n, robot) for n in handles.plant_handles.joint_names]
     v_index = np.array([j.velocity_start() for j in joints])
     gravity = plant.CalcGravityGeneralizedForces(plant_context)[v_index]

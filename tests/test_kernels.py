@@ -26,32 +26,46 @@ def water_plant():
     """(diagram, PlantHandles, HydrodynamicForces with the state ports) in one diagram."""
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=COEFFS)
-    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3,
-                                            added_mass_iso=h.added_mass_iso,
-                                            current=(0.1, -0.05, 0.02), inputs="plant_state")
+    hydro = HydrodynamicForces.AddToBuilder(
+        builder,
+        h.plant,
+        h.robot,
+        COEFFS,
+        1e-3,
+        added_mass_iso=h.added_mass_iso,
+        current=(0.1, -0.05, 0.02),
+        inputs="plant_state",
+    )
     return builder.Build(), h, hydro
 
 
 def random_kinematics(rng, nb=NB):
     """Attitudes anywhere, origins straddling the surface (partial submersion), fast motion."""
     R = Rotation.random(nb, random_state=int(rng.integers(1 << 30))).as_matrix()
-    p = np.column_stack([rng.uniform(-1, 1, nb), rng.uniform(-1, 1, nb),
-                         rng.uniform(-0.25, 0.25, nb)])
+    p = np.column_stack(
+        [rng.uniform(-1, 1, nb), rng.uniform(-1, 1, nb), rng.uniform(-0.25, 0.25, nb)]
+    )
     return R, p, rng.normal(scale=2.0, size=(nb, 3)), rng.normal(scale=0.5, size=(nb, 3))
 
 
 def random_state(h, context, rng):
     plant = h.plant
     plant_context = plant.GetMyMutableContextFromRoot(context)
-    set_initial_state(h, plant_context,
-                      body_pose([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-0.2, 0.1)],
-                                rng.uniform(-180, 180, 3)),
-                      rng.uniform(-1.5, 1.5, 16))
+    set_initial_state(
+        h,
+        plant_context,
+        body_pose(
+            [rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-0.2, 0.1)],
+            rng.uniform(-180, 180, 3),
+        ),
+        rng.uniform(-1.5, 1.5, 16),
+    )
     plant.SetVelocities(plant_context, rng.normal(scale=0.7, size=plant.num_velocities()))
     return plant_context
 
 
 # --- water: kernels vs the numpy reference ------------------------------------------------------
+
 
 def test_water_kernel_equals_the_numpy_reference_on_random_states(water_plant, rng):
     _, _, hydro = water_plant
@@ -74,8 +88,9 @@ def test_water_kernel_with_rigid_plates_and_changed_parameters(water_plant, rng)
     roll, _, yaw = coeffs.body.added_inertia.value
     coeffs.body.added_inertia.value = [roll, roll + yaw + 0.01, yaw]  # 0.01 above the implicit
     default = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso)
-    hydro = HydrodynamicForces(h.plant, h.robot, coeffs, 1e-3, added_mass_iso=h.added_mass_iso,
-                               current=(0.3, 0.0, 0.0))
+    hydro = HydrodynamicForces(
+        h.plant, h.robot, coeffs, 1e-3, added_mass_iso=h.added_mass_iso, current=(0.3, 0.0, 0.0)
+    )
     assert hydro.pitch_max == 0.0
     np.testing.assert_allclose(hydro.residual_added_inertia, [0.0, 0.01, 0.0], atol=1e-15)
     R, p, w, v = random_kinematics(rng)
@@ -83,8 +98,9 @@ def test_water_kernel_with_rigid_plates_and_changed_parameters(water_plant, rng)
     before = default.compute_compiled(R, p, w, v, 1e-3, a, alpha)
     got = hydro.compute_compiled(R, p, w, v, 1e-3, a, alpha)
     assert np.abs(got - before).max() > 1e-3
-    np.testing.assert_allclose(got, hydro.compute_reference(R, p, w, v, 1e-3, a, alpha),
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        got, hydro.compute_reference(R, p, w, v, 1e-3, a, alpha), rtol=1e-12, atol=1e-12
+    )
 
 
 def test_hydro_parameters_are_fixed_at_construction(water_plant):
@@ -129,26 +145,44 @@ def test_generalized_forces_are_the_plant_jacobians_transposed(water_plant, rng)
         expected = np.zeros(plant.num_velocities())
         for row, index in zip(F, hydro.body_indices):
             frame = plant.get_body(BodyIndex(index)).body_frame()
-            J = plant.CalcJacobianSpatialVelocity(plant_context, JacobianWrtVariable.kV, frame,
-                                                  np.zeros(3), plant.world_frame(),
-                                                  plant.world_frame())
+            J = plant.CalcJacobianSpatialVelocity(
+                plant_context,
+                JacobianWrtVariable.kV,
+                frame,
+                np.zeros(3),
+                plant.world_frame(),
+                plant.world_frame(),
+            )
             expected += J.T @ row
         got = hydro.generalized_forces(plant.get_state_output_port().Eval(plant_context), F)
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
 
 
 # Every (inputs, backend) pair; the first is the station's.
-VARIANTS = [("plant_state", "compiled"), ("plant_state", "numpy"), ("contract", "compiled"),
-            ("contract", "numpy")]
+VARIANTS = [
+    ("plant_state", "compiled"),
+    ("plant_state", "numpy"),
+    ("contract", "compiled"),
+    ("contract", "numpy"),
+]
 
 
 def _hydro_diagram(inputs: str, backend: str, update_period: float, apply_as=None):
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=COEFFS)
     hydro = HydrodynamicForces.AddToBuilder(
-        builder, h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
-        current=(0.05, 0.02, 0.0), update_period=update_period, inputs=inputs,
-        backend=backend, apply_as=apply_as)
+        builder,
+        h.plant,
+        h.robot,
+        COEFFS,
+        1e-3,
+        added_mass_iso=h.added_mass_iso,
+        current=(0.05, 0.02, 0.0),
+        update_period=update_period,
+        inputs=inputs,
+        backend=backend,
+        apply_as=apply_as,
+    )
     return builder.Build(), h, hydro
 
 
@@ -167,9 +201,14 @@ def test_every_port_set_and_backend_gives_the_same_forces(rng):
             hydro_context = hydro.GetMyMutableContextFromRoot(context)
             hydro_context.SetDiscreteState(0, v_prev)
             hydro.GetInputPort("balloon_volume").FixValue(hydro_context, [(k % 3) * 1e-3])
-            spatial.append(np.array([np.r_[f.F_Bq_W.rotational(), f.F_Bq_W.translational()]
-                                     for f in hydro.GetOutputPort("spatial_forces").Eval(
-                                         hydro_context)]))
+            spatial.append(
+                np.array(
+                    [
+                        np.r_[f.F_Bq_W.rotational(), f.F_Bq_W.translational()]
+                        for f in hydro.GetOutputPort("spatial_forces").Eval(hydro_context)
+                    ]
+                )
+            )
             if hydro.inputs == "plant_state":
                 generalized.append(hydro.GetOutputPort("generalized_forces").Eval(hydro_context))
         assert np.abs(spatial[0]).max() > 1.0  # the terms are active
@@ -208,8 +247,7 @@ def test_every_variant_moves_the_plant_as_the_stations(inputs, backend, update_p
             h.plant.SetFreeBodyPose(plant_context, h.body, X)
             x0 = h.plant.GetPositionsAndVelocities(plant_context)
         h.plant.SetPositionsAndVelocities(plant_context, x0)
-        hydro.GetInputPort("balloon_volume").FixValue(hydro.GetMyContextFromRoot(context),
-                                                      [1.0e-3])
+        hydro.GetInputPort("balloon_volume").FixValue(hydro.GetMyContextFromRoot(context), [1.0e-3])
         simulator.Initialize()
         simulator.AdvanceTo(0.1)
         finals.append(h.plant.GetPositionsAndVelocities(plant_context))
@@ -219,6 +257,7 @@ def test_every_variant_moves_the_plant_as_the_stations(inputs, backend, update_p
 
 # --- CPG: kernels vs the numpy reference --------------------------------------------------------
 
+
 def test_cpg_kernels_equal_the_numpy_reference(rng):
     weights = C.pair_weights(3.0, 5.0)
     omega = 2.0 * np.pi * 0.7
@@ -226,13 +265,17 @@ def test_cpg_kernels_equal_the_numpy_reference(rng):
     for _ in range(50):
         x, params = rng.uniform(-3, 3, 80), rng.uniform(-3, 3, 64)
         CK.derivatives(x, params, omega, C.PAIRS, weights, 17.0, 23.0, 16, xdot)
-        np.testing.assert_allclose(xdot, C.cpg_derivatives(x, params, 0.7, weights, 17.0, 23.0),
-                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            xdot, C.cpg_derivatives(x, params, 0.7, weights, 17.0, 23.0), rtol=1e-12, atol=1e-12
+        )
         phi_dot = C.phase_rates(x[:16], params, 0.7, weights)
         CK.desired_state(x, params, omega, C.PAIRS, weights, 16, desired)
-        np.testing.assert_allclose(desired,
-                                   np.concatenate([C.joint_angles(x), C.joint_rates(x, phi_dot)]),
-                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            desired,
+            np.concatenate([C.joint_angles(x), C.joint_rates(x, phi_dot)]),
+            rtol=1e-12,
+            atol=1e-12,
+        )
         CK.angles(x, 16, angles)
         np.testing.assert_allclose(angles, C.joint_angles(x), rtol=1e-12, atol=1e-12)
 
@@ -253,31 +296,44 @@ def test_cpg_system_compiled_equals_reference(rng, monkeypatch):
         context = cpg.CreateDefaultContext()
         context.SetContinuousState(x)
         cpg.GetInputPort("cpg_params").FixValue(context, params)
-        results.append(np.concatenate([cpg.EvalTimeDerivatives(context).CopyToVector(),
-                                       cpg.GetOutputPort("desired_state").Eval(context),
-                                       cpg.GetOutputPort("joint_angles").Eval(context)]))
+        results.append(
+            np.concatenate(
+                [
+                    cpg.EvalTimeDerivatives(context).CopyToVector(),
+                    cpg.GetOutputPort("desired_state").Eval(context),
+                    cpg.GetOutputPort("joint_angles").Eval(context),
+                ]
+            )
+        )
     assert len(calls) == 1
     np.testing.assert_allclose(results[0], results[1], rtol=1e-12, atol=1e-12)
 
 
 # --- constructor checks ----------------------------------------------------------------------
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(time_step=0.0), "time_step: 0.0 must be a finite number > 0"),
-    (dict(time_step=-1e-3), "time_step"),
-    (dict(time_step=float("nan")), "time_step"),
-    (dict(time_step=float("inf")), "time_step"),
-    (dict(time_step="1e-3"), "time_step"),
-    (dict(update_period=-0.004), "update_period: -0.004 must be a finite number >= 0"),
-    (dict(update_period=float("nan")), "update_period"),
-    (dict(current=(0.0, float("nan"), 0.0)), "current: .* must be 3 finite numbers"),
-    (dict(current=(0.1, 0.0)), "current: .* must be 3 finite numbers"),
-    (dict(current="east"), "current: .* must be 3 finite numbers"),
-    (dict(current=(1.5, 1.5, 0.0)), r"current: .* 2.12 m/s is outside the allowed range \[0, 2"),
-    (dict(inputs="state"), "inputs: 'state' must be one of 'contract', 'plant_state'"),
-    (dict(inputs=True), "inputs: True must be one of"),
-    (dict(backend="numba"), "backend: 'numba' must be one of 'compiled', 'numpy'"),
-])
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(time_step=0.0), "time_step: 0.0 must be a finite number > 0"),
+        (dict(time_step=-1e-3), "time_step"),
+        (dict(time_step=float("nan")), "time_step"),
+        (dict(time_step=float("inf")), "time_step"),
+        (dict(time_step="1e-3"), "time_step"),
+        (dict(update_period=-0.004), "update_period: -0.004 must be a finite number >= 0"),
+        (dict(update_period=float("nan")), "update_period"),
+        (dict(current=(0.0, float("nan"), 0.0)), "current: .* must be 3 finite numbers"),
+        (dict(current=(0.1, 0.0)), "current: .* must be 3 finite numbers"),
+        (dict(current="east"), "current: .* must be 3 finite numbers"),
+        (
+            dict(current=(1.5, 1.5, 0.0)),
+            r"current: .* 2.12 m/s is outside the allowed range \[0, 2",
+        ),
+        (dict(inputs="state"), "inputs: 'state' must be one of 'contract', 'plant_state'"),
+        (dict(inputs=True), "inputs: True must be one of"),
+        (dict(backend="numba"), "backend: 'numba' must be one of 'compiled', 'numpy'"),
+    ],
+)
 def test_hydro_constructor_rejects_bad_arguments(water_plant, kwargs, match):
     _, h, _ = water_plant
     args = dict(time_step=1e-3)
@@ -293,8 +349,9 @@ def test_hydro_constructor_accepts_the_edges(water_plant, backend):
     and reach the forces: the hull at rest deep under water in that current feels the
     surge drag law of Eq. (2), (d_lin + d_quad |u|) u with u = 2 m/s, and no held state."""
     _, h, _ = water_plant
-    hydro = HydrodynamicForces(h.plant, h.robot, COEFFS, 1e-3, current=(2.0, 0.0, 0.0),
-                               update_period=0.0, backend=backend)
+    hydro = HydrodynamicForces(
+        h.plant, h.robot, COEFFS, 1e-3, current=(2.0, 0.0, 0.0), update_period=0.0, backend=backend
+    )
     assert hydro.num_discrete_state_groups() == 1  # the velocity samples only: nothing held
     nb = len(hydro_body_names())
     R, p = np.tile(np.eye(3), (nb, 1, 1)), np.tile([0.0, 0.0, -1.0], (nb, 1))
@@ -305,11 +362,16 @@ def test_hydro_constructor_accepts_the_edges(water_plant, backend):
     np.testing.assert_allclose(F[0, 4], 0.0, atol=1e-12)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(apply_as="joint_torques"), "apply_as: 'joint_torques' must be None or one of"),
-    (dict(apply_as="generalized_forces"),
-     "apply_as: 'generalized_forces' needs inputs='plant_state', got inputs='contract'"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(apply_as="joint_torques"), "apply_as: 'joint_torques' must be None or one of"),
+        (
+            dict(apply_as="generalized_forces"),
+            "apply_as: 'generalized_forces' needs inputs='plant_state', got inputs='contract'",
+        ),
+    ],
+)
 def test_add_to_builder_rejects_bad_arguments(kwargs, match):
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=COEFFS)
@@ -317,51 +379,76 @@ def test_add_to_builder_rejects_bad_arguments(kwargs, match):
         HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3, **kwargs)
 
 
-@pytest.mark.parametrize("inputs, update_period, force_port", [
-    ("plant_state", 0.0, "applied_generalized_force"),
-    ("plant_state", 0.004, "applied_spatial_force"),
-    ("contract", 0.0, "applied_spatial_force"),
-])
+@pytest.mark.parametrize(
+    "inputs, update_period, force_port",
+    [
+        ("plant_state", 0.0, "applied_generalized_force"),
+        ("plant_state", 0.004, "applied_spatial_force"),
+        ("contract", 0.0, "applied_spatial_force"),
+    ],
+)
 def test_add_to_builder_connects_the_plant(inputs, update_period, force_port):
     """Its inputs come from the plant, its forces go into the plant's input that the
     default ``apply_as`` names; only ``balloon_volume`` is left to the caller."""
     builder = DiagramBuilder()
     h = add_plant(builder, hydro=COEFFS)
-    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3,
-                                            added_mass_iso=h.added_mass_iso,
-                                            update_period=update_period, inputs=inputs,
-                                            name="water")
+    hydro = HydrodynamicForces.AddToBuilder(
+        builder,
+        h.plant,
+        h.robot,
+        COEFFS,
+        1e-3,
+        added_mass_iso=h.added_mass_iso,
+        update_period=update_period,
+        inputs=inputs,
+        name="water",
+    )
     assert hydro.get_name() == "water"
-    unconnected = [hydro.get_input_port(i).get_name() for i in range(hydro.num_input_ports())
-                   if not builder.IsConnectedOrExported(hydro.get_input_port(i))]
+    unconnected = [
+        hydro.get_input_port(i).get_name()
+        for i in range(hydro.num_input_ports())
+        if not builder.IsConnectedOrExported(hydro.get_input_port(i))
+    ]
     assert unconnected == ["balloon_volume"]
-    ports = {"applied_generalized_force": h.plant.get_applied_generalized_force_input_port(),
-             "applied_spatial_force": h.plant.get_applied_spatial_force_input_port()}
+    ports = {
+        "applied_generalized_force": h.plant.get_applied_generalized_force_input_port(),
+        "applied_spatial_force": h.plant.get_applied_spatial_force_input_port(),
+    }
     for name, port in ports.items():
         assert builder.IsConnectedOrExported(port) == (name == force_port), name
 
 
-@pytest.mark.parametrize("initial_state, match", [
-    (np.zeros(79), r"expected 80 finite values .* got shape \(79,\)"),
-    (np.zeros((5, 16)), r"got shape \(5, 16\)"),
-    (np.r_[np.zeros(79), np.nan], "non-finite"),
-    (["a"] * 80, "not numbers"),
-])
+@pytest.mark.parametrize(
+    "initial_state, match",
+    [
+        (np.zeros(79), r"expected 80 finite values .* got shape \(79,\)"),
+        (np.zeros((5, 16)), r"got shape \(5, 16\)"),
+        (np.r_[np.zeros(79), np.nan], "non-finite"),
+        (["a"] * 80, "not numbers"),
+    ],
+)
 def test_cpg_constructor_rejects_a_bad_initial_state(initial_state, match):
     with pytest.raises(ValueError, match="CpgOscillators.initial_state: .*" + match):
         C.CpgOscillators(initial_state=initial_state)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(frequency_hz="1"), "frequency_hz"), (dict(a=0.0), "a"), (dict(b=-1.0), "b"),
-    (dict(fcs_weight=float("inf")), "fcs_weight"), (dict(chain_weight=True), "chain_weight"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(frequency_hz="1"), "frequency_hz"),
+        (dict(a=0.0), "a"),
+        (dict(b=-1.0), "b"),
+        (dict(fcs_weight=float("inf")), "fcs_weight"),
+        (dict(chain_weight=True), "chain_weight"),
+    ],
+)
 def test_cpg_constructor_names_the_bad_argument(kwargs, name):
     with pytest.raises(ValueError, match=f"CpgOscillators.{name}: "):
         C.CpgOscillators(**kwargs)
 
 
 # --- compile cache ---------------------------------------------------------------------------
+
 
 def test_kernels_are_cached_on_disk():
     """Every kernel is compiled with cache=True and has written its index file."""
@@ -378,6 +465,7 @@ def test_kernels_are_cached_on_disk():
 
 
 # --- camera in its own scene -----------------------------------------------------------------
+
 
 def test_camera_scene_renders_what_the_plant_scene_renders():
     """The same depth image from the camera's own SceneGraph as from a renderer in the
@@ -403,32 +491,45 @@ def test_camera_scene_renders_what_the_plant_scene_renders():
     plant = h.plant
     scene, _, frames = add_camera_scene(builder, h)
     h.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
-    core = RenderCameraCore("vtk", camera_info(cam.width, cam.height, cam.fov_y_deg),
-                            ClippingRange(0.05, 1.6), RigidTransform())
+    core = RenderCameraCore(
+        "vtk",
+        camera_info(cam.width, cam.height, cam.fov_y_deg),
+        ClippingRange(0.05, 1.6),
+        RigidTransform(),
+    )
     depth_camera = DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range))
     X_BC = plant.GetFrameByName("camera", h.robot).GetFixedPoseInBodyFrame()
     own = builder.AddSystem(RgbdSensor(frames[int(h.body.index())], X_BC, depth_camera, False))
     builder.Connect(scene.get_query_output_port(), own.query_object_input_port())
-    shared = builder.AddSystem(RgbdSensor(plant.GetBodyFrameIdOrThrow(h.body.index()), X_BC,
-                                          depth_camera, False))
+    shared = builder.AddSystem(
+        RgbdSensor(plant.GetBodyFrameIdOrThrow(h.body.index()), X_BC, depth_camera, False)
+    )
     builder.Connect(h.scene_graph.get_query_output_port(), shared.query_object_input_port())
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
-    set_initial_state(h, plant.GetMyMutableContextFromRoot(context),
-                      body_pose([7.5 - 0.6 - 0.19, 0.3, -0.25], [0, 8, 12]),
-                      np.tile([0.3, -0.6, 0.4, 0.8], 4))
-    images = [np.array(s.depth_image_32F_output_port().Eval(s.GetMyContextFromRoot(context)).data)
-              for s in (own, shared)]
+    set_initial_state(
+        h,
+        plant.GetMyMutableContextFromRoot(context),
+        body_pose([7.5 - 0.6 - 0.19, 0.3, -0.25], [0, 8, 12]),
+        np.tile([0.3, -0.6, 0.4, 0.8], 4),
+    )
+    images = [
+        np.array(s.depth_image_32F_output_port().Eval(s.GetMyContextFromRoot(context)).data)
+        for s in (own, shared)
+    ]
     finite = np.isfinite(images[1])
     assert finite.mean() > 0.3  # the wall and the floor are in view
     np.testing.assert_array_equal(np.isfinite(images[0]), finite)
     np.testing.assert_allclose(images[0][finite], images[1][finite], rtol=0, atol=1e-6)
-    poses = [s.body_pose_in_world_output_port().Eval(s.GetMyContextFromRoot(context))
-             for s in (own, shared)]
+    poses = [
+        s.body_pose_in_world_output_port().Eval(s.GetMyContextFromRoot(context))
+        for s in (own, shared)
+    ]
     np.testing.assert_allclose(poses[0].GetAsMatrix4(), poses[1].GetAsMatrix4(), atol=1e-12)
 
 
 # --- whole diagrams: the compiled paths against the reference paths ---------------------------
+
 
 def _simulated_log(s, **build):
     """The log of scenario ``s`` simulated to its end in the diagram ``build_diagram(s,
@@ -475,16 +576,25 @@ def test_kernels_cache_in_the_user_cache_when_the_package_folder_is_not_used(tmp
     import subprocess
     import sys
 
-    code = ("from manta_drake.station import water_kernels as K; "
-            "from manta_drake.control import cpg_kernels as C; import numpy as np; "
-            "x = np.zeros(80); C.angles(x, 16, np.empty(16)); "
-            "print(C.angles.stats.cache_hits.get(C.angles.signatures[0], 0), "
-            "C.angles._cache._cache_path)")
-    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path),
-           "NUMBA_CACHE_LOCATOR_CLASSES": "UserWideCacheLocator"}
+    code = (
+        "from manta_drake.station import water_kernels as K; "
+        "from manta_drake.control import cpg_kernels as C; import numpy as np; "
+        "x = np.zeros(80); C.angles(x, 16, np.empty(16)); "
+        "print(C.angles.stats.cache_hits.get(C.angles.signatures[0], 0), "
+        "C.angles._cache._cache_path)"
+    )
+    env = {
+        **os.environ,
+        "XDG_CACHE_HOME": str(tmp_path),
+        "NUMBA_CACHE_LOCATOR_CLASSES": "UserWideCacheLocator",
+    }
     env.pop("NUMBA_CACHE_DIR", None)
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                           env=env, check=True).stdout.split() for _ in range(2)]
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True
+        ).stdout.split()
+        for _ in range(2)
+    ]
     assert runs[0][1].startswith(str(tmp_path / "numba"))
     assert int(runs[0][0]) == 0 and int(runs[1][0]) == 1  # compiled, then loaded
 
@@ -516,9 +626,15 @@ def test_kernels_with_the_hull_welded_to_the_world(rng):
     builder = DiagramBuilder()
     X_WB = RigidTransform(RollPitchYaw(0.2, -0.1, 0.4), [0.3, -0.2, -0.05])
     h = add_plant(builder, with_pool=False, weld_body=X_WB, hydro=COEFFS)
-    hydro = HydrodynamicForces.AddToBuilder(builder, h.plant, h.robot, COEFFS, 1e-3,
-                                            added_mass_iso=h.added_mass_iso,
-                                            inputs="plant_state")
+    hydro = HydrodynamicForces.AddToBuilder(
+        builder,
+        h.plant,
+        h.robot,
+        COEFFS,
+        1e-3,
+        added_mass_iso=h.added_mass_iso,
+        inputs="plant_state",
+    )
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant_context = h.plant.GetMyMutableContextFromRoot(context)
@@ -529,16 +645,28 @@ def test_kernels_with_the_hull_welded_to_the_world(rng):
     velocities = h.plant.get_body_spatial_velocities_output_port().Eval(plant_context)
     X = np.array([poses[i].GetAsMatrix34() for i in hydro.body_indices])
     V = np.array([velocities[i].get_coeffs() for i in hydro.body_indices])
-    np.testing.assert_allclose(np.concatenate([R.ravel(), p.ravel(), w.ravel(), v.ravel()]),
-                               np.concatenate([X[:, :, :3].ravel(), X[:, :, 3].ravel(),
-                                               V[:, :3].ravel(), V[:, 3:].ravel()]),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        np.concatenate([R.ravel(), p.ravel(), w.ravel(), v.ravel()]),
+        np.concatenate(
+            [X[:, :, :3].ravel(), X[:, :, 3].ravel(), V[:, :3].ravel(), V[:, 3:].ravel()]
+        ),
+        rtol=0,
+        atol=1e-12,
+    )
     F = rng.normal(size=(NB, 6))
     tau = hydro.generalized_forces(h.plant.get_state_output_port().Eval(plant_context), F)
-    expected = sum(h.plant.CalcJacobianSpatialVelocity(
-        plant_context, JacobianWrtVariable.kV, h.plant.get_body(BodyIndex(i)).body_frame(),
-        np.zeros(3), h.plant.world_frame(), h.plant.world_frame()).T @ row
-        for row, i in zip(F, hydro.body_indices))
+    expected = sum(
+        h.plant.CalcJacobianSpatialVelocity(
+            plant_context,
+            JacobianWrtVariable.kV,
+            h.plant.get_body(BodyIndex(i)).body_frame(),
+            np.zeros(3),
+            h.plant.world_frame(),
+            h.plant.world_frame(),
+        ).T
+        @ row
+        for row, i in zip(F, hydro.body_indices)
+    )
     np.testing.assert_allclose(tau, expected, rtol=1e-12, atol=1e-12)
 
 
@@ -560,8 +688,7 @@ def test_kinematics_and_jacobians_with_planar_joints_equal_the_plant(rng):
         plant.SetPositions(context, rng.normal(size=plant.num_positions()))
         plant.SetVelocities(context, rng.normal(size=plant.num_velocities()))
         x = plant.GetPositionsAndVelocities(context)
-        R, p, w, v, axis_W, origin_W = WK.body_kinematics(x, plant.num_positions(), tree_i,
-                                                          tree_f)
+        R, p, w, v, axis_W, origin_W = WK.body_kinematics(x, plant.num_positions(), tree_i, tree_f)
         F = rng.normal(scale=20.0, size=(len(bodies), 6))
         expected = np.zeros(plant.num_velocities())
         for k, index in enumerate(bodies):
@@ -571,9 +698,14 @@ def test_kinematics_and_jacobians_with_planar_joints_equal_the_plant(rng):
             np.testing.assert_allclose(p[k], X.translation(), rtol=0, atol=1e-12)
             np.testing.assert_allclose(w[k], V.rotational(), rtol=0, atol=1e-12)
             np.testing.assert_allclose(v[k], V.translational(), rtol=0, atol=1e-12)
-            J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV,
-                                                  body.body_frame(), np.zeros(3),
-                                                  plant.world_frame(), plant.world_frame())
+            J = plant.CalcJacobianSpatialVelocity(
+                context,
+                JacobianWrtVariable.kV,
+                body.body_frame(),
+                np.zeros(3),
+                plant.world_frame(),
+                plant.world_frame(),
+            )
             expected += J.T @ F[k]
         got = WK.generalized_forces(F, p, axis_W, origin_W, tree_i, plant.num_velocities())
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-11)
@@ -590,17 +722,28 @@ def test_foil_model_gives_the_same_forces_on_every_port_set_and_backend():
         builder = DiagramBuilder()
         h = add_plant(builder, hydro=COEFFS, fin_added_mass="bodies")
         hydro = HydrodynamicForces.AddToBuilder(
-            builder, h.plant, h.robot, COEFFS, 1e-3, added_mass_iso=h.added_mass_iso,
-            current=(0.05, 0.02, 0.0), inputs=inputs, backend=backend, fin_model="foil",
-            apply_as="spatial_forces")
+            builder,
+            h.plant,
+            h.robot,
+            COEFFS,
+            1e-3,
+            added_mass_iso=h.added_mass_iso,
+            current=(0.05, 0.02, 0.0),
+            inputs=inputs,
+            backend=backend,
+            fin_model="foil",
+            apply_as="spatial_forces",
+        )
         diagram = builder.Build()
         context = diagram.CreateDefaultContext()
         plant_context = h.plant.GetMyMutableContextFromRoot(context)
         set_initial_state(h, plant_context, body_pose([0.1, 0.2, -0.05], [10, 20, 30]), q)
         if v is None:
             v = rng.normal(scale=0.5, size=h.plant.num_velocities())
-            lag = rng.normal(scale=0.05, size=hydro.GetMyContextFromRoot(context)
-                             .get_discrete_state(hydro._lag).size())
+            lag = rng.normal(
+                scale=0.05,
+                size=hydro.GetMyContextFromRoot(context).get_discrete_state(hydro._lag).size(),
+            )
             prev = np.r_[rng.normal(scale=0.1, size=9), 0.0]  # 8 plates, the hull's heave body
         h.plant.SetVelocities(plant_context, v)
         hydro_context = hydro.GetMyMutableContextFromRoot(context)

@@ -9,14 +9,16 @@ from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
 
 def _elementary(theta, d, a, alpha):
     c, s = np.cos, np.sin
-    Rz = np.array([[c(theta), -s(theta), 0, 0], [s(theta), c(theta), 0, 0], [0, 0, 1, 0],
-                   [0, 0, 0, 1]])
+    Rz = np.array(
+        [[c(theta), -s(theta), 0, 0], [s(theta), c(theta), 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+    )
     Tz = np.eye(4)
     Tz[2, 3] = d
     Tx = np.eye(4)
     Tx[0, 3] = a
-    Rx = np.array([[1, 0, 0, 0], [0, c(alpha), -s(alpha), 0], [0, s(alpha), c(alpha), 0],
-                   [0, 0, 0, 1]])
+    Rx = np.array(
+        [[1, 0, 0, 0], [0, c(alpha), -s(alpha), 0], [0, s(alpha), c(alpha), 0], [0, 0, 0, 1]]
+    )
     return Rz @ Tz @ Tx @ Rx
 
 
@@ -82,8 +84,10 @@ def test_plant_of_another_fin_sweep_equals_its_dh_product(sweep_deg, rng):
             joint.set_angle(context, qi)
         for k, leg in enumerate(LEGS):
             X = plant.GetFrameByName(f"{leg}_tip", h.robot).CalcPose(context, h.body.body_frame())
-            worst = max(worst, np.abs(X.GetAsMatrix4() - fin_tip_pose(leg, q[4 * k:4 * k + 4],
-                                                                      params)).max())
+            worst = max(
+                worst,
+                np.abs(X.GetAsMatrix4() - fin_tip_pose(leg, q[4 * k : 4 * k + 4], params)).max(),
+            )
     assert worst < 1e-9
     # closed form at the zero pose: the left front tip swept back (or forward) by the sweep
     for joint in joints:

@@ -21,11 +21,28 @@ LAYERS = [
     # that will publish the same messages.
     ("ros2", ["manta_drake.ros2"], True),
     ("wiring", ["manta_drake.wiring"], True),
-    ("running", ["manta_drake.metrics", "manta_drake.plots", "manta_drake.simulate",
-                 "manta_drake.run_folder"], True),
+    (
+        "running",
+        [
+            "manta_drake.metrics",
+            "manta_drake.plots",
+            "manta_drake.simulate",
+            "manta_drake.run_folder",
+        ],
+        True,
+    ),
     ("seam", ["manta_drake.seam", "manta_drake.lcm_seam"], True),
-    ("many runs", ["manta_drake.cluster", "manta_drake.sweep", "manta_drake.calibrate",
-                   "manta_drake.optimize", "manta_drake.studies"], True),
+    (
+        "many runs",
+        [
+            "manta_drake.cluster",
+            "manta_drake.sweep",
+            "manta_drake.calibrate",
+            "manta_drake.optimize",
+            "manta_drake.studies",
+        ],
+        True,
+    ),
     ("front ends", ["manta_drake.cli", "manta_drake.__main__"], True),
 ]
 # Pairs that share a layer but must never import each other.
@@ -61,7 +78,7 @@ def imports_of(module: str) -> set[str]:
             base = node.module or ""
             if node.level:  # relative: from the module's package
                 anchor = module.split(".") if is_package else module.split(".")[:-1]
-                anchor = anchor[:len(anchor) - node.level + 1]
+                anchor = anchor[: len(anchor) - node.level + 1]
                 base = ".".join(anchor + ([base] if base else []))
             names = [f"{base}.{a.name}" for a in node.names]
         else:
@@ -106,8 +123,13 @@ def test_imports_point_down_the_layers():
 def test_station_and_control_are_apart(a, b):
     def inside(m, p):
         return m == p or m.startswith(p + ".")
-    ties = [f"{m} -> {t}" for m, ts in GRAPH.items() for t in ts
-            if (inside(m, a) and inside(t, b)) or (inside(m, b) and inside(t, a))]
+
+    ties = [
+        f"{m} -> {t}"
+        for m, ts in GRAPH.items()
+        for t in ts
+        if (inside(m, a) and inside(t, b)) or (inside(m, b) and inside(t, a))
+    ]
     assert not ties, ties
 
 

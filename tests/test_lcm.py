@@ -51,8 +51,9 @@ def test_joint_state_round_trip_and_matching_by_name(rng):
     np.testing.assert_array_equal(seam.joint_state_from_message(msg), x)
     # A driver may send its joints in another order: they are matched by name.
     order = rng.permutation(16)
-    shuffled = seam.joint_state_message(0.5, np.r_[x[:16][order], x[16:][order]],
-                                        names=[JOINT_NAMES[i] for i in order])
+    shuffled = seam.joint_state_message(
+        0.5, np.r_[x[:16][order], x[16:][order]], names=[JOINT_NAMES[i] for i in order]
+    )
     np.testing.assert_array_equal(seam.joint_state_from_message(shuffled), x)
     wrong = seam.joint_state_message(0.5, x[:32], names=list(JOINT_NAMES[:15]) + ["fl_knee"])
     with pytest.raises(seam.SeamError, match=r"missing \['rr_roll2'\], unknown \['fl_knee'\]"):
@@ -100,8 +101,11 @@ def test_project_lcmtypes_are_generated_from_their_sources(tmp_path):
     if not os.access(lcm_gen, os.X_OK):
         pytest.skip("lcm-gen (from the lcm package) is not installed")
     sources = sorted((REPO / "manta_drake" / "lcmtypes").glob("*.lcm"))
-    assert [p.stem for p in sources] == ["lcmt_manta_handshake", "lcmt_manta_joint_state",
-                                         "lcmt_manta_pose"]
+    assert [p.stem for p in sources] == [
+        "lcmt_manta_handshake",
+        "lcmt_manta_joint_state",
+        "lcmt_manta_pose",
+    ]
     subprocess.run([lcm_gen, "-p", "--ppath", str(tmp_path), *map(str, sources)], check=True)
     generated = tmp_path / "manta_drake" / "lcmtypes"
     for path in sorted(generated.glob("*.py")):
@@ -133,19 +137,30 @@ def test_channel_table_matches_the_ports_and_the_docs():
         scenario = load_scenario(name, {"duration": 1.0})
         halves[name] = build_station(scenario)[0], build_controller(scenario)[0]
     for channel in seam.CHANNELS:  # every channel is a port of its sender (camera or not)
-        assert any((station if channel.sender == "station" else controller).HasOutputPort(
-            channel.port) for station, controller in halves.values()), channel.name
+        assert any(
+            (station if channel.sender == "station" else controller).HasOutputPort(channel.port)
+            for station, controller in halves.values()
+        ), channel.name
     station, controller = halves["three_behaviors"]
     sends, reads = seam.controller_channels(controller)
-    assert {c.port for c in reads} == {"measured_joint_state", "depth", "depth_image",
-                                       "camera_pose"}
+    assert {c.port for c in reads} == {
+        "measured_joint_state",
+        "depth",
+        "depth_image",
+        "camera_pose",
+    }
     assert {c.port for c in sends} == {"desired_state", "balloon_command"}
     # The new modalities: the IMU, the flow sensor and the battery are the controller's
     # inputs; every vector channel's size is its port's.
     station, controller = halves["four_behaviors"]
     sends, reads = seam.controller_channels(controller)
-    assert {c.port for c in reads} == {"measured_joint_state", "depth", "imu", "flow_velocity",
-                                       "battery"}
+    assert {c.port for c in reads} == {
+        "measured_joint_state",
+        "depth",
+        "imu",
+        "flow_velocity",
+        "battery",
+    }
     for c in seam.station_channels(station)[0]:
         if c.codec == "vector":
             assert station.GetOutputPort(c.port).size() == c.size, c.name
@@ -175,9 +190,13 @@ def test_the_battery_crosses_where_the_controller_reads_the_charge_at_its_estima
     from manta_drake.wiring.controller import build_controller
 
     energy_rule = {"balloon.rule.modality": "energy", "balloon.rule.threshold": 0.5}
-    cases = [("four_behaviors", {}, True), ("swim_heading_hold", energy_rule, True),
-             ("swim_heading_hold", {}, False), ("two_behaviors", {}, False),
-             ("swim_heading_hold", {**energy_rule, "actuators.enabled": False}, None)]
+    cases = [
+        ("four_behaviors", {}, True),
+        ("swim_heading_hold", energy_rule, True),
+        ("swim_heading_hold", {}, False),
+        ("two_behaviors", {}, False),
+        ("swim_heading_hold", {**energy_rule, "actuators.enabled": False}, None),
+    ]
     battery = seam.CHANNEL_BY_NAME["MANTA_BATTERY"]
     for name, changes, expected in cases:
         try:
@@ -203,19 +222,27 @@ def test_every_periodic_reader_of_a_sensor_reads_at_exchange_times():
     from manta_drake.scenario import load_scenario
     from manta_drake.wiring.controller import build_controller
 
-    for name in ("four_behaviors", "swim_heading_hold", "two_behaviors_heading_hold",
-                 "three_behaviors", "nose_up_trot"):
+    for name in (
+        "four_behaviors",
+        "swim_heading_hold",
+        "two_behaviors_heading_hold",
+        "three_behaviors",
+        "nose_up_trot",
+    ):
         scenario = load_scenario(name, {"duration": 75.0})
         controller = seam.controller_with_tick(build_controller(scenario)[0], scenario.time_step)
         assert seam.unexchanged_reads(controller, scenario) == [], name
-    scenario = load_scenario("swim_heading_hold", {"duration": 1.0},
-                             overrides={"imu.rate_hz": 30.0})
+    scenario = load_scenario(
+        "swim_heading_hold", {"duration": 1.0}, overrides={"imu.rate_hz": 30.0}
+    )
     lines = seam.unexchanged_reads(build_controller(scenario)[0], scenario)
     assert len(lines) == 1 and lines[0].startswith(
-        "posture_estimator reads imu every 0.02 s, MANTA_IMU comes every 0.0333333 s: "), lines
+        "posture_estimator reads imu every 0.02 s, MANTA_IMU comes every 0.0333333 s: "
+    ), lines
     missed = [j * 0.02 for j in range(50) if j * 0.02 not in seam.sample_times(1 / 30, 1.0)]
-    assert lines[0].endswith(f"{len(missed)} of its reads (the first at t = {missed[0]!r} s) "
-                             "fall between the exchanges")
+    assert lines[0].endswith(
+        f"{len(missed)} of its reads (the first at t = {missed[0]!r} s) fall between the exchanges"
+    )
 
 
 class _Recorder(LeafSystem):
@@ -277,7 +304,8 @@ def test_link_waits_resends_and_gives_up():
     sent = {clock.name: [], depth.name: []}
     for name, box in sent.items():
         station.transport.lcm.subscribe(
-            name, functools.partial(lambda box, _, data: box.append(data), box))
+            name, functools.partial(lambda box, _, data: box.append(data), box)
+        )
     station.publish(clock.name, seam.joint_state_message(0.0, np.zeros(32)), 0)
     station.publish(depth.name, seam.vector_message(0.0, [0.1]), 0)
     station.publish(depth.name, seam.vector_message(0.02, [0.2]), 20000)
@@ -285,8 +313,9 @@ def test_link_waits_resends_and_gives_up():
     assert [len(sent[clock.name]), len(sent[depth.name])] == [1, 2]
     # A command stamped 0.02 s says the controller has what was sent before 0.02 s:
     # only the depth of 0.02 s and the newest clock message are sent again.
-    station.transport.lcm.publish(desired.name,
-                                  seam.joint_state_message(0.02, np.ones(32)).encode())
+    station.transport.lcm.publish(
+        desired.name, seam.joint_state_message(0.02, np.ones(32)).encode()
+    )
     station.drain()
     assert station.newest[desired.name] == 20000
     station.resend()
@@ -299,8 +328,12 @@ def test_link_waits_resends_and_gives_up():
     stale = []
     start = time.monotonic()
     with pytest.raises(seam.SeamError, match="silent"):
-        station.wait_for(lambda: station.take({desired.name: 21000}), 1.3, stale.append,
-                         lambda waited: seam.SeamError(f"silent for {waited:.1f} s"))
+        station.wait_for(
+            lambda: station.take({desired.name: 21000}),
+            1.3,
+            stale.append,
+            lambda waited: seam.SeamError(f"silent for {waited:.1f} s"),
+        )
     assert 1.3 <= time.monotonic() - start < 3.0
     assert len(stale) == 1 and stale[0] >= seam.STALE_AFTER_S
     station.drain()
@@ -312,8 +345,11 @@ def test_station_without_controller_times_out():
 
     scenario = load_scenario("stand", {"duration": 0.1})
     start = time.monotonic()
-    with pytest.raises(seam.SeamError, match=r"^station: no controller answered on memq:// "
-                       r"within 0\.5 s; is `manta-drake controller` running"):
+    with pytest.raises(
+        seam.SeamError,
+        match=r"^station: no controller answered on memq:// "
+        r"within 0\.5 s; is `manta-drake controller` running",
+    ):
         seam.run_station(scenario, "memq://", timeout=0.5, startup_timeout=0.5)
     assert time.monotonic() - start < 30
 
@@ -339,29 +375,37 @@ def nothing_built(monkeypatch):
 
 
 @pytest.mark.parametrize("side", ["station", "controller"])
-@pytest.mark.parametrize("args, line", [
-    (["--duration", "0"], "duration: 0.0 is outside the allowed range (0, 3600] s"),
-    (["--duration", "nan"], "duration: nan is not finite"),
-    (["--timeout", "nan"], "--timeout: nan is not finite"),
-    (["--timeout", "inf"], "--timeout: inf is not finite"),
-    (["--timeout", "0"], "--timeout: 0.0 is outside the allowed range (0, inf) s"),
-    (["--timeout", "-3"], "--timeout: -3.0 is outside the allowed range (0, inf) s"),
-    (["--startup-timeout", "nan"], "--startup-timeout: nan is not finite"),
-    (["--lcm", "bogus://nowhere"], ("--lcm 'bogus://nowhere': unknown LCM provider 'bogus'; "
-     "expected udpm://GROUP:PORT")),
-    (["--lcm", "udpm://239.255.76.67"], ("--lcm 'udpm://239.255.76.67': no port in "
-     "'239.255.76.67'")),
-    (["--lcm", "udpm://239.255.76.67:"], "port '' is not a number in 1-65535"),
-    (["--lcm", "garbage"], "--lcm 'garbage': not a URL (no PROVIDER://)"),
-    (["--lcm", "udpm://10.1.2.3:7667"], "10.1.2.3 is not a multicast group"),
-    (["--lcm", "udpm://239.255.76.67:7667?tll=0"], "unknown option 'tll'"),
-    (["--lcm", "memq://"], "memq:// reaches this process only"),
-    (["--lcm", "tcpq://127.0.0.1:1"], "cannot open the LCM URL 'tcpq://127.0.0.1:1': LCM tcpq"),
-    (["--out", "/proc/manta_drake_out"], "--out /proc/manta_drake_out: cannot be created"),
-    (["--out", "/proc/self"], "--out /proc/self: cannot be written"),
-])
-def test_bad_options_are_one_line_each_before_anything_is_built(capfd, nothing_built, side,
-                                                                  args, line):
+@pytest.mark.parametrize(
+    "args, line",
+    [
+        (["--duration", "0"], "duration: 0.0 is outside the allowed range (0, 3600] s"),
+        (["--duration", "nan"], "duration: nan is not finite"),
+        (["--timeout", "nan"], "--timeout: nan is not finite"),
+        (["--timeout", "inf"], "--timeout: inf is not finite"),
+        (["--timeout", "0"], "--timeout: 0.0 is outside the allowed range (0, inf) s"),
+        (["--timeout", "-3"], "--timeout: -3.0 is outside the allowed range (0, inf) s"),
+        (["--startup-timeout", "nan"], "--startup-timeout: nan is not finite"),
+        (
+            ["--lcm", "bogus://nowhere"],
+            ("--lcm 'bogus://nowhere': unknown LCM provider 'bogus'; expected udpm://GROUP:PORT"),
+        ),
+        (
+            ["--lcm", "udpm://239.255.76.67"],
+            ("--lcm 'udpm://239.255.76.67': no port in '239.255.76.67'"),
+        ),
+        (["--lcm", "udpm://239.255.76.67:"], "port '' is not a number in 1-65535"),
+        (["--lcm", "garbage"], "--lcm 'garbage': not a URL (no PROVIDER://)"),
+        (["--lcm", "udpm://10.1.2.3:7667"], "10.1.2.3 is not a multicast group"),
+        (["--lcm", "udpm://239.255.76.67:7667?tll=0"], "unknown option 'tll'"),
+        (["--lcm", "memq://"], "memq:// reaches this process only"),
+        (["--lcm", "tcpq://127.0.0.1:1"], "cannot open the LCM URL 'tcpq://127.0.0.1:1': LCM tcpq"),
+        (["--out", "/proc/manta_drake_out"], "--out /proc/manta_drake_out: cannot be created"),
+        (["--out", "/proc/self"], "--out /proc/self: cannot be written"),
+    ],
+)
+def test_bad_options_are_one_line_each_before_anything_is_built(
+    capfd, nothing_built, side, args, line
+):
     from manta_drake.cli import main
 
     assert main([side, "stand", "--quiet", *args]) == 2
@@ -374,8 +418,10 @@ def test_out_that_is_a_file_is_refused(capfd, nothing_built, tmp_path):
     from manta_drake.cli import main
 
     (tmp_path / "f").write_text("")
-    for out, line in ((tmp_path / "f", "is a file, not a folder"),
-                      (tmp_path / "f" / "sub", "cannot be created")):
+    for out, line in (
+        (tmp_path / "f", "is a file, not a folder"),
+        (tmp_path / "f" / "sub", "cannot be created"),
+    ):
         assert main(["station", "stand", "--quiet", "--out", str(out)]) == 2
         err = _err_lines(capfd.readouterr())
         assert len(err) == 1 and f"--out {out}: {line}" in err[0], err
@@ -386,9 +432,11 @@ def test_duration_zero_is_refused_as_run_refuses_it(capfd, tmp_path):
     from manta_drake.cli import main
 
     messages = []
-    for argv in (["run", "stand", "--out", str(tmp_path / "run")],
-                 ["station", "stand", "--quiet", "--out", str(tmp_path / "station")],
-                 ["controller", "stand", "--quiet"]):
+    for argv in (
+        ["run", "stand", "--out", str(tmp_path / "run")],
+        ["station", "stand", "--quiet", "--out", str(tmp_path / "station")],
+        ["controller", "stand", "--quiet"],
+    ):
         assert main([*argv, "--duration", "0"]) == 2
         messages.append(_err_lines(capfd.readouterr()))
     assert all(len(m) == 1 for m in messages), messages
@@ -401,8 +449,15 @@ def test_duration_zero_is_refused_as_run_refuses_it(capfd, tmp_path):
 
 
 def _hello(role, duration=1.0, clock="lockstep", channels=()):
-    return seam.Hello(role, f"{role[:4]}{random.randrange(16**4):04x}", "test", duration,
-                      1e-3, clock, tuple(channels))
+    return seam.Hello(
+        role,
+        f"{role[:4]}{random.randrange(16**4):04x}",
+        "test",
+        duration,
+        1e-3,
+        clock,
+        tuple(channels),
+    )
 
 
 def _shake(link, timeout=5.0):
@@ -422,15 +477,27 @@ def _shake(link, timeout=5.0):
     return thread, box
 
 
-@pytest.mark.parametrize("controller_duration, clock, station_line, controller_line", [
-    (1.0, "lockstep", None, None),
-    (2.0, "lockstep", "duration 2 s there, 1 s here (--duration)",
-     "duration 1 s there, 2 s here (--duration)"),
-    (1.0, "wall-clock", "clock wall-clock there, lockstep here (--wall-clock)",
-     "clock lockstep there, wall-clock here (--wall-clock)"),
-])
-def test_handshake_pairs_or_names_the_mismatch_on_both_sides(controller_duration, clock,
-                                                            station_line, controller_line):
+@pytest.mark.parametrize(
+    "controller_duration, clock, station_line, controller_line",
+    [
+        (1.0, "lockstep", None, None),
+        (
+            2.0,
+            "lockstep",
+            "duration 2 s there, 1 s here (--duration)",
+            "duration 1 s there, 2 s here (--duration)",
+        ),
+        (
+            1.0,
+            "wall-clock",
+            "clock wall-clock there, lockstep here (--wall-clock)",
+            "clock lockstep there, wall-clock here (--wall-clock)",
+        ),
+    ],
+)
+def test_handshake_pairs_or_names_the_mismatch_on_both_sides(
+    controller_duration, clock, station_line, controller_line
+):
     url = unique_url()
     s_hello = _hello("station")
     c_hello = _hello("controller", controller_duration, clock)
@@ -446,8 +513,10 @@ def test_handshake_pairs_or_names_the_mismatch_on_both_sides(controller_duration
         assert s_box["peer"].run_id == c_hello.run_id
         assert c_box["peer"].run_id == s_hello.run_id
         return
-    for box, line, me, other in ((s_box, station_line, "station", c_hello),
-                                 (c_box, controller_line, "controller", s_hello)):
+    for box, line, me, other in (
+        (s_box, station_line, "station", c_hello),
+        (c_box, controller_line, "controller", s_hello),
+    ):
         assert box["error"].startswith(f"{me}: the {other.role} {other.run_id} (pid "), box
         assert f"does not match this {me}: {line}; start both sides" in box["error"]
         assert "\n" not in box["error"]
@@ -460,8 +529,10 @@ def test_a_second_station_is_named_at_once_on_both_sides(capsys):
 
     url = unique_url()
     first, controller = _hello("station"), _hello("controller")
-    links = [seam.Link(url, [], "station", hello=first),
-             seam.Link(url, [], "controller", hello=controller)]
+    links = [
+        seam.Link(url, [], "station", hello=first),
+        seam.Link(url, [], "controller", hello=controller),
+    ]
     threads = [_shake(link) for link in links]
     for thread, box in threads:
         thread.join(10)
@@ -473,8 +544,7 @@ def test_a_second_station_is_named_at_once_on_both_sides(capsys):
         while running.is_set():
             link.poll(10)
 
-    pollers = [threading.Thread(target=keep_polling, args=(link,), daemon=True)
-               for link in links]
+    pollers = [threading.Thread(target=keep_polling, args=(link,), daemon=True) for link in links]
     for poller in pollers:
         poller.start()
     second = _hello("station")
@@ -488,15 +558,19 @@ def test_a_second_station_is_named_at_once_on_both_sides(capsys):
         poller.join(2)
     line = str(refused.value)
     assert "\n" not in line and line.startswith("station: ")
-    assert (f"another station is on {url}: the station {first.run_id}" in line
-            or f"is paired with the station {first.run_id} already" in line), line
+    assert (
+        f"another station is on {url}: the station {first.run_id}" in line
+        or f"is paired with the station {first.run_id} already" in line
+    ), line
     assert "give each run a URL of its own" in line
     err = _err_lines(capsys.readouterr())
     for role, peer in (("station", controller), ("controller", first)):
         said = [e for e in err if e.startswith(f"{role}: a second station")]
         assert len(said) == 1, err  # once, though it heard several requests
-        assert (f"the station {second.run_id}" in said[0]
-                and f"this run goes on with the {peer.role} {peer.run_id}" in said[0])
+        assert (
+            f"the station {second.run_id}" in said[0]
+            and f"this run goes on with the {peer.role} {peer.run_id}" in said[0]
+        )
 
 
 # ---------------------------------------------------------------------------------------
@@ -522,22 +596,27 @@ def test_a_malformed_message_is_named_once_counted_and_skipped(capsys):
     sender.publish(desired.name, good)
     sender.publish(balloon.name, seam.vector_message(0.02, [0.5]).encode())
     deadline = time.monotonic() + 5
-    while (20000 not in link.inbox[balloon.name] or 20000 not in link.inbox[desired.name]) \
-            and time.monotonic() < deadline:
+    while (
+        20000 not in link.inbox[balloon.name] or 20000 not in link.inbox[desired.name]
+    ) and time.monotonic() < deadline:
         link.poll(20)
     np.testing.assert_array_equal(link.inbox[desired.name][20000], np.ones(32))
     np.testing.assert_array_equal(link.inbox[balloon.name][20000], [0.5])
-    assert link.incidents.counts == {desired.name: {"malformed": 3},
-                                     balloon.name: {"malformed": 1}}
+    assert link.incidents.counts == {desired.name: {"malformed": 3}, balloon.name: {"malformed": 1}}
     err = _err_lines(capsys.readouterr())
     assert err == [
-        ("station: MANTA_DESIRED_JOINT_STATE: a message (20 bytes) that is not a valid "
-         "manta_drake.lcmtypes.lcmt_manta_joint_state (unpack requires a buffer of 4 bytes): "
-         "skipped (further malformed messages on MANTA_DESIRED_JOINT_STATE are counted, not "
-         "shown)"),
-        ("station: MANTA_BALLOON_COMMAND: a message (36 bytes) that is not a valid "
-         "drake.lcmt_scope (2 values, expected 1): skipped (further malformed messages on "
-         "MANTA_BALLOON_COMMAND are counted, not shown)")], err
+        (
+            "station: MANTA_DESIRED_JOINT_STATE: a message (20 bytes) that is not a valid "
+            "manta_drake.lcmtypes.lcmt_manta_joint_state (unpack requires a buffer of 4 bytes): "
+            "skipped (further malformed messages on MANTA_DESIRED_JOINT_STATE are counted, not "
+            "shown)"
+        ),
+        (
+            "station: MANTA_BALLOON_COMMAND: a message (36 bytes) that is not a valid "
+            "drake.lcmt_scope (2 values, expected 1): skipped (further malformed messages on "
+            "MANTA_BALLOON_COMMAND are counted, not shown)"
+        ),
+    ], err
 
 
 # ---------------------------------------------------------------------------------------
@@ -572,9 +651,14 @@ class _ScriptedPeer:
 def _bad_commands():
     """Step -> (joint index, angle, rate) or balloon fill: what the scripted controller
     sends wrong."""
-    return {5: ("joint", 0, 1e6, 0.0), 6: ("joint", 0, np.nan, 0.0),
-            7: ("joint", 5, None, 50.0), 8: ("balloon", 1.7), 9: ("balloon", np.nan),
-            **{k: ("joint", 0, 1e6, 0.0) for k in range(10, 15)}}
+    return {
+        5: ("joint", 0, 1e6, 0.0),
+        6: ("joint", 0, np.nan, 0.0),
+        7: ("joint", 5, None, 50.0),
+        8: ("balloon", 1.7),
+        9: ("balloon", np.nan),
+        **{k: ("joint", 0, 1e6, 0.0) for k in range(10, 15)},
+    }
 
 
 def test_station_clips_commands_and_never_passes_a_nan_to_the_servos(capsys):
@@ -589,8 +673,12 @@ def test_station_clips_commands_and_never_passes_a_nan_to_the_servos(capsys):
     h = scenario.time_step
 
     def step(link, ex):  # the controller: wait for the station's clock, command
-        link.wait_for(lambda: link.newest.get(seam.CLOCK.name, -1) >= ex.utime or None, 30,
-                      lambda _: None, lambda _: seam.SeamError("no clock"))
+        link.wait_for(
+            lambda: link.newest.get(seam.CLOCK.name, -1) >= ex.utime or None,
+            30,
+            lambda _: None,
+            lambda _: seam.SeamError("no clock"),
+        )
         x, fill = held["desired_state"].copy(), held["balloon_command"].copy()
         k = round(ex.time / h)
         what = bad.get(k, ("none",))
@@ -603,35 +691,49 @@ def test_station_clips_commands_and_never_passes_a_nan_to_the_servos(capsys):
         link.publish(desired.name, seam.joint_state_message(ex.time, x), ex.utime)
         link.publish(balloon.name, seam.vector_message(ex.time, fill), ex.utime)
 
-    hello = seam.Hello("controller", "fakectrl", "float_sink", 0.03, h, "lockstep",
-                       (desired.name, balloon.name))
+    hello = seam.Hello(
+        "controller", "fakectrl", "float_sink", 0.03, h, "lockstep", (desired.name, balloon.name)
+    )
     schedule = seam.exchange_schedule(0.03, {"STEP": h})
     peer = _ScriptedPeer(url, hello, [seam.CLOCK], step, schedule)
     result = seam.run_station(scenario, url, timeout=10, startup_timeout=60)
     peer.thread.join(10)
     assert peer.error is None, peer.error
-    assert result.incidents == {desired.name: {"clipped": 7, "held": 1},
-                                balloon.name: {"clipped": 1, "held": 1}}
+    assert result.incidents == {
+        desired.name: {"clipped": 7, "held": 1},
+        balloon.name: {"clipped": 1, "held": 1},
+    }
     assert result.metrics()["incidents"] == result.incidents
     assert "MANTA_DESIRED_JOINT_STATE: 7 clipped, 1 held" in result.summary()
     err = _err_lines(capsys.readouterr())
     assert err == [
-        ("station: MANTA_DESIRED_JOINT_STATE: at t = 0.005 s: fl_yaw angle 1e+06 rad outside "
-         "[-1.047, 1.047]: clipped to the servos' limits (further clipped messages on "
-         "MANTA_DESIRED_JOINT_STATE are counted, not shown)"),
-        ("station: MANTA_DESIRED_JOINT_STATE: at t = 0.006 s: fl_yaw (nan rad, 0 rad/s) not "
-         "finite: those servos hold their last good command (further held messages on "
-         "MANTA_DESIRED_JOINT_STATE are counted, not shown)"),
-        ("station: MANTA_BALLOON_COMMAND: at t = 0.008 s: fill 1.7 outside [0, 1]: clipped to "
-         "the pump's range (further clipped messages on MANTA_BALLOON_COMMAND are counted, "
-         "not shown)"),
-        ("station: MANTA_BALLOON_COMMAND: at t = 0.009 s: fill nan not finite: the pump holds "
-         "the last good command 1 (further held messages on MANTA_BALLOON_COMMAND are "
-         "counted, not shown)")], err
+        (
+            "station: MANTA_DESIRED_JOINT_STATE: at t = 0.005 s: fl_yaw angle 1e+06 rad outside "
+            "[-1.047, 1.047]: clipped to the servos' limits (further clipped messages on "
+            "MANTA_DESIRED_JOINT_STATE are counted, not shown)"
+        ),
+        (
+            "station: MANTA_DESIRED_JOINT_STATE: at t = 0.006 s: fl_yaw (nan rad, 0 rad/s) not "
+            "finite: those servos hold their last good command (further held messages on "
+            "MANTA_DESIRED_JOINT_STATE are counted, not shown)"
+        ),
+        (
+            "station: MANTA_BALLOON_COMMAND: at t = 0.008 s: fill 1.7 outside [0, 1]: clipped to "
+            "the pump's range (further clipped messages on MANTA_BALLOON_COMMAND are counted, "
+            "not shown)"
+        ),
+        (
+            "station: MANTA_BALLOON_COMMAND: at t = 0.009 s: fill nan not finite: the pump holds "
+            "the last good command 1 (further held messages on MANTA_BALLOON_COMMAND are "
+            "counted, not shown)"
+        ),
+    ], err
     q = result.log["joint_angles"]
     assert np.all(np.isfinite(q)) and np.all(np.isfinite(result.log["joint_velocities"]))
-    lower, upper = (np.array([lim[i % 4] for i in range(16)]) for lim in zip(
-        *scenario.robot_params().position_limits))
+    lower, upper = (
+        np.array([lim[i % 4] for i in range(16)])
+        for lim in zip(*scenario.robot_params().position_limits)
+    )
     assert np.all(q >= lower - 1e-6) and np.all(q <= upper + 1e-6)
     # The clipped command did move the yaw joint toward its limit: clipped, not dropped.
     assert q[-1, 0] - q[5, 0] > 1e-3
@@ -656,8 +758,11 @@ def test_controller_ignores_readings_outside_their_physical_range(capsys):
     def step(link, ex):  # the station: publish what is due, then wait for the command
         link.advance_floor(ex.utime)
         if ex.time == 0.0:  # first, what the controller's initialization reads
-            link.publish(depth.name, seam.vector_message(seam.BEFORE_START_TIME, [0.05]),
-                         seam.BEFORE_START_UTIME)
+            link.publish(
+                depth.name,
+                seam.vector_message(seam.BEFORE_START_TIME, [0.05]),
+                seam.BEFORE_START_UTIME,
+            )
         for name in ex.channels:
             if name == seam.CLOCK.name:
                 msg = seam.joint_state_message(ex.time, held["desired_state"])
@@ -668,28 +773,40 @@ def test_controller_ignores_readings_outside_their_physical_range(capsys):
                 msg = seam.vector_message(ex.time, [soc, 16.0, 3.0])
             link.publish(name, msg, ex.utime)
         if seam.CLOCK.name in ex.channels:
-            link.wait_for(lambda: link.take({desired.name: ex.utime}), 30, lambda _: None,
-                          lambda _: seam.SeamError(f"no command for {ex.time}"))
+            link.wait_for(
+                lambda: link.take({desired.name: ex.utime}),
+                30,
+                lambda _: None,
+                lambda _: seam.SeamError(f"no command for {ex.time}"),
+            )
 
     held = seam.initial_commands(scenario)
-    hello = seam.Hello("station", "fakestat", "locomotion_swim", 0.1, h, "lockstep",
-                       tuple(periods))
+    hello = seam.Hello("station", "fakestat", "locomotion_swim", 0.1, h, "lockstep", tuple(periods))
     peer = _ScriptedPeer(url, hello, [desired], step, schedule, sticky=(seam.CLOCK.name,))
     result = seam.run_controller(scenario, url, timeout=10, startup_timeout=60)
     peer.thread.join(10)
     assert peer.error is None, peer.error
-    assert result.incidents == {depth.name: {"ignored": 2, "dropout": 1},
-                                battery.name: {"ignored": 1}}
+    assert result.incidents == {
+        depth.name: {"ignored": 2, "dropout": 1},
+        battery.name: {"ignored": 1},
+    }
     err = _err_lines(capsys.readouterr())
     assert err == [  # in time order: lockstep logs the battery of 0.03 s before 0.031 s
-        ("controller: MANTA_DEPTH: at t = 0.020 s: depth -1e+06 m outside its physical range "
-         "[-1, 300] m: ignored (read as a dropped reading; the depth estimator holds its "
-         "estimate) (further ignored messages on MANTA_DEPTH are counted, not shown)"),
-        ("controller: MANTA_BATTERY: at t = 0.030 s: state of charge 7 outside [0, 1]: ignored "
-         "(logged as NaN) (further ignored messages on MANTA_BATTERY are counted, not shown)"),
-        ("controller: MANTA_DEPTH: at t = 0.040 s: depth NaN (a dropped reading): the depth "
-         "estimator holds its estimate (further dropout messages on MANTA_DEPTH are counted, "
-         "not shown)")], err
+        (
+            "controller: MANTA_DEPTH: at t = 0.020 s: depth -1e+06 m outside its physical range "
+            "[-1, 300] m: ignored (read as a dropped reading; the depth estimator holds its "
+            "estimate) (further ignored messages on MANTA_DEPTH are counted, not shown)"
+        ),
+        (
+            "controller: MANTA_BATTERY: at t = 0.030 s: state of charge 7 outside [0, 1]: ignored "
+            "(logged as NaN) (further ignored messages on MANTA_BATTERY are counted, not shown)"
+        ),
+        (
+            "controller: MANTA_DEPTH: at t = 0.040 s: depth NaN (a dropped reading): the depth "
+            "estimator holds its estimate (further dropout messages on MANTA_DEPTH are counted, "
+            "not shown)"
+        ),
+    ], err
     t, z_hat = result.log["t_command"], result.log["z_hat"][:, 0]
     held_span = (t > 0.021) & (t <= 0.08)
     assert np.all(z_hat[held_span] == z_hat[np.argmax(t > 0.0)])  # held from the 0 s reading
@@ -733,10 +850,14 @@ def test_controller_screens_imu_readings_and_its_posture_estimator_holds_through
     def step(link, ex):  # the station: publish what is due, then wait for the command
         link.advance_floor(ex.utime)
         if ex.time == 0.0:  # first, what the controller's initialization reads
-            link.publish(depth.name, seam.vector_message(seam.BEFORE_START_TIME, [0.05]),
-                         seam.BEFORE_START_UTIME)
-            link.publish(imu.name, seam.vector_message(seam.BEFORE_START_TIME, base),
-                         seam.BEFORE_START_UTIME)
+            link.publish(
+                depth.name,
+                seam.vector_message(seam.BEFORE_START_TIME, [0.05]),
+                seam.BEFORE_START_UTIME,
+            )
+            link.publish(
+                imu.name, seam.vector_message(seam.BEFORE_START_TIME, base), seam.BEFORE_START_UTIME
+            )
         for name in ex.channels:
             if name == seam.CLOCK.name:
                 msg = seam.joint_state_message(ex.time, held["desired_state"])
@@ -746,12 +867,17 @@ def test_controller_screens_imu_readings_and_its_posture_estimator_holds_through
                 msg = seam.vector_message(ex.time, reading(ex.time))
             link.publish(name, msg, ex.utime)
         if seam.CLOCK.name in ex.channels:
-            link.wait_for(lambda: link.take({desired.name: ex.utime}), 30, lambda _: None,
-                          lambda _: seam.SeamError(f"no command for {ex.time}"))
+            link.wait_for(
+                lambda: link.take({desired.name: ex.utime}),
+                30,
+                lambda _: None,
+                lambda _: seam.SeamError(f"no command for {ex.time}"),
+            )
 
     held = seam.initial_commands(scenario)
-    hello = seam.Hello("station", "fakeimu0", "swim_heading_hold", 0.1, h, "lockstep",
-                       tuple(periods))
+    hello = seam.Hello(
+        "station", "fakeimu0", "swim_heading_hold", 0.1, h, "lockstep", tuple(periods)
+    )
     peer = _ScriptedPeer(url, hello, [desired], step, schedule, sticky=(seam.CLOCK.name,))
     result = seam.run_controller(scenario, url, timeout=10, startup_timeout=60)
     peer.thread.join(10)
@@ -759,13 +885,18 @@ def test_controller_screens_imu_readings_and_its_posture_estimator_holds_through
     assert result.incidents == {imu.name: {"ignored": 3, "dropout": 1}}
     err = _err_lines(capsys.readouterr())
     assert err == [
-        ("controller: MANTA_IMU: at t = 0.020 s: imu roll 7 rad beyond +-3.142: ignored (read "
-         "as dropped readings; the posture estimator holds them) (further ignored messages on "
-         "MANTA_IMU are counted, not shown)"),
-        ("controller: MANTA_IMU: at t = 0.040 s: imu wz 100 rad/s beyond +-35: ignored (read "
-         "as dropped readings; the posture estimator holds them); imu yaw NaN (dropped "
-         "readings): the posture estimator holds them (further ignored/dropout messages on "
-         "MANTA_IMU are counted, not shown)")], err
+        (
+            "controller: MANTA_IMU: at t = 0.020 s: imu roll 7 rad beyond +-3.142: ignored (read "
+            "as dropped readings; the posture estimator holds them) (further ignored messages on "
+            "MANTA_IMU are counted, not shown)"
+        ),
+        (
+            "controller: MANTA_IMU: at t = 0.040 s: imu wz 100 rad/s beyond +-35: ignored (read "
+            "as dropped readings; the posture estimator holds them); imu yaw NaN (dropped "
+            "readings): the posture estimator holds them (further ignored/dropout messages on "
+            "MANTA_IMU are counted, not shown)"
+        ),
+    ], err
     # Logged before each step's updates: the estimator's update at 0.02 s shows from 0.021 s.
     t = result.log["t_command"]
     roll, pitch, yaw = result.log["attitude_hat"].T
@@ -773,8 +904,12 @@ def test_controller_screens_imu_readings_and_its_posture_estimator_holds_through
     # Seeded from the readings (the angles wrapped into (-pi, pi], to the last bit or so),
     # then unchanged: roll held through the 7 rad of 0.02 s, yaw through the NaN and the yaw
     # rate through the 100 rad/s of 0.04 s.
-    for values, first, until in ((roll, 0.1, 0.06), (pitch, 0.05, 1.0), (yaw, 0.3, 1.0),
-                                 (yaw_rate, 0.2, 1.0)):
+    for values, first, until in (
+        (roll, 0.1, 0.06),
+        (pitch, 0.05, 1.0),
+        (yaw, 0.3, 1.0),
+        (yaw_rate, 0.2, 1.0),
+    ):
         assert values[0] == pytest.approx(first, abs=1e-15)
         np.testing.assert_array_equal(values[t <= until], values[0])
     tau = scenario.posture_estimator.time_constant
@@ -831,9 +966,23 @@ def _single_run(path):
 def _start(side, path, url, out, *args):
     err = open(out / f"{side}.err", "w")  # noqa: SIM115 (the caller closes it after the run)
     return subprocess.Popen(
-        [sys.executable, "-m", "manta_drake.cli", side, str(path), "--lcm", url,
-         "--out", str(out), *args],
-        stdout=subprocess.PIPE, stderr=err, text=True, cwd=REPO), err
+        [
+            sys.executable,
+            "-m",
+            "manta_drake.cli",
+            side,
+            str(path),
+            "--lcm",
+            url,
+            "--out",
+            str(out),
+            *args,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=err,
+        text=True,
+        cwd=REPO,
+    ), err
 
 
 def _split_run(path, out, *args, wall_timeout=90.0):
@@ -851,8 +1000,11 @@ def _split_run(path, out, *args, wall_timeout=90.0):
         cerr.close()
     for side, proc in (("station", station), ("controller", controller)):
         assert proc.returncode == 0, f"{side}: {(out / f'{side}.err').read_text()}"
-    return (dict(np.load(out / "station_log.npz")), dict(np.load(out / "controller_log.npz")),
-            json.loads((out / "station_metrics.json").read_text()))
+    return (
+        dict(np.load(out / "station_log.npz")),
+        dict(np.load(out / "controller_log.npz")),
+        json.loads((out / "station_metrics.json").read_text()),
+    )
 
 
 def test_a_lockstep_run_without_dropouts_reports_none(tmp_path):
@@ -884,8 +1036,9 @@ def test_split_run_matches_the_single_diagram(tmp_path):
     assert err == 0.0, f"joint angles differ by {err:.3g} rad (within 1e-6, but not exact)"
     n = len(controller["t_command"])
     assert n == 5000
-    np.testing.assert_array_equal(controller["commanded_joint_angles"],
-                                  single["commanded_joint_angles"][:n])
+    np.testing.assert_array_equal(
+        controller["commanded_joint_angles"], single["commanded_joint_angles"][:n]
+    )
     np.testing.assert_array_equal(station["body_xyz"], single["body_xyz"])
     # The run did cross the seam's depth path: the robot sank and the transition moved.
     assert single["z_hat"].max() > 0.4
@@ -902,8 +1055,10 @@ def test_split_run_matches_the_single_diagram(tmp_path):
         np.testing.assert_array_equal(controller[port], sent, err_msg=port)
     assert np.ptp(station["battery"][:, 0]) > 0 and np.ptp(station["electrical_power"]) > 1.0
     assert metrics["incidents"] == {} and metrics["peer_run_id"]
-    print(f"split real-time factor {metrics['real_time_factor']:.2f}, "
-          f"single {single_rtf:.2f}, re-sends {metrics['resends']}")
+    print(
+        f"split real-time factor {metrics['real_time_factor']:.2f}, "
+        f"single {single_rtf:.2f}, re-sends {metrics['resends']}"
+    )
 
 
 @pytest.mark.slow
@@ -913,9 +1068,12 @@ def test_split_run_with_camera_meets_drakes_off_grid_camera_times(tmp_path):
     statistics and the joints match the single diagram exactly."""
     extra = "camera: {enabled: true, rate_hz: 5.0}\n"
     path = _scenario_file(tmp_path, duration=1.0, extra=extra)
-    path.write_text(path.read_text().replace("[-2.0, 0.0, -0.045]", "[6.9, 0.0, -0.22]")
-                    .replace("initial_stance: swim", "initial_stance: trot")
-                    .replace("fill: 1.0", "fill: 0.0"))
+    path.write_text(
+        path.read_text()
+        .replace("[-2.0, 0.0, -0.045]", "[6.9, 0.0, -0.22]")
+        .replace("initial_stance: swim", "initial_stance: trot")
+        .replace("fill: 1.0", "fill: 0.0")
+    )
     single, _ = _single_run(path)
     station, controller, _ = _split_run(path, tmp_path)
     np.testing.assert_array_equal(station["joint_angles"], single["joint_angles"])
@@ -923,8 +1081,9 @@ def test_split_run_with_camera_meets_drakes_off_grid_camera_times(tmp_path):
     # before that step's updates: the last step at or before each camera time.
     steps = np.floor(single["t_detector_status"] / 1e-3 + 1e-9).astype(int)
     ok = steps < len(controller["t_command"])
-    np.testing.assert_array_equal(controller["detector_status"][steps[ok]],
-                                  single["detector_status"][ok])
+    np.testing.assert_array_equal(
+        controller["detector_status"][steps[ok]], single["detector_status"][ok]
+    )
     assert single["s_hat"].max() > 0.9  # the wall was seen: the camera path was used
 
 
@@ -955,33 +1114,46 @@ def _assert_split_is_single(name, duration, tmp_path, estimates, sensors):
     from manta_drake.scenario import find_scenario
 
     single, single_rtf = _shipped_single_run(name, duration)
-    station, controller, metrics = _split_run(find_scenario(name), tmp_path, "--duration",
-                                              str(duration))
+    station, controller, metrics = _split_run(
+        find_scenario(name), tmp_path, "--duration", str(duration)
+    )
     np.testing.assert_array_equal(station["t"], single["t"])
     err = np.abs(station["joint_angles"] - single["joint_angles"]).max()
     assert err == 0.0, f"joint angles differ by {err:.3g} rad"
     np.testing.assert_array_equal(station["body_xyz"], single["body_xyz"])
     n = len(controller["t_command"])
     assert n == round(duration / 1e-3)
-    np.testing.assert_array_equal(controller["commanded_joint_angles"],
-                                  single["commanded_joint_angles"][:n])
+    np.testing.assert_array_equal(
+        controller["commanded_joint_angles"], single["commanded_joint_angles"][:n]
+    )
     for port in estimates:
         # Both logged before the updates at their times: the step at or before each log time.
         steps = np.floor(single[f"t_{port}"] / 1e-3 + 1e-9).astype(int)
         ok = steps < n
-        np.testing.assert_array_equal(controller[port][steps[ok]].reshape(ok.sum(), -1),
-                                      single[port][ok].reshape(ok.sum(), -1), err_msg=port)
+        np.testing.assert_array_equal(
+            controller[port][steps[ok]].reshape(ok.sum(), -1),
+            single[port][ok].reshape(ok.sum(), -1),
+            err_msg=port,
+        )
     for port in sensors:
         t_sent = station[f"t_{port}"]
-        np.testing.assert_array_equal(t_sent, seam.sample_times(
-            seam.CHANNEL_BY_NAME[f"MANTA_{port.upper()}"].period(
-                _loaded(name, duration)), duration), err_msg=port)
+        np.testing.assert_array_equal(
+            t_sent,
+            seam.sample_times(
+                seam.CHANNEL_BY_NAME[f"MANTA_{port.upper()}"].period(_loaded(name, duration)),
+                duration,
+            ),
+            err_msg=port,
+        )
         k = np.searchsorted(single[f"t_{port}"], t_sent, side="left")  # the first log >= u
-        np.testing.assert_array_equal(station[port].reshape(len(k), -1), single[port][k],
-                                      err_msg=port)
+        np.testing.assert_array_equal(
+            station[port].reshape(len(k), -1), single[port][k], err_msg=port
+        )
     assert metrics["incidents"] == {}
-    print(f"{name} {duration:g} s: split real-time factor {metrics['real_time_factor']:.2f}, "
-          f"single {single_rtf:.2f}, re-sends {metrics['resends']}")
+    print(
+        f"{name} {duration:g} s: split real-time factor {metrics['real_time_factor']:.2f}, "
+        f"single {single_rtf:.2f}, re-sends {metrics['resends']}"
+    )
     return station, controller, metrics, single
 
 
@@ -998,8 +1170,12 @@ def test_split_run_with_the_imu_heading_hold_matches_the_single_diagram(tmp_path
     itself at initialization from what the single diagram's initialization reads, the IMU
     before its own initialization (all zeros): the station sends that first."""
     station, controller, _, single = _assert_split_is_single(
-        "swim_heading_hold", 2.0, tmp_path, ("attitude_hat", "posture_hat", "heading_trim",
-                                             "cpg_params", "z_hat"), ("imu", "depth"))
+        "swim_heading_hold",
+        2.0,
+        tmp_path,
+        ("attitude_hat", "posture_hat", "heading_trim", "cpg_params", "z_hat"),
+        ("imu", "depth"),
+    )
     assert np.abs(single["heading_trim"]).max() > 0.01  # the IMU's path steered the swim
     np.testing.assert_array_equal(controller["attitude_hat"][0], 0.0)
     assert np.abs(station["imu"][0, :3]).max() > 1e-3  # the first reading is not zero
@@ -1011,10 +1187,22 @@ def test_split_run_of_four_behaviors_matches_the_single_diagram(tmp_path):
     at the energy estimator's 100 ms, off the 10 ms grid at 0.30000000000000004 s ...), the
     tree and the balloon rule read their estimates: the single diagram bit for bit."""
     station, controller, _, _ = _assert_split_is_single(
-        "four_behaviors", 2.0, tmp_path,
-        ("attitude_hat", "heading_trim", "flow_speed_hat", "flow_hat", "soc_hat", "energy_hat",
-         "behaviour_weights", "cpg_params", "balloon_command"),
-        ("imu", "flow_velocity", "battery", "depth"))
+        "four_behaviors",
+        2.0,
+        tmp_path,
+        (
+            "attitude_hat",
+            "heading_trim",
+            "flow_speed_hat",
+            "flow_hat",
+            "soc_hat",
+            "energy_hat",
+            "behaviour_weights",
+            "cpg_params",
+            "balloon_command",
+        ),
+        ("imu", "flow_velocity", "battery", "depth"),
+    )
     assert station["t_battery"][3] == 0.30000000000000004 and len(station["t_battery"]) == 20
     # Each path carried something: the charge fell, the flow estimate rose, the trim acted.
     assert np.ptp(controller["soc_hat"]) > 1e-5 and controller["flow_hat"].max() > 0.1
@@ -1026,8 +1214,12 @@ def test_split_run_with_the_altimeter_matches_the_single_diagram(tmp_path):
     """2 s of nose_up_trot: the altimeter's range every 100 ms crosses, the tree reads its
     floor_hat: the single diagram bit for bit."""
     station, controller, _, _ = _assert_split_is_single(
-        "nose_up_trot", 2.0, tmp_path,
-        ("altitude_hat", "floor_hat", "behaviour_weights", "cpg_params"), ("altitude", "depth"))
+        "nose_up_trot",
+        2.0,
+        tmp_path,
+        ("altitude_hat", "floor_hat", "behaviour_weights", "cpg_params"),
+        ("altitude", "depth"),
+    )
     assert len(station["t_altitude"]) == 20 and np.all(np.isfinite(station["altitude"]))
     assert np.ptp(controller["altitude_hat"]) > 1e-3  # the range moved with the gait
 
@@ -1058,8 +1250,10 @@ def test_the_battery_cutoff_ends_both_sides_at_the_single_diagrams_time(tmp_path
     station_err = (tmp_path / "station.err").read_text()
     assert f"station: stopped at t = {t_stop:.3f} s: battery empty" in station_err
     controller_err = (tmp_path / "controller.err").read_text()
-    assert (f"controller: the station stopped at t = {t_stop:.3f} s: battery empty"
-            in controller_err and "stopping too" in controller_err)
+    assert (
+        f"controller: the station stopped at t = {t_stop:.3f} s: battery empty" in controller_err
+        and "stopping too" in controller_err
+    )
     c_metrics = json.loads((tmp_path / "controller_metrics.json").read_text())
     assert c_metrics["status"] == "stopped"
     assert controller["t_command"][-1] <= t_stop + seam.MAX_LEAD_STEPS * 1e-3

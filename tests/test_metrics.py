@@ -47,6 +47,7 @@ def test_speed_is_averaged_over_free_water_only():
 
 # --- behaviour transitions ---------------------------------------------------------------------
 
+
 def _path(t, a, b, t0, t1):
     """Parameters moving linearly from a to b between t0 and t1."""
     s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)[:, None]
@@ -74,8 +75,9 @@ def test_leaf_transitions_by_hand():
     a, b = np.zeros(4), np.array([1.0, -2.0, 0.5, 3.0])
     t = np.arange(0.0, 20.0, 0.02)
     w = _weights(t, [(8.0, 12.0, 0, 1)])
-    out = leaf_transitions(t, w, ("a", "b"), t, _path(t, a, b, 8.0, 16.0),
-                           {"a": a, "b": b}, tolerance=0.05)
+    out = leaf_transitions(
+        t, w, ("a", "b"), t, _path(t, a, b, 8.0, 16.0), {"a": a, "b": b}, tolerance=0.05
+    )
     assert len(out) == 1 and (out[0]["from"], out[0]["to"]) == ("a", "b")
     assert out[0]["start_s"] == pytest.approx(8.4, abs=0.021)
     assert out[0]["dominant_s"] == pytest.approx(10.0, abs=0.021)
@@ -111,6 +113,7 @@ def test_heading_change_counts_whole_turns():
 
 # --- the note says only what happened ----------------------------------------------------------
 
+
 def _still_log(duration, x=0.0):
     """A hull at rest at x (m) along the pool's axis, logged every 10 ms for ``duration`` s."""
     t = np.arange(0.0, duration + 1e-9, 0.01)
@@ -125,8 +128,10 @@ def test_a_short_run_far_from_the_walls_is_told_short_not_near_a_wall():
     m = compute_metrics(Scenario(steady_after=2.0), _still_log(1.2), 1.0)
     assert m["near_wall_at_s"] is None and m["min_wall_clearance_m"] == pytest.approx(0.88)
     assert m["steady_window_s"] == pytest.approx([0.6, 1.2])
-    assert m["note"] == ("steady window 0.60-1.20 s is shorter than 1.0 s (the run ended at "
-                         "1.20 s): no mean velocity")
+    assert m["note"] == (
+        "steady window 0.60-1.20 s is shorter than 1.0 s (the run ended at "
+        "1.20 s): no mean velocity"
+    )
     assert "wall" not in m["note"]
 
 
@@ -141,24 +146,35 @@ def test_a_wall_approach_is_named_with_its_time():
     m = compute_metrics(Scenario(steady_after=2.0), log, 1.0)
     assert m["near_wall_at_s"] == pytest.approx(2.5, abs=0.011)
     near = m["near_wall_at_s"]
-    assert m["note"] == (f"steady window 2.00-{near:.2f} s is shorter than 1.0 s (the hull "
-                         f"came within 0.3 m of a wall at {near:.2f} s): no mean velocity")
+    assert m["note"] == (
+        f"steady window 2.00-{near:.2f} s is shorter than 1.0 s (the hull "
+        f"came within 0.3 m of a wall at {near:.2f} s): no mean velocity"
+    )
     # Both causes at once: a 1.2 s run that also reaches the wall at 0.9 s.
     both = M.short_window_note(0.6, 0.9, 1.0, 1.2, 0.9, 0.3)
-    assert both == ("steady window 0.60-0.90 s is shorter than 1.0 s (the hull came within "
-                    "0.3 m of a wall at 0.90 s; the run ended at 1.20 s): no mean velocity")
+    assert both == (
+        "steady window 0.60-0.90 s is shorter than 1.0 s (the hull came within "
+        "0.3 m of a wall at 0.90 s; the run ended at 1.20 s): no mean velocity"
+    )
 
 
 def test_the_energy_notes_name_what_is_missing():
     t = np.arange(0.0, 1.201, 0.01)
-    log = {"t_electrical_power": t, "electrical_power": 30.0 + 0 * t[:, None],
-           "t_joint_mechanical_power": t, "joint_mechanical_power": np.ones((len(t), 16)),
-           "t_battery": t, "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1))}
+    log = {
+        "t_electrical_power": t,
+        "electrical_power": 30.0 + 0 * t[:, None],
+        "t_joint_mechanical_power": t,
+        "joint_mechanical_power": np.ones((len(t), 16)),
+        "t_battery": t,
+        "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1)),
+    }
     short = M.energy_metrics(log, 8.4, 50.0, 0.2, [0.6, 1.2], None)
     assert all(short[k] is None for k in (*M.COT_KEYS, *M.COT_ALIASES))
-    assert short["cost_of_transport_note"] == ("no mean velocity over the steady window "
-                                               "0.60-1.20 s (the run's note says why): no "
-                                               "cost of transport")
+    assert short["cost_of_transport_note"] == (
+        "no mean velocity over the steady window "
+        "0.60-1.20 s (the run's note says why): no "
+        "cost of transport"
+    )
     none = M.energy_metrics(log, 8.4, 50.0, 0.2, None, None)
     assert none["cost_of_transport_note"] == "no steady window: no cost of transport"
     assert none["mean_electrical_power_w"] == pytest.approx(30.0)
@@ -172,7 +188,8 @@ def test_costs_of_transport_closed_form():
     assert cots["cot_mechanical_weight_in_water"] == pytest.approx(5.0 / 0.824)
     # The weight in water is ten times smaller: every cost by it ten times larger.
     assert cots["cot_electrical_weight_in_water"] == pytest.approx(
-        10 * cots["cot_electrical_dry_weight"])
+        10 * cots["cot_electrical_dry_weight"]
+    )
     floating = M.costs_of_transport(28.0, 5.0, 21.0, 82.4, -1.0, 0.1)
     assert floating["cot_electrical_weight_in_water"] is None
     assert floating["cot_electrical_dry_weight"] == cots["cot_electrical_dry_weight"]
@@ -180,11 +197,17 @@ def test_costs_of_transport_closed_form():
 
 def test_a_floating_robot_has_no_cost_of_transport_by_its_weight_in_water():
     t = np.arange(0.0, 2.001, 0.01)
-    log = {"t_electrical_power": t, "electrical_power": 30.0 + 0 * t[:, None],
-           "t_joint_mechanical_power": t, "joint_mechanical_power": np.ones((len(t), 16)),
-           "t_battery": t, "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1))}
-    e = M.energy_metrics(log, 8.4, 50.0, 0.2, [1.0, 2.0], [0.1, 0.0],
-                         weight_in_water_kg=-0.2, hotel_power_w=20.0)
+    log = {
+        "t_electrical_power": t,
+        "electrical_power": 30.0 + 0 * t[:, None],
+        "t_joint_mechanical_power": t,
+        "joint_mechanical_power": np.ones((len(t), 16)),
+        "t_battery": t,
+        "battery": np.tile([0.9, 16.0, 2.0], (len(t), 1)),
+    }
+    e = M.energy_metrics(
+        log, 8.4, 50.0, 0.2, [1.0, 2.0], [0.1, 0.0], weight_in_water_kg=-0.2, hotel_power_w=20.0
+    )
     assert e["cot_net_of_hotel_dry_weight"] == pytest.approx(10.0 / (8.4 * 9.81 * 0.1))
     assert e["cot_mechanical_dry_weight"] == pytest.approx(16.0 / (8.4 * 9.81 * 0.1))
     assert e["cot_electrical_weight_in_water"] is None
@@ -208,14 +231,21 @@ def test_power_breakdown_means_each_term_over_the_window():
 
 # --- Euler angles through the gimbal lock ------------------------------------------------------
 
+
 def _quat_rpy(roll, pitch, yaw):
     """The quaternion (w, x, y, z) of Rz(yaw) Ry(pitch) Rx(roll), by the half-angle product
     qz * qy * qx written out (the closed form, independent of the code under test)."""
     cr, sr = np.cos(roll / 2), np.sin(roll / 2)
     cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
     cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
-    return np.array([cy * cp * cr + sy * sp * sr, cy * cp * sr - sy * sp * cr,
-                     cy * sp * cr + sy * cp * sr, sy * cp * cr - cy * sp * sr])
+    return np.array(
+        [
+            cy * cp * cr + sy * sp * sr,
+            cy * cp * sr - sy * sp * cr,
+            cy * sp * cr + sy * cp * sr,
+            sy * cp * cr - cy * sp * sr,
+        ]
+    )
 
 
 def _wrapped(a):
@@ -240,8 +270,9 @@ def test_euler_angles_at_the_gimbal_lock_keep_the_determined_combination(roll, y
     assert _wrapped(down[2] + down[0] - (yaw + roll)) == pytest.approx(0.0, abs=1e-7)
     assert up[2] == pytest.approx(-up[0], abs=1e-12) and down[2] == pytest.approx(down[0])
     # The angles given back describe the same orientation (the closed form again).
-    np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", q, [_quat_rpy(*a) for a in rpy])),
-                               1.0, atol=1e-12)
+    np.testing.assert_allclose(
+        np.abs(np.einsum("ij,ij->i", q, [_quat_rpy(*a) for a in rpy])), 1.0, atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("offset", [1e-3, 1e-6])
@@ -261,8 +292,11 @@ def test_euler_angles_match_drakes_roll_pitch_yaw_everywhere():
     rng = np.random.default_rng(3)
     q = rng.normal(size=(300, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
-    lock = [_quat_rpy(r, p, y) for r, y in rng.uniform(-3, 3, (20, 2))
-            for p in (np.pi / 2, -np.pi / 2, np.pi / 2 - 1e-8)]
+    lock = [
+        _quat_rpy(r, p, y)
+        for r, y in rng.uniform(-3, 3, (20, 2))
+        for p in (np.pi / 2, -np.pi / 2, np.pi / 2 - 1e-8)
+    ]
     q = np.vstack([q, lock])
     expected = np.array([RollPitchYaw(Quaternion(x / np.linalg.norm(x))).vector() for x in q])
     np.testing.assert_allclose(M.euler_rpy(q), expected, atol=1e-9)

@@ -17,8 +17,10 @@ QUIET = {"visualization.meshcat": False}
 def test_shipped_modality_scenarios_are_what_they_say():
     hold = load_scenario("swim_heading_hold")
     assert hold.imu.enabled and hold.heading_hold.enabled and hold.controller.gait == "swim"
-    assert load_scenario("two_behaviors_heading_hold").balloon.schedule == \
-        load_scenario("two_behaviors").balloon.schedule
+    assert (
+        load_scenario("two_behaviors_heading_hold").balloon.schedule
+        == load_scenario("two_behaviors").balloon.schedule
+    )
     four = load_scenario("four_behaviors")
     tree = four.behaviour_tree()
     assert tree.leaves == ("swim", "trot", "walk", "rest")
@@ -33,14 +35,25 @@ def test_sensors_add_their_noise_sources_after_the_old_ones():
     """A scenario without the new sensors has the random sources it had before them, in the
     same order (so it draws the same noise); the sensors add theirs at the end."""
     base = load_scenario("two_behaviors", overrides=QUIET)
-    more = load_scenario("two_behaviors", overrides={**QUIET, "imu.enabled": True,
-                                                     "flow_sensor.enabled": True,
-                                                     "altimeter.enabled": True})
+    more = load_scenario(
+        "two_behaviors",
+        overrides={
+            **QUIET,
+            "imu.enabled": True,
+            "flow_sensor.enabled": True,
+            "altimeter.enabled": True,
+        },
+    )
     old = [s.get_name() for s in random_sources(build_diagram(base)[0])]
     new = [s.get_name() for s in random_sources(build_diagram(more)[0])]
-    assert new[:len(old)] == old
-    assert new[len(old):] == ["imu_noise", "imu_bias", "flow_sensor_noise",
-                              "altimeter_noise_normal", "altimeter_noise_uniform"]
+    assert new[: len(old)] == old
+    assert new[len(old) :] == [
+        "imu_noise",
+        "imu_bias",
+        "flow_sensor_noise",
+        "altimeter_noise_normal",
+        "altimeter_noise_uniform",
+    ]
 
 
 def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_path):
@@ -49,9 +62,11 @@ def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_pat
     short = {**QUIET, "duration": 2.0}
     plain = run(load_scenario("three_behaviors", overrides=short), tmp_path / "a", progress=False)
     tree = {name: vars(node) for name, node in default_tree().items()}
-    written = run(load_scenario("three_behaviors", overrides=short,
-                                data={"transition": {"tree": tree}}),
-                  tmp_path / "b", progress=False)
+    written = run(
+        load_scenario("three_behaviors", overrides=short, data={"transition": {"tree": tree}}),
+        tmp_path / "b",
+        progress=False,
+    )
     for key in ("joint_angles", "body_xyz", "cpg_params", "behaviour_weights", "s_hat"):
         np.testing.assert_array_equal(plain.log[key], written.log[key])
 
@@ -92,8 +107,10 @@ def test_heading_hold_slows_the_swims_turn(tmp_path):
     turn rather than stopping it."""
     rate = {}
     for enabled in (False, True):
-        s = load_scenario("swim_heading_hold", overrides={**QUIET, "duration": 8.0,
-                                                          "heading_hold.enabled": enabled})
+        s = load_scenario(
+            "swim_heading_hold",
+            overrides={**QUIET, "duration": 8.0, "heading_hold.enabled": enabled},
+        )
         r = run(s, tmp_path / str(enabled), progress=False)
         rate[enabled] = r.metrics["yaw_rate_deg_s"]
         if enabled:
@@ -104,8 +121,9 @@ def test_heading_hold_slows_the_swims_turn(tmp_path):
 
 def test_the_charge_estimate_drives_the_tree(tmp_path):
     """Started below the reserve, four_behaviors' tree goes to its rest gait at once."""
-    s = load_scenario("four_behaviors", overrides={**QUIET, "duration": 1.0,
-                                                   "actuators.initial_soc": 0.21})
+    s = load_scenario(
+        "four_behaviors", overrides={**QUIET, "duration": 1.0, "actuators.initial_soc": 0.21}
+    )
     r = run(s, tmp_path, progress=False)
     rest = s.behaviour_tree().leaves.index("rest")
     assert r.log["energy_hat"][-1, 0] == 1.0
@@ -119,9 +137,15 @@ def test_estimators_start_from_the_robots_pose_not_from_zero(tmp_path):
     instead of a hold swinging the robot round to 0."""
     runs = {}
     for yaw in (0.0, 90.0):
-        s = load_scenario("swim_heading_hold", overrides={
-            **QUIET, "duration": 3.0, "initial_pose.rpy_deg": [0.0, 0.0, yaw],
-            "initial_pose.xyz": [0.0, 0.0, -0.045]})
+        s = load_scenario(
+            "swim_heading_hold",
+            overrides={
+                **QUIET,
+                "duration": 3.0,
+                "initial_pose.rpy_deg": [0.0, 0.0, yaw],
+                "initial_pose.xyz": [0.0, 0.0, -0.045],
+            },
+        )
         runs[yaw] = run(s, tmp_path / str(yaw), progress=False)
     r, ref = runs[90.0], runs[0.0]
     assert r.log["attitude_hat"][0, 2] == pytest.approx(np.pi / 2, abs=1e-9)
@@ -138,10 +162,18 @@ def test_the_wall_estimate_fills_the_balloon_and_turns_the_held_heading(tmp_path
     balloon rule commands a full balloon for good (the one-way band [0, 0.9]), the schedule's
     empty one before; and the held heading becomes the heading at the hold's first update
     that read s_hat > 0.9 (0.02 s) plus 180 deg."""
-    s = load_scenario("wall_and_back", overrides={
-        **QUIET, "duration": 4.0, "initial_pose.xyz": [7.5 - 0.19 - 0.6, 0.0, -0.25],
-        "initial_stance": "trot", "balloon.initial_fill": 0.0, "balloon.schedule": [],
-        "balloon.rule.after": 1.0})
+    s = load_scenario(
+        "wall_and_back",
+        overrides={
+            **QUIET,
+            "duration": 4.0,
+            "initial_pose.xyz": [7.5 - 0.19 - 0.6, 0.0, -0.25],
+            "initial_stance": "trot",
+            "balloon.initial_fill": 0.0,
+            "balloon.schedule": [],
+            "balloon.rule.after": 1.0,
+        },
+    )
     result = run(s, tmp_path, progress=False, write_outputs=False)
     log, hold = result.log, result.handles.systems["heading_hold"]
     assert log["s_hat"][1:, 0].min() > 0.9  # seen from the first frame on

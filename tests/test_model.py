@@ -121,8 +121,12 @@ def test_pool_geometry(robot_plant):
     query = h.plant.get_geometry_query_input_port().Eval(h.plant.GetMyContextFromRoot(context))
     inspector = query.inspector()
     frame_id = h.plant.GetBodyFrameIdOrThrow(h.plant.GetBodyByName("pool").index())
-    boxes = {inspector.GetName(g).split("::")[-1]: _aabb_in_world(inspector.GetShape(g),
-             query.GetPoseInWorld(g)) for g in inspector.GetGeometries(frame_id, Role.kProximity)}
+    boxes = {
+        inspector.GetName(g).split("::")[-1]: _aabb_in_world(
+            inspector.GetShape(g), query.GetPoseInWorld(g)
+        )
+        for g in inspector.GetGeometries(frame_id, Role.kProximity)
+    }
     assert boxes["floor"][1][2] == pytest.approx(-0.5)
     assert boxes["wall_east"][0][0] == pytest.approx(7.5)
     assert boxes["wall_west"][1][0] == pytest.approx(-7.5)
@@ -131,9 +135,12 @@ def test_pool_geometry(robot_plant):
 
 
 def test_generate_models_check_mode():
-    result = subprocess.run([sys.executable, "scripts/generate_models.py", "--check"],
-                            cwd=pathlib.Path(__file__).resolve().parent.parent,
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "scripts/generate_models.py", "--check"],
+        cwd=pathlib.Path(__file__).resolve().parent.parent,
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 0, result.stderr
 
 

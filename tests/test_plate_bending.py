@@ -13,9 +13,9 @@ def test_constant_thickness_cantilever_meets_the_closed_forms():
     """w(L) = p L^4 / (8 E I), w'(L) = p L^3 / (6 E I), I = t^3 / 12 per unit span."""
     p, L, E, t = 250.0, 0.1, 2.0e9, 0.004
     r = PB.cantilever_deflection(p, L, E, t)
-    EI = E * t ** 3 / 12.0
-    assert r["tip_deflection"] == pytest.approx(p * L ** 4 / (8.0 * EI), rel=1e-5)
-    assert r["tip_slope"] == pytest.approx(p * L ** 3 / (6.0 * EI), rel=1e-5)
+    EI = E * t**3 / 12.0
+    assert r["tip_deflection"] == pytest.approx(p * L**4 / (8.0 * EI), rel=1e-5)
+    assert r["tip_slope"] == pytest.approx(p * L**3 / (6.0 * EI), rel=1e-5)
     assert r["chord_rotation"] == pytest.approx(math.atan(r["tip_deflection"] / L), rel=1e-12)
 
 
@@ -26,8 +26,8 @@ def test_linearly_tapered_cantilever_meets_its_integral():
     r = PB.cantilever_deflection(p, L, E, lambda s: t0 * (1.0 - s / (2.0 * L)))
     # With v = 1 + u / L on [1, 2]: int = 8 L^3 int_1^2 (v - 1)^2 / v^3 dv
     #                              = 8 L^3 [ln 2 - 2 (1 - 1/2) + (1/2)(1 - 1/4)].
-    integral = 8.0 * L ** 3 * (math.log(2.0) - 1.0 + 0.375)
-    assert r["tip_slope"] == pytest.approx(6.0 * p / (E * t0 ** 3) * integral, rel=1e-5)
+    integral = 8.0 * L**3 * (math.log(2.0) - 1.0 + 0.375)
+    assert r["tip_slope"] == pytest.approx(6.0 * p / (E * t0**3) * integral, rel=1e-5)
 
 
 def test_naca0012_thickness_matches_the_published_ordinates():
@@ -57,12 +57,13 @@ def test_the_robot_s_plates_are_rigid_over_the_band():
     p = RobotParams()
     worst = PB.largest_chord_rotation((p.proximal_chord, p.distal_chord))
     assert 0.0 < math.degrees(worst) < 3.0
-    soft = PB.plate_chordwise_bending(PB.PRESSURE_BOUND, p.proximal_chord,
-                                      PB.YOUNGS_MODULUS_BAND[0], clamp=PB.CLAMP_BAND[0])
+    soft = PB.plate_chordwise_bending(
+        PB.PRESSURE_BOUND, p.proximal_chord, PB.YOUNGS_MODULUS_BAND[0], clamp=PB.CLAMP_BAND[0]
+    )
     assert soft["chord_rotation"] == pytest.approx(worst, rel=1e-12)
     c, L = p.proximal_chord, 0.7 * p.proximal_chord
     t = PB.naca_thickness(0.8, 0.12, c)
-    bound = PB.PRESSURE_BOUND * L ** 3 / (8.0 * PB.YOUNGS_MODULUS_BAND[0] * t ** 3 / 12.0)
+    bound = PB.PRESSURE_BOUND * L**3 / (8.0 * PB.YOUNGS_MODULUS_BAND[0] * t**3 / 12.0)
     assert math.atan(bound) < worst
 
 

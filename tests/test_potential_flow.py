@@ -40,10 +40,19 @@ def test_prolate_spheroid_against_its_elementary_closed_form():
     beta0 = 1 / e**2 - (1 - e * e) / e**3 * np.arctanh(e)
     volume = 4 / 3 * np.pi * a * b * b
     mass, inertia = ellipsoid_added_mass((a, b, b), RHO)
-    np.testing.assert_allclose(mass, RHO * volume * np.array(
-        [alpha0 / (2 - alpha0), beta0 / (2 - beta0), beta0 / (2 - beta0)]), rtol=1e-10)
-    pitch = (RHO * volume / 5 * (b * b - a * a) ** 2 * (alpha0 - beta0)
-             / (2 * (b * b - a * a) + (b * b + a * a) * (beta0 - alpha0)))
+    np.testing.assert_allclose(
+        mass,
+        RHO * volume * np.array([alpha0 / (2 - alpha0), beta0 / (2 - beta0), beta0 / (2 - beta0)]),
+        rtol=1e-10,
+    )
+    pitch = (
+        RHO
+        * volume
+        / 5
+        * (b * b - a * a) ** 2
+        * (alpha0 - beta0)
+        / (2 * (b * b - a * a) + (b * b + a * a) * (beta0 - alpha0))
+    )
     np.testing.assert_allclose(inertia, [0.0, pitch, pitch], rtol=1e-10)
 
 

@@ -18,16 +18,16 @@ def _samples(noise_std, dropout, seed, n=200):
     """n readings of a sensor on a robot welded at X_WB, noise drawn from ``seed``."""
     builder = DiagramBuilder()
     h = add_plant(builder, time_step=PERIOD, with_pool=False, weld_body=X_WB)
-    sensor = builder.AddSystem(PressureSensor(h.plant, h.body, [0.19, 0.0, 0.03], PERIOD,
-                                              noise_std, dropout))
+    sensor = builder.AddSystem(
+        PressureSensor(h.plant, h.body, [0.19, 0.0, 0.03], PERIOD, noise_std, dropout)
+    )
     builder.Connect(h.plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
     mux = builder.AddSystem(Multiplexer([1, 1]))
     for i, dist in enumerate((RandomDistribution.kGaussian, RandomDistribution.kUniform)):
         source = builder.AddSystem(RandomSource(dist, 1, PERIOD))
         builder.Connect(source.get_output_port(), mux.get_input_port(i))
     builder.Connect(mux.get_output_port(), sensor.GetInputPort("noise"))
-    logger = LogVectorOutput(
-        sensor.GetOutputPort("depth"), builder, PERIOD)
+    logger = LogVectorOutput(sensor.GetOutputPort("depth"), builder, PERIOD)
     diagram = builder.Build()
     simulator = Simulator(diagram)
     diagram.SetRandomContext(simulator.get_mutable_context(), RandomGenerator(seed))

@@ -14,8 +14,18 @@ import yaml
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-REPORTS = ("findings.md", "stance.md", "transitions.md", "performance.md", "energy.md",
-           "behaviours.md", "fault_campaign.md", "validation.md", "cfd.md", "physics_changes.md")
+REPORTS = (
+    "findings.md",
+    "stance.md",
+    "transitions.md",
+    "performance.md",
+    "energy.md",
+    "behaviours.md",
+    "fault_campaign.md",
+    "validation.md",
+    "cfd.md",
+    "physics_changes.md",
+)
 
 
 def _flat(text: str) -> str:
@@ -26,17 +36,18 @@ def _flat(text: str) -> str:
 def _as_shown(shown: str, value: float) -> bool:
     """Whether the number ``shown`` is ``value`` rounded to the digits shown."""
     digits = len(shown.split(".")[1]) if "." in shown else 0
-    return abs(float(shown) - value) <= 0.5 * 10.0 ** -digits + 1e-9
+    return abs(float(shown) - value) <= 0.5 * 10.0**-digits + 1e-9
 
 
 def _fenced_after(text: str, marker: str, lang: str = "") -> str:
     """The first fenced block (```lang) after ``marker``."""
     start = text.index(marker)
     a = text.index(f"```{lang}\n", start) + len(f"```{lang}\n")
-    return text[a:text.index("```", a)]
+    return text[a : text.index("```", a)]
 
 
 # --- the robot at the zero pose --------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def zero_pose():
@@ -60,15 +71,19 @@ def _points_of(shape, X_WG) -> np.ndarray:
     R, p = X_WG.rotation().matrix(), X_WG.translation()
     if kind == "Box":
         half = np.array([shape.width(), shape.depth(), shape.height()]) / 2
-        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
-                            for sz in (-1, 1)]) * half
+        corners = (
+            np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+        )
         return corners @ R.T + p
     if kind in ("Ellipsoid", "Sphere"):
-        axes = (np.array([shape.a(), shape.b(), shape.c()]) if kind == "Ellipsoid"
-                else np.full(3, shape.radius()))
+        axes = (
+            np.array([shape.a(), shape.b(), shape.c()])
+            if kind == "Ellipsoid"
+            else np.full(3, shape.radius())
+        )
         # The support point of x^T (R A^-2 R^T) x = 1 in direction +-e_k: M e_k / |A R^T e_k|
         # with M = R A^2 R^T.
-        M = R @ np.diag(axes ** 2) @ R.T
+        M = R @ np.diag(axes**2) @ R.T
         out = []
         for k in range(3):
             d = M[:, k] / np.sqrt(M[k, k])
@@ -91,10 +106,8 @@ def test_readme_and_design_give_the_models_zero_pose_size_and_mass(zero_pose):
     for index in plant.GetBodyIndices(h.robot):
         body = plant.get_body(index)
         X_WB = plant.EvalBodyPoseInWorld(context, body)
-        for gid in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(index),
-                                           Role.kIllustration):
-            points.append(_points_of(inspector.GetShape(gid),
-                                     X_WB @ inspector.GetPoseInFrame(gid)))
+        for gid in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(index), Role.kIllustration):
+            points.append(_points_of(inspector.GetShape(gid), X_WB @ inspector.GetPoseInFrame(gid)))
     points = np.vstack(points)
     size = points.max(axis=0) - points.min(axis=0)  # L (x), W (y), H (z)
     tips = np.array([fin_tip_pose(leg, np.zeros(4))[:3, 3] for leg in LEGS])
@@ -111,9 +124,12 @@ def test_readme_and_design_give_the_models_zero_pose_size_and_mass(zero_pose):
     assert total and _as_shown(total.group(1), mass), mass
 
     design = _flat((ROOT / "docs" / "design.md").read_text())
-    model = re.search(r"The model: ([\d.]+) kg; at the zero pose ([\d.]+) m x ([\d.]+) m x "
-                      r"([\d.]+) m \(the box around its geometry; the fin tips' frames "
-                      r"([\d.]+) m apart\)", design)
+    model = re.search(
+        r"The model: ([\d.]+) kg; at the zero pose ([\d.]+) m x ([\d.]+) m x "
+        r"([\d.]+) m \(the box around its geometry; the fin tips' frames "
+        r"([\d.]+) m apart\)",
+        design,
+    )
     assert model, "docs/design.md, section 3: no 'The model: M kg; at the zero pose ...'"
     assert _as_shown(model.group(1), mass)
     assert all(map(_as_shown, model.groups()[1:4], size)), (model.groups(), size)
@@ -128,8 +144,7 @@ VERSION_DEPENDENT = {"simulator.publish_every_time_step"}
 
 
 def _readme_scenario_block() -> dict:
-    return yaml.safe_load(_fenced_after(README.read_text(), "The sections, all optional",
-                                        "yaml"))
+    return yaml.safe_load(_fenced_after(README.read_text(), "The sections, all optional", "yaml"))
 
 
 def _leaves(tree: dict, prefix: str = "") -> dict:
@@ -176,8 +191,13 @@ def test_readme_scenario_block_shows_every_field_at_its_default():
             missing = {f.name for f in dc.fields(section)} - set(block[field.name] or {})
             assert not missing, f"README scenario block: {field.name} lacks {sorted(missing)}"
     dumped = _leaves(yaml.safe_load(yaml_dump_typed(scenario)))
-    missing = [p for p in dumped if p not in VERSION_DEPENDENT and p not in shown
-               and not any(s.startswith(p + ".") for s in shown)]
+    missing = [
+        p
+        for p in dumped
+        if p not in VERSION_DEPENDENT
+        and p not in shown
+        and not any(s.startswith(p + ".") for s in shown)
+    ]
     assert not missing, f"README scenario block lacks {missing}"
     # And the block, loaded as a scenario, is the default scenario.
     assert yaml_dump_typed(load_scenario(data=block)) == yaml_dump_typed(scenario)
@@ -212,11 +232,11 @@ def layout_paths(block: str) -> list[str]:
         if not line.startswith(" "):
             top, entry = line.split()[0], None
             paths.append(top)
-            base, text = top, line[len(top):]
+            base, text = top, line[len(top) :]
         elif line.startswith("  ") and not line[2].isspace():
             entry = line.split()[0]
             paths.append(top + entry)
-            base, text = top, line[2 + len(entry):]
+            base, text = top, line[2 + len(entry) :]
         else:
             assert line[:NAME_COLUMN].isspace(), f"layout block: unexpected line {line!r}"
             base, text = top, line
@@ -224,20 +244,35 @@ def layout_paths(block: str) -> list[str]:
         paths += [base + t for t in tokens if t and PATH_TOKEN.match(t)]
         if entry and entry.endswith("/") and line.startswith(" "):
             listed = _without_parentheses(text).rsplit(":", 1)[-1]
-            paths += [f"{top}{entry}{name.strip()}.py" for name in listed.split(",")
-                      if re.fullmatch(r"[a-z_][a-z0-9_]*", name.strip())]
+            paths += [
+                f"{top}{entry}{name.strip()}.py"
+                for name in listed.split(",")
+                if re.fullmatch(r"[a-z_][a-z0-9_]*", name.strip())
+            ]
     return paths
 
 
 def test_layout_parser_on_a_small_block():
-    block = ("models/        data: a.sdf, scenarios/*.yaml\n"
-             "pkg/\n"
-             "  sub/         the Systems: one (Eq. 1), two,\n"
-             "               three\n"
-             "  m.py         run; n.py, other/: more\n")
-    assert layout_paths(block) == ["models/", "models/a.sdf", "models/scenarios/*.yaml",
-                                   "pkg/", "pkg/sub/", "pkg/sub/one.py", "pkg/sub/two.py",
-                                   "pkg/sub/three.py", "pkg/m.py", "pkg/n.py", "pkg/other/"]
+    block = (
+        "models/        data: a.sdf, scenarios/*.yaml\n"
+        "pkg/\n"
+        "  sub/         the Systems: one (Eq. 1), two,\n"
+        "               three\n"
+        "  m.py         run; n.py, other/: more\n"
+    )
+    assert layout_paths(block) == [
+        "models/",
+        "models/a.sdf",
+        "models/scenarios/*.yaml",
+        "pkg/",
+        "pkg/sub/",
+        "pkg/sub/one.py",
+        "pkg/sub/two.py",
+        "pkg/sub/three.py",
+        "pkg/m.py",
+        "pkg/n.py",
+        "pkg/other/",
+    ]
 
 
 def test_every_path_of_the_readme_layout_exists():
@@ -250,26 +285,33 @@ def test_every_path_of_the_readme_layout_exists():
 
 # --- the report pages' stamps -----------------------------------------------------------------
 
-STAMP = re.compile(r"^Made (\d{4}-\d{2}-\d{2}|unknown) at commit ([0-9a-f]{7,40}|unknown)\. "
-                   r"Regenerate with `[^`]+`")
+STAMP = re.compile(
+    r"^Made (\d{4}-\d{2}-\d{2}|unknown) at commit ([0-9a-f]{7,40}|unknown)\. "
+    r"Regenerate with `[^`]+`"
+)
 
 
 @pytest.mark.parametrize("page", REPORTS)
 def test_each_report_page_starts_with_its_stamp(page):
     lines = (ROOT / "docs" / page).read_text().splitlines()
     assert lines[0].startswith("# ") and lines[1] == "", f"docs/{page}: a title, then a blank"
-    paragraph = " ".join(lines[2:lines.index("", 2)])
+    paragraph = " ".join(lines[2 : lines.index("", 2)])
     stamp = STAMP.match(paragraph)
     assert stamp, f"docs/{page}: line 3 is not 'Made DATE at commit HASH. Regenerate with ...'"
     date, made_at = stamp.groups()
     if date != "unknown":
         assert datetime.date.fromisoformat(date) <= datetime.date.today()
-    inside = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--show-toplevel"],
-                            capture_output=True, text=True)
-    if made_at != "unknown" and inside.returncode == 0 \
-            and pathlib.Path(inside.stdout.strip()).resolve() == ROOT:
-        known = subprocess.run(["git", "-C", str(ROOT), "cat-file", "-e",
-                                f"{made_at}^{{commit}}"], capture_output=True)
+    inside = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", "--show-toplevel"], capture_output=True, text=True
+    )
+    if (
+        made_at != "unknown"
+        and inside.returncode == 0
+        and pathlib.Path(inside.stdout.strip()).resolve() == ROOT
+    ):
+        known = subprocess.run(
+            ["git", "-C", str(ROOT), "cat-file", "-e", f"{made_at}^{{commit}}"], capture_output=True
+        )
         assert known.returncode == 0, f"docs/{page}: the stamp's commit {made_at} is unknown"
 
 
@@ -286,8 +328,9 @@ def test_a_regenerated_page_keeps_its_stamp_unless_its_text_changes(tmp_path, mo
     # Changed numbers: today's date and the commit, the rest of the stamp line kept.
     assert stamp.write_stamped(page, same.replace("| 1 |", "| 2 |")) is True
     today = datetime.date.today().isoformat()
-    assert page.read_text() == (f"# Title\n\nMade {today} at commit abc1234. Regenerate with "
-                                "`x --y`.\n\n| 2 |\n")
+    assert page.read_text() == (
+        f"# Title\n\nMade {today} at commit abc1234. Regenerate with `x --y`.\n\n| 2 |\n"
+    )
     # A new page without a stamp line is written as given.
     other = tmp_path / "other.md"
     assert stamp.write_stamped(other, "# T\n\ntext\n") and other.read_text() == "# T\n\ntext\n"
@@ -312,13 +355,17 @@ def test_the_stance_study_regenerates_its_page_byte_for_byte(tmp_path):
 
 # --- the two-behaviour run at the side wall ---------------------------------------------------
 
+
 def test_wall_spans_are_the_stretches_within_the_margin():
     from manta_drake import plots
 
     t = np.arange(0.0, 10.001, 0.5)
     y = np.where(t < 4.0, 0.0, np.where(t < 7.0, -0.8, 0.0))  # the hull's y, 1 m from a side wall
-    log = {"t": t, "body_xyz": np.column_stack([np.zeros_like(t), y, np.full_like(t, -0.2)]),
-           "body_quat_wxyz": np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1))}
+    log = {
+        "t": t,
+        "body_xyz": np.column_stack([np.zeros_like(t), y, np.full_like(t, -0.2)]),
+        "body_quat_wxyz": np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1)),
+    }
     # Clearance 1 - 0.12 (the hull's half-width) = 0.88 m, then 0.08 m from 4 s to 6.5 s.
     assert plots.wall_spans(log, 0.3) == [(4.0, 6.5)]
     assert plots.wall_spans(log, 0.05) == []
@@ -333,10 +380,13 @@ def test_two_behaviors_runs_as_the_readme_says(tmp_path):
     from manta_drake.simulate import run
 
     readme = _flat(README.read_text())
-    said = re.search(r"two_behaviors goes swim -> trot \(([\d.]+)-([\d.]+) s; paper [^)]*\) and "
-                     r"trot -> swim \(([\d.]+)-([\d.]+) s; paper [^)]*\),? and (never comes|"
-                     r"comes) within the ([\d.]+) m free-water margin of a wall(?: at ([\d.]+) s)? "
-                     r"\(closest ([\d.]+) m(: [^)]*touches it)?\)", readme)
+    said = re.search(
+        r"two_behaviors goes swim -> trot \(([\d.]+)-([\d.]+) s; paper [^)]*\) and "
+        r"trot -> swim \(([\d.]+)-([\d.]+) s; paper [^)]*\),? and (never comes|"
+        r"comes) within the ([\d.]+) m free-water margin of a wall(?: at ([\d.]+) s)? "
+        r"\(closest ([\d.]+) m(: [^)]*touches it)?\)",
+        readme,
+    )
     assert said, "README: the two-behaviour run's account is missing"
     *times, never, margin, near, closest, touches = said.groups()
     times, margin, closest = [float(x) for x in times], float(margin), float(closest)
@@ -348,13 +398,17 @@ def test_two_behaviors_runs_as_the_readme_says(tmp_path):
     got = [(tr["from"], tr["to"], tr["start_s"], tr["end_s"]) for tr in m["transitions"]]
     assert [g[:2] for g in got] == [("swim", "trot"), ("trot", "swim")]
     np.testing.assert_allclose([x for g in got for x in g[2:]], times, atol=0.051)
-    assert (m["near_wall_at_s"] is None if near is None else
-            m["near_wall_at_s"] == pytest.approx(near, abs=0.051))
+    assert (
+        m["near_wall_at_s"] is None
+        if near is None
+        else m["near_wall_at_s"] == pytest.approx(near, abs=0.051)
+    )
     assert m["touched_wall"] is (touches is not None)
     assert m["min_wall_clearance_m"] == pytest.approx(closest, abs=0.005)
 
 
 # --- the README's gait file and behaviour tree, run as written --------------------------------
+
 
 def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
     """The two files of "Gaits, behaviours and modalities as data", written where the README
@@ -368,7 +422,8 @@ def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
     text = README.read_text()
     (tmp_path / "my_gaits.yaml").write_text(_fenced_after(text, "`my_gaits.yaml`:", "yaml"))
     (tmp_path / "my_scenario.yaml").write_text(
-        _fenced_after(text, "`my_scenario.yaml` beside it", "yaml"))
+        _fenced_after(text, "`my_scenario.yaml` beside it", "yaml")
+    )
     s = load_scenario(tmp_path / "my_scenario.yaml")
     np.testing.assert_allclose(np.degrees(s.gait("long_trot").R[:, 0]), [25, -25, 25, -25])
     np.testing.assert_array_equal(s.gait("long_trot").X, s.gait("trot").X)
@@ -376,14 +431,19 @@ def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
     assert tree.leaves == ("swim", "long_trot", "walk")
     assert tree.modalities == ("z_hat", "posture_hat")
     start = text.index(".venv/bin/manta-drake run my_scenario.yaml --out out/mine --no-meshcat")
-    commands = text[start:text.index("```", start)].replace("\\\n", " ")
+    commands = text[start : text.index("```", start)].replace("\\\n", " ")
     assert commands.count("manta-drake run") == 2
     lines = [c for c in commands.splitlines() if c.strip()]
     for line, out in zip(lines, ("out/mine", "out/mine2")):
         argv = line.split()[1:] + ["--set", "duration=3", "--quiet"]
         assert argv[0] == "run" and argv[1] == "my_scenario.yaml"
-        done = subprocess.run([sys.executable, "-m", "manta_drake.cli", *argv], cwd=tmp_path,
-                              capture_output=True, text=True, timeout=600)
+        done = subprocess.run(
+            [sys.executable, "-m", "manta_drake.cli", *argv],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         assert done.returncode == 0, done.stderr
         metrics = json.loads((tmp_path / out / "metrics.json").read_text())
         assert metrics["status"] == "ok" and metrics["sim_time_s"] == pytest.approx(3.0)
@@ -394,12 +454,13 @@ def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
 
 # --- a run's outputs: every log array and metrics key is in the README ------------------------
 
+
 def _readme_section(heading: str) -> str:
     """The README's text under ``heading`` up to the next heading."""
     text = README.read_text()
     start = text.index(f"\n{heading}\n") + len(heading) + 2
     end = re.search(r"\n#{2,3} ", text[start:])
-    return text[start:start + end.start()] if end else text[start:]
+    return text[start : start + end.start()] if end else text[start:]
 
 
 def _table_rows(section: str) -> list[list[str]]:
@@ -428,16 +489,25 @@ def short_runs(tmp_path_factory):
 
     base = {"visualization.meshcat": False, "camera.enabled": True, "duration": 0.3}
     out = tmp_path_factory.mktemp("runs")
-    run(load_scenario("four_behaviors", overrides=base), out / "ok", progress=False,
-        write_outputs=False)
+    run(
+        load_scenario("four_behaviors", overrides=base),
+        out / "ok",
+        progress=False,
+        write_outputs=False,
+    )
     running = {}
 
     def read_running(handles, context):
         running.update(json.loads((out / "failed" / "metrics.json").read_text()))
 
     with pytest.raises(SimulationError, match="battery empty"):
-        run(load_scenario("four_behaviors", overrides={**base, "actuators.initial_soc": 0.20001}),
-            out / "failed", progress=False, write_outputs=False, prepare=read_running)
+        run(
+            load_scenario("four_behaviors", overrides={**base, "actuators.initial_soc": 0.20001}),
+            out / "failed",
+            progress=False,
+            write_outputs=False,
+            prepare=read_running,
+        )
     with np.load(out / "ok" / "log.npz") as log:
         arrays = {name: log[name] for name in log.files}
     metrics = [json.loads((out / name / "metrics.json").read_text()) for name in ("ok", "failed")]
@@ -454,17 +524,24 @@ def test_the_readme_lists_every_log_array_with_its_times_and_columns(short_runs)
     for name, times, columns, _ in rows:
         (key,), stamp = _names(name), _names(times)
         listed[key] = (stamp[0] if stamp else None, columns)
-    missing = sorted(k for k in arrays if k not in listed
-                     and k not in {v[0] for v in listed.values()})
+    missing = sorted(
+        k for k in arrays if k not in listed and k not in {v[0] for v in listed.values()}
+    )
     assert not missing, f"README's log.npz table lacks {missing}"
     # Every array listed is one a run can write (nothing stale), with the times it has.
     logged = {port for _, port, _ in _LOGGED} - {"plant_state", "desired_state"}
     possible = set(LOG_KEYS) | logged | {"sim_time"}
     assert set(listed) <= possible, sorted(set(listed) - possible)
     for key, (times, columns) in listed.items():
-        expected = ("t_command" if key == "commanded_joint_angles"
-                    else None if key in ("t", "sim_time") else "t" if key in LOG_KEYS
-                    else f"t_{key}")
+        expected = (
+            "t_command"
+            if key == "commanded_joint_angles"
+            else None
+            if key in ("t", "sim_time")
+            else "t"
+            if key in LOG_KEYS
+            else f"t_{key}"
+        )
         assert times == expected, f"README log.npz: {key}'s times are {times}, not {expected}"
         if key in arrays and times:
             assert len(arrays[times]) == len(arrays[key]), key
@@ -475,11 +552,13 @@ def test_the_readme_lists_every_log_array_with_its_times_and_columns(short_runs)
 
 def test_the_readme_lists_every_metrics_key(short_runs):
     _, metrics, running = short_runs
-    rows = {tuple(_names(row[0])): row[1] for row in _table_rows(
-        _readme_section("### `metrics.json`"))}
+    rows = {
+        tuple(_names(row[0])): row[1] for row in _table_rows(_readme_section("### `metrics.json`"))
+    }
     listed = {name for names in rows for name in names}
-    written = {k for m in metrics for k in m} | {f"energy.{k}" for m in metrics
-                                                 for k in m.get("energy", {})}
+    written = {k for m in metrics for k in m} | {
+        f"energy.{k}" for m in metrics for k in m.get("energy", {})
+    }
     assert "failure" in metrics[1] and "max_penetration_m" in metrics[0]
     missing = sorted(written - listed)
     assert not missing, f"README's metrics.json table lacks {missing}"

@@ -33,8 +33,22 @@ def bagged(tmp_path_factory):
     from manta_drake.scenario import load_scenario
 
     out = tmp_path_factory.mktemp("bag") / "run"
-    assert main(["run", "four_behaviors", "--out", str(out), "--no-meshcat", "--quiet",
-                 "--set", f"duration={DURATION}", "--bag"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "four_behaviors",
+                "--out",
+                str(out),
+                "--no-meshcat",
+                "--quiet",
+                "--set",
+                f"duration={DURATION}",
+                "--bag",
+            ]
+        )
+        == 0
+    )
     with np.load(out / "log.npz") as npz:
         log = {k: npz[k] for k in npz.files}
     return out, log, load_scenario(out / "scenario.yaml")
@@ -64,8 +78,7 @@ def _rows_at(times, stamps_ns) -> np.ndarray:
 def test_each_topic_holds_duration_times_rate_messages_stamped_with_sim_time(bagged):
     out, log, _ = bagged
     topics = _read(out)
-    expected = {TOPICS.topics[n].topic: TOPICS.topics[n] for n, s in SIGNALS.items()
-                if s.bagged}
+    expected = {TOPICS.topics[n].topic: TOPICS.topics[n] for n, s in SIGNALS.items() if s.bagged}
     assert set(topics) == set(expected)  # four_behaviors logs every signal a bag carries
     times_of = {TOPICS.topics[n].topic: log[s.times] for n, s in SIGNALS.items() if s.bagged}
     for topic, messages in topics.items():
@@ -76,9 +89,17 @@ def test_each_topic_holds_duration_times_rate_messages_stamped_with_sim_time(bag
         assert log_times[0] == 0 and log_times[-1] == 1_000_000_000, topic
         assert np.all(np.diff(log_times) > 0), topic
         for t_ns, msg in messages:  # each header stamp is its log time
-            stamp = msg.clock if topic == "/clock" else (
-                msg.transforms[0].header.stamp if topic == "/tf" else
-                None if topic == "/manta/balloon_command" else msg.header.stamp)
+            stamp = (
+                msg.clock
+                if topic == "/clock"
+                else (
+                    msg.transforms[0].header.stamp
+                    if topic == "/tf"
+                    else None
+                    if topic == "/manta/balloon_command"
+                    else msg.header.stamp
+                )
+            )
             if stamp is not None:
                 assert stamp.sec * 1_000_000_000 + stamp.nanosec == t_ns, topic
 
@@ -89,17 +110,21 @@ def test_joint_states_are_the_logged_joints_at_their_times(bagged):
     rows = _rows_at(log["t"], [_stamp(msg) for msg in messages])
     positions = np.array([msg.position for msg in messages])
     np.testing.assert_allclose(positions, log["joint_angles"][rows], rtol=0, atol=1e-12)
-    np.testing.assert_allclose([msg.velocity for msg in messages],
-                               log["joint_velocities"][rows], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        [msg.velocity for msg in messages], log["joint_velocities"][rows], rtol=0, atol=1e-12
+    )
     torque_rows = _rows_at(log["t_joint_torque"], [_stamp(msg) for msg in messages])
-    np.testing.assert_allclose([msg.effort for msg in messages],
-                               log["joint_torque"][torque_rows], rtol=0, atol=1e-12)
-    assert list(messages[0].name) == [f"{leg}_{j}" for leg in ("fl", "fr", "rl", "rr")
-                                      for j in ("yaw", "roll1", "pitch", "roll2")]
+    np.testing.assert_allclose(
+        [msg.effort for msg in messages], log["joint_torque"][torque_rows], rtol=0, atol=1e-12
+    )
+    assert list(messages[0].name) == [
+        f"{leg}_{j}" for leg in ("fl", "fr", "rl", "rr") for j in ("yaw", "roll1", "pitch", "roll2")
+    ]
     commands = [msg for _, msg in _read(out)["/manta/joint_commands"]]
     rows = _rows_at(log["t_command"], [_stamp(msg) for msg in commands])
-    np.testing.assert_allclose([msg.position for msg in commands],
-                               log["commanded_joint_angles"][rows], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        [msg.position for msg in commands], log["commanded_joint_angles"][rows], rtol=0, atol=1e-12
+    )
 
 
 def test_the_hull_pose_in_tf_and_pose_is_the_logged_body_pose(bagged):
@@ -116,19 +141,28 @@ def test_the_hull_pose_in_tf_and_pose_is_the_logged_body_pose(bagged):
                 p, q = stamped.pose.position, stamped.pose.orientation
             xyz.append([p.x, p.y, p.z])
             quat.append([q.w, q.x, q.y, q.z])
-        rows = _rows_at(log["t"], [_stamp(m.transforms[0] if topic == "/tf" else m)
-                                   for _, m in topics[topic]])
+        rows = _rows_at(
+            log["t"], [_stamp(m.transforms[0] if topic == "/tf" else m) for _, m in topics[topic]]
+        )
         np.testing.assert_allclose(xyz, log["body_xyz"][rows], rtol=0, atol=1e-12)
         np.testing.assert_allclose(quat, log["body_quat_wxyz"][rows], rtol=0, atol=1e-12)
         assert set(frames) == {("world", "base_link" if topic == "/tf" else "")}
 
 
 def _rpy_matrix(r, p, y) -> np.ndarray:
-    cx, sx, cy, sy, cz, sz = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
-                              math.cos(y), math.sin(y))
-    return (np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-            @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-            @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]))
+    cx, sx, cy, sy, cz, sz = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(p),
+        math.sin(p),
+        math.cos(y),
+        math.sin(y),
+    )
+    return (
+        np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    )
 
 
 def _sdf_joints(scenario) -> dict:
@@ -145,8 +179,10 @@ def _sdf_joints(scenario) -> dict:
             v = [float(s) for s in pose.text.split()]
             X[:3, :3], X[:3, 3] = _rpy_matrix(*v[3:]), v[:3]
         poses[link.get("name")] = X
-    return {j.get("name"): (j.find("parent").text, j.find("child").text,
-                            poses[j.find("child").text]) for j in root.iter("joint")}
+    return {
+        j.get("name"): (j.find("parent").text, j.find("child").text, poses[j.find("child").text])
+        for j in root.iter("joint")
+    }
 
 
 def test_the_fin_links_in_tf_are_the_sdformat_joints_turned_by_the_logged_angles(bagged):
@@ -165,9 +201,13 @@ def test_the_fin_links_in_tf_are_the_sdformat_joints_turned_by_the_logged_angles
             assert tf.header.frame_id == ("base_link" if parent == "body" else parent)
             q, p = tf.transform.rotation, tf.transform.translation
             w, x, y, z = q.w, q.x, q.y, q.z
-            R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                          [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                          [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+            R = np.array(
+                [
+                    [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                    [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                    [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+                ]
+            )
             np.testing.assert_allclose(R, X[:3, :3], atol=1e-12)
             np.testing.assert_allclose([p.x, p.y, p.z], X[:3, 3], atol=1e-12)
 
@@ -177,28 +217,36 @@ def test_the_sensors_are_the_logged_readings(bagged):
     topics = _read(out)
     imu = [msg for _, msg in topics["/manta/imu"]]
     rows = _rows_at(log["t_imu"], [_stamp(msg) for msg in imu])
-    np.testing.assert_allclose([[m.angular_velocity.x, m.angular_velocity.y,
-                                 m.angular_velocity.z] for m in imu], log["imu"][rows, 3:6],
-                               atol=1e-12)
-    gyro = math.radians(scenario.imu.gyro_noise_std_deg_s) ** 2 + \
-        math.radians(scenario.imu.gyro_bias_std_deg_s) ** 2
+    np.testing.assert_allclose(
+        [[m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z] for m in imu],
+        log["imu"][rows, 3:6],
+        atol=1e-12,
+    )
+    gyro = (
+        math.radians(scenario.imu.gyro_noise_std_deg_s) ** 2
+        + math.radians(scenario.imu.gyro_bias_std_deg_s) ** 2
+    )
     assert imu[0].angular_velocity_covariance[0] == pytest.approx(gyro, rel=1e-12)
     pressure = [msg for _, msg in topics["/manta/pressure"]]
     rows = _rows_at(log["t_depth"], [_stamp(msg) for msg in pressure])
     coeffs = scenario.hydro_coefficients()
     rho_g = coeffs.water_density.value * coeffs.gravity.value
-    np.testing.assert_allclose([m.fluid_pressure for m in pressure],
-                               101325.0 + rho_g * log["depth"][rows, 0], rtol=1e-14)
+    np.testing.assert_allclose(
+        [m.fluid_pressure for m in pressure], 101325.0 + rho_g * log["depth"][rows, 0], rtol=1e-14
+    )
     flow = [msg for _, msg in topics["/manta/flow_velocity"]]
     rows = _rows_at(log["t_flow_velocity"], [_stamp(msg) for msg in flow])
-    np.testing.assert_allclose([[m.vector.x, m.vector.y, m.vector.z] for m in flow],
-                               log["flow_velocity"][rows], atol=1e-12)
+    np.testing.assert_allclose(
+        [[m.vector.x, m.vector.y, m.vector.z] for m in flow], log["flow_velocity"][rows], atol=1e-12
+    )
     battery = [msg for _, msg in topics["/manta/battery"]]
     rows = _rows_at(log["t_battery"], [_stamp(msg) for msg in battery])
-    np.testing.assert_allclose([m.percentage for m in battery], log["battery"][rows, 0],
-                               rtol=1e-6)  # float32 in the message
-    np.testing.assert_allclose([-m.current for m in battery], log["battery"][rows, 2],
-                               rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(
+        [m.percentage for m in battery], log["battery"][rows, 0], rtol=1e-6
+    )  # float32 in the message
+    np.testing.assert_allclose(
+        [-m.current for m in battery], log["battery"][rows, 2], rtol=1e-6, atol=1e-6
+    )
 
 
 def test_mcaps_crc_checked_reader_decodes_every_message(bagged):
@@ -214,8 +262,9 @@ def test_mcaps_crc_checked_reader_decodes_every_message(bagged):
                 assert len(decoded.position) == 16
     assert header.profile == "ros2"
     assert {c.compression for c in summary.chunk_indexes} == {"zstd"}
-    stats = {summary.channels[i].topic: n
-             for i, n in summary.statistics.channel_message_counts.items()}
+    stats = {
+        summary.channels[i].topic: n for i, n in summary.statistics.channel_message_counts.items()
+    }
     assert counts == stats
     assert sum(counts.values()) == summary.statistics.message_count
 
@@ -229,10 +278,14 @@ def test_metadata_yaml_is_rosbag2_version_5_and_counts_the_messages(bagged):
     assert info["starting_time"]["nanoseconds_since_epoch"] == 0
     assert info["duration"]["nanoseconds"] == 1_000_000_000
     listed = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
-    assert {name: t["message_count"] for name, t in listed.items()} == \
-        {name: len(msgs) for name, msgs in topics.items()}
-    assert info["message_count"] == info["files"][0]["message_count"] == \
-        sum(len(msgs) for msgs in topics.values())
+    assert {name: t["message_count"] for name, t in listed.items()} == {
+        name: len(msgs) for name, msgs in topics.items()
+    }
+    assert (
+        info["message_count"]
+        == info["files"][0]["message_count"]
+        == sum(len(msgs) for msgs in topics.values())
+    )
     for name, entry in TOPICS.topics.items():
         if not SIGNALS[name].bagged:  # the seam's only
             continue
@@ -264,10 +317,12 @@ def test_a_users_topic_map_renames_and_drops_topics(bagged, tmp_path):
     for name in ("log.npz", "scenario.yaml"):
         shutil.copy(out / name, folder / name)
     user = tmp_path / "robot_topics.yaml"
-    user.write_text("frames: {base: body}\ntopics:\n"
-                    "  joint_states: {topic: /robot/joint_states, qos: sensor_data}\n"
-                    "  pressure: {type: std_msgs/msg/Float64}\n"
-                    "  tf: {enabled: false}\n  battery: {rate_hz: 2}\n")
+    user.write_text(
+        "frames: {base: body}\ntopics:\n"
+        "  joint_states: {topic: /robot/joint_states, qos: sensor_data}\n"
+        "  pressure: {type: std_msgs/msg/Float64}\n"
+        "  tf: {enabled: false}\n  battery: {rate_hz: 2}\n"
+    )
     assert main(["bag", str(folder), "--topic-map", str(user)]) == 0
     topics = _read(folder)
     assert "/tf" not in topics and "/robot/joint_states" in topics
@@ -279,22 +334,32 @@ def test_a_users_topic_map_renames_and_drops_topics(bagged, tmp_path):
         np.testing.assert_array_equal(depth, npz["depth"][:, 0])  # 50 Hz: every sample
 
 
-@pytest.mark.parametrize("text, words", [
-    ("topics: {imu: {qos: fast}}", "topic_map.topics.imu.qos: 'fast' is not one of default, "
-                                   "sensor_data"),
-    ("topics: {imu: {type: sensor_msgs/msg/Range}}", "topic_map.topics.imu.type: "
-                                                     "'sensor_msgs/msg/Range' is not one of "
-                                                     "sensor_msgs/msg/Imu"),
-    ("topics: {imu: {rate_hz: 0}}", "topic_map.topics.imu.rate_hz: 0 is outside the allowed "
-                                    "range (0, 1000] Hz"),
-    ("topics: {imu: {topic: manta/imu}}", "topic_map.topics.imu.topic: 'manta/imu' is not an "
-                                          "absolute ROS 2 topic name"),
-    ("topics: {imu: {topic: /clock}}", "topic_map.topics.imu.topic: /clock is also clock's"),
-    ("topics: {sonar: {topic: /s}}", "topic_map.topics.sonar: not a signal; allowed: clock"),
-    ("topics: {imu: {rate: 5}}", "topic_map.topics.imu.rate: unknown key"),
-    ("frames: {world: base_link}", "topic_map.frames: world and base are both 'base_link'"),
-    ("topics: {imu: {qos: default}, imu: {qos: default}}", "duplicate key"),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        (
+            "topics: {imu: {qos: fast}}",
+            "topic_map.topics.imu.qos: 'fast' is not one of default, sensor_data",
+        ),
+        (
+            "topics: {imu: {type: sensor_msgs/msg/Range}}",
+            "topic_map.topics.imu.type: 'sensor_msgs/msg/Range' is not one of sensor_msgs/msg/Imu",
+        ),
+        (
+            "topics: {imu: {rate_hz: 0}}",
+            "topic_map.topics.imu.rate_hz: 0 is outside the allowed range (0, 1000] Hz",
+        ),
+        (
+            "topics: {imu: {topic: manta/imu}}",
+            "topic_map.topics.imu.topic: 'manta/imu' is not an absolute ROS 2 topic name",
+        ),
+        ("topics: {imu: {topic: /clock}}", "topic_map.topics.imu.topic: /clock is also clock's"),
+        ("topics: {sonar: {topic: /s}}", "topic_map.topics.sonar: not a signal; allowed: clock"),
+        ("topics: {imu: {rate: 5}}", "topic_map.topics.imu.rate: unknown key"),
+        ("frames: {world: base_link}", "topic_map.frames: world and base are both 'base_link'"),
+        ("topics: {imu: {qos: default}, imu: {qos: default}}", "duplicate key"),
+    ],
+)
 def test_a_bad_topic_map_is_refused_in_one_line_before_the_run(tmp_path, capfd, text, words):
     bad = tmp_path / "topics.yaml"
     bad.write_text(text + "\n")
@@ -318,16 +383,21 @@ def test_decimate_keeps_the_first_sample_at_or_after_each_grid_time():
 
 # --- a measured bag for calibrate ----------------------------------------------------------
 
+
 def _calibration(folder, experiments: str) -> pathlib.Path:
     path = folder / "calibration.yaml"
-    path.write_text("parameters:\n  - {name: hull, coefficients: [body.linear_damping]}\n"
-                    "experiments:\n" + experiments)
+    path.write_text(
+        "parameters:\n  - {name: hull, coefficients: [body.linear_damping]}\n"
+        "experiments:\n" + experiments
+    )
     return path
 
 
 def _experiment(name: str, measured, extra: str = "") -> str:
-    return (f"  - {{name: {name}, scenario: four_behaviors, overrides: {{duration: {DURATION}}}, "
-            f"measured: {measured}{extra}}}\n")
+    return (
+        f"  - {{name: {name}, scenario: four_behaviors, overrides: {{duration: {DURATION}}}, "
+        f"measured: {measured}{extra}}}\n"
+    )
 
 
 def test_calibrate_reads_the_same_trajectory_from_a_bag_as_from_its_csv(bagged, tmp_path):
@@ -338,15 +408,28 @@ def test_calibrate_reads_the_same_trajectory_from_a_bag_as_from_its_csv(bagged, 
 
     out, log, scenario = bagged
     rows = decimate(log["t"], TOPICS.topics["pose"].rate_hz)
-    lines = ["t,x,y,z,yaw"] + [",".join(repr(float(v)) for v in (
-        log["t"][i], *log["body_xyz"][i], log["body_rpy"][i, 2])) for i in rows]
+    lines = ["t,x,y,z,yaw"] + [
+        ",".join(repr(float(v)) for v in (log["t"][i], *log["body_xyz"][i], log["body_rpy"][i, 2]))
+        for i in rows
+    ]
     (tmp_path / "pose.csv").write_text("\n".join(lines) + "\n")
-    config = load_calibration(_calibration(tmp_path, "".join([
-        _experiment("csv", "pose.csv"),
-        _experiment("bag", out, ", topics: {pose: /manta/pose, joint_states: "
-                                "/manta/joint_states}"),
-        _experiment("mcap", out / "run.mcap", ", topics: {pose: /manta/pose}"),
-        _experiment("depth", out, ", topics: {depth: /manta/pressure}, columns: [z]")])))
+    config = load_calibration(
+        _calibration(
+            tmp_path,
+            "".join(
+                [
+                    _experiment("csv", "pose.csv"),
+                    _experiment(
+                        "bag",
+                        out,
+                        ", topics: {pose: /manta/pose, joint_states: /manta/joint_states}",
+                    ),
+                    _experiment("mcap", out / "run.mcap", ", topics: {pose: /manta/pose}"),
+                    _experiment("depth", out, ", topics: {depth: /manta/pressure}, columns: [z]"),
+                ]
+            ),
+        )
+    )
     csv, bag, mcap_file, depth = (experiment_measured(config, e) for e in config.experiments)
     for measured in (bag, mcap_file):
         for column in ("t", "x", "y", "z", "yaw"):
@@ -365,38 +448,52 @@ def test_calibrating_against_a_runs_own_bag_finds_that_run(bagged, tmp_path, cap
     import json
 
     out = bagged[0]
-    path = _calibration(tmp_path, _experiment(
-        "own", out / "run.mcap", ", topics: {pose: /manta/pose}"))
+    path = _calibration(
+        tmp_path, _experiment("own", out / "run.mcap", ", topics: {pose: /manta/pose}")
+    )
     path.write_text(path.read_text() + "optimizer: {max_evaluations: 2}\n")
-    assert main(["calibrate", str(path), "--out", str(tmp_path / "fit"), "--workers", "0",
-                 "--quiet"]) == 0
+    assert (
+        main(["calibrate", str(path), "--out", str(tmp_path / "fit"), "--workers", "0", "--quiet"])
+        == 0
+    )
     history = json.loads((tmp_path / "fit" / "calibration.json").read_text())
     assert history["cost"] < 1e-20 and history["initial_cost"] < 1e-20
     assert [p["fitted"] for p in history["parameters"]] == [1.0]
     assert (tmp_path / "fit" / "calibration.png").stat().st_size > 0
 
 
-@pytest.mark.parametrize("measured, extra, words", [
-    ("BAG", ", topics: {pose: /manta/nowhere}", "has no topic /manta/nowhere (its topics: "),
-    ("BAG", ", topics: {pose: /manta/imu}", "topic /manta/imu is sensor_msgs/msg/Imu; "
-                                            "allowed: geometry_msgs/msg/PoseStamped"),
-    ("BAG", ", topics: {pose: /manta/pose, depth: /manta/pressure}",
-     "topics: name the bag's pose or depth topic (one of them)"),
-    ("BAG", ", topics: {depth: /manta/pressure}", "columns: ['x', 'y', 'z', 'yaw'] must be "
-                                                  "some of z"),
-    ("BAG", ", topics: {sonar: /s}", "topics.sonar: not one of pose, depth, joint_states"),
-    ("BAG", ", topics: {pose: /manta/pose, joint_states: /manta/joint_commands}", None),
-    ("pose.csv", ", topics: {pose: /manta/pose}", "topics: only for a measured ROS 2 bag"),
-    ("nothing.mcap", ", topics: {pose: /manta/pose}", "nothing.mcap: no such bag"),
-])
+@pytest.mark.parametrize(
+    "measured, extra, words",
+    [
+        ("BAG", ", topics: {pose: /manta/nowhere}", "has no topic /manta/nowhere (its topics: "),
+        (
+            "BAG",
+            ", topics: {pose: /manta/imu}",
+            "topic /manta/imu is sensor_msgs/msg/Imu; allowed: geometry_msgs/msg/PoseStamped",
+        ),
+        (
+            "BAG",
+            ", topics: {pose: /manta/pose, depth: /manta/pressure}",
+            "topics: name the bag's pose or depth topic (one of them)",
+        ),
+        (
+            "BAG",
+            ", topics: {depth: /manta/pressure}",
+            "columns: ['x', 'y', 'z', 'yaw'] must be some of z",
+        ),
+        ("BAG", ", topics: {sonar: /s}", "topics.sonar: not one of pose, depth, joint_states"),
+        ("BAG", ", topics: {pose: /manta/pose, joint_states: /manta/joint_commands}", None),
+        ("pose.csv", ", topics: {pose: /manta/pose}", "topics: only for a measured ROS 2 bag"),
+        ("nothing.mcap", ", topics: {pose: /manta/pose}", "nothing.mcap: no such bag"),
+    ],
+)
 def test_a_bad_measured_bag_is_refused_in_one_line(bagged, tmp_path, measured, extra, words):
     from manta_drake.calibrate.loading import load_calibration
     from manta_drake.sweep.config import SweepError
 
     out = bagged[0]
     (tmp_path / "pose.csv").write_text("t,x,y,z,yaw\n0,0,0,0,0\n1,0,0,0,0\n")
-    path = _calibration(tmp_path, _experiment("e", out if measured == "BAG" else measured,
-                                              extra))
+    path = _calibration(tmp_path, _experiment("e", out if measured == "BAG" else measured, extra))
     if words is None:  # joint commands are joint states: a bag may name them so
         load_calibration(path)
         return

@@ -46,8 +46,10 @@ async def _watch(url: str, until_closed: float) -> tuple[dict, list]:
                     if op.get("op") == "advertise":
                         new = [c for c in op["channels"] if c["id"] not in channels]
                         channels.update({c["id"]: c for c in new})
-                        subs = [{"id": len(subscribed) + k + 1, "channelId": c["id"]}
-                                for k, c in enumerate(new)]
+                        subs = [
+                            {"id": len(subscribed) + k + 1, "channelId": c["id"]}
+                            for k, c in enumerate(new)
+                        ]
                         subscribed.update({s["id"]: s["channelId"] for s in subs})
                         await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
                 elif message[0] == 0x01:  # messageData: sub id u32, log time u64, payload
@@ -65,9 +67,26 @@ def test_a_run_is_served_live_with_ros2_cdr_and_simulated_stamps(tmp_path):
     times, /tf carries the hull and the 16 fin links."""
     out = tmp_path / "run"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "manta_drake.cli", "run", "four_behaviors", "--out", str(out),
-         "--duration", "1", "--no-meshcat", "--quiet", "--foxglove", "127.0.0.1:0"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+        [
+            sys.executable,
+            "-m",
+            "manta_drake.cli",
+            "run",
+            "four_behaviors",
+            "--out",
+            str(out),
+            "--duration",
+            "1",
+            "--no-meshcat",
+            "--quiet",
+            "--foxglove",
+            "127.0.0.1:0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+    )
     try:
         line = proc.stderr.readline()
         assert line.startswith("live view: ws://127.0.0.1:"), line + proc.stderr.read()
@@ -89,9 +108,13 @@ def test_a_run_is_served_live_with_ros2_cdr_and_simulated_stamps(tmp_path):
         c = channels[channel_id]
         msg = HUMBLE.deserialize_cdr(payload, c["schemaName"])
         by_topic.setdefault(c["topic"], []).append((log_time, msg))
-        stamp = (msg.clock if c["topic"] == "/clock" else msg.transforms[0].header.stamp
-                 if c["topic"] == "/tf" else getattr(msg, "header", None)
-                 and msg.header.stamp)
+        stamp = (
+            msg.clock
+            if c["topic"] == "/clock"
+            else msg.transforms[0].header.stamp
+            if c["topic"] == "/tf"
+            else getattr(msg, "header", None) and msg.header.stamp
+        )
         if stamp:
             assert stamp.sec * 1_000_000_000 + stamp.nanosec == log_time, c["topic"]
     joints = by_topic["/manta/joint_states"]

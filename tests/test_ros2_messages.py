@@ -34,9 +34,13 @@ def _rotation(rpy) -> np.ndarray:
 def _matrix_of(q) -> np.ndarray:
     """The rotation matrix of a decoded geometry_msgs/Quaternion (x, y, z, w)."""
     x, y, z, w = q.x, q.y, q.z, q.w
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _unit_quaternion_wxyz() -> np.ndarray:
@@ -45,32 +49,49 @@ def _unit_quaternion_wxyz() -> np.ndarray:
 
 
 LOG = {  # one sample of every array a bag reads, with its times
-    "t": np.array([T_S]), "t_command": np.array([T_S]),
-    "joint_angles": RNG.uniform(-1, 1, (1, 16)), "joint_velocities": RNG.uniform(-3, 3, (1, 16)),
+    "t": np.array([T_S]),
+    "t_command": np.array([T_S]),
+    "joint_angles": RNG.uniform(-1, 1, (1, 16)),
+    "joint_velocities": RNG.uniform(-3, 3, (1, 16)),
     "commanded_joint_angles": RNG.uniform(-1, 1, (1, 16)),
-    "t_joint_torque": np.array([T_S - 0.001, T_S]), "joint_torque": RNG.uniform(-2, 2, (2, 16)),
-    "body_xyz": np.array([[-3.2, 0.4, -0.12]]), "body_quat_wxyz": _unit_quaternion_wxyz()[None],
-    "t_imu": np.array([T_S]), "imu": np.array([[0.1, -0.2, 2.5, 0.01, -0.3, 0.2, 0.4, -0.1,
-                                                9.6]]),
-    "t_depth": np.array([T_S]), "depth": np.array([[0.1234]]),
-    "t_flow_velocity": np.array([T_S]), "flow_velocity": np.array([[-0.08, 0.01, 0.002]]),
-    "t_battery": np.array([T_S]), "battery": np.array([[0.83, 16.1, 1.7]]),
-    "t_balloon_command": np.array([T_S]), "balloon_command": np.array([[0.35]]),
+    "t_joint_torque": np.array([T_S - 0.001, T_S]),
+    "joint_torque": RNG.uniform(-2, 2, (2, 16)),
+    "body_xyz": np.array([[-3.2, 0.4, -0.12]]),
+    "body_quat_wxyz": _unit_quaternion_wxyz()[None],
+    "t_imu": np.array([T_S]),
+    "imu": np.array([[0.1, -0.2, 2.5, 0.01, -0.3, 0.2, 0.4, -0.1, 9.6]]),
+    "t_depth": np.array([T_S]),
+    "depth": np.array([[0.1234]]),
+    "t_flow_velocity": np.array([T_S]),
+    "flow_velocity": np.array([[-0.08, 0.01, 0.002]]),
+    "t_battery": np.array([T_S]),
+    "battery": np.array([[0.83, 16.1, 1.7]]),
+    "t_balloon_command": np.array([T_S]),
+    "balloon_command": np.array([[0.35]]),
 }
 LINK = ("base_link", "fl_link1", np.array([0.1, 0.1, 0.0]), _unit_quaternion_wxyz())
 CONSTANTS = Constants(
-    joint_names=JOINT_NAMES, world="pool", base="hull",
+    joint_names=JOINT_NAMES,
+    world="pool",
+    base="hull",
     imu_covariances=tuple(np.diag(v).ravel() for v in ([1e-4] * 3, [2e-4] * 3, [3e-3] * 3)),
-    density=997.0, gravity=9.80665, depth_std=0.002, capacity_ah=5.0, cells=4,
-    fin_links=lambda q: [LINK])
+    density=997.0,
+    gravity=9.80665,
+    depth_std=0.002,
+    capacity_ah=5.0,
+    cells=4,
+    fin_links=lambda q: [LINK],
+)
 CASES = [(name, ros_type) for name, s in SIGNALS.items() if s.bagged for ros_type in s.types]
 
 
 def _decoders(ros_type: str) -> dict:
     """Decoders of ``ros_type``'s CDR: rosbags' Humble and Jazzy stores, and
     mcap-ros2-support from the definition text a bag's schema holds."""
-    out = {name: (lambda raw, s=store: s.deserialize_cdr(raw, ros_type))
-           for name, store in STORES.items()}
+    out = {
+        name: (lambda raw, s=store: s.deserialize_cdr(raw, ros_type))
+        for name, store in STORES.items()
+    }
     schema = Schema(id=1, name=ros_type, encoding="ros2msg", data=m.msgdef(ros_type).encode())
     out["mcap-ros2-support"] = DecoderFactory().decoder_for("cdr", schema)
     return out
@@ -82,11 +103,16 @@ def _stamp_ok(header, frame: str) -> None:
 
 
 def _check_pose(msg) -> None:
-    np.testing.assert_array_equal([msg.position.x, msg.position.y, msg.position.z],
-                                  LOG["body_xyz"][0])
+    np.testing.assert_array_equal(
+        [msg.position.x, msg.position.y, msg.position.z], LOG["body_xyz"][0]
+    )
     w, x, y, z = LOG["body_quat_wxyz"][0]
-    assert (msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w) == \
-        (x, y, z, w)
+    assert (msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w) == (
+        x,
+        y,
+        z,
+        w,
+    )
 
 
 def _expect(name: str, ros_type: str, msg) -> None:
@@ -119,8 +145,9 @@ def _expect(name: str, ros_type: str, msg) -> None:
         np.testing.assert_allclose(_matrix_of(msg.orientation), _rotation(r[:3]), atol=1e-15)
         v = msg.angular_velocity, msg.linear_acceleration
         np.testing.assert_array_equal([v[0].x, v[0].y, v[0].z, v[1].x, v[1].y, v[1].z], r[3:])
-        np.testing.assert_array_equal(msg.linear_acceleration_covariance,
-                                      CONSTANTS.imu_covariances[2])
+        np.testing.assert_array_equal(
+            msg.linear_acceleration_covariance, CONSTANTS.imu_covariances[2]
+        )
     elif ros_type == "sensor_msgs/msg/FluidPressure":
         _stamp_ok(msg.header, "hull")
         rho_g = 997.0 * 9.80665
@@ -183,20 +210,33 @@ def test_pressure_and_depth_are_inverse_closed_forms():
 
 def test_an_imu_without_covariances_says_unknown_in_element_0():
     msg = STORES["ROS2_JAZZY"].deserialize_cdr(
-        m.serialize(m.imu_msg(0, "b", np.zeros(9))), "sensor_msgs/msg/Imu")
-    for cov in (msg.orientation_covariance, msg.angular_velocity_covariance,
-                msg.linear_acceleration_covariance):
+        m.serialize(m.imu_msg(0, "b", np.zeros(9))), "sensor_msgs/msg/Imu"
+    )
+    for cov in (
+        msg.orientation_covariance,
+        msg.angular_velocity_covariance,
+        msg.linear_acceleration_covariance,
+    ):
         assert cov[0] == -1.0 and not cov[1:].any()
 
 
 def test_stamps_split_into_seconds_and_nanoseconds():
-    for t, sec, ns in ((0.0, 0, 0), (0.001, 0, 1_000_000), (2.999999999, 2, 999_999_999),
-                       (0.30000000000000004, 0, 300_000_000)):
+    for t, sec, ns in (
+        (0.0, 0, 0),
+        (0.001, 0, 1_000_000),
+        (2.999999999, 2, 999_999_999),
+        (0.30000000000000004, 0, 300_000_000),
+    ):
         stamp = m.time_msg(m.to_nanoseconds(t))
         assert (stamp.sec, stamp.nanosec) == (sec, ns)
 
 
 def test_held_is_the_last_sample_at_or_before():
     t, v = np.array([0.0, 0.1, 0.2]), np.array([10.0, 11.0, 12.0])
-    assert [held(t, v, x) for x in (0.0, 0.05, 0.1, 0.30000000000000004 - 0.1, 9.0)] == \
-        [10.0, 10.0, 11.0, 12.0, 12.0]
+    assert [held(t, v, x) for x in (0.0, 0.05, 0.1, 0.30000000000000004 - 0.1, 9.0)] == [
+        10.0,
+        10.0,
+        11.0,
+        12.0,
+        12.0,
+    ]

@@ -32,8 +32,7 @@ def _default_signals() -> None:
 
 
 def _stand(duration=0.2):
-    return load_scenario("stand", overrides={"duration": duration,
-                                             "visualization.meshcat": False})
+    return load_scenario("stand", overrides={"duration": duration, "visualization.meshcat": False})
 
 
 def _file(tmp: pathlib.Path) -> pathlib.Path:
@@ -41,11 +40,14 @@ def _file(tmp: pathlib.Path) -> pathlib.Path:
     return tmp / "f"
 
 
-@pytest.mark.parametrize("make, words", [
-    (lambda tmp: "", "an empty path"),
-    (lambda tmp: _file(tmp), "is a file"),
-    (lambda tmp: _file(tmp) / "sub", "cannot be created"),
-])
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda tmp: "", "an empty path"),
+        (lambda tmp: _file(tmp), "is a file"),
+        (lambda tmp: _file(tmp) / "sub", "cannot be created"),
+    ],
+)
 def test_bad_output_folders_are_refused_before_the_build(tmp_path, make, words):
     with pytest.raises(OutputFolderError, match=words):
         run(_stand(), make(tmp_path), progress=False)
@@ -81,8 +83,12 @@ def test_an_interrupted_load_replaces_the_earlier_runs_story(tmp_path):
     write_interrupted_start(out, "stand", RunInterrupted("SIGTERM"))
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "interrupted"
-    assert metrics["failure"] == {"stage": "load", "time_s": 0.0,
-                                  "reason": "terminated (SIGTERM)", "signal": "SIGTERM"}
+    assert metrics["failure"] == {
+        "stage": "load",
+        "time_s": 0.0,
+        "reason": "terminated (SIGTERM)",
+        "signal": "SIGTERM",
+    }
     assert not (out / "log.npz").exists()
 
 
@@ -112,8 +118,7 @@ def _old_ok_run(out: pathlib.Path) -> None:
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
 @pytest.mark.parametrize("after", [0.2, 1.3])
-def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(
-        tmp_path, sig, after):
+def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(tmp_path, sig, after):
     """Signalled 0.2 s or 1.3 s after it started (still importing pydrake and loading the
     scenario), `manta-drake run` prints one line, exits with 128 + the signal and leaves a
     metrics.json that says it was interrupted by that signal, not the earlier run's ok,
@@ -123,10 +128,13 @@ def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(
     started = time.monotonic()
     # 20 s of simulated standing: on a fast machine the run may be simulating at 1.3 s, but
     # never finished (a signal after its ok story would find nothing left to interrupt).
-    process = subprocess.Popen(CLI + ["run", "stand", "--out", str(out), "--duration", "20",
-                                      "--no-meshcat", "--quiet"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=_default_signals)
+    process = subprocess.Popen(
+        CLI + ["run", "stand", "--out", str(out), "--duration", "20", "--no-meshcat", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_signals,
+    )
     # The mark comes within about 0.1 s of the start (later on a loaded machine: then the
     # signal follows it at once).
     marked = _wait_for_mark(out, "load", timeout=30)
@@ -149,19 +157,25 @@ def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sig, code, reason", [
-    (signal.SIGTERM, 143, "terminated (SIGTERM)"),
-    (signal.SIGHUP, 129, "terminated (SIGHUP)"),
-    (signal.SIGINT, 130, "interrupted (Ctrl-C)"),
-])
+@pytest.mark.parametrize(
+    "sig, code, reason",
+    [
+        (signal.SIGTERM, 143, "terminated (SIGTERM)"),
+        (signal.SIGHUP, 129, "terminated (SIGHUP)"),
+        (signal.SIGINT, 130, "interrupted (Ctrl-C)"),
+    ],
+)
 def test_a_signal_mid_run_writes_the_partial_log_and_why(tmp_path, sig, code, reason):
     out = tmp_path / "out"
     # A shell that starts jobs in the background (as a CI runner may) hands them SIGINT
     # ignored, and Python then keeps ignoring it: give the run the default disposition.
-    process = subprocess.Popen(CLI + ["run", "two_behaviors", "--out", str(out),
-                                      "--no-meshcat", "--quiet"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=_default_signals)
+    process = subprocess.Popen(
+        CLI + ["run", "two_behaviors", "--out", str(out), "--no-meshcat", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_signals,
+    )
     # Wait until the simulation is under way: the 'running' metrics.json of stage 'build'
     # is written when the run has loaded its scenario, then the build takes about a second.
     _wait_for_mark(out, "build", timeout=60)
@@ -192,8 +206,14 @@ def test_a_run_that_empties_the_battery_stops_and_says_so(tmp_path):
     the energy block end where it stopped."""
     from manta_drake.simulate import SimulationError
 
-    s = load_scenario("locomotion_trot", overrides={
-        "duration": 3.0, "actuators.initial_soc": 0.2002, "visualization.meshcat": False})
+    s = load_scenario(
+        "locomotion_trot",
+        overrides={
+            "duration": 3.0,
+            "actuators.initial_soc": 0.2002,
+            "visualization.meshcat": False,
+        },
+    )
     with pytest.raises(SimulationError, match="battery empty"):
         run(s, tmp_path / "out", progress=False, write_outputs=False)
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
@@ -208,8 +228,9 @@ def test_a_run_that_empties_the_battery_stops_and_says_so(tmp_path):
     assert log["t"][-1] == pytest.approx(stop, abs=2e-3)
 
 
-def test_an_import_error_while_a_signal_is_pending_is_the_interruption(tmp_path, monkeypatch,
-                                                                       capsys):
+def test_an_import_error_while_a_signal_is_pending_is_the_interruption(
+    tmp_path, monkeypatch, capsys
+):
     """pydrake's module initialisation turns the exception of a signal's handler into
     ImportError("initialization failed"): `manta-drake run` still says it was terminated,
     and so does the folder."""
@@ -232,8 +253,12 @@ def test_an_import_error_while_a_signal_is_pending_is_the_interruption(tmp_path,
     assert capsys.readouterr().err.strip().splitlines() == ["manta-drake: terminated (SIGTERM)"]
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "interrupted"
-    assert metrics["failure"] == {"stage": "load", "time_s": 0.0,
-                                  "reason": "terminated (SIGTERM)", "signal": "SIGTERM"}
+    assert metrics["failure"] == {
+        "stage": "load",
+        "time_s": 0.0,
+        "reason": "terminated (SIGTERM)",
+        "signal": "SIGTERM",
+    }
     assert not (out / "log.npz").exists() and not (out / "scenario.yaml").exists()
 
 
@@ -275,8 +300,7 @@ def test_ignored_signals_stay_ignored():
         signal.signal(signal.SIGHUP, previous)
 
 
-def test_metrics_that_cannot_be_computed_leave_a_failed_story_not_running(tmp_path,
-                                                                          monkeypatch):
+def test_metrics_that_cannot_be_computed_leave_a_failed_story_not_running(tmp_path, monkeypatch):
     import manta_drake.simulate as simulate
 
     def broken(*args):
@@ -287,8 +311,11 @@ def test_metrics_that_cannot_be_computed_leave_a_failed_story_not_running(tmp_pa
         run(_stand(0.05), tmp_path / "out", progress=False, write_outputs=False)
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert metrics["status"] == "failed"
-    assert metrics["failure"] == {"stage": "metrics", "time_s": pytest.approx(0.05),
-                                  "reason": "ValueError: no samples"}
+    assert metrics["failure"] == {
+        "stage": "metrics",
+        "time_s": pytest.approx(0.05),
+        "reason": "ValueError: no samples",
+    }
 
 
 def test_a_signal_between_the_build_and_the_run_is_told(tmp_path, monkeypatch):
@@ -307,11 +334,14 @@ def test_a_signal_between_the_build_and_the_run_is_told(tmp_path, monkeypatch):
         yield []  # pragma: no cover
 
     monkeypatch.setattr(simulate, "signals_flagged", signalled)
-    scenario = load_scenario("stand", overrides={"duration": 0.01,
-                                                 "visualization.meshcat": False})
+    scenario = load_scenario("stand", overrides={"duration": 0.01, "visualization.meshcat": False})
     with pytest.raises(RunInterrupted):
         simulate.run(scenario, tmp_path / "out", progress=False, write_outputs=False)
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert metrics["status"] == "interrupted"
-    assert metrics["failure"] == {"stage": "build", "time_s": 0.0,
-                                  "reason": "terminated (SIGTERM)", "signal": "SIGTERM"}
+    assert metrics["failure"] == {
+        "stage": "build",
+        "time_s": 0.0,
+        "reason": "terminated (SIGTERM)",
+        "signal": "SIGTERM",
+    }

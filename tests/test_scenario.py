@@ -1,6 +1,5 @@
 """Scenario loading: typos and out-of-range values fail at load time, naming the field."""
 
-
 import numpy as np
 import pytest
 
@@ -44,44 +43,61 @@ def test_fin_sweep_defaults_to_the_readings_balanced_sweep(tmp_path):
 
 
 def test_values_are_typed(tmp_path):
-    s = load_scenario(_write(tmp_path, "duration: 3\ninitial_pose: {xyz: [1, 0, -0.2]}\n"
-                                        "simulator: {integration_scheme: explicit_euler}\n"))
+    s = load_scenario(
+        _write(
+            tmp_path,
+            "duration: 3\ninitial_pose: {xyz: [1, 0, -0.2]}\n"
+            "simulator: {integration_scheme: explicit_euler}\n",
+        )
+    )
     assert s.duration == 3.0 and isinstance(s.duration, float)
     assert s.initial_pose.xyz == [1.0, 0.0, -0.2]
     assert s.simulator.integration_scheme == "explicit_euler"
     assert s.simulator.max_step_size == pytest.approx(1e-3)  # default kept
 
 
-@pytest.mark.parametrize("text, needle", [
-    ("duraton: 3\n", "scenario.duraton"),
-    ("initial_pose: {xyzz: [0, 0, 0]}\n", "scenario.initial_pose.xyzz"),
-    ("controller: {mdoe: gait}\n", "scenario.controller.mdoe"),
-    ("robot: {fin_sweep: 30}\n", "scenario.robot.fin_sweep"),
-    ("simulator: {max_stepsize: 0.001}\n", "scenario.simulator.max_stepsize"),
-])
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ("duraton: 3\n", "scenario.duraton"),
+        ("initial_pose: {xyzz: [0, 0, 0]}\n", "scenario.initial_pose.xyzz"),
+        ("controller: {mdoe: gait}\n", "scenario.controller.mdoe"),
+        ("robot: {fin_sweep: 30}\n", "scenario.robot.fin_sweep"),
+        ("simulator: {max_stepsize: 0.001}\n", "scenario.simulator.max_stepsize"),
+    ],
+)
 def test_misspelt_key_fails_naming_the_key(tmp_path, text, needle):
     with pytest.raises(ScenarioError, match=needle.replace(".", r"\.")) as info:
         load_scenario(_write(tmp_path, text))
     assert "allowed keys" in str(info.value)
 
 
-@pytest.mark.parametrize("text, field, allowed", [
-    ("duration: -1\n", "duration", "(0, 3600]"),
-    ("duration: 0\n", "duration", "(0, 3600]"),
-    ("time_step: 0\n", "time_step", "[0.0001, 0.01]"),
-    ("time_step: -0.001\n", "time_step", "[0.0001, 0.01]"),
-    ("controller: {mode: dance}\n", "controller.mode", "hold, gait, transition"),
-    ("controller: {gait: gallop}\n", "controller.gait", "swim, trot, walk, turning, crab"),
-    ("initial_pose: {xyz: [0, 0]}\n", "initial_pose.xyz", "3 finite numbers"),
-    ("random_seed: -4\n", "random_seed", "[0, 4294967295]"),
-    ("robot: {fin_sweep_deg: 75}\n", "robot.fin_sweep_deg", "[-60, 60] deg (or null"),
-    ("controller: {gait_reading: mirror}\n", "controller.gait_reading", "paper, mirrored"),
-    ("actuators: {servo_model: dynamixel}\n", "actuators.servo_model", "ideal, datasheet"),
-    ("actuators: {bus_period: 0.0005}\n", "actuators.bus_period",
-     "0 or [time_step = 0.001, 0.1] s"),
-    ("actuators: {bus_period: 0.5}\n", "actuators.bus_period",
-     "0 or [time_step = 0.001, 0.1] s"),
-])
+@pytest.mark.parametrize(
+    "text, field, allowed",
+    [
+        ("duration: -1\n", "duration", "(0, 3600]"),
+        ("duration: 0\n", "duration", "(0, 3600]"),
+        ("time_step: 0\n", "time_step", "[0.0001, 0.01]"),
+        ("time_step: -0.001\n", "time_step", "[0.0001, 0.01]"),
+        ("controller: {mode: dance}\n", "controller.mode", "hold, gait, transition"),
+        ("controller: {gait: gallop}\n", "controller.gait", "swim, trot, walk, turning, crab"),
+        ("initial_pose: {xyz: [0, 0]}\n", "initial_pose.xyz", "3 finite numbers"),
+        ("random_seed: -4\n", "random_seed", "[0, 4294967295]"),
+        ("robot: {fin_sweep_deg: 75}\n", "robot.fin_sweep_deg", "[-60, 60] deg (or null"),
+        ("controller: {gait_reading: mirror}\n", "controller.gait_reading", "paper, mirrored"),
+        ("actuators: {servo_model: dynamixel}\n", "actuators.servo_model", "ideal, datasheet"),
+        (
+            "actuators: {bus_period: 0.0005}\n",
+            "actuators.bus_period",
+            "0 or [time_step = 0.001, 0.1] s",
+        ),
+        (
+            "actuators: {bus_period: 0.5}\n",
+            "actuators.bus_period",
+            "0 or [time_step = 0.001, 0.1] s",
+        ),
+    ],
+)
 def test_out_of_range_value_fails_naming_field_and_range(tmp_path, text, field, allowed):
     with pytest.raises(ScenarioError) as info:
         load_scenario(_write(tmp_path, text))
@@ -112,8 +128,9 @@ def test_defaults_are_consistent_with_each_other():
 
 
 def test_transition_parameters_checked_at_load_time(tmp_path):
-    with pytest.raises(ScenarioError,
-                       match=r"transition\.alpha \* g \* T = 4.75 > 1 would overshoot"):
+    with pytest.raises(
+        ScenarioError, match=r"transition\.alpha \* g \* T = 4.75 > 1 would overshoot"
+    ):
         load_scenario(_write(tmp_path, "transition: {g: 5.0, T: 1.0}\n"))
     with pytest.raises(ScenarioError, match=r"transition\.z_t: 1.5 is outside \(0, 1\]"):
         load_scenario(_write(tmp_path, "transition: {z_t: 1.5}\n"))
@@ -125,18 +142,29 @@ def test_layers_apply_in_order_and_keep_what_they_do_not_name(tmp_path):
 
     base = S(duration=3.0, random_seed=5)
     base.water.coefficient_scales = {"body.linear_damping": 1.1}
-    path = _write(tmp_path, "name: layered\ncontact: {friction: 0.7}\n"
-                            "water: {coefficient_scales: {body.quadratic_damping: 0.9}}\n")
-    s = load_scenario(path, data={"contact": {"friction": 0.6}, "random_seed": 9},
-                      defaults=base, overrides={
-                          "random_seed": 11, "duration": 2.0,
-                          "water.coefficient_scales.fins.normal_force_coefficient": 1.2})
+    path = _write(
+        tmp_path,
+        "name: layered\ncontact: {friction: 0.7}\n"
+        "water: {coefficient_scales: {body.quadratic_damping: 0.9}}\n",
+    )
+    s = load_scenario(
+        path,
+        data={"contact": {"friction": 0.6}, "random_seed": 9},
+        defaults=base,
+        overrides={
+            "random_seed": 11,
+            "duration": 2.0,
+            "water.coefficient_scales.fins.normal_force_coefficient": 1.2,
+        },
+    )
     assert s.name == "layered" and s.duration == 2.0 and s.random_seed == 11
     assert s.contact.friction == 0.6
     # Maps merge across the layers; a field no layer names keeps the dataclass default.
-    assert s.water.coefficient_scales == {"body.linear_damping": 1.1,
-                                          "body.quadratic_damping": 0.9,
-                                          "fins.normal_force_coefficient": 1.2}
+    assert s.water.coefficient_scales == {
+        "body.linear_damping": 1.1,
+        "body.quadratic_damping": 0.9,
+        "fins.normal_force_coefficient": 1.2,
+    }
     assert s.camera.width == S().camera.width
     assert base.duration == 3.0 and base.random_seed == 5  # the defaults are not changed
 
@@ -151,8 +179,9 @@ def test_layered_errors_name_the_full_dotted_field(tmp_path):
     with pytest.raises(ScenarioError, match=r"scenario\.camera\.widht: unknown key"):
         load_scenario("stand", data={"camera": {"widht": 3}})
     with pytest.raises(ScenarioError, match="set twice"):
-        load_scenario("stand", overrides={"water.current": [0, 0, 0],
-                                          "water": {"current": [0.1, 0, 0]}})
+        load_scenario(
+            "stand", overrides={"water.current": [0, 0, 0], "water": {"current": [0.1, 0, 0]}}
+        )
     with pytest.raises(ScenarioError, match="duplicate key 'duration'"):
         load_scenario(_write(tmp_path, "duration: 1\nduration: 2\n"))
 
@@ -161,7 +190,11 @@ def test_set_items_parse_as_yaml_and_name_the_option():
     from manta_drake.scenario import parse_set
 
     assert parse_set(["a.b=0.5", "c=[1, 2]", "d=null", "e=text"]) == {
-        "a.b": 0.5, "c": [1, 2], "d": None, "e": "text"}
+        "a.b": 0.5,
+        "c": [1, 2],
+        "d": None,
+        "e": "text",
+    }
     with pytest.raises(ScenarioError, match=r"--set duration: not valid YAML"):
         parse_set(["duration=[1"])
     with pytest.raises(ScenarioError, match=r"--set x: expected KEY=VALUE"):
@@ -176,11 +209,19 @@ def test_tree_nodes_are_settable_and_sweepable_by_dotted_keys():
 
     four = load_scenario("four_behaviors")
     check_override_key("transition.tree.floor.threshold")
-    with pytest.raises(ScenarioError, match=r"scenario\.transition\.tree\.floor has no field "
-                                            r"'thresold'; allowed: children, full_at"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"scenario\.transition\.tree\.floor has no field "
+        r"'thresold'; allowed: children, full_at",
+    ):
         check_override_key("transition.tree.floor.thresold")
-    s = load_scenario(defaults=four, overrides={"transition.tree.floor.threshold": 0.3,
-                                                "transition.tree.floor.modality": "posture_hat"})
+    s = load_scenario(
+        defaults=four,
+        overrides={
+            "transition.tree.floor.threshold": 0.3,
+            "transition.tree.floor.modality": "posture_hat",
+        },
+    )
     assert s.transition.tree["floor"].threshold == 0.3
     assert s.transition.tree["floor"].children == four.transition.tree["floor"].children
     assert s.transition.tree["root"] == four.transition.tree["root"]
@@ -197,12 +238,18 @@ def test_heading_hold_behaviours_are_gaits_and_one_is_a_leaf_of_the_tree():
     assert "swim_printed" not in four.behaviour_tree().leaves  # the default list still loads
     rest = load_scenario(defaults=four, overrides={"heading_hold.behaviours": ["rest"]})
     assert rest.heading_hold.behaviours == ["rest"]  # a gait of the scenario's own file
-    with pytest.raises(ScenarioError, match=r"heading_hold\.behaviours: \['crab'\] names none "
-                                            r"of the behaviour tree's gaits.*allowed: swim, "
-                                            r"trot, walk, rest$"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"heading_hold\.behaviours: \['crab'\] names none "
+        r"of the behaviour tree's gaits.*allowed: swim, "
+        r"trot, walk, rest$",
+    ):
         load_scenario(defaults=four, overrides={"heading_hold.behaviours": ["crab"]})
-    with pytest.raises(ScenarioError, match=r"heading_hold\.behaviours\[1\]: 'rset' is not a "
-                                            r"gait; allowed: .*, rest$"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"heading_hold\.behaviours\[1\]: 'rset' is not a "
+        r"gait; allowed: .*, rest$",
+    ):
         load_scenario(defaults=four, overrides={"heading_hold.behaviours": ["swim", "rset"]})
     # a fixed gait is trimmed whole: any gait of the library names it
     hold = load_scenario("swim_heading_hold", overrides={"heading_hold.behaviours": ["crab"]})
@@ -215,10 +262,14 @@ def test_a_zero_current_beside_a_schedule_is_no_constant():
     four = load_scenario("four_behaviors")
     zero = load_scenario(defaults=four, overrides={"water.current": [0.0, 0.0, 0.0]})
     assert not zero.current_schedule().is_constant
-    with pytest.raises(ScenarioError, match=r"water\.current: \[0\.0, 0\.0, 0\.001\] is set "
-                                            r"beside water\.current_schedule; they are "
-                                            r"exclusive"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"water\.current: \[0\.0, 0\.0, 0\.001\] is set "
+        r"beside water\.current_schedule; they are "
+        r"exclusive",
+    ):
         load_scenario(defaults=four, overrides={"water.current": [0.0, 0.0, 0.001]})
-    cleared = load_scenario(defaults=four, overrides={"water.current": [0.0, 0.05, 0.0],
-                                                      "water.current_schedule": []})
+    cleared = load_scenario(
+        defaults=four, overrides={"water.current": [0.0, 0.05, 0.0], "water.current_schedule": []}
+    )
     assert cleared.current_schedule().is_constant

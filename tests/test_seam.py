@@ -41,8 +41,12 @@ def test_default_context_is_the_scenario_start():
     X_WB = plant.EvalBodyPoseInWorld(pc, h.plant_handles.body)
     expected = body_pose(s.initial_pose.xyz, s.initial_pose.rpy_deg)
     np.testing.assert_allclose(X_WB.GetAsMatrix34(), expected.GetAsMatrix34(), atol=1e-12)
-    q = np.array([plant.GetJointByName(n, h.plant_handles.robot).get_angle(pc)
-                  for n in h.plant_handles.joint_names])
+    q = np.array(
+        [
+            plant.GetJointByName(n, h.plant_handles.robot).get_angle(pc)
+            for n in h.plant_handles.joint_names
+        ]
+    )
     np.testing.assert_allclose(q, GAITS["swim"].X.ravel())  # initial_stance: swim
     # The CPG starts at the lock of its initial gait (not at the unstable phi = 0), from
     # rest (r = 0), with its biases at the stance; the transition at the swim target.
@@ -75,15 +79,19 @@ def test_station_and_controller_alone_make_the_closed_loop():
     station = builder.AddSystem(build_station(s)[0])
     controller = builder.AddSystem(build_controller(s)[0])
     assert sorted(connect_by_name(builder, station, controller)) == ["depth"]
-    assert sorted(connect_by_name(builder, controller, station)) == ["balloon_command",
-                                                                     "desired_state"]
+    assert sorted(connect_by_name(builder, controller, station)) == [
+        "balloon_command",
+        "desired_state",
+    ]
     diagram = builder.Build()
     simulator = Simulator(diagram)
     simulator.AdvanceTo(0.3)
     joints = station.GetOutputPort("measured_joint_state").Eval(
-        station.GetMyContextFromRoot(simulator.get_context()))[:16]
+        station.GetMyContextFromRoot(simulator.get_context())
+    )[:16]
     command = controller.GetOutputPort("desired_state").Eval(
-        controller.GetMyContextFromRoot(simulator.get_context()))[:16]
+        controller.GetMyContextFromRoot(simulator.get_context())
+    )[:16]
     # The servos follow the CPG, behind it by the bus's 10-20 ms and their P loop's
     # b qdot / kp (~0.06 rad at the swim's 2.5 rad/s): 0.12 rad measured.
     assert np.abs(joints - command).max() < 0.2
@@ -149,9 +157,13 @@ def test_monte_carlo_seeds_differ_and_repeat():
         return float(station.GetOutputPort("depth").Eval(station.GetMyContextFromRoot(context))[0])
 
     def samples(seed):
-        results = MonteCarloSimulation(make_simulator=make_simulator_, output=output,
-                                       final_time=0.2, num_samples=3,
-                                       generator=RandomGenerator(seed))
+        results = MonteCarloSimulation(
+            make_simulator=make_simulator_,
+            output=output,
+            final_time=0.2,
+            num_samples=3,
+            generator=RandomGenerator(seed),
+        )
         return np.array([r.output for r in results])
 
     first, again, other = samples(1), samples(1), samples(2)
@@ -212,8 +224,10 @@ def test_the_stations_limits_are_the_plants_joints_and_the_robots_parameters():
 
     s = _scenario("locomotion_swim", duration=0.1)
     _, handles = build_station(s)
-    plant, params = JointLimits.from_plant(handles.plant_handles), JointLimits.from_params(
-        s.robot_params())
+    plant, params = (
+        JointLimits.from_plant(handles.plant_handles),
+        JointLimits.from_params(s.robot_params()),
+    )
     assert plant.names == params.names
     for field in ("lower", "upper", "velocity"):
         np.testing.assert_allclose(getattr(plant, field), getattr(params, field), rtol=1e-12)
@@ -241,14 +255,20 @@ def test_joint_commands_are_clipped_and_a_nan_keeps_the_last_good_one():
     assert safe[1] == limits.lower[1] and safe[17] == 0.0
     assert safe[18] == 8.0
     assert (safe[3], safe[19]) == (0.1, 0.2) and (safe[4], safe[20]) == (0.1, 0.2)  # held
-    np.testing.assert_array_equal(np.delete(safe, [0, 1, 3, 4, 16, 17, 18, 19, 20]),
-                                  np.delete(good, [0, 1, 3, 4, 16, 17, 18, 19, 20]))
+    np.testing.assert_array_equal(
+        np.delete(safe, [0, 1, 3, 4, 16, 17, 18, 19, 20]),
+        np.delete(good, [0, 1, 3, 4, 16, 17, 18, 19, 20]),
+    )
     assert [kind for kind, _ in problems] == ["clipped", "held"]
-    assert problems[0][1] == ("fl_yaw angle 1e+06 rad outside [-1.047, 1.047], fl_roll1 angle "
-                              "-2 rad outside [-1.571, 1.571], fl_pitch rate 50 rad/s beyond "
-                              "+-8: clipped to the servos' limits")
-    assert problems[1][1] == ("fl_roll2 (nan rad, 0 rad/s), fr_yaw (0.5 rad, inf rad/s) not "
-                              "finite: those servos hold their last good command")
+    assert problems[0][1] == (
+        "fl_yaw angle 1e+06 rad outside [-1.047, 1.047], fl_roll1 angle "
+        "-2 rad outside [-1.571, 1.571], fl_pitch rate 50 rad/s beyond "
+        "+-8: clipped to the servos' limits"
+    )
+    assert problems[1][1] == (
+        "fl_roll2 (nan rad, 0 rad/s), fr_yaw (0.5 rad, inf rad/s) not "
+        "finite: those servos hold their last good command"
+    )
     assert np.all(np.isfinite(safe))
 
 
@@ -257,8 +277,12 @@ def test_balloon_commands_are_clipped_to_the_pumps_range():
 
     fill = np.array([0.25])
     assert screen_balloon_command(fill, [0.5]) == (fill, [])
-    for value, expected, kind in ((1.7, 1.0, "clipped"), (-0.2, 0.0, "clipped"),
-                                  (np.nan, 0.5, "held"), (-np.inf, 0.5, "held")):
+    for value, expected, kind in (
+        (1.7, 1.0, "clipped"),
+        (-0.2, 0.0, "clipped"),
+        (np.nan, 0.5, "held"),
+        (-np.inf, 0.5, "held"),
+    ):
         safe, problems = screen_balloon_command(np.array([value]), np.array([0.5]))
         assert safe.tolist() == [expected] and [k for k, _ in problems] == [kind]
 
@@ -293,9 +317,12 @@ def test_incidents_name_each_kind_once_per_channel_and_count_all(capsys):
     lines = capsys.readouterr().err.splitlines()
     assert lines == [
         "station: A: x not finite (further held messages on A are counted, not shown)",
-        ("station: A: y too far; x not finite (further clipped/held messages on A are counted, "
-         "not shown)"),
-        "station: B: z not finite (further held messages on B are counted, not shown)"]
+        (
+            "station: A: y too far; x not finite (further clipped/held messages on A are counted, "
+            "not shown)"
+        ),
+        "station: B: z not finite (further held messages on B are counted, not shown)",
+    ]
     assert incidents.counts == {"A": {"held": 1001, "clipped": 1}, "B": {"held": 1}}
     assert incidents.count(kind="held") == 1002 and incidents.count("A") == 1002
 
@@ -321,11 +348,14 @@ def test_imu_readings_outside_the_parts_full_scale_are_dropped_value_by_value():
     expected[[0, 2, 4, 6, 8]] = np.nan
     np.testing.assert_array_equal(safe, expected)
     assert [kind for kind, _ in problems] == ["ignored", "dropout"]
-    assert problems[0][1] == ("imu roll 3.142 rad beyond +-3.142, wy -35 rad/s beyond +-35, fx "
-                              "inf m/s^2 beyond +-160: ignored (read as dropped readings; the "
-                              "posture estimator holds them)")
-    assert problems[1][1] == ("imu yaw, fz NaN (dropped readings): the posture estimator holds "
-                              "them")
+    assert problems[0][1] == (
+        "imu roll 3.142 rad beyond +-3.142, wy -35 rad/s beyond +-35, fx "
+        "inf m/s^2 beyond +-160: ignored (read as dropped readings; the "
+        "posture estimator holds them)"
+    )
+    assert problems[1][1] == (
+        "imu yaw, fz NaN (dropped readings): the posture estimator holds them"
+    )
     only_nan = np.r_[np.nan, good[1:]]
     value, problems = screen_reading(only_nan, "imu", ranges)
     assert value is only_nan and [kind for kind, _ in problems] == ["dropout"]
@@ -339,11 +369,14 @@ def test_flow_readings_beyond_5_m_s_per_axis_are_dropped():
     assert screen_reading(good, "flow_velocity", ranges) == (good, [])
     safe, problems = screen_reading(np.array([5.5, -np.inf, np.nan]), "flow_velocity", ranges)
     assert np.isnan(safe).all()
-    ignored = ("flow velocity u 5.5 m/s beyond +-5, v -inf m/s beyond +-5: ignored (read as "
-               "dropped readings; the flow estimator holds them)")
+    ignored = (
+        "flow velocity u 5.5 m/s beyond +-5, v -inf m/s beyond +-5: ignored (read as "
+        "dropped readings; the flow estimator holds them)"
+    )
     assert problems == [
         ("ignored", ignored),
-        ("dropout", "flow velocity w NaN (dropped readings): the flow estimator holds them")]
+        ("dropout", "flow velocity w NaN (dropped readings): the flow estimator holds them"),
+    ]
 
 
 def test_altimeter_ranges_beyond_the_longest_part_are_dropped():
@@ -356,8 +389,12 @@ def test_altimeter_ranges_beyond_the_longest_part_are_dropped():
     assert screen_reading(good, "altitude", ranges) == (good, [])
     safe, problems = screen_reading(np.array([100.5]), "altitude", ranges)
     assert np.isnan(safe).all() and problems == [
-        ("ignored", "altitude range 100.5 m beyond +-100: ignored (read as dropped readings; "
-                    "the altitude estimator holds them)")]
+        (
+            "ignored",
+            "altitude range 100.5 m beyond +-100: ignored (read as dropped readings; "
+            "the altitude estimator holds them)",
+        )
+    ]
     assert screen_reading(np.array([np.nan]), "altitude", ranges)[1][0][0] == "dropout"
 
 

@@ -21,23 +21,27 @@ def servo():
     return load_energy_model("package://manta_drake/actuators.yaml").servo
 
 
-@pytest.mark.parametrize("volts, stall, no_load_rpm", [(14.8, 8.3, 88), (12.0, 6.9, 72),
-                                                       (11.1, 6.4, 67)])
+@pytest.mark.parametrize(
+    "volts, stall, no_load_rpm", [(14.8, 8.3, 88), (12.0, 6.9, 72), (11.1, 6.4, 67)]
+)
 def test_stall_torque_and_no_load_speed_match_the_datasheet(servo, volts, stall, no_load_rpm):
     # The model derives its constants from the 14.8 V point; the others are independent.
     assert S.stall_torque(servo, volts) == pytest.approx(stall, rel=0.035)
     assert S.no_load_speed(servo, volts) == pytest.approx(no_load_rpm * RPM, rel=0.02)
     # The torque-speed line's slope is the back-EMF braking, the same at every voltage.
     assert S.stall_torque(servo, volts) / S.no_load_speed(servo, volts) == pytest.approx(
-        S.back_emf_damping(servo), rel=1e-12)
+        S.back_emf_damping(servo), rel=1e-12
+    )
 
 
 def test_duty_per_radian_is_the_control_tables_gain(servo):
     # K_PP = 800 / 128 PWM units per pulse, 4096 pulses per turn, 0.113 % per unit.
-    assert S.duty_per_radian(servo) == pytest.approx(800 / 128 * 4096 / (2 * math.pi)
-                                                     * 0.00113, rel=1e-12)
+    assert S.duty_per_radian(servo) == pytest.approx(
+        800 / 128 * 4096 / (2 * math.pi) * 0.00113, rel=1e-12
+    )
     assert math.degrees(S.max_duty(servo) / S.duty_per_radian(servo)) == pytest.approx(
-        12.44, abs=0.01)
+        12.44, abs=0.01
+    )
 
 
 def test_the_servo_torque_follows_the_torque_speed_line(servo):
@@ -55,8 +59,7 @@ def test_the_servo_torque_follows_the_torque_speed_line(servo):
 
 def test_envelope_ratio_is_one_on_the_line_and_below_inside(servo):
     tau_s, w0 = S.stall_torque(servo, 14.8), S.no_load_speed(servo, 14.8)
-    on_line = S.envelope_ratio([tau_s, 0.0, tau_s / 2, -tau_s], [0.0, w0, w0 / 2, 0.0],
-                               servo, 14.8)
+    on_line = S.envelope_ratio([tau_s, 0.0, tau_s / 2, -tau_s], [0.0, w0, w0 / 2, 0.0], servo, 14.8)
     np.testing.assert_allclose(on_line, 1.0, rtol=1e-12)
     assert S.envelope_ratio(tau_s / 2, 0.0, servo, 14.8) == pytest.approx(0.5)
     # The ideal PD's 6 N m at 18 rad/s: the motor cannot push that fast.

@@ -15,11 +15,22 @@ PULSE = 2 * math.pi / 4096
 
 
 def test_quantize_rounds_to_pulses_and_velocity_units():
-    x = np.array([0.4 * PULSE, 0.6 * PULSE, -2.5001 * PULSE, 0.49 * VELOCITY_UNIT,
-                  1.51 * VELOCITY_UNIT, -3.2 * VELOCITY_UNIT])
-    np.testing.assert_allclose(quantize_joint_state(x, 4096),
-                               [0.0, PULSE, -3 * PULSE, 0.0, 2 * VELOCITY_UNIT,
-                                -3 * VELOCITY_UNIT], rtol=0, atol=1e-15)
+    x = np.array(
+        [
+            0.4 * PULSE,
+            0.6 * PULSE,
+            -2.5001 * PULSE,
+            0.49 * VELOCITY_UNIT,
+            1.51 * VELOCITY_UNIT,
+            -3.2 * VELOCITY_UNIT,
+        ]
+    )
+    np.testing.assert_allclose(
+        quantize_joint_state(x, 4096),
+        [0.0, PULSE, -3 * PULSE, 0.0, 2 * VELOCITY_UNIT, -3 * VELOCITY_UNIT],
+        rtol=0,
+        atol=1e-15,
+    )
     assert VELOCITY_UNIT == pytest.approx(0.02398, abs=1e-5)  # 0.229 rev/min
 
 
@@ -47,15 +58,17 @@ def test_commands_apply_one_period_after_they_were_written():
     for t in (0.0149, 0.0349, 0.2549):
         sim.AdvanceTo(t)
         k = math.floor(t / 0.01 + 1e-9)  # the cycle in force at t
-        assert applied.Eval(ctx)[0] == pytest.approx(math.sin(2 * math.pi * (k - 1) * 0.01),
-                                                     abs=1e-12)
+        assert applied.Eval(ctx)[0] == pytest.approx(
+            math.sin(2 * math.pi * (k - 1) * 0.01), abs=1e-12
+        )
 
 
 def test_readings_are_sampled_and_quantized():
     diagram, bus, sim = _bus(0.01)
     sim.AdvanceTo(0.05)
     reading = bus.GetOutputPort("measured_joint_state").Eval(
-        bus.GetMyContextFromRoot(sim.get_context()))
+        bus.GetMyContextFromRoot(sim.get_context())
+    )
     np.testing.assert_allclose(reading, [10 * PULSE, -2 * VELOCITY_UNIT], atol=1e-15)
 
 

@@ -15,8 +15,9 @@ NUM_OSC = 16
 
 @pytest.fixture(scope="module")
 def swim():
-    s = load_scenario("locomotion_swim", overrides={"duration": 0.1,
-                                                    "visualization.meshcat": False})
+    s = load_scenario(
+        "locomotion_swim", overrides={"duration": 0.1, "visualization.meshcat": False}
+    )
     diagram, handles = build_diagram(s)
     return s, diagram, handles
 
@@ -58,8 +59,11 @@ def test_make_simulator_keeps_a_pose_and_a_cpg_phase_set_on_the_context(swim):
     assert np.abs(phi - phase).max() < 0.5
     default = make_simulator(diagram, s)
     default.AdvanceTo(0.05)
-    phi_default = cpg.GetMyContextFromRoot(default.get_context()) \
-        .get_continuous_state_vector().CopyToVector()[:NUM_OSC]
+    phi_default = (
+        cpg.GetMyContextFromRoot(default.get_context())
+        .get_continuous_state_vector()
+        .CopyToVector()[:NUM_OSC]
+    )
     assert np.abs(phi - phi_default).mean() > 2 * np.abs(phi - phase).mean()
 
 
@@ -72,17 +76,20 @@ def test_seeding_draws_the_noise_of_diagram_set_random_context(swim):
     seed_context(diagram, ours, 7)
     drakes = diagram.CreateDefaultContext()
     diagram.SetRandomContext(drakes, RandomGenerator(7))
-    np.testing.assert_array_equal(_pressure_noise(diagram, handles, ours),
-                                  _pressure_noise(diagram, handles, drakes))
+    np.testing.assert_array_equal(
+        _pressure_noise(diagram, handles, ours), _pressure_noise(diagram, handles, drakes)
+    )
     other = diagram.CreateDefaultContext()
     seed_context(diagram, other, 8)
-    assert not np.array_equal(_pressure_noise(diagram, handles, ours),
-                              _pressure_noise(diagram, handles, other))
+    assert not np.array_equal(
+        _pressure_noise(diagram, handles, ours), _pressure_noise(diagram, handles, other)
+    )
 
 
 def test_default_context_is_the_scenarios_start(swim):
     s, diagram, handles = swim
     context = diagram.CreateDefaultContext()
-    p = handles.plant.EvalBodyPoseInWorld(handles.plant.GetMyContextFromRoot(context),
-                                          handles.plant_handles.body).translation()
+    p = handles.plant.EvalBodyPoseInWorld(
+        handles.plant.GetMyContextFromRoot(context), handles.plant_handles.body
+    ).translation()
     np.testing.assert_allclose(p, s.initial_pose.xyz, atol=1e-12)

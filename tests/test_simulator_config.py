@@ -32,8 +32,13 @@ def test_the_default_simulator_section_is_the_same_under_both_drakes():
     """RK2 at the plant's 1 ms step, no error control, as fast as possible; where the field
     exists it is False, the value the package always used."""
     sim = Scenario().simulator
-    assert (sim.integration_scheme, sim.max_step_size, sim.use_error_control,
-            sim.target_realtime_rate, sim.start_time) == ("runge_kutta2", 1e-3, False, 0.0, 0.0)
+    assert (
+        sim.integration_scheme,
+        sim.max_step_size,
+        sim.use_error_control,
+        sim.target_realtime_rate,
+        sim.start_time,
+    ) == ("runge_kutta2", 1e-3, False, 0.0, 0.0)
     dumped = yaml.safe_load(scenario_yaml(Scenario()))["simulator"]
     if BINDS_FIELD[DRAKE]:  # Drake 1.51
         assert sim.publish_every_time_step is False and dumped[FIELD] is False
@@ -58,10 +63,14 @@ def test_a_scenario_file_setting_the_field(tmp_path):
             load_scenario(path)
         message = str(refused.value)
         assert "\n" not in message
-        assert message.startswith(f"{path}: simulator.{FIELD}: True: removed from Drake's "
-                                  "SimulatorConfig in Drake 1.58"), message
-        with pytest.raises(ScenarioError, match=rf"^simulator\.{FIELD}: scenario\.simulator "
-                                                rf"has no field '{FIELD}'"):
+        assert message.startswith(
+            f"{path}: simulator.{FIELD}: True: removed from Drake's SimulatorConfig in Drake 1.58"
+        ), message
+        with pytest.raises(
+            ScenarioError,
+            match=rf"^simulator\.{FIELD}: scenario\.simulator "
+            rf"has no field '{FIELD}'",
+        ):
             load_scenario("stand", overrides={f"simulator.{FIELD}": False})
 
 
@@ -79,6 +88,9 @@ def test_a_scenario_written_under_either_drake_loads_under_this_one():
         on = load_scenario("stand", data={"simulator": {"publish_every_time_step": True}})
         assert on.simulator.publish_every_time_step is True
     else:
-        with pytest.raises(ScenarioError, match=r"simulator\.publish_every_time_step: True: "
-                                                r"removed from Drake's SimulatorConfig"):
+        with pytest.raises(
+            ScenarioError,
+            match=r"simulator\.publish_every_time_step: True: "
+            r"removed from Drake's SimulatorConfig",
+        ):
             load_scenario("stand", data={"simulator": {"publish_every_time_step": True}})

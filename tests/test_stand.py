@@ -18,7 +18,10 @@ def stand_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("stand")
     result = subprocess.run(
         [sys.executable, "diagrams/stand.py", "--out", str(out)],
-        cwd=ROOT, capture_output=True, text=True, timeout=600,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert result.returncode == 0, result.stderr[-2000:]
     log = dict(np.load(out / "log.npz"))

@@ -28,6 +28,7 @@ def write(path: pathlib.Path, text: str) -> pathlib.Path:
 
 # --- net weight ------------------------------------------------------------------------------
 
+
 def test_hull_scale_for_net_weight_closed_form():
     # M = 8.4 kg, rho = 1000: W = M - rho (V_hull s^3 + V_other).
     s = S.hull_scale_for_net_weight(0.6, 8.4, 1000.0, 0.005, 0.0025)
@@ -49,8 +50,12 @@ def _net_weight_by_hand(coeffs, robot=DEFAULT_ROBOT) -> float:
     a, b, c = coeffs.body.sealed_semi_axes.value
     hull = 4.0 / 3.0 * np.pi * a * b * c
     servos = 4 * NUM_LEGS * 0.0335 * 0.0585 * 0.0459
-    plates = NUM_LEGS * NACA4_SECTION_AREA * robot.fin_thickness * (robot.proximal_chord * robot.d3
-                                                         + robot.distal_chord * robot.dE)
+    plates = (
+        NUM_LEGS
+        * NACA4_SECTION_AREA
+        * robot.fin_thickness
+        * (robot.proximal_chord * robot.d3 + robot.distal_chord * robot.dE)
+    )
     return robot.total_mass - coeffs.water_density.value * (hull + servos + plates)
 
 
@@ -59,16 +64,18 @@ def test_net_weight_scales_give_the_target_weight_of_the_robots_volumes(target):
     coeffs = load_coefficients()
     assert _net_weight_by_hand(coeffs) == pytest.approx(0.845, abs=0.002)  # the shipped robot
     # The water model's volume elements hold the same volume as the parts.
-    assert S.deflated_net_weight_kg(coeffs) == pytest.approx(_net_weight_by_hand(coeffs),
-                                                             abs=1e-9)
+    assert S.deflated_net_weight_kg(coeffs) == pytest.approx(_net_weight_by_hand(coeffs), abs=1e-9)
     scales = S.net_weight_scales(target, coeffs)
     scaled = scale_coefficients(coeffs, scales)
     assert _net_weight_by_hand(scaled) == pytest.approx(target, abs=1e-9)
     # The hull keeps its shape (every semi-axis times s) and the documented sealed volume
     # stays the ellipsoid's (times s^3).
     s = scales["body.sealed_semi_axes"]
-    np.testing.assert_allclose(scaled.body.sealed_semi_axes.value,
-                               s * np.asarray(coeffs.body.sealed_semi_axes.value), rtol=1e-12)
+    np.testing.assert_allclose(
+        scaled.body.sealed_semi_axes.value,
+        s * np.asarray(coeffs.body.sealed_semi_axes.value),
+        rtol=1e-12,
+    )
     assert scales["body.sealed_volume"] == pytest.approx(s**3, rel=1e-12)
     a, b, c = scaled.body.sealed_semi_axes.value
     assert scaled.body.sealed_volume.value == pytest.approx(4 / 3 * np.pi * a * b * c, rel=1e-5)
@@ -78,8 +85,9 @@ def test_a_scale_of_the_sealed_volume_alone_is_refused():
     """It would change nothing (the buoyancy integrates the semi-axes): refused by name."""
     scenario = load_scenario("locomotion_swim")
     scenario.water.coefficient_scales = {"body.sealed_volume": 1.2}
-    with pytest.raises(ScenarioError, match="body.sealed_volume = .* disagrees with "
-                                            "body.sealed_semi_axes"):
+    with pytest.raises(
+        ScenarioError, match="body.sealed_volume = .* disagrees with body.sealed_semi_axes"
+    ):
         scenario.validate()
 
 
@@ -92,14 +100,18 @@ def test_net_weight_parameter_refuses_a_conflicting_scale():
 
 # --- keys, ids, parameter sets ---------------------------------------------------------------
 
+
 def test_set_override_dotted_keys_dicts_and_nested_values():
     base = load_scenario("locomotion_swim")
-    out = S.apply_overrides(base, {
-        "contact.friction": 1,  # an int for a float field is converted
-        "water.coefficient_scales.body.linear_damping": 1.3,
-        "balloon.schedule": [{"time": 1.0, "fill": 0.5}],
-        "simulator.max_step_size": 0.0005,
-    })
+    out = S.apply_overrides(
+        base,
+        {
+            "contact.friction": 1,  # an int for a float field is converted
+            "water.coefficient_scales.body.linear_damping": 1.3,
+            "balloon.schedule": [{"time": 1.0, "fill": 0.5}],
+            "simulator.max_step_size": 0.0005,
+        },
+    )
     assert out.contact.friction == 1.0 and isinstance(out.contact.friction, float)
     assert out.water.coefficient_scales == {"body.linear_damping": 1.3}
     assert out.balloon.schedule[0].time == 1.0 and out.balloon.schedule[0].fill == 0.5
@@ -113,11 +125,14 @@ def test_set_override_dotted_keys_dicts_and_nested_values():
         S.apply_overrides(base, {"contact.friction": -1.0})  # range: Scenario.validate
 
 
-@pytest.mark.parametrize("key, message", [
-    ("contact.frction", "has no field 'frction'"),
-    ("duration.x", "has no field 'x'"),
-    ("water.coefficient_scales.body.damping", "unknown coefficient 'body.damping'"),
-])
+@pytest.mark.parametrize(
+    "key, message",
+    [
+        ("contact.frction", "has no field 'frction'"),
+        ("duration.x", "has no field 'x'"),
+        ("water.coefficient_scales.body.damping", "unknown coefficient 'body.damping'"),
+    ],
+)
 def test_bad_override_keys_are_named(key, message):
     with pytest.raises(ScenarioError, match=message):
         S.check_override_key(key)
@@ -132,11 +147,17 @@ def test_run_id_is_deterministic_and_order_free():
     assert a != S.make_run_id("locomotion_walk", {"contact.friction": 0.5, "duration": 2.0}, 3)
     # The digest is SHA-256 of the canonical JSON of (base, overrides, seed), computed here
     # from that definition, and pinned: a change of the hash or the encoding breaks restarts.
-    payload = json.dumps({"base": "stand", "overrides": {"duration": 2.0}, "seed": 0},
-                         sort_keys=True, separators=(",", ":"))
+    payload = json.dumps(
+        {"base": "stand", "overrides": {"duration": 2.0}, "seed": 0},
+        sort_keys=True,
+        separators=(",", ":"),
+    )
     digest = hashlib.sha256(payload.encode()).hexdigest()[:10]
-    assert S.make_run_id("stand", {"duration": 2.0}, 0) == f"stand-s0-{digest}" == \
-        "stand-s0-0d8e1927df"
+    assert (
+        S.make_run_id("stand", {"duration": 2.0}, 0)
+        == f"stand-s0-{digest}"
+        == "stand-s0-0d8e1927df"
+    )
     # A base given as a path is named by its stem.
     assert S.make_run_id("diagrams/my swim.yaml", {}, 1).startswith("my_swim-s1-")
 
@@ -148,8 +169,10 @@ def test_parameter_sets_grid_rows_random():
     rows = S.SweepConfig(base=["stand"], rows=[{"a": 1}, {"b": 2}])
     assert S.parameter_sets(rows) == [{"a": 1}, {"b": 2}]
     assert S.parameter_names(rows) == ["a", "b"]
-    rand = S.SweepConfig(base=["stand"], random=S.RandomSample(
-        n=50, seed=7, uniform={"a": [0.5, 0.8], "b": [-1.0, 1.0]}))
+    rand = S.SweepConfig(
+        base=["stand"],
+        random=S.RandomSample(n=50, seed=7, uniform={"a": [0.5, 0.8], "b": [-1.0, 1.0]}),
+    )
     one, two = S.parameter_sets(rand), S.parameter_sets(rand)
     assert one == two and len(one) == 50  # seeded
     a = np.array([s["a"] for s in one])
@@ -161,11 +184,19 @@ def test_parameter_sets_grid_rows_random():
 
 def test_flatten_metrics_and_transitions():
     metrics = {
-        "scenario": "x", "status": "ok", "reason": "", "sim_time_s": 2.0,
-        "mean_velocity_body": [0.05, -0.01], "yaw_rate_deg_s": -3.0,
-        "final_body_xyz": [1.0, 2.0, 3.0], "other": [7, 8], "steady_window_s": [1.0, 2.0],
-        "transitions": [{"from": "swim", "to": "trot", "start_s": 8.04, "end_s": 16.2},
-                        {"from": "trot", "to": "turning", "start_s": 30.0, "end_s": 31.5}],
+        "scenario": "x",
+        "status": "ok",
+        "reason": "",
+        "sim_time_s": 2.0,
+        "mean_velocity_body": [0.05, -0.01],
+        "yaw_rate_deg_s": -3.0,
+        "final_body_xyz": [1.0, 2.0, 3.0],
+        "other": [7, 8],
+        "steady_window_s": [1.0, 2.0],
+        "transitions": [
+            {"from": "swim", "to": "trot", "start_s": 8.04, "end_s": 16.2},
+            {"from": "trot", "to": "turning", "start_s": 30.0, "end_s": 31.5},
+        ],
         "failure": {"time_s": 0.5, "reason": "boom"},
     }
     flat = S.flatten_metrics(metrics)
@@ -182,23 +213,33 @@ def test_flatten_metrics_and_transitions():
 
 # --- the sweep file --------------------------------------------------------------------------
 
-@pytest.mark.parametrize("text, message", [
-    ("base: stand\ngird: {contact.friction: [0.5]}\n", "sweep.gird: unknown key"),
-    ("base: stand\ngrid: {contact.frction: [0.5]}\n", "sweep.grid.contact.frction"),
-    ("base: stand\nrandom: {n: 3, seed: 1, uniform: {contact.friction: [0.8, 0.5]}}\n",
-     "sweep.random.uniform.contact.friction: expected \\[low, high\\]"),
-    ("base: stand\nrandom: {n: 3, seed: 1, unifrom: {}}\n", "sweep.random.unifrom"),
-    ("base: stand\ngrid: {contact.friction: [0.5]}\nrows: [{duration: 1}]\n", "one of grid"),
-    ("base: stand\nlinks: {hull: [water.coefficient_scales.body.lin]}\n",
-     "sweep.links.hull\\[0\\]"),
-    ("base: stand\ngrid: {contact.friction: [0.5, 0.5]}\n", "duplicate values"),
-    ("base: no_such_scenario\n", "sweep.base"),
-    ("base: stand\nseeds: []\n", "sweep.seeds"),
-    ("base: stand\nfixed: {duration: 1}\ngrid: {duration: [1, 2]}\n", "also varied"),
-    ("base: stand\nrows: [{random_seed: 3}]\n", "random_seed is set by sweep.seeds"),
-    ("base: stand\nlinks: {d: [duration]}\nrows: [{d: 1, duration: 2}]\n",
-     "sweep.rows\\[0\\]: duration is set by two parameters"),
-])
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("base: stand\ngird: {contact.friction: [0.5]}\n", "sweep.gird: unknown key"),
+        ("base: stand\ngrid: {contact.frction: [0.5]}\n", "sweep.grid.contact.frction"),
+        (
+            "base: stand\nrandom: {n: 3, seed: 1, uniform: {contact.friction: [0.8, 0.5]}}\n",
+            "sweep.random.uniform.contact.friction: expected \\[low, high\\]",
+        ),
+        ("base: stand\nrandom: {n: 3, seed: 1, unifrom: {}}\n", "sweep.random.unifrom"),
+        ("base: stand\ngrid: {contact.friction: [0.5]}\nrows: [{duration: 1}]\n", "one of grid"),
+        (
+            "base: stand\nlinks: {hull: [water.coefficient_scales.body.lin]}\n",
+            "sweep.links.hull\\[0\\]",
+        ),
+        ("base: stand\ngrid: {contact.friction: [0.5, 0.5]}\n", "duplicate values"),
+        ("base: no_such_scenario\n", "sweep.base"),
+        ("base: stand\nseeds: []\n", "sweep.seeds"),
+        ("base: stand\nfixed: {duration: 1}\ngrid: {duration: [1, 2]}\n", "also varied"),
+        ("base: stand\nrows: [{random_seed: 3}]\n", "random_seed is set by sweep.seeds"),
+        (
+            "base: stand\nlinks: {d: [duration]}\nrows: [{d: 1, duration: 2}]\n",
+            "sweep.rows\\[0\\]: duration is set by two parameters",
+        ),
+    ],
+)
 def test_bad_sweep_files_fail_at_load_naming_the_path(tmp_path, text, message):
     with pytest.raises(S.SweepError, match=message):
         S.load_sweep(write(tmp_path / "s.yaml", text))
@@ -216,8 +257,13 @@ def test_cli_error_is_one_line(tmp_path, capsys):
 
 def test_shipped_findings_sweep_plans_every_run():
     config = S.load_sweep(SWEEPS / "findings.yaml")
-    assert [b.replace("locomotion_", "") for b in config.base] == \
-        ["swim", "trot", "walk", "crab", "turning"]
+    assert [b.replace("locomotion_", "") for b in config.base] == [
+        "swim",
+        "trot",
+        "walk",
+        "crab",
+        "turning",
+    ]
     grid = config.grid
     assert min(grid["contact.friction"]) == 0.5 and max(grid["contact.friction"]) == 0.8
     assert min(grid["hull_damping"]) == 0.7 and max(grid["hull_damping"]) == 1.3
@@ -228,8 +274,12 @@ def test_shipped_findings_sweep_plans_every_run():
     assert len({s.run_id for s in specs}) == len(specs)
     # The link sets both damping terms; the weight both hull entries.
     scales = specs[-1].scenario_yaml
-    for key in ("body.linear_damping: 1.3", "body.quadratic_damping: 1.3",
-                "body.sealed_semi_axes:", "body.sealed_volume:"):
+    for key in (
+        "body.linear_damping: 1.3",
+        "body.quadratic_damping: 1.3",
+        "body.sealed_semi_axes:",
+        "body.sealed_volume:",
+    ):
         assert key in scales
 
 
@@ -256,8 +306,9 @@ def _compare(a: list[dict], b: list[dict]) -> None:
     assert [r["run_id"] for r in a] == [r["run_id"] for r in b]
     for x, y in zip(a, b):
         assert x.keys() == y.keys()
-        assert {k: v for k, v in x.items() if k not in TIMING} == \
-            {k: v for k, v in y.items() if k not in TIMING}
+        assert {k: v for k, v in x.items() if k not in TIMING} == {
+            k: v for k, v in y.items() if k not in TIMING
+        }
 
 
 def test_cluster_gives_the_rows_of_series_and_records_failures(tmp_path):
@@ -311,7 +362,7 @@ def test_restart_skips_done_runs(tmp_path, monkeypatch):
         return real(text)
 
     monkeypatch.setattr(runner, "simulate_run", counting)  # what run_sweep calls
-    text = ("base: stand\nfixed: {duration: 0.2}\ngrid: {contact.friction: [0.5, 0.8]}\n")
+    text = "base: stand\nfixed: {duration: 0.2}\ngrid: {contact.friction: [0.5, 0.8]}\n"
     out = tmp_path / "out"
     first = S.run_sweep(S.load_sweep(write(tmp_path / "s.yaml", text)), out, progress=False)
     assert len(calls) == 2 and len(first.simulated) == 2
@@ -321,8 +372,10 @@ def test_restart_skips_done_runs(tmp_path, monkeypatch):
     (out / "runs" / first.rows[1]["run_id"] / "metrics.json").unlink()
     text = text.replace("[0.5, 0.8]", "[0.5, 0.8, 1.0]")
     second = S.run_sweep(S.load_sweep(write(tmp_path / "s.yaml", text)), out, progress=False)
-    assert len(calls) == 4 and second.simulated == [second.rows[1]["run_id"],
-                                                    second.rows[2]["run_id"]]
+    assert len(calls) == 4 and second.simulated == [
+        second.rows[1]["run_id"],
+        second.rows[2]["run_id"],
+    ]
     assert done.stat().st_mtime_ns == stamp
     assert [r["contact.friction"] for r in S.read_table(second.table)] == ["0.5", "0.8", "1.0"]
     third = S.run_sweep(S.load_sweep(tmp_path / "s.yaml"), out, progress=False)
@@ -332,8 +385,11 @@ def test_restart_skips_done_runs(tmp_path, monkeypatch):
 def test_rerun_failed_and_cli(tmp_path, capsys):
     from manta_drake.cli import main
 
-    sweep = write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.2}\n"
-                  "rows: [{contact.friction: 0.6}, {contact.friction: -1.0}]\n")
+    sweep = write(
+        tmp_path / "s.yaml",
+        "base: stand\nfixed: {duration: 0.2}\n"
+        "rows: [{contact.friction: 0.6}, {contact.friction: -1.0}]\n",
+    )
     out = tmp_path / "o"
     assert main(["sweep", str(sweep), "--out", str(out), "--workers", "0", "--quiet"]) == 0
     printed = capsys.readouterr().out
@@ -341,14 +397,15 @@ def test_rerun_failed_and_cli(tmp_path, capsys):
     assert [r["status"] for r in S.read_table(out / "results.csv")] == ["ok", "invalid"]
     again = S.run_sweep(S.load_sweep(sweep), out, progress=False, rerun_failed=True)
     assert again.simulated == []  # the invalid run was re-checked, not simulated
-    assert main(["sweep", str(sweep), "--out", str(out), "--dry-run", "--set",
-                 "duration=0.1"]) == 0
+    assert main(["sweep", str(sweep), "--out", str(out), "--dry-run", "--set", "duration=0.1"]) == 0
     assert "2 runs; 1 invalid" in capsys.readouterr().out
 
 
 def test_progress_bar_counts_finished_runs(tmp_path, capsys):
-    sweep = write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.1}\n"
-                  "grid: {contact.friction: [0.5, 0.6]}\n")
+    sweep = write(
+        tmp_path / "s.yaml",
+        "base: stand\nfixed: {duration: 0.1}\ngrid: {contact.friction: [0.5, 0.6]}\n",
+    )
     S.run_sweep(S.load_sweep(sweep), tmp_path / "o", progress=True)
     err = capsys.readouterr().err
     assert "2/2" in err and "run" in err
@@ -356,15 +413,21 @@ def test_progress_bar_counts_finished_runs(tmp_path, capsys):
 
 # --- the size of a sweep: counted, bounded, drawn only as far as listed ----------------------
 
+
 def _huge_grid(n_params: int = 8, n_values: int = 10) -> str:
     """A grid of n_values ** n_params combinations over coefficient scales."""
     from manta_drake.scenario import coefficient_names
 
-    names = [n for n in coefficient_names() if n.endswith(("damping", "coefficient"))
-             or n in ("body.added_mass", "body.added_inertia", "fins.hinge_added_inertia")]
+    names = [
+        n
+        for n in coefficient_names()
+        if n.endswith(("damping", "coefficient"))
+        or n in ("body.added_mass", "body.added_inertia", "fins.hinge_added_inertia")
+    ]
     values = "[" + ", ".join(f"{0.5 + 0.1 * i:.1f}" for i in range(n_values)) + "]"
     return "base: stand\ngrid:\n" + "".join(
-        f"  water.coefficient_scales.{n}: {values}\n" for n in names[:n_params])
+        f"  water.coefficient_scales.{n}: {values}\n" for n in names[:n_params]
+    )
 
 
 def test_a_huge_grid_is_counted_and_refused_without_expanding(tmp_path, monkeypatch):
@@ -378,19 +441,27 @@ def test_a_huge_grid_is_counted_and_refused_without_expanding(tmp_path, monkeypa
     path = write(tmp_path / "huge.yaml", _huge_grid())
     with pytest.raises(S.SweepError) as e:
         S.load_sweep(path)
-    assert str(e.value) == ("sweep: 100000000 runs (1 base x 100000000 parameter sets x 1 "
-                            "seed) is above the maximum of 100000 runs; split the sweep into "
-                            "smaller ones")
-    config = S.SweepConfig(base=["stand", "locomotion_swim"], seeds=[0, 1, 2],
-                           grid={"a": [1, 2, 3], "b": list(range(7))})
+    assert str(e.value) == (
+        "sweep: 100000000 runs (1 base x 100000000 parameter sets x 1 "
+        "seed) is above the maximum of 100000 runs; split the sweep into "
+        "smaller ones"
+    )
+    config = S.SweepConfig(
+        base=["stand", "locomotion_swim"],
+        seeds=[0, 1, 2],
+        grid={"a": [1, 2, 3], "b": list(range(7))},
+    )
     assert S.count_runs(config) == 2 * 21 * 3 and S.count_parameter_sets(config) == 21
 
 
-@pytest.mark.parametrize("n, message", [
-    ("1000000000", "sweep.random.n: 1000000000 is outside the allowed range [1, 100000]"),
-    ("1e9", "sweep.random.n: 1000000000.0 is not an integer (allowed: 1 to 100000)"),
-    ("0", "sweep.random.n: 0 is outside the allowed range [1, 100000]"),
-])
+@pytest.mark.parametrize(
+    "n, message",
+    [
+        ("1000000000", "sweep.random.n: 1000000000 is outside the allowed range [1, 100000]"),
+        ("1e9", "sweep.random.n: 1000000000.0 is not an integer (allowed: 1 to 100000)"),
+        ("0", "sweep.random.n: 0 is outside the allowed range [1, 100000]"),
+    ],
+)
 def test_a_huge_random_sample_is_refused_before_drawing(tmp_path, n, message):
     text = f"base: stand\nrandom: {{n: {n}, seed: 1, uniform: {{contact.friction: [0.5, 0.8]}}}}\n"
     with pytest.raises(S.SweepError) as e:
@@ -412,14 +483,31 @@ def test_the_refusal_is_one_line_under_a_memory_limit(tmp_path):
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
     done = subprocess.run(
-        [sys.executable, "-m", "manta_drake.cli", "sweep", str(path), "--out",
-         str(tmp_path / "o"), "--dry-run", "--limit", "1"],
-        capture_output=True, text=True, preexec_fn=cap, timeout=120, cwd=tmp_path)
+        [
+            sys.executable,
+            "-m",
+            "manta_drake.cli",
+            "sweep",
+            str(path),
+            "--out",
+            str(tmp_path / "o"),
+            "--dry-run",
+            "--limit",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        preexec_fn=cap,
+        timeout=120,
+        cwd=tmp_path,
+    )
     err = done.stderr.strip().splitlines()
     assert done.returncode == 2, done.stderr
-    assert err == ["manta-drake: error: sweep: 100000000 runs (1 base x 100000000 parameter "
-                   "sets x 1 seed) is above the maximum of 100000 runs; split the sweep into "
-                   "smaller ones (--debug shows the traceback)"]
+    assert err == [
+        "manta-drake: error: sweep: 100000000 runs (1 base x 100000000 parameter "
+        "sets x 1 seed) is above the maximum of 100000 runs; split the sweep into "
+        "smaller ones (--debug shows the traceback)"
+    ]
 
 
 def test_limit_draws_only_the_runs_it_lists(tmp_path, monkeypatch):
@@ -427,10 +515,16 @@ def test_limit_draws_only_the_runs_it_lists(tmp_path, monkeypatch):
     # draw are a draw of (K, k) from the same seed.
     low, high = np.array([0.5, -1.0, 2.0]), np.array([0.8, 1.0, 3.0])
     whole = np.random.default_rng(7).uniform(low, high, size=(100_000, 3))
-    np.testing.assert_array_equal(np.random.default_rng(7).uniform(low, high, size=(5, 3)),
-                                  whole[:5])
-    rand = S.SweepConfig(base=["stand"], seeds=[0, 1], random=S.RandomSample(
-        n=100_000, seed=7, uniform={"a": [0.5, 0.8], "b": [-1.0, 1.0], "c": [2.0, 3.0]}))
+    np.testing.assert_array_equal(
+        np.random.default_rng(7).uniform(low, high, size=(5, 3)), whole[:5]
+    )
+    rand = S.SweepConfig(
+        base=["stand"],
+        seeds=[0, 1],
+        random=S.RandomSample(
+            n=100_000, seed=7, uniform={"a": [0.5, 0.8], "b": [-1.0, 1.0], "c": [2.0, 3.0]}
+        ),
+    )
     sizes = []
     real = np.random.default_rng
 
@@ -448,14 +542,19 @@ def test_limit_draws_only_the_runs_it_lists(tmp_path, monkeypatch):
     specs = S.run_specs(rand, limit=5)  # 5 runs over 2 seeds: 3 parameter sets
     assert sizes == [(3, 3)]
     assert [s.parameters for s in specs] == [
-        dict(zip("abc", map(float, whole[i]))) for i in (0, 0, 1, 1, 2)]
+        dict(zip("abc", map(float, whole[i]))) for i in (0, 0, 1, 1, 2)
+    ]
     assert [s.seed for s in specs] == [0, 1, 0, 1, 0]
     assert S.parameter_sets(rand, 4) == S.parameter_sets(rand)[:4]
     # A grid of 100 000 combinations: the first runs, the same as the whole sweep's.
-    grid = S.SweepConfig(base=["stand"], grid={"contact.friction": list(np.linspace(
-        0.1, 1.0, 100)), "duration": [float(d) for d in range(1, 1001)]})
-    assert [s.run_id for s in S.run_specs(grid, 3)] == \
-        [s.run_id for s in S.run_specs(grid)[:3]]
+    grid = S.SweepConfig(
+        base=["stand"],
+        grid={
+            "contact.friction": list(np.linspace(0.1, 1.0, 100)),
+            "duration": [float(d) for d in range(1, 1001)],
+        },
+    )
+    assert [s.run_id for s in S.run_specs(grid, 3)] == [s.run_id for s in S.run_specs(grid)[:3]]
     assert S.run_specs(grid, 3)[2].parameters == {"contact.friction": 0.1, "duration": 3.0}
 
 
@@ -464,30 +563,51 @@ def test_dry_run_with_limit_on_the_largest_sweep_lists_one_run(tmp_path, capsys)
 
     path = write(tmp_path / "big.yaml", _huge_grid(5, 10))  # exactly the maximum
     assert S.count_runs(S.load_sweep(path)) == S.MAX_RUNS
-    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--dry-run",
-                 "--limit", "1"]) == 0
+    assert (
+        main(["sweep", str(path), "--out", str(tmp_path / "o"), "--dry-run", "--limit", "1"]) == 0
+    )
     assert capsys.readouterr().out.strip().endswith("1 runs; 0 invalid")
 
 
 # --- inputs refused at once ------------------------------------------------------------------
 
-@pytest.mark.parametrize("text, message", [
-    ("base: stand\nseeds: [0]\nseeds: [1]\n", "duplicate key 'seeds'"),
-    ("base: stand\ngrid:\n  contact.friction: [0.5]\n  contact.friction: [0.6]\n",
-     "duplicate key 'contact.friction'"),
-    ("base: stand\ngrid: {duration: [1, 1.0]}\n", re.escape(
-        "sweep.grid.duration: duplicate values in [1, 1.0]: 1 and 1.0 are the same value once "
-        "typed as the scenario field; give each value once")),
-    ("base: stand\nlinks: {d: [duration]}\ngrid: {d: [2.0, 2]}\n", re.escape(
-        "sweep.grid.d: duplicate values in [2.0, 2]: 2.0 and 2 are the same value once typed")),
-    ("base: stand\ngrid: {net_weight_kg: [1, 1.0]}\n", "sweep.grid.net_weight_kg: duplicate"),
-    ("base: stand\nrows: [{duration: 1}, {contact.friction: 0.5}, {duration: 1.0}]\n",
-     "sweep.rows\\[2\\]: the same values as sweep.rows\\[0\\]"),
-    ("base: [stand, stand.yaml]\n", "sweep.base: stand.yaml and stand are the same scenario"),
-    ("base: stand\nfixed: {contact.friction: -1.0}\ngrid: {duration: [1.0, 2.0]}\n",
-     "sweep.fixed: on base stand: .*contact.friction.*-1.0"),
-    ("base: stand\nfixed: {net_weight_kg: 9.0}\n", "sweep.fixed: on base stand: net_weight_kg"),
-])
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("base: stand\nseeds: [0]\nseeds: [1]\n", "duplicate key 'seeds'"),
+        (
+            "base: stand\ngrid:\n  contact.friction: [0.5]\n  contact.friction: [0.6]\n",
+            "duplicate key 'contact.friction'",
+        ),
+        (
+            "base: stand\ngrid: {duration: [1, 1.0]}\n",
+            re.escape(
+                "sweep.grid.duration: duplicate values in [1, 1.0]: 1 and 1.0 are the same "
+                "value once "
+                "typed as the scenario field; give each value once"
+            ),
+        ),
+        (
+            "base: stand\nlinks: {d: [duration]}\ngrid: {d: [2.0, 2]}\n",
+            re.escape(
+                "sweep.grid.d: duplicate values in [2.0, 2]: 2.0 and 2 are the same value "
+                "once typed"
+            ),
+        ),
+        ("base: stand\ngrid: {net_weight_kg: [1, 1.0]}\n", "sweep.grid.net_weight_kg: duplicate"),
+        (
+            "base: stand\nrows: [{duration: 1}, {contact.friction: 0.5}, {duration: 1.0}]\n",
+            "sweep.rows\\[2\\]: the same values as sweep.rows\\[0\\]",
+        ),
+        ("base: [stand, stand.yaml]\n", "sweep.base: stand.yaml and stand are the same scenario"),
+        (
+            "base: stand\nfixed: {contact.friction: -1.0}\ngrid: {duration: [1.0, 2.0]}\n",
+            "sweep.fixed: on base stand: .*contact.friction.*-1.0",
+        ),
+        ("base: stand\nfixed: {net_weight_kg: 9.0}\n", "sweep.fixed: on base stand: net_weight_kg"),
+    ],
+)
 def test_more_bad_sweep_files_fail_at_load(tmp_path, text, message):
     with pytest.raises(S.SweepError, match=message):
         S.load_sweep(write(tmp_path / "s.yaml", text))
@@ -513,28 +633,39 @@ def test_values_are_typed_as_the_scenario_holds_them():
 def test_fixed_and_set_are_checked_once_at_load(tmp_path, capsys):
     from manta_drake.cli import main
 
-    good = write(tmp_path / "s.yaml", "base: [stand, locomotion_swim]\nfixed: {duration: 0.2}\n"
-                 "grid: {contact.friction: [0.5, 0.6]}\n")
+    good = write(
+        tmp_path / "s.yaml",
+        "base: [stand, locomotion_swim]\nfixed: {duration: 0.2}\n"
+        "grid: {contact.friction: [0.5, 0.6]}\n",
+    )
     with pytest.raises(S.SweepError, match="^--set: on base stand: .*duration"):
         S.load_sweep(good, {"duration": -1.0})
     with pytest.raises(S.SweepError, match="^--set contact.friction: the sweep varies it"):
         S.load_sweep(good, {"contact.friction": 0.7})
     with pytest.raises(S.SweepError, match="^--set contact.frction: "):
         S.load_sweep(good, {"contact.frction": 0.7})
-    bad = write(tmp_path / "b.yaml", "base: stand\nfixed: {contact.friction: -1.0}\n"
-                "grid: {duration: [1.0, 2.0]}\n")
+    bad = write(
+        tmp_path / "b.yaml",
+        "base: stand\nfixed: {contact.friction: -1.0}\ngrid: {duration: [1.0, 2.0]}\n",
+    )
     assert main(["sweep", str(bad), "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("manta-drake: error: sweep.fixed: on base "
-                                               "stand: ") and "contact.friction" in err[0]
+    assert (
+        len(err) == 1
+        and err[0].startswith("manta-drake: error: sweep.fixed: on base stand: ")
+        and "contact.friction" in err[0]
+    )
     assert not (tmp_path / "o").exists()
 
 
 def test_a_sweep_with_no_valid_run_exits_1(tmp_path, capsys):
     from manta_drake.cli import main
 
-    sweep = write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.2}\n"
-                  "rows: [{contact.friction: -1.0}, {contact.friction: -2.0}]\n")
+    sweep = write(
+        tmp_path / "s.yaml",
+        "base: stand\nfixed: {duration: 0.2}\n"
+        "rows: [{contact.friction: -1.0}, {contact.friction: -2.0}]\n",
+    )
     out = tmp_path / "o"
     assert main(["sweep", str(sweep), "--out", str(out), "--dry-run"]) == 1
     assert capsys.readouterr().err.strip() == "manta-drake: sweep s: no run is valid"
@@ -544,10 +675,13 @@ def test_a_sweep_with_no_valid_run_exits_1(tmp_path, capsys):
     assert [r["status"] for r in S.read_table(out / "results.csv")] == ["invalid", "invalid"]
 
 
-@pytest.mark.parametrize("content, message", [
-    (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\xff\xfe", "not a UTF-8 text (YAML) file"),
-    (b"base: stand\x00\x00\x00\n", "not valid YAML: unacceptable character #x0000"),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\xff\xfe", "not a UTF-8 text (YAML) file"),
+        (b"base: stand\x00\x00\x00\n", "not valid YAML: unacceptable character #x0000"),
+    ],
+)
 def test_a_binary_sweep_file_is_one_line(tmp_path, capsys, content, message):
     from manta_drake.cli import main
 
@@ -598,8 +732,10 @@ def test_sweep_out_is_checked_before_anything_runs(tmp_path, capsys, monkeypatch
     (tmp_path / "file").write_text("x")
     out, message = {
         "a file": (tmp_path / "file", f"--out {tmp_path / 'file'}: is a file, not a folder"),
-        "under a file": (tmp_path / "file" / "o", f"--out {tmp_path / 'file' / 'o'}: cannot "
-                         f"be created ({tmp_path / 'file'} is a file)"),
+        "under a file": (
+            tmp_path / "file" / "o",
+            f"--out {tmp_path / 'file' / 'o'}: cannot be created ({tmp_path / 'file'} is a file)",
+        ),
         "unwritable": (_unwritable(tmp_path), "--out "),
         "empty": ("", "--out: an empty path; name an output folder (e.g. out/sweep)"),
     }[case]
@@ -624,8 +760,14 @@ def test_sweep_out_is_checked_before_anything_runs(tmp_path, capsys, monkeypatch
 
 # --- restarts: what is done ------------------------------------------------------------------
 
-def _record(run_dir: pathlib.Path, status: str, reason: str = "", log: bool | None = None,
-            log_file: bool = False) -> pathlib.Path:
+
+def _record(
+    run_dir: pathlib.Path,
+    status: str,
+    reason: str = "",
+    log: bool | None = None,
+    log_file: bool = False,
+) -> pathlib.Path:
     run_dir.mkdir(parents=True, exist_ok=True)
     record = {"status": status, "reason": reason, "run": {"run_id": run_dir.name}}
     if log is not None:
@@ -636,21 +778,25 @@ def _record(run_dir: pathlib.Path, status: str, reason: str = "", log: bool | No
     return run_dir
 
 
-@pytest.mark.parametrize("status, reason, log, log_file, done", [
-    ("ok", "", True, True, True),
-    ("ok", "", True, False, False),         # the log went missing
-    ("ok", "", None, False, False),         # an ok record of before run.log_npz: has a log
-    ("failed", "at t = 1", True, False, False),
-    ("failed", "building", False, False, True),
-    ("invalid", "x", False, False, True),
-    ("error", "ValueError: boom", False, False, True),
-    ("error", "KilledWorker: Attempted to run task", False, False, False),
-    ("error", "CommClosedError: in <TCP>", None, False, False),
-    ("lost", "lost to the cluster in 3 attempts: KilledWorker: x", False, False, False),
-    ("running", "", None, False, False),
-])
-def test_read_done_infrastructure_and_missing_logs_are_not_done(tmp_path, status, reason, log,
-                                                                log_file, done):
+@pytest.mark.parametrize(
+    "status, reason, log, log_file, done",
+    [
+        ("ok", "", True, True, True),
+        ("ok", "", True, False, False),  # the log went missing
+        ("ok", "", None, False, False),  # an ok record of before run.log_npz: has a log
+        ("failed", "at t = 1", True, False, False),
+        ("failed", "building", False, False, True),
+        ("invalid", "x", False, False, True),
+        ("error", "ValueError: boom", False, False, True),
+        ("error", "KilledWorker: Attempted to run task", False, False, False),
+        ("error", "CommClosedError: in <TCP>", None, False, False),
+        ("lost", "lost to the cluster in 3 attempts: KilledWorker: x", False, False, False),
+        ("running", "", None, False, False),
+    ],
+)
+def test_read_done_infrastructure_and_missing_logs_are_not_done(
+    tmp_path, status, reason, log, log_file, done
+):
     run_dir = _record(tmp_path / "r", status, reason, log, log_file)
     assert (S.read_done(run_dir) is not None) == done
 
@@ -661,8 +807,12 @@ def test_restart_reruns_a_run_whose_log_is_missing_or_lost(tmp_path, monkeypatch
     calls = []
     real = S.simulate_run
     monkeypatch.setattr(runner, "simulate_run", lambda text: calls.append(text) or real(text))
-    sweep = S.load_sweep(write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.1}\n"
-                               "grid: {contact.friction: [0.5, 0.6, 0.7]}\n"))
+    sweep = S.load_sweep(
+        write(
+            tmp_path / "s.yaml",
+            "base: stand\nfixed: {duration: 0.1}\ngrid: {contact.friction: [0.5, 0.6, 0.7]}\n",
+        )
+    )
     out = tmp_path / "o"
     first = S.run_sweep(sweep, out, progress=False)
     assert len(calls) == 3 and [r["status"] for r in first.rows] == ["ok"] * 3
@@ -700,10 +850,16 @@ def test_a_run_lost_with_its_worker_is_run_again(tmp_path, monkeypatch):
     from manta_drake.sweep import runner
 
     monkeypatch.setattr(runner, "simulate_run", _kill_once(str(tmp_path / "killed")))
-    sweep = S.load_sweep(write(tmp_path / "s.yaml", "base: stand\nfixed: {duration: 0.1}\n"
-                               "grid: {contact.friction: [0.5, 0.6, 0.7, 0.8]}\n"))
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
-            S.dask_client(workers=2) as client:
+    sweep = S.load_sweep(
+        write(
+            tmp_path / "s.yaml",
+            "base: stand\nfixed: {duration: 0.1}\ngrid: {contact.friction: [0.5, 0.6, 0.7, 0.8]}\n",
+        )
+    )
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 0}),
+        S.dask_client(workers=2) as client,
+    ):
         result = S.run_sweep(sweep, tmp_path / "o", client=client, progress=False)
     assert (tmp_path / "killed").exists()  # a worker did die
     assert [r["status"] for r in result.rows] == ["ok"] * 4, [r["reason"] for r in result.rows]
@@ -751,9 +907,12 @@ def test_a_run_lost_on_every_attempt_is_lost_not_done(tmp_path, monkeypatch):
     result = S.run_sweep(sweep, tmp_path / "o", client=FakeClient(), progress=False)
     (row,) = result.rows
     assert row["status"] == "lost" and submitted == [
-        f"manta-run-{row['run_id']}-a{i}" for i in range(1, runner.ATTEMPTS + 1)]
-    assert row["reason"] == ("lost to the cluster in 3 attempts: KilledWorker: Attempted to "
-                             "run task on 4 different workers")
+        f"manta-run-{row['run_id']}-a{i}" for i in range(1, runner.ATTEMPTS + 1)
+    ]
+    assert row["reason"] == (
+        "lost to the cluster in 3 attempts: KilledWorker: Attempted to "
+        "run task on 4 different workers"
+    )
     assert S.read_done(tmp_path / "o" / "runs" / row["run_id"]) is None
 
 
@@ -773,35 +932,59 @@ class _FakeAsCompleted:
 
 # --- energy columns --------------------------------------------------------------------------
 
-ENERGY = {"mechanical_energy_j": 12.5, "electrical_energy_j": 80.25,
-          "mean_electrical_power_w": 4.0125, "cot_electrical_dry_weight": 3.1,
-          "cot_electrical_weight_in_water": 31.0, "cot_net_of_hotel_dry_weight": 0.8,
-          "cot_net_of_hotel_weight_in_water": 8.0, "cot_mechanical_dry_weight": 0.6,
-          "cot_mechanical_weight_in_water": 6.0, "battery_soc_end": 0.97,
-          "operation_time_h": 12.4, "steady_electrical_power_w": 4.1,
-          "cost_of_transport_note": None}
+ENERGY = {
+    "mechanical_energy_j": 12.5,
+    "electrical_energy_j": 80.25,
+    "mean_electrical_power_w": 4.0125,
+    "cot_electrical_dry_weight": 3.1,
+    "cot_electrical_weight_in_water": 31.0,
+    "cot_net_of_hotel_dry_weight": 0.8,
+    "cot_net_of_hotel_weight_in_water": 8.0,
+    "cot_mechanical_dry_weight": 0.6,
+    "cot_mechanical_weight_in_water": 6.0,
+    "battery_soc_end": 0.97,
+    "operation_time_h": 12.4,
+    "steady_electrical_power_w": 4.1,
+    "cost_of_transport_note": None,
+}
 
 
 def test_energy_block_becomes_energy_columns_in_the_documented_order(tmp_path):
-    metrics = {"status": "ok", "reason": "", "mean_velocity_body": [0.05, 0.0],
-               "sim_time_s": 20.0, "energy": ENERGY}
+    metrics = {
+        "status": "ok",
+        "reason": "",
+        "mean_velocity_body": [0.05, 0.0],
+        "sim_time_s": 20.0,
+        "energy": ENERGY,
+    }
     flat = S.flatten_metrics(metrics)
     for key, value in ENERGY.items():
         assert flat[f"energy.{key}"] == value
     spec = S.RunSpec(0, "stand-s0-0000000000", "stand", 0, {"contact.friction": 0.5}, {})
     failed = S.RunSpec(1, "stand-s0-1111111111", "stand", 0, {"contact.friction": -1.0}, {})
-    columns, rows = S.table_rows([spec, failed], {spec.run_id: metrics, failed.run_id: {
-        "status": "invalid", "reason": "contact.friction"}})
-    contract = ["energy.mechanical_energy_j", "energy.electrical_energy_j",
-                "energy.mean_electrical_power_w", "energy.cot_electrical_dry_weight",
-                "energy.cot_electrical_weight_in_water", "energy.cot_net_of_hotel_dry_weight",
-                "energy.cot_net_of_hotel_weight_in_water", "energy.cot_mechanical_dry_weight",
-                "energy.cot_mechanical_weight_in_water", "energy.battery_soc_end",
-                "energy.operation_time_h"]
+    columns, rows = S.table_rows(
+        [spec, failed],
+        {spec.run_id: metrics, failed.run_id: {"status": "invalid", "reason": "contact.friction"}},
+    )
+    contract = [
+        "energy.mechanical_energy_j",
+        "energy.electrical_energy_j",
+        "energy.mean_electrical_power_w",
+        "energy.cot_electrical_dry_weight",
+        "energy.cot_electrical_weight_in_water",
+        "energy.cot_net_of_hotel_dry_weight",
+        "energy.cot_net_of_hotel_weight_in_water",
+        "energy.cot_mechanical_dry_weight",
+        "energy.cot_mechanical_weight_in_water",
+        "energy.battery_soc_end",
+        "energy.operation_time_h",
+    ]
     energy_columns = [c for c in columns if c.startswith("energy.")]
     assert energy_columns[:11] == contract  # then the block's other keys, sorted
-    assert energy_columns[11:] == ["energy.cost_of_transport_note",
-                                  "energy.steady_electrical_power_w"]
+    assert energy_columns[11:] == [
+        "energy.cost_of_transport_note",
+        "energy.steady_electrical_power_w",
+    ]
     S.write_table(tmp_path / "results.csv", columns, rows)
     table = S.read_table(tmp_path / "results.csv")
     assert table[0]["energy.cot_electrical_dry_weight"] == "3.1"
@@ -814,8 +997,12 @@ def test_numpy_floats_are_written_as_plain_numbers(tmp_path):
     is written as the number, and reads back as it."""
     import numpy as np
 
-    metrics = {"status": "ok", "reason": "", "sim_time_s": 20.0,
-               "energy": {"dry_weight_n": np.float64(82.40400000000001)}}
+    metrics = {
+        "status": "ok",
+        "reason": "",
+        "sim_time_s": 20.0,
+        "energy": {"dry_weight_n": np.float64(82.40400000000001)},
+    }
     spec = S.RunSpec(0, "stand-s0-0000000000", "stand", 0, {}, {})
     columns, rows = S.table_rows([spec], {spec.run_id: metrics})
     S.write_table(tmp_path / "results.csv", columns, rows)
@@ -825,20 +1012,43 @@ def test_numpy_floats_are_written_as_plain_numbers(tmp_path):
 
 # --- the summary figure -----------------------------------------------------------------------
 
+
 def _figure_rows():
     """A gait sweep over two bases (the second runs only the walk) and a numeric parameter;
     one failed run."""
     rows = []
-    for base, gait, u in (("locomotion_swim", "swim", 0.09), ("locomotion_swim", "trot", 0.06),
-                          ("locomotion_trot", "walk", 0.07)):
+    for base, gait, u in (
+        ("locomotion_swim", "swim", 0.09),
+        ("locomotion_swim", "trot", 0.06),
+        ("locomotion_trot", "walk", 0.07),
+    ):
         for seed in (0, 1):
-            rows.append({"run_id": f"{base}-{gait}-{seed}", "base": base, "seed": seed,
-                         "controller.gait": gait, "cpg.frequency_hz": 0.4 + 0.2 * seed,
-                         "status": "ok", "u": u + 0.001 * seed, "v": 0.0,
-                         "yaw_rate_deg_s": 1.0})
-    rows.append({"run_id": "bad", "base": "locomotion_swim", "seed": 0,
-                 "controller.gait": "crab", "cpg.frequency_hz": 0.4, "status": "failed",
-                 "u": None, "v": None, "yaw_rate_deg_s": None})
+            rows.append(
+                {
+                    "run_id": f"{base}-{gait}-{seed}",
+                    "base": base,
+                    "seed": seed,
+                    "controller.gait": gait,
+                    "cpg.frequency_hz": 0.4 + 0.2 * seed,
+                    "status": "ok",
+                    "u": u + 0.001 * seed,
+                    "v": 0.0,
+                    "yaw_rate_deg_s": 1.0,
+                }
+            )
+    rows.append(
+        {
+            "run_id": "bad",
+            "base": "locomotion_swim",
+            "seed": 0,
+            "controller.gait": "crab",
+            "cpg.frequency_hz": 0.4,
+            "status": "failed",
+            "u": None,
+            "v": None,
+            "yaw_rate_deg_s": None,
+        }
+    )
     return rows
 
 
@@ -852,16 +1062,24 @@ def test_the_summary_figure_labels_categories_and_says_what_was_swept():
         axes = np.array(fig.axes[:9]).reshape(3, 3)
         title = fig._suptitle.get_text()
         assert title.startswith("gaits: 6 runs ok, 1 not ok")
-        assert ("swept: controller.gait in {swim, trot, walk, crab}; cpg.frequency_hz in "
-                "{0.4, 0.6}; base locomotion_swim, locomotion_trot; seeds 0, 1") in title
+        assert (
+            "swept: controller.gait in {swim, trot, walk, crab}; cpg.frequency_hz in "
+            "{0.4, 0.6}; base locomotion_swim, locomotion_trot; seeds 0, 1"
+        ) in title
         # The box column: one box per base, named in full.
         assert [t.get_text() for t in axes[0, 0].get_xticklabels()] == [
-            "locomotion_swim", "locomotion_trot"]
+            "locomotion_swim",
+            "locomotion_trot",
+        ]
         assert axes[0, 0].get_title() == "per base scenario"
         # The gait axis: every gait a labelled position, the same for every base.
         for row in axes:
             assert [t.get_text() for t in row[1].get_xticklabels()] == [
-                "swim", "trot", "walk", "crab"]
+                "swim",
+                "trot",
+                "walk",
+                "crab",
+            ]
         assert axes[0, 1].get_title() == "against controller.gait"
         assert axes[2, 1].get_xlabel() == "controller.gait"
         swim_base, trot_base = axes[0, 1].get_lines()

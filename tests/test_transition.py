@@ -176,11 +176,14 @@ def test_switch_baseline_is_abrupt_and_direct_follow_takes_the_target_at_once():
 
     swim, trot, turning = (GAITS[n].to_vector() for n in ("swim", "trot", "turning"))
     np.testing.assert_array_equal(
-        target_params(0.49, 0.0, swim, trot, turning, blend="switch"), swim)
+        target_params(0.49, 0.0, swim, trot, turning, blend="switch"), swim
+    )
     np.testing.assert_array_equal(
-        target_params(0.51, 0.0, swim, trot, turning, blend="switch"), trot)
-    np.testing.assert_array_equal(target_params(0.9, 0.6, swim, trot, turning, blend="switch"),
-                                  turning)
+        target_params(0.51, 0.0, swim, trot, turning, blend="switch"), trot
+    )
+    np.testing.assert_array_equal(
+        target_params(0.9, 0.6, swim, trot, turning, blend="switch"), turning
+    )
     system = PotentialTransition(blend="switch", follow="direct")
     context = system.CreateDefaultContext()
     system.GetInputPort("z_hat").FixValue(context, [1.0])
@@ -192,6 +195,7 @@ def test_switch_baseline_is_abrupt_and_direct_follow_takes_the_target_at_once():
 
 
 # -- the transition blends by a behaviour tree ---------------------------------------------
+
 
 def _inputs(k):
     """Varying estimates for update k: a sinking and rising depth, a wall seen on and off,
@@ -205,9 +209,17 @@ def _inputs(k):
     return z, s
 
 
-@pytest.mark.parametrize("blend, tau", [("potential", 1.0), ("potential", 0.3),
-                                        ("linear", 1.0), ("switch", 1.0), ("normalised", 0.5),
-                                        ("potential", 0.0)])
+@pytest.mark.parametrize(
+    "blend, tau",
+    [
+        ("potential", 1.0),
+        ("potential", 0.3),
+        ("linear", 1.0),
+        ("switch", 1.0),
+        ("normalised", 0.5),
+        ("potential", 0.0),
+    ],
+)
 def test_default_tree_reproduces_the_formula_path_bit_for_bit(blend, tau):
     """An independent re-implementation of the transition's update with target_params and
     descent_step (Eqs. 11-15 and the s_hat low-pass), against the system."""
@@ -223,10 +235,16 @@ def test_default_tree_reproduces_the_formula_path_bit_for_bit(blend, tau):
         context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
         x = s_hat if np.isfinite(s_hat) else 0.0
         s = s + gain * (x - s) if gain is not None else x
-        psi = descent_step(psi, target_params(z_hat, s, SWIM, TROT, TURN, z_t, blend),
-                           system.g, system.T, system.alpha)
-        np.testing.assert_array_equal(system.GetOutputPort("cpg_params").Eval(context), psi,
-                                      err_msg=f"update {k}")
+        psi = descent_step(
+            psi,
+            target_params(z_hat, s, SWIM, TROT, TURN, z_t, blend),
+            system.g,
+            system.T,
+            system.alpha,
+        )
+        np.testing.assert_array_equal(
+            system.GetOutputPort("cpg_params").Eval(context), psi, err_msg=f"update {k}"
+        )
 
 
 def test_behaviour_weights_are_the_leaf_weights_of_the_last_target():
@@ -235,8 +253,9 @@ def test_behaviour_weights_are_the_leaf_weights_of_the_last_target():
     assert system.num_input_ports() == 2
     assert system.GetOutputPort("behaviour_weights").size() == 3
     # before any update: the weights at z_hat = s_hat = 0, all swim
-    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
-                               [1.0, 0.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(
+        system.GetOutputPort("behaviour_weights").Eval(context), [1.0, 0.0, 0.0], atol=1e-15
+    )
     system.GetInputPort("z_hat").FixValue(context, [0.4])
     system.GetInputPort("s_hat").FixValue(context, [1.0])
     for _ in range(10):
@@ -244,8 +263,9 @@ def test_behaviour_weights_are_the_leaf_weights_of_the_last_target():
     s = 1.0 - np.exp(-10 * 0.02)  # the filtered wall rate after 10 updates
     w = (1 - np.cos(np.pi * s)) / 2
     c, d = np.cos(np.pi * 0.4 / 2), np.sin(np.pi * 0.4 / 2)
-    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
-                               [c, d * (1 - w), d * w], atol=1e-12)
+    np.testing.assert_allclose(
+        system.GetOutputPort("behaviour_weights").Eval(context), [c, d * (1 - w), d * w], atol=1e-12
+    )
 
 
 def test_the_weights_switches_and_filters_start_from_the_initial_estimates():
@@ -254,34 +274,42 @@ def test_the_weights_switches_and_filters_start_from_the_initial_estimates():
     system = PotentialTransition(initial_values={"z_hat": 1.0, "s_hat": 0.5})
     context = system.CreateDefaultContext()
     w = (1 - np.cos(np.pi * 0.5)) / 2
-    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
-                               [0.0, 1 - w, w], atol=1e-15)
+    np.testing.assert_allclose(
+        system.GetOutputPort("behaviour_weights").Eval(context), [0.0, 1 - w, w], atol=1e-15
+    )
     index = system.filter_state_indices["s_hat"]
     assert context.get_discrete_state(index).GetAtIndex(0) == 0.5
     from manta_drake.control.behaviour_tree import BlendNode, compile_tree
 
-    tree = compile_tree({"root": BlendNode("floor_hat", "switch", ["swim", "trot"],
-                                           threshold=0.5, hysteresis=0.2)},
-                        {"swim": SWIM, "trot": TROT})
+    tree = compile_tree(
+        {"root": BlendNode("floor_hat", "switch", ["swim", "trot"], threshold=0.5, hysteresis=0.2)},
+        {"swim": SWIM, "trot": TROT},
+    )
     on_floor = PotentialTransition(tree=tree, initial_values={"floor_hat": 0.9})
     np.testing.assert_array_equal(
         on_floor.GetOutputPort("behaviour_weights").Eval(on_floor.CreateDefaultContext()),
-        [0.0, 1.0])  # the switch starts on the trot's side
+        [0.0, 1.0],
+    )  # the switch starts on the trot's side
 
 
 def test_a_tree_of_other_modalities_sets_the_ports_filters_and_switch_memory():
     from manta_drake.control.behaviour_tree import BlendNode, compile_tree
 
     walk = GAITS["walk"].to_vector()
-    tree = compile_tree({
-        "root": BlendNode("energy_hat", "switch", ["moving", "swim"], threshold=0.5,
-                          hysteresis=0.4),
-        "moving": BlendNode("flow_hat", "linear", ["trot", "walk"]),
-    }, {"swim": SWIM, "trot": TROT, "walk": walk})
-    system = PotentialTransition(follow="direct", tree=tree,
-                                 time_constants={"flow_hat": 0.5})
-    assert [system.get_input_port(i).get_name() for i in range(system.num_input_ports())] == \
-        ["energy_hat", "flow_hat"]  # in the order the tree reads them
+    tree = compile_tree(
+        {
+            "root": BlendNode(
+                "energy_hat", "switch", ["moving", "swim"], threshold=0.5, hysteresis=0.4
+            ),
+            "moving": BlendNode("flow_hat", "linear", ["trot", "walk"]),
+        },
+        {"swim": SWIM, "trot": TROT, "walk": walk},
+    )
+    system = PotentialTransition(follow="direct", tree=tree, time_constants={"flow_hat": 0.5})
+    assert [system.get_input_port(i).get_name() for i in range(system.num_input_ports())] == [
+        "energy_hat",
+        "flow_hat",
+    ]  # in the order the tree reads them
     assert system.tree is tree and set(system.filter_state_indices) == {"flow_hat"}
     context = system.CreateDefaultContext()
     assert tree.leaves == ("trot", "walk", "swim")  # depth first
@@ -297,10 +325,12 @@ def test_a_tree_of_other_modalities_sets_the_ports_filters_and_switch_memory():
     assert held == [0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0]
     # flow_hat passed the 0.5 s low-pass for 7 updates; the target is linear in it
     f = 1.0 - np.exp(-7 * 0.02 / 0.5)
-    np.testing.assert_allclose(system.GetOutputPort("cpg_params").Eval(context),
-                               (walk - TROT) * f + TROT, atol=1e-12)
-    np.testing.assert_allclose(system.GetOutputPort("behaviour_weights").Eval(context),
-                               [1 - f, f, 0.0], atol=1e-12)
+    np.testing.assert_allclose(
+        system.GetOutputPort("cpg_params").Eval(context), (walk - TROT) * f + TROT, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        system.GetOutputPort("behaviour_weights").Eval(context), [1 - f, f, 0.0], atol=1e-12
+    )
     np.testing.assert_array_equal(system.target(flow_hat=0.0, energy_hat=1.0), SWIM)
 
 
@@ -313,6 +343,9 @@ def test_tree_arguments_are_checked():
         PotentialTransition(time_constants={"z_hat": -1.0})
     with pytest.raises(ValueError, match="PotentialTransition.behaviours: expected 3"):
         PotentialTransition(behaviours=("swim", "trot"))
-    with pytest.raises(ValueError, match="PotentialTransition.blend: 'cubic' is not one of "
-                                         "potential, normalised, linear, switch"):
+    with pytest.raises(
+        ValueError,
+        match="PotentialTransition.blend: 'cubic' is not one of "
+        "potential, normalised, linear, switch",
+    ):
         PotentialTransition(blend="cubic")

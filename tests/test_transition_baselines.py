@@ -119,8 +119,16 @@ def test_the_switch_target_series_jumps_at_half_depth(tb):
 
 
 def test_markdown_table_formats_missing_values(tb):
-    rows = [{"method": "m", "transition": "swim->trot", "event_s": 1.0, "window_s": [1.0, 13.0],
-             "settle_params_s": None, "max_cmd_step_rad": float("nan")}]
+    rows = [
+        {
+            "method": "m",
+            "transition": "swim->trot",
+            "event_s": 1.0,
+            "window_s": [1.0, 13.0],
+            "settle_params_s": None,
+            "max_cmd_step_rad": float("nan"),
+        }
+    ]
     table = tb.markdown_table(rows)
     assert "> 12" in table and "n/a" in table and table.count("\n") == 2
 
@@ -169,12 +177,12 @@ def test_the_normalised_blend_commands_nothing_outside_the_gaits_range(tb, z_t):
         for z in z_grid:
             for s in s_grid:
                 psi_d = target_params(z, s, *gaits, z_t, blend)
-                assert np.allclose(psi_d, _eq12(z, s, *gaits, z_t, blend == "normalised"),
-                                   rtol=0.0, atol=1e-12)
+                assert np.allclose(
+                    psi_d, _eq12(z, s, *gaits, z_t, blend == "normalised"), rtol=0.0, atol=1e-12
+                )
                 params = max(params, _outside(psi_d, lo, hi))
                 r, x = np.abs(psi_d[:n]), psi_d[n : 2 * n]
-                joints = max(joints, _outside(x - r, j_lo, np.inf),
-                             _outside(x + r, -np.inf, j_hi))
+                joints = max(joints, _outside(x - r, j_lo, np.inf), _outside(x + r, -np.inf, j_hi))
         worst[blend] = (params, joints)
     # Convex: inside up to round-off, every entry and the joints' envelope.
     assert worst["normalised"][0] <= 1e-12 and worst["normalised"][1] <= 1e-12
@@ -198,26 +206,42 @@ def test_the_normalised_blend_sits_between_swim_and_the_gait(tb):
     from manta_drake.control.transition import target_params
 
     swim, trot, turning = _three_gaits()
-    assert np.allclose(target_params(0.5, 0.0, swim, trot, turning, 1.0, "normalised"),
-                       0.5 * (swim + trot))
+    assert np.allclose(
+        target_params(0.5, 0.0, swim, trot, turning, 1.0, "normalised"), 0.5 * (swim + trot)
+    )
     a, b = np.sin(np.pi / 3), np.cos(np.pi / 3)
-    assert np.allclose(target_params(1 / 3, 0.0, swim, trot, turning, 1.0, "normalised"),
-                       (a * swim + b * trot) / (a + b))
+    assert np.allclose(
+        target_params(1 / 3, 0.0, swim, trot, turning, 1.0, "normalised"),
+        (a * swim + b * trot) / (a + b),
+    )
 
 
 def test_the_normalised_comparison_names_its_costs_and_gains(tb):
     def row(method, transition, **values):
-        base = {"method": method, "transition": transition, "event_s": 10.0,
-                "window_s": [8.0, 22.0], "outside_gaits_deg": 0.0, "outside_steady_deg": 0.0,
-                "arrival_s": 3.0, "settle_params_s": 5.0, "settle_joints_s": 4.0,
-                "max_cmd_rate_rad_s": 3.0, "max_meas_vel_rad_s": 3.0, "peak_torque_nm": 4.0,
-                "pitch_exc_deg": 20.0, "roll_exc_deg": 15.0}
+        base = {
+            "method": method,
+            "transition": transition,
+            "event_s": 10.0,
+            "window_s": [8.0, 22.0],
+            "outside_gaits_deg": 0.0,
+            "outside_steady_deg": 0.0,
+            "arrival_s": 3.0,
+            "settle_params_s": 5.0,
+            "settle_joints_s": 4.0,
+            "max_cmd_rate_rad_s": 3.0,
+            "max_meas_vel_rad_s": 3.0,
+            "peak_torque_nm": 4.0,
+            "pitch_exc_deg": 20.0,
+            "roll_exc_deg": 15.0,
+        }
         return {**base, **values}
 
-    rows = [row("potential/descent", "swim->trot", outside_gaits_deg=14.6),
-            row("normalised/descent", "swim->trot", arrival_s=3.5, peak_torque_nm=3.0),
-            row("potential/descent", "trot->swim", outside_gaits_deg=8.7),
-            row("normalised/descent", "trot->swim", settle_joints_s=None)]
+    rows = [
+        row("potential/descent", "swim->trot", outside_gaits_deg=14.6),
+        row("normalised/descent", "swim->trot", arrival_s=3.5, peak_torque_nm=3.0),
+        row("potential/descent", "trot->swim", outside_gaits_deg=8.7),
+        row("normalised/descent", "trot->swim", settle_joints_s=None),
+    ]
     text = "\n".join(tb.normalised_section(rows, 1.0))
     costs = next(line for line in text.splitlines() if line.startswith("* What it costs"))
     gains = next(line for line in text.splitlines() if line.startswith("* What it gains"))

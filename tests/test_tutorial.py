@@ -35,8 +35,9 @@ def executed(tmp_path_factory):
     work = tmp_path_factory.mktemp("tutorial")
     nb = nbformat.read(NOTEBOOK, as_version=4)
     start = time.monotonic()
-    NotebookClient(nb, timeout=600, kernel_name="python3",
-                   resources={"metadata": {"path": str(work)}}).execute()
+    NotebookClient(
+        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(work)}}
+    ).execute()
     print(f"tutorial executed in {time.monotonic() - start:.1f} s")
     return nb, work / "out" / "tutorial"
 
@@ -48,8 +49,11 @@ def _metrics(folder: pathlib.Path) -> dict:
 def _assert_whole_cycles(window, frequency_hz: float, at_least: int) -> None:
     """The steady window spans a whole number (at least ``at_least``) of CPG cycles."""
     cycles = (window[1] - window[0]) * frequency_hz
-    assert cycles >= at_least and cycles == pytest.approx(round(cycles), abs=1e-9), \
-        (window, frequency_hz, cycles)
+    assert cycles >= at_least and cycles == pytest.approx(round(cycles), abs=1e-9), (
+        window,
+        frequency_hz,
+        cycles,
+    )
 
 
 def _scenario(folder: pathlib.Path) -> dict:
@@ -110,8 +114,10 @@ def test_the_sweep_table(executed):
     grid = {(float(row[freq]), float(row[damping])) for row in rows}
     assert grid == {(0.4, 0.8), (0.4, 1.2), (0.6, 0.8), (0.6, 1.2)}
     # The swim turns (more so at 0.6 Hz), so its speed is the path's, not the displacement's.
-    speed = {(float(row[freq]), float(row[damping])):
-             _path_speed(out / "sweep" / "runs" / row["run_id"]) for row in rows}
+    speed = {
+        (float(row[freq]), float(row[damping])): _path_speed(out / "sweep" / "runs" / row["run_id"])
+        for row in rows
+    }
     for d in (0.8, 1.2):
         assert speed[0.6, d] > speed[0.4, d]  # faster fins, faster swim
     for f in (0.4, 0.6):
@@ -119,8 +125,9 @@ def test_the_sweep_table(executed):
     for row in rows:  # each run's resolved scenario holds its own parameters
         resolved = _scenario(out / "sweep" / "runs" / row["run_id"])
         assert resolved["cpg"]["frequency_hz"] == float(row[freq])
-        assert resolved["water"]["coefficient_scales"] == {"links.quadratic_damping":
-                                                           float(row[damping])}
+        assert resolved["water"]["coefficient_scales"] == {
+            "links.quadratic_damping": float(row[damping])
+        }
         assert resolved["duration"] == 7.0
         window = (float(row["steady_start_s"]), float(row["steady_end_s"]))
         _assert_whole_cycles(window, float(row[freq]), at_least=2)
@@ -129,9 +136,19 @@ def test_the_sweep_table(executed):
 @pytest.mark.slow
 def test_the_figures_are_shown(executed):
     nb, _ = executed
-    images = [output for cell in nb.cells if cell.cell_type == "code"
-              for output in cell.outputs if "image/png" in output.get("data", {})]
+    images = [
+        output
+        for cell in nb.cells
+        if cell.cell_type == "code"
+        for output in cell.outputs
+        if "image/png" in output.get("data", {})
+    ]
     assert len(images) == 3
-    errors = [output for cell in nb.cells if cell.cell_type == "code"
-              for output in cell.outputs if output.output_type == "error"]
+    errors = [
+        output
+        for cell in nb.cells
+        if cell.cell_type == "code"
+        for output in cell.outputs
+        if output.output_type == "error"
+    ]
     assert not errors

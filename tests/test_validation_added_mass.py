@@ -24,11 +24,14 @@ def _closed_volume(quads) -> float:
     """Enclosed volume by the divergence theorem over the quads split into two triangles
     (positive for outward normals)."""
     a, b, c, d = (quads[:, k] for k in range(4))
-    return float((np.einsum("ij,ij->i", a, np.cross(b, c))
-                  + np.einsum("ij,ij->i", a, np.cross(c, d))).sum() / 6.0)
+    return float(
+        (np.einsum("ij,ij->i", a, np.cross(b, c)) + np.einsum("ij,ij->i", a, np.cross(c, d))).sum()
+        / 6.0
+    )
 
 
 # --- geometry (no capytaine) ------------------------------------------------------------------
+
 
 def test_link_poses_are_the_plants(robot_plant, rng):
     """The plates are posed where MultibodyPlant puts links 3 and 4 (the SDFormat model)."""
@@ -43,10 +46,14 @@ def test_link_poses_are_the_plants(robot_plant, rng):
         for joint, qi in zip(joints, q):
             joint.set_angle(context, qi)
         for k, leg in enumerate(LEGS):
-            ours = am.link_poses(leg, q[4 * k:4 * k + 4])
+            ours = am.link_poses(leg, q[4 * k : 4 * k + 4])
             for i in (1, 2, 3, 4):
-                X = plant.GetBodyByName(f"{leg}_link{i}", h.robot).body_frame().CalcPose(
-                    context, body_frame).GetAsMatrix4()
+                X = (
+                    plant.GetBodyByName(f"{leg}_link{i}", h.robot)
+                    .body_frame()
+                    .CalcPose(context, body_frame)
+                    .GetAsMatrix4()
+                )
                 worst = max(worst, np.abs(X - ours[i - 1]).max())
     assert worst < 1e-9
 
@@ -93,9 +100,10 @@ def test_dnv_table_and_strip_values():
     assert am.dnv_rectangular_plate_ca(1.25) == pytest.approx(0.642)
     assert am.dnv_rectangular_plate_ca(0.20 / 0.14) == pytest.approx(0.676, abs=5e-4)
     ca, mass = am.dnv_plate_heave(0.14, 0.20, RHO)
-    assert mass == pytest.approx(ca * RHO * math.pi / 4 * 0.14 ** 2 * 0.20)
-    assert am.strip_plate_heave(0.14, 0.20, RHO) == pytest.approx(RHO * math.pi * 0.14 ** 2 / 4
-                                                                  * 0.20)
+    assert mass == pytest.approx(ca * RHO * math.pi / 4 * 0.14**2 * 0.20)
+    assert am.strip_plate_heave(0.14, 0.20, RHO) == pytest.approx(
+        RHO * math.pi * 0.14**2 / 4 * 0.20
+    )
     with pytest.raises(ValueError):
         am.dnv_rectangular_plate_ca(12.0)
 
@@ -114,11 +122,22 @@ def test_matrix_about_moves_the_reference_point():
 
 # --- the committed results -------------------------------------------------------------------
 
+
 def test_committed_results_have_provenance_and_consistent_numbers():
     data = _load()
     p = data["provenance"]
-    for key in ("generator", "command", "capytaine", "method", "fluid", "rho", "frame", "date",
-                "commit", "seam_depth"):
+    for key in (
+        "generator",
+        "command",
+        "capytaine",
+        "method",
+        "fluid",
+        "rho",
+        "frame",
+        "date",
+        "commit",
+        "seam_depth",
+    ):
         assert p.get(key) not in (None, ""), key
     assert isinstance(p["uncommitted"], list)
     assert p["method"] == "direct" and p["capytaine"].startswith("3.0")
@@ -162,11 +181,13 @@ def test_the_page_renders_from_the_committed_results():
     assert data["provenance"]["command"] in block and data["provenance"]["commit"] in block
     page = am.PAGE_PATH
     if page.is_file():
-        assert block in page.read_text(), "docs/validation.md is stale: run the study with " \
-                                          "--from-yaml"
+        assert block in page.read_text(), (
+            "docs/validation.md is stale: run the study with --from-yaml"
+        )
 
 
 # --- capytaine --------------------------------------------------------------------------------
+
 
 def test_hull_against_lamb():
     pytest.importorskip("capytaine", reason="capytaine is not installed (the validation extra)")
@@ -188,8 +209,9 @@ def test_committed_whole_robot_is_reproduced_at_the_coarsest_mesh():
     pose = data["robot"]["poses"]["flat"]
     level = pose["meshes"][0]
     parts = am.robot_parts(am.POSES["flat"][1])
-    quads, owner, _ = am.union_panels(parts, level["h"], level["hull_n"],
-                                      data["provenance"]["seam_depth"])
+    quads, owner, _ = am.union_panels(
+        parts, level["h"], level["hull_n"], data["provenance"]["seam_depth"]
+    )
     r = am.solve_added_mass(quads, data["provenance"]["rho"], owner=owner, verbose=False)
     assert r["panels"] == level["panels"]
     np.testing.assert_allclose(np.diag(r["matrix"]), np.diag(level["matrix"]), rtol=0.03)
@@ -206,8 +228,17 @@ def test_the_command_renders_its_block_beside_other_sections(tmp_path):
     page = tmp_path / "validation.md"
     other_begin, other_end = section_markers("other")
     page.write_text(f"# Validation\n\n{other_begin}\nthe other section\n{other_end}\n")
-    argv = ["--section", "added-mass", "--out", str(tmp_path / "out"), "--from-yaml",
-            "--yaml", str(am.YAML_PATH), "--page", str(page)]
+    argv = [
+        "--section",
+        "added-mass",
+        "--out",
+        str(tmp_path / "out"),
+        "--from-yaml",
+        "--yaml",
+        str(am.YAML_PATH),
+        "--page",
+        str(page),
+    ]
     assert main(argv) == 0
     assert json.loads((tmp_path / "out" / "added_mass.json").read_text()) == data
     text = page.read_text()
@@ -224,8 +255,10 @@ def test_the_yaml_fin_hull_interaction_is_the_bem_difference():
     from manta_drake.model.coefficients import load_coefficients
 
     poses = _load()["robot"]["poses"]
-    interaction = {name: pose["whole_at_parts_level"][2][2]
-                   - pose["parts"]["sum_hull_fins"][2][2] for name, pose in poses.items()}
+    interaction = {
+        name: pose["whole_at_parts_level"][2][2] - pose["parts"]["sum_hull_fins"][2][2]
+        for name, pose in poses.items()
+    }
     value = load_coefficients().fins.hull_interaction_added_mass.value
     assert value == pytest.approx(interaction["flat"], rel=1e-3)
     assert interaction["stroke_feathered"] < interaction["stroke"] < value

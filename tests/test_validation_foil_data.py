@@ -40,8 +40,11 @@ def test_reference_records_its_source_and_conditions(ref):
     src = data["source"]
     for key in FD.PROVENANCE_FIELDS:
         assert str(src.get(key, "")).strip(), key
-    assert re.fullmatch(r"https://github\.com/wagenhoffer/Puffer/blob/[0-9a-f]{40}/"
-                        r"test/pan_comparisons\.jl", src["url"])
+    assert re.fullmatch(
+        r"https://github\.com/wagenhoffer/Puffer/blob/[0-9a-f]{40}/"
+        r"test/pan_comparisons\.jl",
+        src["url"],
+    )
     assert src["url"].split("/")[6] in src["commit"]
     assert "10.1017/jfm.2012.119" in src["digitized_from"]
     cond = data["conditions"]
@@ -59,8 +62,9 @@ def test_committed_model_uses_the_shipped_parameters_and_bands(ref):
     """The committed `model` is the one of the shipped hydrodynamics.yaml; the sensitivity bands
     are the ones its sources state."""
     shipped = FD.shipped_parameters()
-    assert ref["model"]["bases"]["shipped"]["parameters"] == pytest.approx(shipped, rel=1e-9), \
+    assert ref["model"]["bases"]["shipped"]["parameters"] == pytest.approx(shipped, rel=1e-9), (
         "hydrodynamics.yaml's fins changed: regenerate with " + FD.COMMAND
+    )
     from manta_drake.model.coefficients import load_coefficients
 
     fins = load_coefficients().fins
@@ -93,8 +97,9 @@ def test_experiment_base_is_helmbold_at_the_data_foil_and_accepted(ref):
     exp = model["bases"][FD.ACCEPTED_BASE]
     assert model["aspect_ratio"] == pytest.approx(ar)
     assert exp["parameters"]["lift_slope"] == pytest.approx(a, rel=1e-9)
-    assert FD.base_parameters("experiment", aspect_ratio=ar)["lift_slope"] == \
-        pytest.approx(a, rel=1e-12)
+    assert FD.base_parameters("experiment", aspect_ratio=ar)["lift_slope"] == pytest.approx(
+        a, rel=1e-12
+    )
     ratios = [r["ratio"] for r in exp["points"]]
     assert all(abs(x - 1.0) <= FD.ACCEPT for x in ratios), ratios
     worst = max(ratios, key=lambda x: abs(x - 1.0))
@@ -114,8 +119,9 @@ def test_kinematics_hit_the_data_s_alpha_max(ref):
     for pt in FD.data_points(ref["data"]):
         th = FD.pitch_amplitude(pt["strouhal"], math.radians(pt["alpha_max_deg"]))
         assert 0.0 < th < math.atan(math.pi * pt["strouhal"])
-        assert math.degrees(FD.alpha_max_of(pt["strouhal"], th, math.pi / 2)) == \
-            pytest.approx(pt["alpha_max_deg"], abs=1e-6)
+        assert math.degrees(FD.alpha_max_of(pt["strouhal"], th, math.pi / 2)) == pytest.approx(
+            pt["alpha_max_deg"], abs=1e-6
+        )
 
 
 def test_thrust_grows_with_strouhal_at_fixed_h0c(ref, shipped_runs):

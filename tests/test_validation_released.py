@@ -36,12 +36,12 @@ def test_released_heave_mass_is_the_robot_with_its_water(tmp_path):
     hull = coeffs.body.added_mass.value[2]
     bodies = len(LEGS) * sum(
         plate_added_mass(p.chord, p.span, coeffs.water_density.value, k)[0]
-        for p, k in zip(fin_plates(DEFAULT_ROBOT), coeffs.fins.added_mass_factor.value))
+        for p, k in zip(fin_plates(DEFAULT_ROBOT), coeffs.fins.added_mass_factor.value)
+    )
     cross = R.measure("heave", "cross_flow", tmp_path / "cross")
     foil = R.measure("heave", "foil", tmp_path / "foil")
     assert cross["rigid"] == pytest.approx(DEFAULT_ROBOT.total_mass)
     assert cross["force"] == pytest.approx(foil["force"]) and cross["force"] < 0  # it sinks
     assert cross["effective"] == pytest.approx(cross["rigid"] + hull, rel=0.03)
     interaction = coeffs.fins.hull_interaction_added_mass.value
-    assert foil["effective"] - cross["effective"] == pytest.approx(bodies + interaction,
-                                                                   rel=0.06)
+    assert foil["effective"] - cross["effective"] == pytest.approx(bodies + interaction, rel=0.06)

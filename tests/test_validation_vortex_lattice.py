@@ -58,8 +58,9 @@ def test_uvlm_thrust_is_converged_and_periodic_in_pure_roll(committed):
     """The reference is converged: the last two nc within 2 %, every nc periodic by cycle 3."""
     a = committed["a_pure_roll"]
     assert abs(a["converged"]["change_last"]) < 0.02
-    assert all(r["cycles_to_periodic"] is not None and r["cycles_to_periodic"] <= 3
-               for r in a["uvlm"])
+    assert all(
+        r["cycles_to_periodic"] is not None and r["cycles_to_periodic"] <= 3 for r in a["uvlm"]
+    )
     for c in a["checks"]:  # the time step and the spanwise panels
         assert abs(c["change"]) < 0.05
 
@@ -89,7 +90,8 @@ def test_garrick_strip_sum_is_the_closed_form_for_one_strip():
     c = np.where(r < p.d3, p.proximal_chord, p.distal_chord)
     tp = foil.garrick_plunge_thrust(V.RHO, c / 2, omega, r * th, 0.4)
     assert V.garrick_strip_thrust(roll, 0.4, n_strips=400) == pytest.approx(
-        np.trapezoid(tp, r), rel=2e-3)
+        np.trapezoid(tp, r), rel=2e-3
+    )
 
 
 def test_strip_motion_is_the_dh_chain_differentiated():
@@ -108,8 +110,9 @@ def test_strip_motion_is_the_dh_chain_differentiated():
     # difference of two strips is omega x their separation.
     prox = m["layout"]["plate"] == 0
     d = m["p"][:, 1] - m["p"][:, 0]
-    np.testing.assert_allclose(m["v_mid"][:, 1] - m["v_mid"][:, 0],
-                               np.cross(m["omega"][:, 0], d), atol=1e-8)
+    np.testing.assert_allclose(
+        m["v_mid"][:, 1] - m["v_mid"][:, 0], np.cross(m["omega"][:, 0], d), atol=1e-8
+    )
     assert prox[0] and prox[1]
 
 
@@ -124,8 +127,10 @@ def test_gait_uvlm_is_an_upper_bound_of_the_stalled_strip_model(committed):
         assert strip < case["converged"]["thrust"]
 
 
-PTERA_REASON = ("pterasoftware is the optional extra vortex-lattice (pip install "
-                "'manta_drake[vortex-lattice]', about 1.1 GB)")
+PTERA_REASON = (
+    "pterasoftware is the optional extra vortex-lattice (pip install "
+    "'manta_drake[vortex-lattice]', about 1.1 GB)"
+)
 
 
 @pytest.mark.slow

@@ -34,10 +34,12 @@ def plane(origin, u, v, nu, nv, rng, noise=0.004):
 
 
 def corner_scene(rng):
-    floor = plane(np.array([0.0, -0.5, -0.5]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
-                  40, 40, rng)
-    wall = plane(np.array([1.0, -0.5, -0.5]), np.array([0, 0, 0.5]), np.array([0, 1.0, 0]),
-                 25, 40, rng)
+    floor = plane(
+        np.array([0.0, -0.5, -0.5]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 40, 40, rng
+    )
+    wall = plane(
+        np.array([1.0, -0.5, -0.5]), np.array([0, 0, 0.5]), np.array([0, 1.0, 0]), 25, 40, rng
+    )
     return floor, wall
 
 
@@ -66,8 +68,9 @@ def test_wall_meeting_floor_is_two_clusters_but_plain_dbscan_merges(rng):
 
 def test_floor_wall_ceiling_and_small_object_labels(rng):
     floor, wall = corner_scene(rng)
-    ceiling = plane(np.array([0.0, -0.5, 0.0]), np.array([0.8, 0, 0]), np.array([0, 1.0, 0]),
-                    30, 35, rng)
+    ceiling = plane(
+        np.array([0.0, -0.5, 0.0]), np.array([0.8, 0, 0]), np.array([0, 1.0, 0]), 30, 35, rng
+    )
     ball = np.array([0.5, 0.0, -0.35]) + 0.05 * rng.normal(size=(300, 3)) / np.sqrt(3)
     outliers = rng.uniform(-1, 1, (15, 3))
     nans = np.full((50, 3), np.nan)
@@ -80,8 +83,9 @@ def test_floor_wall_ceiling_and_small_object_labels(rng):
     assert ceiling_cluster.centroid[2] == pytest.approx(0.0, abs=0.02)
 
 
-@pytest.mark.parametrize("cloud", [np.zeros((0, 3)), np.full((500, 3), np.nan),
-                                   np.array([[0.0, 0.0, 0.0]])])
+@pytest.mark.parametrize(
+    "cloud", [np.zeros((0, 3)), np.full((500, 3), np.nan), np.array([[0.0, 0.0, 0.0]])]
+)
 def test_empty_or_nan_cloud_gives_zero_without_error(cloud):
     det = detect(cloud, P, CAMERA)
     assert det.s_hat == 0.0 and det.wall_size == 0
@@ -169,14 +173,17 @@ def test_expected_frame_failures():
 def _rendered_s_hat(x_body: float, tmp_path, depth_noise_std: float = 0.005) -> float:
     from manta_drake.simulate import run
 
-    s = Scenario(name="camera", duration=0.45, initial_stance="trot",
-                 controller=ControllerConfig(mode="hold", gait="trot"),
-                 initial_pose=InitialPose(xyz=[x_body, 0.0, -0.237]),
-                 visualization=VisualizationConfig(meshcat=False))
+    s = Scenario(
+        name="camera",
+        duration=0.45,
+        initial_stance="trot",
+        controller=ControllerConfig(mode="hold", gait="trot"),
+        initial_pose=InitialPose(xyz=[x_body, 0.0, -0.237]),
+        visualization=VisualizationConfig(meshcat=False),
+    )
     s.camera.enabled = True
     s.camera.depth_noise_std = depth_noise_std
-    result = run(s.validate(), tmp_path, progress=False,
-                 write_outputs=False)
+    result = run(s.validate(), tmp_path, progress=False, write_outputs=False)
     status = dict(zip(STATUS_FIELDS, result.log["detector_status"][-1]))
     assert status["frames"] == 2 and status["failed_frames"] == 0  # logged before t = 0.4's frame
     return float(result.log["s_hat"][-1, 0])
@@ -217,7 +224,7 @@ def test_range_along_each_ray_against_the_pinhole_closed_form():
     depth[0, 0], depth[1, 1] = np.nan, np.inf  # dropouts and no-returns stay as they are
     out = beyond_ray_range(depth, k, R)
     u, v = np.meshgrid((np.arange(w) - cx) / f, (np.arange(h) - cy) / f)
-    inside = u ** 2 + v ** 2 <= (R / z) ** 2 - 1
+    inside = u**2 + v**2 <= (R / z) ** 2 - 1
     kept = np.isfinite(out)
     kept[0, 0] = True  # the NaN pixel
     np.testing.assert_array_equal(kept[2:], inside[2:])
@@ -235,9 +242,10 @@ def test_median_filter_equals_scipy_and_handles_missing_pixels(rng):
     d[:, :3] = np.inf  # out of range
     expected = median_filter(np.where(np.isfinite(d), d, np.inf), size=5, mode="nearest")
     np.testing.assert_array_equal(median_filter_depth(d, 5), expected)
-    np.testing.assert_array_equal(median_filter_depth(d[:, :, None], 3)[:, :, 0],
-                                  median_filter(np.where(np.isfinite(d), d, np.inf), size=3,
-                                                mode="nearest"))
+    np.testing.assert_array_equal(
+        median_filter_depth(d[:, :, None], 3)[:, :, 0],
+        median_filter(np.where(np.isfinite(d), d, np.inf), size=3, mode="nearest"),
+    )
     assert np.isfinite(median_filter_depth(d, 5)[:, 5:]).all()  # lone dropouts filled
     assert np.isinf(median_filter_depth(d, 5)[:, 0]).all()  # no-return region stays
 
@@ -254,6 +262,7 @@ def test_median_filter_equals_scipy_and_handles_missing_pixels(rng):
 # whole wall's z-depth is its distance and it is clipped away. The station's sensor model
 # (DepthImageNoise) now cuts on the range along each ray; these tests pin both halves.
 
+
 def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | None = None):
     """The robot standing in the trot stance on the pool floor, its camera ``camera_to_wall``
     m from the end wall (x = 7.5 m), body yawed by each of ``yaws_deg``: the detector's
@@ -263,9 +272,13 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     from manta_drake.model.robot_params import RobotParams
     from manta_drake.wiring.diagram import build_diagram
 
-    s = Scenario(name="camera", duration=0.45, initial_stance="trot",
-                 controller=ControllerConfig(mode="hold", gait="trot"),
-                 visualization=VisualizationConfig(meshcat=False))
+    s = Scenario(
+        name="camera",
+        duration=0.45,
+        initial_stance="trot",
+        controller=ControllerConfig(mode="hold", gait="trot"),
+        visualization=VisualizationConfig(meshcat=False),
+    )
     s.camera.enabled = True
     if max_range is not None:
         s.camera.max_range = max_range
@@ -278,8 +291,12 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     out = []
     for yaw in yaws_deg:
         x = 7.5 - camera_to_wall - camera_x * np.cos(np.radians(yaw))
-        set_initial_state(h.plant_handles, plant_context,
-                          body_pose([x, 0.0, -0.25], [0.0, 0.0, yaw]), s.initial_joint_angles())
+        set_initial_state(
+            h.plant_handles,
+            plant_context,
+            body_pose([x, 0.0, -0.25], [0.0, 0.0, yaw]),
+            s.initial_joint_angles(),
+        )
         X_WC = to_cloud.camera_pose_input_port().Eval(cloud_context)
         xyz = to_cloud.point_cloud_output_port().Eval(cloud_context).xyzs()
         det = detect(xyz, s.wall_detector, X_WC.translation(), 0.0, X_WC.rotation().matrix()[:, 2])

@@ -75,7 +75,7 @@ def split_label(label: str) -> tuple[str, str]:
     """A port label as (name, note): ``"noise (optional)"`` -> ``("noise", "(optional)")``."""
     if label.endswith(")") and " (" in label:
         i = label.index(" (")
-        return label[:i].rstrip(), label[i + 1:]
+        return label[:i].rstrip(), label[i + 1 :]
     return label, ""
 
 
@@ -103,19 +103,26 @@ def _label_svg(label: str, x: float, y: float, anchor: str, side: str) -> str:
     esc = html.escape
     parts = [f'<tspan class="pydrake-port-name">{esc(name)}</tspan>']
     if note:
-        parts.append(f'<tspan class="pydrake-port-note" font-size="{NOTE_FONT:g}" '
-                     f'fill="#666"> {esc(note)}</tspan>')
-    return (f'<text class="pydrake-port pydrake-{side}" data-port="{esc(name, quote=True)}" '
-            f'x="{x:.1f}" y="{y:.1f}" text-anchor="{anchor}" dominant-baseline="middle">'
-            + "".join(parts) + "</text>")
+        parts.append(
+            f'<tspan class="pydrake-port-note" font-size="{NOTE_FONT:g}" '
+            f'fill="#666"> {esc(note)}</tspan>'
+        )
+    return (
+        f'<text class="pydrake-port pydrake-{side}" data-port="{esc(name, quote=True)}" '
+        f'x="{x:.1f}" y="{y:.1f}" text-anchor="{anchor}" dominant-baseline="middle">'
+        + "".join(parts)
+        + "</text>"
+    )
 
 
 def _arrow_svg(x0: float, x1: float, y: float) -> str:
     """A horizontal arrow from x0 to x1 (x1 > x0) with its head at x1."""
-    return (f'<line x1="{x0:.1f}" y1="{y:.1f}" x2="{x1 - 7:.1f}" y2="{y:.1f}" '
-            f'stroke="#333" stroke-width="1.5"/>'
-            f'<polygon points="{x1:.1f},{y:.1f} {x1 - 8:.1f},{y - 4:.1f} '
-            f'{x1 - 8:.1f},{y + 4:.1f}" fill="#333"/>')
+    return (
+        f'<line x1="{x0:.1f}" y1="{y:.1f}" x2="{x1 - 7:.1f}" y2="{y:.1f}" '
+        f'stroke="#333" stroke-width="1.5"/>'
+        f'<polygon points="{x1:.1f},{y:.1f} {x1 - 8:.1f},{y - 4:.1f} '
+        f'{x1 - 8:.1f},{y + 4:.1f}" fill="#333"/>'
+    )
 
 
 def _rows_y(count: int, top: float, height: float) -> list[float]:
@@ -151,8 +158,7 @@ def render_svg(name: str, inputs: list[str], outputs: list[str]) -> str:
         x = box_x + box_w
         body.append(_arrow_svg(x, x + ARROW, y))
         body.append(_label_svg(label, x + ARROW + GAP, y, "start", "output"))
-    title = (f"{name}: inputs {', '.join(inputs) or 'none'}; "
-             f"outputs {', '.join(outputs) or 'none'}")
+    title = f"{name}: inputs {', '.join(inputs) or 'none'}; outputs {', '.join(outputs) or 'none'}"
     return (
         f'<div class="pydrake-system" data-system="{esc(name, quote=True)}" '
         f'style="margin: 1em 0; overflow-x: auto">'
@@ -160,20 +166,21 @@ def render_svg(name: str, inputs: list[str], outputs: list[str]) -> str:
         f'style="max-width: 100%; height: auto" '
         f'height="{height:.0f}" viewBox="0 0 {width:.1f} {height:.1f}" '
         f'font-family="DejaVu Sans Mono, Menlo, Consolas, monospace" font-size="{FONT:g}">'
-        f'<title>{esc(title)}</title>' + "".join(body) + "</svg></div>"
+        f"<title>{esc(title)}</title>" + "".join(body) + "</svg></div>"
     )
 
 
 # --- the text picture ---------------------------------------------------------------------
 
+
 def render_text(name: str, inputs: list[str], outputs: list[str]) -> str:
     """The block diagram as ASCII art, e.g.::
 
-                +---------------------+
-        depth ->|                     |-> h_hat
-                | FuzzyDepthEstimator |
-                |                     |-> z_hat
-                +---------------------+
+            +---------------------+
+    depth ->|                     |-> h_hat
+            | FuzzyDepthEstimator |
+            |                     |-> z_hat
+            +---------------------+
     """
     # One port every other row, so the name's row sits between ports when it can.
     rows = max(2 * max(len(inputs), len(outputs), 1) - 1, 1)
@@ -200,6 +207,7 @@ def render_text(name: str, inputs: list[str], outputs: list[str]) -> str:
 
 
 # --- Sphinx -------------------------------------------------------------------------------
+
 
 class PydrakeSystemDirective(SphinxDirective):
     """``.. pydrake_system::`` with the YAML block as its content."""

@@ -22,13 +22,14 @@ NOT_CALIBRATED = 1
 def add_calibrate_parser(subparsers) -> None:
     """Adds ``manta-drake calibrate``."""
     p = subparsers.add_parser(
-        "calibrate", help="fit hydrodynamic coefficients to measured runs on Dask "
-                          "(Sim2Real; docs/sweeps.md)",
+        "calibrate",
+        help="fit hydrodynamic coefficients to measured runs on Dask (Sim2Real; docs/sweeps.md)",
         description="Fits the calibration file's parameters (factors on hydrodynamic "
-                    "coefficients) so simulated runs match the measured ones; writes "
-                    "DIR/coefficients.yaml, DIR/calibration.png and DIR/calibration.json. "
-                    "Exit status 1 when the fitted point's simulations did not all run to "
-                    "their end (no coefficients), 2 when the input is refused.")
+        "coefficients) so simulated runs match the measured ones; writes "
+        "DIR/coefficients.yaml, DIR/calibration.png and DIR/calibration.json. "
+        "Exit status 1 when the fitted point's simulations did not all run to "
+        "their end (no coefficients), 2 when the input is refused.",
+    )
     p.add_argument("calibration", help="calibration YAML file (docs/sweeps.md)")
     p.add_argument("--out", required=True, help="output folder")
     add_cluster_arguments(p)
@@ -48,8 +49,10 @@ def calibrate_main(args) -> int:
     print(f"\n  {config.name}: {result.message}")
     for name, x0, x, se in zip(result.names, result.x0, result.x, result.standard_error):
         print(f"  {name:<28} {x0:.4g} -> {x:.4g} (+- {se:.2g})")
-    print(f"  cost {result.initial_cost:.4g} -> {result.cost:.4g}; {result.evaluations} points, "
-          f"{result.simulations} simulations, {result.wall_time_s:.1f} s")
+    print(
+        f"  cost {result.initial_cost:.4g} -> {result.cost:.4g}; {result.evaluations} points, "
+        f"{result.simulations} simulations, {result.wall_time_s:.1f} s"
+    )
     print(f"  coefficients: {result.coefficients_file or 'none written'}")
     print(f"  figure:       {result.figure}")
     print(f"  history:      {result.history_file}")

@@ -33,14 +33,16 @@ class Evaluator:
         self.cache: dict[tuple, dict] = {}
         self.history: list[dict] = []
         self.simulations = 0
-        self.measured = {e.name: experiment_measured(config, e)
-                         for e in config.experiments if e.measured}
+        self.measured = {
+            e.name: experiment_measured(config, e) for e in config.experiments if e.measured
+        }
         self._bar = None
         if progress:
             from tqdm import tqdm
 
-            self._bar = tqdm(unit="sim", desc=f"calibrating {config.name}", file=sys.stderr,
-                             dynamic_ncols=True)
+            self._bar = tqdm(
+                unit="sim", desc=f"calibrating {config.name}", file=sys.stderr, dynamic_ncols=True
+            )
 
     def close(self) -> None:
         if self._bar is not None:
@@ -54,8 +56,10 @@ class Evaluator:
 
     def _tasks(self, x) -> list[str]:
         scales = parameter_scales(self.config, x)
-        return [scenario_text(experiment_scenario(self.config, e, scales))
-                for e in self.config.experiments]
+        return [
+            scenario_text(experiment_scenario(self.config, e, scales))
+            for e in self.config.experiments
+        ]
 
     def simulate(self, points, kinds) -> list[dict]:
         """Simulations of every experiment at every point not cached yet (one batch), then
@@ -80,11 +84,17 @@ class Evaluator:
         else:
             # simulate_trajectory returns its failures: an exception is the cluster's.
             for job, outcome in completed_resubmitting_lost(
-                    self.client, simulate_trajectory, jobs, lambda job: job[2],
-                    lambda job: f"manta-cal-{_digest(job[2])}"):
+                self.client,
+                simulate_trajectory,
+                jobs,
+                lambda job: job[2],
+                lambda job: f"manta-cal-{_digest(job[2])}",
+            ):
                 if isinstance(outcome, TaskFailure):
-                    outcome = {"status": "error",
-                               "reason": f"{type(outcome.error).__name__}: {outcome.error}"}
+                    outcome = {
+                        "status": "error",
+                        "reason": f"{type(outcome.error).__name__}: {outcome.error}",
+                    }
                 results[job[:2]] = outcome
                 self._tick()
         self.simulations += len(jobs)
@@ -92,11 +102,18 @@ class Evaluator:
         for x in new:
             runs = [results[(x, i)] for i in range(len(self.config.experiments))]
             self.cache[x] = self._score(x, runs)
-            self.history.append({
-                "evaluation": len(self.history), "kind": kind_of[x], "x": list(x),
-                "cost": self.cache[x]["cost"], "experiment_cost": self.cache[x]["experiment_cost"],
-                "status": [r["status"] for r in runs], "batch_wall_time_s": wall,
-                "batch_simulations": len(jobs)})
+            self.history.append(
+                {
+                    "evaluation": len(self.history),
+                    "kind": kind_of[x],
+                    "x": list(x),
+                    "cost": self.cache[x]["cost"],
+                    "experiment_cost": self.cache[x]["experiment_cost"],
+                    "status": [r["status"] for r in runs],
+                    "batch_wall_time_s": wall,
+                    "batch_simulations": len(jobs),
+                }
+            )
         return [self.cache[self.key(p)] for p in points]
 
     def _tick(self) -> None:
@@ -115,16 +132,20 @@ class Evaluator:
             costs[e.name] = 0.5 * float(r @ r)
             parts.append(r)
         residuals = np.concatenate(parts)
-        return {"x": list(x), "residuals": residuals, "cost": 0.5 * float(residuals @ residuals),
-                "experiment_cost": costs, "runs": runs}
+        return {
+            "x": list(x),
+            "residuals": residuals,
+            "cost": 0.5 * float(residuals @ residuals),
+            "experiment_cost": costs,
+            "runs": runs,
+        }
 
     def residuals(self, x, bounds=None, diff_step: float = 0.0) -> np.ndarray:
         """Residuals at x; with ``diff_step``, x's finite-difference points join the batch."""
         points = [x]
         if diff_step and self.key(x) not in self.cache:
             points += fd_points(x, bounds, diff_step)[1]
-        return self.simulate(points, ["point"] + ["difference"] * (len(points) - 1))[0][
-            "residuals"]
+        return self.simulate(points, ["point"] + ["difference"] * (len(points) - 1))[0]["residuals"]
 
     def jacobian(self, x, bounds, diff_step: float) -> np.ndarray:
         """Forward differences; the n perturbed points (and x) form one parallel batch."""

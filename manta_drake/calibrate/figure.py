@@ -15,9 +15,14 @@ from manta_drake.calibrate.loading import experiment_measured, measured_columns
 from manta_drake.calibrate.results import CalibrationResult
 
 
-def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
-                             evaluator: Evaluator, initial: dict, final: dict,
-                             result: CalibrationResult) -> pathlib.Path:
+def write_calibration_figure(
+    path: pathlib.Path,
+    config: CalibrationConfig,
+    evaluator: Evaluator,
+    initial: dict,
+    final: dict,
+    result: CalibrationResult,
+) -> pathlib.Path:
     """calibration.png: per experiment the measured trajectory (or targets) against the
     simulated ones before and after; the last row the cost and parameters per evaluation."""
     import matplotlib
@@ -27,8 +32,10 @@ def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
 
     n = len(config.experiments)
     fig, axes = plt.subplots(n + 1, 3, figsize=(12, 3.0 * (n + 1)), squeeze=False)
-    styles = (("initial", initial, dict(color="tab:orange", ls="--")),
-              ("calibrated", final, dict(color="tab:blue")))
+    styles = (
+        ("initial", initial, dict(color="tab:orange", ls="--")),
+        ("calibrated", final, dict(color="tab:blue")),
+    )
     for row, e in enumerate(config.experiments):
         ax_path, ax_z, ax_yaw = axes[row]
         if e.measured:
@@ -59,8 +66,13 @@ def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
             pos = np.arange(len(keys))
             ax.bar(pos - 0.25, [e.target[k] for k in keys], 0.25, color="k", label="target")
             for k, (label, ev, style) in enumerate(styles):
-                ax.bar(pos + 0.25 * k, [ev["runs"][row].get(key, math.nan) for key in keys],
-                       0.25, color=style["color"], label=label)
+                ax.bar(
+                    pos + 0.25 * k,
+                    [ev["runs"][row].get(key, math.nan) for key in keys],
+                    0.25,
+                    color=style["color"],
+                    label=label,
+                )
             ax.set_xticks(pos, keys)
             ax.set_title(f"{e.name}: targets")
         for ax in axes[row]:
@@ -70,27 +82,40 @@ def write_calibration_figure(path: pathlib.Path, config: CalibrationConfig,
     ax_cost, ax_x, ax_text = axes[n]
     hist = evaluator.history
     centres = [h for h in hist if h["kind"] == "point"]
-    ax_cost.semilogy([h["evaluation"] for h in centres], [h["cost"] for h in centres], "o-",
-                     ms=3)
-    ax_cost.set(xlabel="evaluation", ylabel="cost (1/2 sum of squared scores)",
-                title="cost at the optimiser's points")
+    ax_cost.semilogy([h["evaluation"] for h in centres], [h["cost"] for h in centres], "o-", ms=3)
+    ax_cost.set(
+        xlabel="evaluation",
+        ylabel="cost (1/2 sum of squared scores)",
+        title="cost at the optimiser's points",
+    )
     for i, name in enumerate(result.names):
-        line, = ax_x.plot([h["evaluation"] for h in centres], [h["x"][i] for h in centres],
-                          "o-", ms=3, label=name)
-        ax_x.plot([h["evaluation"] for h in hist if h["kind"] != "point"],
-                  [h["x"][i] for h in hist if h["kind"] != "point"], ".", ms=3, alpha=0.5,
-                  color=line.get_color())
-    ax_x.set(xlabel="evaluation", ylabel="factor",
-             title="parameters (dots: finite-difference points)")
+        (line,) = ax_x.plot(
+            [h["evaluation"] for h in centres], [h["x"][i] for h in centres], "o-", ms=3, label=name
+        )
+        ax_x.plot(
+            [h["evaluation"] for h in hist if h["kind"] != "point"],
+            [h["x"][i] for h in hist if h["kind"] != "point"],
+            ".",
+            ms=3,
+            alpha=0.5,
+            color=line.get_color(),
+        )
+    ax_x.set(
+        xlabel="evaluation", ylabel="factor", title="parameters (dots: finite-difference points)"
+    )
     ax_x.legend(fontsize=7)
     for ax in (ax_cost, ax_x):
         ax.grid(alpha=0.3)
     ax_text.axis("off")
-    lines = [f"{name}: {x0:.3f} -> {x:.3f} +- {se:.3f}" for name, x0, x, se in
-             zip(result.names, result.x0, result.x, result.standard_error)]
-    lines += [f"cost {result.initial_cost:.4g} -> {result.cost:.4g}",
-              f"{result.evaluations} points, {result.simulations} simulations",
-              f"{result.wall_time_s:.0f} s wall"]
+    lines = [
+        f"{name}: {x0:.3f} -> {x:.3f} +- {se:.3f}"
+        for name, x0, x, se in zip(result.names, result.x0, result.x, result.standard_error)
+    ]
+    lines += [
+        f"cost {result.initial_cost:.4g} -> {result.cost:.4g}",
+        f"{result.evaluations} points, {result.simulations} simulations",
+        f"{result.wall_time_s:.0f} s wall",
+    ]
     ax_text.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=9)
     fig.suptitle(f"calibration {config.name}", x=0.02, ha="left")
     fig.tight_layout()

@@ -35,16 +35,16 @@ def calibration_inputs(config: CalibrationConfig) -> list:
     return inputs
 
 
-def check_calibration_out(config: CalibrationConfig | None, out_dir,
-                          inputs=()) -> pathlib.Path:
+def check_calibration_out(config: CalibrationConfig | None, out_dir, inputs=()) -> pathlib.Path:
     """Checks a calibration's output folder before any simulation (``check_out_folder``:
     not a file, creatable, writable; no output over an input). SweepError otherwise."""
     inputs = list(inputs) + (calibration_inputs(config) if config is not None else [])
     return check_out_folder(out_dir, OUTPUTS, inputs)
 
 
-def calibrate(config: CalibrationConfig, out_dir=None, client=None,
-              progress: bool = True) -> CalibrationResult:
+def calibrate(
+    config: CalibrationConfig, out_dir=None, client=None, progress: bool = True
+) -> CalibrationResult:
     """Fits the parameters with ``scipy.optimize.least_squares`` and writes the outputs.
 
     Args:
@@ -75,38 +75,61 @@ def calibrate(config: CalibrationConfig, out_dir=None, client=None,
     try:
         speculate = o.diff_step if o.speculative_jacobian else 0.0
         result = least_squares(
-            lambda x: evaluator.residuals(x, (lower, upper), speculate), x0,
+            lambda x: evaluator.residuals(x, (lower, upper), speculate),
+            x0,
             jac=lambda x, *_: evaluator.jacobian(x, (lower, upper), o.diff_step),
-            bounds=(lower, upper), method=o.method, max_nfev=o.max_evaluations,
-            xtol=o.xtol, ftol=o.ftol, gtol=o.gtol)
+            bounds=(lower, upper),
+            method=o.method,
+            max_nfev=o.max_evaluations,
+            xtol=o.xtol,
+            ftol=o.ftol,
+            gtol=o.gtol,
+        )
     finally:
         evaluator.close()
-    final = evaluator.cache[evaluator.key(result.x)] if evaluator.key(result.x) in \
-        evaluator.cache else evaluator.simulate([result.x], ["point"])[0]
+    final = (
+        evaluator.cache[evaluator.key(result.x)]
+        if evaluator.key(result.x) in evaluator.cache
+        else evaluator.simulate([result.x], ["point"])[0]
+    )
     initial = evaluator.cache[evaluator.key(x0)]
     out = CalibrationResult(
-        x=np.asarray(result.x), x0=x0, names=[p.name for p in config.parameters],
-        cost=final["cost"], initial_cost=initial["cost"],
+        x=np.asarray(result.x),
+        x0=x0,
+        names=[p.name for p in config.parameters],
+        cost=final["cost"],
+        initial_cost=initial["cost"],
         standard_error=standard_errors(result.jac, final["residuals"]),
-        success=bool(result.success), message=str(result.message),
-        evaluations=len(evaluator.history), simulations=evaluator.simulations,
-        wall_time_s=time.perf_counter() - start)
-    not_ok = [f"{e.name}: {run['status']} ({run.get('reason') or 'no reason'})"
-              for e, run in zip(config.experiments, final["runs"]) if run["status"] != "ok"]
+        success=bool(result.success),
+        message=str(result.message),
+        evaluations=len(evaluator.history),
+        simulations=evaluator.simulations,
+        wall_time_s=time.perf_counter() - start,
+    )
+    not_ok = [
+        f"{e.name}: {run['status']} ({run.get('reason') or 'no reason'})"
+        for e, run in zip(config.experiments, final["runs"])
+        if run["status"] != "ok"
+    ]
     if not_ok:
         out.success = False
-        out.message = ("not calibrated: a simulation at the fitted point did not run to its "
-                       f"end ({'; '.join(not_ok)})")
+        out.message = (
+            "not calibrated: a simulation at the fitted point did not run to its "
+            f"end ({'; '.join(not_ok)})"
+        )
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
         (out_dir / "coefficients.yaml").unlink(missing_ok=True)  # never an earlier fit's
         if not not_ok:
             out.coefficients_file = write_calibrated_coefficients(
-                out_dir / "coefficients.yaml", config, out)
-        out.history_file = write_history(out_dir / "calibration.json", config, out, evaluator,
-                                         result)
-        out.figure = write_calibration_figure(out_dir / "calibration.png", config, evaluator,
-                                              initial, final, out)
+                out_dir / "coefficients.yaml", config, out
+            )
+        out.history_file = write_history(
+            out_dir / "calibration.json", config, out, evaluator, result
+        )
+        out.figure = write_calibration_figure(
+            out_dir / "calibration.png", config, evaluator, initial, final, out
+        )
     return out
 
 

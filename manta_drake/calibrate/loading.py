@@ -66,8 +66,9 @@ def load_calibration(path, require_data: bool = True) -> CalibrationConfig:
     return config
 
 
-def measured_columns(config: CalibrationConfig, e: Experiment,
-                     where: str = "calibration.experiment") -> tuple:
+def measured_columns(
+    config: CalibrationConfig, e: Experiment, where: str = "calibration.experiment"
+) -> tuple:
     """The columns experiment ``e``'s measurement can give: a CSV's are x, y, z and yaw (its
     header says which it holds); a bag's, those of its ``topics`` (``BAG_TOPICS``), which
     are checked here: a bag names ``pose`` or ``depth`` (not both), a CSV no topics."""
@@ -75,8 +76,10 @@ def measured_columns(config: CalibrationConfig, e: Experiment,
 
     if not is_bag(config.folder / e.measured):
         if e.topics:
-            raise SweepError(f"{where}.topics: only for a measured ROS 2 bag (a folder or an "
-                             f".mcap file); {e.measured} is a CSV")
+            raise SweepError(
+                f"{where}.topics: only for a measured ROS 2 bag (a folder or an "
+                f".mcap file); {e.measured} is a CSV"
+            )
         return TRAJECTORY_COLUMNS
     for key, topic in e.topics.items():
         if key not in BAG_TOPICS:
@@ -84,13 +87,16 @@ def measured_columns(config: CalibrationConfig, e: Experiment,
         if not (isinstance(topic, str) and topic.startswith("/")):
             raise SweepError(f"{where}.topics.{key}: {topic!r} is not a topic name (/a/b)")
     if ("pose" in e.topics) == ("depth" in e.topics):
-        raise SweepError(f"{where}.topics: name the bag's pose or depth topic (one of them), "
-                         f"e.g. {{pose: /manta/pose}}; got {sorted(e.topics) or 'none'}")
+        raise SweepError(
+            f"{where}.topics: name the bag's pose or depth topic (one of them), "
+            f"e.g. {{pose: /manta/pose}}; got {sorted(e.topics) or 'none'}"
+        )
     return BAG_TOPICS["pose" if "pose" in e.topics else "depth"]
 
 
-def experiment_measured(config: CalibrationConfig, e: Experiment, scenario=None,
-                        where: str = "measured") -> dict:
+def experiment_measured(
+    config: CalibrationConfig, e: Experiment, scenario=None, where: str = "measured"
+) -> dict:
     """Experiment ``e``'s measurement (its ``columns``): a CSV by ``load_measured``, a bag by
     ``load_measured_bag``, checked against its run's duration. ``scenario``: the
     experiment's (None: made here)."""
@@ -128,19 +134,25 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
             raise SweepError(f"{where}.coefficients: name at least one coefficient")
         for c in p.coefficients:
             if c not in coefficient_names():
-                raise SweepError(f"{where}.coefficients: unknown coefficient {c!r}; allowed: "
-                                 f"{', '.join(coefficient_names())}")
+                raise SweepError(
+                    f"{where}.coefficients: unknown coefficient {c!r}; allowed: "
+                    f"{', '.join(coefficient_names())}"
+                )
             if c in seen_coeffs:
-                raise SweepError(f"{where}.coefficients: {c} is also fitted by "
-                                 f"{seen_coeffs[c]}")
+                raise SweepError(f"{where}.coefficients: {c} is also fitted by {seen_coeffs[c]}")
             seen_coeffs[c] = p.name
-        if len(p.bounds) != 2 or not 0 <= p.bounds[0] < p.bounds[1] \
-                or not math.isfinite(p.bounds[1]):
-            raise SweepError(f"{where}.bounds: expected [low, high] with 0 <= low < high, "
-                             f"got {p.bounds}")
+        if (
+            len(p.bounds) != 2
+            or not 0 <= p.bounds[0] < p.bounds[1]
+            or not math.isfinite(p.bounds[1])
+        ):
+            raise SweepError(
+                f"{where}.bounds: expected [low, high] with 0 <= low < high, got {p.bounds}"
+            )
         if not p.bounds[0] < p.initial < p.bounds[1]:
-            raise SweepError(f"{where}.initial: {p.initial} must be strictly inside the "
-                             f"bounds {p.bounds}")
+            raise SweepError(
+                f"{where}.initial: {p.initial} must be strictly inside the bounds {p.bounds}"
+            )
     if not config.experiments:
         raise SweepError("calibration.experiments: name at least one experiment")
     names = set()
@@ -156,8 +168,9 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
         for key in e.overrides:
             check_parameter_name(key, {}, f"{where}.overrides.{key}")
             if key in ("random_seed", "water.coefficients"):
-                raise SweepError(f"{where}.overrides.{key}: set by the calibration file "
-                                 "(seed, coefficients)")
+                raise SweepError(
+                    f"{where}.overrides.{key}: set by the calibration file (seed, coefficients)"
+                )
         try:  # the values too, once: every simulation of the fit starts from this scenario
             scenario = experiment_scenario(config, e, {})
         except ScenarioError as err:
@@ -168,16 +181,19 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
             allowed = measured_columns(config, e, where)
             bad = [c for c in e.columns if c not in allowed]
             if bad or not e.columns or len(set(e.columns)) != len(e.columns):
-                raise SweepError(f"{where}.columns: {e.columns} must be some of "
-                                 f"{', '.join(allowed)}, each once")
+                raise SweepError(
+                    f"{where}.columns: {e.columns} must be some of {', '.join(allowed)}, each once"
+                )
             if require_data:
                 experiment_measured(config, e, scenario, f"{where}.measured")
         for key, value in e.target.items():
             if key not in TARGET_KEYS:
                 raise SweepError(f"{where}.target.{key}: not one of {', '.join(TARGET_KEYS)}")
             if not math.isfinite(value):
-                raise SweepError(f"{where}.target.{key}: {value!r} is not a finite number "
-                                 "(a measured mean velocity)")
+                raise SweepError(
+                    f"{where}.target.{key}: {value!r} is not a finite number "
+                    "(a measured mean velocity)"
+                )
         _positive(f"{where}.weight", e.weight)
     for f in dc.fields(Sigma):
         _positive(f"calibration.sigma.{f.name}", getattr(config.sigma, f.name))
@@ -185,8 +201,7 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
     if o.method not in ("trf", "dogbox"):
         raise SweepError(f"calibration.optimizer.method: {o.method!r} is not one of trf, dogbox")
     if o.max_evaluations < 1:
-        raise SweepError(f"calibration.optimizer.max_evaluations: {o.max_evaluations} must be "
-                         ">= 1")
+        raise SweepError(f"calibration.optimizer.max_evaluations: {o.max_evaluations} must be >= 1")
     if not 0 < o.diff_step < 0.5:
         raise SweepError(f"calibration.optimizer.diff_step: {o.diff_step} must be in (0, 0.5)")
     for name in ("xtol", "ftol", "gtol"):

@@ -25,8 +25,9 @@ TRAJECTORY_COLUMNS = ("x", "y", "z", "yaw")
 BAG_TOPICS = {"pose": TRAJECTORY_COLUMNS, "depth": ("z",), "joint_states": ()}
 
 
-def load_measured(path, columns=TRAJECTORY_COLUMNS, where: str = "measured",
-                  duration: float | None = None) -> dict:
+def load_measured(
+    path, columns=TRAJECTORY_COLUMNS, where: str = "measured", duration: float | None = None
+) -> dict:
     """A measured trajectory CSV as arrays ``t`` and the named columns.
 
     The file is at most ``config_io.MAX_MEASURED_CSV_BYTES`` (checked before reading) and
@@ -67,24 +68,37 @@ def check_times(t, path, where: str, duration: float | None) -> None:
     """Measured times [s]: at least two, increasing, from t >= 0 and within ``duration``
     (None: not checked); SweepError naming ``where`` and ``path`` otherwise."""
     if len(t) < 2:
-        raise SweepError(f"{where}: {path}: t must increase, with at least two samples "
-                         f"(got {len(t)})")
+        raise SweepError(
+            f"{where}: {path}: t must increase, with at least two samples (got {len(t)})"
+        )
     if np.any(np.diff(t) <= 0):
         bad = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
-        raise SweepError(f"{where}: {path}: t must increase, with at least two samples "
-                         f"(data row {bad + 1}: {float(t[bad])!r} s after "
-                         f"{float(t[bad - 1])!r} s)")
+        raise SweepError(
+            f"{where}: {path}: t must increase, with at least two samples "
+            f"(data row {bad + 1}: {float(t[bad])!r} s after "
+            f"{float(t[bad - 1])!r} s)"
+        )
     if t[0] < 0:
-        raise SweepError(f"{where}: {path}: t starts at {float(t[0])!r} s; times are seconds "
-                         "from the start of the run (allowed: t >= 0)")
+        raise SweepError(
+            f"{where}: {path}: t starts at {float(t[0])!r} s; times are seconds "
+            "from the start of the run (allowed: t >= 0)"
+        )
     if duration is not None and t[-1] > duration + 1e-9:
-        raise SweepError(f"{where}: {path}: t ends at {float(t[-1])!r} s, after the run's end "
-                         f"(duration {duration!r} s; allowed: 0 <= t <= {duration!r}); "
-                         "shorten the data or set the experiment's overrides: {duration: ...}")
+        raise SweepError(
+            f"{where}: {path}: t ends at {float(t[-1])!r} s, after the run's end "
+            f"(duration {duration!r} s; allowed: 0 <= t <= {duration!r}); "
+            "shorten the data or set the experiment's overrides: {duration: ...}"
+        )
 
 
-def load_measured_bag(path, topics: dict, columns=TRAJECTORY_COLUMNS, where: str = "measured",
-                      duration: float | None = None, scenario=None) -> dict:
+def load_measured_bag(
+    path,
+    topics: dict,
+    columns=TRAJECTORY_COLUMNS,
+    where: str = "measured",
+    duration: float | None = None,
+    scenario=None,
+) -> dict:
     """A measured trajectory from a ROS 2 bag, as ``load_measured`` gives a CSV's: ``t`` and
     the named columns, from the ``pose`` topic (x, y, z [m] and the heading yaw [rad] of its
     quaternion) or the ``depth`` topic (z = -depth - the pressure sensor's height in the
@@ -113,10 +127,13 @@ def load_measured_bag(path, topics: dict, columns=TRAJECTORY_COLUMNS, where: str
         raise SweepError(f"{where}: {e}") from None
     for key in ("t", *columns, "joint_positions"):
         if key in out and not np.all(np.isfinite(out[key])):
-            bad = int(np.flatnonzero(~np.isfinite(out[key]).reshape(len(out[key]), -1)
-                                     .all(axis=1))[0])
-            raise SweepError(f"{where}: {path}: {key} is not finite at message {bad + 1} "
-                             "(a dropped reading?); the fit needs finite samples")
+            bad = int(
+                np.flatnonzero(~np.isfinite(out[key]).reshape(len(out[key]), -1).all(axis=1))[0]
+            )
+            raise SweepError(
+                f"{where}: {path}: {key} is not finite at message {bad + 1} "
+                "(a dropped reading?); the fit needs finite samples"
+            )
     check_times(out["t"], path, where, duration)
     if "joint_t" in out:
         check_times(out["joint_t"], path, f"{where} (joint states)", duration)
@@ -138,8 +155,7 @@ def _bag_columns(read: dict, topics: dict, scenario) -> dict:
         out = pose_track(read[topics["pose"]])
     else:
         hydro = scenario.hydro_coefficients()
-        depth = depth_track(read[topics["depth"]], hydro.water_density.value,
-                            hydro.gravity.value)
+        depth = depth_track(read[topics["depth"]], hydro.water_density.value, hydro.gravity.value)
         out = {"t": depth["t"], "z": -depth["depth"] - scenario.pressure_sensor.position[2]}
     if "joint_states" in topics:
         joints = joint_track(read[topics["joint_states"]], JOINT_NAMES)
@@ -154,8 +170,10 @@ def _data_lines(f, path: pathlib.Path):
     for line in f:
         read += len(line)
         if read > MAX_MEASURED_CSV_BYTES:
-            raise SweepError(f"{path}: the file grew past the {MAX_MEASURED_CSV_BYTES / MB:g} MB "
-                             "limit for measured CSV files")
+            raise SweepError(
+                f"{path}: the file grew past the {MAX_MEASURED_CSV_BYTES / MB:g} MB "
+                "limit for measured CSV files"
+            )
         if "\0" in line:
             raise SweepError(f"{path}: not a text (CSV) file (it holds NUL bytes)")
         if line.strip() and not line.lstrip().startswith("#"):
@@ -169,31 +187,38 @@ def _read_columns(f, path: pathlib.Path, names: tuple) -> dict:
         header = [c.strip() for c in next(reader, [])]
         for col in names:
             if col not in header:
-                raise SweepError(f"{path} has no column {short_repr(col)} (header: "
-                                 f"{short_text(', '.join(header), 80) or 'none'})")
+                raise SweepError(
+                    f"{path} has no column {short_repr(col)} (header: "
+                    f"{short_text(', '.join(header), 80) or 'none'})"
+                )
         repeated = sorted({c for c in header if header.count(c) > 1})
         if repeated:
-            raise SweepError(f"{path}: column {short_repr(repeated[0])} appears twice in the "
-                             "header")
+            raise SweepError(
+                f"{path}: column {short_repr(repeated[0])} appears twice in the header"
+            )
         index = [header.index(col) for col in names]
         values = {col: array.array("d") for col in names}
         for i, row in enumerate(reader, start=1):
             if len(row) != len(header):
-                raise SweepError(f"{path}: data row {i} has {len(row)} fields, the header "
-                                 f"{len(header)}")
+                raise SweepError(
+                    f"{path}: data row {i} has {len(row)} fields, the header {len(header)}"
+                )
             for col, j in zip(names, index):
                 try:
                     v = float(row[j])
                 except ValueError:
-                    raise SweepError(f"{path}: data row {i}: column {col} is missing or not "
-                                     "a number") from None
+                    raise SweepError(
+                        f"{path}: data row {i}: column {col} is missing or not a number"
+                    ) from None
                 if not math.isfinite(v):
-                    raise SweepError(f"{path}: data row {i}: column {col} is {v!r}, not a "
-                                     "finite number")
+                    raise SweepError(
+                        f"{path}: data row {i}: column {col} is {v!r}, not a finite number"
+                    )
                 values[col].append(v)
     except csv.Error as e:
-        raise SweepError(f"{path}: line {reader.line_num}: not valid CSV: "
-                         f"{short_text(str(e), 80)}") from None
+        raise SweepError(
+            f"{path}: line {reader.line_num}: not valid CSV: {short_text(str(e), 80)}"
+        ) from None
     return {col: np.frombuffer(a, dtype=float) for col, a in values.items()}
 
 

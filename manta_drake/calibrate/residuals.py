@@ -37,8 +37,11 @@ def trajectory_residuals(measured: dict, simulated: dict, columns, sigma: Sigma)
 
 def target_residuals(target: dict, simulated: dict, sigma: Sigma) -> np.ndarray:
     """Standard scores of the mean-velocity targets (``FAILED_RESIDUAL`` where missing)."""
-    scale = {"u": sigma.velocity_m_s, "v": sigma.velocity_m_s,
-             "yaw_rate_deg_s": sigma.yaw_rate_deg_s}
+    scale = {
+        "u": sigma.velocity_m_s,
+        "v": sigma.velocity_m_s,
+        "yaw_rate_deg_s": sigma.yaw_rate_deg_s,
+    }
     out = []
     for key, want in target.items():
         got = simulated.get(key, math.nan)

@@ -42,20 +42,24 @@ class CalibrationResult:
 
 def calibrated_sources(config: CalibrationConfig, result: CalibrationResult) -> dict[str, str]:
     """The ``source`` text of each calibrated coefficient: what it was fitted to and how."""
-    fitted_to = ", ".join(f"{e.name} ({e.measured or 'target ' + json.dumps(e.target)})"
-                          for e in config.experiments)
+    fitted_to = ", ".join(
+        f"{e.name} ({e.measured or 'target ' + json.dumps(e.target)})" for e in config.experiments
+    )
     out = {}
     for p, value, se in zip(config.parameters, result.x, result.standard_error):
         for c in p.coefficients:
-            out[c] = (f"calibrated (Sim2Real, manta-drake calibrate {config.name}): x{value:.4g} "
-                      f"(+- {se:.2g}) of the prior by parameter {p.name}, fitted to {fitted_to} "
-                      f"with scipy least_squares, cost {result.initial_cost:.4g} -> "
-                      f"{result.cost:.4g}")
+            out[c] = (
+                f"calibrated (Sim2Real, manta-drake calibrate {config.name}): x{value:.4g} "
+                f"(+- {se:.2g}) of the prior by parameter {p.name}, fitted to {fitted_to} "
+                f"with scipy least_squares, cost {result.initial_cost:.4g} -> "
+                f"{result.cost:.4g}"
+            )
     return out
 
 
-def write_calibrated_coefficients(path: pathlib.Path, config: CalibrationConfig,
-                                  result: CalibrationResult) -> pathlib.Path:
+def write_calibrated_coefficients(
+    path: pathlib.Path, config: CalibrationConfig, result: CalibrationResult
+) -> pathlib.Path:
     """The prior coefficients with the fitted scales, same format as hydrodynamics.yaml
     (every entry ``{value, source}``); calibrated sources say what they were fitted to and
     keep the prior's value and source."""
@@ -63,12 +67,15 @@ def write_calibrated_coefficients(path: pathlib.Path, config: CalibrationConfig,
     coeffs = scale_coefficients(prior, parameter_scales(config, result.x))
     entries, prior_entries = dict(coeffs.entries()), dict(prior.entries())
     for name, text in calibrated_sources(config, result).items():
-        entries[name].source = f"{text}; prior value {prior_entries[name].value}: " \
-                               f"{prior_entries[name].source}"
-    header = (f"# Hydrodynamic coefficients calibrated by `manta-drake calibrate` "
-              f"({config.name}) from {config.coefficients}.\n"
-              "# Same format as models/hydrodynamics.yaml; use it with "
-              "water: {coefficients: <this file>}.\n")
+        entries[name].source = (
+            f"{text}; prior value {prior_entries[name].value}: {prior_entries[name].source}"
+        )
+    header = (
+        f"# Hydrodynamic coefficients calibrated by `manta-drake calibrate` "
+        f"({config.name}) from {config.coefficients}.\n"
+        "# Same format as models/hydrodynamics.yaml; use it with "
+        "water: {coefficients: <this file>}.\n"
+    )
     text = yaml.safe_dump(_plain(dc.asdict(coeffs)), sort_keys=False, width=100)
     path.write_text(header + text)
     return path
@@ -85,23 +92,39 @@ def _plain(value):
     return value
 
 
-def write_history(path: pathlib.Path, config: CalibrationConfig, result: CalibrationResult,
-                  evaluator: Evaluator, scipy_result) -> pathlib.Path:
+def write_history(
+    path: pathlib.Path,
+    config: CalibrationConfig,
+    result: CalibrationResult,
+    evaluator: Evaluator,
+    scipy_result,
+) -> pathlib.Path:
     """calibration.json: the result, the parameters and every evaluation."""
     doc = {
         "name": config.name,
         "prior": config.coefficients,
         "experiments": [dc.asdict(e) for e in config.experiments],
-        "parameters": [{"name": p.name, "coefficients": p.coefficients, "initial": p.initial,
-                        "bounds": p.bounds, "fitted": float(x), "standard_error": float(se)}
-                       for p, x, se in zip(config.parameters, result.x, result.standard_error)],
+        "parameters": [
+            {
+                "name": p.name,
+                "coefficients": p.coefficients,
+                "initial": p.initial,
+                "bounds": p.bounds,
+                "fitted": float(x),
+                "standard_error": float(se),
+            }
+            for p, x, se in zip(config.parameters, result.x, result.standard_error)
+        ],
         "initial_cost": result.initial_cost,
         "cost": result.cost,
         "success": result.success,
         "message": result.message,
         "optimizer": dc.asdict(config.optimizer),
-        "scipy": {"nfev": int(scipy_result.nfev), "njev": int(scipy_result.njev or 0),
-                  "status": int(scipy_result.status)},
+        "scipy": {
+            "nfev": int(scipy_result.nfev),
+            "njev": int(scipy_result.njev or 0),
+            "status": int(scipy_result.status),
+        },
         "evaluations": result.evaluations,
         "simulations": result.simulations,
         "wall_time_s": result.wall_time_s,

@@ -41,8 +41,13 @@ def simulate_trajectory(scenario_yaml: str, period: float = 0.01) -> dict:
         t = np.asarray(log["t"])
         stride = max(1, int(round(period / (t[1] - t[0])))) if len(t) > 1 else 1
         idx = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1])
-        out.update(t=t[idx], x=log["body_xyz"][idx, 0], y=log["body_xyz"][idx, 1],
-                   z=log["body_xyz"][idx, 2], yaw=np.unwrap(log["body_rpy"][:, 2])[idx])
+        out.update(
+            t=t[idx],
+            x=log["body_xyz"][idx, 0],
+            y=log["body_xyz"][idx, 1],
+            z=log["body_xyz"][idx, 2],
+            yaw=np.unwrap(log["body_rpy"][:, 2])[idx],
+        )
     # None when the run has no steady window long enough for a mean (simulate.compute_metrics).
     u_v = metrics.get("mean_velocity_body") or [math.nan, math.nan]
     yaw_rate = metrics.get("yaw_rate_deg_s")

@@ -27,12 +27,16 @@ def base_scenario(folder: pathlib.Path, name: str) -> Scenario:
     return load_scenario(candidate if candidate.is_file() else name)
 
 
-def experiment_scenario(config: CalibrationConfig, experiment: Experiment,
-                        scales: dict[str, float]) -> Scenario:
+def experiment_scenario(
+    config: CalibrationConfig, experiment: Experiment, scales: dict[str, float]
+) -> Scenario:
     """The experiment's scenario with the prior coefficients file, the calibration's seed and
     the coefficient ``scales`` (multiplying any the experiment sets itself)."""
-    overrides = {**experiment.overrides, "water.coefficients": config.coefficients_path(),
-                 "random_seed": config.seed}
+    overrides = {
+        **experiment.overrides,
+        "water.coefficients": config.coefficients_path(),
+        "random_seed": config.seed,
+    }
     scenario = apply_overrides(base_scenario(config.folder, experiment.scenario), overrides)
     merged = dict(scenario.water.coefficient_scales)
     for name, factor in scales.items():

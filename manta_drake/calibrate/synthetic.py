@@ -13,9 +13,14 @@ from manta_drake.calibrate.run import simulate_trajectory
 from manta_drake.calibrate.scenarios import experiment_scenario, scenario_text
 
 
-def synthesize_measurements(config: CalibrationConfig, truth_scales: dict[str, float],
-                            noise: Sigma, seed: int, period: float = 0.1,
-                            client=None) -> dict[str, dict]:
+def synthesize_measurements(
+    config: CalibrationConfig,
+    truth_scales: dict[str, float],
+    noise: Sigma,
+    seed: int,
+    period: float = 0.1,
+    client=None,
+) -> dict[str, dict]:
     """Synthetic "measured" trajectories: every experiment with a ``measured`` file simulated
     with the coefficients scaled by ``truth_scales``, sampled every ``period`` s, plus
     Gaussian noise (``noise.position_m`` on x, y, z; ``noise.yaw_deg`` on yaw) from
@@ -25,13 +30,18 @@ def synthesize_measurements(config: CalibrationConfig, truth_scales: dict[str, f
         experiment name -> {t, x, y, z, yaw} arrays.
     """
     rng = np.random.default_rng(seed)
-    texts = {e.name: scenario_text(experiment_scenario(config, e, truth_scales))
-             for e in config.experiments if e.measured}
+    texts = {
+        e.name: scenario_text(experiment_scenario(config, e, truth_scales))
+        for e in config.experiments
+        if e.measured
+    }
     if client is None:
         sims = {name: simulate_trajectory(text) for name, text in texts.items()}
     else:
-        futures = {name: client.submit(simulate_trajectory, text, pure=False)
-                   for name, text in texts.items()}
+        futures = {
+            name: client.submit(simulate_trajectory, text, pure=False)
+            for name, text in texts.items()
+        }
         sims = {name: f.result() for name, f in futures.items()}
     out = {}
     for name, sim in sims.items():  # in file order: the noise does not depend on timing

@@ -83,13 +83,16 @@ class AltimeterEstimator(FilteredEstimator):
         ValueError: naming the invalid field and its allowed range.
     """
 
-    def __init__(self, params: AltimeterEstimatorParams | None = None, period: float = 0.1,
-                 initial_range: float | None = None):
+    def __init__(
+        self,
+        params: AltimeterEstimatorParams | None = None,
+        period: float = 0.1,
+        initial_range: float | None = None,
+    ):
         params = (params if params is not None else AltimeterEstimatorParams()).validate()
         initial = params.off_floor_range if initial_range is None else initial_range
         check_in_range("AltimeterEstimator.initial_range", initial, 0.0, 100.0, "[0, 100] m")
         super().__init__("altitude", 1, [0], period, params.time_constant, initial=[initial])
         self.params = params
         self.DeclareEstimateOutputPort("altitude_hat", 1, lambda r: r[0])
-        self.DeclareEstimateOutputPort("floor_hat", 1,
-                                       lambda r: floor_membership(r[0], params))
+        self.DeclareEstimateOutputPort("floor_hat", 1, lambda r: floor_membership(r[0], params))

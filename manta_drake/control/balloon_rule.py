@@ -70,10 +70,13 @@ class BalloonRuleParams:
         ValueError names the field and the range."""
         if names is not None:
             if self.modality != "" and self.modality not in names:
-                raise ValueError(f"modality: {short_repr(self.modality)} is not an estimate's "
-                                 f"name; allowed: {', '.join(names)} (empty: no rule)")
-        elif not (isinstance(self.modality, str)
-                  and (self.modality == "" or self.modality.isidentifier())):
+                raise ValueError(
+                    f"modality: {short_repr(self.modality)} is not an estimate's "
+                    f"name; allowed: {', '.join(names)} (empty: no rule)"
+                )
+        elif not (
+            isinstance(self.modality, str) and (self.modality == "" or self.modality.isidentifier())
+        ):
             raise ValueError(f"modality: {short_repr(self.modality)} is not an estimate's name")
         check_one_of("weight", self.weight, WEIGHT_FUNCTIONS)
         check_in_range("fill_above", self.fill_above, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
@@ -83,24 +86,30 @@ class BalloonRuleParams:
         check_in_range("hysteresis", self.hysteresis, 0.0, 1.0, "[0, 1]")
         lo, hi = band(self)
         if lo < 0.0 or hi > 1.0:
-            raise ValueError(f"hysteresis: {self.hysteresis!r} puts the band threshold -+ "
-                             f"hysteresis/2 = [{lo:g}, {hi:g}] outside [0, 1]")
+            raise ValueError(
+                f"hysteresis: {self.hysteresis!r} puts the band threshold -+ "
+                f"hysteresis/2 = [{lo:g}, {hi:g}] outside [0, 1]"
+            )
         check_in_range("after", self.after, 0.0, 1e6, "[0, 1e6] s")
         if self.weight != "switch":
             for name, default in SWITCH_ONLY.items():
                 if getattr(self, name) != default:
-                    raise ValueError(f"{name}: {short_repr(getattr(self, name))} is set on a "
-                                     f"{self.weight} rule, which ignores it (only switch reads "
-                                     f"{' and '.join(SWITCH_ONLY)}): leave it out")
+                    raise ValueError(
+                        f"{name}: {short_repr(getattr(self, name))} is set on a "
+                        f"{self.weight} rule, which ignores it (only switch reads "
+                        f"{' and '.join(SWITCH_ONLY)}): leave it out"
+                    )
         if not self.modality:
             choices = f"one of {', '.join(names)}" if names else "an estimate's name"
             defaults = BalloonRuleParams()
             for f in dc.fields(self):
                 value = getattr(self, f.name)
                 if f.name != "modality" and value != getattr(defaults, f.name):
-                    raise ValueError(f"{f.name}: {short_repr(value)} is set but the rule's "
-                                     "modality is empty (no rule: the schedule alone); set "
-                                     f"modality to {choices} or leave {f.name} out")
+                    raise ValueError(
+                        f"{f.name}: {short_repr(value)} is set but the rule's "
+                        "modality is empty (no rule: the schedule alone); set "
+                        f"modality to {choices} or leave {f.name} out"
+                    )
         return self
 
 
@@ -136,8 +145,13 @@ def next_decision(decision: float, modality: float, params: BalloonRuleParams) -
     return decision  # inside the band
 
 
-def balloon_command(scheduled_fill: float, decision: float, time: float,
-                    params: BalloonRuleParams, fill: float = 0.0) -> float:
+def balloon_command(
+    scheduled_fill: float,
+    decision: float,
+    time: float,
+    params: BalloonRuleParams,
+    fill: float = 0.0,
+) -> float:
     """The fill commanded: the schedule before ``after``, with no rule or no decision (a
     continuous rule: no finite estimate yet); else a switch's ``fill_above`` or
     ``fill_below``, a continuous rule's ``fill``."""
@@ -189,16 +203,26 @@ class BalloonRule(LeafSystem):
         self._schedule = self.DeclareVectorInputPort("scheduled_fill", 1)
         self._modality = self.DeclareVectorInputPort("modality", 1)
         self.DeclareVectorOutputPort(
-            "balloon_command", 1, self._calc_command,
-            prerequisites_of_calc={self.time_ticket(), self.xd_ticket(),
-                                   self._schedule.ticket()})
+            "balloon_command",
+            1,
+            self._calc_command,
+            prerequisites_of_calc={self.time_ticket(), self.xd_ticket(), self._schedule.ticket()},
+        )
         if self.params.modality:
             self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
 
     def _calc_command(self, context, output):
         decision, fill = context.get_discrete_state(self._state).get_value()
-        output.SetAtIndex(0, balloon_command(float(self._schedule.Eval(context)[0]), decision,
-                                             context.get_time(), self.params, fill))
+        output.SetAtIndex(
+            0,
+            balloon_command(
+                float(self._schedule.Eval(context)[0]),
+                decision,
+                context.get_time(),
+                self.params,
+                fill,
+            ),
+        )
 
     def _update(self, context, discrete_state):
         if context.get_time() < self.params.after:

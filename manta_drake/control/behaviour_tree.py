@@ -116,12 +116,15 @@ def pair_weights(weight: str, x: float) -> tuple[float, float]:
         return 1.0 - w, w
     if weight == "linear":
         return 1.0 - x, x
-    raise ValueError(f"weight: {weight!r} is not one of "
-                     f"{', '.join(w for w in WEIGHT_FUNCTIONS if w != 'switch')}")
+    raise ValueError(
+        f"weight: {weight!r} is not one of "
+        f"{', '.join(w for w in WEIGHT_FUNCTIONS if w != 'switch')}"
+    )
 
 
-def default_tree(blend: str = "potential", z_t: float = 1.0, *,
-                 behaviours=DEFAULT_BEHAVIOURS) -> dict[str, BlendNode]:
+def default_tree(
+    blend: str = "potential", z_t: float = 1.0, *, behaviours=DEFAULT_BEHAVIOURS
+) -> dict[str, BlendNode]:
     """The tree whose target is ``transition.target_params(..., z_t, blend)``.
 
     Args:
@@ -158,14 +161,25 @@ class _Node:
     switch: int  # index into the switch state, -1 if not a switch
 
 
-def _number(where: str, value, lo: float, hi: float, interval: str, open_hi: bool = False,
-            open_lo: bool = False) -> float:
+def _number(
+    where: str,
+    value,
+    lo: float,
+    hi: float,
+    interval: str,
+    open_hi: bool = False,
+    open_lo: bool = False,
+) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
         v = float("nan")
-    ok = (np.isfinite(v) and (v > lo if open_lo else v >= lo)
-          and (v < hi if open_hi else v <= hi) and not isinstance(value, bool))
+    ok = (
+        np.isfinite(v)
+        and (v > lo if open_lo else v >= lo)
+        and (v < hi if open_hi else v <= hi)
+        and not isinstance(value, bool)
+    )
     if not ok:
         raise ValueError(f"{where}: {short_repr(value)} is not a finite number in {interval}")
     return v
@@ -176,17 +190,23 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping, modalities) -> 
     if not isinstance(node, BlendNode):
         raise ValueError(f"{where}: expected a BlendNode, got {type(node).__name__}")
     if modalities is not None and node.modality not in modalities:
-        raise ValueError(f"{where}.modality: {short_repr(node.modality)} is not one of "
-                         f"{', '.join(modalities)}")
+        raise ValueError(
+            f"{where}.modality: {short_repr(node.modality)} is not one of {', '.join(modalities)}"
+        )
     if not (isinstance(node.modality, str) and node.modality.isidentifier()):
-        raise ValueError(f"{where}.modality: {short_repr(node.modality)} is not an "
-                         "estimate's name (an identifier, e.g. z_hat)")
+        raise ValueError(
+            f"{where}.modality: {short_repr(node.modality)} is not an "
+            "estimate's name (an identifier, e.g. z_hat)"
+        )
     if node.weight not in WEIGHT_FUNCTIONS:
-        raise ValueError(f"{where}.weight: {short_repr(node.weight)} is not one of "
-                         f"{', '.join(WEIGHT_FUNCTIONS)}")
+        raise ValueError(
+            f"{where}.weight: {short_repr(node.weight)} is not one of {', '.join(WEIGHT_FUNCTIONS)}"
+        )
     if not isinstance(node.children, (list, tuple)):
-        raise ValueError(f"{where}.children: expected a list of node or gait names, got "
-                         f"{type(node.children).__name__}")
+        raise ValueError(
+            f"{where}.children: expected a list of node or gait names, got "
+            f"{type(node.children).__name__}"
+        )
     if len(node.children) < 2:
         raise ValueError(f"{where}.children: needs at least 2, got {len(node.children)}")
     for k, child in enumerate(node.children):
@@ -196,23 +216,29 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping, modalities) -> 
         if child in nodes and child in gaits:
             raise ValueError(f"{at}: {short_repr(child)} is both a node and a gait; rename one")
         if child not in nodes and child not in gaits:
-            raise ValueError(f"{at}: {short_repr(child)} is neither a node nor a gait "
-                             f"(gaits: {', '.join(gaits)})")
+            raise ValueError(
+                f"{at}: {short_repr(child)} is neither a node nor a gait "
+                f"(gaits: {', '.join(gaits)})"
+            )
     _number(f"{where}.full_at", node.full_at, 0.0, 1.0, "(0, 1]", open_lo=True)
     if node.weight != "switch":
         for field in SWITCH_DEFAULTS:
             if getattr(node, field) is not None:
-                raise ValueError(f"{where}.{field}: {short_repr(getattr(node, field))} is set on "
-                                 f"a {node.weight} node, which ignores it (only switch reads "
-                                 f"{' and '.join(SWITCH_DEFAULTS)}): leave it out")
+                raise ValueError(
+                    f"{where}.{field}: {short_repr(getattr(node, field))} is set on "
+                    f"a {node.weight} node, which ignores it (only switch reads "
+                    f"{' and '.join(SWITCH_DEFAULTS)}): leave it out"
+                )
         return
     threshold, h = switch_parameters(node)
     threshold = _number(f"{where}.threshold", threshold, 0.0, 1.0, "[0, 1]")
     h = _number(f"{where}.hysteresis", h, 0.0, 1.0, "[0, 1)", open_hi=True)
     lo, hi = threshold - 0.5 * h, threshold + 0.5 * h
     if lo < 0.0 or hi > 1.0:
-        raise ValueError(f"{where}.hysteresis: threshold {threshold:g} +- hysteresis/2 = "
-                         f"[{lo:g}, {hi:g}] is not inside [0, 1]")
+        raise ValueError(
+            f"{where}.hysteresis: threshold {threshold:g} +- hysteresis/2 = "
+            f"[{lo:g}, {hi:g}] is not inside [0, 1]"
+        )
 
 
 def _depth_first(nodes: Mapping[str, BlendNode]) -> list[str]:
@@ -228,15 +254,16 @@ def _depth_first(nodes: Mapping[str, BlendNode]) -> list[str]:
         if child is None:  # every child of path[-1] done
             pending.pop()
             name = path.pop()
-            height[name] = 1 + max((height[c] for c in nodes[name].children if c in nodes),
-                                   default=0)
+            height[name] = 1 + max(
+                (height[c] for c in nodes[name].children if c in nodes), default=0
+            )
             if len(path) + height[name] > MAX_TREE_DEPTH:
                 _refuse_depth(nodes, path + [name], height)
             continue
         if child not in nodes or child in height:
             continue
         if child in path:
-            cycle = path[path.index(child):] + [child]
+            cycle = path[path.index(child) :] + [child]
             raise ValueError(f"tree.{' -> '.join(cycle)}: a cycle")
         if len(path) == MAX_TREE_DEPTH:
             _refuse_depth(nodes, path + [child], height)
@@ -252,13 +279,16 @@ def _refuse_depth(nodes: Mapping[str, BlendNode], path: list, height: dict) -> N
     while len(path) <= MAX_TREE_DEPTH:
         below = [c for c in nodes[path[-1]].children if c in height]
         path.append(max(below, key=height.__getitem__))
-    raise ValueError(f"tree.{path[MAX_TREE_DEPTH]}: {MAX_TREE_DEPTH + 1} nodes deep from "
-                     f"root ({' -> '.join(path[:3])} -> ...); a tree may be at most "
-                     f"{MAX_TREE_DEPTH} nodes deep")
+    raise ValueError(
+        f"tree.{path[MAX_TREE_DEPTH]}: {MAX_TREE_DEPTH + 1} nodes deep from "
+        f"root ({' -> '.join(path[:3])} -> ...); a tree may be at most "
+        f"{MAX_TREE_DEPTH} nodes deep"
+    )
 
 
-def compile_tree(nodes: Mapping[str, BlendNode], gaits: Mapping[str, np.ndarray],
-                 modalities=None) -> "BehaviourTree":
+def compile_tree(
+    nodes: Mapping[str, BlendNode], gaits: Mapping[str, np.ndarray], modalities=None
+) -> "BehaviourTree":
     """Checks a tree and returns it compiled (immutable).
 
     Args:
@@ -273,17 +303,21 @@ def compile_tree(nodes: Mapping[str, BlendNode], gaits: Mapping[str, np.ndarray]
             gait (``gaits.<name>``).
     """
     if not isinstance(nodes, Mapping):
-        raise ValueError(f"tree: expected a mapping of node name -> BlendNode, got "
-                         f"{type(nodes).__name__}")
+        raise ValueError(
+            f"tree: expected a mapping of node name -> BlendNode, got {type(nodes).__name__}"
+        )
     if not isinstance(gaits, Mapping):
-        raise ValueError(f"gaits: expected a mapping of gait name -> 64-vector, got "
-                         f"{type(gaits).__name__}")
+        raise ValueError(
+            f"gaits: expected a mapping of gait name -> 64-vector, got {type(gaits).__name__}"
+        )
     vectors = {}
     for name, vector in gaits.items():
         v = np.array(vector, dtype=float)
         if v.shape != (NUM_CPG_PARAMS,) or not np.all(np.isfinite(v)):
-            raise ValueError(f"gaits.{name}: expected {NUM_CPG_PARAMS} finite values "
-                             f"(R, X, Phi, Phi' in rad), got shape {v.shape}")
+            raise ValueError(
+                f"gaits.{name}: expected {NUM_CPG_PARAMS} finite values "
+                f"(R, X, Phi, Phi' in rad), got shape {v.shape}"
+            )
         v.flags.writeable = False
         vectors[name] = v
     if ROOT not in nodes:
@@ -296,8 +330,9 @@ def compile_tree(nodes: Mapping[str, BlendNode], gaits: Mapping[str, np.ndarray]
             raise ValueError(f"tree.{name}: not reachable from root")
     read = [nodes[n].modality for n in order]
     ordered = tuple(m for m in (modalities if modalities is not None else read) if m in read)
-    return BehaviourTree(_PRIVATE, {n: nodes[n] for n in order}, vectors,
-                         tuple(dict.fromkeys(ordered)))
+    return BehaviourTree(
+        _PRIVATE, {n: nodes[n] for n in order}, vectors, tuple(dict.fromkeys(ordered))
+    )
 
 
 _PRIVATE = object()  # BehaviourTree is made by compile_tree only
@@ -319,8 +354,13 @@ class BehaviourTree:
     _switch_nodes: tuple[str, ...]
     _vectors: Mapping[str, np.ndarray]
 
-    def __init__(self, key, nodes: dict[str, BlendNode], vectors: dict[str, np.ndarray],
-                 modalities: tuple[str, ...]):
+    def __init__(
+        self,
+        key,
+        nodes: dict[str, BlendNode],
+        vectors: dict[str, np.ndarray],
+        modalities: tuple[str, ...],
+    ):
         if key is not _PRIVATE:
             raise TypeError("BehaviourTree: build one with compile_tree(nodes, gaits)")
         index = {name: i for i, name in enumerate(nodes)}  # depth-first: the root is 0
@@ -330,10 +370,19 @@ class BehaviourTree:
             children = tuple((c in index, index.get(c, c)) for c in node.children)
             n = len(children)
             threshold, hysteresis = switch_parameters(node)
-            compiled.append(_Node(
-                name, node.modality, node.weight, float(node.full_at), float(threshold),
-                float(hysteresis), children, tuple(k / (n - 1) for k in range(n)),
-                len(switches) if node.weight == "switch" else -1))
+            compiled.append(
+                _Node(
+                    name,
+                    node.modality,
+                    node.weight,
+                    float(node.full_at),
+                    float(threshold),
+                    float(hysteresis),
+                    children,
+                    tuple(k / (n - 1) for k in range(n)),
+                    len(switches) if node.weight == "switch" else -1,
+                )
+            )
             if node.weight == "switch":
                 switches.append(name)
         leaves, visited = [], set()
@@ -354,9 +403,16 @@ class BehaviourTree:
         set_(self, "_leaves", tuple(leaves))
         set_(self, "_modalities", modalities)
         set_(self, "_switch_nodes", tuple(switches))
-        set_(self, "_blend_nodes", types.MappingProxyType(
-            {name: dataclasses.replace(node, children=list(node.children))
-             for name, node in nodes.items()}))
+        set_(
+            self,
+            "_blend_nodes",
+            types.MappingProxyType(
+                {
+                    name: dataclasses.replace(node, children=list(node.children))
+                    for name, node in nodes.items()
+                }
+            ),
+        )
 
     def __setattr__(self, name, value):
         raise AttributeError("BehaviourTree is immutable")
@@ -390,8 +446,10 @@ class BehaviourTree:
     @property
     def nodes(self) -> dict[str, BlendNode]:
         """A copy of the tree it was compiled from (nodes in depth-first order)."""
-        return {name: dataclasses.replace(node, children=list(node.children))
-                for name, node in self._blend_nodes.items()}
+        return {
+            name: dataclasses.replace(node, children=list(node.children))
+            for name, node in self._blend_nodes.items()
+        }
 
     # -- evaluation -------------------------------------------------------------------------
 
@@ -401,8 +459,9 @@ class BehaviourTree:
             try:
                 v = values[m]
             except KeyError:
-                raise ValueError(f"values: missing {m!r} (the tree reads "
-                                 f"{', '.join(self._modalities)})") from None
+                raise ValueError(
+                    f"values: missing {m!r} (the tree reads {', '.join(self._modalities)})"
+                ) from None
             v = float(v)
             # target_params' operations in its order: clip, then min(z / z_t, 1).
             clipped[m] = float(np.clip(v, 0.0, 1.0)) if np.isfinite(v) else 0.0
@@ -433,20 +492,30 @@ class BehaviourTree:
     def _switch_states(self, xs: list[float], switch_state) -> np.ndarray:
         switches = [n for n in self._nodes if n.switch >= 0]
         if switch_state is None:
-            return np.array([self._switch(n, xs[i], 0, 0.0) for i, n in enumerate(self._nodes)
-                             if n.switch >= 0], dtype=float)
+            return np.array(
+                [
+                    self._switch(n, xs[i], 0, 0.0)
+                    for i, n in enumerate(self._nodes)
+                    if n.switch >= 0
+                ],
+                dtype=float,
+            )
         held = np.asarray(switch_state, dtype=float).reshape(-1)
         if held.shape != (len(switches),):
-            raise ValueError(f"switch_state: expected {len(switches)} values (one per switch "
-                             f"node), got shape {np.shape(switch_state)}")
+            raise ValueError(
+                f"switch_state: expected {len(switches)} values (one per switch "
+                f"node), got shape {np.shape(switch_state)}"
+            )
         out = np.empty(len(switches))
         for i, n in enumerate(self._nodes):
             if n.switch < 0:
                 continue
             j = held[n.switch]
             if not (np.isfinite(j) and j == round(j) and 0 <= j < len(n.children)):
-                raise ValueError(f"switch_state[{n.switch}] ({n.name}): {float(j)!r} is not a "
-                                 f"child index in 0..{len(n.children) - 1}")
+                raise ValueError(
+                    f"switch_state[{n.switch}] ({n.name}): {float(j)!r} is not a "
+                    f"child index in 0..{len(n.children) - 1}"
+                )
             out[n.switch] = self._switch(n, xs[i], int(j), n.hysteresis)
         return out
 
@@ -489,7 +558,7 @@ class BehaviourTree:
                     c0, c1 = child_vector(node, k0), child_vector(node, k0 + 1)
                     vectors[i] = (c1 - c0) * self._segment(node, x)[1] + c0
                 else:
-                    (k1, w1), = rest
+                    ((k1, w1),) = rest
                     vectors[i] = w0 * child_vector(node, k0) + w1 * child_vector(node, k1)
             return vectors[i]
 
@@ -523,14 +592,16 @@ class BehaviourTree:
         visit(0)
         return post[::-1]
 
-    def target(self, values: Mapping[str, float],
-               switch_state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def target(
+        self, values: Mapping[str, float], switch_state: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(psi_d (64,), new switch state): the tree's target for these values."""
         psi_d, _, state = self.evaluate(values, switch_state)
         return psi_d, state
 
-    def leaf_weights(self, values: Mapping[str, float],
-                     switch_state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def leaf_weights(
+        self, values: Mapping[str, float], switch_state: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(weights (len(leaves),), new switch state): each gait's share of the target, the
         product of the node weights along its paths summed over its paths."""
         _, weights, state = self.evaluate(values, switch_state)
@@ -541,5 +612,7 @@ class BehaviourTree:
         return self._switch_states(self._coordinates(values), None)
 
     def __repr__(self):
-        return (f"BehaviourTree(nodes={list(self._blend_nodes)}, leaves={list(self._leaves)}, "
-                f"modalities={list(self._modalities)})")
+        return (
+            f"BehaviourTree(nodes={list(self._blend_nodes)}, leaves={list(self._leaves)}, "
+            f"modalities={list(self._modalities)})"
+        )

@@ -30,7 +30,6 @@ Defaults and why:
   explicit Euler / RK2 at 1 ms.
 """
 
-
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
@@ -50,11 +49,11 @@ NUM_PARAMS = NUM_CPG_PARAMS
 NUM_STATES = 5 * NUM_OSC  # phi, r, dr, chi, dchi
 
 # Index sets of the coupled directed pairs (i <- j): dphi_i gets w sin(phi_j - phi_i - b_ij).
-_chain_i = np.array([JOINTS_PER_LEG * k + j for k in range(NUM_LEGS)
-                     for j in range(JOINTS_PER_LEG - 1)])
+_chain_i = np.array(
+    [JOINTS_PER_LEG * k + j for k in range(NUM_LEGS) for j in range(JOINTS_PER_LEG - 1)]
+)
 _chain_j = _chain_i + 1
-_fcs_k, _fcs_l = np.array([(k, m) for k in range(NUM_LEGS) for m in range(NUM_LEGS)
-                           if k != m]).T
+_fcs_k, _fcs_l = np.array([(k, m) for k in range(NUM_LEGS) for m in range(NUM_LEGS) if k != m]).T
 PAIR_I = np.concatenate([_chain_i, _chain_j, JOINTS_PER_LEG * _fcs_k])  # receiving oscillator
 PAIR_J = np.concatenate([_chain_j, _chain_i, JOINTS_PER_LEG * _fcs_l])  # sending oscillator
 _CHAIN_PHI_INDEX = _chain_i  # into Phi.ravel(): Phi[k, j] biases joint j -> j + 1
@@ -64,10 +63,17 @@ _R, _X, _PHI, _PHI_PRIME = (slice(i * NUM_OSC, (i + 1) * NUM_OSC) for i in range
 # The pairs for the compiled kernels: each pair's bias as (index into params, sign), in
 # the order of ``pair_biases``: chain biases, their negatives, then the FCS biases.
 PAIRS = K.pack_pairs(
-    PAIR_I, PAIR_J,
-    np.concatenate([_PHI.start + _CHAIN_PHI_INDEX, _PHI.start + _CHAIN_PHI_INDEX,
-                    _PHI_PRIME.start + _FCS_INDEX]),
-    np.concatenate([np.ones(len(_chain_i)), -np.ones(len(_chain_i)), np.ones(len(_fcs_k))]))
+    PAIR_I,
+    PAIR_J,
+    np.concatenate(
+        [
+            _PHI.start + _CHAIN_PHI_INDEX,
+            _PHI.start + _CHAIN_PHI_INDEX,
+            _PHI_PRIME.start + _FCS_INDEX,
+        ]
+    ),
+    np.concatenate([np.ones(len(_chain_i)), -np.ones(len(_chain_i)), np.ones(len(_fcs_k))]),
+)
 
 
 def pair_biases(params: np.ndarray) -> np.ndarray:
@@ -94,13 +100,15 @@ def cpg_derivatives(x, params, frequency_hz, weights, a, b) -> np.ndarray:
     """Time derivative of the CPG state x = [phi, r, dr, chi, dchi] (80) under Eq. (5)."""
     phi, r, dr, chi, dchi = np.asarray(x, dtype=float).reshape(5, NUM_OSC)
     R, X = params[_R], params[_X]
-    return np.concatenate([
-        phase_rates(phi, params, frequency_hz, weights),
-        dr,
-        a * (a / 4.0 * (R - r) - dr),
-        dchi,
-        b * (b / 4.0 * (X - chi) - dchi),
-    ])
+    return np.concatenate(
+        [
+            phase_rates(phi, params, frequency_hz, weights),
+            dr,
+            a * (a / 4.0 * (R - r) - dr),
+            dchi,
+            b * (b / 4.0 * (X - chi) - dchi),
+        ]
+    )
 
 
 def joint_angles(x) -> np.ndarray:
@@ -170,9 +178,16 @@ class CpgOscillators(LeafSystem):
         ValueError: naming the argument and its allowed range.
     """
 
-    def __init__(self, frequency_hz: float | None = None, chain_weight: float = 4.0,
-                 fcs_weight: float = 4.0, a: float = 20.0, b: float = 20.0,
-                 initial_state=None, compiled: bool = True):
+    def __init__(
+        self,
+        frequency_hz: float | None = None,
+        chain_weight: float = 4.0,
+        fcs_weight: float = 4.0,
+        a: float = 20.0,
+        b: float = 20.0,
+        initial_state=None,
+        compiled: bool = True,
+    ):
         super().__init__()
         if not isinstance(compiled, bool):
             raise ValueError(f"CpgOscillators.compiled: {compiled!r} is not true or false")
@@ -180,13 +195,15 @@ class CpgOscillators(LeafSystem):
             frequency_hz = DEFAULT_FREQUENCY_HZ
         # The ranges Scenario.validate gives the cpg.* fields: beyond 5 Hz a 1 ms step no
         # longer resolves the oscillation, beyond 200 1/s the RK2 step is unstable.
-        check_in_range("CpgOscillators.frequency_hz", frequency_hz, 0.0, 5.0, "(0, 5] Hz",
-                       open_low=True)
+        check_in_range(
+            "CpgOscillators.frequency_hz", frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True
+        )
         for name, value in (("chain_weight", chain_weight), ("fcs_weight", fcs_weight)):
             check_in_range(f"CpgOscillators.{name}", value, 0.0, 100.0, "[0, 100] rad/s")
         for name, value in (("a", a), ("b", b)):
-            check_in_range(f"CpgOscillators.{name}", value, 0.0, 200.0, "(0, 200] 1/s",
-                           open_low=True)
+            check_in_range(
+                f"CpgOscillators.{name}", value, 0.0, 200.0, "(0, 200] 1/s", open_low=True
+            )
         self.frequency_hz = float(frequency_hz)
         self.a, self.b = float(a), float(b)
         self.weights = pair_weights(chain_weight, fcs_weight)
@@ -199,10 +216,16 @@ class CpgOscillators(LeafSystem):
             except (TypeError, ValueError):
                 x0 = None
         if x0 is None or x0.shape != (NUM_STATES,) or not np.all(np.isfinite(x0)):
-            shape = "not numbers" if x0 is None else f"shape {x0.shape}" + (
-                "" if x0.shape != (NUM_STATES,) else " with non-finite values")
-            raise ValueError(f"CpgOscillators.initial_state: expected {NUM_STATES} finite "
-                             f"values [phi, r, dr, chi, dchi], got {shape}")
+            shape = (
+                "not numbers"
+                if x0 is None
+                else f"shape {x0.shape}"
+                + ("" if x0.shape != (NUM_STATES,) else " with non-finite values")
+            )
+            raise ValueError(
+                f"CpgOscillators.initial_state: expected {NUM_STATES} finite "
+                f"values [phi, r, dr, chi, dchi], got {shape}"
+            )
         # The default context starts here (see ``initial_state``).
         self.DeclareContinuousState(BasicVector(x0))
         self._params_port = self.DeclareVectorInputPort("cpg_params", NUM_PARAMS)
@@ -214,14 +237,20 @@ class CpgOscillators(LeafSystem):
             # version for this system only (and the kernel path has no extra call).
             self.DoCalcTimeDerivatives = self._derivatives_numpy  # type: ignore[method-assign]
         self.DeclareVectorOutputPort(
-            "joint_angles", NUM_OSC,
+            "joint_angles",
+            NUM_OSC,
             self._calc_joint_angles if compiled else self._calc_joint_angles_numpy,
-            prerequisites_of_calc={self.xc_ticket()})
+            prerequisites_of_calc={self.xc_ticket()},
+        )
         self.DeclareVectorOutputPort(
-            "desired_state", 2 * NUM_OSC,
+            "desired_state",
+            2 * NUM_OSC,
             self._calc_desired_state if compiled else self._calc_desired_state_numpy,
-            prerequisites_of_calc={self.xc_ticket(),
-                                   self.input_port_ticket(self._params_port.get_index())})
+            prerequisites_of_calc={
+                self.xc_ticket(),
+                self.input_port_ticket(self._params_port.get_index()),
+            },
+        )
 
     def _params(self, context) -> np.ndarray:
         return self._params_port.Eval(context)
@@ -233,9 +262,17 @@ class CpgOscillators(LeafSystem):
     # pybind paths to the 80 numbers, measured ~1 us cheaper per call than via the vector.)
 
     def DoCalcTimeDerivatives(self, context, derivatives):
-        K.derivatives(context.get_continuous_state().CopyToVector(),
-                      self._params_port.Eval(context), self._omega, PAIRS, self.weights,
-                      self.a, self.b, NUM_OSC, self._xdot)
+        K.derivatives(
+            context.get_continuous_state().CopyToVector(),
+            self._params_port.Eval(context),
+            self._omega,
+            PAIRS,
+            self.weights,
+            self.a,
+            self.b,
+            NUM_OSC,
+            self._xdot,
+        )
         derivatives.SetFromVector(self._xdot)
 
     def _calc_joint_angles(self, context, output: BasicVector):
@@ -243,17 +280,24 @@ class CpgOscillators(LeafSystem):
         output.SetFromVector(self._angles)
 
     def _calc_desired_state(self, context, output: BasicVector):
-        K.desired_state(context.get_continuous_state().CopyToVector(),
-                        self._params_port.Eval(context), self._omega, PAIRS, self.weights,
-                        NUM_OSC, self._desired)
+        K.desired_state(
+            context.get_continuous_state().CopyToVector(),
+            self._params_port.Eval(context),
+            self._omega,
+            PAIRS,
+            self.weights,
+            NUM_OSC,
+            self._desired,
+        )
         output.SetFromVector(self._desired)
 
     # The numpy reference (compiled=False).
 
     def _derivatives_numpy(self, context, derivatives):
         x = context.get_continuous_state_vector().CopyToVector()
-        xdot = cpg_derivatives(x, self._params(context), self.frequency_hz, self.weights,
-                               self.a, self.b)
+        xdot = cpg_derivatives(
+            x, self._params(context), self.frequency_hz, self.weights, self.a, self.b
+        )
         derivatives.get_mutable_vector().SetFromVector(xdot)
 
     def _calc_joint_angles_numpy(self, context, output: BasicVector):

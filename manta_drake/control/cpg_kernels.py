@@ -23,8 +23,9 @@ from manta_drake.jit import njit
 
 def pack_pairs(pair_i, pair_j, bias_index, bias_sign) -> np.ndarray:
     """(n_pairs, 4) int64 rows [i, j, bias index into the 64 params, bias sign (+-1)]."""
-    return np.ascontiguousarray(np.column_stack([pair_i, pair_j, bias_index, bias_sign]),
-                                dtype=np.int64)
+    return np.ascontiguousarray(
+        np.column_stack([pair_i, pair_j, bias_index, bias_sign]), dtype=np.int64
+    )
 
 
 @njit(cache=True)

@@ -81,28 +81,56 @@ class FuzzyDepthEstimator(LeafSystem):
     sensor's rate); a NaN or infinite reading keeps the last valid estimate.
     """
 
-    def __init__(self, floor_distance: float, period: float, initial_depth: float = 0.0,
-                 surface_depth: float = 0.0):
+    def __init__(
+        self,
+        floor_distance: float,
+        period: float,
+        initial_depth: float = 0.0,
+        surface_depth: float = 0.0,
+    ):
         super().__init__()
         # The ranges Scenario.validate gives these fields (depth_estimator.*, pressure_sensor).
-        check_in_range("FuzzyDepthEstimator.floor_distance", floor_distance, 0.0, 10.0,
-                       "(0, 10] m (the distance to the floor D divides h_hat)", open_low=True)
-        check_in_range("FuzzyDepthEstimator.surface_depth", surface_depth, 0.0, floor_distance,
-                       f"[0, floor_distance = {floor_distance}) m", open_high=True)
+        check_in_range(
+            "FuzzyDepthEstimator.floor_distance",
+            floor_distance,
+            0.0,
+            10.0,
+            "(0, 10] m (the distance to the floor D divides h_hat)",
+            open_low=True,
+        )
+        check_in_range(
+            "FuzzyDepthEstimator.surface_depth",
+            surface_depth,
+            0.0,
+            floor_distance,
+            f"[0, floor_distance = {floor_distance}) m",
+            open_high=True,
+        )
         check_in_range("FuzzyDepthEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
-        check_in_range("FuzzyDepthEstimator.initial_depth", initial_depth, 0.0, 100.0,
-                       "[0, 100] m below the surface")
+        check_in_range(
+            "FuzzyDepthEstimator.initial_depth",
+            initial_depth,
+            0.0,
+            100.0,
+            "[0, 100] m below the surface",
+        )
         self.surface_depth = float(surface_depth)
         self.D = float(floor_distance)
         h0, z0 = fuzzy_depth(initial_depth, self.D, self.surface_depth)
         self._state = self.DeclareDiscreteState([float(h0), float(z0)])
         self._depth = self.DeclareVectorInputPort("depth", 1)
-        self.DeclareVectorOutputPort("h_hat", 1, lambda c, o: o.SetAtIndex(
-            0, c.get_discrete_state(self._state).GetAtIndex(0)),
-            prerequisites_of_calc={self.xd_ticket()})
-        self.DeclareVectorOutputPort("z_hat", 1, lambda c, o: o.SetAtIndex(
-            0, c.get_discrete_state(self._state).GetAtIndex(1)),
-            prerequisites_of_calc={self.xd_ticket()})
+        self.DeclareVectorOutputPort(
+            "h_hat",
+            1,
+            lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._state).GetAtIndex(0)),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "z_hat",
+            1,
+            lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._state).GetAtIndex(1)),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
     def _update(self, context, discrete_state):

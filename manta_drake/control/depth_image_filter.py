@@ -26,10 +26,16 @@ class DepthImageFilter(LeafSystem):
 
     def __init__(self, width: int, height: int, size: int = 5):
         super().__init__()
-        if (isinstance(size, bool) or not isinstance(size, int) or not 0 <= size <= 15
-                or (size > 1 and size % 2 == 0)):
-            raise ValueError(f"DepthImageFilter.size: {size!r} is not allowed: 0 or 1 (off) or "
-                             "an odd number of pixels up to 15")
+        if (
+            isinstance(size, bool)
+            or not isinstance(size, int)
+            or not 0 <= size <= 15
+            or (size > 1 and size % 2 == 0)
+        ):
+            raise ValueError(
+                f"DepthImageFilter.size: {size!r} is not allowed: 0 or 1 (off) or "
+                "an odd number of pixels up to 15"
+            )
         self.size = size
         model = AbstractValue.Make(ImageDepth32F(width, height))
         self._input = self.DeclareAbstractInputPort("depth_image", model)

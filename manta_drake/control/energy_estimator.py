@@ -75,9 +75,17 @@ class EnergyEstimator(FilteredEstimator):
 
     def __init__(self, params: EnergyEstimatorParams | None = None, period: float = 0.1):
         params = (params if params is not None else EnergyEstimatorParams()).validate()
-        super().__init__("battery", BATTERY_SIZE, [0], period, params.time_constant,
-                         initial=[1.0], max_period=10.0)
+        super().__init__(
+            "battery",
+            BATTERY_SIZE,
+            [0],
+            period,
+            params.time_constant,
+            initial=[1.0],
+            max_period=10.0,
+        )
         self.params = params
-        self.DeclareEstimateOutputPort("energy_hat", 1,
-                                       lambda soc: energy_membership(soc[0], params))
+        self.DeclareEstimateOutputPort(
+            "energy_hat", 1, lambda soc: energy_membership(soc[0], params)
+        )
         self.DeclareEstimateOutputPort("soc_hat", 1, lambda soc: soc[0])

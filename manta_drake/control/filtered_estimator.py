@@ -55,12 +55,22 @@ class FilteredEstimator(LeafSystem):
         ValueError: the period outside its range, naming the subclass.
     """
 
-    def __init__(self, sensor: str, size: int, channels, period: float, time_constant: float,
-                 initial=None, circular=False, max_period: float = 1.0):
+    def __init__(
+        self,
+        sensor: str,
+        size: int,
+        channels,
+        period: float,
+        time_constant: float,
+        initial=None,
+        circular=False,
+        max_period: float = 1.0,
+    ):
         super().__init__()
         name = type(self).__name__
-        check_in_range(f"{name}.period", period, 0.0, max_period, f"(0, {max_period:g}] s",
-                       open_low=True)
+        check_in_range(
+            f"{name}.period", period, 0.0, max_period, f"(0, {max_period:g}] s", open_low=True
+        )
         self.period = float(period)
         self._channels = np.asarray(channels, dtype=int)
         n = self._channels.size
@@ -76,16 +86,19 @@ class FilteredEstimator(LeafSystem):
 
     def filtered(self, context) -> np.ndarray:
         """The filtered channels (n,) in ``context``."""
-        return context.get_discrete_state(self._state).get_value()[:self._channels.size]
+        return context.get_discrete_state(self._state).get_value()[: self._channels.size]
 
-    def DeclareEstimateOutputPort(self, name: str, size: int,
-                                  calc: Callable[[np.ndarray], object]):
+    def DeclareEstimateOutputPort(self, name: str, size: int, calc: Callable[[np.ndarray], object]):
         """Declares output ``name`` (``size``) as ``calc(filtered channels)``."""
+
         def _calc(context, output):
-            output.SetFromVector(np.reshape(np.asarray(calc(self.filtered(context)),
-                                                       dtype=float), size))
-        return self.DeclareVectorOutputPort(name, size, _calc,
-                                            prerequisites_of_calc={self.xd_ticket()})
+            output.SetFromVector(
+                np.reshape(np.asarray(calc(self.filtered(context)), dtype=float), size)
+            )
+
+        return self.DeclareVectorOutputPort(
+            name, size, _calc, prerequisites_of_calc={self.xd_ticket()}
+        )
 
     def _initialize(self, context, discrete_state):
         self._step(context, discrete_state, 0.0)  # seeds unseeded channels, moves no other
@@ -99,4 +112,5 @@ class FilteredEstimator(LeafSystem):
         sample = np.asarray(self._sensor.Eval(context), dtype=float)[self._channels]
         value, seeded = low_pass_step(x[:n], x[n:] > 0.5, sample, alpha, self._circular)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([value, seeded.astype(float)]))
+            np.concatenate([value, seeded.astype(float)])
+        )

@@ -103,6 +103,11 @@ class FlowEstimator(FilteredEstimator):
         params = (params if params is not None else FlowEstimatorParams()).validate()
         super().__init__("flow_velocity", 3, [0, 1, 2], period, params.time_constant)
         self.params = params
-        self.DeclareEstimateOutputPort("flow_hat", 1, lambda v: ramp_membership(
-            flow_speed(v, params.axis), params.speed_low, params.speed_high))
+        self.DeclareEstimateOutputPort(
+            "flow_hat",
+            1,
+            lambda v: ramp_membership(
+                flow_speed(v, params.axis), params.speed_low, params.speed_high
+            ),
+        )
         self.DeclareEstimateOutputPort("flow_speed_hat", 1, lambda v: flow_speed(v, params.axis))

@@ -59,8 +59,9 @@ GAIT_KEYS = MATRICES + ("description", "base", "mirror_keep")
 FILE_KEYS = ("gaits", "description", "provenance")
 # The mirror rule changes R and X only; these are what ``mirror_keep`` may name.
 MIRRORED_MATRICES = ("R_deg", "X_deg")
-MIRROR_KEEPS = MIRRORED_MATRICES + tuple(f"{m}.{c}" for m in MIRRORED_MATRICES
-                                         for c in JOINT_COLUMNS)
+MIRROR_KEEPS = MIRRORED_MATRICES + tuple(
+    f"{m}.{c}" for m in MIRRORED_MATRICES for c in JOINT_COLUMNS
+)
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 RESERVED_NAMES = ("zero",)  # ``initial_stance: zero`` is the zero pose, not a gait
 # Largest degree value a gait entry may hold: a phase of two turns is already the same
@@ -107,8 +108,9 @@ def radians_to_degrees(radians) -> list:
 
 def _matrix(value, where: str) -> np.ndarray:
     """A gait matrix from its YAML value (4x4 degrees), or a one-line error."""
-    shape_text = ("expected 4 rows (fl, fr, rl, rr) of 4 numbers (yaw, roll1, pitch, roll2) "
-                  "in degrees")
+    shape_text = (
+        "expected 4 rows (fl, fr, rl, rr) of 4 numbers (yaw, roll1, pitch, roll2) in degrees"
+    )
     if not isinstance(value, list) or len(value) != GAIT_SHAPE[0]:
         got = f"{len(value)} rows" if isinstance(value, list) else short_repr(value)
         raise ScenarioError(f"{where}: {shape_text}, got {got}")
@@ -118,12 +120,15 @@ def _matrix(value, where: str) -> np.ndarray:
             raise ScenarioError(f"{where}[{LEG_ROWS[i]}]: {shape_text}, got {got}")
         for j, x in enumerate(row):
             if isinstance(x, bool) or not isinstance(x, (int, float)):
-                raise ScenarioError(f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: "
-                                    f"{short_repr(x)} is not a number")
+                raise ScenarioError(
+                    f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: {short_repr(x)} is not a number"
+                )
             if not math.isfinite(x) or abs(x) > MAX_DEGREES:
-                raise ScenarioError(f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: "
-                                    f"{short_repr(x)} is outside "
-                                    f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg")
+                raise ScenarioError(
+                    f"{where}[{LEG_ROWS[i]}, {JOINT_COLUMNS[j]}]: "
+                    f"{short_repr(x)} is outside "
+                    f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg"
+                )
     return degrees_to_radians(value)
 
 
@@ -138,8 +143,9 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
         raise ScenarioError(f"{source}: expected a mapping with a 'gaits' key")
     for key in data:
         if key not in FILE_KEYS:
-            raise ScenarioError(f"{source}: unknown key {short_repr(key)}; allowed: "
-                                f"{', '.join(FILE_KEYS)}")
+            raise ScenarioError(
+                f"{source}: unknown key {short_repr(key)}; allowed: {', '.join(FILE_KEYS)}"
+            )
     gaits = data.get("gaits")
     if not isinstance(gaits, dict) or not gaits:
         raise ScenarioError(f"{source}: gaits: expected a mapping of gait names to gaits")
@@ -148,41 +154,53 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
     out: dict[str, GaitEntry] = {}
     for name, spec in gaits.items():
         if not isinstance(name, str) or not _NAME.match(name) or name in RESERVED_NAMES:
-            raise ScenarioError(f"{source}: gaits: {short_repr(name)} is not a gait name "
-                                "(letters, digits and _, not starting with a digit; not "
-                                "'zero')")
+            raise ScenarioError(
+                f"{source}: gaits: {short_repr(name)} is not a gait name "
+                "(letters, digits and _, not starting with a digit; not "
+                "'zero')"
+            )
         where = f"{source}: gaits.{name}"
         if name in known:
-            raise ScenarioError(f"{where}: the name is already defined in "
-                                f"{known[name].source}; gait names must be unique")
+            raise ScenarioError(
+                f"{where}: the name is already defined in "
+                f"{known[name].source}; gait names must be unique"
+            )
         if not isinstance(spec, dict):
             raise ScenarioError(f"{where}: expected a mapping with {', '.join(MATRICES)}")
         for key in spec:
             if key not in GAIT_KEYS:
-                raise ScenarioError(f"{where}: unknown key {short_repr(key)}; allowed: "
-                                    f"{', '.join(GAIT_KEYS)}")
+                raise ScenarioError(
+                    f"{where}: unknown key {short_repr(key)}; allowed: {', '.join(GAIT_KEYS)}"
+                )
         base = spec.get("base")
         matrices = {}
         if base is not None:
             if not isinstance(base, str):
-                raise ScenarioError(f"{where}.base: {short_repr(base)}: expected the name of a "
-                                    "gait defined before it")
+                raise ScenarioError(
+                    f"{where}.base: {short_repr(base)}: expected the name of a "
+                    "gait defined before it"
+                )
             parent = out.get(base) or known.get(base)
             if parent is None:
-                raise ScenarioError(f"{where}.base: {short_repr(base)} is not a gait defined "
-                                    "before it")
+                raise ScenarioError(
+                    f"{where}.base: {short_repr(base)} is not a gait defined before it"
+                )
             matrices.update(parent.matrices)
         for m in MATRICES:
             if m in spec:
                 matrices[FIELD_OF_MATRIX[m]] = _matrix(spec[m], f"{where}.{m}")
             elif base is None:
-                raise ScenarioError(f"{where}: {m} missing (give all four matrices, or a "
-                                    "base gait to take the missing ones from)")
+                raise ScenarioError(
+                    f"{where}: {m} missing (give all four matrices, or a "
+                    "base gait to take the missing ones from)"
+                )
         keep = spec.get("mirror_keep", [])
         if not isinstance(keep, list) or any(k not in MIRROR_KEEPS for k in keep):
-            raise ScenarioError(f"{where}.mirror_keep: {short_repr(keep)}: expected a list of "
-                                f"{', '.join(MIRRORED_MATRICES)} or MATRIX.COLUMN with a "
-                                f"column of {', '.join(JOINT_COLUMNS)}")
+            raise ScenarioError(
+                f"{where}.mirror_keep: {short_repr(keep)}: expected a list of "
+                f"{', '.join(MIRRORED_MATRICES)} or MATRIX.COLUMN with a "
+                f"column of {', '.join(JOINT_COLUMNS)}"
+            )
         description = spec.get("description", "")
         if not isinstance(description, str):
             raise ScenarioError(f"{where}.description: expected text")
@@ -245,8 +263,9 @@ def _library(stamps: tuple, reading: str):
     elif reading == "mirrored":
         lib = {n: GaitParams(**mirrored_matrices(e)) for n, e in entries.items()}
     else:
-        raise ScenarioError(f"controller.gait_reading: {short_repr(reading)} is not one of "
-                            "paper, mirrored")
+        raise ScenarioError(
+            f"controller.gait_reading: {short_repr(reading)} is not one of paper, mirrored"
+        )
     return types.MappingProxyType(lib)
 
 
@@ -257,8 +276,13 @@ def gait_library(files=(), reading: str = "paper") -> Mapping:
     return _library(tuple(_file_stamp(pathlib.Path(p)) for p in paths), reading)
 
 
-def gait_file_data(gaits: Mapping, description: str = "", provenance: Mapping | None = None,
-                   mirror_keep: Mapping | None = None, descriptions: Mapping | None = None) -> dict:
+def gait_file_data(
+    gaits: Mapping,
+    description: str = "",
+    provenance: Mapping | None = None,
+    mirror_keep: Mapping | None = None,
+    descriptions: Mapping | None = None,
+) -> dict:
     """The mapping a gait file holds for ``gaits`` (name -> GaitParams)."""
     out: dict = {}
     if description:
@@ -296,8 +320,9 @@ def gait_file_text(data: Mapping, header: str = "") -> str:
     return comment + yaml.dump(dict(data), Dumper=_FlowRows, sort_keys=False, width=100)
 
 
-def write_gait_file(path, gaits: Mapping, description: str = "",
-                    provenance: Mapping | None = None, header: str = "") -> pathlib.Path:
+def write_gait_file(
+    path, gaits: Mapping, description: str = "", provenance: Mapping | None = None, header: str = ""
+) -> pathlib.Path:
     """Writes ``gaits`` (name -> GaitParams) as a gait file at ``path``; reading it back
     gives the same matrices to the last digit for whole-degree entries and to 1e-9 deg
     otherwise."""

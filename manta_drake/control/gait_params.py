@@ -55,8 +55,9 @@ class GaitParams:
         """Inverse of ``to_vector``."""
         v = np.asarray(v, dtype=float)
         if v.shape != (NUM_CPG_PARAMS,):
-            raise ValueError(f"GaitParams.from_vector: expected {NUM_CPG_PARAMS} values, "
-                             f"got shape {v.shape}")
+            raise ValueError(
+                f"GaitParams.from_vector: expected {NUM_CPG_PARAMS} values, got shape {v.shape}"
+            )
         n = NUM_JOINTS
         return cls(*(v[n * i : n * (i + 1)].reshape(SHAPE) for i in range(len(FIELDS))))
 

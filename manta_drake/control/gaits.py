@@ -72,8 +72,9 @@ def get_gait(name: str, reading: str = "paper", files=()) -> GaitParams:
     """The gait called ``name`` under ``reading``, from the shipped library and ``files``
     (a scenario's ``controller.gait_files``); a clear error lists the known ones."""
     if reading not in READINGS:
-        raise KeyError(f"unknown gait reading '{reading}'; known readings: "
-                       f"{', '.join(READINGS)}") from None
+        raise KeyError(
+            f"unknown gait reading '{reading}'; known readings: {', '.join(READINGS)}"
+        ) from None
     library = gait_library(tuple(files), reading) if files else READINGS[reading]
     try:
         return library[name]
@@ -109,6 +110,7 @@ def phase_lock_targets(Phi_prime) -> np.ndarray:
         return np.sum(1.0 - np.cos(e)), g[1:]
 
     starts = np.stack(np.meshgrid(*[np.linspace(-PI, PI, 5)[:-1]] * (n - 1)), -1).reshape(-1, n - 1)
-    best = min((minimize(potential, x0, jac=True, method="BFGS") for x0 in starts),
-               key=lambda r: r.fun)
+    best = min(
+        (minimize(potential, x0, jac=True, method="BFGS") for x0 in starts), key=lambda r: r.fun
+    )
     return np.angle(np.exp(1j * np.concatenate([[0.0], best.x])))

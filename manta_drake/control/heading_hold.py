@@ -70,33 +70,40 @@ class HeadingChange:
         of ``modalities`` (None: any name); ValueError names the field
         (``<where>.<field>``)."""
         if (self.time is None) == (not self.modality):
-            raise ValueError(f"{where}: give either time or modality (a change happens at a "
-                             f"time or on an estimate), got time={self.time!r}, "
-                             f"modality={self.modality!r}")
+            raise ValueError(
+                f"{where}: give either time or modality (a change happens at a "
+                f"time or on an estimate), got time={self.time!r}, "
+                f"modality={self.modality!r}"
+            )
         if self.time is not None:
             check_in_range(f"{where}.time", self.time, 0.0, 1e6, "[0, 1e6] s")
         else:
             if modalities is not None:
                 check_one_of(f"{where}.modality", self.modality, tuple(modalities))
             elif not (isinstance(self.modality, str) and self.modality.isidentifier()):
-                raise ValueError(f"{where}.modality: {self.modality!r} is not an estimate's "
-                                 "name (an identifier, e.g. s_hat)")
+                raise ValueError(
+                    f"{where}.modality: {self.modality!r} is not an estimate's "
+                    "name (an identifier, e.g. s_hat)"
+                )
         check_in_range(f"{where}.above", self.above, 0.0, 1.0, "[0, 1)", open_high=True)
         if (self.heading_deg is None) == (self.turn_deg is None):
-            raise ValueError(f"{where}: give either heading_deg (the new target) or turn_deg "
-                             f"(the heading at the change plus it), got heading_deg="
-                             f"{self.heading_deg!r}, turn_deg={self.turn_deg!r}")
+            raise ValueError(
+                f"{where}: give either heading_deg (the new target) or turn_deg "
+                f"(the heading at the change plus it), got heading_deg="
+                f"{self.heading_deg!r}, turn_deg={self.turn_deg!r}"
+            )
         if self.heading_deg is not None:
-            check_in_range(f"{where}.heading_deg", self.heading_deg, -180.0, 180.0,
-                           "[-180, 180] deg")
+            check_in_range(
+                f"{where}.heading_deg", self.heading_deg, -180.0, 180.0, "[-180, 180] deg"
+            )
         else:
-            check_in_range(f"{where}.turn_deg", self.turn_deg, -360.0, 360.0,
-                           "[-360, 360] deg")
+            check_in_range(f"{where}.turn_deg", self.turn_deg, -360.0, 360.0, "[-360, 360] deg")
         return self
 
 
-def changed_targets(target: float, yaw: float, time: float, estimates: dict, changes,
-                    done) -> tuple[float, tuple]:
+def changed_targets(
+    target: float, yaw: float, time: float, estimates: dict, changes, done
+) -> tuple[float, tuple]:
     """(the target [rad], which of ``changes`` have been made) after the changes due now, in
     order: a change not yet made (``done`` False) is due at or after its time, or when its
     estimate (``estimates``, modality -> value) is finite and above its threshold; it sets
@@ -107,8 +114,13 @@ def changed_targets(target: float, yaw: float, time: float, estimates: dict, cha
             continue
         value = estimates.get(c.modality, np.nan) if c.modality else np.nan
         if (c.time is not None and time >= c.time) or (np.isfinite(value) and value > c.above):
-            target = float(wrap(np.radians(c.heading_deg) if c.heading_deg is not None
-                                else yaw + np.radians(c.turn_deg)))
+            target = float(
+                wrap(
+                    np.radians(c.heading_deg)
+                    if c.heading_deg is not None
+                    else yaw + np.radians(c.turn_deg)
+                )
+            )
             done[k] = True
     return target, tuple(done)
 
@@ -143,17 +155,29 @@ class HeadingHoldParams:
         check_in_range("kp", self.kp, 0.0, 100.0, "[0, 100] 1/rad")
         check_in_range("ki", self.ki, 0.0, 100.0, "[0, 100] 1/(rad s)")
         check_in_range("kd", self.kd, 0.0, 100.0, "[0, 100] s/rad")
-        check_in_range("max_trim", self.max_trim, 0.0, 1.0,
-                       "[0, 1) (the trimmed amplitudes must stay positive)", open_high=True)
+        check_in_range(
+            "max_trim",
+            self.max_trim,
+            0.0,
+            1.0,
+            "[0, 1) (the trimmed amplitudes must stay positive)",
+            open_high=True,
+        )
         if self.heading_deg is not None:
-            check_in_range("heading_deg", self.heading_deg, -180.0, 180.0,
-                           "[-180, 180] deg (or null: the heading at the first update)")
+            check_in_range(
+                "heading_deg",
+                self.heading_deg,
+                -180.0,
+                180.0,
+                "[-180, 180] deg (or null: the heading at the first update)",
+            )
         check_in_range("period", self.period, 0.0, 1.0, "(0, 1] s", open_low=True)
         check_number("turn_sign", self.turn_sign)
         if self.turn_sign not in (1, -1):
             raise ValueError(f"turn_sign: {self.turn_sign!r} is not +1 or -1")
         if not isinstance(self.behaviours, list) or not all(
-                isinstance(b, str) and b for b in self.behaviours):
+            isinstance(b, str) and b for b in self.behaviours
+        ):
             raise ValueError(f"behaviours: {self.behaviours!r} must be a list of gait names")
         for k, change in enumerate(self.changes):
             change.validate(f"changes[{k}]", modalities)
@@ -164,8 +188,14 @@ class HeadingHoldParams:
         return tuple(dict.fromkeys(c.modality for c in self.changes if c.modality))
 
 
-def heading_trim_step(state: float, yaw: float, yaw_rate: float, target: float,
-                      params: HeadingHoldParams, share: float = 1.0) -> tuple:
+def heading_trim_step(
+    state: float,
+    yaw: float,
+    yaw_rate: float,
+    target: float,
+    params: HeadingHoldParams,
+    share: float = 1.0,
+) -> tuple:
     """One update of the PI(D) autopilot.
 
     Args:
@@ -267,19 +297,25 @@ class HeadingHold(LeafSystem):
         p = self.params
         target = 0.0 if p.heading_deg is None else float(wrap(np.radians(p.heading_deg)))
         self._state = self.DeclareDiscreteState(
-            [0.0, target, 0.0 if p.heading_deg is None else 1.0, 0.0] + [0.0] * len(p.changes))
+            [0.0, target, 0.0 if p.heading_deg is None else 1.0, 0.0] + [0.0] * len(p.changes)
+        )
         self._estimates = {m: self.DeclareVectorInputPort(m, 1) for m in p.read()}
         self._cpg = self.DeclareVectorInputPort("cpg_params", NUM_CPG_PARAMS)
         self._attitude = self.DeclareVectorInputPort("attitude_hat", 3)
         self._yaw_rate = self.DeclareVectorInputPort("yaw_rate_hat", 1)
         self._share = self.DeclareVectorInputPort("swim_share", 1)
         self.DeclareVectorOutputPort(
-            "cpg_params", NUM_CPG_PARAMS, self._calc_cpg_params,
-            prerequisites_of_calc={self.xd_ticket(), self._cpg.ticket(), self._share.ticket()})
+            "cpg_params",
+            NUM_CPG_PARAMS,
+            self._calc_cpg_params,
+            prerequisites_of_calc={self.xd_ticket(), self._cpg.ticket(), self._share.ticket()},
+        )
         self.DeclareVectorOutputPort(
-            "heading_trim", 1, lambda c, o: o.SetAtIndex(
-                0, c.get_discrete_state(self._state).GetAtIndex(3)),
-            prerequisites_of_calc={self.xd_ticket()})
+            "heading_trim",
+            1,
+            lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._state).GetAtIndex(3)),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
         if p.enabled:
             self.DeclarePeriodicDiscreteUpdateEvent(p.period, 0.0, self._update)
 
@@ -306,14 +342,17 @@ class HeadingHold(LeafSystem):
         done = tuple(state[4:] > 0.5)
         if not all(done):
             estimates = {m: float(port.Eval(context)[0]) for m, port in self._estimates.items()}
-            target, now = changed_targets(target, yaw, context.get_time(), estimates,
-                                          self.params.changes, done)
+            target, now = changed_targets(
+                target, yaw, context.get_time(), estimates, self.params.changes, done
+            )
             if now != done:
                 integral, done = 0.0, now
-        integral, u = heading_trim_step(integral, yaw, yaw_rate, target, self.params,
-                                        self._swim_share(context))
+        integral, u = heading_trim_step(
+            integral, yaw, yaw_rate, target, self.params, self._swim_share(context)
+        )
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            [integral, target, 1.0, u, *map(float, done)])
+            [integral, target, 1.0, u, *map(float, done)]
+        )
 
     def target(self, context) -> float:
         """The held heading in this system's context [rad]."""

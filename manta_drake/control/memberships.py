@@ -30,17 +30,24 @@ from manta_drake.config_io import check_in_range
 from manta_drake.control.transition import wrap
 
 
-def check_ramp(params, low: str, high: str, top: float, unit: str = "",
-               time_constant_max: float = 100.0) -> None:
+def check_ramp(
+    params, low: str, high: str, top: float, unit: str = "", time_constant_max: float = 100.0
+) -> None:
     """Checks an estimator's ramp and lag parameters: ``params.<low>`` in [0, top),
     ``params.<high>`` in (low, top] and ``params.time_constant`` in [0, time_constant_max];
     ValueError names the field and the allowed range (``unit`` after it, e.g. `` m/s``)."""
     lo = getattr(params, low)
     check_in_range(low, lo, 0.0, top, f"[0, {top:g}){unit}", open_high=True)
-    check_in_range(high, getattr(params, high), lo, top, f"({low} = {lo:g}, {top:g}]{unit}",
-                   open_low=True)
-    check_in_range("time_constant", params.time_constant, 0.0, time_constant_max,
-                   f"[0, {time_constant_max:g}] s (0: no filter)")
+    check_in_range(
+        high, getattr(params, high), lo, top, f"({low} = {lo:g}, {top:g}]{unit}", open_low=True
+    )
+    check_in_range(
+        "time_constant",
+        params.time_constant,
+        0.0,
+        time_constant_max,
+        f"[0, {time_constant_max:g}] s (0: no filter)",
+    )
 
 
 def ramp_membership(x, low: float, high: float):
@@ -50,8 +57,9 @@ def ramp_membership(x, low: float, high: float):
         ValueError: unless ``low < high`` (both finite).
     """
     if not (np.isfinite(low) and np.isfinite(high) and low < high):
-        raise ValueError(f"ramp_membership: low = {low!r} must be below high = {high!r}, "
-                         "both finite")
+        raise ValueError(
+            f"ramp_membership: low = {low!r} must be below high = {high!r}, both finite"
+        )
     return np.clip((np.asarray(x, dtype=float) - low) / (high - low), 0.0, 1.0)
 
 

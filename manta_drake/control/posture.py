@@ -56,8 +56,9 @@ class PostureEstimatorParams:
 
 def posture_membership(roll, pitch, params: PostureEstimatorParams):
     """``posture_hat`` of an attitude: the ramp membership of its tilt (see the module)."""
-    return ramp_membership(np.degrees(tilt_angle(roll, pitch)), params.tilt_low_deg,
-                           params.tilt_high_deg)
+    return ramp_membership(
+        np.degrees(tilt_angle(roll, pitch)), params.tilt_low_deg, params.tilt_high_deg
+    )
 
 
 class PostureEstimator(FilteredEstimator):
@@ -98,10 +99,12 @@ class PostureEstimator(FilteredEstimator):
 
     def __init__(self, params: PostureEstimatorParams | None = None, period: float = 0.02):
         params = (params if params is not None else PostureEstimatorParams()).validate()
-        super().__init__("imu", IMU_SIZE, _CHANNELS, period, params.time_constant,
-                         circular=_CIRCULAR)
+        super().__init__(
+            "imu", IMU_SIZE, _CHANNELS, period, params.time_constant, circular=_CIRCULAR
+        )
         self.params = params
         self.DeclareEstimateOutputPort("attitude_hat", 3, lambda x: x[:3])
         self.DeclareEstimateOutputPort("yaw_rate_hat", 1, lambda x: x[3])
-        self.DeclareEstimateOutputPort("posture_hat", 1,
-                                       lambda x: posture_membership(x[0], x[1], params))
+        self.DeclareEstimateOutputPort(
+            "posture_hat", 1, lambda x: posture_membership(x[0], x[1], params)
+        )

@@ -73,16 +73,25 @@ BLENDS = ("potential", "normalised", "linear", "switch")
 FOLLOWS = ("descent", "direct")
 
 
-def check_parameters(period: float, g: float, T: float, alpha: float, z_t: float,
-                     blend: str, s_hat_time_constant: float = 0.0,
-                     follow: str = "descent") -> None:
+def check_parameters(
+    period: float,
+    g: float,
+    T: float,
+    alpha: float,
+    z_t: float,
+    blend: str,
+    s_hat_time_constant: float = 0.0,
+    follow: str = "descent",
+) -> None:
     """Raises ValueError naming the first invalid parameter and its allowed range."""
     for name, value in (("period", period), ("g", g), ("T", T), ("alpha", alpha)):
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: {value} must be a finite number > 0")
     if not (np.isfinite(s_hat_time_constant) and s_hat_time_constant >= 0):
-        raise ValueError(f"s_hat_time_constant: {s_hat_time_constant} must be a finite number "
-                         ">= 0 (0: no filter)")
+        raise ValueError(
+            f"s_hat_time_constant: {s_hat_time_constant} must be a finite number "
+            ">= 0 (0: no filter)"
+        )
     if not 0 < z_t <= 1:
         raise ValueError(f"z_t: {z_t} is outside (0, 1]")
     if blend not in BLENDS:
@@ -90,8 +99,10 @@ def check_parameters(period: float, g: float, T: float, alpha: float, z_t: float
     if follow not in FOLLOWS:
         raise ValueError(f"follow: {follow!r} is not one of {', '.join(FOLLOWS)}")
     if alpha * g * T > 1.0:
-        raise ValueError(f"alpha * g * T = {alpha * g * T:.3g} > 1 would overshoot the target; "
-                         "reduce g, T or alpha")
+        raise ValueError(
+            f"alpha * g * T = {alpha * g * T:.3g} > 1 would overshoot the target; "
+            "reduce g, T or alpha"
+        )
 
 
 def wrap(x):
@@ -105,8 +116,9 @@ def vision_weight(s_hat) -> float:
     return 0.5 * (1.0 - np.cos(np.pi * s))
 
 
-def target_params(z_hat, s_hat, swim, trot, turning, z_t: float = 1.0,
-                  blend: str = "potential") -> np.ndarray:
+def target_params(
+    z_hat, s_hat, swim, trot, turning, z_t: float = 1.0, blend: str = "potential"
+) -> np.ndarray:
     """psi_d of Eq. (12) (``blend="potential"``), its convex form (``"normalised"``: the two
     weights -sin(a), cos(a) divided by their sum), Eq. (11) (``"linear"``) or an abrupt
     switch (``"switch"``: the gait from z_hat >= z_t / 2, turning from s_hat >= 1/2, where
@@ -209,13 +221,24 @@ class PotentialTransition(LeafSystem):
     from (None or a missing modality: 0, nothing seen yet).
     """
 
-    def __init__(self, period: float = 0.02, g: float = 0.125, T: float = 0.5,
-                 alpha: float = 0.95, z_t: float = 1.0, blend: str = "potential",
-                 follow: str = "descent",
-                 initial_params=None, behaviours=BEHAVIOURS, s_hat_time_constant: float = 1.0,
-                 gait_reading: str = "paper", *, tree: BehaviourTree | None = None,
-                 time_constants: dict[str, float] | None = None,
-                 initial_values: dict[str, float] | None = None):
+    def __init__(
+        self,
+        period: float = 0.02,
+        g: float = 0.125,
+        T: float = 0.5,
+        alpha: float = 0.95,
+        z_t: float = 1.0,
+        blend: str = "potential",
+        follow: str = "descent",
+        initial_params=None,
+        behaviours=BEHAVIOURS,
+        s_hat_time_constant: float = 1.0,
+        gait_reading: str = "paper",
+        *,
+        tree: BehaviourTree | None = None,
+        time_constants: dict[str, float] | None = None,
+        initial_values: dict[str, float] | None = None,
+    ):
         super().__init__()
         try:
             check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant, follow)
@@ -224,44 +247,59 @@ class PotentialTransition(LeafSystem):
         if tree is None:
             behaviours = tuple(behaviours)
             if len(behaviours) != 3:
-                raise ValueError(f"PotentialTransition.behaviours: expected 3 gait names "
-                                 f"(surface, floor, wall), got {len(behaviours)}")
+                raise ValueError(
+                    f"PotentialTransition.behaviours: expected 3 gait names "
+                    f"(surface, floor, wall), got {len(behaviours)}"
+                )
             gaits = {b: get_gait(b, gait_reading).to_vector() for b in behaviours}
             try:
                 tree = compile_tree(default_tree(blend, z_t, behaviours=behaviours), gaits)
             except ValueError as e:
                 raise ValueError(f"PotentialTransition.behaviours: {e}") from None
         elif not isinstance(tree, BehaviourTree):
-            raise ValueError(f"PotentialTransition.tree: expected a BehaviourTree "
-                             f"(behaviour_tree.compile_tree), got {type(tree).__name__}")
+            raise ValueError(
+                f"PotentialTransition.tree: expected a BehaviourTree "
+                f"(behaviour_tree.compile_tree), got {type(tree).__name__}"
+            )
         self.tree = tree
         taus = {"s_hat": s_hat_time_constant, **(time_constants or {})}
         for m, tau in taus.items():
             if m != "s_hat" and m not in tree.modalities:
-                raise ValueError(f"PotentialTransition.time_constants: {m!r} is not a "
-                                 f"modality the tree reads ({', '.join(tree.modalities)})")
+                raise ValueError(
+                    f"PotentialTransition.time_constants: {m!r} is not a "
+                    f"modality the tree reads ({', '.join(tree.modalities)})"
+                )
             if not (isinstance(tau, (int, float)) and np.isfinite(tau) and tau >= 0):
-                raise ValueError(f"PotentialTransition.time_constants.{m}: {tau!r} must be a "
-                                 "finite number >= 0 (0: no filter)")
+                raise ValueError(
+                    f"PotentialTransition.time_constants.{m}: {tau!r} must be a "
+                    "finite number >= 0 (0: no filter)"
+                )
         # Exact discretisation of dx/dt = (input - x) / tau over one period.
         self.time_constants = {m: float(taus.get(m, 0.0)) for m in tree.modalities}
-        gains = {m: 1.0 - np.exp(-period / tau)
-                 for m, tau in self.time_constants.items() if tau > 0}
+        gains = {
+            m: 1.0 - np.exp(-period / tau) for m, tau in self.time_constants.items() if tau > 0
+        }
         self.s_hat_gain = gains.get("s_hat", 1.0)
         self.period, self.g, self.T = period, g, T
         self.alpha, self.z_t, self.blend = alpha, z_t, blend
         self.follow = follow
         self.max_step = alpha * g * T
-        initial = (tree.gait_vectors[tree.leaves[0]] if initial_params is None
-                   else np.asarray(initial_params, dtype=float))
+        initial = (
+            tree.gait_vectors[tree.leaves[0]]
+            if initial_params is None
+            else np.asarray(initial_params, dtype=float)
+        )
         if initial.shape != (NUM_CPG_PARAMS,) or not np.all(np.isfinite(initial)):
-            raise ValueError(f"PotentialTransition.initial_params: expected {NUM_CPG_PARAMS} "
-                             f"finite values (R, X, Phi, Phi'), got shape {initial.shape}")
+            raise ValueError(
+                f"PotentialTransition.initial_params: expected {NUM_CPG_PARAMS} "
+                f"finite values (R, X, Phi, Phi'), got shape {initial.shape}"
+            )
         self._psi = self.DeclareDiscreteState(initial)
         start = {m: float((initial_values or {}).get(m, 0.0)) for m in tree.modalities}
         # One filter state per filtered modality, from its estimate at the start.
-        self._filters = {m: (self.DeclareDiscreteState([start[m]]), gain)
-                         for m, gain in gains.items()}
+        self._filters = {
+            m: (self.DeclareDiscreteState([start[m]]), gain) for m, gain in gains.items()
+        }
         self.filter_state_indices = {m: index for m, (index, _) in self._filters.items()}
         switches = tree.initial_switch_state(start)
         self._switches = self.DeclareDiscreteState(switches)

@@ -41,8 +41,12 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 LABELS = ("floor", "ceiling", "wall", "object")
-LABEL_COLORS = {"floor": (0.55, 0.35, 0.2), "ceiling": (0.2, 0.6, 1.0),
-                "wall": (0.9, 0.15, 0.15), "object": (0.95, 0.8, 0.1)}
+LABEL_COLORS = {
+    "floor": (0.55, 0.35, 0.2),
+    "ceiling": (0.2, 0.6, 1.0),
+    "wall": (0.9, 0.15, 0.15),
+    "object": (0.95, 0.8, 0.1),
+}
 
 
 @dc.dataclass
@@ -99,15 +103,19 @@ class WallDetectorParams:
             if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
                 raise ValueError(f"{name}: {value!r} is not {kind}")
             bracket = "(" if open_low else "["
-            if not (np.isfinite(value) and (value > lo if open_low else value >= lo)
-                    and value <= hi):
-                raise ValueError(f"{name}: {value!r} is outside the allowed range "
-                                 f"{bracket}{lo:g}, {hi:g}]")
+            if not (
+                np.isfinite(value) and (value > lo if open_low else value >= lo) and value <= hi
+            ):
+                raise ValueError(
+                    f"{name}: {value!r} is outside the allowed range {bracket}{lo:g}, {hi:g}]"
+                )
         if not self.c_min < self.c_max:
             raise ValueError(f"c_min: {self.c_min!r} must be below c_max = {self.c_max!r}")
         if self.depth_median_filter_px > 1 and self.depth_median_filter_px % 2 == 0:
-            raise ValueError(f"depth_median_filter_px: {self.depth_median_filter_px!r} must be "
-                             "odd (0 or 1: no filter)")
+            raise ValueError(
+                f"depth_median_filter_px: {self.depth_median_filter_px!r} must be "
+                "odd (0 or 1: no filter)"
+            )
         return self
 
 
@@ -134,6 +142,7 @@ class Detection:
 
 
 # --- pure functions ---------------------------------------------------------------------------
+
 
 def finite_points(xyz) -> np.ndarray:
     """(N, 3) points with every coordinate finite. Accepts (N, 3) or Drake's (3, N)."""
@@ -162,18 +171,24 @@ def downsample_with_normals(xyz: np.ndarray, p: WallDetectorParams) -> tuple:
     n = len(cloud.points)
     if n < 3:
         return np.asarray(cloud.points), np.tile([0.0, 0.0, 1.0], (n, 1)), np.ones(n) / 3
-    search = o3d.geometry.KDTreeSearchParamHybrid(radius=p.normal_radius,
-                                                  max_nn=p.normal_max_neighbors)
+    search = o3d.geometry.KDTreeSearchParamHybrid(
+        radius=p.normal_radius, max_nn=p.normal_max_neighbors
+    )
     cloud.estimate_covariances(search)
     eigval, eigvec = np.linalg.eigh(np.asarray(cloud.covariances))
     variation = eigval[:, 0] / np.maximum(eigval.sum(axis=1), 1e-15)
     return np.asarray(cloud.points), eigvec[:, :, 0], variation
 
 
-def normal_dbscan(points: np.ndarray, normals: np.ndarray | None, eps: float,
-                  min_points: int, theta_threshold_deg: float | None,
-                  variation: np.ndarray | None = None,
-                  max_variation: float | None = None) -> np.ndarray:
+def normal_dbscan(
+    points: np.ndarray,
+    normals: np.ndarray | None,
+    eps: float,
+    min_points: int,
+    theta_threshold_deg: float | None,
+    variation: np.ndarray | None = None,
+    max_variation: float | None = None,
+) -> np.ndarray:
     """DBSCAN labels (-1: noise) with Eq. (10)'s neighbour relation.
 
     Args:
@@ -204,8 +219,9 @@ def normal_dbscan(points: np.ndarray, normals: np.ndarray | None, eps: float,
     core_idx = np.flatnonzero(core)
     remap = np.full(n, -1)
     remap[core_idx] = np.arange(len(core_idx))
-    graph = coo_matrix((np.ones(len(cp)), (remap[cp[:, 0]], remap[cp[:, 1]])),
-                       shape=(len(core_idx), len(core_idx)))
+    graph = coo_matrix(
+        (np.ones(len(cp)), (remap[cp[:, 0]], remap[cp[:, 1]])), shape=(len(core_idx), len(core_idx))
+    )
     _, comp = connected_components(graph, directed=False)
     labels[core_idx] = comp
     # Border points: non-core points with a core neighbour take that neighbour's cluster.
@@ -279,8 +295,9 @@ def is_ahead(cluster: Cluster, view_direction, p: WallDetectorParams) -> bool:
     return bool(norms > 0 and abs(d @ n) / norms >= np.cos(np.radians(p.frontal_angle_deg)))
 
 
-def detect(xyz, p: WallDetectorParams, viewpoint=(0.0, 0.0, 0.0), time: float = 0.0,
-           view_direction=None) -> Detection:
+def detect(
+    xyz, p: WallDetectorParams, viewpoint=(0.0, 0.0, 0.0), time: float = 0.0, view_direction=None
+) -> Detection:
     """The whole pipeline on one cloud. Never raises on empty or all-NaN input.
 
     Args:
@@ -290,11 +307,20 @@ def detect(xyz, p: WallDetectorParams, viewpoint=(0.0, 0.0, 0.0), time: float = 
     """
     pts = finite_points(xyz) if np.size(xyz) else np.zeros((0, 3))
     down, normals, variation = downsample_with_normals(pts, p)
-    labels = normal_dbscan(down, normals, p.eps, p.min_points, p.theta_threshold_deg,
-                           variation, p.max_surface_variation)
+    labels = normal_dbscan(
+        down,
+        normals,
+        p.eps,
+        p.min_points,
+        p.theta_threshold_deg,
+        variation,
+        p.max_surface_variation,
+    )
     viewpoint = np.asarray(viewpoint, dtype=float)
-    clusters = [describe_cluster(down[labels == i], viewpoint, p)
-                for i in range(labels.max() + 1 if len(labels) else 0)]
+    clusters = [
+        describe_cluster(down[labels == i], viewpoint, p)
+        for i in range(labels.max() + 1 if len(labels) else 0)
+    ]
     # Leftovers (never core points under the curvature guard) are clustered by distance
     # alone and labelled by their PCA like the others: a corner's leftovers are an L, not a
     # plane, and stay "object"; a noisy wall whose points all failed the guard is still a
@@ -367,14 +393,18 @@ class WallDetector(LeafSystem):
             raise ValueError(f"WallDetector.params.{e}") from None
         self._meshcat = meshcat
         self._cloud = self.DeclareAbstractInputPort("point_cloud", AbstractValue.Make(PointCloud()))
-        self._camera = self.DeclareAbstractInputPort("camera_pose",
-                                                     AbstractValue.Make(RigidTransform()))
+        self._camera = self.DeclareAbstractInputPort(
+            "camera_pose", AbstractValue.Make(RigidTransform())
+        )
         self._status = self.DeclareDiscreteState(np.zeros(len(STATUS_FIELDS)))
         self._detection = self.DeclareAbstractState(AbstractValue.Make(Detection()))
         self._best = self.DeclareAbstractState(AbstractValue.Make(Detection()))
         self.DeclareVectorOutputPort(
-            "s_hat", 1, lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._status)[0]),
-            prerequisites_of_calc={self.xd_ticket()})
+            "s_hat",
+            1,
+            lambda c, o: o.SetAtIndex(0, c.get_discrete_state(self._status)[0]),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
         self.DeclareStateOutputPort("clusters", self._detection)
         self.DeclareStateOutputPort("best_clusters", self._best)
         self.DeclareStateOutputPort("detector_status", self._status)
@@ -395,8 +425,10 @@ class WallDetector(LeafSystem):
             detection = detect(xyz, self.params, viewpoint, context.get_time(), view)
         except Exception as e:
             if not is_expected_frame_failure(e):
-                raise RuntimeError(f"WallDetector: frame at t = {context.get_time():.3f} s "
-                                   f"failed: {type(e).__name__}: {e}") from e
+                raise RuntimeError(
+                    f"WallDetector: frame at t = {context.get_time():.3f} s "
+                    f"failed: {type(e).__name__}: {e}"
+                ) from e
             status[4] += 1  # hold the last output
             state.get_mutable_discrete_state(self._status).SetFromVector(status)
             return
@@ -420,5 +452,6 @@ def publish_clusters(meshcat, detection: Detection, prefix: str = "/wall_detecto
         xyz = np.vstack(pts) if pts else np.zeros((0, 3))
         cloud = PointCloud(len(xyz))
         cloud.mutable_xyzs()[:] = xyz.T
-        meshcat.SetObject(f"{prefix}/{label}", cloud, point_size=0.02,
-                          rgba=Rgba(*LABEL_COLORS[label], 1.0))
+        meshcat.SetObject(
+            f"{prefix}/{label}", cloud, point_size=0.02, rgba=Rgba(*LABEL_COLORS[label], 1.0)
+        )

@@ -41,10 +41,12 @@ def resolve_path(path: str, field: str | None = None) -> pathlib.Path:
     where = f"{field}: " if field else ""
     root = pathlib.Path(package_map().GetPath(PACKAGE_NAME)).resolve()
     try:
-        resolved = (root / text[len(PACKAGE_URL):]).resolve()
+        resolved = (root / text[len(PACKAGE_URL) :]).resolve()
     except (OSError, ValueError) as e:  # a NUL byte, a link loop
         raise ScenarioError(f"{where}{short_repr(text)} is not a valid path ({e})") from None
     if not resolved.is_relative_to(root):
-        raise ScenarioError(f"{where}{short_repr(text)} leaves the package {PACKAGE_NAME} "
-                            f"({root}); a {PACKAGE_URL} URL names a file inside it")
+        raise ScenarioError(
+            f"{where}{short_repr(text)} leaves the package {PACKAGE_NAME} "
+            f"({root}); a {PACKAGE_URL} URL names a file inside it"
+        )
     return resolved

@@ -32,6 +32,7 @@ CONNECTIONS = ("series", "parallel")
 
 # --- the file's entries: a value and where it comes from ---------------------------------
 
+
 @dc.dataclass
 class Number:
     """A number and where it comes from."""
@@ -125,16 +126,23 @@ class ActuatorParams:
 
     def entries(self) -> list:
         """(dotted name, entry) for every entry of the file."""
-        return [(f"{section.name}.{f.name}", getattr(getattr(self, section.name), f.name))
-                for section in dc.fields(self)
-                for f in dc.fields(getattr(self, section.name))]
+        return [
+            (f"{section.name}.{f.name}", getattr(getattr(self, section.name), f.name))
+            for section in dc.fields(self)
+            for f in dc.fields(getattr(self, section.name))
+        ]
 
 
 # Numeric entries no factor may scale: cell and pack counts are whole numbers, the
 # state-of-charge grid must run from 0 to 1, and the encoder's count and the PWM's unit are
 # the firmware's definitions, not uncertain quantities.
-NOT_SCALABLE = ("battery.packs", "battery.cells_per_pack", "battery.ocv_soc",
-                "servo.encoder_resolution", "servo.pwm_unit")
+NOT_SCALABLE = (
+    "battery.packs",
+    "battery.cells_per_pack",
+    "battery.ocv_soc",
+    "servo.encoder_resolution",
+    "servo.pwm_unit",
+)
 
 # The factors a scale may apply, [lo, hi]: a band about the file's value for sensitivity
 # studies and calibration, not another robot (above 10 it is another servo, battery or
@@ -156,19 +164,32 @@ def scale_range(name: str) -> tuple[float, float]:
 def scalable_names() -> tuple[str, ...]:
     """Dotted names of the entries a scale may multiply (the numeric ones but
     ``NOT_SCALABLE``)."""
-    return tuple(name for name, entry in ActuatorParams().entries()
-                 if isinstance(entry, (Number, Numbers, Table)) and name not in NOT_SCALABLE)
+    return tuple(
+        name
+        for name, entry in ActuatorParams().entries()
+        if isinstance(entry, (Number, Numbers, Table)) and name not in NOT_SCALABLE
+    )
 
 
 # --- checks --------------------------------------------------------------------------------
 
 # Entries that must be > 0 (each divides something or is a physical size), and those that
 # must lie in (0, 1] or [0, 1).
-POSITIVE = ("servo.gear_ratio", "servo.torque_constant", "servo.gearbox_efficiency",
-            "servo.supply_voltage", "servo.encoder_resolution", "servo.pwm_unit",
-            "servo.pwm_limit", "electronics.regulator_efficiency", "battery.packs",
-            "battery.cells_per_pack", "battery.pack_capacity", "battery.ocv_cell_voltage",
-            "electronics.jetson_power")
+POSITIVE = (
+    "servo.gear_ratio",
+    "servo.torque_constant",
+    "servo.gearbox_efficiency",
+    "servo.supply_voltage",
+    "servo.encoder_resolution",
+    "servo.pwm_unit",
+    "servo.pwm_limit",
+    "electronics.regulator_efficiency",
+    "battery.packs",
+    "battery.cells_per_pack",
+    "battery.pack_capacity",
+    "battery.ocv_cell_voltage",
+    "electronics.jetson_power",
+)
 AT_MOST_ONE = ("servo.gearbox_efficiency", "electronics.regulator_efficiency")
 INTEGER = ("battery.packs", "battery.cells_per_pack")
 
@@ -199,33 +220,45 @@ def check_actuators(params: ActuatorParams, where: str = "actuators") -> None:
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be a whole number")
     duty = params.servo.pwm_unit.value * params.servo.pwm_limit.value
     if duty > 1.0 + 1e-3:  # the datasheet's 885 x 0.113 % rounds to 100.005 %
-        raise ScenarioError(f"{where}: servo.pwm_limit x servo.pwm_unit = {duty:g} must be at "
-                            "most 1 (full duty)")
+        raise ScenarioError(
+            f"{where}: servo.pwm_limit x servo.pwm_unit = {duty:g} must be at most 1 (full duty)"
+        )
     if not params.servo.model.value.strip():
         raise ScenarioError(f"{where}: servo.model is empty (name the servo class)")
     e, b = params.electronics, params.battery
     if e.jetson_mode.value not in e.jetson_power.value:
-        raise ScenarioError(f"{where}: electronics.jetson_mode = {e.jetson_mode.value!r} is not "
-                            f"one of the modes of electronics.jetson_power "
-                            f"({', '.join(e.jetson_power.value)})")
+        raise ScenarioError(
+            f"{where}: electronics.jetson_mode = {e.jetson_mode.value!r} is not "
+            f"one of the modes of electronics.jetson_power "
+            f"({', '.join(e.jetson_power.value)})"
+        )
     if b.connection.value not in CONNECTIONS:
-        raise ScenarioError(f"{where}: battery.connection = {b.connection.value!r} is not one "
-                            f"of {', '.join(CONNECTIONS)}")
+        raise ScenarioError(
+            f"{where}: battery.connection = {b.connection.value!r} is not one "
+            f"of {', '.join(CONNECTIONS)}"
+        )
     soc, ocv = np.asarray(b.ocv_soc.value, float), np.asarray(b.ocv_cell_voltage.value, float)
     if len(soc) != len(ocv) or len(soc) < 2:
-        raise ScenarioError(f"{where}: battery.ocv_soc and battery.ocv_cell_voltage need the same "
-                            f"number (>= 2) of values, got {len(soc)} and {len(ocv)}")
+        raise ScenarioError(
+            f"{where}: battery.ocv_soc and battery.ocv_cell_voltage need the same "
+            f"number (>= 2) of values, got {len(soc)} and {len(ocv)}"
+        )
     if soc[0] != 0.0 or soc[-1] != 1.0 or np.any(np.diff(soc) <= 0):
-        raise ScenarioError(f"{where}: battery.ocv_soc = {b.ocv_soc.value!r} must rise strictly "
-                            "from 0 to 1")
+        raise ScenarioError(
+            f"{where}: battery.ocv_soc = {b.ocv_soc.value!r} must rise strictly from 0 to 1"
+        )
     # A falling voltage would make the charge a voltage reading gives ambiguous, and it is
     # not what a cell does.
     if np.any(np.diff(ocv) <= 0):
-        raise ScenarioError(f"{where}: battery.ocv_cell_voltage = {b.ocv_cell_voltage.value!r} "
-                            "must rise with the state of charge")
+        raise ScenarioError(
+            f"{where}: battery.ocv_cell_voltage = {b.ocv_cell_voltage.value!r} "
+            "must rise with the state of charge"
+        )
     if not 0.0 <= b.cutoff_soc.value < 1.0:
-        raise ScenarioError(f"{where}: battery.cutoff_soc = {b.cutoff_soc.value!r} is outside "
-                            "the allowed range [0, 1)")
+        raise ScenarioError(
+            f"{where}: battery.cutoff_soc = {b.cutoff_soc.value!r} is outside "
+            "the allowed range [0, 1)"
+        )
 
 
 def load_actuators(path=DEFAULT_ACTUATORS_FILE, field: str | None = None) -> ActuatorParams:
@@ -242,7 +275,7 @@ def load_actuators(path=DEFAULT_ACTUATORS_FILE, field: str | None = None) -> Act
     except ScenarioError as e:
         message = str(e)
         prefix = f"{path}: "
-        message = message[len(prefix):] if message.startswith(prefix) else message
+        message = message[len(prefix) :] if message.startswith(prefix) else message
         raise ScenarioError(f"{where}: {message}") from None
     except (RuntimeError, ValueError, TypeError) as e:  # yaml_load_typed's own errors
         raise ScenarioError(f"{where}: {' '.join(str(e).split())}") from None
@@ -260,15 +293,19 @@ def scale_actuators(params: ActuatorParams, scales: dict) -> ActuatorParams:
     allowed = scalable_names()
     for name, factor in (scales or {}).items():
         if name not in allowed:
-            raise ValueError(f"scales.{name}: unknown or not a numeric entry; allowed: "
-                             f"{', '.join(allowed)}")
-        if isinstance(factor, bool) or not (isinstance(factor, (int, float))
-                                             and np.isfinite(factor) and factor >= 0):
+            raise ValueError(
+                f"scales.{name}: unknown or not a numeric entry; allowed: {', '.join(allowed)}"
+            )
+        if isinstance(factor, bool) or not (
+            isinstance(factor, (int, float)) and np.isfinite(factor) and factor >= 0
+        ):
             raise ValueError(f"scales.{name}: {short_repr(factor)} must be a finite number >= 0")
         lo, hi = scale_range(name)
         if not lo <= factor <= hi:
-            raise ValueError(f"scales.{name}: {short_repr(factor)} is outside the allowed range "
-                             f"[{lo:g}, {hi:g}] (a factor on the file's value)")
+            raise ValueError(
+                f"scales.{name}: {short_repr(factor)} is outside the allowed range "
+                f"[{lo:g}, {hi:g}] (a factor on the file's value)"
+            )
         entry = entries[name]
         if isinstance(entry, Table):
             entry.value = {k: float(v) * factor for k, v in entry.value.items()}
@@ -285,6 +322,7 @@ def scale_actuators(params: ActuatorParams, scales: dict) -> ActuatorParams:
 
 
 # --- resolved numbers ------------------------------------------------------------------------
+
 
 @dc.dataclass(frozen=True)
 class ServoConstants:
@@ -357,10 +395,12 @@ def electronics_power(params: ActuatorParams, mode: str | None = None) -> float:
     e = params.electronics
     mode = e.jetson_mode.value if mode is None else mode
     if mode not in e.jetson_power.value:
-        raise ValueError(f"electronics_mode: {mode!r} is not one of "
-                         f"{', '.join(e.jetson_power.value)}")
-    return (float(e.jetson_power.value[mode]) + float(e.teensy_power.value)) \
-        / float(e.regulator_efficiency.value)
+        raise ValueError(
+            f"electronics_mode: {mode!r} is not one of {', '.join(e.jetson_power.value)}"
+        )
+    return (float(e.jetson_power.value[mode]) + float(e.teensy_power.value)) / float(
+        e.regulator_efficiency.value
+    )
 
 
 def pack_constants(params: ActuatorParams) -> PackConstants:
@@ -377,13 +417,15 @@ def pack_constants(params: ActuatorParams) -> PackConstants:
         ocv_soc=tuple(float(v) for v in b.ocv_soc.value),
         ocv_cell_voltage=tuple(float(v) for v in b.ocv_cell_voltage.value),
         internal_resistance=float(b.cell_internal_resistance.value) * in_series / strings,
-        cutoff_soc=float(b.cutoff_soc.value))
+        cutoff_soc=float(b.cutoff_soc.value),
+    )
 
 
 def servo_constants(params: ActuatorParams) -> ServoConstants:
     s = params.servo
     return ServoConstants(
-        gear_ratio=float(s.gear_ratio.value), torque_constant=float(s.torque_constant.value),
+        gear_ratio=float(s.gear_ratio.value),
+        torque_constant=float(s.torque_constant.value),
         gearbox_efficiency=float(s.gearbox_efficiency.value),
         winding_resistance=float(s.winding_resistance.value),
         standby_current=float(s.standby_current.value),
@@ -391,29 +433,43 @@ def servo_constants(params: ActuatorParams) -> ServoConstants:
         recover_negative_work=bool(s.recover_negative_work.value),
         backdrive_speed=float(s.backdrive_speed.value),
         position_p_gain=float(s.position_p_gain.value),
-        encoder_resolution=float(s.encoder_resolution.value), pwm_unit=float(s.pwm_unit.value),
-        pwm_limit=float(s.pwm_limit.value))
+        encoder_resolution=float(s.encoder_resolution.value),
+        pwm_unit=float(s.pwm_unit.value),
+        pwm_limit=float(s.pwm_limit.value),
+    )
 
 
 def energy_model(params: ActuatorParams, electronics_mode: str | None = None) -> EnergyModel:
     """The resolved model of ``params`` with the Jetson in ``electronics_mode`` (None: the
     file's default)."""
     mode = params.electronics.jetson_mode.value if electronics_mode is None else electronics_mode
-    return EnergyModel(servo=servo_constants(params),
-                       electronics_power=electronics_power(params, mode),
-                       pack=pack_constants(params), electronics_mode=mode,
-                       servo_model=params.servo.model.value)
+    return EnergyModel(
+        servo=servo_constants(params),
+        electronics_power=electronics_power(params, mode),
+        pack=pack_constants(params),
+        electronics_mode=mode,
+        servo_model=params.servo.model.value,
+    )
 
 
-def load_energy_model(file, scales: dict | None = None, electronics_mode: str | None = None,
-                      field: str = "actuators.file") -> EnergyModel:
+def load_energy_model(
+    file,
+    scales: dict | None = None,
+    electronics_mode: str | None = None,
+    field: str = "actuators.file",
+) -> EnergyModel:
     """The resolved model of a scenario's ``actuators`` section: ``file`` (a
     ``package://manta_drake/...`` URL or a path) loaded, ``scales`` applied, the Jetson in
     ``electronics_mode`` (None: the file's default). Errors name ``field``."""
     path = resolve_path(file)
     try:  # the file parsed once per version (~15 ms a parse; a build asks several times)
-        key = (str(path), path.stat().st_mtime_ns if path.is_file() else None,
-               tuple(sorted((scales or {}).items())), electronics_mode, field)
+        key = (
+            str(path),
+            path.stat().st_mtime_ns if path.is_file() else None,
+            tuple(sorted((scales or {}).items())),
+            electronics_mode,
+            field,
+        )
         hash(key)
     except (TypeError, OSError):  # unhashable scales: the checks below name them
         return _energy_model(path, scales, electronics_mode, field)

@@ -68,8 +68,10 @@ def split_hull_added_mass(added_mass, interaction: float) -> tuple[float, np.nda
     """
     added_mass = np.asarray(added_mass, dtype=float)
     if added_mass.shape != (3,) or not np.all(added_mass >= 0) or not interaction >= 0:
-        raise ValueError(f"split_hull_added_mass: added mass {added_mass.tolist()!r} and "
-                         f"interaction {interaction!r} must be >= 0")
+        raise ValueError(
+            f"split_hull_added_mass: added mass {added_mass.tolist()!r} and "
+            f"interaction {interaction!r} must be >= 0"
+        )
     iso = float(min(added_mass[0], added_mass[1]))
     residual = np.array([added_mass[0] - iso, added_mass[1] - iso, 0.0])
     return iso, residual, float(added_mass[2] - iso + interaction)
@@ -94,8 +96,9 @@ def split_added_inertia(added_inertia, carried=(0.0, 0.0, 0.0)) -> tuple[np.ndar
     return implicit, added - implicit
 
 
-def check_explicit_added_mass(residual, effective, axes=("surge", "sway", "heave"),
-                              unit="kg") -> None:
+def check_explicit_added_mass(
+    residual, effective, axes=("surge", "sway", "heave"), unit="kg"
+) -> None:
     """Raises ValueError naming the first axis whose explicit added mass is not below the
     effective mass (or inertia) on that axis that it acts against.
 
@@ -112,10 +115,12 @@ def check_explicit_added_mass(residual, effective, axes=("surge", "sway", "heave
                 f"explicit added mass on the {axis} axis is {abs(value):.3g} {unit}, not below "
                 f"the robot's effective {unit} {limit:.3g} on that axis (rigid + implicit "
                 "added): the explicit term would oscillate and diverge. Put more of the added "
-                "mass into the mass matrix or reduce it.")
+                "mass into the mass matrix or reduce it."
+            )
 
 
 # --- the fin plates' added mass as bodies ------------------------------------------------------
+
 
 @dc.dataclass(frozen=True)
 class FinPlate:
@@ -147,11 +152,22 @@ def fin_plates(params) -> tuple[FinPlate, FinPlate]:
     g = fin_plate_geometry(params)
     e = np.eye(3)
     # Link 3: chord y, span +z; link 4: chord z, span -y; normal x on both.
-    proximal = FinPlate("proximal", 3, tuple(map(float, g["proximal"]["center"])),
-                        params.proximal_chord, params.d3,
-                        tuple(map(tuple, np.column_stack([e[1], e[2], e[0]]).tolist())))
-    distal = FinPlate("distal", 4, tuple(map(float, g["distal"]["center"])), params.distal_chord,
-                      params.dE, tuple(map(tuple, np.column_stack([e[2], -e[1], e[0]]).tolist())))
+    proximal = FinPlate(
+        "proximal",
+        3,
+        tuple(map(float, g["proximal"]["center"])),
+        params.proximal_chord,
+        params.d3,
+        tuple(map(tuple, np.column_stack([e[1], e[2], e[0]]).tolist())),
+    )
+    distal = FinPlate(
+        "distal",
+        4,
+        tuple(map(float, g["distal"]["center"])),
+        params.distal_chord,
+        params.dE,
+        tuple(map(tuple, np.column_stack([e[2], -e[1], e[0]]).tolist())),
+    )
     return proximal, distal
 
 
@@ -170,8 +186,10 @@ def plate_added_mass(chord: float, span: float, rho: float, factor: float) -> tu
         (mass [kg], (I_chord, I_span, I_normal) [kg m^2]).
     """
     if not (chord > 0 and span > 0 and rho > 0 and factor > 0):
-        raise ValueError(f"plate_added_mass: chord {chord!r}, span {span!r}, rho {rho!r} and "
-                         f"factor {factor!r} must be > 0")
+        raise ValueError(
+            f"plate_added_mass: chord {chord!r}, span {span!r}, rho {rho!r} and "
+            f"factor {factor!r} must be > 0"
+        )
     mass = factor * rho * np.pi * chord**2 / 4.0 * span
     i_chord = mass * span**2 / 12.0
     i_span = factor * rho * np.pi * chord**4 / 128.0 * span

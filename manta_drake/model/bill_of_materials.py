@@ -120,6 +120,7 @@ class Part:
 
 # --- the closed forms ------------------------------------------------------------------------
 
+
 def naca_section_area(thickness: float, chord: float) -> float:
     """The area [m^2] of a NACA 4-digit symmetric section of ``thickness`` and ``chord``."""
     return NACA4_SECTION_AREA * thickness * chord
@@ -137,10 +138,12 @@ def ellipsoid_surface_area(a: float, b: float, c: float) -> float:
     m = a * a * (b * b - c * c) / (b * b * (a * a - c * c))
     s = math.sin(phi)
     return 2 * math.pi * c * c + 2 * math.pi * a * b / s * (
-        ellipeinc(phi, m) * s * s + ellipkinc(phi, m) * math.cos(phi) ** 2)
+        ellipeinc(phi, m) * s * s + ellipkinc(phi, m) * math.cos(phi) ** 2
+    )
 
 
 # --- loading and checks ----------------------------------------------------------------------
+
 
 def _entries(bom: BillOfMaterials):
     """(dotted name, Number | Numbers) of every sourced entry."""
@@ -154,10 +157,15 @@ def check_bill_of_materials(bom: BillOfMaterials, where: str) -> None:
     position = bom.residual_position
     if not position.source.strip():
         raise ScenarioError(f"{where}: residual_position has no source")
-    if len(position.value) != 3 or not np.all(np.isfinite(position.value)) \
-            or np.max(np.abs(position.value)) > 0.05:
-        raise ScenarioError(f"{where}: residual_position = {position.value!r} needs 3 finite "
-                            "coordinates within 0.05 m of the body origin")
+    if (
+        len(position.value) != 3
+        or not np.all(np.isfinite(position.value))
+        or np.max(np.abs(position.value)) > 0.05
+    ):
+        raise ScenarioError(
+            f"{where}: residual_position = {position.value!r} needs 3 finite "
+            "coordinates within 0.05 m of the body origin"
+        )
     for name, entry in (("total_mass", bom.total_mass), *_entries(bom)):
         if not entry.source.strip():
             raise ScenarioError(f"{where}: {name} has no source")
@@ -166,8 +174,9 @@ def check_bill_of_materials(bom: BillOfMaterials, where: str) -> None:
             raise ScenarioError(f"{where}: {name} = {entry.value!r} must be finite and > 0")
     joints = NUM_LEGS * len(SERVO_CARRIERS)
     if bom.servo.count.value != joints:
-        raise ScenarioError(f"{where}: servo.count = {bom.servo.count.value!r} must be {joints} "
-                            "(one servo a joint)")
+        raise ScenarioError(
+            f"{where}: servo.count = {bom.servo.count.value!r} must be {joints} (one servo a joint)"
+        )
     if len(bom.servo.size.value) != 3:
         raise ScenarioError(f"{where}: servo.size = {bom.servo.size.value!r} needs 3 lengths")
     for name, part in bom.hull_parts.items():
@@ -176,11 +185,14 @@ def check_bill_of_materials(bom: BillOfMaterials, where: str) -> None:
         if part.count < 1:
             raise ScenarioError(f"{where}: hull_parts.{name}.count = {part.count} must be >= 1")
         if not (math.isfinite(part.mass) and part.mass > 0):
-            raise ScenarioError(f"{where}: hull_parts.{name}.mass = {part.mass!r} must be "
-                                "finite and > 0")
+            raise ScenarioError(
+                f"{where}: hull_parts.{name}.mass = {part.mass!r} must be finite and > 0"
+            )
         if name == "residual":
-            raise ScenarioError(f"{where}: hull_parts.residual is the name of the computed "
-                                "remainder; call the part something else")
+            raise ScenarioError(
+                f"{where}: hull_parts.residual is the name of the computed "
+                "remainder; call the part something else"
+            )
 
 
 def load_bill_of_materials(path=DEFAULT_BILL_OF_MATERIALS_FILE) -> BillOfMaterials:
@@ -196,8 +208,9 @@ def load_bill_of_materials(path=DEFAULT_BILL_OF_MATERIALS_FILE) -> BillOfMateria
         raise ScenarioError(f"{path}: {' '.join(str(e).split())}") from None
     except ValueError as e:
         message = str(e)
-        raise ScenarioError(message if message.startswith(str(path)) else
-                            f"{path}: {message}") from None
+        raise ScenarioError(
+            message if message.startswith(str(path)) else f"{path}: {message}"
+        ) from None
     return bom
 
 
@@ -214,35 +227,59 @@ def shipped_bill_of_materials() -> BillOfMaterials:
 
 # --- the parts and what each carrier carries -------------------------------------------------
 
+
 def parts(bom: BillOfMaterials, geometry: Geometry) -> list[Part]:
     """Every line of the bill, the residual last (see the module docstring)."""
     g, servo = geometry, bom.servo
     case = float(np.prod(servo.size.value))
-    rows = [Part(f"{joint} servo", NUM_LEGS, servo.mass.value, case, carrier,
-                 servo.mass.source) for joint, carrier in SERVO_CARRIERS]
+    rows = [
+        Part(f"{joint} servo", NUM_LEGS, servo.mass.value, case, carrier, servo.mass.source)
+        for joint, carrier in SERVO_CARRIERS
+    ]
     rho = bom.fin_plates.density.value
-    for name, carrier, chord, span in (("proximal fin plate", "link3", g.proximal_chord,
-                                        g.proximal_span),
-                                       ("distal fin plate", "link4", g.distal_chord,
-                                        g.distal_span)):
+    for name, carrier, chord, span in (
+        ("proximal fin plate", "link3", g.proximal_chord, g.proximal_span),
+        ("distal fin plate", "link4", g.distal_chord, g.distal_span),
+    ):
         volume = naca_section_area(g.fin_thickness, chord) * span
-        rows.append(Part(name, NUM_LEGS, rho * volume, volume, carrier,
-                         bom.fin_plates.density.source))
+        rows.append(
+            Part(name, NUM_LEGS, rho * volume, volume, carrier, bom.fin_plates.density.source)
+        )
     shell = bom.hull_shell
     area = ellipsoid_surface_area(*g.body_semi_axes)
-    rows.append(Part("hull shell", 1, shell.density.value * shell.thickness.value * area, 0.0,
-                     "hull", shell.thickness.source))
-    rows += [Part(name.replace("_", " "), p.count, p.mass, 0.0, "hull", p.source)
-             for name, p in bom.hull_parts.items()]
+    rows.append(
+        Part(
+            "hull shell",
+            1,
+            shell.density.value * shell.thickness.value * area,
+            0.0,
+            "hull",
+            shell.thickness.source,
+        )
+    )
+    rows += [
+        Part(name.replace("_", " "), p.count, p.mass, 0.0, "hull", p.source)
+        for name, p in bom.hull_parts.items()
+    ]
     listed = sum(r.total_mass for r in rows)
     residual = bom.total_mass.value - listed
     if residual < 0:
-        raise ScenarioError(f"bill of materials: the parts weigh {listed:.3f} kg, more than "
-                            f"total_mass = {bom.total_mass.value} kg")
-    rows.append(Part("residual", 1, residual, 0.0, "hull",
-                     "total_mass less every part above: ballast, fasteners, brackets, "
-                     "cabling and seals, which the list does not account for",
-                     tuple(bom.residual_position.value)))
+        raise ScenarioError(
+            f"bill of materials: the parts weigh {listed:.3f} kg, more than "
+            f"total_mass = {bom.total_mass.value} kg"
+        )
+    rows.append(
+        Part(
+            "residual",
+            1,
+            residual,
+            0.0,
+            "hull",
+            "total_mass less every part above: ballast, fasteners, brackets, "
+            "cabling and seals, which the list does not account for",
+            tuple(bom.residual_position.value),
+        )
+    )
     return rows
 
 

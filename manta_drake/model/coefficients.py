@@ -41,6 +41,7 @@ AXES = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 
 # --- formulas ----------------------------------------------------------------------------
 
+
 def body_added_mass_strip_theory(semi_axes, rho: float) -> dict:
     """Added mass [kg] and added inertia [kg m^2] of an ellipsoidal hull by strip theory.
 
@@ -206,11 +207,12 @@ def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoeffici
     entries = dict(result.entries())
     for name, factor in (scales or {}).items():
         if name not in entries:
-            raise ValueError(f"coefficient_scales.{name}: unknown coefficient; allowed: "
-                             f"{', '.join(sorted(entries))}")
+            raise ValueError(
+                f"coefficient_scales.{name}: unknown coefficient; allowed: "
+                f"{', '.join(sorted(entries))}"
+            )
         if not (isinstance(factor, (int, float)) and np.isfinite(factor) and factor >= 0):
-            raise ValueError(f"coefficient_scales.{name}: {factor!r} must be a finite "
-                             "number >= 0")
+            raise ValueError(f"coefficient_scales.{name}: {factor!r} must be a finite number >= 0")
         entry = entries[name]
         if isinstance(entry.value, list):
             entry.value = [float(v) * factor for v in entry.value]
@@ -225,21 +227,40 @@ def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoeffici
 
 # Entries that must be > 0 (a zero volume or density divides by zero at t = 0), and
 # entries that must be whole numbers.
-POSITIVE = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
-            "fins.strips_per_plate", "fins.normal_force_coefficient",
-            "fins.passive_pitch_reference_pressure", "balloon.max_volume", "balloon.pump_rate",
-            "fins.added_mass_factor", "fins.lift_slope", "fins.stall_width_deg")
+POSITIVE = (
+    "water_density",
+    "gravity",
+    "body.sealed_volume",
+    "body.sealed_semi_axes",
+    "fins.strips_per_plate",
+    "fins.normal_force_coefficient",
+    "fins.passive_pitch_reference_pressure",
+    "balloon.max_volume",
+    "balloon.pump_rate",
+    "fins.added_mass_factor",
+    "fins.lift_slope",
+    "fins.stall_width_deg",
+)
 INTEGER = ("fins.strips_per_plate",)
 SEALED_VOLUME_TOLERANCE = 0.01  # relative: body.sealed_volume against 4/3 pi abc
 # Physical ranges of the constants: a pool of water on Earth. Fresh water is 997 kg/m^3 at
 # 25 C, sea water about 1025, brines up to about 1200; beyond these the contact solver and
 # the buoyancy are asked for something no pool holds. g on Earth's surface: 9.78-9.83.
 RANGES = {"water_density": (900.0, 1300.0, "kg/m^3"), "gravity": (9.7, 9.9, "m/s^2")}
-SIZES = {"body.sealed_semi_axes": 3, "body.center_of_buoyancy": 3, "body.added_mass": 3,
-         "body.added_inertia": 3, "body.linear_damping": 6, "body.quadratic_damping": 6,
-         "body.body_lift": 4,
-         "links.linear_damping": 6, "links.quadratic_damping": 6,
-         "fins.hinge_added_inertia": 4, "fins.added_mass_factor": 2, "balloon.mount_point": 3}
+SIZES = {
+    "body.sealed_semi_axes": 3,
+    "body.center_of_buoyancy": 3,
+    "body.added_mass": 3,
+    "body.added_inertia": 3,
+    "body.linear_damping": 6,
+    "body.quadratic_damping": 6,
+    "body.body_lift": 4,
+    "links.linear_damping": 6,
+    "links.quadratic_damping": 6,
+    "fins.hinge_added_inertia": 4,
+    "fins.added_mass_factor": 2,
+    "balloon.mount_point": 3,
+}
 
 
 def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -> None:
@@ -263,8 +284,10 @@ def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -
         if name in RANGES:
             lo, hi, unit = RANGES[name]
             if not np.all((lo <= values) & (values <= hi)):
-                raise ScenarioError(f"{where}: {name} = {entry.value!r} is outside the allowed "
-                                    f"range [{lo:g}, {hi:g}] {unit}")
+                raise ScenarioError(
+                    f"{where}: {name} = {entry.value!r} is outside the allowed "
+                    f"range [{lo:g}, {hi:g}] {unit}"
+                )
     # The water model integrates the hull's buoyancy over body.sealed_semi_axes; the volume
     # is its documented value. One changed without the other would change nothing (or
     # something else than meant) without a word, so they must agree.
@@ -276,11 +299,13 @@ def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -
             f"{where}: body.sealed_volume = {volume:g} m^3 disagrees with body.sealed_semi_axes "
             f"(4/3 pi abc = {implied:g} m^3, more than {SEALED_VOLUME_TOLERANCE:.0%} apart); "
             "the buoyancy comes from the semi-axes: change both together (a sweep's "
-            "net_weight_kg does)")
+            "net_weight_kg does)"
+        )
 
 
-def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE,
-                      field: str | None = None) -> HydroCoefficients:
+def load_coefficients(
+    path=DEFAULT_COEFFICIENTS_FILE, field: str | None = None
+) -> HydroCoefficients:
     """Loads and checks ``hydrodynamics.yaml`` (unknown and duplicate keys, sizes, signs,
     sources); errors are one line naming the file (and ``field``, the scenario field that
     named it)."""
@@ -290,8 +315,10 @@ def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE,
         text = read_text_file(path, what="coefficients")
         data = parse_yaml(text)
         if not isinstance(data, dict):
-            raise ScenarioError("must be a mapping of coefficient sections (water_density, "
-                                f"gravity, body, links, fins, balloon), got {type(data).__name__}")
+            raise ScenarioError(
+                "must be a mapping of coefficient sections (water_density, "
+                f"gravity, body, links, fins, balloon), got {type(data).__name__}"
+            )
         check_keys(data, HydroCoefficients, path.name)
         coeffs = yaml_load_typed(schema=HydroCoefficients, data=text)
         check_coefficients(coeffs, path.name)
@@ -299,6 +326,6 @@ def load_coefficients(path=DEFAULT_COEFFICIENTS_FILE,
         message = str(e)
         prefix = f"{path}: "
         if message.startswith(prefix):
-            message = message[len(prefix):]
+            message = message[len(prefix) :]
         raise ScenarioError(f"{where}: {message}") from None
     return coeffs

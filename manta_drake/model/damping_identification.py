@@ -73,15 +73,19 @@ def read_cfd_samples(path=CFD_SAMPLES, mesh: str = CFD_MESH) -> list[dict]:
     path = pathlib.Path(path)
     rows = sample_rows(path)
     if rows and "Fx_hull" not in rows[0]:
-        raise ValueError(f"{path}: no Fx_hull column (the hull patch's forces); rerun "
-                         "manta-drake study cfd --tables-only on its cases")
+        raise ValueError(
+            f"{path}: no Fx_hull column (the hull patch's forces); rerun "
+            "manta-drake study cfd --tables-only on its cases"
+        )
     keep = [r for r in rows if r["mesh"] == mesh and r.get("Fx_hull")]
     if not keep:
         raise ValueError(f"{path}: no samples with the hull patch's forces on mesh {mesh!r}")
-    numeric = {k for k in keep[0] if k not in ("shape", "mesh", "openfoam", "date",
-                                                "command", "stopped_by", "converged")}
-    return [{k: (float(v) if k in numeric and v != "" else v) for k, v in r.items()}
-            for r in keep]
+    numeric = {
+        k
+        for k in keep[0]
+        if k not in ("shape", "mesh", "openfoam", "date", "command", "stopped_by", "converged")
+    }
+    return [{k: (float(v) if k in numeric and v != "" else v) for k, v in r.items()} for r in keep]
 
 
 def _hull_areas(semi_axes) -> tuple[float, float, float]:
@@ -93,8 +97,9 @@ def surge_law(level, semi_axes, rho: float = CFD_DENSITY):
     """(C_Dp, law): the hull's form-drag coefficient from the level (zero-incidence) samples'
     pressure drag and the laminar law U -> X(U) with it."""
     frontal, wetted, length = _hull_areas(semi_axes)
-    cdp = hr.hull_form_drag_coefficient([-r["Fx_hull_pressure"] for r in level],
-                                        [r["u"] for r in level], frontal, rho)
+    cdp = hr.hull_form_drag_coefficient(
+        [-r["Fx_hull_pressure"] for r in level], [r["u"] for r in level], frontal, rho
+    )
     return cdp, lambda u: hr.hull_surge_resistance(u, cdp, frontal, wetted, length, rho)
 
 
@@ -110,8 +115,10 @@ def identify(rows, semi_axes, rho: float = CFD_DENSITY) -> Identification:
     pitched = [r for r in rows if r["pitch_deg"] != 0 and r["yaw_deg"] == 0]
     yawed = [r for r in rows if r["yaw_deg"] != 0 and r["pitch_deg"] == 0]
     if len(level) < 2 or len(pitched) < 2 or len(yawed) < 2:
-        raise ValueError(f"need >= 2 level, pitched and yawed samples; got {len(level)}, "
-                         f"{len(pitched)}, {len(yawed)}")
+        raise ValueError(
+            f"need >= 2 level, pitched and yawed samples; got {len(level)}, "
+            f"{len(pitched)}, {len(yawed)}"
+        )
     cdp, law = surge_law(level, semi_axes, rho)
     u_cfd = np.array([r["u"] for r in level])
     x_cfd = -np.array([r["Fx_hull"] for r in level])
@@ -119,12 +126,14 @@ def identify(rows, semi_axes, rho: float = CFD_DENSITY) -> Identification:
     u_all, x_all = np.concatenate([low, u_cfd]), np.concatenate([law(low), x_cfd])
     (x_u, x_uu), res = fit_damping(u_all, x_all, relative=True)
     col = {k: np.array([r[k] for r in pitched]) for k in ("u", "w", "Fz_hull", "My_hull")}
-    (z_ww, z_uw), rms_z = _lstsq([col["w"] * np.abs(col["w"]), np.abs(col["u"]) * col["w"]],
-                                 -col["Fz_hull"])
+    (z_ww, z_uw), rms_z = _lstsq(
+        [col["w"] * np.abs(col["w"]), np.abs(col["u"]) * col["w"]], -col["Fz_hull"]
+    )
     (m_uw,), rms_m = _lstsq([col["u"] * col["w"]], -col["My_hull"])
     col = {k: np.array([r[k] for r in yawed]) for k in ("u", "v", "Fy_hull", "Mz_hull")}
-    (y_vv, y_uv), rms_y = _lstsq([col["v"] * np.abs(col["v"]), np.abs(col["u"]) * col["v"]],
-                                 -col["Fy_hull"])
+    (y_vv, y_uv), rms_y = _lstsq(
+        [col["v"] * np.abs(col["v"]), np.abs(col["u"]) * col["v"]], -col["Fy_hull"]
+    )
     (n_uv,), rms_n = _lstsq([col["u"] * col["v"]], -col["Mz_hull"])
     rot = hr.cross_flow_rotational_damping(semi_axes, ROTATIONAL_DRAG_COEFFICIENTS, rho)
     fitted = lambda u: x_u * u + x_uu * u * np.abs(u)  # noqa: E731
@@ -134,7 +143,14 @@ def identify(rows, semi_axes, rho: float = CFD_DENSITY) -> Identification:
         linear=np.array([x_u, 0.0, 0.0, 0.0, 0.0, 0.0]),
         quadratic=np.array([x_uu, y_vv, z_ww, *rot]),
         lift=np.array([y_uv, z_uw, m_uw, n_uv]),
-        form_drag_coefficient=cdp, surge_errors=errors,
-        relative_rms={"surge": float(np.sqrt(np.mean((res / x_all) ** 2))), "heave": rms_z,
-                      "sway": rms_y, "pitch moment": rms_m, "yaw moment": rms_n},
-        samples={"surge": len(u_all), "heave": len(pitched), "sway": len(yawed)})
+        form_drag_coefficient=cdp,
+        surge_errors=errors,
+        relative_rms={
+            "surge": float(np.sqrt(np.mean((res / x_all) ** 2))),
+            "heave": rms_z,
+            "sway": rms_y,
+            "pitch moment": rms_m,
+            "yaw moment": rms_n,
+        },
+        samples={"surge": len(u_all), "heave": len(pitched), "sway": len(yawed)},
+    )

@@ -69,16 +69,24 @@ def turbulent_skin_friction(reynolds):
     return 0.075 / (np.log10(reynolds) - 2.0) ** 2
 
 
-def hull_surge_resistance(speed, form_drag_coefficient: float, frontal_area: float,
-                          wetted_area: float, length: float, rho: float,
-                          nu: float = WATER_VISCOSITY):
+def hull_surge_resistance(
+    speed,
+    form_drag_coefficient: float,
+    frontal_area: float,
+    wetted_area: float,
+    length: float,
+    rho: float,
+    nu: float = WATER_VISCOSITY,
+):
     """X(U) = 1/2 rho U |U| (C_Dp A_f + C_f S_wet), C_f laminar (Blasius) at Re_L = |U| L / nu;
     the drag's magnitude, signed with U. Raises where Re_L passes the laminar limit."""
     u = np.asarray(speed, dtype=float)
     re = np.maximum(np.abs(u), 1e-300) * length / nu
     if np.any(re > LAMINAR_LIMIT_RE):
-        raise ValueError(f"speed up to {np.abs(u).max():.3g} m/s: Re_L {re.max():.3g} is past "
-                         f"the laminar limit {LAMINAR_LIMIT_RE:.0e} of this law")
+        raise ValueError(
+            f"speed up to {np.abs(u).max():.3g} m/s: Re_L {re.max():.3g} is past "
+            f"the laminar limit {LAMINAR_LIMIT_RE:.0e} of this law"
+        )
     cf = laminar_skin_friction(re)
     return 0.5 * rho * u * np.abs(u) * (form_drag_coefficient * frontal_area + cf * wetted_area)
 
@@ -95,7 +103,7 @@ def cross_flow_rotational_damping(semi_axes, drag_coefficients, rho: float) -> n
     roll, pitch, yaw."""
     a, b, c = (float(x) for x in semi_axes)
     cd = np.asarray(drag_coefficients, dtype=float)
-    h_l4 = np.array([a * b ** 4, b * a ** 4, c * a ** 4])
+    h_l4 = np.array([a * b**4, b * a**4, c * a**4])
     return 4.0 / 15.0 * rho * cd * h_l4
 
 

@@ -103,8 +103,9 @@ def add_plant(
             the plate's normal on every body of the tree, at every pose).
     """
     if fin_added_mass not in FIN_ADDED_MASS:
-        raise ValueError(f"fin_added_mass: {fin_added_mass!r} is not one of "
-                         f"{', '.join(FIN_ADDED_MASS)}")
+        raise ValueError(
+            f"fin_added_mass: {fin_added_mass!r} is not one of {', '.join(FIN_ADDED_MASS)}"
+        )
     if not time_step > 0:
         raise ValueError(f"time_step: {time_step} must be > 0 (the plant is discrete)")
     config = MultibodyPlantConfig(
@@ -129,11 +130,15 @@ def add_plant(
     if weld_body is not None:
         plant.WeldFrames(plant.world_frame(), body.body_frame(), weld_body)
     bodies = hydro is not None and fin_added_mass == "bodies"
-    iso, heave = (_add_hydro_inertia(plant, body, hydro, bodies) if hydro is not None
-                  else (0.0, 0.0))
+    iso, heave = _add_hydro_inertia(plant, body, hydro, bodies) if hydro is not None else (0.0, 0.0)
     if bodies:
-        add_fin_added_mass_bodies(plant, robot, robot_params or DEFAULT_ROBOT,
-                                  hydro.water_density.value, hydro.fins.added_mass_factor.value)
+        add_fin_added_mass_bodies(
+            plant,
+            robot,
+            robot_params or DEFAULT_ROBOT,
+            hydro.water_density.value,
+            hydro.fins.added_mass_factor.value,
+        )
         add_hull_heave_body(plant, body, heave)
     plant.Finalize()
     if hydro is not None and not bodies:
@@ -151,8 +156,9 @@ def _add_hydro_inertia(plant, body, hydro, bodies: bool) -> tuple[float, float]:
     isotropic, or with the added-mass bodies the part ``split_hull_added_mass`` leaves
     outside the heave body. Returns (isotropic mass, heave body's mass; 0 without bodies)."""
     if bodies:
-        iso, _, heave = split_hull_added_mass(hydro.body.added_mass.value,
-                                              hydro.fins.hull_interaction_added_mass.value)
+        iso, _, heave = split_hull_added_mass(
+            hydro.body.added_mass.value, hydro.fins.hull_interaction_added_mass.value
+        )
         carried = heave_body_inertia(heave)
     else:
         iso, _ = split_added_mass(hydro.body.added_mass.value, body.default_mass())
@@ -160,8 +166,10 @@ def _add_hydro_inertia(plant, body, hydro, bodies: bool) -> tuple[float, float]:
     Ixx, Iyy, Izz = split_added_inertia(hydro.body.added_inertia.value, carried)[0]
     instance = plant.AddModelInstance("manta_added_mass")
     added = plant.AddRigidBody(
-        "added_mass", instance,
-        SpatialInertia.MakeFromCentralInertia(iso, np.zeros(3), RotationalInertia(Ixx, Iyy, Izz)))
+        "added_mass",
+        instance,
+        SpatialInertia.MakeFromCentralInertia(iso, np.zeros(3), RotationalInertia(Ixx, Iyy, Izz)),
+    )
     p_BoBcm = body.default_com()
     plant.WeldFrames(body.body_frame(), added.body_frame(), RigidTransform(p_BoBcm))
     return iso, heave
@@ -188,21 +196,33 @@ def add_fin_added_mass_bodies(plant, robot, params, rho: float, factors) -> list
     """
     factors = [float(f) for f in factors]
     if len(factors) != 2 or not all(f > 0 for f in factors):
-        raise ValueError(f"fins.added_mass_factor: {factors!r} must be 2 numbers > 0 (the "
-                         "proximal and the distal plate's 3-D factor)")
+        raise ValueError(
+            f"fins.added_mass_factor: {factors!r} must be 2 numbers > 0 (the "
+            "proximal and the distal plate's 3-D factor)"
+        )
     instance = plant.AddModelInstance(FIN_ADDED_MASS_INSTANCE)
     joints = []
     for leg in LEGS:
         for plate, factor in zip(fin_plates(params), factors):
-            mass, (i_chord, i_span, i_normal) = plate_added_mass(plate.chord, plate.span, rho,
-                                                                 factor)
+            mass, (i_chord, i_span, i_normal) = plate_added_mass(
+                plate.chord, plate.span, rho, factor
+            )
             name = f"{leg}_{plate.name}_added_mass"
             link = plant.GetBodyByName(f"{leg}_link{plate.link}", robot)
-            frame = plant.AddFrame(FixedOffsetFrame(
-                f"{name}_frame", link.body_frame(),
-                RigidTransform(RotationMatrix(np.array(plate.R_LF)), np.array(plate.center))))
-            body = plant.AddRigidBody(name, instance, SpatialInertia.MakeFromCentralInertia(
-                mass, np.zeros(3), RotationalInertia(i_chord, i_span, i_normal)))
+            frame = plant.AddFrame(
+                FixedOffsetFrame(
+                    f"{name}_frame",
+                    link.body_frame(),
+                    RigidTransform(RotationMatrix(np.array(plate.R_LF)), np.array(plate.center)),
+                )
+            )
+            body = plant.AddRigidBody(
+                name,
+                instance,
+                SpatialInertia.MakeFromCentralInertia(
+                    mass, np.zeros(3), RotationalInertia(i_chord, i_span, i_normal)
+                ),
+            )
             joints.append(plant.AddJoint(PlanarJoint(name, frame, body.body_frame())))
     plant.mutable_gravity_field().set_enabled(instance, False)
     return joints
@@ -217,11 +237,16 @@ def add_hull_heave_body(plant, hull, mass: float):
     if not mass > 0:
         raise ValueError(f"hull heave added mass {mass!r} must be > 0 kg")
     instance = plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)
-    heave = plant.AddRigidBody("body_heave_added_mass", instance,
-                               SpatialInertia.MakeFromCentralInertia(
-                                   mass, np.zeros(3), RotationalInertia(*heave_body_inertia(mass))))
-    return plant.AddJoint(PlanarJoint("body_heave_added_mass", hull.body_frame(),
-                                      heave.body_frame()))
+    heave = plant.AddRigidBody(
+        "body_heave_added_mass",
+        instance,
+        SpatialInertia.MakeFromCentralInertia(
+            mass, np.zeros(3), RotationalInertia(*heave_body_inertia(mass))
+        ),
+    )
+    return plant.AddJoint(
+        PlanarJoint("body_heave_added_mass", hull.body_frame(), heave.body_frame())
+    )
 
 
 def _set_hinge_added_inertia(plant, robot, hinge) -> None:
@@ -248,8 +273,11 @@ def floor_geometries(handles: PlantHandles) -> list:
     """The pool's floor: its collision geometries whose name holds ``floor``."""
     inspector = handles.scene_graph.model_inspector()
     pool = handles.plant.GetBodyByName("pool", handles.pool)
-    return [g for g in handles.plant.GetCollisionGeometriesForBody(pool)
-            if "floor" in inspector.GetName(g)]
+    return [
+        g
+        for g in handles.plant.GetCollisionGeometriesForBody(pool)
+        if "floor" in inspector.GetName(g)
+    ]
 
 
 def set_contact_friction(handles: PlantHandles, mu: float) -> None:
@@ -262,15 +290,20 @@ def set_contact_friction(handles: PlantHandles, mu: float) -> None:
     plant, scene_graph = handles.plant, handles.scene_graph
     inspector = scene_graph.model_inspector()
     instances = [handles.robot] + ([handles.pool] if handles.pool is not None else [])
-    geometries = [g for instance in instances for index in plant.GetBodyIndices(instance)
-                  for g in plant.GetCollisionGeometriesForBody(plant.get_body(index))]
+    geometries = [
+        g
+        for instance in instances
+        for index in plant.GetBodyIndices(instance)
+        for g in plant.GetCollisionGeometriesForBody(plant.get_body(index))
+    ]
     for geometry in geometries:
         props = inspector.GetProximityProperties(geometry)
         props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
         scene_graph.AssignRole(plant.get_source_id(), geometry, props, RoleAssign.kReplace)
     for geometry in geometries:
         friction = inspector.GetProximityProperties(geometry).GetProperty(
-            "material", "coulomb_friction")
+            "material", "coulomb_friction"
+        )
         if friction.dynamic_friction() != mu or friction.static_friction() != mu:
             raise RuntimeError(f"contact friction {mu} did not take effect on {geometry}")
 
@@ -306,9 +339,12 @@ def joint_torque_port(handles: PlantHandles):
     (including the implicit PD's), in actuator order, which must be the joint order of
     ``measured_joint_state`` (``handles.joint_names``); checked here."""
     plant = handles.plant
-    names = tuple(plant.get_joint_actuator(i).joint().name()
-                  for i in plant.GetJointActuatorIndices(handles.robot))
+    names = tuple(
+        plant.get_joint_actuator(i).joint().name()
+        for i in plant.GetJointActuatorIndices(handles.robot)
+    )
     if names != tuple(handles.joint_names):
-        raise RuntimeError(f"joint_torque: actuator order {names} is not the joint order "
-                           f"{handles.joint_names}")
+        raise RuntimeError(
+            f"joint_torque: actuator order {names} is not the joint order {handles.joint_names}"
+        )
     return plant.get_net_actuation_output_port(handles.robot)

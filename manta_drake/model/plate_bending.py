@@ -50,8 +50,9 @@ def naca_thickness(x, thickness_ratio: float, chord: float):
     return 10.0 * thickness_ratio * chord * poly
 
 
-def cantilever_deflection(pressure: float, length: float, youngs_modulus: float,
-                          thickness, n: int = 2001) -> dict:
+def cantilever_deflection(
+    pressure: float, length: float, youngs_modulus: float, thickness, n: int = 2001
+) -> dict:
     """Tip deflection and slope of a cantilever per unit span under uniform pressure.
 
     Args:
@@ -67,24 +68,32 @@ def cantilever_deflection(pressure: float, length: float, youngs_modulus: float,
     """
     from scipy.integrate import cumulative_trapezoid
 
-    for name, v in (("pressure", pressure), ("length", length),
-                    ("youngs_modulus", youngs_modulus)):
+    for name, v in (("pressure", pressure), ("length", length), ("youngs_modulus", youngs_modulus)):
         if not (math.isfinite(v) and v >= 0.0) or (name != "pressure" and v == 0.0):
             raise ValueError(f"cantilever_deflection: {name} {v!r} must be finite and > 0")
     s = np.linspace(0.0, length, n)
     t = thickness(s) if callable(thickness) else np.full_like(s, float(thickness))
     if not np.all(t > 0.0):
         raise ValueError("cantilever_deflection: the thickness must be > 0 everywhere")
-    curvature = 0.5 * pressure * (length - s) ** 2 / (youngs_modulus * t ** 3 / 12.0)
+    curvature = 0.5 * pressure * (length - s) ** 2 / (youngs_modulus * t**3 / 12.0)
     slope = cumulative_trapezoid(curvature, s, initial=0.0)
     w = cumulative_trapezoid(slope, s, initial=0.0)
-    return {"tip_deflection": float(w[-1]), "tip_slope": float(slope[-1]),
-            "chord_rotation": math.atan2(float(w[-1]), length)}
+    return {
+        "tip_deflection": float(w[-1]),
+        "tip_slope": float(slope[-1]),
+        "chord_rotation": math.atan2(float(w[-1]), length),
+    }
 
 
-def plate_chordwise_bending(pressure: float, chord: float, youngs_modulus: float,
-                            thickness_ratio: float = 0.12, clamp: float = 0.25,
-                            min_thickness: float = 0.8e-3, n: int = 2001) -> dict:
+def plate_chordwise_bending(
+    pressure: float,
+    chord: float,
+    youngs_modulus: float,
+    thickness_ratio: float = 0.12,
+    clamp: float = 0.25,
+    min_thickness: float = 0.8e-3,
+    n: int = 2001,
+) -> dict:
     """The NACA00xx plate's aft part as a cantilever from ``clamp`` (fraction of the chord
     from the leading edge) to the trailing edge: ``cantilever_deflection``'s numbers, in
     radians and metres."""
@@ -93,8 +102,7 @@ def plate_chordwise_bending(pressure: float, chord: float, youngs_modulus: float
     length = (1.0 - clamp) * chord
 
     def t(s):
-        return np.maximum(naca_thickness(clamp + s / chord, thickness_ratio, chord),
-                          min_thickness)
+        return np.maximum(naca_thickness(clamp + s / chord, thickness_ratio, chord), min_thickness)
 
     return cantilever_deflection(pressure, length, youngs_modulus, t, n)
 
@@ -103,5 +111,9 @@ def largest_chord_rotation(chords, pressure: float = PRESSURE_BOUND) -> float:
     """The largest chord rotation [rad] of plates of the given chords over the stiffness band
     (YOUNGS_MODULUS_BAND, CLAMP_BAND) at ``pressure``: it is largest at the softest modulus
     and, for the NACA section, the clamp at the leading edge; every corner is evaluated."""
-    return max(plate_chordwise_bending(pressure, c, e, clamp=k)["chord_rotation"]
-               for c in chords for e in YOUNGS_MODULUS_BAND for k in CLAMP_BAND)
+    return max(
+        plate_chordwise_bending(pressure, c, e, clamp=k)["chord_rotation"]
+        for c in chords
+        for e in YOUNGS_MODULUS_BAND
+        for k in CLAMP_BAND
+    )

@@ -26,8 +26,11 @@ def lamb_integrals(a: float, b: float, c: float) -> np.ndarray:
 
     abc = a * b * c
     a2, b2, c2 = a * a, b * b, c * c
-    return (2.0 / 3.0) * abc * np.array([elliprd(b2, c2, a2), elliprd(c2, a2, b2),
-                                         elliprd(a2, b2, c2)])
+    return (
+        (2.0 / 3.0)
+        * abc
+        * np.array([elliprd(b2, c2, a2), elliprd(c2, a2, b2), elliprd(a2, b2, c2)])
+    )
 
 
 def ellipsoid_added_mass(semi_axes, rho: float) -> tuple[np.ndarray, np.ndarray]:
@@ -47,6 +50,12 @@ def ellipsoid_added_mass(semi_axes, rho: float) -> tuple[np.ndarray, np.ndarray]
         d = sq[j] - sq[k]
         if d == 0.0:  # a body of revolution about this axis: no fluid is moved
             continue
-        inertia[i] = (rho * volume * d * d * (al[k] - al[j])
-                      / (5.0 * (2.0 * d + (sq[j] + sq[k]) * (al[j] - al[k]))))
+        inertia[i] = (
+            rho
+            * volume
+            * d
+            * d
+            * (al[k] - al[j])
+            / (5.0 * (2.0 * d + (sq[j] + sq[k]) * (al[j] - al[k])))
+        )
     return mass, inertia

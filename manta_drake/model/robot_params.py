@@ -135,17 +135,27 @@ class RobotParams:
     hydroelastic_resolution: float = 0.02  # m
 
     def __post_init__(self):
-        if None in (self.body_mass, self.link_masses, self.servo_mass, self.servo_size,
-                    self.residual_mass, self.residual_position):
+        if None in (
+            self.body_mass,
+            self.link_masses,
+            self.servo_mass,
+            self.servo_size,
+            self.residual_mass,
+            self.residual_position,
+        ):
             from manta_drake.model import bill_of_materials as bom
 
             shipped = bom.shipped_bill_of_materials()
             rows = bom.parts(shipped, self.geometry())
             body, links = bom.carried_masses(rows)
-            derived = {"body_mass": body, "link_masses": links,
-                       "servo_mass": shipped.servo.mass.value,
-                       "servo_size": tuple(shipped.servo.size.value),
-                       "residual_mass": rows[-1].mass, "residual_position": rows[-1].position}
+            derived = {
+                "body_mass": body,
+                "link_masses": links,
+                "servo_mass": shipped.servo.mass.value,
+                "servo_size": tuple(shipped.servo.size.value),
+                "residual_mass": rows[-1].mass,
+                "residual_position": rows[-1].position,
+            }
             for name, value in derived.items():
                 if getattr(self, name) is None:
                     object.__setattr__(self, name, value)
@@ -154,8 +164,14 @@ class RobotParams:
         """The dimensions the bill of materials' masses and volumes follow."""
         from manta_drake.model.bill_of_materials import Geometry
 
-        return Geometry(tuple(self.body_semi_axes), self.fin_thickness, self.proximal_chord,
-                        self.d3, self.distal_chord, self.dE)
+        return Geometry(
+            tuple(self.body_semi_axes),
+            self.fin_thickness,
+            self.proximal_chord,
+            self.d3,
+            self.distal_chord,
+            self.dE,
+        )
 
     @property
     def servo_volume(self) -> float:
@@ -170,8 +186,10 @@ class RobotParams:
         from manta_drake.model.bill_of_materials import naca_section_area
 
         t = self.fin_thickness
-        return (naca_section_area(t, self.proximal_chord) * self.d3,
-                naca_section_area(t, self.distal_chord) * self.dE)
+        return (
+            naca_section_area(t, self.proximal_chord) * self.d3,
+            naca_section_area(t, self.distal_chord) * self.dE,
+        )
 
     def with_fin_sweep(self, sweep: float) -> RobotParams:
         """These parameters with every leg-fin swept back by ``sweep`` [rad] at theta_1 = 0

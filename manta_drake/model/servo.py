@@ -46,8 +46,13 @@ SERVO_MODELS = ("ideal", "datasheet")
 
 def stall_torque(servo: ServoConstants, voltage: float) -> float:
     """tau_s = k_t N eta V / R [N m] at the bus voltage ``voltage`` [V]."""
-    return (servo.torque_constant * servo.gear_ratio * servo.gearbox_efficiency * voltage
-            / servo.winding_resistance)
+    return (
+        servo.torque_constant
+        * servo.gear_ratio
+        * servo.gearbox_efficiency
+        * voltage
+        / servo.winding_resistance
+    )
 
 
 def back_emf_damping(servo: ServoConstants) -> float:
@@ -63,8 +68,9 @@ def no_load_speed(servo: ServoConstants, voltage: float) -> float:
 
 def duty_per_radian(servo: ServoConstants) -> float:
     """K_d = (Position P Gain / 128) n_enc / (2 pi) u_pwm [1/rad]."""
-    return (servo.position_p_gain / 128.0 * servo.encoder_resolution / (2.0 * math.pi)
-            * servo.pwm_unit)
+    return (
+        servo.position_p_gain / 128.0 * servo.encoder_resolution / (2.0 * math.pi) * servo.pwm_unit
+    )
 
 
 def max_duty(servo: ServoConstants) -> float:
@@ -91,8 +97,16 @@ def supply_scale(voltage, reference_voltage: float):
     return 1.0 - np.asarray(voltage, dtype=float) / reference_voltage
 
 
-def supply_feed_forward(q_goal, q, qdot, voltage, kp_reference: float, saturation: float,
-                        reference_voltage: float, time_step: float) -> np.ndarray:
+def supply_feed_forward(
+    q_goal,
+    q,
+    qdot,
+    voltage,
+    kp_reference: float,
+    saturation: float,
+    reference_voltage: float,
+    time_step: float,
+) -> np.ndarray:
     """The feed-forward [N m] that turns the plant's PD, set at ``reference_voltage`` V_r
     with gain kp_r, into the servo's loop at the bus ``voltage`` V (element-wise):
 
@@ -102,13 +116,24 @@ def supply_feed_forward(q_goal, q, qdot, voltage, kp_reference: float, saturatio
     ``time_step`` (``station.servo_supply`` explains each term)."""
     e = np.asarray(q_goal, dtype=float) - np.asarray(q, dtype=float)
     sat = np.clip(e, -saturation, saturation)
-    return kp_reference * (-(e - sat) - supply_scale(voltage, reference_voltage) * sat
-                           + (np.abs(e) > saturation) * time_step
-                           * np.asarray(qdot, dtype=float))
+    return kp_reference * (
+        -(e - sat)
+        - supply_scale(voltage, reference_voltage) * sat
+        + (np.abs(e) > saturation) * time_step * np.asarray(qdot, dtype=float)
+    )
 
 
-def supplied_torque(q_goal, q, qdot, q_next, qdot_next, servo: ServoConstants,
-                    voltage: float, reference_voltage: float, time_step: float) -> np.ndarray:
+def supplied_torque(
+    q_goal,
+    q,
+    qdot,
+    q_next,
+    qdot_next,
+    servo: ServoConstants,
+    voltage: float,
+    reference_voltage: float,
+    time_step: float,
+) -> np.ndarray:
     """The torque the station's servo loop applies over one plant step [N m]: the plant's
     implicit PD, set at ``reference_voltage``, at the step's end state, plus
     ``supply_feed_forward``, within the effort limit, less the back-EMF braking:
@@ -118,8 +143,9 @@ def supplied_torque(q_goal, q, qdot, q_next, qdot_next, servo: ServoConstants,
     kp_r and L_r the gains at V_r: the firmware's duty at V (``servo_torque``), up to the
     implicit step's kp_r dt terms."""
     kp, limit, b = joint_gains(servo, reference_voltage)
-    u_ff = supply_feed_forward(q_goal, q, qdot, voltage, kp, saturation_angle(servo),
-                               reference_voltage, time_step)
+    u_ff = supply_feed_forward(
+        q_goal, q, qdot, voltage, kp, saturation_angle(servo), reference_voltage, time_step
+    )
     pd = kp * (np.asarray(q_goal, dtype=float) - np.asarray(q_next, dtype=float))
     return np.clip(pd + u_ff, -limit, limit) - b * np.asarray(qdot_next, dtype=float)
 
@@ -147,5 +173,6 @@ def servo_robot_params(params, servo: ServoConstants, voltage: float | None = No
     them at the bus's highest voltage and scales them down to the battery's
     (``supplied_torque``)."""
     kp, limit, b = joint_gains(servo, servo.supply_voltage if voltage is None else voltage)
-    return dc.replace(params, kp=kp, kd=0.0, effort_limit=limit,
-                      joint_damping=params.joint_damping + b)
+    return dc.replace(
+        params, kp=kp, kd=0.0, effort_limit=limit, joint_damping=params.joint_damping + b
+    )

@@ -45,8 +45,9 @@ def deepest_start_contact(xyz, rpy_deg, q, fin_sweep_deg: float) -> tuple[float,
     return float(deepest.depth), tuple(inspector.GetName(g) for g in (deepest.id_A, deepest.id_B))
 
 
-def start_pose_problem(xyz, rpy_deg, q, fin_sweep_deg: float,
-                       stance_name: str = "given") -> str | None:
+def start_pose_problem(
+    xyz, rpy_deg, q, fin_sweep_deg: float, stance_name: str = "given"
+) -> str | None:
     """Why a start pose is not inside the pool's water clear of its floor and walls, or None.
 
     Checked at the joint angles ``q`` (4x4, rows fl, fr, rl, rr; the stance called
@@ -62,8 +63,10 @@ def start_pose_problem(xyz, rpy_deg, q, fin_sweep_deg: float,
     R = RollPitchYaw(np.radians(rpy_deg)).ToRotationMatrix().matrix()
     floor, half_x, half_y = -pool.depth, pool.length / 2, pool.width / 2
     if not (floor < p[2] <= 0.0 and abs(p[0]) < half_x and abs(p[1]) < half_y):
-        return (f"the body at {list(map(float, p))} m is not in the pool's water "
-                f"(x in (-{half_x}, {half_x}), y in (-{half_y}, {half_y}), z in ({floor}, 0])")
+        return (
+            f"the body at {list(map(float, p))} m is not in the pool's water "
+            f"(x in (-{half_x}, {half_x}), y in (-{half_y}, {half_y}), z in ({floor}, 0])"
+        )
     # Hull: an ellipsoid's extent along world axis k is sqrt(sum_i (R[k, i] a_i)^2).
     extent = np.sqrt(((R * np.asarray(robot.body_semi_axes)) ** 2).sum(axis=1))
     boxes = [("hull", p - extent, p + extent)]
@@ -72,15 +75,21 @@ def start_pose_problem(xyz, rpy_deg, q, fin_sweep_deg: float,
         boxes.append((f"{leg} fin tip", tip, tip))
     for name, low, high in boxes:
         if low[2] < floor - START_PENETRATION_TOLERANCE:
-            return (f"the {name} reaches z = {low[2]:.3f} m, below the floor at {floor} m "
-                    f"(body z = {p[2]} m with the '{stance_name}' stance)")
+            return (
+                f"the {name} reaches z = {low[2]:.3f} m, below the floor at {floor} m "
+                f"(body z = {p[2]} m with the '{stance_name}' stance)"
+            )
         if max(abs(low[0]), abs(high[0])) > half_x or max(abs(low[1]), abs(high[1])) > half_y:
-            return (f"the {name} at x, y = {0.5 * (low[0] + high[0]):.3f}, "
-                    f"{0.5 * (low[1] + high[1]):.3f} m is inside or beyond a wall (the walls "
-                    f"are at x = +-{half_x}, y = +-{half_y} m)")
+            return (
+                f"the {name} at x, y = {0.5 * (low[0] + high[0]):.3f}, "
+                f"{0.5 * (low[1] + high[1]):.3f} m is inside or beyond a wall (the walls "
+                f"are at x = +-{half_x}, y = +-{half_y} m)"
+            )
     depth, names = deepest_start_contact(p, rpy_deg, q, fin_sweep_deg)
     if depth <= START_PENETRATION_TOLERANCE:
         return None
-    return (f"the robot starts {depth * 1e3:.1f} mm inside the pool "
-            f"({' and '.join(sorted(names))} overlap; at most "
-            f"{START_PENETRATION_TOLERANCE * 1e3:g} mm allowed)")
+    return (
+        f"the robot starts {depth * 1e3:.1f} mm inside the pool "
+        f"({' and '.join(sorted(names))} overlap; at most "
+        f"{START_PENETRATION_TOLERANCE * 1e3:g} mm allowed)"
+    )

@@ -97,19 +97,49 @@ from manta_drake.optimize.state import STATE, load_state
 
 __all__ = [
     # the spec
-    "OptimizeSpec", "FreeEntry", "Term", "Constraint", "Objective", "Robustness", "HeldOut",
-    "Budget", "Front", "OptimizeError", "Problem", "load_problem", "validate",
+    "OptimizeSpec",
+    "FreeEntry",
+    "Term",
+    "Constraint",
+    "Objective",
+    "Robustness",
+    "HeldOut",
+    "Budget",
+    "Front",
+    "OptimizeError",
+    "Problem",
+    "load_problem",
+    "validate",
     # parameters and gaits
-    "Parameter", "ParameterSpace", "build_parameters", "parse_entry", "candidate_gait_text",
+    "Parameter",
+    "ParameterSpace",
+    "build_parameters",
+    "parse_entry",
+    "candidate_gait_text",
     # the objective
-    "METRICS", "run_metrics", "joint_limit_margin_deg", "score", "aggregate",
+    "METRICS",
+    "run_metrics",
+    "joint_limit_margin_deg",
+    "score",
+    "aggregate",
     # simulations and records
-    "simulate_candidate", "HISTORY", "evaluation_key", "history_columns", "read_history",
+    "simulate_candidate",
+    "HISTORY",
+    "evaluation_key",
+    "history_columns",
+    "read_history",
     # the search
-    "run_optimization", "OptimizationResult", "load_state", "STATE", "write_best_gait",
+    "run_optimization",
+    "OptimizationResult",
+    "load_state",
+    "STATE",
+    "write_best_gait",
     # a front of two metrics
-    "run_front", "pareto_mask",
-    "OUTPUTS", "FOLDERS",
+    "run_front",
+    "pareto_mask",
+    "OUTPUTS",
+    "FOLDERS",
     # the command line
-    "add_optimize_parser", "optimize_main",
+    "add_optimize_parser",
+    "optimize_main",
 ]

@@ -57,9 +57,13 @@ def worker_name() -> str:
 def candidate_overrides(task: dict, gait_path: str, gait_files) -> dict:
     """The overrides that make the base scenario run the candidate at the task's point."""
     overrides = dict(task.get("overrides") or {})
-    overrides.update({"controller.gait_files": [*gait_files, str(gait_path)],
-                      "controller.gait": task["gait_name"],
-                      "random_seed": int(task["seed"])})
+    overrides.update(
+        {
+            "controller.gait_files": [*gait_files, str(gait_path)],
+            "controller.gait": task["gait_name"],
+            "random_seed": int(task["seed"]),
+        }
+    )
     if task.get("set_stance"):
         overrides["initial_stance"] = task["gait_name"]
     return overrides
@@ -80,8 +84,14 @@ def simulate_candidate(task: dict) -> dict:
         the log's bytes (if ``keep_log`` and the run wrote one).
     """
     start = time.perf_counter()
-    out = {"status": "ok", "reason": "", "metrics": {}, "run": {}, "log_npz": None,
-           "worker": worker_name()}
+    out = {
+        "status": "ok",
+        "reason": "",
+        "metrics": {},
+        "run": {},
+        "log_npz": None,
+        "worker": worker_name(),
+    }
     with tempfile.TemporaryDirectory(prefix="manta_opt_") as tmp:
         tmp = pathlib.Path(tmp)
         gait_path = tmp / "gait.yaml"
@@ -89,8 +99,9 @@ def simulate_candidate(task: dict) -> dict:
         folder = tmp / "run"  # run() stages its files beside it: inside tmp too
         try:
             base = load_scenario(data=task["scenario_yaml"], validate=False)
-            scenario = apply_overrides(base, candidate_overrides(task, gait_path,
-                                                                 base.controller.gait_files))
+            scenario = apply_overrides(
+                base, candidate_overrides(task, gait_path, base.controller.gait_files)
+            )
             scenario.visualization.meshcat = False
         except ScenarioError as e:
             out.update(status="refused", reason=" ".join(str(e).split()))
@@ -101,12 +112,17 @@ def simulate_candidate(task: dict) -> dict:
                 out["run"] = result.metrics
                 out["metrics"] = run_metrics(result.metrics, result.log, joint_limits(scenario))
             except SimulationError as e:
-                metrics = json.loads((folder / "metrics.json").read_text()) \
-                    if (folder / "metrics.json").is_file() else {"status": "failed"}
+                metrics = (
+                    json.loads((folder / "metrics.json").read_text())
+                    if (folder / "metrics.json").is_file()
+                    else {"status": "failed"}
+                )
                 out["run"] = metrics
                 out["metrics"] = run_metrics(metrics)
-                out.update(status="failed", reason=failure_reason(metrics.get("failure"))
-                           or " ".join(str(e).split()))
+                out.update(
+                    status="failed",
+                    reason=failure_reason(metrics.get("failure")) or " ".join(str(e).split()),
+                )
             except Exception as e:  # noqa: BLE001 - a result, never a lost optimisation
                 out.update(status="error", reason=f"{type(e).__name__}: {' '.join(str(e).split())}")
         if task.get("keep_log") and (folder / "log.npz").is_file():

@@ -20,9 +20,16 @@ def candidate_table(problem, rows: list[dict]) -> list[dict]:
         if r.get("kind") != "search" or r.get("candidate_cost") is None:
             continue
         key = (r["generation"], r["candidate"])
-        entry = seen.setdefault(key, {"generation": r["generation"], "candidate": r["candidate"],
-                                      "cost": r["candidate_cost"], "failed": False,
-                                      "degrees": [r[n] for n in problem.space.names]})
+        entry = seen.setdefault(
+            key,
+            {
+                "generation": r["generation"],
+                "candidate": r["candidate"],
+                "cost": r["candidate_cost"],
+                "failed": False,
+                "degrees": [r[n] for n in problem.space.names],
+            },
+        )
         entry["failed"] |= r["cost"] >= failed_cost
     return sorted(seen.values(), key=lambda e: (e["generation"], e["candidate"]))
 
@@ -53,12 +60,18 @@ def write_convergence_figure(path: pathlib.Path, problem, rows: list[dict]) -> p
             best_x.append(space.to_unit(best_entry["degrees"]))
         ax_cost.plot(gens, best_so_far, "o-", color="tab:blue", label="best so far")
         ax_cost.plot(gens, gen_best, ".", color="tab:green", label="generation's best")
-        ax_cost.plot(gens, gen_median, "s--", ms=3, color="tab:orange",
-                     label="generation's median")
+        ax_cost.plot(gens, gen_median, "s--", ms=3, color="tab:orange", label="generation's median")
         for g, n in zip(gens, failed):
             if n:
-                ax_cost.annotate(f"{n} failed", (g, 1.0), xycoords=("data", "axes fraction"),
-                                 ha="center", va="top", fontsize=7, color="tab:red")
+                ax_cost.annotate(
+                    f"{n} failed",
+                    (g, 1.0),
+                    xycoords=("data", "axes fraction"),
+                    ha="center",
+                    va="top",
+                    fontsize=7,
+                    color="tab:red",
+                )
         ax_cost.legend(fontsize=8)
         # Penalties make costs span decades (a constraint met ends a 1e4 plateau): symlog
         # shows both the plateau and the last steps, linear within +-1.
@@ -71,13 +84,27 @@ def write_convergence_figure(path: pathlib.Path, problem, rows: list[dict]) -> p
             xs = [e["generation"] for e in table]
             ys = [space.to_unit(e["degrees"])[i] for e in table]
             ax_x.plot(xs, ys, ".", ms=3, alpha=0.35, color=colors[i])
-            ax_x.plot(gens, best_x[:, i], "o-", ms=3, lw=1.5, color=colors[i],
-                      label=f"{name} [{space.low[i]:g}, {space.high[i]:g}] deg")
+            ax_x.plot(
+                gens,
+                best_x[:, i],
+                "o-",
+                ms=3,
+                lw=1.5,
+                color=colors[i],
+                label=f"{name} [{space.low[i]:g}, {space.high[i]:g}] deg",
+            )
         ax_x.legend(fontsize=7, loc="best")
-    ax_cost.set(ylabel="candidate cost", title=f"{problem.spec.name}: cost per generation "
-                f"({problem.spec.robustness.aggregate} over each candidate's simulations)")
-    ax_x.set(xlabel="generation", ylabel="parameter, fraction of its bounds", ylim=(-0.05, 1.05),
-             title="free parameters (dots: candidates; lines: the best so far)")
+    ax_cost.set(
+        ylabel="candidate cost",
+        title=f"{problem.spec.name}: cost per generation "
+        f"({problem.spec.robustness.aggregate} over each candidate's simulations)",
+    )
+    ax_x.set(
+        xlabel="generation",
+        ylabel="parameter, fraction of its bounds",
+        ylim=(-0.05, 1.05),
+        title="free parameters (dots: candidates; lines: the best so far)",
+    )
     ax_x.xaxis.set_major_locator(MaxNLocator(integer=True))
     for ax in (ax_cost, ax_x):
         ax.grid(alpha=0.3)

@@ -87,16 +87,31 @@ def candidate_points(problem: Problem, rows: list[dict], level: int) -> list[dic
     points = []
     for (generation, candidate), mine in sorted(groups.items()):
         ran = all(r["status"] == "ok" for r in mine)
-        values = {m: float(np.mean([r[m] for r in mine])) if ran and all(
-            r.get(m) is not None for r in mine) else float("nan")
-            for m in (f.maximise, f.minimise)}
-        meets = ran and not any(r["touched_wall"] for r in mine) and all(
-            constraint_violation(c, r)[0] == 0 for c in problem.spec.objective.constraints
-            for r in mine)
-        points.append({"level": level, "generation": generation, "candidate": candidate,
-                       **{n: mine[0][n] for n in names}, **values,
-                       "meets_constraints": bool(meets and np.all(np.isfinite(
-                           list(values.values()))))})
+        values = {
+            m: float(np.mean([r[m] for r in mine]))
+            if ran and all(r.get(m) is not None for r in mine)
+            else float("nan")
+            for m in (f.maximise, f.minimise)
+        }
+        meets = (
+            ran
+            and not any(r["touched_wall"] for r in mine)
+            and all(
+                constraint_violation(c, r)[0] == 0
+                for c in problem.spec.objective.constraints
+                for r in mine
+            )
+        )
+        points.append(
+            {
+                "level": level,
+                "generation": generation,
+                "candidate": candidate,
+                **{n: mine[0][n] for n in names},
+                **values,
+                "meets_constraints": bool(meets and np.all(np.isfinite(list(values.values())))),
+            }
+        )
     return points
 
 
@@ -110,13 +125,22 @@ def front_of(problem: Problem, points: list[dict]) -> list[dict]:
     return [{**p, "on_front": id(p) in on} for p in points]
 
 
-def write_front(problem: Problem, out_dir: pathlib.Path, points: list[dict],
-                levels: list[dict]) -> dict:
+def write_front(
+    problem: Problem, out_dir: pathlib.Path, points: list[dict], levels: list[dict]
+) -> dict:
     """front.csv, front.json and front.png; returns front.json's content."""
     f, names = problem.spec.front, problem.space.names
     out_dir = pathlib.Path(out_dir)
-    columns = ["level", "generation", "candidate", *names, f.maximise, f.minimise,
-               "meets_constraints", "on_front"]
+    columns = [
+        "level",
+        "generation",
+        "candidate",
+        *names,
+        f.maximise,
+        f.minimise,
+        "meets_constraints",
+        "on_front",
+    ]
     tmp = out_dir / ".front.csv.tmp"
     with open(tmp, "w", newline="") as fh:
         writer = csv.DictWriter(fh, columns)
@@ -125,11 +149,17 @@ def write_front(problem: Problem, out_dir: pathlib.Path, points: list[dict],
     os.replace(tmp, out_dir / "front.csv")
     front = sorted((p for p in points if p["on_front"]), key=lambda p: p[f.maximise])
     start = next((p for p in points if (p["generation"], p["candidate"]) == (1, 0)), None)
-    summary = {"name": problem.spec.name, "start_gait": problem.spec.gait,
-               "maximise": f.maximise, "minimise": f.minimise,
-               "levels": levels, "start": start, "front": front,
-               "candidates": len(points),
-               "meeting_constraints": sum(p["meets_constraints"] for p in points)}
+    summary = {
+        "name": problem.spec.name,
+        "start_gait": problem.spec.gait,
+        "maximise": f.maximise,
+        "minimise": f.minimise,
+        "levels": levels,
+        "start": start,
+        "front": front,
+        "candidates": len(points),
+        "meeting_constraints": sum(p["meets_constraints"] for p in points),
+    }
     tmp = out_dir / ".front.json.tmp"
     tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
     os.replace(tmp, out_dir / "front.json")
@@ -145,16 +175,39 @@ def _figure(problem: Problem, path: pathlib.Path, points: list[dict], start) -> 
     ax = fig.subplots()
     ok = [p for p in points if p["meets_constraints"]]
     bad = [p for p in points if not p["meets_constraints"] and np.isfinite(p[f.maximise])]
-    ax.scatter([p[f.maximise] for p in bad], [p[f.minimise] for p in bad], s=8,
-               color="0.8", label="breaks a constraint")
-    ax.scatter([p[f.maximise] for p in ok], [p[f.minimise] for p in ok], s=10,
-               color="tab:blue", alpha=0.5, label="meets the constraints")
+    ax.scatter(
+        [p[f.maximise] for p in bad],
+        [p[f.minimise] for p in bad],
+        s=8,
+        color="0.8",
+        label="breaks a constraint",
+    )
+    ax.scatter(
+        [p[f.maximise] for p in ok],
+        [p[f.minimise] for p in ok],
+        s=10,
+        color="tab:blue",
+        alpha=0.5,
+        label="meets the constraints",
+    )
     front = sorted((p for p in points if p["on_front"]), key=lambda p: p[f.maximise])
-    ax.plot([p[f.maximise] for p in front], [p[f.minimise] for p in front], "o-",
-            color="tab:red", label="front")
+    ax.plot(
+        [p[f.maximise] for p in front],
+        [p[f.minimise] for p in front],
+        "o-",
+        color="tab:red",
+        label="front",
+    )
     if start is not None and np.isfinite(start[f.maximise]):
-        ax.scatter([start[f.maximise]], [start[f.minimise]], marker="*", s=180,
-                   color="k", zorder=5, label=f"{problem.spec.gait} (the start)")
+        ax.scatter(
+            [start[f.maximise]],
+            [start[f.minimise]],
+            marker="*",
+            s=180,
+            color="k",
+            zorder=5,
+            label=f"{problem.spec.gait} (the start)",
+        )
     for level in f.levels:
         ax.axvline(level, color="0.6", lw=0.6, ls=":")
     ax.set_xlabel(f.maximise)
@@ -166,8 +219,9 @@ def _figure(problem: Problem, path: pathlib.Path, points: list[dict], start) -> 
     fig.savefig(path, dpi=110)
 
 
-def run_front(problem: Problem, out_dir, client=None, evaluate=None, progress: bool = True,
-              run=None) -> dict:
+def run_front(
+    problem: Problem, out_dir, client=None, evaluate=None, progress: bool = True, run=None
+) -> dict:
     """Runs (or continues) every level's search and writes the front (module docstring).
 
     ``run`` is ``run_optimization`` (its ``evaluate``, ``client`` and ``progress`` as
@@ -181,10 +235,18 @@ def run_front(problem: Problem, out_dir, client=None, evaluate=None, progress: b
     points, levels = [], []
     for k, level in enumerate(problem.spec.front.levels):
         folder = level_folder(out_dir, k)
-        result = run(level_problem(problem, level, k), folder, client, evaluate=evaluate,
-                     progress=progress)
-        levels.append({"level": level, "folder": folder.name, "status": result.status,
-                       "best_cost": result.best_cost, "stop": result.stop})
+        result = run(
+            level_problem(problem, level, k), folder, client, evaluate=evaluate, progress=progress
+        )
+        levels.append(
+            {
+                "level": level,
+                "folder": folder.name,
+                "status": result.status,
+                "best_cost": result.best_cost,
+                "stop": result.stop,
+            }
+        )
         rows = read_history(folder / "history.csv", problem.space.names)
         points += candidate_points(problem, rows, k)
     return write_front(problem, out_dir, front_of(problem, distinct(problem, points)), levels)

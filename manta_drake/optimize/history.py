@@ -33,8 +33,19 @@ HISTORY = "history.csv"
 # is, and its re-check at a held-out point.
 KINDS = ("search", "best", "held_out")
 LEADING = ("key", "kind", "generation", "candidate", "point", "seed")
-TRAILING = ("objective", "penalty", "cost", "candidate_cost", "status", "reason",
-            "touched_wall", "wall_time_s", "worker", "overrides", "folder")
+TRAILING = (
+    "objective",
+    "penalty",
+    "cost",
+    "candidate_cost",
+    "status",
+    "reason",
+    "touched_wall",
+    "wall_time_s",
+    "worker",
+    "overrides",
+    "folder",
+)
 INTEGER_COLUMNS = ("generation", "candidate", "point", "seed")
 TEXT_COLUMNS = ("key", "kind", "status", "reason", "worker", "overrides", "folder")
 # A row's reason is cut to this many characters; a row (but its overrides) takes at most
@@ -47,10 +58,18 @@ _KEY = re.compile(r"[0-9a-f]{16}\Z")
 
 def evaluation_key(scenario_sha: str, names, degrees, point: dict, seed: int) -> str:
     """The id of one simulation (module docstring): 16 hex digits of a SHA-256."""
-    payload = json.dumps({"scenario": scenario_sha, "names": list(names),
-                          "x": [f"{float(v):.12g}" for v in degrees],
-                          "point": point, "seed": int(seed)},
-                         sort_keys=True, separators=(",", ":"), default=str)
+    payload = json.dumps(
+        {
+            "scenario": scenario_sha,
+            "names": list(names),
+            "x": [f"{float(v):.12g}" for v in degrees],
+            "point": point,
+            "seed": int(seed),
+        },
+        sort_keys=True,
+        separators=(",", ":"),
+        default=str,
+    )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
@@ -61,8 +80,13 @@ def history_columns(names) -> list[str]:
 
 
 def _sort_key(row: dict):
-    return (KINDS.index(row["kind"]), row["generation"], row["candidate"], row["point"],
-            row["seed"])
+    return (
+        KINDS.index(row["kind"]),
+        row["generation"],
+        row["candidate"],
+        row["point"],
+        row["seed"],
+    )
 
 
 def write_history(path: pathlib.Path, names, rows) -> None:
@@ -74,7 +98,7 @@ def write_history(path: pathlib.Path, names, rows) -> None:
 def short_reason(text) -> str:
     """A reason as the table holds it: one line of at most ``MAX_REASON`` characters."""
     text = " ".join(str(text or "").split())
-    return text if len(text) <= MAX_REASON else text[:MAX_REASON - 3] + "..."
+    return text if len(text) <= MAX_REASON else text[: MAX_REASON - 3] + "..."
 
 
 def _value(column: str, text: str):
@@ -118,8 +142,9 @@ def read_history(path: pathlib.Path, names=None, max_bytes: int | None = None) -
         if names is not None:
             missing = [c for c in history_columns(names) if c not in header]
             if missing:
-                raise _refused(path, f"no column {short_repr(missing[0])}: not the history "
-                                     "of this spec")
+                raise _refused(
+                    path, f"no column {short_repr(missing[0])}: not the history of this spec"
+                )
         rows = []
         for row in reader:
             line = reader.line_num
@@ -130,8 +155,11 @@ def read_history(path: pathlib.Path, names=None, max_bytes: int | None = None) -
                 try:
                     typed[column] = _value(column, cell)
                 except ValueError as e:
-                    raise _refused(path, f"line {line}: {column} {short_repr(cell)} is "
-                                         f"not valid ({short_reason(e)[:60]})") from None
+                    raise _refused(
+                        path,
+                        f"line {line}: {column} {short_repr(cell)} is "
+                        f"not valid ({short_reason(e)[:60]})",
+                    ) from None
             if names is not None:
                 _check_place(path, line, typed)
             rows.append(typed)
@@ -141,8 +169,10 @@ def read_history(path: pathlib.Path, names=None, max_bytes: int | None = None) -
 
 
 def _refused(path, what: str) -> OptimizeError:
-    return OptimizeError(f"{path}: {what}; not a history this version writes (use another "
-                         "--out, or delete the file to simulate again)")
+    return OptimizeError(
+        f"{path}: {what}; not a history this version writes (use another "
+        "--out, or delete the file to simulate again)"
+    )
 
 
 def read_bounded(path: pathlib.Path, limit: float, too_large) -> bytes | None:
@@ -172,9 +202,15 @@ def read_bounded(path: pathlib.Path, limit: float, too_large) -> bytes | None:
 def _read_text(path: pathlib.Path, max_bytes: int | None) -> str | None:
     """A regular file's UTF-8 text (None if absent), read with at most ``max_bytes``."""
     limit = math.inf if max_bytes is None else max_bytes
-    raw = read_bounded(path, limit, lambda size: _refused(
-        path, f"{size} bytes, more than the {max_bytes} this spec's search writes in its "
-              "generations (raise --generations to those it ran)"))
+    raw = read_bounded(
+        path,
+        limit,
+        lambda size: _refused(
+            path,
+            f"{size} bytes, more than the {max_bytes} this spec's search writes in its "
+            "generations (raise --generations to those it ran)",
+        ),
+    )
     if raw is None:
         return None
     try:
@@ -190,23 +226,26 @@ def _check_place(path, line: int, row: dict) -> None:
     """A row's kind, key, place and status present, and its folder the one its place
     names."""
     if row["kind"] not in KINDS:
-        raise _refused(path, f"line {line}: kind {short_repr(row['kind'])} is not one of "
-                             f"{', '.join(KINDS)}")
+        raise _refused(
+            path, f"line {line}: kind {short_repr(row['kind'])} is not one of {', '.join(KINDS)}"
+        )
     if row["key"] is None or not _KEY.match(row["key"]):
-        raise _refused(path, f"line {line}: key {short_repr(row['key'])} is not 16 hex "
-                             "digits")
+        raise _refused(path, f"line {line}: key {short_repr(row['key'])} is not 16 hex digits")
     for column in (*INTEGER_COLUMNS, "status", "cost"):
         if row[column] is None:
             raise _refused(path, f"line {line}: no {column}")
-    folder = evaluation_folder(row["kind"], row["generation"], row["candidate"],
-                               row["point"], row["seed"])
+    folder = evaluation_folder(
+        row["kind"], row["generation"], row["candidate"], row["point"], row["seed"]
+    )
     if row["folder"] != folder:
-        raise _refused(path, f"line {line}: folder {short_repr(row['folder'])} is not "
-                             f"{folder!r}, the folder of its place")
+        raise _refused(
+            path,
+            f"line {line}: folder {short_repr(row['folder'])} is not "
+            f"{folder!r}, the folder of its place",
+        )
 
 
-def evaluation_folder(kind: str, generation: int, candidate: int, point: int,
-                      seed: int) -> str:
+def evaluation_folder(kind: str, generation: int, candidate: int, point: int, seed: int) -> str:
     """An evaluation's folder, relative to the output folder."""
     if kind == "best":
         return "best_run"
@@ -221,8 +260,9 @@ def _atomic(path: pathlib.Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def write_evaluation(folder: pathlib.Path, gait_text: str, record: dict,
-                     log_npz: bytes | None) -> None:
+def write_evaluation(
+    folder: pathlib.Path, gait_text: str, record: dict, log_npz: bytes | None
+) -> None:
     """An evaluation's folder: ``gait.yaml`` (the candidate), ``log.npz`` (if kept) and
     ``metrics.json`` (last: the run's metrics, the short metrics, the cost and where it
     was)."""
@@ -233,8 +273,10 @@ def write_evaluation(folder: pathlib.Path, gait_text: str, record: dict,
         _atomic(folder / "log.npz", log_npz)
     else:
         (folder / "log.npz").unlink(missing_ok=True)
-    _atomic(folder / "metrics.json",
-            (json.dumps(record, indent=2, default=_json_default) + "\n").encode())
+    _atomic(
+        folder / "metrics.json",
+        (json.dumps(record, indent=2, default=_json_default) + "\n").encode(),
+    )
 
 
 def _json_default(value):

@@ -83,12 +83,15 @@ class Problem:
         resolved scenario, the population and the seed."""
         content = spec_content(self.spec)
         for key in ("generations", "population"):  # generations may change; population
-            content["budget"].pop(key)               # and seed are compared apart
+            content["budget"].pop(key)  # and seed are compared apart
         content.pop("seed")
-        return {"spec": _sha(json.dumps(content, sort_keys=True, default=str)),
-                "scenario": _sha(self.base_yaml),
-                "population": self.spec.budget.population, "seed": self.spec.seed,
-                "parameters": self.space.names}
+        return {
+            "spec": _sha(json.dumps(content, sort_keys=True, default=str)),
+            "scenario": _sha(self.base_yaml),
+            "population": self.spec.budget.population,
+            "seed": self.spec.seed,
+            "parameters": self.space.names,
+        }
 
 
 def _sha(text: str) -> str:
@@ -116,7 +119,8 @@ def _build(data: dict, path: pathlib.Path, text: str) -> OptimizeSpec:
         objective=Objective(
             terms=[Term(**t) for t in obj.get("terms") or []],
             constraints=[Constraint(**c) for c in obj.get("constraints") or []],
-            **{k: v for k, v in obj.items() if k not in ("terms", "constraints")}),
+            **{k: v for k, v in obj.items() if k not in ("terms", "constraints")},
+        ),
         robustness=Robustness(**(data.get("robustness") or {})),
         held_out=HeldOut(**(data.get("held_out") or {})),
         budget=Budget(**(data.get("budget") or {})),
@@ -128,9 +132,15 @@ def _build(data: dict, path: pathlib.Path, text: str) -> OptimizeSpec:
     )
 
 
-def load_problem(path, sets: dict | None = None, generations: int | None = None,
-                 population: int | None = None, duration: float | None = None,
-                 seed: int | None = None, steady_after: float | None = None) -> Problem:
+def load_problem(
+    path,
+    sets: dict | None = None,
+    generations: int | None = None,
+    population: int | None = None,
+    duration: float | None = None,
+    seed: int | None = None,
+    steady_after: float | None = None,
+) -> Problem:
     """Loads and checks an optimisation spec; simulates nothing.
 
     Args:
@@ -148,22 +158,32 @@ def load_problem(path, sets: dict | None = None, generations: int | None = None,
     path = pathlib.Path(path)
     data, text = load_yaml_mapping(path, "optimisation spec", OptimizeError)
     try:
-        return _load(path, data, text, sets, generations, population, duration, seed,
-                     steady_after)
+        return _load(path, data, text, sets, generations, population, duration, seed, steady_after)
     except OptimizeError as e:
         if str(e).startswith(f"{ROOT}."):  # a field of the file: name the file
             raise OptimizeError(f"{path}: {e}") from None
         raise
 
 
-def _load(path: pathlib.Path, data: dict, text: str, sets, generations, population,
-          duration, seed, steady_after=None) -> Problem:
+def _load(
+    path: pathlib.Path,
+    data: dict,
+    text: str,
+    sets,
+    generations,
+    population,
+    duration,
+    seed,
+    steady_after=None,
+) -> Problem:
     spec = _build(data, path, text)
     budget = spec.budget
-    for option, field, value in (("--generations", "generations", generations),
-                                 ("--population", "population", population),
-                                 ("--duration", "duration", duration),
-                                 ("--steady-after", "steady_after", steady_after)):
+    for option, field, value in (
+        ("--generations", "generations", generations),
+        ("--population", "population", population),
+        ("--duration", "duration", duration),
+        ("--steady-after", "steady_after", steady_after),
+    ):
         if value is not None:
             _check_budget_value(option, field, value)
             setattr(budget, field, value)
@@ -175,8 +195,9 @@ def _load(path: pathlib.Path, data: dict, text: str, sets, generations, populati
 
 def _integer(where: str, value, lo: int, hi: int) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise OptimizeError(f"{where}: {value!r} is not an integer in the allowed range "
-                            f"[{lo}, {hi}]")
+        raise OptimizeError(
+            f"{where}: {value!r} is not an integer in the allowed range [{lo}, {hi}]"
+        )
 
 
 def _number(where: str, value, lo: float, hi: float, text: str, open_low: bool = False) -> None:
@@ -193,8 +214,7 @@ def _check_budget_value(where: str, field: str, value) -> None:
     elif field == "population":
         _integer(where, value, 2, MAX_POPULATION)
     elif field == "sigma0":
-        _number(where, value, 0.0, 1.0, "(0, 1] (a fraction of each bound's width)",
-                open_low=True)
+        _number(where, value, 0.0, 1.0, "(0, 1] (a fraction of each bound's width)", open_low=True)
     elif field == "duration":
         if value is not None:
             _number(where, value, 0.0, 3600.0, "(0, 3600] s", open_low=True)
@@ -215,8 +235,7 @@ def _check_keys_of(point, where: str, setup: bool = False) -> None:
         if key in RESERVED_KEYS:
             raise OptimizeError(f"{where}.{key}: set by the optimiser ({RESERVED_KEYS[key]})")
         if not setup and (key == "controller.gait_files" or key.startswith("visualization.")):
-            raise OptimizeError(f"{where}.{key}: not a robustness parameter (set it in "
-                                "overrides)")
+            raise OptimizeError(f"{where}.{key}: not a robustness parameter (set it in overrides)")
 
 
 def _seeds(seeds, where: str) -> None:
@@ -237,20 +256,26 @@ def _scenario_path(spec: OptimizeSpec) -> pathlib.Path:
     """The scenario file the spec names (relative to the spec's folder, or shipped)."""
     where = f"{ROOT}.scenario"
     if not isinstance(spec.scenario, str) or not spec.scenario.strip():
-        raise OptimizeError(f"{where}: name a scenario (a shipped name such as "
-                            "locomotion_walk, or a path relative to the spec file)")
+        raise OptimizeError(
+            f"{where}: name a scenario (a shipped name such as "
+            "locomotion_walk, or a path relative to the spec file)"
+        )
     candidate = spec.folder / spec.scenario
     try:
         if candidate.is_file():
             return candidate
         return find_scenario(spec.scenario)
     except ScenarioError as e:
-        raise OptimizeError(f"{where}: {short_repr(spec.scenario)} is neither a file "
-                            f"(relative to {spec.folder}) nor a shipped scenario; "
-                            f"{_after_path(str(e), spec.scenario)}") from None
+        raise OptimizeError(
+            f"{where}: {short_repr(spec.scenario)} is neither a file "
+            f"(relative to {spec.folder}) nor a shipped scenario; "
+            f"{_after_path(str(e), spec.scenario)}"
+        ) from None
     except (OSError, ValueError) as e:  # a name too long for a path, a NUL byte
-        raise OptimizeError(f"{where}: {short_repr(spec.scenario)} is not a path "
-                            f"({short_repr(' '.join(str(e).split()), 60)})") from None
+        raise OptimizeError(
+            f"{where}: {short_repr(spec.scenario)} is not a path "
+            f"({short_repr(' '.join(str(e).split()), 60)})"
+        ) from None
 
 
 def _after_path(message: str, path) -> str:
@@ -258,7 +283,7 @@ def _after_path(message: str, path) -> str:
     message = " ".join(message.split())
     for prefix in (f"{path}: ", f"scenario file not found: {path} "):
         if message.startswith(prefix):
-            return message[len(prefix):].strip("() ")
+            return message[len(prefix) :].strip("() ")
     return message
 
 
@@ -269,8 +294,9 @@ def _load_scenario_file(spec: OptimizeSpec, path: pathlib.Path) -> Scenario:
     try:
         load_yaml_mapping(path, "scenario")
     except ScenarioError as e:
-        raise OptimizeError(f"{named} is not a scenario file: {_after_path(str(e), path)}") \
-            from None
+        raise OptimizeError(
+            f"{named} is not a scenario file: {_after_path(str(e), path)}"
+        ) from None
     try:
         return load_scenario(path)
     except ScenarioError as e:
@@ -289,30 +315,36 @@ def _check_steady_window(spec: OptimizeSpec, base: Scenario) -> None:
     window = duration - min(after, 0.5 * duration)
     if not steady or (after <= 0.5 * duration and window >= MIN_STEADY_WINDOW):
         return
-    source = ["" if getattr(spec.budget, f) is not None else " (the scenario's)"
-              for f in ("duration", "steady_after")]
+    source = [
+        "" if getattr(spec.budget, f) is not None else " (the scenario's)"
+        for f in ("duration", "steady_after")
+    ]
     need = max(2.0 * after, after + MIN_STEADY_WINDOW, 2 * MIN_STEADY_WINDOW)
-    given = f"{ROOT}.budget: duration {duration:g} s{source[0]} and steady_after {after:g} s" \
-            f"{source[1]}"
+    given = (
+        f"{ROOT}.budget: duration {duration:g} s{source[0]} and steady_after {after:g} s{source[1]}"
+    )
     if after > 0.5 * duration:
         raise OptimizeError(
             f"{given}: the run is under twice steady_after, so the objective's {steady[0]} "
             f"would be averaged from half the run, {0.5 * duration:g} s, before the settling "
             f"steady_after assumes; set duration to at least {need:g} s (or lower "
-            f"steady_after)")
+            f"steady_after)"
+        )
     raise OptimizeError(
         f"{given} leave a steady window of {window:g} s, under the {MIN_STEADY_WINDOW:g} s "
         f"the objective's {steady[0]} needs: every simulation would be unscored; set "
-        f"duration to at least {need:g} s")
+        f"duration to at least {need:g} s"
+    )
 
 
 def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     """Checks a spec (every field, in file order) and resolves its scenario and points."""
     sets = dict(sets or {})
-    if not isinstance(spec.name, str) or not _NAME.match(spec.name) \
-            or spec.name in RESERVED_NAMES:
-        raise OptimizeError(f"{ROOT}.name: {spec.name!r} is not a gait name (letters, digits "
-                            "and _, not starting with a digit; not 'zero')")
+    if not isinstance(spec.name, str) or not _NAME.match(spec.name) or spec.name in RESERVED_NAMES:
+        raise OptimizeError(
+            f"{ROOT}.name: {spec.name!r} is not a gait name (letters, digits "
+            "and _, not starting with a digit; not 'zero')"
+        )
     scenario_path = _scenario_path(spec)
     _check_keys_of(spec.overrides, f"{ROOT}.overrides", setup=True)
     _check_keys_of(sets, "--set", setup=True)
@@ -329,20 +361,27 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     try:
         base = apply_overrides(scenario, extra)
     except ScenarioError as e:
-        raise OptimizeError(f"{ROOT}.overrides, --set or budget: "
-                            f"{' '.join(str(e).split())}") from None
+        raise OptimizeError(
+            f"{ROOT}.overrides, --set or budget: {' '.join(str(e).split())}"
+        ) from None
     base.visualization.meshcat = False
     if base.controller.mode != "gait":
-        raise OptimizeError(f"{ROOT}.scenario: {scenario_path.name} has controller.mode "
-                            f"{base.controller.mode!r}; a gait is optimised with the CPG "
-                            "running it (set overrides: {controller.mode: gait})")
+        raise OptimizeError(
+            f"{ROOT}.scenario: {scenario_path.name} has controller.mode "
+            f"{base.controller.mode!r}; a gait is optimised with the CPG "
+            "running it (set overrides: {controller.mode: gait})"
+        )
     library = base.gaits()
     if spec.gait not in library:
-        raise OptimizeError(f"{ROOT}.gait: {spec.gait!r} is not a gait of the scenario's "
-                            f"library; known gaits: {', '.join(library)}")
+        raise OptimizeError(
+            f"{ROOT}.gait: {spec.gait!r} is not a gait of the scenario's "
+            f"library; known gaits: {', '.join(library)}"
+        )
     if spec.name in library:
-        raise OptimizeError(f"{ROOT}.name: {spec.name!r} is already a gait of the scenario's "
-                            "library; the result needs a name of its own")
+        raise OptimizeError(
+            f"{ROOT}.name: {spec.name!r} is already a gait of the scenario's "
+            "library; the result needs a name of its own"
+        )
     parameters = build_parameters(spec.free, f"{ROOT}.free")
     space = ParameterSpace(parameters, base.gait(spec.gait))
     outside = space.outside_bounds()
@@ -361,8 +400,9 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
         raise OptimizeError(f"{ROOT}.robustness.points: expected a list of mappings")
     _seeds(r.seeds, f"{ROOT}.robustness.seeds")
     if r.aggregate not in AGGREGATES:
-        raise OptimizeError(f"{ROOT}.robustness.aggregate: {r.aggregate!r} is not one of "
-                            f"{', '.join(AGGREGATES)}")
+        raise OptimizeError(
+            f"{ROOT}.robustness.aggregate: {r.aggregate!r} is not one of {', '.join(AGGREGATES)}"
+        )
     if spec.held_out.seeds is not None:
         _seeds(spec.held_out.seeds, f"{ROOT}.held_out.seeds")
     set_stance = any(t.matrix == "X_deg" for p in parameters for t in p.targets)
@@ -390,11 +430,17 @@ def _check_point(problem: Problem, point: dict, where: str) -> None:
     with tempfile.TemporaryDirectory(prefix="manta_opt_check_") as tmp:
         gait_path = pathlib.Path(tmp) / "gait.yaml"
         gait_path.write_text(text)
-        task = {"overrides": point, "gait_name": problem.spec.name, "seed": 0,
-                "set_stance": problem.set_stance}
+        task = {
+            "overrides": point,
+            "gait_name": problem.spec.name,
+            "seed": 0,
+            "set_stance": problem.set_stance,
+        }
         try:
-            apply_overrides(problem.base, candidate_overrides(
-                task, gait_path, problem.base.controller.gait_files))
+            apply_overrides(
+                problem.base,
+                candidate_overrides(task, gait_path, problem.base.controller.gait_files),
+            )
         except ScenarioError as e:
             raise OptimizeError(f"{where}: {' '.join(str(e).split())}") from None
 
@@ -412,18 +458,23 @@ def _validate_front(spec: OptimizeSpec) -> None:
     for i, level in enumerate(f.levels):
         _number(f"{where}.levels[{i}]", level, -1e9, 1e9, "[-1e9, 1e9]")
         if i and not level > f.levels[i - 1]:
-            raise OptimizeError(f"{where}.levels[{i}]: {level!r} is not above the level "
-                                f"before it ({f.levels[i - 1]!r}); give them increasing")
+            raise OptimizeError(
+                f"{where}.levels[{i}]: {level!r} is not above the level "
+                f"before it ({f.levels[i - 1]!r}); give them increasing"
+            )
     if spec.objective.terms:
-        raise OptimizeError(f"{ROOT}.objective.terms: a front minimises {f.minimise} at each "
-                            f"level of {f.maximise}; leave the terms out (keep constraints)")
+        raise OptimizeError(
+            f"{ROOT}.objective.terms: a front minimises {f.minimise} at each "
+            f"level of {f.maximise}; leave the terms out (keep constraints)"
+        )
 
 
 def _validate_objective(o: Objective, front: bool = False) -> None:
     where = f"{ROOT}.objective"
     if not o.terms and not front:
-        raise OptimizeError(f"{where}.terms: name at least one term, e.g. "
-                            "{metric: u, weight: -1.0}")
+        raise OptimizeError(
+            f"{where}.terms: name at least one term, e.g. {{metric: u, weight: -1.0}}"
+        )
     for i, t in enumerate(o.terms):
         _metric(t.metric, f"{where}.terms[{i}].metric")
         _number(f"{where}.terms[{i}].weight", t.weight, -1e9, 1e9, "[-1e9, 1e9]")

@@ -25,33 +25,41 @@ from manta_drake.optimize.spec import Constraint, Objective
 # compute_metrics) and its log; docs/optimize.md lists them.
 METRICS = {
     "u": "mean forward velocity over the steady window, body frame [m/s] "
-         "(metrics.json mean_velocity_body[0])",
-    "v": "mean lateral velocity (to the left) over the steady window [m/s] "
-         "(mean_velocity_body[1])",
+    "(metrics.json mean_velocity_body[0])",
+    "v": "mean lateral velocity (to the left) over the steady window [m/s] (mean_velocity_body[1])",
     "abs_u": "|u| [m/s]",
     "abs_v": "|v| [m/s]",
     "speed": "sqrt(u^2 + v^2) [m/s]",
     "yaw_rate": "mean yaw rate over the steady window [deg/s] (yaw_rate_deg_s; + to the left)",
     "abs_yaw_rate": "|yaw_rate| [deg/s]",
     "cot_electrical": "electrical cost of transport over the steady window, by the dry "
-                      "weight (energy.cot_electrical_dry_weight)",
+    "weight (energy.cot_electrical_dry_weight)",
     "cot_net_of_hotel": "the same less the hotel load: computers and servo standby "
-                        "(energy.cot_net_of_hotel_dry_weight)",
+    "(energy.cot_net_of_hotel_dry_weight)",
     "cot_mechanical": "mechanical cost of transport, by the dry weight "
-                      "(energy.cot_mechanical_dry_weight)",
-    "mean_power_w": "mean electrical power over the run [W] "
-                    "(energy.mean_electrical_power_w)",
+    "(energy.cot_mechanical_dry_weight)",
+    "mean_power_w": "mean electrical power over the run [W] (energy.mean_electrical_power_w)",
     "joint_limit_margin_deg": "smallest distance of any joint angle, measured or commanded, "
-                              "from its joint limit over the run [deg] (negative: beyond it)",
+    "from its joint limit over the run [deg] (negative: beyond it)",
     "max_penetration_m": "deepest contact penetration over the run [m] (max_penetration_m)",
     "distance_from_start_gait": "RMS change [deg] of the entries the free parameters set "
-                                "(entries, ties, Phi_prime partners) from the start gait",
+    "(entries, ties, Phi_prime partners) from the start gait",
 }
 
 # The metrics of the run's steady window (simulate.MIN_STEADY_WINDOW long at least): a run
 # without one gives none of them.
-STEADY_METRICS = ("u", "v", "abs_u", "abs_v", "speed", "yaw_rate", "abs_yaw_rate",
-                  "cot_electrical", "cot_net_of_hotel", "cot_mechanical")
+STEADY_METRICS = (
+    "u",
+    "v",
+    "abs_u",
+    "abs_v",
+    "speed",
+    "yaw_rate",
+    "abs_yaw_rate",
+    "cot_electrical",
+    "cot_net_of_hotel",
+    "cot_mechanical",
+)
 
 # Status of a simulation that ran to its end; anything else costs failed_cost.
 OK = "ok"
@@ -71,10 +79,13 @@ def run_metrics(metrics: dict, log: dict | None = None, limits=None) -> dict:
         return None if x is None or not math.isfinite(float(x)) else float(x)
 
     out = {
-        "u": num(u), "v": num(v),
-        "abs_u": None if u is None else abs(u), "abs_v": None if v is None else abs(v),
+        "u": num(u),
+        "v": num(v),
+        "abs_u": None if u is None else abs(u),
+        "abs_v": None if v is None else abs(v),
         "speed": None if u is None or v is None else math.hypot(u, v),
-        "yaw_rate": num(yaw), "abs_yaw_rate": None if yaw is None else abs(float(yaw)),
+        "yaw_rate": num(yaw),
+        "abs_yaw_rate": None if yaw is None else abs(float(yaw)),
         "cot_electrical": num(energy.get("cot_electrical_dry_weight")),
         "cot_net_of_hotel": num(energy.get("cot_net_of_hotel_dry_weight")),
         "cot_mechanical": num(energy.get("cot_mechanical_dry_weight")),
@@ -144,8 +155,9 @@ def constraint_scale(c: Constraint) -> float:
     return abs(bound) or 1.0
 
 
-def score(objective: Objective, status: str, values: dict, touched_wall: bool = False,
-          reason: str = "") -> Score:
+def score(
+    objective: Objective, status: str, values: dict, touched_wall: bool = False, reason: str = ""
+) -> Score:
     """One simulation's cost (module docstring).
 
     Args:
@@ -157,12 +169,16 @@ def score(objective: Objective, status: str, values: dict, touched_wall: bool = 
     """
     if status != OK:
         return Score(objective.failed_cost, math.nan, 0.0, reason or status, True)
-    missing = [m for m in needed_metrics(objective)
-               if values.get(m) is None or not math.isfinite(values[m])]
+    missing = [
+        m
+        for m in needed_metrics(objective)
+        if values.get(m) is None or not math.isfinite(values[m])
+    ]
     if missing:
         why = f"no value of {', '.join(missing)}"
-        return Score(objective.failed_cost, math.nan, 0.0,
-                     f"{why} ({reason})" if reason else why, True)
+        return Score(
+            objective.failed_cost, math.nan, 0.0, f"{why} ({reason})" if reason else why, True
+        )
     total = float(sum(t.weight * values[t.metric] for t in objective.terms))
     penalty, notes = 0.0, []
     for c in objective.constraints:

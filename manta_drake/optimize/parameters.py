@@ -74,27 +74,32 @@ def parse_entry(text, where: str) -> tuple[str, int, int]:
     """
     m = _ENTRY.match(text) if isinstance(text, str) else None
     if m is None:
-        raise OptimizeError(f"{where}: {text!r} is not an entry; expected MATRIX[row, column], "
-                            "e.g. R_deg[fr, pitch] or Phi_prime_deg[fl, fr]")
+        raise OptimizeError(
+            f"{where}: {text!r} is not an entry; expected MATRIX[row, column], "
+            "e.g. R_deg[fr, pitch] or Phi_prime_deg[fl, fr]"
+        )
     matrix, row, col = m.groups()
     if matrix not in MATRICES:
-        raise OptimizeError(f"{where}: {text!r}: matrix {matrix!r} is not one of "
-                            f"{', '.join(MATRICES)}")
+        raise OptimizeError(
+            f"{where}: {text!r}: matrix {matrix!r} is not one of {', '.join(MATRICES)}"
+        )
     if row not in LEG_ROWS:
-        raise OptimizeError(f"{where}: {text!r}: row {row!r} is not one of "
-                            f"{', '.join(LEG_ROWS)}")
+        raise OptimizeError(f"{where}: {text!r}: row {row!r} is not one of {', '.join(LEG_ROWS)}")
     cols = LEG_ROWS if matrix == "Phi_prime_deg" else JOINT_COLUMNS
     if col not in cols:
         what = "a leg-fin" if matrix == "Phi_prime_deg" else "a joint"
-        raise OptimizeError(f"{where}: {text!r}: column {col!r} is not {what} "
-                            f"({', '.join(cols)})")
+        raise OptimizeError(f"{where}: {text!r}: column {col!r} is not {what} ({', '.join(cols)})")
     r, c = LEG_ROWS.index(row), cols.index(col)
     if matrix == "Phi_prime_deg" and r == c:
-        raise OptimizeError(f"{where}: {text!r}: a fin's phase bias to itself is 0 by "
-                            "definition; choose two different leg-fins")
+        raise OptimizeError(
+            f"{where}: {text!r}: a fin's phase bias to itself is 0 by "
+            "definition; choose two different leg-fins"
+        )
     if (matrix, c) in UNUSED:
-        raise OptimizeError(f"{where}: {text!r}: Phi_deg's roll2 column is unused (no joint "
-                            "after roll2); choose yaw, roll1 or pitch")
+        raise OptimizeError(
+            f"{where}: {text!r}: Phi_deg's roll2 column is unused (no joint "
+            "after roll2); choose yaw, roll1 or pitch"
+        )
     return matrix, r, c
 
 
@@ -120,8 +125,10 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
             antisymmetric partner of a Phi_prime_deg entry); a name used twice.
     """
     if not free:
-        raise OptimizeError(f"{root}: name at least one free entry, e.g. "
-                            "{entry: 'R_deg[fr, pitch]', low: -45, high: 45}")
+        raise OptimizeError(
+            f"{root}: name at least one free entry, e.g. "
+            "{entry: 'R_deg[fr, pitch]', low: -45, high: 45}"
+        )
     out: list[Parameter] = []
     owner: dict[tuple, str] = {}  # (matrix, row, col) -> where it is set
     names: set[str] = set()
@@ -132,44 +139,56 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
         high = _number(f.high, f"{where}.high")
         for key, v in (("low", low), ("high", high)):
             if abs(v) > MAX_DEGREES:
-                raise OptimizeError(f"{where}.{key}: {v!r} is outside the allowed range "
-                                    f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg")
+                raise OptimizeError(
+                    f"{where}.{key}: {v!r} is outside the allowed range "
+                    f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg"
+                )
         if not low < high:
             raise OptimizeError(f"{where}.low: {low!r} must be below high ({high!r})")
         if not isinstance(f.tie, list):
             raise OptimizeError(f"{where}.tie: expected a list of entries")
         signs = list(f.tie_signs) if f.tie_signs else [1.0] * len(f.tie)
         if len(signs) != len(f.tie):
-            raise OptimizeError(f"{where}.tie_signs: {len(signs)} signs for {len(f.tie)} tied "
-                                "entries; give one sign (+1 or -1) per entry of tie, or none")
+            raise OptimizeError(
+                f"{where}.tie_signs: {len(signs)} signs for {len(f.tie)} tied "
+                "entries; give one sign (+1 or -1) per entry of tie, or none"
+            )
         targets = [Target(matrix, r, c, 1.0)]
         for j, (text, sign) in enumerate(zip(f.tie, signs)):
             if isinstance(sign, bool) or sign not in (1, -1):
                 raise OptimizeError(f"{where}.tie_signs[{j}]: {sign!r} is not +1 or -1")
             tm, tr, tc = parse_entry(text, f"{where}.tie[{j}]")
             if (tm, tr, tc) == (matrix, r, c):
-                raise OptimizeError(f"{where}.tie[{j}]: {text!r} is the entry itself; a tie "
-                                    "names another entry")
+                raise OptimizeError(
+                    f"{where}.tie[{j}]: {text!r} is the entry itself; a tie names another entry"
+                )
             targets.append(Target(tm, tr, tc, float(sign), f"tie[{j}]"))
         for t in list(targets):  # Phi' antisymmetry: [l, k] = -[k, l]
             if t.matrix == "Phi_prime_deg":
                 partner = Target(t.matrix, t.col, t.row, -t.sign, t.field)
-                if any((p.matrix, p.row, p.col) == (partner.matrix, partner.row, partner.col)
-                       for p in targets):
-                    raise OptimizeError(f"{where}.tie: {partner.label()} follows {t.label()} as "
-                                        "its negative automatically; do not name both")
+                if any(
+                    (p.matrix, p.row, p.col) == (partner.matrix, partner.row, partner.col)
+                    for p in targets
+                ):
+                    raise OptimizeError(
+                        f"{where}.tie: {partner.label()} follows {t.label()} as "
+                        "its negative automatically; do not name both"
+                    )
                 targets.append(partner)
         for j, t in enumerate(targets):
             spot = (t.matrix, t.row, t.col)
             field = f"{where}.entry" if j == 0 else f"{where}.tie"
             if spot in owner:
-                raise OptimizeError(f"{field}: {t.label()} is already set by {owner[spot]}; "
-                                    "each entry may follow one parameter")
+                raise OptimizeError(
+                    f"{field}: {t.label()} is already set by {owner[spot]}; "
+                    "each entry may follow one parameter"
+                )
             owner[spot] = f"{where}"
         name = f.name or default_name(matrix, r, c)
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.]*", name) or name in names:
-            raise OptimizeError(f"{where}.name: {name!r} is used twice or is not a name "
-                                "(letters, digits, _ and .)")
+            raise OptimizeError(
+                f"{where}.name: {name!r} is used twice or is not a name (letters, digits, _ and .)"
+            )
         names.add(name)
         out.append(Parameter(name, low, high, tuple(targets)))
     return out
@@ -189,8 +208,10 @@ class ParameterSpace:
         self.low = np.array([p.low for p in parameters])
         self.high = np.array([p.high for p in parameters])
         # As a gait file writes them: whole degrees exactly (45, not 45.00000000000001).
-        self.start_degrees = {m: np.array(radians_to_degrees(getattr(start, FIELD_OF_MATRIX[m])),
-                                          dtype=float) for m in MATRICES}
+        self.start_degrees = {
+            m: np.array(radians_to_degrees(getattr(start, FIELD_OF_MATRIX[m])), dtype=float)
+            for m in MATRICES
+        }
 
     @property
     def names(self) -> list[str]:
@@ -198,9 +219,12 @@ class ParameterSpace:
 
     def start_vector(self) -> np.ndarray:
         """The start gait's value of each parameter's entry [deg]."""
-        return np.array([self.start_degrees[p.targets[0].matrix][p.targets[0].row,
-                                                                p.targets[0].col]
-                         for p in self.parameters])
+        return np.array(
+            [
+                self.start_degrees[p.targets[0].matrix][p.targets[0].row, p.targets[0].col]
+                for p in self.parameters
+            ]
+        )
 
     def to_degrees(self, unit) -> np.ndarray:
         """Degrees of a point of the unit cube (clipped into it)."""
@@ -221,20 +245,26 @@ class ParameterSpace:
     def gait(self, degrees) -> GaitParams:
         """The start gait with the parameters at ``degrees``. Entries the parameters do not
         set keep the start gait's radians to the bit."""
-        fields = {FIELD_OF_MATRIX[m]: np.array(getattr(self.start, FIELD_OF_MATRIX[m]))
-                  for m in MATRICES}
+        fields = {
+            FIELD_OF_MATRIX[m]: np.array(getattr(self.start, FIELD_OF_MATRIX[m])) for m in MATRICES
+        }
         for p, value in zip(self.parameters, np.asarray(degrees, dtype=float)):
             for t in p.targets:
-                fields[FIELD_OF_MATRIX[t.matrix]][t.row, t.col] = \
-                    degrees_to_radians(t.sign * value)
+                fields[FIELD_OF_MATRIX[t.matrix]][t.row, t.col] = degrees_to_radians(t.sign * value)
         return GaitParams(**fields)
 
     def changed_entries(self, degrees) -> list[tuple[str, float, float]]:
         """Every entry the parameters set: (label, start deg, value deg)."""
         new = self.matrices_degrees(degrees)
-        return [(t.label(), float(self.start_degrees[t.matrix][t.row, t.col]),
-                 float(new[t.matrix][t.row, t.col]))
-                for p in self.parameters for t in p.targets]
+        return [
+            (
+                t.label(),
+                float(self.start_degrees[t.matrix][t.row, t.col]),
+                float(new[t.matrix][t.row, t.col]),
+            )
+            for p in self.parameters
+            for t in p.targets
+        ]
 
     def distance_from_start(self, degrees) -> float:
         """RMS change [deg] of every entry the parameters set (entries, ties and partners)
@@ -248,8 +278,10 @@ class ParameterSpace:
         out = []
         for i, (p, v) in enumerate(zip(self.parameters, self.start_vector())):
             if not p.low <= v <= p.high:
-                text = (f"the start gait has {p.entry} = {v:g} deg, outside [low, high] = "
-                        f"[{p.low:g}, {p.high:g}]")
+                text = (
+                    f"the start gait has {p.entry} = {v:g} deg, outside [low, high] = "
+                    f"[{p.low:g}, {p.high:g}]"
+                )
                 out.append((i, "low" if v < p.low else "high", text))
         return out
 
@@ -264,17 +296,25 @@ class ParameterSpace:
             for t in p.targets[1:]:
                 have = self.start_degrees[t.matrix][t.row, t.col]
                 if abs(have - t.sign * value) > 1e-9:
-                    text = (f"the start gait has {t.label()} = {have:g} deg, not "
-                            f"{t.sign:+g} x {first.label()} = {t.sign * value:g} deg; the "
-                            "search could not start at the start gait")
+                    text = (
+                        f"the start gait has {t.label()} = {have:g} deg, not "
+                        f"{t.sign:+g} x {first.label()} = {t.sign * value:g} deg; the "
+                        "search could not start at the start gait"
+                    )
                     out.append((i, t.field, text))
         return out
 
 
-def candidate_gait_text(name: str, gait: GaitParams, description: str = "",
-                        provenance: dict | None = None, header: str = "") -> str:
+def candidate_gait_text(
+    name: str,
+    gait: GaitParams,
+    description: str = "",
+    provenance: dict | None = None,
+    header: str = "",
+) -> str:
     """A gait file holding ``gait`` as ``name``: all four matrices, ``mirror_keep: [R_deg,
     X_deg]`` so that it runs as written under either ``controller.gait_reading``."""
-    data = gait_file_data({name: gait}, description, provenance,
-                          mirror_keep={name: ["R_deg", "X_deg"]})
+    data = gait_file_data(
+        {name: gait}, description, provenance, mirror_keep={name: ["R_deg", "X_deg"]}
+    )
     return gait_file_text(data, header)

@@ -139,15 +139,38 @@ def source_version() -> str:
     from manta_drake.version import __version__
 
     try:
-        top = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--show-toplevel"],
-                             capture_output=True, text=True, timeout=10, check=False)
+        top = subprocess.run(
+            ["git", "-C", str(REPO), "rev-parse", "--show-toplevel"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=False,
+        )
         if top.returncode == 0 and pathlib.Path(top.stdout.strip()).resolve() == REPO:
-            head = subprocess.run(["git", "-C", str(REPO), "rev-parse", "HEAD"],
-                                  capture_output=True, text=True, timeout=10, check=False)
+            head = subprocess.run(
+                ["git", "-C", str(REPO), "rev-parse", "HEAD"],
+                capture_output=True,
+                text=True,
+                timeout=10,
+                check=False,
+            )
             if head.returncode == 0 and head.stdout.strip():
-                dirty = subprocess.run(["git", "-C", str(REPO), "diff", "--quiet", "HEAD",
-                                        "--", "manta_drake", "models"],
-                                       capture_output=True, timeout=10, check=False)
+                dirty = subprocess.run(
+                    [
+                        "git",
+                        "-C",
+                        str(REPO),
+                        "diff",
+                        "--quiet",
+                        "HEAD",
+                        "--",
+                        "manta_drake",
+                        "models",
+                    ],
+                    capture_output=True,
+                    timeout=10,
+                    check=False,
+                )
                 return f"git {head.stdout.strip()}" + (" + modified" if dirty.returncode else "")
     except (OSError, subprocess.SubprocessError):
         pass
@@ -198,32 +221,45 @@ class _Runner:
                 try:
                     outcome = self.evaluate(job["task"])
                 except Exception as e:  # noqa: BLE001 - the evaluator's raise fails the candidate
-                    outcome = {"status": "error",
-                               "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
+                    outcome = {
+                        "status": "error",
+                        "reason": f"{type(e).__name__}: {' '.join(str(e).split())}",
+                    }
                 self._finish(job, outcome, done)
             return
         # Closed at once when interrupted: nothing of this call keeps running on the cluster.
-        with contextlib.closing(completed_resubmitting_lost(
-                self.client, self.evaluate, jobs, lambda job: job["task"],
-                lambda job: f"manta-opt-{job['key']}-{self.token}")) as finished:
+        with contextlib.closing(
+            completed_resubmitting_lost(
+                self.client,
+                self.evaluate,
+                jobs,
+                lambda job: job["task"],
+                lambda job: f"manta-opt-{job['key']}-{self.token}",
+            )
+        ) as finished:
             for job, outcome in finished:
                 if isinstance(outcome, TaskFailure):  # the evaluator's raise, or the cluster's
-                    outcome = {"status": "lost" if outcome.lost else "error",
-                               "reason": outcome.reason()}
+                    outcome = {
+                        "status": "lost" if outcome.lost else "error",
+                        "reason": outcome.reason(),
+                    }
                 self._finish(job, outcome, done)
 
     def _finish(self, job, outcome, done) -> None:
         if not isinstance(outcome, dict):
-            outcome = {"status": "error",
-                       "reason": f"the evaluator returned {type(outcome).__name__}, not a dict"}
+            outcome = {
+                "status": "error",
+                "reason": f"the evaluator returned {type(outcome).__name__}, not a dict",
+            }
         self.simulated += 1
         done(job, outcome)
         if self.bar is not None:
             self.bar.update(1)
 
 
-def run_optimization(problem, out_dir, client=None, evaluate=None,
-                     progress: bool = True) -> OptimizationResult:
+def run_optimization(
+    problem, out_dir, client=None, evaluate=None, progress: bool = True
+) -> OptimizationResult:
     """Runs (or continues) the optimisation and writes its outputs (module docstring).
 
     Args:
@@ -264,32 +300,54 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
         for c, unit in enumerate(candidates):
             # The injected start (module docstring) in its exact degrees, not through the
             # unit cube's round-off: its entries are the start gait's to the bit.
-            degrees = space.start_vector() if (generation, c) == (1, 0) \
-                else space.to_degrees(unit)
+            degrees = space.start_vector() if (generation, c) == (1, 0) else space.to_degrees(unit)
             gait_text = candidate_gait_text(spec.name, space.gait(degrees))
             for p, point in enumerate(points):
                 for seed in seeds:
-                    out.append(_job(problem, scenario_sha, "search", generation, c, p, point,
-                                    seed, degrees, gait_text, keep_log=True))
+                    out.append(
+                        _job(
+                            problem,
+                            scenario_sha,
+                            "search",
+                            generation,
+                            c,
+                            p,
+                            point,
+                            seed,
+                            degrees,
+                            gait_text,
+                            keep_log=True,
+                        )
+                    )
         return out
 
     state = load_state(out_dir, problem) or new_search(problem)
     for generation, (candidates, costs) in enumerate(state.told, start=1):
         state.best = _better(state.best, generation, costs, jobs_of(generation, candidates))
-    history = read_history(out_dir / HISTORY, space.names,
-                           max_bytes=history_limit(problem, state.generation))
+    history = read_history(
+        out_dir / HISTORY, space.names, max_bytes=history_limit(problem, state.generation)
+    )
     rows = {r["key"]: r for r in history if r["kind"] == "search"}
     final_rows: list[dict] = [r for r in history if r["kind"] != "search"]
     per_candidate = len(points) * len(seeds)
     # The search's simulations, then the best gait's re-run and its held-out re-checks.
-    total = (max(budget.generations, state.generation) * budget.population * per_candidate
-             + 1 + len(spec.held_out.points) * len(spec.held_out_seeds()))
+    total = (
+        max(budget.generations, state.generation) * budget.population * per_candidate
+        + 1
+        + len(spec.held_out.points) * len(spec.held_out_seeds())
+    )
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=total, initial=min(len(rows), total), unit="sim", file=sys.stderr,
-                   desc=f"optimizing {spec.name}", dynamic_ncols=True)
+        bar = tqdm(
+            total=total,
+            initial=min(len(rows), total),
+            unit="sim",
+            file=sys.stderr,
+            desc=f"optimizing {spec.name}",
+            dynamic_ncols=True,
+        )
     runner = _Runner(client, evaluate, bar)
     reused = 0
     clock = [started]
@@ -303,8 +361,12 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
 
     def record(job: dict, outcome: dict) -> None:
         row = _row(problem, job, outcome)
-        write_evaluation(out_dir / row["folder"], job["task"]["gait_text"],
-                         _record(row, outcome, space), outcome.get("log_npz"))
+        write_evaluation(
+            out_dir / row["folder"],
+            job["task"]["gait_text"],
+            _record(row, outcome, space),
+            outcome.get("log_npz"),
+        )
         rows[row["key"]] = row
         table.write(list(rows.values()) + final_rows)
 
@@ -326,32 +388,54 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
                     save()
                 generation = state.generation
                 jobs = jobs_of(generation, state.pending)
-                todo = list({j["key"]: j for j in jobs if j["key"] not in rows
-                             or rows[j["key"]]["status"] == "lost"}.values())
-                reused += sum(1 for j in jobs if j["key"] in rows
-                              and rows[j["key"]]["status"] != "lost")
+                todo = list(
+                    {
+                        j["key"]: j
+                        for j in jobs
+                        if j["key"] not in rows or rows[j["key"]]["status"] == "lost"
+                    }.values()
+                )
+                reused += sum(
+                    1 for j in jobs if j["key"] in rows and rows[j["key"]]["status"] != "lost"
+                )
                 runner.run(todo, record)
                 costs = []
                 for c in range(len(state.pending)):
                     mine = [rows[j["key"]] for j in jobs if j["candidate"] == c]
-                    costs.append(aggregate([r["cost"] for r in mine],
-                                           spec.robustness.aggregate))
+                    costs.append(aggregate([r["cost"] for r in mine], spec.robustness.aggregate))
                     for r in mine:
                         r["candidate_cost"] = costs[-1]
                 state.tell(costs)
                 state.best = _better(state.best, generation, costs, jobs)
-                _say(bar, generation_line(generation, budget.generations, costs, state.best,
-                                          [[rows[j["key"]] for j in jobs if j["candidate"] == c]
-                                           for c in range(len(costs))],
-                                          len(todo), time.perf_counter() - t_generation))
+                _say(
+                    bar,
+                    generation_line(
+                        generation,
+                        budget.generations,
+                        costs,
+                        state.best,
+                        [
+                            [rows[j["key"]] for j in jobs if j["candidate"] == c]
+                            for c in range(len(costs))
+                        ],
+                        len(todo),
+                        time.perf_counter() - t_generation,
+                    ),
+                )
                 _prune_logs(out_dir, rows, state.best)
                 table.write(list(rows.values()) + final_rows, force=True)
                 walls = [rows[j["key"]]["wall_time_s"] or 0.0 for j in todo]
-                state.timings.append({
-                    "generation": generation, "wall_s": time.perf_counter() - t_generation,
-                    "simulated": len(todo), "reused": len(jobs) - len(todo),
-                    "longest_simulation_s": max(walls, default=0.0),
-                    "sum_simulation_s": float(sum(walls)), "resumed": resumed})
+                state.timings.append(
+                    {
+                        "generation": generation,
+                        "wall_s": time.perf_counter() - t_generation,
+                        "simulated": len(todo),
+                        "reused": len(jobs) - len(todo),
+                        "longest_simulation_s": max(walls, default=0.0),
+                        "sum_simulation_s": float(sum(walls)),
+                        "resumed": resumed,
+                    }
+                )
                 save()
             final_rows = _final_stage(problem, out_dir, state.best, runner, scenario_sha)
     finally:
@@ -360,8 +444,18 @@ def run_optimization(problem, out_dir, client=None, evaluate=None,
         if bar is not None:
             bar.close()
     save()
-    return _finish(problem, out_dir, state, rows, final_rows, runner.simulated, reused, stop,
-                   time.perf_counter() - started, source=source)
+    return _finish(
+        problem,
+        out_dir,
+        state,
+        rows,
+        final_rows,
+        runner.simulated,
+        reused,
+        stop,
+        time.perf_counter() - started,
+        source=source,
+    )
 
 
 def _say(bar, line: str) -> None:
@@ -377,14 +471,23 @@ def within_constraints(rows: list[dict]) -> bool:
     return bool(rows) and not violations(rows)
 
 
-def generation_line(generation: int, generations: int, costs, best: dict,
-                    candidate_rows: list[list[dict]], simulated: int, wall_s: float) -> str:
+def generation_line(
+    generation: int,
+    generations: int,
+    costs,
+    best: dict,
+    candidate_rows: list[list[dict]],
+    simulated: int,
+    wall_s: float,
+) -> str:
     """One line per told generation: its best cost, the best so far, how many of its
     candidates met every constraint at every point, the simulations run and the time."""
     feasible = sum(within_constraints(rows) for rows in candidate_rows)
-    return (f"generation {generation}/{generations}: cost {min(costs):.4g} (best so far "
-            f"{best['cost']:.4g}, generation {best['generation']}), {feasible}/{len(costs)} "
-            f"candidates within every constraint, {simulated} simulated, {wall_s:.0f} s")
+    return (
+        f"generation {generation}/{generations}: cost {min(costs):.4g} (best so far "
+        f"{best['cost']:.4g}, generation {best['generation']}), {feasible}/{len(costs)} "
+        f"candidates within every constraint, {simulated} simulated, {wall_s:.0f} s"
+    )
 
 
 def violations(rows: list[dict]) -> list[str]:
@@ -407,8 +510,13 @@ def _better(best: dict | None, generation: int, costs: list, jobs: list[dict]) -
     if best is not None and not costs[c_best] < best["cost"]:
         return best
     mine = [j for j in jobs if j["candidate"] == c_best]
-    return {"generation": generation, "candidate": c_best, "degrees": mine[0]["degrees"],
-            "cost": float(costs[c_best]), "keys": [j["key"] for j in mine]}
+    return {
+        "generation": generation,
+        "candidate": c_best,
+        "degrees": mine[0]["degrees"],
+        "cost": float(costs[c_best]),
+        "keys": [j["key"] for j in mine],
+    }
 
 
 def history_limit(problem: Problem, generations: int) -> int:
@@ -417,25 +525,57 @@ def history_limit(problem: Problem, generations: int) -> int:
     ``MAX_ROW_BYTES`` and its point's overrides."""
     spec = problem.spec
     points = spec.points()
-    search = (max(generations, spec.budget.generations) * spec.budget.population
-              * len(points) * len(spec.robustness.seeds))
+    search = (
+        max(generations, spec.budget.generations)
+        * spec.budget.population
+        * len(points)
+        * len(spec.robustness.seeds)
+    )
     final = 1 + len(spec.held_out.points) * len(spec.held_out_seeds())
-    longest = max(len(json.dumps(p, sort_keys=True, default=str))
-                  for p in [*points, *spec.held_out.points])
+    longest = max(
+        len(json.dumps(p, sort_keys=True, default=str)) for p in [*points, *spec.held_out.points]
+    )
     return HISTORY_SLACK_BYTES + (search + final) * (MAX_ROW_BYTES + 2 * longest)
 
 
-def _job(problem: Problem, scenario_sha: str, kind: str, generation: int, candidate: int,
-         p: int, point: dict, seed: int, degrees, gait_text: str, keep_log: bool) -> dict:
+def _job(
+    problem: Problem,
+    scenario_sha: str,
+    kind: str,
+    generation: int,
+    candidate: int,
+    p: int,
+    point: dict,
+    seed: int,
+    degrees,
+    gait_text: str,
+    keep_log: bool,
+) -> dict:
     names = problem.space.names
     key = evaluation_key(scenario_sha, names, degrees, point, seed)
     parameters = {n: float(v) for n, v in zip(names, degrees)}
-    task = {"key": key, "scenario_yaml": problem.base_yaml, "gait_name": problem.spec.name,
-            "gait_text": gait_text, "overrides": point, "seed": int(seed),
-            "set_stance": problem.set_stance, "keep_log": keep_log, "parameters": parameters}
-    return {"key": key, "kind": kind, "generation": generation, "candidate": candidate,
-            "point": p, "seed": int(seed), "overrides": point, "degrees": list(map(float, degrees)),
-            "task": task}
+    task = {
+        "key": key,
+        "scenario_yaml": problem.base_yaml,
+        "gait_name": problem.spec.name,
+        "gait_text": gait_text,
+        "overrides": point,
+        "seed": int(seed),
+        "set_stance": problem.set_stance,
+        "keep_log": keep_log,
+        "parameters": parameters,
+    }
+    return {
+        "key": key,
+        "kind": kind,
+        "generation": generation,
+        "candidate": candidate,
+        "point": p,
+        "seed": int(seed),
+        "overrides": point,
+        "degrees": list(map(float, degrees)),
+        "task": task,
+    }
 
 
 def _row(problem: Problem, job: dict, outcome: dict) -> dict:
@@ -453,14 +593,21 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     row = {k: job[k] for k in ("key", "kind", "generation", "candidate", "point", "seed")}
     row.update(zip(space.names, job["degrees"]))
     row.update(values)
-    row.update(objective=finite_or_none(s.objective), penalty=s.penalty, cost=s.cost,
-               candidate_cost=None, status=status,
-               reason=short_reason(s.reason) if status == "ok" else reason,
-               touched_wall=touched, wall_time_s=finite_or_none(outcome.get("wall_time_s")),
-               worker=short_reason(outcome.get("worker", ""))[:200],
-               overrides=json.dumps(job["overrides"], sort_keys=True),
-               folder=evaluation_folder(job["kind"], job["generation"], job["candidate"],
-                                        job["point"], job["seed"]))
+    row.update(
+        objective=finite_or_none(s.objective),
+        penalty=s.penalty,
+        cost=s.cost,
+        candidate_cost=None,
+        status=status,
+        reason=short_reason(s.reason) if status == "ok" else reason,
+        touched_wall=touched,
+        wall_time_s=finite_or_none(outcome.get("wall_time_s")),
+        worker=short_reason(outcome.get("worker", ""))[:200],
+        overrides=json.dumps(job["overrides"], sort_keys=True),
+        folder=evaluation_folder(
+            job["kind"], job["generation"], job["candidate"], job["point"], job["seed"]
+        ),
+    )
     return row
 
 
@@ -469,9 +616,21 @@ def _record(row: dict, outcome: dict, space) -> dict:
     of them."""
     record = dict(outcome.get("run") or {})
     record.update(status=row["status"], reason=row["reason"])
-    record["optimize"] = {k: row[k] for k in ("key", "kind", "generation", "candidate",
-                                              "point", "seed", "objective", "penalty", "cost",
-                                              "worker")}
+    record["optimize"] = {
+        k: row[k]
+        for k in (
+            "key",
+            "kind",
+            "generation",
+            "candidate",
+            "point",
+            "seed",
+            "objective",
+            "penalty",
+            "cost",
+            "worker",
+        )
+    }
     record["optimize"]["parameters_deg"] = {n: row[n] for n in space.names}
     record["optimize"]["overrides"] = json.loads(row["overrides"])
     record["optimize"]["metrics"] = {m: row[m] for m in METRICS}
@@ -487,8 +646,9 @@ def _prune_logs(out_dir: pathlib.Path, rows: dict, best: dict | None) -> None:
             (out_dir / row["folder"] / "log.npz").unlink(missing_ok=True)
 
 
-def _final_stage(problem: Problem, out_dir: pathlib.Path, best: dict, runner: _Runner,
-                 scenario_sha: str) -> list[dict]:
+def _final_stage(
+    problem: Problem, out_dir: pathlib.Path, best: dict, runner: _Runner, scenario_sha: str
+) -> list[dict]:
     """The best gait re-run at the scenario as it is (with its figures) and at every
     held-out point and seed; their rows."""
     from manta_drake import plots
@@ -496,20 +656,44 @@ def _final_stage(problem: Problem, out_dir: pathlib.Path, best: dict, runner: _R
     spec, space = problem.spec, problem.space
     degrees = np.asarray(best["degrees"])
     gait_text = candidate_gait_text(spec.name, space.gait(degrees))
-    jobs = [_job(problem, scenario_sha, "best", best["generation"], best["candidate"], 0, {},
-                 spec.robustness.seeds[0], degrees, gait_text, keep_log=True)]
+    jobs = [
+        _job(
+            problem,
+            scenario_sha,
+            "best",
+            best["generation"],
+            best["candidate"],
+            0,
+            {},
+            spec.robustness.seeds[0],
+            degrees,
+            gait_text,
+            keep_log=True,
+        )
+    ]
     for p, point in enumerate(spec.held_out.points):
         for seed in spec.held_out_seeds():
-            jobs.append(_job(problem, scenario_sha, "held_out", best["generation"],
-                             best["candidate"], p, dict(point), seed, degrees, gait_text,
-                             keep_log=False))
+            jobs.append(
+                _job(
+                    problem,
+                    scenario_sha,
+                    "held_out",
+                    best["generation"],
+                    best["candidate"],
+                    p,
+                    dict(point),
+                    seed,
+                    degrees,
+                    gait_text,
+                    keep_log=False,
+                )
+            )
     out: list[dict] = []
 
     def done(job, outcome) -> None:
         row = _row(problem, job, outcome)
         folder = out_dir / row["folder"]
-        write_evaluation(folder, gait_text, _record(row, outcome, space),
-                         outcome.get("log_npz"))
+        write_evaluation(folder, gait_text, _record(row, outcome, space), outcome.get("log_npz"))
         if job["kind"] == "best" and outcome.get("log_npz"):
             with np.load(io.BytesIO(outcome["log_npz"])) as npz:
                 log = {k: npz[k] for k in npz.files}
@@ -523,8 +707,9 @@ def _final_stage(problem: Problem, out_dir: pathlib.Path, best: dict, runner: _R
 
 
 def _candidate_rows(rows: dict, generation: int, candidate: int) -> list[dict]:
-    return [r for r in rows.values()
-            if (r["generation"], r["candidate"]) == (generation, candidate)]
+    return [
+        r for r in rows.values() if (r["generation"], r["candidate"]) == (generation, candidate)
+    ]
 
 
 def term_values(problem: Problem, rows: list[dict]) -> dict:
@@ -536,25 +721,56 @@ def term_values(problem: Problem, rows: list[dict]) -> dict:
         vals = [r[metric] for r in ok if r.get(metric) is not None]
         return float(np.mean(vals)) if vals else None
 
-    terms = [{"metric": t.metric, "weight": t.weight, "value": mean(t.metric),
-              "contribution": None if mean(t.metric) is None else t.weight * mean(t.metric)}
-             for t in o.terms]
+    terms = [
+        {
+            "metric": t.metric,
+            "weight": t.weight,
+            "value": mean(t.metric),
+            "contribution": None if mean(t.metric) is None else t.weight * mean(t.metric),
+        }
+        for t in o.terms
+    ]
     constraints = []
     for c in o.constraints:
-        violated = sum(1 for r in ok if r.get(c.metric) is not None
-                       and (not c.relative_to or r.get(c.relative_to) is not None)
-                       and constraint_violation(c, r)[0] > 0)
-        constraints.append({"metric": c.metric, "min": c.min, "max": c.max,
-                            "relative_to": c.relative_to or None, "value": mean(c.metric),
-                            "violated_in": violated, "simulations": len(ok)})
-    return {"terms": terms, "constraints": constraints,
-            "mean_penalty": float(np.mean([r["penalty"] for r in ok])) if ok else None,
-            "simulations": len(rows), "ok": len(ok)}
+        violated = sum(
+            1
+            for r in ok
+            if r.get(c.metric) is not None
+            and (not c.relative_to or r.get(c.relative_to) is not None)
+            and constraint_violation(c, r)[0] > 0
+        )
+        constraints.append(
+            {
+                "metric": c.metric,
+                "min": c.min,
+                "max": c.max,
+                "relative_to": c.relative_to or None,
+                "value": mean(c.metric),
+                "violated_in": violated,
+                "simulations": len(ok),
+            }
+        )
+    return {
+        "terms": terms,
+        "constraints": constraints,
+        "mean_penalty": float(np.mean([r["penalty"] for r in ok])) if ok else None,
+        "simulations": len(rows),
+        "ok": len(ok),
+    }
 
 
-def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: dict,
-            final_rows: list[dict], simulated: int, reused: int, stop: str,
-            wall_time: float, source: str = "") -> OptimizationResult:
+def _finish(
+    problem: Problem,
+    out_dir: pathlib.Path,
+    state: SearchState,
+    rows: dict,
+    final_rows: list[dict],
+    simulated: int,
+    reused: int,
+    stop: str,
+    wall_time: float,
+    source: str = "",
+) -> OptimizationResult:
     from manta_drake.optimize.figure import write_convergence_figure
 
     spec, space = problem.spec, problem.space
@@ -564,48 +780,86 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: d
     best_rows = _candidate_rows(rows, best["generation"], best["candidate"])
     best_ok = bool(best_rows) and all(r["status"] == "ok" for r in best_rows)
     result = OptimizationResult(
-        name=spec.name, names=space.names, start_degrees=space.start_vector(),
-        best_degrees=np.asarray(best["degrees"]), start_cost=float(start_cost),
-        best_cost=float(best["cost"]), best_generation=best["generation"],
-        best_candidate=best["candidate"], best_ok=best_ok,
+        name=spec.name,
+        names=space.names,
+        start_degrees=space.start_vector(),
+        best_degrees=np.asarray(best["degrees"]),
+        start_cost=float(start_cost),
+        best_cost=float(best["cost"]),
+        best_generation=best["generation"],
+        best_candidate=best["candidate"],
+        best_ok=best_ok,
         generations=len(state.told),
-        evaluations=len(rows), simulated=simulated, reused=reused,
-        stop=stop or "done", wall_time_s=wall_time, out_dir=out_dir,
+        evaluations=len(rows),
+        simulated=simulated,
+        reused=reused,
+        stop=stop or "done",
+        wall_time_s=wall_time,
+        out_dir=out_dir,
         held_out=[r for r in final_rows if r["kind"] == "held_out"],
         best_run=next((r for r in final_rows if r["kind"] == "best"), None),
-        timings=list(state.timings), source=source,
-        violations=violations(best_rows + final_rows))
+        timings=list(state.timings),
+        source=source,
+        violations=violations(best_rows + final_rows),
+    )
     (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
     if best_ok:
         result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
     result.history_file = out_dir / HISTORY
-    result.figure = write_convergence_figure(out_dir / "convergence.png", problem,
-                                             list(rows.values()))
+    result.figure = write_convergence_figure(
+        out_dir / "convergence.png", problem, list(rows.values())
+    )
     summary = {
-        "name": spec.name, "status": result.status, "feasible": result.feasible,
+        "name": spec.name,
+        "status": result.status,
+        "feasible": result.feasible,
         "violations": result.violations,
-        "spec": spec_path_text(spec.path), "spec_sha256": spec.text_sha256,
-        "scenario": spec.scenario, "start_gait": spec.gait, "source": source,
+        "spec": spec_path_text(spec.path),
+        "spec_sha256": spec.text_sha256,
+        "scenario": spec.scenario,
+        "start_gait": spec.gait,
+        "source": source,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-        "parameters": [{"name": p.name, "entry": p.entry, "low": p.low, "high": p.high,
-                        "sets": [t.label() for t in p.targets]} for p in space.parameters],
-        "start": {"cost": result.start_cost,
-                  "degrees": dict(zip(space.names, map(float, result.start_degrees))),
-                  **term_values(problem, start_rows)},
-        "best": {"cost": result.best_cost, "generation": result.best_generation,
-                 "candidate": result.best_candidate, "ok": best_ok,
-                 "feasible": result.feasible,
-                 "degrees": dict(zip(space.names, map(float, result.best_degrees))),
-                 "entries": [{"entry": e, "start": s, "best": b}
-                             for e, s, b in space.changed_entries(result.best_degrees)],
-                 **term_values(problem, best_rows)},
+        "parameters": [
+            {
+                "name": p.name,
+                "entry": p.entry,
+                "low": p.low,
+                "high": p.high,
+                "sets": [t.label() for t in p.targets],
+            }
+            for p in space.parameters
+        ],
+        "start": {
+            "cost": result.start_cost,
+            "degrees": dict(zip(space.names, map(float, result.start_degrees))),
+            **term_values(problem, start_rows),
+        },
+        "best": {
+            "cost": result.best_cost,
+            "generation": result.best_generation,
+            "candidate": result.best_candidate,
+            "ok": best_ok,
+            "feasible": result.feasible,
+            "degrees": dict(zip(space.names, map(float, result.best_degrees))),
+            "entries": [
+                {"entry": e, "start": s, "best": b}
+                for e, s, b in space.changed_entries(result.best_degrees)
+            ],
+            **term_values(problem, best_rows),
+        },
         "best_run": _final_summary(result.best_run),
         "held_out": [_final_summary(r) for r in result.held_out],
-        "generations": result.generations, "population": spec.budget.population,
-        "points": len(spec.points()), "seeds": list(spec.robustness.seeds),
+        "generations": result.generations,
+        "population": spec.budget.population,
+        "points": len(spec.points()),
+        "seeds": list(spec.robustness.seeds),
         "aggregate": spec.robustness.aggregate,
-        "evaluations": result.evaluations, "simulated_now": simulated, "reused_now": reused,
-        "stop": result.stop, "wall_time_s": wall_time,
+        "evaluations": result.evaluations,
+        "simulated_now": simulated,
+        "reused_now": reused,
+        "stop": result.stop,
+        "wall_time_s": wall_time,
         "generation_timings": result.timings,
         "wall_time_total_s": state.wall_time_s,
         "best_gait": str(result.best_gait_file) if result.best_gait_file else None,
@@ -620,38 +874,56 @@ def _finish(problem: Problem, out_dir: pathlib.Path, state: SearchState, rows: d
 def _final_summary(row: dict | None) -> dict | None:
     if row is None:
         return None
-    return {"overrides": json.loads(row["overrides"]), "seed": row["seed"],
-            "status": row["status"], "reason": row["reason"], "cost": row["cost"],
-            "metrics": {m: row[m] for m in METRICS}, "folder": row["folder"]}
+    return {
+        "overrides": json.loads(row["overrides"]),
+        "seed": row["seed"],
+        "status": row["status"],
+        "reason": row["reason"],
+        "cost": row["cost"],
+        "metrics": {m: row[m] for m in METRICS},
+        "folder": row["folder"],
+    }
 
 
-def write_best_gait(path: pathlib.Path, problem: Problem,
-                    result: OptimizationResult) -> pathlib.Path:
+def write_best_gait(
+    path: pathlib.Path, problem: Problem, result: OptimizationResult
+) -> pathlib.Path:
     """best_gait.yaml: a gait file holding the best gait under the result's name, with its
     provenance."""
     spec, space = problem.spec, problem.space
     provenance = {
         "made_by": "manta-drake optimize",
-        "spec": spec_path_text(spec.path), "spec_sha256": spec.text_sha256,
+        "spec": spec_path_text(spec.path),
+        "spec_sha256": spec.text_sha256,
         "source": result.source,
-        "scenario": spec.scenario, "start_gait": spec.gait,
-        "objective_value": result.best_cost, "start_objective_value": result.start_cost,
-        "generation": result.best_generation, "candidate": result.best_candidate,
+        "scenario": spec.scenario,
+        "start_gait": spec.gait,
+        "objective_value": result.best_cost,
+        "start_objective_value": result.start_cost,
+        "generation": result.best_generation,
+        "candidate": result.best_candidate,
         "evaluations": result.evaluations,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "parameters_deg": {n: float(v) for n, v in zip(space.names, result.best_degrees)},
         "feasible": result.feasible,
         "violations": result.violations,
     }
-    header = (f"The gait {spec.name} found by `manta-drake optimize` from {spec.gait} "
-              f"({spec.scenario}); use it with controller.gait_files: [this file].")
+    header = (
+        f"The gait {spec.name} found by `manta-drake optimize` from {spec.gait} "
+        f"({spec.scenario}); use it with controller.gait_files: [this file]."
+    )
     if not result.feasible:
-        header = (f"INFEASIBLE: this gait breaks its spec's constraints in "
-                  f"{len(result.violations)} simulation(s) (provenance.violations). " + header)
-    text = candidate_gait_text(spec.name, space.gait(result.best_degrees),
-                               description=" ".join(spec.description.split())
-                               or f"optimised from {spec.gait}",
-                               provenance=provenance, header=header)
+        header = (
+            f"INFEASIBLE: this gait breaks its spec's constraints in "
+            f"{len(result.violations)} simulation(s) (provenance.violations). " + header
+        )
+    text = candidate_gait_text(
+        spec.name,
+        space.gait(result.best_degrees),
+        description=" ".join(spec.description.split()) or f"optimised from {spec.gait}",
+        provenance=provenance,
+        header=header,
+    )
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(text)
     os.replace(tmp, path)

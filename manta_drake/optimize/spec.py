@@ -138,8 +138,7 @@ class OptimizeSpec:
     text_sha256: str = dc.field(default="", repr=False)
 
     def held_out_seeds(self) -> list[int]:
-        return list(self.robustness.seeds if self.held_out.seeds is None
-                    else self.held_out.seeds)
+        return list(self.robustness.seeds if self.held_out.seeds is None else self.held_out.seeds)
 
     def points(self) -> list[dict]:
         """The robustness points (one empty point, the scenario as it is, if none)."""

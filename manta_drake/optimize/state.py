@@ -35,10 +35,26 @@ STATE = "state.json"
 LEGACY_STATE = "state.pkl"
 KIND = "manta-drake optimize state"
 STATE_FORMAT = 2
-KEYS = ("kind", "format", "identity", "versions", "generations", "pending", "generator",
-        "wall_time_s", "timings")
-TIMING_KEYS = {"generation": int, "wall_s": float, "simulated": int, "reused": int,
-               "longest_simulation_s": float, "sum_simulation_s": float, "resumed": bool}
+KEYS = (
+    "kind",
+    "format",
+    "identity",
+    "versions",
+    "generations",
+    "pending",
+    "generator",
+    "wall_time_s",
+    "timings",
+)
+TIMING_KEYS = {
+    "generation": int,
+    "wall_s": float,
+    "simulated": int,
+    "reused": int,
+    "longest_simulation_s": float,
+    "sum_simulation_s": float,
+    "resumed": bool,
+}
 # The size bound of a state file: this much, plus a generation's candidates and costs (each
 # number at most 32 characters) and timing for every generation a state of this spec may
 # hold (at least FLOOR_GENERATIONS).
@@ -97,9 +113,18 @@ def new_search(problem) -> SearchState:
     normal = Normal(spec.seed)
     start = list(space.to_unit(space.start_vector()))
     es = cma.CMAEvolutionStrategy(
-        start, spec.budget.sigma0,
-        {"bounds": [0.0, 1.0], "popsize": spec.budget.population, "seed": spec.seed + 1,
-         "randn": normal, "verbose": -9, "verb_log": 0, "verb_disp": 0})
+        start,
+        spec.budget.sigma0,
+        {
+            "bounds": [0.0, 1.0],
+            "popsize": spec.budget.population,
+            "seed": spec.seed + 1,
+            "randn": normal,
+            "verbose": -9,
+            "verb_log": 0,
+            "verb_disp": 0,
+        },
+    )
     # CMA-ES works on a genotype the bound handler maps into [0, 1]; the inverse map gives
     # the genotype of the start (a start on a bound too).
     es.inject([es.boundary_handler.inverse(start)], force=True)
@@ -115,12 +140,18 @@ def _versions() -> dict:
 def state_data(state: SearchState, identity: dict) -> dict:
     """What ``state.json`` holds (module docstring)."""
     return {
-        "kind": KIND, "format": STATE_FORMAT, "identity": identity, "versions": _versions(),
-        "generations": [{"candidates": [x.tolist() for x in xs], "costs": list(costs)}
-                        for xs, costs in state.told],
+        "kind": KIND,
+        "format": STATE_FORMAT,
+        "identity": identity,
+        "versions": _versions(),
+        "generations": [
+            {"candidates": [x.tolist() for x in xs], "costs": list(costs)}
+            for xs, costs in state.told
+        ],
         "pending": None if state.pending is None else [x.tolist() for x in state.pending],
         "generator": state.normal.rng.bit_generator.state,
-        "wall_time_s": float(state.wall_time_s), "timings": list(state.timings),
+        "wall_time_s": float(state.wall_time_s),
+        "timings": list(state.timings),
     }
 
 
@@ -135,10 +166,10 @@ def save_state(out_dir: pathlib.Path, state: SearchState, identity: dict) -> Non
 def state_limit(problem) -> int:
     """The largest ``state.json`` this spec's search writes in ``FLOOR_GENERATIONS`` or
     ``budget.generations`` generations [bytes]."""
-    per_generation = (problem.spec.budget.population * (len(problem.space.names) + 1) * 32
-                      + GENERATION_BYTES)
-    return SLACK_BYTES + per_generation * max(problem.spec.budget.generations,
-                                              FLOOR_GENERATIONS)
+    per_generation = (
+        problem.spec.budget.population * (len(problem.space.names) + 1) * 32 + GENERATION_BYTES
+    )
+    return SLACK_BYTES + per_generation * max(problem.spec.budget.generations, FLOOR_GENERATIONS)
 
 
 def load_state(out_dir, problem) -> SearchState | None:
@@ -158,7 +189,8 @@ def load_state(out_dir, problem) -> SearchState | None:
             "and is no longer read (unpickling runs whatever code the file names, so anyone "
             "who could write this folder could run code here); delete it to search again "
             "from the start in this folder (the simulations history.csv holds are reused) or "
-            "use another --out")
+            "use another --out"
+        )
     path = out_dir / STATE
     data = _read(path, state_limit(problem))
     if data is None:
@@ -170,27 +202,32 @@ def load_state(out_dir, problem) -> SearchState | None:
 
 def _read(path: pathlib.Path, limit: int):
     """The parsed JSON of ``path`` (None if absent), read with at most ``limit`` bytes."""
-    raw = read_bounded(path, limit,
-                       lambda size: OptimizeError(_too_large(path, size, limit)))
+    raw = read_bounded(path, limit, lambda size: OptimizeError(_too_large(path, size, limit)))
     if raw is None:
         return None
     try:
         return json.loads(raw)
     except (ValueError, RecursionError) as e:
         what = type(e).__name__ if isinstance(e, RecursionError) else _plain(str(e), 120)
-        raise OptimizeError(f"{path}: not an optimisation state (not JSON: {what}); use "
-                            "another --out (or delete the folder)") from None
+        raise OptimizeError(
+            f"{path}: not an optimisation state (not JSON: {what}); use "
+            "another --out (or delete the folder)"
+        ) from None
 
 
 def _too_large(path, size: int, limit: int) -> str:
-    return (f"{path}: {size} bytes, more than the {limit} a state of this spec takes in its "
-            "generations (raise --generations to those it ran) or not a state; use another "
-            "--out")
+    return (
+        f"{path}: {size} bytes, more than the {limit} a state of this spec takes in its "
+        "generations (raise --generations to those it ran) or not a state; use another "
+        "--out"
+    )
 
 
 def _malformed(path, what: str) -> OptimizeError:
-    return OptimizeError(f"{path}: not an optimisation state this version writes ({what}); "
-                         "use another --out (or delete the folder)")
+    return OptimizeError(
+        f"{path}: not an optimisation state this version writes ({what}); "
+        "use another --out (or delete the folder)"
+    )
 
 
 def _check_identity(path, data, problem) -> None:
@@ -199,19 +236,26 @@ def _check_identity(path, data, problem) -> None:
     if data.get("kind") != KIND:
         raise _malformed(path, f"kind {short_repr(data.get('kind'))}, not {KIND!r}")
     if data.get("format") != STATE_FORMAT:
-        raise _malformed(path, f"format {short_repr(data.get('format'))}; this version "
-                               f"writes {STATE_FORMAT}")
+        raise _malformed(
+            path, f"format {short_repr(data.get('format'))}; this version writes {STATE_FORMAT}"
+        )
     theirs = data.get("identity")
     if not isinstance(theirs, dict):
         raise _malformed(path, "identity is not an object")
     mine = problem.identity()
     different = [k for k in mine if mine[k] != theirs.get(k)]
     if different:
-        what = ", ".join(f"{k} ({short_repr(theirs.get(k), 24)} there, {mine[k]} now)"
-                         if k in ("population", "seed") else k for k in different)
-        raise OptimizeError(f"--out {path.parent}: holds an optimisation of another spec or "
-                            f"options (different {what}); run with what it was started with "
-                            "(only --generations may change) or use another --out")
+        what = ", ".join(
+            f"{k} ({short_repr(theirs.get(k), 24)} there, {mine[k]} now)"
+            if k in ("population", "seed")
+            else k
+            for k in different
+        )
+        raise OptimizeError(
+            f"--out {path.parent}: holds an optimisation of another spec or "
+            f"options (different {what}); run with what it was started with "
+            "(only --generations may change) or use another --out"
+        )
 
 
 def _check_fields(path, data: dict, problem) -> None:
@@ -220,8 +264,9 @@ def _check_fields(path, data: dict, problem) -> None:
     extra = sorted(set(data) - set(KEYS))
     missing = [k for k in KEYS if k not in data]
     if extra or missing:
-        raise _malformed(path, f"unknown key {short_repr(extra[0])}" if extra
-                         else f"no {missing[0]}")
+        raise _malformed(
+            path, f"unknown key {short_repr(extra[0])}" if extra else f"no {missing[0]}"
+        )
     population, n = problem.spec.budget.population, len(problem.space.names)
     generations = data["generations"]
     if not isinstance(generations, list):
@@ -232,8 +277,11 @@ def _check_fields(path, data: dict, problem) -> None:
             raise _malformed(path, f"{where} is not {{candidates, costs}}")
         _check_candidates(path, f"{where}.candidates", told["candidates"], population, n)
         costs = told["costs"]
-        if not isinstance(costs, list) or len(costs) != population \
-                or not all(_is_number(c) for c in costs):
+        if (
+            not isinstance(costs, list)
+            or len(costs) != population
+            or not all(_is_number(c) for c in costs)
+        ):
             raise _malformed(path, f"{where}.costs is not a list of {population} numbers")
     if data["pending"] is not None:
         _check_candidates(path, "pending", data["pending"], population, n)
@@ -246,10 +294,12 @@ def _check_fields(path, data: dict, problem) -> None:
     if not isinstance(timings, list) or len(timings) > len(generations):
         raise _malformed(path, "timings is not a list of one object per told generation")
     for i, t in enumerate(timings):
-        if not isinstance(t, dict) or set(t) != set(TIMING_KEYS) or not all(
-                _of_type(t[k], kind) for k, kind in TIMING_KEYS.items()):
-            raise _malformed(path, f"timings[{i}] is not {{{', '.join(TIMING_KEYS)}}} of "
-                                   "numbers")
+        if (
+            not isinstance(t, dict)
+            or set(t) != set(TIMING_KEYS)
+            or not all(_of_type(t[k], kind) for k, kind in TIMING_KEYS.items())
+        ):
+            raise _malformed(path, f"timings[{i}] is not {{{', '.join(TIMING_KEYS)}}} of numbers")
 
 
 def _is_number(value) -> bool:
@@ -265,9 +315,16 @@ def _of_type(value, kind) -> bool:
 
 
 def _check_candidates(path, where: str, candidates, population: int, n: int) -> None:
-    ok = isinstance(candidates, list) and len(candidates) == population and all(
-        isinstance(x, list) and len(x) == n
-        and all(_is_number(v) and math.isfinite(v) for v in x) for x in candidates)
+    ok = (
+        isinstance(candidates, list)
+        and len(candidates) == population
+        and all(
+            isinstance(x, list)
+            and len(x) == n
+            and all(_is_number(v) and math.isfinite(v) for v in x)
+            for x in candidates
+        )
+    )
     if not ok:
         raise _malformed(path, f"{where} is not {population} lists of {n} finite numbers")
 
@@ -275,23 +332,30 @@ def _check_candidates(path, where: str, candidates, population: int, n: int) -> 
 def _replay(path, data: dict, problem) -> SearchState:
     """CMA-ES rebuilt from the spec and the saved asks and tells (module docstring)."""
     state = new_search(problem)
-    asks = [(g, told["candidates"], told["costs"])
-            for g, told in enumerate(data["generations"], start=1)]
+    asks = [
+        (g, told["candidates"], told["costs"])
+        for g, told in enumerate(data["generations"], start=1)
+    ]
     if data["pending"] is not None:
         asks.append((len(asks) + 1, data["pending"], None))
     for generation, candidates, costs in asks:
         state.stop()  # as the search does before each ask
         state.ask()
         if len(state.pending) != len(candidates) or any(
-                np.asarray(saved, dtype=float).tobytes() != x.tobytes()
-                for saved, x in zip(candidates, state.pending)):
-            raise OptimizeError(_no_replay(path, data, f"generation {generation}'s "
-                                                       "candidates differ from the saved ones"))
+            np.asarray(saved, dtype=float).tobytes() != x.tobytes()
+            for saved, x in zip(candidates, state.pending)
+        ):
+            raise OptimizeError(
+                _no_replay(
+                    path, data, f"generation {generation}'s candidates differ from the saved ones"
+                )
+            )
         if costs is not None:
             state.tell(costs)
     if state.normal.rng.bit_generator.state != data["generator"]:
-        raise OptimizeError(_no_replay(path, data, "the normal generator ends in another "
-                                                   "state than the saved one"))
+        raise OptimizeError(
+            _no_replay(path, data, "the normal generator ends in another state than the saved one")
+        )
     state.wall_time_s = float(data["wall_time_s"])
     state.timings = [dict(t) for t in data["timings"]]
     return state
@@ -301,8 +365,8 @@ def _plain(value, limit: int) -> str:
     """A text as it is (one line, cut to ``limit``), any other value as ``short_repr``."""
     if not isinstance(value, str):
         return short_repr(value, limit)
-    text = " ".join(value[:4 * limit].split())
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    text = " ".join(value[: 4 * limit].split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _no_replay(path, data: dict, what: str) -> str:
@@ -310,5 +374,7 @@ def _no_replay(path, data: dict, what: str) -> str:
     here = _versions()
     made = ", ".join(f"{k} {_plain(theirs.get(k), 24)}" for k in here)
     now = ", ".join(f"{k} {v}" for k, v in here.items())
-    return (f"{path}: does not replay: {what} (written with {made}; this is {now}); continue "
-            "it where it was made or use another --out")
+    return (
+        f"{path}: does not replay: {what} (written with {made}; this is {now}); continue "
+        "it where it was made or use another --out"
+    )

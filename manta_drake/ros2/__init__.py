@@ -39,5 +39,7 @@ def require(module: str) -> None:
 
     if importlib.util.find_spec(module) is None:
         option, package = OPTIONAL[module]
-        raise MissingExtraError(f"{option} needs the {package} package, not installed here: "
-                                "pip install 'manta_drake[ros2]'")
+        raise MissingExtraError(
+            f"{option} needs the {package} package, not installed here: "
+            "pip install 'manta_drake[ros2]'"
+        )

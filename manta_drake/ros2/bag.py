@@ -78,8 +78,14 @@ def camera_intrinsics(camera) -> tuple:
     from manta_drake.model.camera import camera_info
 
     info = camera_info(camera.width, camera.height, camera.fov_y_deg)
-    return (info.width(), info.height(), info.focal_x(), info.focal_y(), info.center_x(),
-            info.center_y())
+    return (
+        info.width(),
+        info.height(),
+        info.focal_x(),
+        info.focal_y(),
+        info.center_x(),
+        info.center_y(),
+    )
 
 
 def bag_constants(scenario, topic_map: TopicMap, fin_links=True) -> Constants:
@@ -96,14 +102,19 @@ def bag_constants(scenario, topic_map: TopicMap, fin_links=True) -> Constants:
 
         links = FinLinks(scenario.robot_params(), topic_map.frames.base)
     return Constants(
-        joint_names=JOINT_NAMES, world=topic_map.frames.world, base=topic_map.frames.base,
-        camera=topic_map.frames.camera, camera_intrinsics=camera_intrinsics(scenario.camera),
-        imu_covariances=tuple(np.diag(variances[k:k + 3]).ravel() for k in (0, 3, 6)),
+        joint_names=JOINT_NAMES,
+        world=topic_map.frames.world,
+        base=topic_map.frames.base,
+        camera=topic_map.frames.camera,
+        camera_intrinsics=camera_intrinsics(scenario.camera),
+        imu_covariances=tuple(np.diag(variances[k : k + 3]).ravel() for k in (0, 3, 6)),
         density=hydro.water_density.value if hydro else 1000.0,
         gravity=hydro.gravity.value if hydro else 9.81,
         depth_std=scenario.pressure_sensor.noise_std,
-        capacity_ah=pack.capacity_ah, cells=pack.cells_in_series,
-        fin_links=links)
+        capacity_ah=pack.capacity_ah,
+        cells=pack.cells_in_series,
+        fin_links=links,
+    )
 
 
 def bag_messages(log: dict, topic_map: TopicMap, constants: Constants) -> dict:
@@ -115,9 +126,13 @@ def bag_messages(log: dict, topic_map: TopicMap, constants: Constants) -> dict:
         if not signal.present(log):
             continue
         convert, times = signal.types[entry.type], log[signal.times]
-        out[name] = [(m.to_nanoseconds(times[i]),
-                      m.serialize(convert(log, i, m.to_nanoseconds(times[i]), constants)))
-                     for i in decimate(times, entry.rate_hz)]
+        out[name] = [
+            (
+                m.to_nanoseconds(times[i]),
+                m.serialize(convert(log, i, m.to_nanoseconds(times[i]), constants)),
+            )
+            for i in decimate(times, entry.rate_hz)
+        ]
     return out
 
 
@@ -133,15 +148,22 @@ def write_mcap(path: pathlib.Path, topic_map: TopicMap, streams: dict) -> None:
     entries = {name: topic_map.topics[name] for name in streams}
     with open(path, "wb") as f:
         writer = Writer(f, compression=CompressionType.ZSTD)
-        writer.start(profile="ros2", library=f"manta_drake {__version__}; mcap "
-                     f"{mcap.__version__}")
-        schemas = {e.type: writer.register_schema(e.type, "ros2msg", m.msgdef(e.type).encode())
-                   for e in entries.values()}
-        channels = {name: writer.register_channel(
-            e.topic, "cdr", schemas[e.type], {"offered_qos_profiles": qos_text(e.qos)})
-            for name, e in entries.items()}
-        order = sorted((t_ns, k, name, seq) for k, (name, stream) in enumerate(streams.items())
-                       for seq, (t_ns, _) in enumerate(stream))
+        writer.start(profile="ros2", library=f"manta_drake {__version__}; mcap {mcap.__version__}")
+        schemas = {
+            e.type: writer.register_schema(e.type, "ros2msg", m.msgdef(e.type).encode())
+            for e in entries.values()
+        }
+        channels = {
+            name: writer.register_channel(
+                e.topic, "cdr", schemas[e.type], {"offered_qos_profiles": qos_text(e.qos)}
+            )
+            for name, e in entries.items()
+        }
+        order = sorted(
+            (t_ns, k, name, seq)
+            for k, (name, stream) in enumerate(streams.items())
+            for seq, (t_ns, _) in enumerate(stream)
+        )
         for t_ns, _, name, seq in order:
             writer.add_message(channels[name], t_ns, streams[name][seq][1], t_ns, seq)
         writer.finish()
@@ -152,19 +174,36 @@ def rosbag2_metadata(file_name: str, topics: list[dict], start_ns: int, end_ns: 
     (each ``{name, type, qos, count}``, ``qos`` the offered profiles' text) from
     ``start_ns`` to ``end_ns``."""
     count = sum(t["count"] for t in topics)
-    span = {"starting_time": {"nanoseconds_since_epoch": start_ns},
-            "duration": {"nanoseconds": end_ns - start_ns}}
-    listed = [{"topic_metadata": {"name": t["name"], "type": t["type"],
-                                  "serialization_format": "cdr",
-                                  "offered_qos_profiles": t["qos"]},
-               "message_count": t["count"]} for t in topics]
-    return {"rosbag2_bagfile_information": {
-        "version": METADATA_VERSION, "storage_identifier": "mcap",
-        "duration": span["duration"], "starting_time": span["starting_time"],
-        "message_count": count, "topics_with_message_count": listed,
-        "compression_format": "", "compression_mode": "",
-        "relative_file_paths": [file_name],
-        "files": [{"path": file_name, **span, "message_count": count}]}}
+    span = {
+        "starting_time": {"nanoseconds_since_epoch": start_ns},
+        "duration": {"nanoseconds": end_ns - start_ns},
+    }
+    listed = [
+        {
+            "topic_metadata": {
+                "name": t["name"],
+                "type": t["type"],
+                "serialization_format": "cdr",
+                "offered_qos_profiles": t["qos"],
+            },
+            "message_count": t["count"],
+        }
+        for t in topics
+    ]
+    return {
+        "rosbag2_bagfile_information": {
+            "version": METADATA_VERSION,
+            "storage_identifier": "mcap",
+            "duration": span["duration"],
+            "starting_time": span["starting_time"],
+            "message_count": count,
+            "topics_with_message_count": listed,
+            "compression_format": "",
+            "compression_mode": "",
+            "relative_file_paths": [file_name],
+            "files": [{"path": file_name, **span, "message_count": count}],
+        }
+    }
 
 
 def metadata(topic_map: TopicMap, streams: dict) -> dict:
@@ -172,9 +211,14 @@ def metadata(topic_map: TopicMap, streams: dict) -> dict:
     stamps = [t for stream in streams.values() for t, _ in stream]
     entries = {name: topic_map.topics[name] for name in streams}
     return rosbag2_metadata(
-        BAG_FILE, [{"name": e.topic, "type": e.type, "qos": qos_text(e.qos),
-                    "count": len(streams[name])} for name, e in entries.items()],
-        min(stamps, default=0), max(stamps, default=0))
+        BAG_FILE,
+        [
+            {"name": e.topic, "type": e.type, "qos": qos_text(e.qos), "count": len(streams[name])}
+            for name, e in entries.items()
+        ],
+        min(stamps, default=0),
+        max(stamps, default=0),
+    )
 
 
 def write_metadata(path: pathlib.Path, info: dict) -> None:
@@ -197,10 +241,13 @@ def write_bag(folder, log: dict, topic_map: TopicMap, constants: Constants) -> B
     write_metadata(folder / METADATA_FILE, info)
     top = info["rosbag2_bagfile_information"]
     start = top["starting_time"]["nanoseconds_since_epoch"]
-    return BagSummary(folder, {topic_map.topics[n].topic: (topic_map.topics[n].type, len(s))
-                               for n, s in streams.items()},
-                      start, start + top["duration"]["nanoseconds"],
-                      (folder / BAG_FILE).stat().st_size)
+    return BagSummary(
+        folder,
+        {topic_map.topics[n].topic: (topic_map.topics[n].type, len(s)) for n, s in streams.items()},
+        start,
+        start + top["duration"]["nanoseconds"],
+        (folder / BAG_FILE).stat().st_size,
+    )
 
 
 def write_run_bag(folder, log: dict, scenario, topic_map: TopicMap) -> BagSummary:
@@ -222,8 +269,10 @@ def bag_run_folder(run_dir, topic_map: TopicMap) -> BagSummary:
         raise BagError(f"{run_dir}: not a folder (give a run's output folder)")
     for name in ("log.npz", "scenario.yaml"):
         if not (run_dir / name).is_file():
-            raise BagError(f"{run_dir}: has no {name}; a bag is made from a run folder's "
-                           "log.npz and scenario.yaml")
+            raise BagError(
+                f"{run_dir}: has no {name}; a bag is made from a run folder's "
+                "log.npz and scenario.yaml"
+            )
     scenario = load_scenario(run_dir / "scenario.yaml")
     with np.load(run_dir / "log.npz") as npz:
         log = {key: npz[key] for key in npz.files}

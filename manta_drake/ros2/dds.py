@@ -77,10 +77,10 @@ def user_data(typename: str) -> bytes:
 
 def check_domain(domain) -> int:
     """The domain id, or DdsError naming ``--domain`` and its range."""
-    if isinstance(domain, bool) or not isinstance(domain, int) \
-            or not 0 <= domain <= MAX_DOMAIN_ID:
-        raise DdsError(f"--domain {domain!r}: a ROS 2 (DDS) domain id is an integer in "
-                       f"0-{MAX_DOMAIN_ID}")
+    if isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= MAX_DOMAIN_ID:
+        raise DdsError(
+            f"--domain {domain!r}: a ROS 2 (DDS) domain id is an integer in 0-{MAX_DOMAIN_ID}"
+        )
     return domain
 
 
@@ -98,13 +98,25 @@ def read_config(path) -> str:
     except Exception as e:  # noqa: BLE001 (expat's errors: one line, whatever their class)
         raise DdsError(f"--dds-config {path}: not XML ({e})") from None
     if root.tagName != "CycloneDDS":
-        raise DdsError(f"--dds-config {path}: the root element is <{root.tagName}>; a Cyclone "
-                       "DDS configuration's is <CycloneDDS>")
+        raise DdsError(
+            f"--dds-config {path}: the root element is <{root.tagName}>; a Cyclone "
+            "DDS configuration's is <CycloneDDS>"
+        )
     return text
 
 
-_BASE_TYPES = ("float64", "float32", "int8", "uint8", "int16", "uint16", "int32", "uint32",
-               "int64", "uint64")
+_BASE_TYPES = (
+    "float64",
+    "float32",
+    "int8",
+    "uint8",
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+)
 
 
 @functools.cache
@@ -114,8 +126,11 @@ def idl_type(typename: str):
     from cyclonedds.idl import make_idl_struct
 
     _, fields = m.TYPESTORE.fielddefs[typename]
-    return make_idl_struct(typename.split("/")[-1] + "_", dds_type_name(typename),
-                           {name: _idl_field(node) for name, node in fields})
+    return make_idl_struct(
+        typename.split("/")[-1] + "_",
+        dds_type_name(typename),
+        {name: _idl_field(node) for name, node in fields},
+    )
 
 
 def _idl_field(node):
@@ -150,11 +165,18 @@ def qos(profile: str, typename: str):
     from cyclonedds.util import duration
 
     p = QOS_PROFILES[profile]
-    reliability = (Policy.Reliability.Reliable(duration(milliseconds=100))
-                   if p["reliability"] == RELIABLE else Policy.Reliability.BestEffort)
-    return Qos(reliability, Policy.Durability.Volatile, Policy.History.KeepLast(p["depth"]),
-               Policy.DataRepresentation(use_cdrv0_representation=True),
-               Policy.Userdata(user_data(typename)))
+    reliability = (
+        Policy.Reliability.Reliable(duration(milliseconds=100))
+        if p["reliability"] == RELIABLE
+        else Policy.Reliability.BestEffort
+    )
+    return Qos(
+        reliability,
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(p["depth"]),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+        Policy.Userdata(user_data(typename)),
+    )
 
 
 _DOMAINS: dict[int, tuple[str, object]] = {}
@@ -168,8 +190,9 @@ def _domain(domain: int, config: str):
     if domain not in _DOMAINS:
         _DOMAINS[domain] = (config, Domain(domain, config))
     elif _DOMAINS[domain][0] != config:
-        raise DdsError(f"domain {domain} already runs in this process with another "
-                       "Cyclone configuration")
+        raise DdsError(
+            f"domain {domain} already runs in this process with another Cyclone configuration"
+        )
     return _DOMAINS[domain][1]
 
 
@@ -186,8 +209,10 @@ class Participant:
             from cyclonedds.core import WaitSet
             from cyclonedds.domain import DomainParticipant
         except ImportError as e:
-            raise DdsError(f"the seam over ROS 2 needs the cyclonedds package ({e}); PyPI has "
-                           "wheels for x86_64 only") from None
+            raise DdsError(
+                f"the seam over ROS 2 needs the cyclonedds package ({e}); PyPI has "
+                "wheels for x86_64 only"
+            ) from None
 
         self.domain = check_domain(domain)
         self.config = pathlib.Path(config or LOOPBACK_CONFIG)
@@ -202,8 +227,7 @@ class Participant:
         from cyclonedds.topic import Topic
 
         if topic not in self._topics:
-            self._topics[topic] = Topic(self.participant, dds_topic_name(topic),
-                                        idl_type(typename))
+            self._topics[topic] = Topic(self.participant, dds_topic_name(topic), idl_type(typename))
         return self._topics[topic]
 
     def writer(self, topic: str, typename: str, profile: str):
@@ -211,8 +235,9 @@ class Participant:
         from cyclonedds.pub import DataWriter
 
         if topic not in self._writers:
-            self._writers[topic] = DataWriter(self.participant, self._topic(topic, typename),
-                                              qos(profile, typename))
+            self._writers[topic] = DataWriter(
+                self.participant, self._topic(topic, typename), qos(profile, typename)
+            )
         return self._writers[topic]
 
     def reader(self, topic: str, typename: str, profile: str, deliver):
@@ -221,10 +246,10 @@ class Participant:
         from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
         from cyclonedds.sub import DataReader
 
-        reader = DataReader(self.participant, self._topic(topic, typename),
-                            qos(profile, typename))
-        self._waitset.attach(ReadCondition(reader, SampleState.Any | ViewState.Any
-                                           | InstanceState.Any))
+        reader = DataReader(self.participant, self._topic(topic, typename), qos(profile, typename))
+        self._waitset.attach(
+            ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
+        )
         self._readers.append((reader, deliver))
         return reader
 

@@ -38,8 +38,10 @@ def parse_address(text: str) -> tuple[str, int]:
         host, port = text, str(DEFAULT_PORT)
     host = host.strip("[]") or DEFAULT_HOST
     if not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise LiveViewError(f"--foxglove {text!r}: expected HOST:PORT with a port in 0-65535 "
-                            f"(0: any free port), e.g. {DEFAULT_HOST}:{DEFAULT_PORT}")
+        raise LiveViewError(
+            f"--foxglove {text!r}: expected HOST:PORT with a port in 0-65535 "
+            f"(0: any free port), e.g. {DEFAULT_HOST}:{DEFAULT_PORT}"
+        )
     return host, int(port)
 
 
@@ -60,16 +62,18 @@ class LiveView:
         host, port: where to listen (port 0: any free one).
     """
 
-    def __init__(self, scenario, topic_map: TopicMap, host: str = DEFAULT_HOST,
-                 port: int = DEFAULT_PORT):
+    def __init__(
+        self, scenario, topic_map: TopicMap, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT
+    ):
         import foxglove
 
         self.topic_map = topic_map
         self.constants = bag_constants(scenario, topic_map)
         self._context = foxglove.Context()
         try:
-            self.server = foxglove.start_server(name="manta_drake", host=host, port=port,
-                                                context=self._context)
+            self.server = foxglove.start_server(
+                name="manta_drake", host=host, port=port, context=self._context
+            )
         except Exception as e:  # noqa: BLE001 (the SDK's own error class: one line)
             raise LiveViewError(f"--foxglove {host}:{port}: cannot listen ({e})") from None
         self.host, self.port = host, self.server.port
@@ -84,10 +88,12 @@ class LiveView:
 
         if name not in self._streams:
             entry = self.topic_map.topics[name]
-            schema = foxglove.Schema(name=entry.type, encoding="ros2msg",
-                                     data=m.msgdef(entry.type).encode())
-            channel = foxglove.Channel(entry.topic, schema=schema, message_encoding="cdr",
-                                       context=self._context)
+            schema = foxglove.Schema(
+                name=entry.type, encoding="ros2msg", data=m.msgdef(entry.type).encode()
+            )
+            channel = foxglove.Channel(
+                entry.topic, schema=schema, message_encoding="cdr", context=self._context
+            )
             self._streams[name] = _Stream(name, channel, entry.rate_hz)
         return self._streams[name]
 
@@ -105,8 +111,9 @@ class LiveView:
                 if i <= stream.sent:
                     continue
                 t_ns = m.to_nanoseconds(times[i])
-                stream.channel.log(m.serialize(convert(log, i, t_ns, self.constants)),
-                                   log_time=t_ns)
+                stream.channel.log(
+                    m.serialize(convert(log, i, t_ns, self.constants)), log_time=t_ns
+                )
                 stream.sent = i
                 n += 1
         return n

@@ -30,10 +30,17 @@ from manta_drake.ros2.signals import Constants
 # The topic-map signal of each port that crosses the seam (sensor ports from the station,
 # command ports from the controller).
 PORT_SIGNALS = {
-    "measured_joint_state": "joint_states", "depth": "pressure", "depth_image": "depth_image",
-    "camera_pose": "camera_pose", "imu": "imu", "flow_velocity": "flow_velocity",
-    "altitude": "altitude", "balloon_volume": "balloon_volume", "battery": "battery",
-    "electrical_power": "electrical_power", "desired_state": "joint_commands",
+    "measured_joint_state": "joint_states",
+    "depth": "pressure",
+    "depth_image": "depth_image",
+    "camera_pose": "camera_pose",
+    "imu": "imu",
+    "flow_velocity": "flow_velocity",
+    "altitude": "altitude",
+    "balloon_volume": "balloon_volume",
+    "battery": "battery",
+    "electrical_power": "electrical_power",
+    "desired_state": "joint_commands",
     "balloon_command": "balloon_command",
 }
 
@@ -70,8 +77,9 @@ def imu_reading(msg) -> np.ndarray:
     """The station's ``imu`` reading [roll, pitch, yaw, wx, wy, wz, fx, fy, fz] of a
     ``sensor_msgs/Imu`` (the inverse of ``messages.imu_msg``)."""
     q, w, a = msg.orientation, msg.angular_velocity, msg.linear_acceleration
-    return np.concatenate([m.rpy_of_quaternion(q.w, q.x, q.y, q.z), [w.x, w.y, w.z],
-                           [a.x, a.y, a.z]])
+    return np.concatenate(
+        [m.rpy_of_quaternion(q.w, q.x, q.y, q.z), [w.x, w.y, w.z], [a.x, a.y, a.z]]
+    )
 
 
 def battery_reading(msg) -> np.ndarray:
@@ -98,8 +106,7 @@ def depth_image_from(msg, c: Constants):
 
 def camera_pose_to(t_ns, X, c: Constants):
     """A RigidTransform X_WC as ``geometry_msgs/PoseStamped`` in the world frame."""
-    return m.pose_stamped_msg(t_ns, c.world, X.translation(),
-                              X.rotation().ToQuaternion().wxyz())
+    return m.pose_stamped_msg(t_ns, c.world, X.translation(), X.rotation().ToQuaternion().wxyz())
 
 
 def camera_pose_from(msg, c: Constants):
@@ -108,8 +115,9 @@ def camera_pose_from(msg, c: Constants):
     from pydrake.math import RigidTransform, RotationMatrix
 
     q, p = msg.pose.orientation, msg.pose.position
-    return RigidTransform(RotationMatrix(m.rotation_of_quaternion(q.w, q.x, q.y, q.z)),
-                          np.array([p.x, p.y, p.z]))
+    return RigidTransform(
+        RotationMatrix(m.rotation_of_quaternion(q.w, q.x, q.y, q.z)), np.array([p.x, p.y, p.z])
+    )
 
 
 def camera_info_to(t_ns, _image, c: Constants):
@@ -118,44 +126,57 @@ def camera_info_to(t_ns, _image, c: Constants):
 
 
 def _float64() -> dict:
-    return {"std_msgs/msg/Float64": PortCodec(lambda t_ns, v, c: m.float64_msg(v[0]),
-                                              lambda msg, c: np.array([msg.data]))}
+    return {
+        "std_msgs/msg/Float64": PortCodec(
+            lambda t_ns, v, c: m.float64_msg(v[0]), lambda msg, c: np.array([msg.data])
+        )
+    }
 
 
 PORT_CODECS = {
     "clock": {"rosgraph_msgs/msg/Clock": PortCodec(lambda t_ns, v, c: m.clock_msg(t_ns), None)},
-    "joint_states": {"sensor_msgs/msg/JointState": PortCodec(_joint_state_to,
-                                                             _joint_state_from)},
-    "joint_commands": {"sensor_msgs/msg/JointState": PortCodec(_joint_state_to,
-                                                               _joint_state_from)},
+    "joint_states": {"sensor_msgs/msg/JointState": PortCodec(_joint_state_to, _joint_state_from)},
+    "joint_commands": {"sensor_msgs/msg/JointState": PortCodec(_joint_state_to, _joint_state_from)},
     "pressure": {
         "sensor_msgs/msg/FluidPressure": PortCodec(
-            lambda t_ns, v, c: m.fluid_pressure_msg(t_ns, c.base, v[0], c.density, c.gravity,
-                                                    c.depth_std),
-            lambda msg, c: np.array([m.depth_of_pressure(msg.fluid_pressure, c.density,
-                                                         c.gravity)])),
-        **_float64()},
-    "imu": {"sensor_msgs/msg/Imu": PortCodec(
-        lambda t_ns, v, c: m.imu_msg(t_ns, c.base, v, c.imu_covariances),
-        lambda msg, c: imu_reading(msg))},
+            lambda t_ns, v, c: m.fluid_pressure_msg(
+                t_ns, c.base, v[0], c.density, c.gravity, c.depth_std
+            ),
+            lambda msg, c: np.array(
+                [m.depth_of_pressure(msg.fluid_pressure, c.density, c.gravity)]
+            ),
+        ),
+        **_float64(),
+    },
+    "imu": {
+        "sensor_msgs/msg/Imu": PortCodec(
+            lambda t_ns, v, c: m.imu_msg(t_ns, c.base, v, c.imu_covariances),
+            lambda msg, c: imu_reading(msg),
+        )
+    },
     "flow_velocity": {
         "geometry_msgs/msg/Vector3Stamped": PortCodec(
             lambda t_ns, v, c: m.vector3_stamped_msg(t_ns, c.base, v),
-            lambda msg, c: np.array([msg.vector.x, msg.vector.y, msg.vector.z])),
+            lambda msg, c: np.array([msg.vector.x, msg.vector.y, msg.vector.z]),
+        ),
         "geometry_msgs/msg/TwistStamped": PortCodec(
             lambda t_ns, v, c: m.twist_stamped_msg(t_ns, c.base, v),
-            lambda msg, c: np.array([msg.twist.linear.x, msg.twist.linear.y,
-                                     msg.twist.linear.z]))},
-    "battery": {"sensor_msgs/msg/BatteryState": PortCodec(
-        lambda t_ns, v, c: m.battery_state_msg(t_ns, "", v[0], v[1], v[2], c.capacity_ah,
-                                               c.cells),
-        lambda msg, c: battery_reading(msg))},
+            lambda msg, c: np.array([msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z]),
+        ),
+    },
+    "battery": {
+        "sensor_msgs/msg/BatteryState": PortCodec(
+            lambda t_ns, v, c: m.battery_state_msg(
+                t_ns, "", v[0], v[1], v[2], c.capacity_ah, c.cells
+            ),
+            lambda msg, c: battery_reading(msg),
+        )
+    },
     "balloon_command": _float64(),
     "balloon_volume": _float64(),
     "electrical_power": _float64(),
     "altitude": _float64(),
     "depth_image": {"sensor_msgs/msg/Image": PortCodec(depth_image_to, depth_image_from)},
     "camera_info": {"sensor_msgs/msg/CameraInfo": PortCodec(camera_info_to, None)},
-    "camera_pose": {"geometry_msgs/msg/PoseStamped": PortCodec(camera_pose_to,
-                                                               camera_pose_from)},
+    "camera_pose": {"geometry_msgs/msg/PoseStamped": PortCodec(camera_pose_to, camera_pose_from)},
 }

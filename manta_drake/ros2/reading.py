@@ -70,8 +70,9 @@ def read_topics(path, topics: dict[str, tuple]) -> dict[str, Topic]:
                 out[conn.topic].t.append((stamp - reader.start_time) / 1e9)
                 out[conn.topic].messages.append(msg)
     except (AnyReaderError, ReaderError, OSError) as e:
-        raise BagReadError(f"{path}: cannot be read as a ROS 2 bag: "
-                           f"{' '.join(str(e).split())}") from None
+        raise BagReadError(
+            f"{path}: cannot be read as a ROS 2 bag: {' '.join(str(e).split())}"
+        ) from None
     for topic, read in out.items():
         if not read.messages:
             raise BagReadError(f"{path}: topic {topic} holds no messages")
@@ -81,11 +82,13 @@ def read_topics(path, topics: dict[str, tuple]) -> dict[str, Topic]:
 
 def _check_topic(path, topic: str, types: tuple, found: dict) -> None:
     if topic not in found:
-        raise BagReadError(f"{path}: has no topic {topic} (its topics: "
-                           f"{', '.join(sorted(found)) or 'none'})")
+        raise BagReadError(
+            f"{path}: has no topic {topic} (its topics: {', '.join(sorted(found)) or 'none'})"
+        )
     if found[topic].msgtype not in types:
-        raise BagReadError(f"{path}: topic {topic} is {found[topic].msgtype}; allowed: "
-                           f"{', '.join(types)}")
+        raise BagReadError(
+            f"{path}: topic {topic} is {found[topic].msgtype}; allowed: {', '.join(types)}"
+        )
 
 
 def _stamp_ns(msg, log_ns: int) -> int:
@@ -102,8 +105,10 @@ def _as_folder(path: pathlib.Path):
     one holding a link to it and a ``metadata.yaml`` made from its summary."""
     if path.is_dir():
         if not (path / METADATA_FILE).is_file():
-            raise BagReadError(f"{path}: a folder without {METADATA_FILE} is no rosbag2 bag "
-                               "(name its .mcap file instead)")
+            raise BagReadError(
+                f"{path}: a folder without {METADATA_FILE} is no rosbag2 bag "
+                "(name its .mcap file instead)"
+            )
         yield path
         return
     if not path.is_file():
@@ -128,18 +133,26 @@ def _mcap_metadata(path: pathlib.Path) -> dict:
         with open(path, "rb") as f:
             summary = make_reader(f).get_summary()
     except (McapError, ValueError, EOFError) as e:
-        raise BagReadError(f"{path}: not a readable MCAP file: {' '.join(str(e).split())}") \
-            from None
+        raise BagReadError(
+            f"{path}: not a readable MCAP file: {' '.join(str(e).split())}"
+        ) from None
     if summary is None or summary.statistics is None:
-        raise BagReadError(f"{path}: the MCAP file has no summary (a recording cut short?); "
-                           "recover it with `mcap recover` or `ros2 bag reindex`")
+        raise BagReadError(
+            f"{path}: the MCAP file has no summary (a recording cut short?); "
+            "recover it with `mcap recover` or `ros2 bag reindex`"
+        )
     stats = summary.statistics
-    topics = [{"name": c.topic, "type": summary.schemas[c.schema_id].name,
-               "qos": c.metadata.get("offered_qos_profiles", ""),
-               "count": stats.channel_message_counts.get(i, 0)}
-              for i, c in summary.channels.items() if c.message_encoding == "cdr"]
-    return rosbag2_metadata(path.name, topics, stats.message_start_time,
-                            stats.message_end_time)
+    topics = [
+        {
+            "name": c.topic,
+            "type": summary.schemas[c.schema_id].name,
+            "qos": c.metadata.get("offered_qos_profiles", ""),
+            "count": stats.channel_message_counts.get(i, 0),
+        }
+        for i, c in summary.channels.items()
+        if c.message_encoding == "cdr"
+    ]
+    return rosbag2_metadata(path.name, topics, stats.message_start_time, stats.message_end_time)
 
 
 def pose_track(topic: Topic) -> dict:
@@ -148,8 +161,12 @@ def pose_track(topic: Topic) -> dict:
     out = {"t": topic.t}
     for axis in ("x", "y", "z"):
         out[axis] = np.array([getattr(p.position, axis) for p in poses], dtype=float)
-    out["yaw"] = np.array([yaw_of_quaternion(p.orientation.w, p.orientation.x,
-                                             p.orientation.y, p.orientation.z) for p in poses])
+    out["yaw"] = np.array(
+        [
+            yaw_of_quaternion(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
+            for p in poses
+        ]
+    )
     return out
 
 
@@ -159,8 +176,7 @@ def depth_track(topic: Topic, density: float, gravity: float) -> dict:
     if topic.type == "std_msgs/msg/Float64":
         depth = np.array([msg.data for msg in topic.messages], dtype=float)
     else:
-        depth = depth_of_pressure([msg.fluid_pressure for msg in topic.messages], density,
-                                  gravity)
+        depth = depth_of_pressure([msg.fluid_pressure for msg in topic.messages], density, gravity)
     return {"t": topic.t, "depth": depth}
 
 
@@ -176,8 +192,10 @@ def joint_track(topic: Topic, names) -> dict:
         index = {name: i for i, name in enumerate(msg.name)}
         if sorted(index) != sorted(names) or len(msg.position) != len(msg.name):
             missing = sorted(set(names) - set(index))
-            raise BagReadError(f"joint states: a message's joints differ from the robot's "
-                               f"(missing {missing[:4]}, {len(msg.position)} positions for "
-                               f"{len(msg.name)} names)")
+            raise BagReadError(
+                f"joint states: a message's joints differ from the robot's "
+                f"(missing {missing[:4]}, {len(msg.position)} positions for "
+                f"{len(msg.name)} names)"
+            )
         rows.append([msg.position[index[name]] for name in names])
     return {"t": topic.t, "position": np.array(rows, dtype=float)}

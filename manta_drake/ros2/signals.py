@@ -98,8 +98,13 @@ def _effort(log, t):
 
 
 def _joint_states(log, i, t_ns, c):
-    return m.joint_state_msg(t_ns, c.joint_names, log["joint_angles"][i],
-                             log["joint_velocities"][i], _effort(log, log["t"][i]))
+    return m.joint_state_msg(
+        t_ns,
+        c.joint_names,
+        log["joint_angles"][i],
+        log["joint_velocities"][i],
+        _effort(log, log["t"][i]),
+    )
 
 
 def _joint_commands(log, i, t_ns, c):
@@ -111,11 +116,15 @@ def _pose(log, i, t_ns, c):
 
 
 def _tf(log, i, t_ns, c):
-    hull = m.transform_stamped(t_ns, c.world, c.base, log["body_xyz"][i],
-                               log["body_quat_wxyz"][i])
+    hull = m.transform_stamped(t_ns, c.world, c.base, log["body_xyz"][i], log["body_quat_wxyz"][i])
     links = c.fin_links(log["joint_angles"][i]) if c.fin_links is not None else []
-    return m.tf_msg([hull] + [m.transform_stamped(t_ns, parent, child, xyz, quat)
-                              for parent, child, xyz, quat in links])
+    return m.tf_msg(
+        [hull]
+        + [
+            m.transform_stamped(t_ns, parent, child, xyz, quat)
+            for parent, child, xyz, quat in links
+        ]
+    )
 
 
 def _imu(log, i, t_ns, c):
@@ -123,8 +132,7 @@ def _imu(log, i, t_ns, c):
 
 
 def _pressure(log, i, t_ns, c):
-    return m.fluid_pressure_msg(t_ns, c.base, log["depth"][i][0], c.density, c.gravity,
-                                c.depth_std)
+    return m.fluid_pressure_msg(t_ns, c.base, log["depth"][i][0], c.density, c.gravity, c.depth_std)
 
 
 def _battery(log, i, t_ns, c):
@@ -132,54 +140,139 @@ def _battery(log, i, t_ns, c):
     return m.battery_state_msg(t_ns, "", soc, volts, amps, c.capacity_ah, c.cells)
 
 
-SIGNALS = {s.name: s for s in (
-    Signal("clock", "t", (), {"rosgraph_msgs/msg/Clock": lambda log, i, t_ns, c:
-                              m.clock_msg(t_ns)},
-           "the simulated time (for nodes with `use_sim_time`)"),
-    Signal("joint_states", "t", ("joint_angles", "joint_velocities"),
-           {"sensor_msgs/msg/JointState": _joint_states},
-           "the 16 servos' measured angles [rad], rates [rad/s] and torques [N m] (the last "
-           "`joint_torque` at or before each sample)"),
-    Signal("joint_commands", "t_command", ("commanded_joint_angles",),
-           {"sensor_msgs/msg/JointState": _joint_commands},
-           "the controller's desired angles [rad] (log.npz keeps no desired rates)"),
-    Signal("pose", "t", ("body_xyz", "body_quat_wxyz"),
-           {"geometry_msgs/msg/PoseStamped": _pose},
-           "the hull's pose in the world (ground truth)"),
-    Signal("tf", "t", ("body_xyz", "body_quat_wxyz", "joint_angles"),
-           {"tf2_msgs/msg/TFMessage": _tf},
-           "world -> hull, and each joint's parent link -> child link"),
-    Signal("imu", "t_imu", ("imu",), {"sensor_msgs/msg/Imu": _imu},
-           "the AHRS's attitude, body rates and specific force, hull axes"),
-    Signal("pressure", "t_depth", ("depth",), {
-        "sensor_msgs/msg/FluidPressure": _pressure,
-        "std_msgs/msg/Float64": lambda log, i, t_ns, c: m.float64_msg(log["depth"][i][0])},
-           "the pressure sensor: absolute pressure [Pa] (Float64: its depth [m])"),
-    Signal("flow_velocity", "t_flow_velocity", ("flow_velocity",), {
-        "geometry_msgs/msg/Vector3Stamped": lambda log, i, t_ns, c: m.vector3_stamped_msg(
-            t_ns, c.base, log["flow_velocity"][i]),
-        "geometry_msgs/msg/TwistStamped": lambda log, i, t_ns, c: m.twist_stamped_msg(
-            t_ns, c.base, log["flow_velocity"][i])},
-           "the water's velocity past the head probe, hull axes [m/s]"),
-    Signal("battery", "t_battery", ("battery",), {"sensor_msgs/msg/BatteryState": _battery},
-           "the pack's charge, terminal voltage and current"),
-    Signal("balloon_command", "t_balloon_command", ("balloon_command",),
-           {"std_msgs/msg/Float64": lambda log, i, t_ns, c:
-            m.float64_msg(log["balloon_command"][i][0])},
-           "the commanded balloon fill, 0 (empty) to 1 (full)"),
-    # The seam over ROS 2 only: no log arrays, no conversion from a log.
-    Signal("depth_image", "", (), {"sensor_msgs/msg/Image": None},
-           "the head camera's noisy depth image [m], `32FC1`"),
-    Signal("camera_info", "", (), {"sensor_msgs/msg/CameraInfo": None},
-           "the depth camera's intrinsics, with every image"),
-    Signal("camera_pose", "", (), {"geometry_msgs/msg/PoseStamped": None},
-           "the camera's pose X_WC (on the robot: IMU attitude + pressure depth)"),
-    Signal("altitude", "", (), {"std_msgs/msg/Float64": None},
-           "the echo sounder's range to the floor [m] (NaN without an echo)"),
-    Signal("balloon_volume", "", (), {"std_msgs/msg/Float64": None},
-           "the balloon's volume [m^3]"),
-    Signal("electrical_power", "", (), {"std_msgs/msg/Float64": None},
-           "what the servos and the computers draw [W]"),
-    Signal("seam_handshake", "", (), {"diagnostic_msgs/msg/DiagnosticStatus": None},
-           "the seam's handshake: who runs, how, and its end"),
-)}
+SIGNALS = {
+    s.name: s
+    for s in (
+        Signal(
+            "clock",
+            "t",
+            (),
+            {"rosgraph_msgs/msg/Clock": lambda log, i, t_ns, c: m.clock_msg(t_ns)},
+            "the simulated time (for nodes with `use_sim_time`)",
+        ),
+        Signal(
+            "joint_states",
+            "t",
+            ("joint_angles", "joint_velocities"),
+            {"sensor_msgs/msg/JointState": _joint_states},
+            "the 16 servos' measured angles [rad], rates [rad/s] and torques [N m] (the last "
+            "`joint_torque` at or before each sample)",
+        ),
+        Signal(
+            "joint_commands",
+            "t_command",
+            ("commanded_joint_angles",),
+            {"sensor_msgs/msg/JointState": _joint_commands},
+            "the controller's desired angles [rad] (log.npz keeps no desired rates)",
+        ),
+        Signal(
+            "pose",
+            "t",
+            ("body_xyz", "body_quat_wxyz"),
+            {"geometry_msgs/msg/PoseStamped": _pose},
+            "the hull's pose in the world (ground truth)",
+        ),
+        Signal(
+            "tf",
+            "t",
+            ("body_xyz", "body_quat_wxyz", "joint_angles"),
+            {"tf2_msgs/msg/TFMessage": _tf},
+            "world -> hull, and each joint's parent link -> child link",
+        ),
+        Signal(
+            "imu",
+            "t_imu",
+            ("imu",),
+            {"sensor_msgs/msg/Imu": _imu},
+            "the AHRS's attitude, body rates and specific force, hull axes",
+        ),
+        Signal(
+            "pressure",
+            "t_depth",
+            ("depth",),
+            {
+                "sensor_msgs/msg/FluidPressure": _pressure,
+                "std_msgs/msg/Float64": lambda log, i, t_ns, c: m.float64_msg(log["depth"][i][0]),
+            },
+            "the pressure sensor: absolute pressure [Pa] (Float64: its depth [m])",
+        ),
+        Signal(
+            "flow_velocity",
+            "t_flow_velocity",
+            ("flow_velocity",),
+            {
+                "geometry_msgs/msg/Vector3Stamped": lambda log, i, t_ns, c: m.vector3_stamped_msg(
+                    t_ns, c.base, log["flow_velocity"][i]
+                ),
+                "geometry_msgs/msg/TwistStamped": lambda log, i, t_ns, c: m.twist_stamped_msg(
+                    t_ns, c.base, log["flow_velocity"][i]
+                ),
+            },
+            "the water's velocity past the head probe, hull axes [m/s]",
+        ),
+        Signal(
+            "battery",
+            "t_battery",
+            ("battery",),
+            {"sensor_msgs/msg/BatteryState": _battery},
+            "the pack's charge, terminal voltage and current",
+        ),
+        Signal(
+            "balloon_command",
+            "t_balloon_command",
+            ("balloon_command",),
+            {
+                "std_msgs/msg/Float64": lambda log, i, t_ns, c: m.float64_msg(
+                    log["balloon_command"][i][0]
+                )
+            },
+            "the commanded balloon fill, 0 (empty) to 1 (full)",
+        ),
+        # The seam over ROS 2 only: no log arrays, no conversion from a log.
+        Signal(
+            "depth_image",
+            "",
+            (),
+            {"sensor_msgs/msg/Image": None},
+            "the head camera's noisy depth image [m], `32FC1`",
+        ),
+        Signal(
+            "camera_info",
+            "",
+            (),
+            {"sensor_msgs/msg/CameraInfo": None},
+            "the depth camera's intrinsics, with every image",
+        ),
+        Signal(
+            "camera_pose",
+            "",
+            (),
+            {"geometry_msgs/msg/PoseStamped": None},
+            "the camera's pose X_WC (on the robot: IMU attitude + pressure depth)",
+        ),
+        Signal(
+            "altitude",
+            "",
+            (),
+            {"std_msgs/msg/Float64": None},
+            "the echo sounder's range to the floor [m] (NaN without an echo)",
+        ),
+        Signal(
+            "balloon_volume", "", (), {"std_msgs/msg/Float64": None}, "the balloon's volume [m^3]"
+        ),
+        Signal(
+            "electrical_power",
+            "",
+            (),
+            {"std_msgs/msg/Float64": None},
+            "what the servos and the computers draw [W]",
+        ),
+        Signal(
+            "seam_handshake",
+            "",
+            (),
+            {"diagnostic_msgs/msg/DiagnosticStatus": None},
+            "the seam's handshake: who runs, how, and its end",
+        ),
+    )
+}

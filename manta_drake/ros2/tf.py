@@ -25,14 +25,16 @@ class FinLinks:
         self._diagram = builder.Build()
         self._plant = handles.plant
         self._context = self._plant.GetMyMutableContextFromRoot(
-            self._diagram.CreateDefaultContext())
+            self._diagram.CreateDefaultContext()
+        )
         joints = [self._plant.GetJointByName(n, handles.robot) for n in handles.joint_names]
         self._starts = np.array([j.position_start() for j in joints])
-        self._frames = [(j.parent_body().body_frame(), j.child_body().body_frame())
-                        for j in joints]
+        self._frames = [(j.parent_body().body_frame(), j.child_body().body_frame()) for j in joints]
         hull = handles.body.name()
-        self._names = [tuple(base if b.name() == hull else b.name()
-                             for b in (j.parent_body(), j.child_body())) for j in joints]
+        self._names = [
+            tuple(base if b.name() == hull else b.name() for b in (j.parent_body(), j.child_body()))
+            for j in joints
+        ]
 
     def __call__(self, q) -> list[tuple]:
         positions = self._plant.GetPositions(self._context)

@@ -28,10 +28,17 @@ DEFAULT_TOPIC_MAP = MODELS_DIR / "ros2_topics.yaml"
 # liveliness 1 automatic; durations 0 (unspecified).
 _UNSPECIFIED = {"sec": 0, "nsec": 0}
 QOS_PROFILES = {
-    name: {"history": 1, "depth": depth, "reliability": reliability, "durability": 2,
-           "deadline": _UNSPECIFIED, "lifespan": _UNSPECIFIED, "liveliness": 1,
-           "liveliness_lease_duration": _UNSPECIFIED,
-           "avoid_ros_namespace_conventions": False}
+    name: {
+        "history": 1,
+        "depth": depth,
+        "reliability": reliability,
+        "durability": 2,
+        "deadline": _UNSPECIFIED,
+        "lifespan": _UNSPECIFIED,
+        "liveliness": 1,
+        "liveliness_lease_duration": _UNSPECIFIED,
+        "avoid_ros_namespace_conventions": False,
+    }
     for name, depth, reliability in (("default", 10, 1), ("sensor_data", 5, 2))
 }
 MAX_RATE_HZ = 1000.0  # the plant's step at its default 1 ms: no signal changes faster
@@ -104,23 +111,27 @@ def _read(path: pathlib.Path) -> dict:
         raise TopicMapError(f"{path}: {e}") from None
     for name in data.get("topics") or {}:
         if name not in SIGNALS:
-            raise TopicMapError(f"{path}: topic_map.topics.{name}: not a signal; allowed: "
-                                f"{', '.join(SIGNALS)}")
+            raise TopicMapError(
+                f"{path}: topic_map.topics.{name}: not a signal; allowed: {', '.join(SIGNALS)}"
+            )
     return data
 
 
 def _laid_over(base: dict, top: dict) -> dict:
     """``top``'s frames and entries field by field over ``base``'s."""
     frames = {**(base.get("frames") or {}), **(top.get("frames") or {})}
-    topics = {name: {**entry, **((top.get("topics") or {}).get(name) or {})}
-              for name, entry in (base.get("topics") or {}).items()}
+    topics = {
+        name: {**entry, **((top.get("topics") or {}).get(name) or {})}
+        for name, entry in (base.get("topics") or {}).items()
+    }
     return {"frames": frames, "topics": topics}
 
 
 def _checked(data: dict, path: pathlib.Path) -> TopicMap:
-    topic_map = TopicMap(Frames(**(data.get("frames") or {})),
-                         {name: TopicEntry(**(entry or {}))
-                          for name, entry in (data.get("topics") or {}).items()})
+    topic_map = TopicMap(
+        Frames(**(data.get("frames") or {})),
+        {name: TopicEntry(**(entry or {})) for name, entry in (data.get("topics") or {}).items()},
+    )
     try:
         check_topic_map(topic_map)
     except TopicMapError as e:
@@ -133,14 +144,17 @@ def check_topic_map(topic_map: TopicMap) -> None:
     for field in ("world", "base", "camera"):
         value = getattr(topic_map.frames, field)
         if not isinstance(value, str) or not _FRAME.fullmatch(value):
-            raise TopicMapError(f"topic_map.frames.{field}: {short_repr(value)} is not a frame "
-                                "id (letters, digits, _ and /, not starting with / or a digit)")
+            raise TopicMapError(
+                f"topic_map.frames.{field}: {short_repr(value)} is not a frame "
+                "id (letters, digits, _ and /, not starting with / or a digit)"
+            )
     frames = dc.asdict(topic_map.frames)
     for i, (a, frame) in enumerate(frames.items()):
-        for b in list(frames)[i + 1:]:
+        for b in list(frames)[i + 1 :]:
             if frames[b] == frame:
-                raise TopicMapError(f"topic_map.frames: {a} and {b} are both {frame!r}; they "
-                                    "must differ")
+                raise TopicMapError(
+                    f"topic_map.frames: {a} and {b} are both {frame!r}; they must differ"
+                )
     missing = [name for name in SIGNALS if name not in topic_map.topics]
     if missing:
         raise TopicMapError(f"topic_map.topics: no entry for {', '.join(missing)}")
@@ -148,29 +162,35 @@ def check_topic_map(topic_map: TopicMap) -> None:
     for name, entry in topic_map.topics.items():
         _check_entry(f"topic_map.topics.{name}", name, entry)
         if entry.enabled and entry.topic in seen:
-            raise TopicMapError(f"topic_map.topics.{name}.topic: {entry.topic} is also "
-                                f"{seen[entry.topic]}'s topic; each topic carries one signal")
+            raise TopicMapError(
+                f"topic_map.topics.{name}.topic: {entry.topic} is also "
+                f"{seen[entry.topic]}'s topic; each topic carries one signal"
+            )
         seen[entry.topic] = name
 
 
 def _check_entry(where: str, name: str, entry: TopicEntry) -> None:
-    if not isinstance(entry.topic, str) or not _TOPIC.fullmatch(entry.topic) \
-            or "__" in entry.topic:
-        raise TopicMapError(f"{where}.topic: {short_repr(entry.topic)} is not an absolute ROS 2 "
-                            "topic name (/a/b: letters, digits and _, no token starting with "
-                            "a digit, no __)")
+    if not isinstance(entry.topic, str) or not _TOPIC.fullmatch(entry.topic) or "__" in entry.topic:
+        raise TopicMapError(
+            f"{where}.topic: {short_repr(entry.topic)} is not an absolute ROS 2 "
+            "topic name (/a/b: letters, digits and _, no token starting with "
+            "a digit, no __)"
+        )
     allowed = SIGNALS[name].types
     if entry.type not in allowed:
-        raise TopicMapError(f"{where}.type: {short_repr(entry.type)} is not one of "
-                            f"{', '.join(allowed)}")
+        raise TopicMapError(
+            f"{where}.type: {short_repr(entry.type)} is not one of {', '.join(allowed)}"
+        )
     if entry.qos not in QOS_PROFILES:
-        raise TopicMapError(f"{where}.qos: {short_repr(entry.qos)} is not one of "
-                            f"{', '.join(QOS_PROFILES)}")
+        raise TopicMapError(
+            f"{where}.qos: {short_repr(entry.qos)} is not one of {', '.join(QOS_PROFILES)}"
+        )
     rate = entry.rate_hz
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) \
-            or not 0 < rate <= MAX_RATE_HZ:
-        raise TopicMapError(f"{where}.rate_hz: {short_repr(rate)} is outside the allowed range "
-                            f"(0, {MAX_RATE_HZ:g}] Hz")
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate <= MAX_RATE_HZ:
+        raise TopicMapError(
+            f"{where}.rate_hz: {short_repr(rate)} is outside the allowed range "
+            f"(0, {MAX_RATE_HZ:g}] Hz"
+        )
 
 
 def topic_table_markdown(topic_map: TopicMap | None = None) -> str:
@@ -178,14 +198,21 @@ def topic_table_markdown(topic_map: TopicMap | None = None) -> str:
     (its alternatives after "or"), QoS, rate, the log arrays it is made of and what it is
     (docs/ros2.md holds the shipped map's; a test checks)."""
     topic_map = topic_map or load_topic_map()
-    rows = ["| signal | topic | type | QoS | rate | from `log.npz` | what |",
-            "| --- | --- | --- | --- | --- | --- | --- |"]
+    rows = [
+        "| signal | topic | type | QoS | rate | from `log.npz` | what |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for name, entry in topic_map.topics.items():
         signal = SIGNALS[name]
         others = [t for t in signal.types if t != entry.type]
         kind = f"`{entry.type}`" + "".join(f" (or `{t}`)" for t in others)
-        arrays = (", ".join(f"`{a}`" for a in (signal.times, *signal.arrays))
-                  if signal.bagged else "(seam only)")
-        rows.append(f"| `{name}` | `{entry.topic}` | {kind} | `{entry.qos}` | "
-                    f"{entry.rate_hz:g} Hz | {arrays} | {signal.what} |")
+        arrays = (
+            ", ".join(f"`{a}`" for a in (signal.times, *signal.arrays))
+            if signal.bagged
+            else "(seam only)"
+        )
+        rows.append(
+            f"| `{name}` | `{entry.topic}` | {kind} | `{entry.qos}` | "
+            f"{entry.rate_hz:g} Hz | {arrays} | {signal.what} |"
+        )
     return "\n".join(rows) + "\n"

@@ -73,42 +73,104 @@ def battery_period(scenario) -> float:
 
 
 CHANNELS = (
-    Channel("MANTA_MEASURED_JOINT_STATE", "measured_joint_state", "station", "joint_state",
-            lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
-            "the 16 servos' angles [rad] and rates [rad/s]; the lockstep clock", clock=True),
-    Channel("MANTA_DEPTH", "depth", "station", "vector",
-            lambda s: 1.0 / s.pressure_sensor.rate_hz, "1 / `pressure_sensor.rate_hz` (20 ms)",
-            "pressure depth [m] below the surface (1 value, NaN on a dropout); water on",
-            size=1),
-    Channel("MANTA_DEPTH_IMAGE", "depth_image", "station", "depth_image",
-            lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
-            "the head camera's noisy depth image [m], float32; camera on"),
-    Channel("MANTA_CAMERA_POSE", "camera_pose", "station", "pose",
-            lambda s: 1.0 / s.camera.rate_hz, "1 / `camera.rate_hz` (200 ms)",
-            "the camera's pose X_WC (on the robot: IMU attitude + pressure depth); camera on"),
+    Channel(
+        "MANTA_MEASURED_JOINT_STATE",
+        "measured_joint_state",
+        "station",
+        "joint_state",
+        lambda s: s.time_step,
+        "every plant step (`time_step`, 1 ms)",
+        "the 16 servos' angles [rad] and rates [rad/s]; the lockstep clock",
+        clock=True,
+    ),
+    Channel(
+        "MANTA_DEPTH",
+        "depth",
+        "station",
+        "vector",
+        lambda s: 1.0 / s.pressure_sensor.rate_hz,
+        "1 / `pressure_sensor.rate_hz` (20 ms)",
+        "pressure depth [m] below the surface (1 value, NaN on a dropout); water on",
+        size=1,
+    ),
+    Channel(
+        "MANTA_DEPTH_IMAGE",
+        "depth_image",
+        "station",
+        "depth_image",
+        lambda s: 1.0 / s.camera.rate_hz,
+        "1 / `camera.rate_hz` (200 ms)",
+        "the head camera's noisy depth image [m], float32; camera on",
+    ),
+    Channel(
+        "MANTA_CAMERA_POSE",
+        "camera_pose",
+        "station",
+        "pose",
+        lambda s: 1.0 / s.camera.rate_hz,
+        "1 / `camera.rate_hz` (200 ms)",
+        "the camera's pose X_WC (on the robot: IMU attitude + pressure depth); camera on",
+    ),
     # The modalities' sensors (manta_drake.modalities), each read at its sample period.
-    *(Channel(r.channel, r.port, "station", "vector", r.period, r.period_text(), r.what,
-              size=r.size) for r in READINGS),
-    Channel("MANTA_BALLOON_VOLUME", "balloon_volume", "station", "vector",
-            lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
-            "balloon volume [m^3], for monitoring (the controller logs it); water on", size=1),
-    Channel("MANTA_BATTERY", "battery", "station", "vector",
-            battery_period, "the energy estimator's (100 ms) where the controller reads it, "
-            "else max(`time_step`, 10 ms)",
-            "the pack's state of charge (0-1), terminal voltage [V] and current [A] (3 values): "
-            "the energy estimator's input where a behaviour tree or the balloon rule reads "
-            "`energy_hat`, else for monitoring (the controller logs it); actuators on", size=3),
-    Channel("MANTA_ELECTRICAL_POWER", "electrical_power", "station", "vector",
-            lambda s: max(s.time_step, 0.01), "max(`time_step`, 10 ms)",
-            "what the servos and the computers draw [W] (1 value), for monitoring (the "
-            "controller logs it); actuators on", size=1),
-    Channel("MANTA_DESIRED_JOINT_STATE", "desired_state", "controller", "joint_state",
-            lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
-            "the servos' desired angles [rad] and rates [rad/s] (their PD's set point)"),
-    Channel("MANTA_BALLOON_COMMAND", "balloon_command", "controller", "vector",
-            lambda s: s.time_step, "every plant step (`time_step`, 1 ms)",
-            "balloon fill command in [0, 1] (1 value); the station reads it with water on",
-            size=1),
+    *(
+        Channel(
+            r.channel, r.port, "station", "vector", r.period, r.period_text(), r.what, size=r.size
+        )
+        for r in READINGS
+    ),
+    Channel(
+        "MANTA_BALLOON_VOLUME",
+        "balloon_volume",
+        "station",
+        "vector",
+        lambda s: max(s.time_step, 0.01),
+        "max(`time_step`, 10 ms)",
+        "balloon volume [m^3], for monitoring (the controller logs it); water on",
+        size=1,
+    ),
+    Channel(
+        "MANTA_BATTERY",
+        "battery",
+        "station",
+        "vector",
+        battery_period,
+        "the energy estimator's (100 ms) where the controller reads it, "
+        "else max(`time_step`, 10 ms)",
+        "the pack's state of charge (0-1), terminal voltage [V] and current [A] (3 values): "
+        "the energy estimator's input where a behaviour tree or the balloon rule reads "
+        "`energy_hat`, else for monitoring (the controller logs it); actuators on",
+        size=3,
+    ),
+    Channel(
+        "MANTA_ELECTRICAL_POWER",
+        "electrical_power",
+        "station",
+        "vector",
+        lambda s: max(s.time_step, 0.01),
+        "max(`time_step`, 10 ms)",
+        "what the servos and the computers draw [W] (1 value), for monitoring (the "
+        "controller logs it); actuators on",
+        size=1,
+    ),
+    Channel(
+        "MANTA_DESIRED_JOINT_STATE",
+        "desired_state",
+        "controller",
+        "joint_state",
+        lambda s: s.time_step,
+        "every plant step (`time_step`, 1 ms)",
+        "the servos' desired angles [rad] and rates [rad/s] (their PD's set point)",
+    ),
+    Channel(
+        "MANTA_BALLOON_COMMAND",
+        "balloon_command",
+        "controller",
+        "vector",
+        lambda s: s.time_step,
+        "every plant step (`time_step`, 1 ms)",
+        "balloon fill command in [0, 1] (1 value); the station reads it with water on",
+        size=1,
+    ),
 )
 CHANNEL_BY_NAME = {c.name: c for c in CHANNELS}
 CLOCK = next(c for c in CHANNELS if c.clock)
@@ -116,12 +178,16 @@ CLOCK = next(c for c in CHANNELS if c.clock)
 
 def channel_table_markdown() -> str:
     """``CHANNELS`` as a Markdown table (docs/lcm.md holds this text; a test checks)."""
-    rows = ["| channel | port | from | message type | period | what |",
-            "| --- | --- | --- | --- | --- | --- |"]
+    rows = [
+        "| channel | port | from | message type | period | what |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
     for c in CHANNELS:
         module = c.lcm_type.__module__.rsplit(".", 1)[0]  # the package a driver imports
-        rows.append(f"| `{c.name}` | `{c.port}` | {c.sender} | `{module}.{c.lcm_type.__name__}` "
-                    f"| {c.period_text} | {c.what} |")
+        rows.append(
+            f"| `{c.name}` | `{c.port}` | {c.sender} | `{module}.{c.lcm_type.__name__}` "
+            f"| {c.period_text} | {c.what} |"
+        )
     return "\n".join(rows) + "\n"
 
 
@@ -136,8 +202,11 @@ def controller_channels(controller) -> tuple[list[Channel], list[Channel]]:
     """(what the controller publishes, what it waits for): its commands, and the sensors
     it reads plus the clock."""
     sends = [c for c in CHANNELS if c.sender == "controller" and controller.HasOutputPort(c.port)]
-    reads = [c for c in CHANNELS if c.sender == "station"
-             and (c.clock or controller.HasInputPort(c.port))]
+    reads = [
+        c
+        for c in CHANNELS
+        if c.sender == "station" and (c.clock or controller.HasInputPort(c.port))
+    ]
     return sends, reads
 
 
@@ -146,16 +215,21 @@ def monitor_channels(controller, published) -> list[Channel]:
     the battery, the electrical power): of ``published`` (the channel names the station
     said it sends, in its handshake), the sensor channels that are neither the clock nor
     one of the controller's inputs."""
-    return [c for c in CHANNELS if c.sender == "station" and c.name in set(published)
-            and not c.clock and not controller.HasInputPort(c.port)]
+    return [
+        c
+        for c in CHANNELS
+        if c.sender == "station"
+        and c.name in set(published)
+        and not c.clock
+        and not controller.HasInputPort(c.port)
+    ]
 
 
 def _readers(system, port_index) -> list:
     """The leaf systems that the input port ``port_index`` of ``system`` feeds."""
     if not isinstance(system, Diagram):
         return [system]
-    return [leaf for sub, i in system.GetInputPortLocators(port_index)
-            for leaf in _readers(sub, i)]
+    return [leaf for sub, i in system.GetInputPortLocators(port_index) for leaf in _readers(sub, i)]
 
 
 def unexchanged_reads(controller, scenario) -> list[str]:
@@ -180,9 +254,11 @@ def unexchanged_reads(controller, scenario) -> list[str]:
                 continue
             missing = [t for t in sample_times(every, scenario.duration) if t not in exchanged]
             if missing:
-                lines.append(f"{leaf.get_name()} reads {c.port} every {every:g} s, {c.name} "
-                             f"comes every {period:g} s: {len(missing)} of its reads (the "
-                             f"first at t = {missing[0]!r} s) fall between the exchanges")
+                lines.append(
+                    f"{leaf.get_name()} reads {c.port} every {every:g} s, {c.name} "
+                    f"comes every {period:g} s: {len(missing)} of its reads (the "
+                    f"first at t = {missing[0]!r} s) fall between the exchanges"
+                )
     return lines
 
 

@@ -46,8 +46,16 @@ from manta_drake.wiring.controller import build_controller
 MAX_LEAD_STEPS = 4
 # The controller's outputs logged at every command (those it has): what it decided and the
 # estimates it decided on.
-MONITORED_OUTPUTS = ("cpg_params", "z_hat", "s_hat", "detector_status", "behaviour_weights",
-                     "heading_trim", *estimator_outputs(), "balloon_command")
+MONITORED_OUTPUTS = (
+    "cpg_params",
+    "z_hat",
+    "s_hat",
+    "detector_status",
+    "behaviour_weights",
+    "heading_trim",
+    *estimator_outputs(),
+    "balloon_command",
+)
 
 
 class StationLog:
@@ -62,9 +70,10 @@ class StationLog:
     def __init__(self, channels, link: Link, guard: Guard, scenario):
         self.channels, self.link, self.guard = list(channels), link, guard
         # The sample times as the station computes them (j * period), by stamp.
-        self.expected = {c.name: {to_utime(t): t for t in sample_times(c.period(scenario),
-                                                                       scenario.duration)}
-                         for c in self.channels}
+        self.expected = {
+            c.name: {to_utime(t): t for t in sample_times(c.period(scenario), scenario.duration)}
+            for c in self.channels
+        }
         self._stamps = {name: sorted(times) for name, times in self.expected.items()}
         self._next = {c.name: 0 for c in self.channels}
         self.log = {c.name: ([], []) for c in self.channels}
@@ -118,11 +127,15 @@ class StationLog:
         return out
 
 
-def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
-                   timeout: float = DEFAULT_TIMEOUT_S,
-                   startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
-                   progress: bool = False,
-                   failsafe_after: float = DEFAULT_FAILSAFE_AFTER_S) -> SeamResult:
+def run_controller(
+    scenario,
+    url: str = DEFAULT_URL,
+    wall_clock: bool = False,
+    timeout: float = DEFAULT_TIMEOUT_S,
+    startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
+    progress: bool = False,
+    failsafe_after: float = DEFAULT_FAILSAFE_AFTER_S,
+) -> SeamResult:
     """Runs the controller of ``scenario`` alone against a station over LCM (or ROS 2: a
     transport in ``url``).
 
@@ -177,8 +190,15 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     # Every station channel it might log is subscribed from the start: the station's first
     # samples may arrive right after the handshake.
     loggable = [c for c in CHANNELS if c.sender == "station" and c not in reads]
-    link = Link(url, reads + loggable, "controller", lockstep=not wall_clock,
-                incidents=incidents, monitor=[c.name for c in loggable], hello=hello)
+    link = Link(
+        url,
+        reads + loggable,
+        "controller",
+        lockstep=not wall_clock,
+        incidents=incidents,
+        monitor=[c.name for c in loggable],
+        hello=hello,
+    )
     guard = Guard.for_controller(scenario, incidents)
     simulator = make_simulator(controller, scenario)
     context = simulator.get_mutable_context()
@@ -215,48 +235,90 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         skipped = incidents.count(kind="malformed")
         skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
         if link.last_arrival is None:
-            return SeamError(f"controller: nothing from the station within {waited:.1f} s; is "
-                             "`manta-drake station` running with the same scenario, "
-                             f"{link.transport.medium.option} and --wall-clock setting?"
-                             f"{skipped}")
-        return SeamError(f"controller: the station has been silent for {waited:.1f} s "
-                         f"(last command stamped t = {state['last_t']:.3f} s; the safe state "
-                         f"commanded since); stopped{skipped}")
+            return SeamError(
+                f"controller: nothing from the station within {waited:.1f} s; is "
+                "`manta-drake station` running with the same scenario, "
+                f"{link.transport.medium.option} and --wall-clock setting?"
+                f"{skipped}"
+            )
+        return SeamError(
+            f"controller: the station has been silent for {waited:.1f} s "
+            f"(last command stamped t = {state['last_t']:.3f} s; the safe state "
+            f"commanded since); stopped{skipped}"
+        )
 
     def result(exchanges, wall, peer_run_id="", **ended) -> SeamResult:
         arrays = {k: np.array(v) for k, v in log.items() if len(v)}
         if station_log is not None:
             arrays.update(station_log.arrays())
-        return SeamResult("controller", mode, link.url, float(context.get_time()), wall,
-                          exchanges, link.resends, arrays, incidents=incidents.counts,
-                          run_id=hello.run_id, peer_run_id=peer_run_id,
-                          failsafe=failsafe.metrics(), **ended)
+        return SeamResult(
+            "controller",
+            mode,
+            link.url,
+            float(context.get_time()),
+            wall,
+            exchanges,
+            link.resends,
+            arrays,
+            incidents=incidents.counts,
+            run_id=hello.run_id,
+            peer_run_id=peer_run_id,
+            failsafe=failsafe.metrics(),
+            **ended,
+        )
 
     if progress:
-        warn(f"controller: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
-             f"station on {link.url}")
+        warn(
+            f"controller: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
+            f"station on {link.url}"
+        )
     stopped = ""
     station_log = None
     try:
         peer = link.shake_hands(startup_timeout)
         missing = [c.name for c in reads if c.name not in peer.channels]
         if missing:
-            raise SeamError(f"controller: {peer.describe()} does not publish "
-                            f"{', '.join(missing)}, which this controller reads (has its "
-                            "scenario the same water and camera settings?)")
-        station_log = StationLog(monitor_channels(controller, peer.channels), link, guard,
-                                 scenario)
+            raise SeamError(
+                f"controller: {peer.describe()} does not publish "
+                f"{', '.join(missing)}, which this controller reads (has its "
+                "scenario the same water and camera settings?)"
+            )
+        station_log = StationLog(monitor_channels(controller, peer.channels), link, guard, scenario)
         paired_at = time.monotonic()
         try:
             if wall_clock:
                 wall_start, exchanges = _controller_wall_clock(
-                    scenario, simulator, link, reads, command, timeout, startup_timeout,
-                    failsafe, failsafe_after, on_timeout, progress, guard, station_log)
+                    scenario,
+                    simulator,
+                    link,
+                    reads,
+                    command,
+                    timeout,
+                    startup_timeout,
+                    failsafe,
+                    failsafe_after,
+                    on_timeout,
+                    progress,
+                    guard,
+                    station_log,
+                )
                 wall = time.monotonic() - wall_start
             else:
                 exchanges, wall = _controller_lockstep(
-                    scenario, simulator, link, sends, reads, command, timeout, startup_timeout,
-                    on_stale, on_timeout, progress, guard, station_log)
+                    scenario,
+                    simulator,
+                    link,
+                    sends,
+                    reads,
+                    command,
+                    timeout,
+                    startup_timeout,
+                    on_stale,
+                    on_timeout,
+                    progress,
+                    guard,
+                    station_log,
+                )
                 _linger(link)
         except PeerStopped as e:  # the station ended the run (its battery): so does this side
             stopped = str(e)
@@ -275,18 +337,38 @@ def run_controller(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
 def has_feedthrough(controller, inputs, outputs) -> bool:
     """Whether a command port depends directly on a sensor port (then a command for t
     must wait for t's sensors)."""
-    return any(controller.HasDirectFeedthrough(controller.GetInputPort(i.port).get_index(),
-                                               controller.GetOutputPort(o.port).get_index())
-               for i in inputs if controller.HasInputPort(i.port) for o in outputs)
+    return any(
+        controller.HasDirectFeedthrough(
+            controller.GetInputPort(i.port).get_index(),
+            controller.GetOutputPort(o.port).get_index(),
+        )
+        for i in inputs
+        if controller.HasInputPort(i.port)
+        for o in outputs
+    )
 
 
-def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeout,
-                         startup_timeout, on_stale, on_timeout, progress, guard, station_log):
+def _controller_lockstep(
+    scenario,
+    simulator,
+    link,
+    sends,
+    reads,
+    command,
+    timeout,
+    startup_timeout,
+    on_stale,
+    on_timeout,
+    progress,
+    guard,
+    station_log,
+):
     """The controller in lockstep with the station's time (see ``run_controller``).
     Returns (number of exchanges, wall time from the first exchange)."""
     controller, context = simulator.get_system(), simulator.get_mutable_context()
-    schedule = exchange_schedule(scenario.duration,
-                                 {c.name: c.period(scenario) for c in sends + reads})
+    schedule = exchange_schedule(
+        scenario.duration, {c.name: c.period(scenario) for c in sends + reads}
+    )
     inputs = {c.name for c in reads if controller.HasInputPort(c.port)}
     sending = {c.name for c in sends}
     wait_first = has_feedthrough(controller, reads, sends)
@@ -298,16 +380,25 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
         # Flow control: no further ahead of the station's clock than MAX_LEAD_STEPS; and a
         # command stamped tau says the controller has everything stamped before tau (the
         # station stops re-sending it), so the logged channels' samples come first.
-        link.wait_for(lambda: True if link.newest.get(CLOCK.name, -1) >= ex.utime - lead
-                      and station_log.complete_before(ex.utime) else None,
-                      timeout, on_stale, on_timeout)
+        link.wait_for(
+            lambda: (
+                True
+                if link.newest.get(CLOCK.name, -1) >= ex.utime - lead
+                and station_log.complete_before(ex.utime)
+                else None
+            ),
+            timeout,
+            on_stale,
+            on_timeout,
+        )
         command(ex.time)
 
     # What its initialization events read: the station's sensors before its initialization.
     before_start = {name: BEFORE_START_UTIME for name in inputs}
     if before_start:
-        got = link.wait_for(lambda: link.take(before_start), startup_timeout,
-                            lambda waited: None, on_timeout)
+        got = link.wait_for(
+            lambda: link.take(before_start), startup_timeout, lambda waited: None, on_timeout
+        )
         fix_inputs(controller, context, guard.screen(got, 0.0, before_start=True))
     for ex in schedule:
         first = wall_start is None
@@ -321,9 +412,12 @@ def _controller_lockstep(scenario, simulator, link, sends, reads, command, timeo
         if first:  # the station is there: its clock at the start
             wanted[CLOCK.name] = ex.utime
         if wanted:
-            got = link.wait_for(lambda wanted=wanted: link.take(wanted),
-                                startup_timeout if first else timeout,
-                                (lambda waited: None) if first else on_stale, on_timeout)
+            got = link.wait_for(
+                lambda wanted=wanted: link.take(wanted),
+                startup_timeout if first else timeout,
+                (lambda waited: None) if first else on_stale,
+                on_timeout,
+            )
         if first:  # on the values from before the station's initialization
             simulator.Initialize()
             wall_start = time.monotonic()
@@ -354,9 +448,21 @@ def _linger(link: Link, quiet_s: float = 0.3) -> None:
                 last_resend = time.monotonic()
 
 
-def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
-                           startup_timeout, failsafe, failsafe_after, on_timeout, progress,
-                           guard, station_log):
+def _controller_wall_clock(
+    scenario,
+    simulator,
+    link,
+    reads,
+    command,
+    timeout,
+    startup_timeout,
+    failsafe,
+    failsafe_after,
+    on_timeout,
+    progress,
+    guard,
+    station_log,
+):
     """The controller on this machine's clock: latest sensor values, a command after every
     plant step of its own time; after ``failsafe_after`` s of silence from the station its
     clock stops and it commands the safe state (``failsafe``) until the station is back.
@@ -370,9 +476,11 @@ def _controller_wall_clock(scenario, simulator, link, reads, command, timeout,
         latest.update(link.newest_values(c.name for c in reads))
         if time.monotonic() - start > startup_timeout:
             missing = sorted(c.name for c in reads if c.name not in latest)
-            raise SeamError(f"controller: nothing on {', '.join(missing)} within "
-                            f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
-                            f"running with the same scenario and {link.transport.medium.option}?")
+            raise SeamError(
+                f"controller: nothing on {', '.join(missing)} within "
+                f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
+                f"running with the same scenario and {link.transport.medium.option}?"
+            )
     fix_inputs(controller, context, guard.screen(latest, 0.0))
     simulator.Initialize()
     command(0.0)

@@ -58,10 +58,17 @@ class Incidents:
         for kind in kinds:
             seen[kind] = seen.get(kind, 0) + 1
         if new:
-            warn(f"{self.who}: {channel}: {text} (further {'/'.join(kinds)} messages on "
-                 f"{channel} are counted, not shown)")
+            warn(
+                f"{self.who}: {channel}: {text} (further {'/'.join(kinds)} messages on "
+                f"{channel} are counted, not shown)"
+            )
 
     def count(self, channel: str | None = None, kind: str | None = None) -> int:
         """How many messages had a problem (of ``kind``, on ``channel``; None: any)."""
-        return sum(n for name, kinds in self.counts.items() if channel in (None, name)
-                   for k, n in kinds.items() if kind in (None, k))
+        return sum(
+            n
+            for name, kinds in self.counts.items()
+            if channel in (None, name)
+            for k, n in kinds.items()
+            if kind in (None, k)
+        )

@@ -38,8 +38,10 @@ def safe_commands(scenario) -> dict[str, np.ndarray]:
     """The safe state by command port: the start stance at rest, the balloon full."""
     from manta_drake.wiring.station import start_command
 
-    return {"desired_state": start_command(scenario),
-            "balloon_command": np.array([SAFE_BALLOON_FILL])}
+    return {
+        "desired_state": start_command(scenario),
+        "balloon_command": np.array([SAFE_BALLOON_FILL]),
+    }
 
 
 @dc.dataclass
@@ -84,9 +86,11 @@ class Failsafe:
             return
         self._since = time.monotonic()
         self.events.append(FailsafeEvent(t, silent_s))
-        warn(f"controller: no message from the station for {silent_s:.1f} s (last command "
-             f"stamped t = {t:.3f} s): failsafe, commanding the safe state (the start stance "
-             f"at rest, the balloon full) until it is back (gives up after {timeout:g} s)")
+        warn(
+            f"controller: no message from the station for {silent_s:.1f} s (last command "
+            f"stamped t = {t:.3f} s): failsafe, commanding the safe state (the start stance "
+            f"at rest, the balloon full) until it is back (gives up after {timeout:g} s)"
+        )
         self.send(t)
 
     def send(self, t: float) -> None:
@@ -118,8 +122,10 @@ class Failsafe:
         event.lasted_s, event.ended = time.monotonic() - self._since, ended
         self._since = None
         if ended == "resumed":
-            warn(f"controller: the station is back after {event.lasted_s:.1f} s of failsafe; "
-                 f"resuming at t = {event.t:.3f} s")
+            warn(
+                f"controller: the station is back after {event.lasted_s:.1f} s of failsafe; "
+                f"resuming at t = {event.t:.3f} s"
+            )
 
     def metrics(self) -> list[dict]:
         """The events as ``<side>_metrics.json`` holds them (``failsafe``)."""

@@ -49,8 +49,9 @@ class Medium:
     option: str  # the option both sides must give alike
 
 
-LCM_MEDIUM = Medium("URL", "an LCM URL", "give each run a URL of its own (another port)",
-                    "--lcm URL")
+LCM_MEDIUM = Medium(
+    "URL", "an LCM URL", "give each run a URL of its own (another port)", "--lcm URL"
+)
 
 
 def new_run_id() -> str:
@@ -89,15 +90,23 @@ class Hello:
 
     def describe(self) -> str:
         """``the controller 1a2b3c4d (pid 42 on host, scenario swim)``."""
-        return (f"the {self.role} {self.run_id} (pid {self.pid} on {self.host}, scenario "
-                f"{self.scenario or '-'})")
+        return (
+            f"the {self.role} {self.run_id} (pid {self.pid} on {self.host}, scenario "
+            f"{self.scenario or '-'})"
+        )
 
 
 def hello_for(role: str, scenario, wall_clock: bool, channels) -> Hello:
     """This side's Hello for ``scenario``."""
-    return Hello(role, new_run_id(), scenario.name, float(scenario.duration),
-                 float(scenario.time_step), CLOCK_MODES[bool(wall_clock)],
-                 tuple(c.name for c in channels))
+    return Hello(
+        role,
+        new_run_id(),
+        scenario.name,
+        float(scenario.duration),
+        float(scenario.time_step),
+        CLOCK_MODES[bool(wall_clock)],
+        tuple(c.name for c in channels),
+    )
 
 
 def failure_status(e: BaseException) -> str:
@@ -121,13 +130,18 @@ class Greeting:
     status: str = ""
 
 
-def hello_message(hello: Hello, peer_run_id: str = "", reply: bool = False,
-                  status: str = "") -> lcmt_manta_handshake:
+def hello_message(
+    hello: Hello, peer_run_id: str = "", reply: bool = False, status: str = ""
+) -> lcmt_manta_handshake:
     """``hello`` as an ``lcmt_manta_handshake``."""
     msg = lcmt_manta_handshake()
     msg.utime = int(time.time() * 1e6)
-    msg.role, msg.run_id, msg.peer_run_id, msg.reply = (hello.role, hello.run_id, peer_run_id,
-                                                        bool(reply))
+    msg.role, msg.run_id, msg.peer_run_id, msg.reply = (
+        hello.role,
+        hello.run_id,
+        peer_run_id,
+        bool(reply),
+    )
     msg.host, msg.pid, msg.scenario = hello.host, int(hello.pid), hello.scenario
     msg.duration, msg.time_step, msg.clock_mode = hello.duration, hello.time_step, hello.clock_mode
     msg.channels = list(hello.channels)
@@ -142,16 +156,29 @@ def hello_from_message(msg: lcmt_manta_handshake) -> Hello:
     Raises:
         SeamError: an unknown role or clock mode, a negative or non-finite duration or step.
     """
-    return check_hello(Hello(msg.role, msg.run_id, msg.scenario, msg.duration, msg.time_step,
-                             msg.clock_mode, tuple(msg.channels), msg.host, msg.pid))
+    return check_hello(
+        Hello(
+            msg.role,
+            msg.run_id,
+            msg.scenario,
+            msg.duration,
+            msg.time_step,
+            msg.clock_mode,
+            tuple(msg.channels),
+            msg.host,
+            msg.pid,
+        )
+    )
 
 
 def check_hello(hello: Hello) -> Hello:
     """``hello`` if its role, clock mode, duration and step can be; else SeamError (what a
     transport's decoder raises for a greeting that is not one)."""
     if hello.role not in ROLES or hello.clock_mode not in CLOCK_MODES:
-        raise SeamError(f"role {hello.role!r}, clock_mode {hello.clock_mode!r}; expected one of "
-                        f"{ROLES} and of {CLOCK_MODES}")
+        raise SeamError(
+            f"role {hello.role!r}, clock_mode {hello.clock_mode!r}; expected one of "
+            f"{ROLES} and of {CLOCK_MODES}"
+        )
     for name in ("duration", "time_step"):
         value = getattr(hello, name)
         if not (math.isfinite(value) and value >= 0):
@@ -173,14 +200,21 @@ def mismatches(mine: Hello, theirs: Hello) -> list[str]:
     """How ``theirs`` does not match ``mine`` (a 0 duration or step is not fixed: matches)."""
     problems = []
     if mine.duration and theirs.duration and mine.duration != theirs.duration:
-        problems.append(f"duration {theirs.duration:g} s there, {mine.duration:g} s here "
-                        "(--duration)")
+        problems.append(
+            f"duration {theirs.duration:g} s there, {mine.duration:g} s here (--duration)"
+        )
     if mine.clock_mode != theirs.clock_mode:
         problems.append(f"clock {theirs.clock_mode} there, {mine.clock_mode} here (--wall-clock)")
-    elif (mine.clock_mode == "lockstep" and mine.time_step and theirs.time_step
-          and mine.time_step != theirs.time_step):
-        problems.append(f"time_step {theirs.time_step:g} s there, {mine.time_step:g} s here "
-                        "(the lockstep clock)")
+    elif (
+        mine.clock_mode == "lockstep"
+        and mine.time_step
+        and theirs.time_step
+        and mine.time_step != theirs.time_step
+    ):
+        problems.append(
+            f"time_step {theirs.time_step:g} s there, {mine.time_step:g} s here "
+            "(the lockstep clock)"
+        )
     return problems
 
 
@@ -240,23 +274,31 @@ class Handshake:
         if self.peer is not None:  # paired: anyone else is turned away
             if theirs.run_id not in self._turned_away:
                 self._turned_away.add(theirs.run_id)
-                warn(f"{mine.role}: a second {theirs.role} on {self.url}: {theirs.describe()}; "
-                     f"it is turned away, this run goes on with {self.peer.describe()}")
+                warn(
+                    f"{mine.role}: a second {theirs.role} on {self.url}: {theirs.describe()}; "
+                    f"it is turned away, this run goes on with {self.peer.describe()}"
+                )
             return
         if theirs.role == mine.role:
-            self._fail(f"another {mine.role} is on {self.url}: {theirs.describe()}; two "
-                       f"{mine.role}s cannot share {self.medium.one}: {self.medium.remedy}")
+            self._fail(
+                f"another {mine.role} is on {self.url}: {theirs.describe()}; two "
+                f"{mine.role}s cannot share {self.medium.one}: {self.medium.remedy}"
+            )
             return
         if msg.peer_run_id not in ("", mine.run_id):
-            self._fail(f"{theirs.describe()} on {self.url} is paired with the {mine.role} "
-                       f"{msg.peer_run_id} already: a second {mine.role} on this "
-                       f"{self.medium.name}? {self.medium.remedy}")
+            self._fail(
+                f"{theirs.describe()} on {self.url} is paired with the {mine.role} "
+                f"{msg.peer_run_id} already: a second {mine.role} on this "
+                f"{self.medium.name}? {self.medium.remedy}"
+            )
             return
         problems = mismatches(mine, theirs)
         if problems:
-            self._fail(f"{theirs.describe()} does not match this {mine.role}: "
-                       f"{'; '.join(problems)}; start both sides with the same scenario, "
-                       "--duration and --wall-clock setting")
+            self._fail(
+                f"{theirs.describe()} does not match this {mine.role}: "
+                f"{'; '.join(problems)}; start both sides with the same scenario, "
+                "--duration and --wall-clock setting"
+            )
             return
         self.peer = theirs
         self._from_peer(msg, theirs)

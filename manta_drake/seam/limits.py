@@ -50,19 +50,24 @@ class JointLimits:
         """The limits of the station's plant: what its joints (the model's servos) have."""
         plant, robot = plant_handles.plant, plant_handles.robot
         joints = [plant.GetJointByName(n, robot) for n in plant_handles.joint_names]
-        return cls(tuple(plant_handles.joint_names),
-                   np.array([j.position_lower_limits()[0] for j in joints]),
-                   np.array([j.position_upper_limits()[0] for j in joints]),
-                   np.array([j.velocity_upper_limits()[0] for j in joints]))
+        return cls(
+            tuple(plant_handles.joint_names),
+            np.array([j.position_lower_limits()[0] for j in joints]),
+            np.array([j.position_upper_limits()[0] for j in joints]),
+            np.array([j.velocity_upper_limits()[0] for j in joints]),
+        )
 
     @classmethod
     def from_params(cls, params: RobotParams, names=JOINT_NAMES) -> JointLimits:
         """The same from the robot's parameters (what the plant's model is generated from),
         for the controller, which has no plant."""
         limits = [params.position_limits[i % JOINTS_PER_LEG] for i in range(len(names))]
-        return cls(tuple(names), np.array([lo for lo, _ in limits]),
-                   np.array([hi for _, hi in limits]),
-                   np.full(len(names), float(params.velocity_limit)))
+        return cls(
+            tuple(names),
+            np.array([lo for lo, _ in limits]),
+            np.array([hi for _, hi in limits]),
+            np.full(len(names), float(params.velocity_limit)),
+        )
 
 
 def _listing(items: list[str], most: int = 6) -> str:
@@ -96,16 +101,18 @@ def screen_joint_command(x, last, limits: JointLimits):
     q_safe[bad], v_safe[bad] = last[:n][bad], last[n:][bad]
     problems, clipped = [], []
     for i in np.flatnonzero((low | high) & ~bad):
-        clipped.append(f"{limits.names[i]} angle {q[i]:.4g} rad outside "
-                       f"[{limits.lower[i]:.3f}, {limits.upper[i]:.3f}]")
+        clipped.append(
+            f"{limits.names[i]} angle {q[i]:.4g} rad outside "
+            f"[{limits.lower[i]:.3f}, {limits.upper[i]:.3f}]"
+        )
     for i in np.flatnonzero(fast & ~bad):
-        clipped.append(f"{limits.names[i]} rate {v[i]:.4g} rad/s beyond "
-                       f"+-{limits.velocity[i]:g}")
+        clipped.append(f"{limits.names[i]} rate {v[i]:.4g} rad/s beyond +-{limits.velocity[i]:g}")
     if clipped:
         problems.append(("clipped", f"{_listing(clipped)}: clipped to the servos' limits"))
     if bad.any():
-        held = [f"{limits.names[i]} ({q[i]:.4g} rad, {v[i]:.4g} rad/s)"
-                for i in np.flatnonzero(bad)]
+        held = [
+            f"{limits.names[i]} ({q[i]:.4g} rad, {v[i]:.4g} rad/s)" for i in np.flatnonzero(bad)
+        ]
         text = f"{_listing(held)} not finite: those servos hold their last good command"
         problems.append(("held", text))
     return np.concatenate([q_safe, v_safe]), problems
@@ -122,7 +129,8 @@ def screen_balloon_command(value, last):
     if 0.0 <= fill <= 1.0:
         return value, []
     return np.array([min(max(fill, 0.0), 1.0)]), [
-        ("clipped", f"fill {fill:.4g} outside [0, 1]: clipped to the pump's range")]
+        ("clipped", f"fill {fill:.4g} outside [0, 1]: clipped to the pump's range")
+    ]
 
 
 @dc.dataclass(frozen=True)
@@ -168,12 +176,15 @@ class SensorRanges:
             if pack.internal_resistance > 0:
                 current = ocv / pack.internal_resistance
                 power = ocv * current
-        return cls(joints=JointLimits.from_params(scenario.robot_params()),
-                   image_max=2.0 * scenario.camera.max_range,
-                   image_size=(scenario.camera.width, scenario.camera.height),
-                   battery_voltage=voltage,
-                   battery_current=current, power=power,
-                   battery_read=reads_battery(scenario))
+        return cls(
+            joints=JointLimits.from_params(scenario.robot_params()),
+            image_max=2.0 * scenario.camera.max_range,
+            image_size=(scenario.camera.width, scenario.camera.height),
+            battery_voltage=voltage,
+            battery_current=current,
+            power=power,
+            battery_read=reads_battery(scenario),
+        )
 
 
 def _outside(value: float, lo: float, hi: float) -> bool:
@@ -190,8 +201,10 @@ def screen_depth(value, ranges: SensorRanges):
         return value, [("dropout", text)]
     lo, hi = ranges.depth
     if _outside(h, lo, hi):
-        text = (f"depth {h:.4g} m outside its physical range [{lo:g}, {hi:g}] m: ignored (read "
-                "as a dropped reading; the depth estimator holds its estimate)")
+        text = (
+            f"depth {h:.4g} m outside its physical range [{lo:g}, {hi:g}] m: ignored (read "
+            "as a dropped reading; the depth estimator holds its estimate)"
+        )
         return np.array([np.nan]), [("ignored", text)]
     return value, []
 
@@ -204,17 +217,21 @@ def screen_joint_reading(x, last, ranges: SensorRanges):
     n = len(limits.names)
     q, v = x[:n], x[n:]
     with np.errstate(invalid="ignore"):
-        bad = ~((q >= limits.lower - ANGLE_READING_MARGIN_RAD)
-                & (q <= limits.upper + ANGLE_READING_MARGIN_RAD)
-                & (np.abs(v) <= RATE_READING_FACTOR * limits.velocity))
+        bad = ~(
+            (q >= limits.lower - ANGLE_READING_MARGIN_RAD)
+            & (q <= limits.upper + ANGLE_READING_MARGIN_RAD)
+            & (np.abs(v) <= RATE_READING_FACTOR * limits.velocity)
+        )
     if not bad.any():
         return x, []
     safe = x.copy()
     safe[:n][bad], safe[n:][bad] = last[:n][bad], last[n:][bad]
     names = [f"{limits.names[i]} ({q[i]:.4g} rad, {v[i]:.4g} rad/s)" for i in np.flatnonzero(bad)]
-    text = (f"{_listing(names)} outside the physical range (the joint limits "
-            f"+-{math.degrees(ANGLE_READING_MARGIN_RAD):g} deg, {RATE_READING_FACTOR:g} x the "
-            "velocity limit) or not finite: the last good reading is held")
+    text = (
+        f"{_listing(names)} outside the physical range (the joint limits "
+        f"+-{math.degrees(ANGLE_READING_MARGIN_RAD):g} deg, {RATE_READING_FACTOR:g} x the "
+        "velocity limit) or not finite: the last good reading is held"
+    )
     return safe, [("held", text)]
 
 
@@ -224,8 +241,10 @@ def screen_depth_image(image, ranges: SensorRanges):
     camera's is dropped whole (all NaN, of the camera's size)."""
     if ranges.image_size and (image.width(), image.height()) != ranges.image_size:
         width, height = ranges.image_size
-        text = (f"a {image.width()} x {image.height()} depth image, the camera's is {width} x "
-                f"{height}: ignored (read as a frame of dropped pixels)")
+        text = (
+            f"a {image.width()} x {image.height()} depth image, the camera's is {width} x "
+            f"{height}: ignored (read as a frame of dropped pixels)"
+        )
         dropped = ImageDepth32F(width, height)
         dropped.mutable_data[:] = np.nan
         return dropped, [("ignored", text)]
@@ -237,8 +256,10 @@ def screen_depth_image(image, ranges: SensorRanges):
         return image, []
     example = float(d[wrong].flat[0])
     image.mutable_data[:, :, 0][wrong] = np.nan
-    text = (f"{n} depth pixels outside [0, {ranges.image_max:g}] m (e.g. {example:.4g}): "
-            "ignored (read as dropped pixels)")
+    text = (
+        f"{n} depth pixels outside [0, {ranges.image_max:g}] m (e.g. {example:.4g}): "
+        "ignored (read as dropped pixels)"
+    )
     return image, [("ignored", text)]
 
 
@@ -248,13 +269,17 @@ def screen_pose(X: RigidTransform, last):
     None)."""
     R, p = X.rotation().matrix(), X.translation()
     finite = np.all(np.isfinite(R)) and np.all(np.isfinite(p))
-    orthonormal = finite and (np.abs(R.T @ R - np.eye(3)).max() <= ROTATION_TOLERANCE
-                              and np.linalg.det(R) > 0)
+    orthonormal = finite and (
+        np.abs(R.T @ R - np.eye(3)).max() <= ROTATION_TOLERANCE and np.linalg.det(R) > 0
+    )
     if finite and orthonormal:
         return X, []
     why = "not finite" if not finite else "a rotation matrix that is not a rotation"
-    action = ("the last good pose is held" if last is not None
-              else "no good pose yet: this camera frame is dropped")
+    action = (
+        "the last good pose is held"
+        if last is not None
+        else "no good pose yet: this camera frame is dropped"
+    )
     return last, [("held", f"camera pose {why}: {action}")]
 
 
@@ -272,10 +297,11 @@ def _screen_components(value, bounds, names, units, what: str, holder: str):
         return value, []
     problems = []
     if wrong.any():
-        items = [f"{names[i]} {x[i]:.4g} {units[i]} beyond +-{bounds[i]:.4g}"
-                 for i in np.flatnonzero(wrong)]
-        text = (f"{what} {_listing(items)}: ignored (read as dropped readings; {holder} "
-                "holds them)")
+        items = [
+            f"{names[i]} {x[i]:.4g} {units[i]} beyond +-{bounds[i]:.4g}"
+            for i in np.flatnonzero(wrong)
+        ]
+        text = f"{what} {_listing(items)}: ignored (read as dropped readings; {holder} holds them)"
         problems.append(("ignored", text))
         x = np.where(wrong, np.nan, x)
     if dropped.any():
@@ -292,8 +318,14 @@ def screen_reading(value, port: str, ranges: SensorRanges):
     channel."""
     m = _MODALITY_OF_PORT[port]
     r = m.reading
-    return _screen_components(value, ranges.readings[port], r.names, r.units,
-                              r.port.replace("_", " "), f"the {m.alias} estimator")
+    return _screen_components(
+        value,
+        ranges.readings[port],
+        r.names,
+        r.units,
+        r.port.replace("_", " "),
+        f"the {m.alias} estimator",
+    )
 
 
 _MODALITY_OF_PORT = {m.reading.port: m for m in MODALITIES if m.reading is not None}
@@ -312,8 +344,11 @@ def screen_battery(value, ranges: SensorRanges):
         wrong.append(f"current {amps:.4g} A beyond +-{ranges.battery_current:.4g}")
     if not wrong:
         return value, []
-    action = ("read as a dropped reading; the energy estimator holds its estimate"
-              if ranges.battery_read else "logged as NaN")
+    action = (
+        "read as a dropped reading; the energy estimator holds its estimate"
+        if ranges.battery_read
+        else "logged as NaN"
+    )
     return np.full(3, np.nan), [("ignored", f"{'; '.join(wrong)}: ignored ({action})")]
 
 
@@ -344,23 +379,35 @@ class Guard:
     def for_station(cls, plant_handles, held: dict, incidents: Incidents) -> Guard:
         """What the station's servos and pump take (``held``: the commands before the first)."""
         limits = JointLimits.from_plant(plant_handles)
-        return cls(incidents, {
-            "desired_state": lambda x, last: screen_joint_command(x, last, limits),
-            "balloon_command": screen_balloon_command}, held)
+        return cls(
+            incidents,
+            {
+                "desired_state": lambda x, last: screen_joint_command(x, last, limits),
+                "balloon_command": screen_balloon_command,
+            },
+            held,
+        )
 
     @classmethod
     def for_controller(cls, scenario, incidents: Incidents) -> Guard:
         """The physical ranges of the readings the controller receives (and logs)."""
         ranges = SensorRanges.for_scenario(scenario)
-        return cls(incidents, {
-            "depth": lambda x, last: screen_depth(x, ranges),
-            "measured_joint_state": lambda x, last: screen_joint_reading(x, last, ranges),
-            "depth_image": lambda x, last: screen_depth_image(x, ranges),
-            "camera_pose": screen_pose,
-            **{port: lambda x, last, port=port: screen_reading(x, port, ranges)
-               for port in _MODALITY_OF_PORT},
-            "battery": lambda x, last: screen_battery(x, ranges),
-            "electrical_power": lambda x, last: screen_power(x, ranges)}, {})
+        return cls(
+            incidents,
+            {
+                "depth": lambda x, last: screen_depth(x, ranges),
+                "measured_joint_state": lambda x, last: screen_joint_reading(x, last, ranges),
+                "depth_image": lambda x, last: screen_depth_image(x, ranges),
+                "camera_pose": screen_pose,
+                **{
+                    port: lambda x, last, port=port: screen_reading(x, port, ranges)
+                    for port in _MODALITY_OF_PORT
+                },
+                "battery": lambda x, last: screen_battery(x, ranges),
+                "electrical_power": lambda x, last: screen_power(x, ranges),
+            },
+            {},
+        )
 
     def screen_one(self, channel, value, t: float, before_start: bool = False):
         """The value of one message on ``channel`` to use (None: drop it); ``before_start``:
@@ -372,8 +419,11 @@ class Guard:
         if before_start:  # a sensor that has not sampled yet has dropped nothing
             problems = [p for p in problems if p[0] != "dropout"]
         if problems:
-            self.incidents.report(channel.name, [kind for kind, _ in problems],
-                                  f"at t = {t:.3f} s: " + "; ".join(text for _, text in problems))
+            self.incidents.report(
+                channel.name,
+                [kind for kind, _ in problems],
+                f"at t = {t:.3f} s: " + "; ".join(text for _, text in problems),
+            )
         if value is not None and not any(kind == "ignored" for kind, _ in problems):
             self.last[channel.port] = value
         return value

@@ -44,13 +44,22 @@ DEFAULT_STARTUP_TIMEOUT_S = 120.0  # s for the first message: the peer may still
 # What decoding a truncated, foreign or inconsistent message raises: struct.error (too few
 # bytes), ValueError (a wrong fingerprint, bad UTF-8, a reshape), SeamError (a codec's own
 # checks), zlib.error; IndexError, TypeError, OverflowError for lengths that do not add up.
-DECODE_ERRORS = (struct.error, ValueError, SeamError, zlib.error, IndexError, TypeError,
-                 OverflowError)
+DECODE_ERRORS = (
+    struct.error,
+    ValueError,
+    SeamError,
+    zlib.error,
+    IndexError,
+    TypeError,
+    OverflowError,
+)
 # liblcm's udpm provider options and their ranges; it ignores any other (and its obsolete
 # transmit_only) with a warning on a line of its own.
 UDPM_OPTIONS = {"ttl": (0, 255), "recv_buf_size": (1, 2**31 - 1)}
-URL_FORM = ("udpm://GROUP:PORT[?ttl=N&recv_buf_size=BYTES] (e.g. udpm://239.255.76.67:7667?ttl=0) "
-            "or tcpq://HOST:PORT")
+URL_FORM = (
+    "udpm://GROUP:PORT[?ttl=N&recv_buf_size=BYTES] (e.g. udpm://239.255.76.67:7667?ttl=0) "
+    "or tcpq://HOST:PORT"
+)
 
 
 def check_url(url: str, in_process: bool = False) -> None:
@@ -64,6 +73,7 @@ def check_url(url: str, in_process: bool = False) -> None:
     Raises:
         SeamError: the URL and what is wrong with it.
     """
+
     def refuse(why: str):
         return SeamError(f"--lcm {url!r}: {why}; expected {URL_FORM}")
 
@@ -77,8 +87,11 @@ def check_url(url: str, in_process: bool = False) -> None:
             return
         raise refuse("memq:// reaches this process only, and the other side runs in another")
     if scheme not in ("udpm", "tcpq"):
-        raise refuse("file:// is a log file, not a peer" if scheme == "file"
-                     else f"unknown LCM provider {scheme!r}")
+        raise refuse(
+            "file:// is a log file, not a peer"
+            if scheme == "file"
+            else f"unknown LCM provider {scheme!r}"
+        )
     address, _, query = rest.partition("?")
     host, colon, port = address.rpartition(":")
     if not colon:
@@ -94,8 +107,9 @@ def check_url(url: str, in_process: bool = False) -> None:
     try:
         group = ipaddress.IPv4Address(host)
     except ValueError:
-        raise refuse(f"{host!r} is not an IPv4 multicast group (224.0.0.0-239.255.255.255)") \
-            from None
+        raise refuse(
+            f"{host!r} is not an IPv4 multicast group (224.0.0.0-239.255.255.255)"
+        ) from None
     if not group.is_multicast:
         raise refuse(f"{host} is not a multicast group (224.0.0.0-239.255.255.255)")
     for key, value in urllib.parse.parse_qsl(query, keep_blank_values=True):
@@ -179,8 +193,9 @@ class LcmTransport:
 
     def listen(self, channel: Channel, deliver: Callable) -> None:
         """``deliver(data, None)`` for every message on ``channel``."""
-        self.lcm.subscribe(channel.name, lambda _name, data: deliver(data, None)) \
-            .set_queue_capacity(QUEUE_CAPACITY)
+        self.lcm.subscribe(
+            channel.name, lambda _name, data: deliver(data, None)
+        ).set_queue_capacity(QUEUE_CAPACITY)
 
     def decode(self, channel: Channel, data: bytes, _meta) -> tuple[int, object]:
         """(stamp [us], port value) of a message; DECODE_ERRORS when it is not one."""
@@ -200,8 +215,9 @@ class LcmTransport:
         return reason
 
     def listen_handshake(self, deliver: Callable) -> None:
-        self.lcm.subscribe(HANDSHAKE_CHANNEL, lambda _name, data: deliver(data)) \
-            .set_queue_capacity(QUEUE_CAPACITY)
+        self.lcm.subscribe(HANDSHAKE_CHANNEL, lambda _name, data: deliver(data)).set_queue_capacity(
+            QUEUE_CAPACITY
+        )
 
     def send_greeting(self, greeting: Greeting) -> None:
         self.lcm.publish(HANDSHAKE_CHANNEL, greeting_message(greeting).encode())
@@ -244,9 +260,17 @@ class Link:
         transport: an LCM URL (an ``LcmTransport`` on it) or a transport object.
     """
 
-    def __init__(self, transport, subscribe, who: str, lockstep: bool = True,
-                 sticky: tuple[str, ...] = (), incidents: Incidents | None = None,
-                 monitor=(), hello: Hello | None = None):
+    def __init__(
+        self,
+        transport,
+        subscribe,
+        who: str,
+        lockstep: bool = True,
+        sticky: tuple[str, ...] = (),
+        incidents: Incidents | None = None,
+        monitor=(),
+        hello: Hello | None = None,
+    ):
         if isinstance(transport, str):
             transport = LcmTransport(transport, who)
         self.transport = transport
@@ -270,8 +294,7 @@ class Link:
             self._subscribe(channel, channel.name in set(monitor))
         self.handshake = None
         if hello is not None:
-            self.handshake = Handshake(hello, transport.send_greeting, self.url,
-                                       transport.medium)
+            self.handshake = Handshake(hello, transport.send_greeting, self.url, transport.medium)
             transport.listen_handshake(self._receive_hello)
 
     def _subscribe(self, channel: Channel, monitor: bool = False) -> None:
@@ -282,9 +305,11 @@ class Link:
         self.transport.listen(channel, functools.partial(self._receive, channel))
 
     def _malformed(self, channel_name: str, type_name: str, data: bytes, reason: str) -> None:
-        self.incidents.report(channel_name, ["malformed"],
-                              f"a message ({len(data)} bytes) that is not a valid {type_name} "
-                              f"({reason}): skipped")
+        self.incidents.report(
+            channel_name,
+            ["malformed"],
+            f"a message ({len(data)} bytes) that is not a valid {type_name} ({reason}): skipped",
+        )
 
     def _receive(self, channel: Channel, data: bytes, meta) -> None:
         try:
@@ -293,8 +318,12 @@ class Link:
                 raise SeamError(f"{len(value)} values, expected {channel.size}")
         except DECODE_ERRORS as e:  # a truncated or foreign message must not stop the run
             reason = " ".join(str(e).split()) or type(e).__name__
-            self._malformed(channel.name, self.transport.type_name(channel), data,
-                            self.transport.why_malformed(channel, data, reason))
+            self._malformed(
+                channel.name,
+                self.transport.type_name(channel),
+                data,
+                self.transport.why_malformed(channel, data, reason),
+            )
             return
         self.last_arrival = time.monotonic()
         self.newest[channel.name] = max(stamp, self.newest.get(channel.name, stamp))
@@ -310,8 +339,12 @@ class Link:
             greeting = self.transport.decode_greeting(data)
         except DECODE_ERRORS as e:  # skipped like any other malformed message
             reason = " ".join(str(e).split()) or type(e).__name__
-            self._malformed(self.transport.handshake_name, self.transport.handshake_type, data,
-                            self.transport.why_malformed(None, data, reason))
+            self._malformed(
+                self.transport.handshake_name,
+                self.transport.handshake_type,
+                data,
+                self.transport.why_malformed(None, data, reason),
+            )
             return
         self.handshake.receive(greeting)
         if self.handshake.error is not None and self._error is None:
@@ -335,9 +368,11 @@ class Link:
             now = time.monotonic()
             if now - start >= timeout:
                 peer = hs.mine.peer_role
-                raise SeamError(f"{self.who}: no {peer} answered on {self.url} within "
-                                f"{now - start:.1f} s; is `manta-drake {peer}` running with the "
-                                f"same {self.transport.medium.option}?")
+                raise SeamError(
+                    f"{self.who}: no {peer} answered on {self.url} within "
+                    f"{now - start:.1f} s; is `manta-drake {peer}` running with the "
+                    f"same {self.transport.medium.option}?"
+                )
             if now - last_send >= RESEND_PERIOD_S:
                 hs.send()
                 last_send = now
@@ -420,8 +455,13 @@ class Link:
         may be None: a ROS 2 clock tick, which carries only its stamp)."""
         return {name: self.latest(name) for name in names if self.inbox[name]}
 
-    def wait_for(self, ready: Callable[[], object], timeout: float,
-                 on_stale: Callable[[float], None], on_timeout: Callable[[float], Exception]):
+    def wait_for(
+        self,
+        ready: Callable[[], object],
+        timeout: float,
+        on_stale: Callable[[float], None],
+        on_timeout: Callable[[float], Exception],
+    ):
         """Polls until ``ready()`` returns something other than None and returns it,
         re-sending what the peer may not have every ``RESEND_PERIOD_S``; calls
         ``on_stale(waited_s)`` once after ``STALE_AFTER_S``.

@@ -63,15 +63,18 @@ def joint_state_from_message(msg: lcmt_manta_joint_state, names=JOINT_NAMES) -> 
     if sorted(index) != sorted(names) or len(index) != len(msg.joint_name):
         missing = sorted(set(names) - set(index))
         extra = sorted(set(index) - set(names))
-        raise SeamError(f"joint state: joints differ from the robot's (missing {missing}, "
-                        f"unknown {extra})")
+        raise SeamError(
+            f"joint state: joints differ from the robot's (missing {missing}, unknown {extra})"
+        )
     order = [index[name] for name in names]
-    return np.concatenate([np.asarray(msg.position, dtype=float)[order],
-                           np.asarray(msg.velocity, dtype=float)[order]])
+    return np.concatenate(
+        [np.asarray(msg.position, dtype=float)[order], np.asarray(msg.velocity, dtype=float)[order]]
+    )
 
 
-def depth_image_message(t: float, image: ImageDepth32F,
-                        frame_name: str = "camera") -> lcmt_image_array:
+def depth_image_message(
+    t: float, image: ImageDepth32F, frame_name: str = "camera"
+) -> lcmt_image_array:
     """A 32-bit float depth image [m] as Drake's ``lcmt_image_array`` (one image,
     ``PIXEL_FORMAT_DEPTH``, ``CHANNEL_TYPE_FLOAT32``, uncompressed: noisy depth does
     not compress, and zlib would cost more than the datagrams it saves)."""
@@ -106,22 +109,30 @@ def depth_image_from_message(msg: lcmt_image_array) -> ImageDepth32F:
     if msg.num_images < 1:
         raise SeamError("depth image: the lcmt_image_array holds no image")
     img = msg.images[0]
-    if (img.pixel_format != lcmt_image.PIXEL_FORMAT_DEPTH
-            or img.channel_type != lcmt_image.CHANNEL_TYPE_FLOAT32):
-        raise SeamError(f"depth image: pixel_format {img.pixel_format}, channel_type "
-                        f"{img.channel_type}; expected DEPTH ({lcmt_image.PIXEL_FORMAT_DEPTH}) "
-                        f"FLOAT32 ({lcmt_image.CHANNEL_TYPE_FLOAT32})")
+    if (
+        img.pixel_format != lcmt_image.PIXEL_FORMAT_DEPTH
+        or img.channel_type != lcmt_image.CHANNEL_TYPE_FLOAT32
+    ):
+        raise SeamError(
+            f"depth image: pixel_format {img.pixel_format}, channel_type "
+            f"{img.channel_type}; expected DEPTH ({lcmt_image.PIXEL_FORMAT_DEPTH}) "
+            f"FLOAT32 ({lcmt_image.CHANNEL_TYPE_FLOAT32})"
+        )
     if img.width < 1 or img.height < 1:
         raise SeamError(f"depth image: {img.width} x {img.height} pixels")
     data = img.data
     if img.compression_method == lcmt_image.COMPRESSION_METHOD_ZLIB:
         data = zlib.decompress(data)
     elif img.compression_method != lcmt_image.COMPRESSION_METHOD_NOT_COMPRESSED:
-        raise SeamError(f"depth image: compression_method {img.compression_method} is not "
-                        "supported (send it uncompressed or zlib)")
+        raise SeamError(
+            f"depth image: compression_method {img.compression_method} is not "
+            "supported (send it uncompressed or zlib)"
+        )
     if img.row_stride != 4 * img.width or len(data) != img.row_stride * img.height:
-        raise SeamError(f"depth image: {len(data)} bytes, row_stride {img.row_stride} for "
-                        f"{img.width} x {img.height} float32 pixels")
+        raise SeamError(
+            f"depth image: {len(data)} bytes, row_stride {img.row_stride} for "
+            f"{img.width} x {img.height} float32 pixels"
+        )
     pixels = np.frombuffer(data, dtype=">f4" if img.bigendian else "<f4")
     image = ImageDepth32F(img.width, img.height)
     image.mutable_data[:, :, 0] = pixels.reshape(img.height, img.width)
@@ -140,8 +151,9 @@ def pose_message(t: float, X: RigidTransform, frame_name: str = "camera") -> lcm
 
 def pose_from_message(msg: lcmt_manta_pose) -> RigidTransform:
     """The RigidTransform of an ``lcmt_manta_pose``."""
-    return RigidTransform(RotationMatrix(np.array(msg.rotation, dtype=float)),
-                          np.array(msg.translation, dtype=float))
+    return RigidTransform(
+        RotationMatrix(np.array(msg.rotation, dtype=float)), np.array(msg.translation, dtype=float)
+    )
 
 
 @dc.dataclass(frozen=True)
@@ -160,9 +172,14 @@ def _utime(msg) -> int:
 
 CODECS = {
     "vector": Codec(lcmt_scope, vector_message, vector_from_message, _utime),
-    "joint_state": Codec(lcmt_manta_joint_state, joint_state_message,
-                         joint_state_from_message, _utime),
-    "depth_image": Codec(lcmt_image_array, depth_image_message, depth_image_from_message,
-                         lambda msg: msg.header.utime),
+    "joint_state": Codec(
+        lcmt_manta_joint_state, joint_state_message, joint_state_from_message, _utime
+    ),
+    "depth_image": Codec(
+        lcmt_image_array,
+        depth_image_message,
+        depth_image_from_message,
+        lambda msg: msg.header.utime,
+    ),
     "pose": Codec(lcmt_manta_pose, pose_message, pose_from_message, _utime),
 }

@@ -44,31 +44,46 @@ class SeamResult:
         return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else float("nan")
 
     def metrics(self) -> dict:
-        return {"who": self.who, "mode": self.mode, "url": self.url,
-                "run_id": self.run_id, "peer_run_id": self.peer_run_id,
-                "status": "failed" if self.failed else "stopped" if self.stopped else "ok",
-                "stopped": self.stopped, "failed": self.failed, "failsafe": self.failsafe,
-                "sim_time_s": self.sim_time_s, "wall_time_s": self.wall_time_s,
-                "real_time_factor": self.real_time_factor, "exchanges": self.exchanges,
-                "resends": self.resends, "incidents": self.incidents}
+        return {
+            "who": self.who,
+            "mode": self.mode,
+            "url": self.url,
+            "run_id": self.run_id,
+            "peer_run_id": self.peer_run_id,
+            "status": "failed" if self.failed else "stopped" if self.stopped else "ok",
+            "stopped": self.stopped,
+            "failed": self.failed,
+            "failsafe": self.failsafe,
+            "sim_time_s": self.sim_time_s,
+            "wall_time_s": self.wall_time_s,
+            "real_time_factor": self.real_time_factor,
+            "exchanges": self.exchanges,
+            "resends": self.resends,
+            "incidents": self.incidents,
+        }
 
     def write(self, out_dir) -> pathlib.Path:
         """Writes ``<who>_log.npz`` and ``<who>_metrics.json`` into ``out_dir``."""
         out = pathlib.Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(out / f"{self.who}_log.npz",
-                            **{k: np.asarray(v) for k, v in self.log.items()})
+        np.savez_compressed(
+            out / f"{self.who}_log.npz", **{k: np.asarray(v) for k, v in self.log.items()}
+        )
         (out / f"{self.who}_metrics.json").write_text(json.dumps(self.metrics(), indent=2) + "\n")
         return out
 
     def summary(self) -> str:
         """One line: times, mode, exchanges, re-sends, and what was clipped, held, ignored or
         skipped, and why the run stopped early, if it did."""
-        incidents = "; ".join(f"{name}: " + ", ".join(f"{n} {kind}" for kind, n in kinds.items())
-                              for name, kinds in self.incidents.items())
-        return (f"{self.who}: {self.sim_time_s:.3f} s simulated in {self.wall_time_s:.2f} s "
-                f"(real-time factor {self.real_time_factor:.2f}), {self.mode}, "
-                f"{self.exchanges} exchanges, {self.resends} re-sends, over {self.url}"
-                + (f"; {incidents}" if incidents else "")
-                + (f"; failsafe {len(self.failsafe)} time(s)" if self.failsafe else "")
-                + (f"; stopped {self.stopped}" if self.stopped else ""))
+        incidents = "; ".join(
+            f"{name}: " + ", ".join(f"{n} {kind}" for kind, n in kinds.items())
+            for name, kinds in self.incidents.items()
+        )
+        return (
+            f"{self.who}: {self.sim_time_s:.3f} s simulated in {self.wall_time_s:.2f} s "
+            f"(real-time factor {self.real_time_factor:.2f}), {self.mode}, "
+            f"{self.exchanges} exchanges, {self.resends} re-sends, over {self.url}"
+            + (f"; {incidents}" if incidents else "")
+            + (f"; failsafe {len(self.failsafe)} time(s)" if self.failsafe else "")
+            + (f"; stopped {self.stopped}" if self.stopped else "")
+        )

@@ -28,10 +28,24 @@ from manta_drake.seam.messages import to_utime
 
 SOURCE_EPOCH_NS = 1_000_000_000  # a headerless message's source timestamp - its stamp
 HANDSHAKE_NAME = "manta_drake/seam"  # the DiagnosticStatus's name
-ROS2_MEDIUM = Medium("domain", "a ROS 2 domain", "give each run a domain of its own "
-                     "(--domain N, or ROS_DOMAIN_ID)", "--ros2 --domain N")
-_HELLO_KEYS = ("role", "run_id", "peer_run_id", "reply", "pid", "scenario", "duration",
-               "time_step", "clock_mode", "channels")
+ROS2_MEDIUM = Medium(
+    "domain",
+    "a ROS 2 domain",
+    "give each run a domain of its own (--domain N, or ROS_DOMAIN_ID)",
+    "--ros2 --domain N",
+)
+_HELLO_KEYS = (
+    "role",
+    "run_id",
+    "peer_run_id",
+    "reply",
+    "pid",
+    "scenario",
+    "duration",
+    "time_step",
+    "clock_mode",
+    "channels",
+)
 
 
 def channel_signals(channel: Channel, sending: bool) -> list[str]:
@@ -39,8 +53,10 @@ def channel_signals(channel: Channel, sending: bool) -> list[str]:
     also as ``clock``, which is all a receiver reads of it; a depth image also with its
     ``camera_info``."""
     if channel.port not in PORT_SIGNALS:
-        raise SeamError(f"the port {channel.port} ({channel.name}) has no ROS 2 message; add "
-                        "one in manta_drake/ros2/ports.py")
+        raise SeamError(
+            f"the port {channel.port} ({channel.name}) has no ROS 2 message; add "
+            "one in manta_drake/ros2/ports.py"
+        )
     if not sending:
         return ["clock"] if channel.clock else [PORT_SIGNALS[channel.port]]
     signals = [PORT_SIGNALS[channel.port]] + (["clock"] if channel.clock else [])
@@ -53,31 +69,45 @@ def seam_topic_table_markdown(topic_map) -> str:
     (docs/ros2.md holds the shipped map's; a test checks)."""
     from manta_drake.ros2.topic_map import QOS_PROFILES
 
-    rows = ["| port | from | topic | type | QoS | period |",
-            "| --- | --- | --- | --- | --- | --- |"]
+    rows = [
+        "| port | from | topic | type | QoS | period |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
     for c in CHANNELS:
         for signal in channel_signals(c, sending=True):
             e = topic_map.topics[signal]
             p = QOS_PROFILES[e.qos]
-            qos = (f"`{e.qos}` ({'reliable' if p['reliability'] == 1 else 'best effort'}, "
-                   f"keep last {p['depth']})")
+            qos = (
+                f"`{e.qos}` ({'reliable' if p['reliability'] == 1 else 'best effort'}, "
+                f"keep last {p['depth']})"
+            )
             port = "(clock)" if signal == "clock" else f"`{c.port}`"
-            rows.append(f"| {port} | {c.sender} | `{e.topic}` | `{e.type}` | {qos} | "
-                        f"{c.period_text} |")
+            rows.append(
+                f"| {port} | {c.sender} | `{e.topic}` | `{e.type}` | {qos} | {c.period_text} |"
+            )
     hs = topic_map.topics["seam_handshake"]
-    rows.append(f"| (handshake) | both | `{hs.topic}` | `{hs.type}` | `{hs.qos}` | every 0.1 s "
-                "until paired, then on a peer's request and at the end |")
+    rows.append(
+        f"| (handshake) | both | `{hs.topic}` | `{hs.type}` | `{hs.qos}` | every 0.1 s "
+        "until paired, then on a peer's request and at the end |"
+    )
     return "\n".join(rows) + "\n"
 
 
 def greeting_msg(greeting: Greeting, topics: list[str]):
     """A Greeting as ``diagnostic_msgs/DiagnosticStatus`` (``topics``: those it publishes)."""
     h = greeting.hello
-    values = {"role": h.role, "run_id": h.run_id, "peer_run_id": greeting.peer_run_id,
-              "reply": "true" if greeting.reply else "false", "pid": str(h.pid),
-              "scenario": h.scenario, "duration": repr(float(h.duration)),
-              "time_step": repr(float(h.time_step)), "clock_mode": h.clock_mode,
-              "channels": " ".join(topics)}
+    values = {
+        "role": h.role,
+        "run_id": h.run_id,
+        "peer_run_id": greeting.peer_run_id,
+        "reply": "true" if greeting.reply else "false",
+        "pid": str(h.pid),
+        "scenario": h.scenario,
+        "duration": repr(float(h.duration)),
+        "time_step": repr(float(h.time_step)),
+        "clock_mode": h.clock_mode,
+        "channels": " ".join(topics),
+    }
     level = m.DIAGNOSTIC_ERROR if greeting.status.startswith("failed") else m.DIAGNOSTIC_OK
     return m.diagnostic_status_msg(level, HANDSHAKE_NAME, greeting.status, h.host, values)
 
@@ -88,17 +118,35 @@ def greeting_of(msg, channel_of_topic: dict[str, str]) -> Greeting:
     values = {kv.key: kv.value for kv in msg.values}
     missing = [k for k in _HELLO_KEYS if k not in values]
     if msg.name != HANDSHAKE_NAME or missing:
-        raise SeamError(f"a DiagnosticStatus {msg.name!r} without the seam's "
-                        f"{', '.join(missing) or 'name'}")
+        raise SeamError(
+            f"a DiagnosticStatus {msg.name!r} without the seam's {', '.join(missing) or 'name'}"
+        )
     try:
-        duration, step, pid = (float(values["duration"]), float(values["time_step"]),
-                               int(values["pid"]))
+        duration, step, pid = (
+            float(values["duration"]),
+            float(values["time_step"]),
+            int(values["pid"]),
+        )
     except ValueError as e:
         raise SeamError(f"handshake values: {e}") from None
-    channels = tuple(dict.fromkeys(channel_of_topic[t] for t in values["channels"].split()
-                                   if t in channel_of_topic))
-    hello = check_hello(Hello(values["role"], values["run_id"], values["scenario"], duration,
-                              step, values["clock_mode"], channels, msg.hardware_id, pid))
+    channels = tuple(
+        dict.fromkeys(
+            channel_of_topic[t] for t in values["channels"].split() if t in channel_of_topic
+        )
+    )
+    hello = check_hello(
+        Hello(
+            values["role"],
+            values["run_id"],
+            values["scenario"],
+            duration,
+            step,
+            values["clock_mode"],
+            channels,
+            msg.hardware_id,
+            pid,
+        )
+    )
     return Greeting(hello, values["peer_run_id"], values["reply"] == "true", msg.message)
 
 
@@ -122,27 +170,38 @@ class Ros2Transport:
         self._receiving: dict[str, tuple[str, str]] = {}
         hs = self._entry("seam_handshake")
         self.handshake_name, self.handshake_type = hs.topic, hs.type
-        self._channel_of_topic = {self._entry(s).topic: c.name for c in CHANNELS
-                                  for s in channel_signals(c, sending=True)
-                                  if self.topic_map.topics[s].enabled}
+        self._channel_of_topic = {
+            self._entry(s).topic: c.name
+            for c in CHANNELS
+            for s in channel_signals(c, sending=True)
+            if self.topic_map.topics[s].enabled
+        }
 
     def _entry(self, signal: str):
         entry = self.topic_map.topics[signal]
         if not entry.enabled:
-            raise SeamError(f"{self.who}: the topic map's {signal} is not enabled, and the seam "
-                            f"over ROS 2 carries it (topics.{signal}.enabled)")
+            raise SeamError(
+                f"{self.who}: the topic map's {signal} is not enabled, and the seam "
+                f"over ROS 2 carries it (topics.{signal}.enabled)"
+            )
         return entry
 
     def topics(self, channel_names) -> list[str]:
         """The topics the named channels are published on."""
         by_name = {c.name: c for c in CHANNELS}
-        return [self._entry(s).topic for name in channel_names
-                for s in channel_signals(by_name[name], sending=True) if self._sends(s)]
+        return [
+            self._entry(s).topic
+            for name in channel_names
+            for s in channel_signals(by_name[name], sending=True)
+            if self._sends(s)
+        ]
 
     def _sends(self, signal: str) -> bool:
         if signal == "camera_info":  # an extra for ROS 2's tools, when it can be made
-            return (self.topic_map.topics[signal].enabled
-                    and self.constants.camera_intrinsics is not None)
+            return (
+                self.topic_map.topics[signal].enabled
+                and self.constants.camera_intrinsics is not None
+            )
         return True
 
     def message(self, channel: Channel, t: float, value):
@@ -180,8 +239,7 @@ class Ros2Transport:
         if ns is None:
             ns = source_ns - SOURCE_EPOCH_NS
         codec = PORT_CODECS[signal][typename]
-        return round(ns / 1000), (codec.from_msg(msg, self.constants) if codec.from_msg
-                                  else None)
+        return round(ns / 1000), (codec.from_msg(msg, self.constants) if codec.from_msg else None)
 
     @staticmethod
     def _deserialize(data: bytes, typename: str):
@@ -208,8 +266,9 @@ class Ros2Transport:
     def send_greeting(self, greeting: Greeting) -> None:
         e = self._entry("seam_handshake")
         data = m.serialize(greeting_msg(greeting, self.topics(greeting.hello.channels)))
-        self.participant.write(self.participant.writer(e.topic, e.type, e.qos), data,
-                               SOURCE_EPOCH_NS)
+        self.participant.write(
+            self.participant.writer(e.topic, e.type, e.qos), data, SOURCE_EPOCH_NS
+        )
 
     def decode_greeting(self, data: bytes) -> Greeting:
         return greeting_of(self._deserialize(data, self.handshake_type), self._channel_of_topic)
@@ -219,4 +278,3 @@ class Ros2Transport:
 
     def close(self) -> None:
         self.participant.close()
-

@@ -40,8 +40,10 @@ from manta_drake.wiring.station import build_station, start_command
 def initial_commands(scenario) -> dict[str, np.ndarray]:
     """What the station holds before the first command: the start stance at rest and the
     initial balloon fill (a robot's servos hold their pose until commanded)."""
-    return {"desired_state": start_command(scenario),
-            "balloon_command": np.array([scenario.balloon.initial_fill])}
+    return {
+        "desired_state": start_command(scenario),
+        "balloon_command": np.array([scenario.balloon.initial_fill]),
+    }
 
 
 def _body_indices(handles):
@@ -53,10 +55,14 @@ def _body_indices(handles):
     return q0, q0 + 4
 
 
-def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
-                timeout: float = DEFAULT_TIMEOUT_S,
-                startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
-                progress: bool = False) -> SeamResult:
+def run_station(
+    scenario,
+    url: str = DEFAULT_URL,
+    wall_clock: bool = False,
+    timeout: float = DEFAULT_TIMEOUT_S,
+    startup_timeout: float = DEFAULT_STARTUP_TIMEOUT_S,
+    progress: bool = False,
+) -> SeamResult:
     """Runs the station of ``scenario`` alone against a controller over LCM.
 
     It first shakes hands with the controller (``manta_drake.seam.handshake``: the same
@@ -93,8 +99,15 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     sends, reads = station_channels(station)
     incidents = Incidents("station")
     hello = hello_for("station", scenario, wall_clock, sends)
-    link = Link(url, reads, "station", lockstep=not wall_clock, sticky=(CLOCK.name,),
-                incidents=incidents, hello=hello)
+    link = Link(
+        url,
+        reads,
+        "station",
+        lockstep=not wall_clock,
+        sticky=(CLOCK.name,),
+        incidents=incidents,
+        hello=hello,
+    )
     simulator = make_simulator(station, scenario)
     context = simulator.get_mutable_context()
     held = initial_commands(scenario)
@@ -103,22 +116,45 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
         station.GetInputPort(channel.port).FixValue(context, held[channel.port])
     # Lockstep: the sensors before initialization, encoded now (the messages copy the values),
     # for the controller's initialization events (``BEFORE_START_UTIME``).
-    before_start = {} if wall_clock else {
-        c.name: link.message(c, BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(
-            context)) for c in sends if not c.clock}
+    before_start = (
+        {}
+        if wall_clock
+        else {
+            c.name: link.message(c, BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(context))
+            for c in sends
+            if not c.clock
+        }
+    )
     simulator.Initialize()
     mode = "wall-clock" if wall_clock else "lockstep"
     if progress:
-        warn(f"station: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
-             f"controller on {link.url}")
+        warn(
+            f"station: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
+            f"controller on {link.url}"
+        )
     try:
         peer = link.shake_hands(startup_timeout)
         missing = [c.name for c in reads if c.name not in peer.channels]
         if missing:
-            raise SeamError(f"station: {peer.describe()} does not publish {', '.join(missing)}, "
-                            "which this station reads (is the water on in its scenario?)")
-        result = _station_loop(scenario, simulator, station, handles, link, guard, sends, reads,
-                               wall_clock, timeout, startup_timeout, progress, before_start)
+            raise SeamError(
+                f"station: {peer.describe()} does not publish {', '.join(missing)}, "
+                "which this station reads (is the water on in its scenario?)"
+            )
+        result = _station_loop(
+            scenario,
+            simulator,
+            station,
+            handles,
+            link,
+            guard,
+            sends,
+            reads,
+            wall_clock,
+            timeout,
+            startup_timeout,
+            progress,
+            before_start,
+        )
     except PeerStopped as e:
         raise SeamError(f"station: {e}") from None  # a controller has no reason to stop early
     except BaseException as e:
@@ -130,13 +166,27 @@ def run_station(scenario, url: str = DEFAULT_URL, wall_clock: bool = False,
     return result
 
 
-def _station_loop(scenario, simulator, station, handles, link, guard, sends, reads, wall_clock,
-                  timeout, startup_timeout, progress, before_start) -> SeamResult:
+def _station_loop(
+    scenario,
+    simulator,
+    station,
+    handles,
+    link,
+    guard,
+    sends,
+    reads,
+    wall_clock,
+    timeout,
+    startup_timeout,
+    progress,
+    before_start,
+) -> SeamResult:
     """The station's exchanges, after the handshake (see ``run_station``); ``before_start``:
     channel -> its message stamped ``BEFORE_START_UTIME``, sent first (lockstep)."""
     context = simulator.get_mutable_context()
-    schedule = exchange_schedule(scenario.duration,
-                                 {c.name: c.period(scenario) for c in sends + reads})
+    schedule = exchange_schedule(
+        scenario.duration, {c.name: c.period(scenario) for c in sends + reads}
+    )
     sending = {c.name for c in sends}
     reading = {c.name for c in reads}
     body = _body_indices(handles)
@@ -146,8 +196,14 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
     selector_context = selector.GetMyContextFromRoot(context)
     state_port = station.GetOutputPort("plant_state")
     logged = [c for c in sends if c.codec == "vector"]  # sensors logged as sent
-    log = {"t": [], "joint_angles": [], "joint_velocities": [], "body_xyz": [],
-           "body_quat_wxyz": [], **{k: [] for c in logged for k in (f"t_{c.port}", c.port)}}
+    log = {
+        "t": [],
+        "joint_angles": [],
+        "joint_velocities": [],
+        "body_xyz": [],
+        "body_quat_wxyz": [],
+        **{k: [] for c in logged for k in (f"t_{c.port}", c.port)},
+    }
     logged = {c.name for c in logged}
 
     def record(t):
@@ -157,12 +213,14 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
         log["joint_velocities"].append(x[NUM_JOINTS:].copy())
         if body is not None:
             s = state_port.Eval(context)
-            log["body_quat_wxyz"].append(s[body[0]:body[1]].copy())
-            log["body_xyz"].append(s[body[1]:body[1] + 3].copy())
+            log["body_quat_wxyz"].append(s[body[0] : body[1]].copy())
+            log["body_xyz"].append(s[body[1] : body[1] + 3].copy())
 
     def on_stale(waited):
-        warn(f"station: no command from the controller for {waited:.1f} s at "
-             f"t = {context.get_time():.3f} s; waiting (gives up after {timeout:g} s)")
+        warn(
+            f"station: no command from the controller for {waited:.1f} s at "
+            f"t = {context.get_time():.3f} s; waiting (gives up after {timeout:g} s)"
+        )
 
     def on_timeout(waited):
         skipped = link.incidents.count(kind="malformed")
@@ -170,7 +228,8 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
             f"station: no command for t = {context.get_time():.3f} s within {waited:.1f} s; "
             f"is `manta-drake controller` running with the same scenario, "
             f"{link.transport.medium.option} and --wall-clock setting?"
-            + (f" ({skipped} malformed messages skipped)" if skipped else ""))
+            + (f" ({skipped} malformed messages skipped)" if skipped else "")
+        )
 
     mode = "wall-clock" if wall_clock else "lockstep"
     wall_start = None
@@ -202,14 +261,21 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
         wanted = {name: ex.utime for name in ex.channels if name in reading}
         if wanted and not wall_clock:
             started = wall_start is not None  # else the controller may still be building
-            got = link.wait_for(lambda wanted=wanted: link.take(wanted),
-                                timeout if started else startup_timeout,
-                                on_stale if started else (lambda waited: None), on_timeout)
+            got = link.wait_for(
+                lambda wanted=wanted: link.take(wanted),
+                timeout if started else startup_timeout,
+                on_stale if started else (lambda waited: None),
+                on_timeout,
+            )
             fix_inputs(station, context, guard.screen(got, ex.time))
         elif wanted:  # wall clock: the newest command, whatever its stamp
             if wall_start is None:  # hold t = 0 until a controller is there
-                link.wait_for(lambda wanted=wanted: any(link.inbox[n] for n in wanted) or None,
-                              startup_timeout, lambda waited: None, on_timeout)
+                link.wait_for(
+                    lambda wanted=wanted: any(link.inbox[n] for n in wanted) or None,
+                    startup_timeout,
+                    lambda waited: None,
+                    on_timeout,
+                )
             link.drain()
             link.acknowledge_all()  # nothing is re-sent on the wall clock
             got = {name: msg for name in wanted if (msg := link.latest(name)) is not None}
@@ -218,8 +284,10 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
                 last_command, silent_warned = time.monotonic(), False
             elif time.monotonic() - last_command > STALE_AFTER_S and not silent_warned:
                 silent_warned = True
-                warn(f"station: no command from the controller for {STALE_AFTER_S:g} s at "
-                     f"t = {ex.time:.3f} s; holding the last one")
+                warn(
+                    f"station: no command from the controller for {STALE_AFTER_S:g} s at "
+                    f"t = {ex.time:.3f} s; holding the last one"
+                )
         if wall_start is None:
             wall_start = time.monotonic() - (ex.time if wall_clock else 0.0)
         if wall_clock:  # paced: sleep while ahead of the wall clock
@@ -241,5 +309,6 @@ def _station_loop(scenario, simulator, station, handles, link, guard, sends, rea
     for c in sends:  # one value a sample: a 1-D array, as log.npz has the depth
         if c.size == 1 and c.port in arrays:
             arrays[c.port] = arrays[c.port].reshape(-1)
-    return SeamResult("station", mode, link.url, t_end, wall, exchanges, link.resends, arrays,
-                      stopped=stopped)
+    return SeamResult(
+        "station", mode, link.url, t_end, wall, exchanges, link.resends, arrays, stopped=stopped
+    )

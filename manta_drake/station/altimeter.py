@@ -60,14 +60,26 @@ class AltimeterParams:
         """Checks every field; ValueError, one line naming ``<prefix>.<field>``, the value
         and the allowed range. Returns self."""
         check_boolean(f"{prefix}.enabled", self.enabled)
-        check_in_range(f"{prefix}.rate_hz", self.rate_hz, 0.0, 100.0, "(0, 100] Hz",
-                       open_low=True)
-        check_in_range(f"{prefix}.beam_half_angle_deg", self.beam_half_angle_deg, 0.0, 60.0,
-                       "[0, 60] deg")
-        check_in_range(f"{prefix}.max_range", self.max_range, 0.0, self.MAX_RANGE_M,
-                       f"(0, {self.MAX_RANGE_M:g}] m", open_low=True)
-        check_in_range(f"{prefix}.min_range", self.min_range, 0.0, self.max_range,
-                       f"[0, max_range = {self.max_range:g}) m", open_high=True)
+        check_in_range(f"{prefix}.rate_hz", self.rate_hz, 0.0, 100.0, "(0, 100] Hz", open_low=True)
+        check_in_range(
+            f"{prefix}.beam_half_angle_deg", self.beam_half_angle_deg, 0.0, 60.0, "[0, 60] deg"
+        )
+        check_in_range(
+            f"{prefix}.max_range",
+            self.max_range,
+            0.0,
+            self.MAX_RANGE_M,
+            f"(0, {self.MAX_RANGE_M:g}] m",
+            open_low=True,
+        )
+        check_in_range(
+            f"{prefix}.min_range",
+            self.min_range,
+            0.0,
+            self.max_range,
+            f"[0, max_range = {self.max_range:g}) m",
+            open_high=True,
+        )
         check_in_range(f"{prefix}.noise_std", self.noise_std, 0.0, 0.5, "[0, 0.5] m")
         check_in_range(f"{prefix}.dropout_rate", self.dropout_rate, 0.0, 1.0, "[0, 1]")
         check_vector(f"{prefix}.position", self.position, 3, HULL_SENSOR_REACH, " m")
@@ -86,8 +98,9 @@ def echo_range(distance: float, off_axis: float, half_angle: float) -> float:
     return float(distance) / math.cos(off_axis - half_angle)
 
 
-def altimeter_sample(true_range: float, params: AltimeterParams, normal_sample: float,
-                     uniform_sample: float) -> float:
+def altimeter_sample(
+    true_range: float, params: AltimeterParams, normal_sample: float, uniform_sample: float
+) -> float:
     """One reading: NaN on a dropout (``uniform_sample < dropout_rate``) or with the true
     range outside [min_range, max_range]; else the range plus ``noise_std`` times the
     normal sample."""
@@ -143,8 +156,9 @@ class Altimeter(LeafSystem):
         self.p_BS = np.asarray(params.position, dtype=float).reshape(3)
         self.period = 1.0 / float(params.rate_hz)
         self._half_angle = math.radians(params.beam_half_angle_deg)
-        self._query = self.DeclareAbstractInputPort("geometry_query",
-                                                     AbstractValue.Make(QueryObject()))
+        self._query = self.DeclareAbstractInputPort(
+            "geometry_query", AbstractValue.Make(QueryObject())
+        )
         self._noise = self.DeclareVectorInputPort("noise", 2)
         self._reading = self.DeclareDiscreteState([math.nan])
         self._true = self.DeclareDiscreteState([math.inf])
@@ -172,18 +186,21 @@ class Altimeter(LeafSystem):
         true = self.true_range(context)
         discrete_state.get_mutable_vector(self._true).SetAtIndex(0, true)
         discrete_state.get_mutable_vector(self._reading).SetAtIndex(
-            0, altimeter_sample(true, dc.replace(self.params, dropout_rate=0.0), 0.0, 1.0))
+            0, altimeter_sample(true, dc.replace(self.params, dropout_rate=0.0), 0.0, 1.0)
+        )
 
     def _sample(self, context, discrete_state):
         n, u = self._noise.Eval(context) if self._noise.HasValue(context) else (0.0, 1.0)
         true = self.true_range(context)
         discrete_state.get_mutable_vector(self._true).SetAtIndex(0, true)
         discrete_state.get_mutable_vector(self._reading).SetAtIndex(
-            0, altimeter_sample(true, self.params, n, u))
+            0, altimeter_sample(true, self.params, n, u)
+        )
 
 
-def add_altimeter(builder, plant_handles, params: AltimeterParams | None = None,
-                  name: str = "altimeter") -> Altimeter:
+def add_altimeter(
+    builder, plant_handles, params: AltimeterParams | None = None, name: str = "altimeter"
+) -> Altimeter:
     """Adds an Altimeter on the robot's hull (``plant_handles.body``), looking at the pool's
     floor, and its noise to ``builder``.
 
@@ -197,16 +214,18 @@ def add_altimeter(builder, plant_handles, params: AltimeterParams | None = None,
     """
     plant = plant_handles.plant
     frame_id = plant.GetBodyFrameIdOrThrow(plant_handles.body.index())
-    sensor = builder.AddNamedSystem(name, Altimeter(frame_id, floor_geometries(plant_handles),
-                                                    params))
-    builder.Connect(plant_handles.scene_graph.get_query_output_port(),
-                    sensor.GetInputPort("geometry_query"))
+    sensor = builder.AddNamedSystem(
+        name, Altimeter(frame_id, floor_geometries(plant_handles), params)
+    )
+    builder.Connect(
+        plant_handles.scene_graph.get_query_output_port(), sensor.GetInputPort("geometry_query")
+    )
     mux = builder.AddNamedSystem(f"{name}_noise", Multiplexer([1, 1]))
-    for k, distribution in enumerate((RandomDistribution.kGaussian,
-                                      RandomDistribution.kUniform)):
+    for k, distribution in enumerate((RandomDistribution.kGaussian, RandomDistribution.kUniform)):
         kind = ("normal", "uniform")[k]
-        source = builder.AddNamedSystem(f"{name}_noise_{kind}",
-                                        RandomSource(distribution, 1, sensor.period))
+        source = builder.AddNamedSystem(
+            f"{name}_noise_{kind}", RandomSource(distribution, 1, sensor.period)
+        )
         builder.Connect(source.get_output_port(), mux.get_input_port(k))
     builder.Connect(mux.get_output_port(), sensor.GetInputPort("noise"))
     return sensor

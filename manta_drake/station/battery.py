@@ -55,7 +55,8 @@ def state_of_charge_step(soc, current, dt: float, capacity_ah: float):
     """The state of charge after drawing ``current`` [A] for ``dt`` [s] from ``capacity_ah``:
     SoC - I dt / (3600 Q), within [0, 1]."""
     soc = np.asarray(soc, dtype=float) - np.asarray(current, dtype=float) * (
-        dt / (3600.0 * capacity_ah))
+        dt / (3600.0 * capacity_ah)
+    )
     return np.minimum(np.maximum(soc, 0.0), 1.0)
 
 
@@ -102,16 +103,22 @@ class Battery(LeafSystem):
     publish-time stop another ``AdvanceTo`` takes ordinary whole steps.)
     """
 
-    def __init__(self, pack: PackConstants, period: float, initial_soc: float = 1.0,
-                 stop_at_cutoff: bool = True):
+    def __init__(
+        self,
+        pack: PackConstants,
+        period: float,
+        initial_soc: float = 1.0,
+        stop_at_cutoff: bool = True,
+    ):
         super().__init__()
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"Battery.period: {period} must be a finite number > 0")
         if not (np.isfinite(pack.capacity_ah) and pack.capacity_ah > 0):
             raise ValueError(f"Battery.pack.capacity_ah: {pack.capacity_ah} must be > 0")
         if not (np.isfinite(pack.internal_resistance) and pack.internal_resistance >= 0):
-            raise ValueError(f"Battery.pack.internal_resistance: {pack.internal_resistance} "
-                             "must be >= 0")
+            raise ValueError(
+                f"Battery.pack.internal_resistance: {pack.internal_resistance} must be >= 0"
+            )
         if not 0.0 <= initial_soc <= 1.0:
             raise ValueError(f"Battery.initial_soc: {initial_soc} is outside [0, 1]")
         self.pack, self.period = pack, float(period)
@@ -134,20 +141,23 @@ class Battery(LeafSystem):
         soc = context.get_discrete_state(self._state).GetAtIndex(0)
         r = self.pack.internal_resistance
         # np.interp holds the end values outside the table, as a clip to [0, 1] would.
-        ocv, current = battery_kernel(soc, self._power.Eval(context)[0], self._ocv_soc,
-                                      self._ocv_pack, r)
+        ocv, current = battery_kernel(
+            soc, self._power.Eval(context)[0], self._ocv_soc, self._ocv_pack, r
+        )
         # state_of_charge_step's arithmetic, in Python floats (the same operations in the
         # same order, so the same bits).
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            [min(max(soc - current * self._soc_per_coulomb, 0.0), 1.0), ocv - r * current,
-             current])
+            [min(max(soc - current * self._soc_per_coulomb, 0.0), 1.0), ocv - r * current, current]
+        )
 
     def _check_cutoff(self, context):
         soc = context.get_discrete_state(self._state).GetAtIndex(0)
         if soc <= self.pack.cutoff_soc:
             return EventStatus.ReachedTermination(
-                self, f"battery empty at t = {context.get_time():.3f} s: state of charge "
-                f"{soc:.4f} <= cutoff_soc {self.pack.cutoff_soc:g}")
+                self,
+                f"battery empty at t = {context.get_time():.3f} s: state of charge "
+                f"{soc:.4f} <= cutoff_soc {self.pack.cutoff_soc:g}",
+            )
         return EventStatus.Succeeded()
 
     def state_of_charge(self, context) -> float:

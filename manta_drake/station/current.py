@@ -72,18 +72,26 @@ def _check_velocity(field: str, value) -> None:
     """3 finite numbers of magnitude <= MAX_SPEED (ValueError naming ``field``)."""
     if isinstance(value, np.ndarray):
         value = value.tolist()
-    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(
+    if (
+        not isinstance(value, (list, tuple))
+        or len(value) != 3
+        or not all(
             isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value):
+            for v in value
+        )
+    ):
         raise ValueError(f"{field}: {value!r} must be 3 finite numbers (m/s, world frame)")
     speed = math.sqrt(sum(float(v) ** 2 for v in value))
     if speed > MAX_SPEED:
-        raise ValueError(f"{field}: {value!r} has magnitude {speed:.3g} m/s, outside the "
-                         f"allowed range [0, {MAX_SPEED:g}] m/s")
+        raise ValueError(
+            f"{field}: {value!r} has magnitude {speed:.3g} m/s, outside the "
+            f"allowed range [0, {MAX_SPEED:g}] m/s"
+        )
 
 
-def check_current_schedule(points, constant, field: str = "water.current_schedule",
-                           constant_field: str = "water.current") -> None:
+def check_current_schedule(
+    points, constant, field: str = "water.current_schedule", constant_field: str = "water.current"
+) -> None:
     """Checks a schedule; ValueError, one line naming ``<field>[i].time`` or
     ``<field>[i].velocity`` (or ``constant_field``) and the allowed range.
 
@@ -101,16 +109,23 @@ def check_current_schedule(points, constant, field: str = "water.current_schedul
     previous: numbers.Real | float = -math.inf
     for i, point in enumerate(points):
         if not (hasattr(point, "time") and hasattr(point, "velocity")):
-            raise ValueError(f"{field}[{i}]: {point!r} is not a CurrentPoint "
-                             "(a time and a velocity)")
+            raise ValueError(
+                f"{field}[{i}]: {point!r} is not a CurrentPoint (a time and a velocity)"
+            )
         t = point.time
-        if isinstance(t, bool) or not isinstance(t, numbers.Real) or not (
-                math.isfinite(t) and 0.0 <= float(t) <= MAX_TIME):
-            raise ValueError(f"{field}[{i}].time: {t!r} is outside the allowed range "
-                             f"[0, {MAX_TIME:g}] s")
+        if (
+            isinstance(t, bool)
+            or not isinstance(t, numbers.Real)
+            or not (math.isfinite(t) and 0.0 <= float(t) <= MAX_TIME)
+        ):
+            raise ValueError(
+                f"{field}[{i}].time: {t!r} is outside the allowed range [0, {MAX_TIME:g}] s"
+            )
         if t < previous:
-            raise ValueError(f"{field}[{i}].time: {t!r} is before the previous key's time "
-                             f"{previous!r} (times must be non-decreasing)")
+            raise ValueError(
+                f"{field}[{i}].time: {t!r} is before the previous key's time "
+                f"{previous!r} (times must be non-decreasing)"
+            )
         previous = t
         _check_velocity(f"{field}[{i}].velocity", point.velocity)
 
@@ -138,8 +153,14 @@ class CurrentSchedule:
     _rows: tuple[tuple[float, ...], tuple[tuple[float, ...], ...]]
     _is_constant: bool
 
-    def __init__(self, constant=(0.0, 0.0, 0.0), points=(), *,
-                 field: str = "water.current_schedule", constant_field: str = "water.current"):
+    def __init__(
+        self,
+        constant=(0.0, 0.0, 0.0),
+        points=(),
+        *,
+        field: str = "water.current_schedule",
+        constant_field: str = "water.current",
+    ):
         points = list(points)
         check_current_schedule(points, constant, field, constant_field)
         constant = np.array(constant, dtype=float)
@@ -155,8 +176,9 @@ class CurrentSchedule:
         object.__setattr__(self, "_velocities", velocities)
         # Plain Python copies for ``at``: bisect and scalar indexing on tuples cost a
         # fraction of numpy's per-call overhead, and ``at`` runs at every force evaluation.
-        object.__setattr__(self, "_rows", (tuple(times.tolist()),
-                                           tuple(tuple(v) for v in velocities.tolist())))
+        object.__setattr__(
+            self, "_rows", (tuple(times.tolist()), tuple(tuple(v) for v in velocities.tolist()))
+        )
         object.__setattr__(self, "_is_constant", bool(np.all(velocities == velocities[0])))
 
     def __setattr__(self, name, value):

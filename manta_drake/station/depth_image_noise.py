@@ -38,8 +38,9 @@ def beyond_ray_range(depth, scale, max_range: float) -> np.ndarray:
     return out
 
 
-def noisy_depth(depth, noise_std: float, dropout_rate: float, normal_samples=None,
-                uniform_samples=None) -> np.ndarray:
+def noisy_depth(
+    depth, noise_std: float, dropout_rate: float, normal_samples=None, uniform_samples=None
+) -> np.ndarray:
     """``depth + noise_std * normal_samples`` with pixels NaN where ``uniform_samples <
     dropout_rate`` (float32, same shape). Out-of-range pixels (inf) stay inf."""
     out = np.array(depth, dtype=np.float32, copy=True)
@@ -89,9 +90,15 @@ class DepthImageNoise(LeafSystem):
         ValueError: one line naming the argument and what is allowed.
     """
 
-    def __init__(self, width: int, height: int, noise_std: float = 0.0,
-                 dropout_rate: float = 0.0, max_range: float | None = None,
-                 camera_info=None):
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        noise_std: float = 0.0,
+        dropout_rate: float = 0.0,
+        max_range: float | None = None,
+        camera_info=None,
+    ):
         super().__init__()
         check_integer("DepthImageNoise.width", width, 1, MAX_IMAGE_SIDE)
         check_integer("DepthImageNoise.height", height, 1, MAX_IMAGE_SIDE)
@@ -101,17 +108,27 @@ class DepthImageNoise(LeafSystem):
         if (max_range is None) != (camera_info is None):
             raise ValueError("DepthImageNoise: max_range and camera_info go together")
         if max_range is not None:
-            check_in_range("DepthImageNoise.max_range", max_range, 0.0, math.inf,
-                           "(0, inf) m", open_low=True)
+            check_in_range(
+                "DepthImageNoise.max_range", max_range, 0.0, math.inf, "(0, inf) m", open_low=True
+            )
             if not isinstance(camera_info, CameraInfo):
-                raise ValueError(f"DepthImageNoise.camera_info: expected a CameraInfo, got "
-                                 f"{type(camera_info).__name__}")
+                raise ValueError(
+                    f"DepthImageNoise.camera_info: expected a CameraInfo, got "
+                    f"{type(camera_info).__name__}"
+                )
             if (camera_info.width(), camera_info.height()) != (width, height):
-                raise ValueError(f"DepthImageNoise.camera_info: {camera_info.width()}x"
-                                 f"{camera_info.height()} is not the image's {width}x{height}")
-            self._ray_scale = ray_scale(width, height, camera_info.focal_x(),
-                                        camera_info.focal_y(), camera_info.center_x(),
-                                        camera_info.center_y())
+                raise ValueError(
+                    f"DepthImageNoise.camera_info: {camera_info.width()}x"
+                    f"{camera_info.height()} is not the image's {width}x{height}"
+                )
+            self._ray_scale = ray_scale(
+                width,
+                height,
+                camera_info.focal_x(),
+                camera_info.focal_y(),
+                camera_info.center_x(),
+                camera_info.center_y(),
+            )
         self.max_range = None if max_range is None else float(max_range)
         self.noise_std, self.dropout_rate = float(noise_std), float(dropout_rate)
         model = AbstractValue.Make(ImageDepth32F(width, height))

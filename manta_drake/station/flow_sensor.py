@@ -32,13 +32,13 @@ class FlowSensorParams:
     position: list[float] = dc.field(default_factory=lambda: [0.19, 0.0, 0.03])
     noise_std: float = 0.005  # m/s, white noise per axis
 
-
     def validate(self, prefix: str = "flow_sensor") -> "FlowSensorParams":
         """Checks every field; ValueError, one line naming ``<prefix>.<field>``, the value
         and the allowed range. Returns self."""
         check_boolean(f"{prefix}.enabled", self.enabled)
-        check_in_range(f"{prefix}.rate_hz", self.rate_hz, 0.0, 1000.0, "(0, 1000] Hz",
-                       open_low=True)
+        check_in_range(
+            f"{prefix}.rate_hz", self.rate_hz, 0.0, 1000.0, "(0, 1000] Hz", open_low=True
+        )
         check_in_range(f"{prefix}.noise_std", self.noise_std, 0.0, 0.5, "[0, 0.5] m/s")
         check_vector(f"{prefix}.position", self.position, 3, HULL_SENSOR_REACH, " m")
         return self
@@ -99,8 +99,9 @@ class FlowVelocitySensor(LeafSystem):
         ValueError: a parameter outside its range, or a bad current.
     """
 
-    def __init__(self, plant, body, params: FlowSensorParams | None = None,
-                 current=(0.0, 0.0, 0.0)):
+    def __init__(
+        self, plant, body, params: FlowSensorParams | None = None, current=(0.0, 0.0, 0.0)
+    ):
         super().__init__()
         params = FlowSensorParams() if params is None else params
         params.validate()
@@ -114,9 +115,11 @@ class FlowVelocitySensor(LeafSystem):
         self.noise_std = float(params.noise_std)
         self._current_now = np.empty(3)  # scratch for the schedule's value
         self._poses = self.DeclareAbstractInputPort(
-            "body_poses", plant.get_body_poses_output_port().Allocate())
+            "body_poses", plant.get_body_poses_output_port().Allocate()
+        )
         self._velocities = self.DeclareAbstractInputPort(
-            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate())
+            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate()
+        )
         self._noise = self.DeclareVectorInputPort("noise", 3)
         # Before its first sample the sensor holds the noiseless reading of the body at rest
         # in the plant's default pose in the current at t = 0: what an estimator initialised
@@ -136,20 +139,27 @@ class FlowVelocitySensor(LeafSystem):
         X_WB = self._poses.Eval(context)[self.body_index]
         V_WB = self._velocities.Eval(context)[self.body_index]
         current = self.current_schedule.at(context.get_time(), out=self._current_now)
-        return flow_velocity(X_WB.rotation().matrix(), V_WB.rotational(), V_WB.translational(),
-                             self.p_BS, current)
+        return flow_velocity(
+            X_WB.rotation().matrix(), V_WB.rotational(), V_WB.translational(), self.p_BS, current
+        )
 
     def _sample(self, context, discrete_state):
         true = self.true_reading(context)
         noise = self._noise.Eval(context) if self._noise.HasValue(context) else np.zeros(3)
         discrete_state.get_mutable_vector(self._true).SetFromVector(true)
         discrete_state.get_mutable_vector(self._reading).SetFromVector(
-            true + self.noise_std * noise)
+            true + self.noise_std * noise
+        )
 
 
-def add_flow_sensor(builder, plant, body, params: FlowSensorParams | None = None,
-                    current_schedule=(0.0, 0.0, 0.0),
-                    name: str = "flow_sensor") -> FlowVelocitySensor:
+def add_flow_sensor(
+    builder,
+    plant,
+    body,
+    params: FlowSensorParams | None = None,
+    current_schedule=(0.0, 0.0, 0.0),
+    name: str = "flow_sensor",
+) -> FlowVelocitySensor:
     """Adds a FlowVelocitySensor on ``body`` and its noise to ``builder``, wired to
     ``plant``.
 
@@ -163,12 +173,14 @@ def add_flow_sensor(builder, plant, body, params: FlowSensorParams | None = None
     Returns:
         The sensor, owned by the builder.
     """
-    sensor = builder.AddNamedSystem(name, FlowVelocitySensor(plant, body, params,
-                                                             current_schedule))
+    sensor = builder.AddNamedSystem(name, FlowVelocitySensor(plant, body, params, current_schedule))
     builder.Connect(plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
-    builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                    sensor.GetInputPort("body_spatial_velocities"))
-    noise = builder.AddNamedSystem(f"{name}_noise", RandomSource(
-        RandomDistribution.kGaussian, 3, sensor.period))
+    builder.Connect(
+        plant.get_body_spatial_velocities_output_port(),
+        sensor.GetInputPort("body_spatial_velocities"),
+    )
+    noise = builder.AddNamedSystem(
+        f"{name}_noise", RandomSource(RandomDistribution.kGaussian, 3, sensor.period)
+    )
     builder.Connect(noise.get_output_port(), sensor.GetInputPort("noise"))
     return sensor

@@ -113,8 +113,7 @@ def lagged_angle(w_eff, u):
     return np.arctan2(np.abs(w_eff), np.abs(u))
 
 
-def separation_step(attached, alpha, speed, chord, dt, stall_angle, stall_width,
-                    lag_semichords):
+def separation_step(attached, alpha, speed, chord, dt, stall_angle, stall_width, lag_semichords):
     """The attached share of each strip's flow after ``dt``: first-order towards
     ``attached_fraction(alpha)`` with the time constant T_f c / (2 U) (T_f semichords of
     travel), exact for alpha and U held over the step; T_f = 0: at once."""
@@ -154,9 +153,20 @@ def strip_kinematics(v_mid, omega, normal, chord_dir, span_dir, chord):
     return {"w": w, "u": u, "speed": speed, "alpha": alpha, "lead": lead, "v_t": v_t}
 
 
-def strip_forces(kin, w_eff, normal, area, rho, lift_slope, suction_efficiency,
-                 cross_flow_coefficient, friction_coefficient, stall_angle, stall_width,
-                 attached=None):
+def strip_forces(
+    kin,
+    w_eff,
+    normal,
+    area,
+    rho,
+    lift_slope,
+    suction_efficiency,
+    cross_flow_coefficient,
+    friction_coefficient,
+    stall_angle,
+    stall_width,
+    attached=None,
+):
     """Circulatory, suction, separated and friction forces (N, 3) on strips.
 
     F = f [-1/2 rho A a U w_eff n + 1/2 rho A a eta_s w_eff^2 l]
@@ -166,11 +176,15 @@ def strip_forces(kin, w_eff, normal, area, rho, lift_slope, suction_efficiency,
     and U the in-plane speed of the three-quarter-chord point (``strip_kinematics``).
     """
     half_rho_a = 0.5 * rho * np.asarray(area)
-    f = (attached_fraction(kin["alpha"], stall_angle, stall_width) if attached is None
-         else np.asarray(attached))
+    f = (
+        attached_fraction(kin["alpha"], stall_angle, stall_width)
+        if attached is None
+        else np.asarray(attached)
+    )
     w = kin["w"]
-    normal_force = (f * (-half_rho_a * lift_slope * kin["speed"] * w_eff)
-                    + (1.0 - f) * (-half_rho_a * cross_flow_coefficient * np.abs(w) * w))
+    normal_force = f * (-half_rho_a * lift_slope * kin["speed"] * w_eff) + (1.0 - f) * (
+        -half_rho_a * cross_flow_coefficient * np.abs(w) * w
+    )
     suction = f * half_rho_a * lift_slope * suction_efficiency * w_eff * w_eff
     v_t = kin["v_t"]
     friction = -(half_rho_a * friction_coefficient * np.linalg.norm(v_t, axis=1))[:, None] * v_t
@@ -238,21 +252,37 @@ def strip_wrenches(R, w, v, current, strips: dict, frac, lag, params: dict, atta
     r = rot(strips["p"])
     n = rot(strips["normal"])
     v_mid = v[b] + np.cross(w[b], r) - current
-    kin = strip_kinematics(v_mid, w[b], n, rot(strips["chord_dir"]), rot(strips["span_dir"]),
-                           strips["chord"])
+    kin = strip_kinematics(
+        v_mid, w[b], n, rot(strips["chord_dir"]), rot(strips["span_dir"]), strips["chord"]
+    )
     w_eff = effective_normal_velocity(lag, kin["w"])
-    f = strip_forces(kin, w_eff, n, strips["area"], params["rho"], params["lift_slope"],
-                     params["suction_efficiency"], params["cross_flow_coefficient"],
-                     params["friction_coefficient"], params["stall_angle"],
-                     params["stall_width"], attached)
+    f = strip_forces(
+        kin,
+        w_eff,
+        n,
+        strips["area"],
+        params["rho"],
+        params["lift_slope"],
+        params["suction_efficiency"],
+        params["cross_flow_coefficient"],
+        params["friction_coefficient"],
+        params["stall_angle"],
+        params["stall_width"],
+        attached,
+    )
     f = f * np.asarray(frac)[strips["element"]][:, None]
     to_body = np.eye(len(R))[:, b]
-    return (to_body @ np.concatenate([np.cross(r, f), f], axis=1), kin["w"], kin["speed"],
-            lagged_angle(w_eff, kin["u"]))
+    return (
+        to_body @ np.concatenate([np.cross(r, f), f], axis=1),
+        kin["w"],
+        kin["speed"],
+        lagged_angle(w_eff, kin["u"]),
+    )
 
 
-def prescribed_motion_forces(dt, v_mid, omega, normal, chord_dir, span_dir, area, chord,
-                             params: dict):
+def prescribed_motion_forces(
+    dt, v_mid, omega, normal, chord_dir, span_dir, area, chord, params: dict
+):
     """The strip model driven by a prescribed motion (no plant): the forces on each strip
     at each time step, the Wagner lag integrated along (the same terms and order as a
     simulation step: forces from the states, then ``wagner_step`` over ``dt``).
@@ -277,20 +307,47 @@ def prescribed_motion_forces(dt, v_mid, omega, normal, chord_dir, span_dir, area
     for i in range(nt):
         kin = strip_kinematics(v_mid[i], omega[i], normal[i], chord_dir[i], span_dir[i], chord)
         w_eff = effective_normal_velocity(lag, kin["w"])
-        out[i] = strip_forces(kin, w_eff, normal[i], area,
-                              params["rho"], params["lift_slope"], params["suction_efficiency"],
-                              params["cross_flow_coefficient"], params["friction_coefficient"],
-                              params["stall_angle"], params["stall_width"], attached)
+        out[i] = strip_forces(
+            kin,
+            w_eff,
+            normal[i],
+            area,
+            params["rho"],
+            params["lift_slope"],
+            params["suction_efficiency"],
+            params["cross_flow_coefficient"],
+            params["friction_coefficient"],
+            params["stall_angle"],
+            params["stall_width"],
+            attached,
+        )
         if lagged:
-            attached = separation_step(attached, lagged_angle(w_eff, kin["u"]), kin["speed"],
-                                       chord, dt, params["stall_angle"], params["stall_width"],
-                                       params["separation_lag"])
+            attached = separation_step(
+                attached,
+                lagged_angle(w_eff, kin["u"]),
+                kin["speed"],
+                chord,
+                dt,
+                params["stall_angle"],
+                params["stall_width"],
+                params["separation_lag"],
+            )
         lag = wagner_step(lag, kin["w"], kin["speed"], chord, dt)
     return out
 
 
-def added_mass_body_wrenches(R, p, w, v, current, bodies: dict, plate_fraction, a_normal,
-                             centring_frequency: float, centring_damping: float):
+def added_mass_body_wrenches(
+    R,
+    p,
+    w,
+    v,
+    current,
+    bodies: dict,
+    plate_fraction,
+    a_normal,
+    centring_frequency: float,
+    centring_damping: float,
+):
     """The forces that complete the fins' added-mass bodies (``model.plant``'s planar-joint
     bodies, one per plate), as wrench rows to add, and each body's normal velocity.
 

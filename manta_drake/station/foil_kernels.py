@@ -35,23 +35,40 @@ def pack_strips(body, element, p, normal, chord_dir, span_dir, area, chord) -> n
     return np.ascontiguousarray(table, dtype=float)
 
 
-def pack_foil_params(rho, lift_slope, suction_efficiency, cross_flow_coefficient,
-                     friction_coefficient, stall_angle, stall_width, current,
-                     separation_lag=0.0) -> np.ndarray:
+def pack_foil_params(
+    rho,
+    lift_slope,
+    suction_efficiency,
+    cross_flow_coefficient,
+    friction_coefficient,
+    stall_angle,
+    stall_width,
+    current,
+    separation_lag=0.0,
+) -> np.ndarray:
     """The strip model's parameters as one float vector (layout: the F_* indices)."""
     prm = np.empty(NUM_FOIL_PARAMS)
-    prm[:7] = (rho, lift_slope, suction_efficiency, cross_flow_coefficient,
-               friction_coefficient, stall_angle, stall_width)
-    prm[F_CURRENT:F_CURRENT + 3] = current
+    prm[:7] = (
+        rho,
+        lift_slope,
+        suction_efficiency,
+        cross_flow_coefficient,
+        friction_coefficient,
+        stall_angle,
+        stall_width,
+    )
+    prm[F_CURRENT : F_CURRENT + 3] = current
     prm[F_LAG] = separation_lag
     return prm
 
 
 @njit(cache=True)
 def _rot(Rb, x0, x1, x2):
-    return (Rb[0, 0] * x0 + Rb[0, 1] * x1 + Rb[0, 2] * x2,
-            Rb[1, 0] * x0 + Rb[1, 1] * x1 + Rb[1, 2] * x2,
-            Rb[2, 0] * x0 + Rb[2, 1] * x1 + Rb[2, 2] * x2)
+    return (
+        Rb[0, 0] * x0 + Rb[0, 1] * x1 + Rb[0, 2] * x2,
+        Rb[1, 0] * x0 + Rb[1, 1] * x1 + Rb[1, 2] * x2,
+        Rb[2, 0] * x0 + Rb[2, 1] * x1 + Rb[2, 2] * x2,
+    )
 
 
 @njit(cache=True)
@@ -104,8 +121,9 @@ def strip_wrenches(R, w, v, strips, frac, lag, prm, attached):
         alpha_lag[k] = np.arctan2(abs(w_eff), abs(uc))
         f_att = attached[k]
         half_rho_a = 0.5 * rho * area
-        fn = (f_att * (-half_rho_a * slope * spd * w_eff)
-              + (1.0 - f_att) * (-half_rho_a * c_dcf * abs(wn) * wn))
+        fn = f_att * (-half_rho_a * slope * spd * w_eff) + (1.0 - f_att) * (
+            -half_rho_a * c_dcf * abs(wn) * wn
+        )
         fs = f_att * half_rho_a * slope * eta * w_eff * w_eff
         mn = m0 * n0 + m1 * n1 + m2 * n2
         t0, t1, t2 = m0 - mn * n0, m1 - mn * n1, m2 - mn * n2
@@ -153,14 +171,16 @@ def lag_step(lag, w34, speed, strips, dt):
 def pack_added_mass_bodies(body, plate, mass, inertia_normal, R_PF, p_PF) -> np.ndarray:
     """The added-mass bodies as one float table: [body, plate, m, I_n, R_PF (9, row-major),
     p_PF (3)] per row."""
-    table = np.column_stack([body, plate, mass, inertia_normal,
-                             np.asarray(R_PF).reshape(-1, 9), p_PF])
+    table = np.column_stack(
+        [body, plate, mass, inertia_normal, np.asarray(R_PF).reshape(-1, 9), p_PF]
+    )
     return np.ascontiguousarray(table, dtype=float)
 
 
 @njit(cache=True)
-def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_normal,
-                             centring_frequency, centring_damping):
+def added_mass_body_wrenches(
+    R, p, w, v, current, bodies, plate_fraction, a_normal, centring_frequency, centring_damping
+):
     """``foil.added_mass_body_wrenches`` compiled: (F (nb, 6), q (nm,))."""
     nb, nm = R.shape[0], bodies.shape[0]
     F = np.zeros((nb, 6))
@@ -174,8 +194,9 @@ def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_norm
         R_PF = bodies[j, 4:13].reshape(3, 3)
         for a in range(3):
             for e in range(3):
-                R_WF[a, e] = (R[b, a, 0] * R_PF[0, e] + R[b, a, 1] * R_PF[1, e]
-                              + R[b, a, 2] * R_PF[2, e])
+                R_WF[a, e] = (
+                    R[b, a, 0] * R_PF[0, e] + R[b, a, 1] * R_PF[1, e] + R[b, a, 2] * R_PF[2, e]
+                )
         o0, o1, o2 = _rot(R[b], bodies[j, 13], bodies[j, 14], bodies[j, 15])
         o0, o1, o2 = p[b, 0] + o0, p[b, 1] + o1, p[b, 2] + o2
         n0, n1, n2 = R_WF[0, 2], R_WF[1, 2], R_WF[2, 2]
@@ -188,10 +209,14 @@ def added_mass_body_wrenches(R, p, w, v, current, bodies, plate_fraction, a_norm
         d0, d1, d2 = p[s_row, 0] - o0, p[s_row, 1] - o1, p[s_row, 2] - o2
         u0, u1, u2 = vs0 - vp0, vs1 - vp1, vs2 - vp2
         # Centring, in F's x and y, on the body alone.
-        fx = -m * (k * (R_WF[0, 0] * d0 + R_WF[1, 0] * d1 + R_WF[2, 0] * d2)
-                   + c * (R_WF[0, 0] * u0 + R_WF[1, 0] * u1 + R_WF[2, 0] * u2))
-        fy = -m * (k * (R_WF[0, 1] * d0 + R_WF[1, 1] * d1 + R_WF[2, 1] * d2)
-                   + c * (R_WF[0, 1] * u0 + R_WF[1, 1] * u1 + R_WF[2, 1] * u2))
+        fx = -m * (
+            k * (R_WF[0, 0] * d0 + R_WF[1, 0] * d1 + R_WF[2, 0] * d2)
+            + c * (R_WF[0, 0] * u0 + R_WF[1, 0] * u1 + R_WF[2, 0] * u2)
+        )
+        fy = -m * (
+            k * (R_WF[0, 1] * d0 + R_WF[1, 1] * d1 + R_WF[2, 1] * d2)
+            + c * (R_WF[0, 1] * u0 + R_WF[1, 1] * u1 + R_WF[2, 1] * u2)
+        )
         # The body's rotation about the normal relative to F: M = R_WF^T R_body.
         Rs = R[s_row]
         m00 = R_WF[0, 0] * Rs[0, 0] + R_WF[1, 0] * Rs[1, 0] + R_WF[2, 0] * Rs[2, 0]
@@ -248,19 +273,37 @@ def added_mass_normal_acceleration(R, w, v, bodies, q_prev, t_prev, t):
 
 
 @njit(cache=True)
-def add_foil_forces(F, R, p, w, v, frac, current, t, strips, prm, lag, attached, bodies,
-                    weights, prev, centring_frequency, centring_damping):
+def add_foil_forces(
+    F,
+    R,
+    p,
+    w,
+    v,
+    frac,
+    current,
+    t,
+    strips,
+    prm,
+    lag,
+    attached,
+    bodies,
+    weights,
+    prev,
+    centring_frequency,
+    centring_damping,
+):
     """The foil model's terms added to the water's other forces F (``spatial_wrenches``,
     whose element fractions ``frac`` it filled): the strips' forces, and the added-mass
     bodies' (their plates' submerged fraction the mean of the plate's strips' elements,
     ``weights`` (nm, ne); their normal acceleration from ``prev`` = [q (nm), t])."""
     fp = prm.copy()
-    fp[F_CURRENT:F_CURRENT + 3] = current
+    fp[F_CURRENT : F_CURRENT + 3] = current
     S, _, _, _ = strip_wrenches(R, w, v, strips, frac, lag, fp, attached)
     nm = bodies.shape[0]
     a_n = added_mass_normal_acceleration(R, w, v, bodies, prev[:nm], prev[nm], t)
-    A, _ = added_mass_body_wrenches(R, p, w, v, current, bodies, weights @ frac, a_n,
-                                    centring_frequency, centring_damping)
+    A, _ = added_mass_body_wrenches(
+        R, p, w, v, current, bodies, weights @ frac, a_n, centring_frequency, centring_damping
+    )
     return F + S + A
 
 
@@ -270,7 +313,7 @@ def foil_state_step(R, w, v, current, strips, prm, lag, attached, bodies, dt):
     (``lag_step``) and attached shares (``separation_step``), and each added-mass body's
     normal velocity v . n (its next ``prev``)."""
     fp = prm.copy()
-    fp[F_CURRENT:F_CURRENT + 3] = current
+    fp[F_CURRENT : F_CURRENT + 3] = current
     ones = np.ones(int(strips[:, 1].max()) + 1 if strips.shape[0] else 0)
     _, w34, speed, alpha = strip_wrenches(R, w, v, strips, ones, lag, fp, attached)
     nm = bodies.shape[0]
@@ -278,5 +321,8 @@ def foil_state_step(R, w, v, current, strips, prm, lag, attached, bodies, dt):
     for j in range(nm):
         s = int(bodies[j, 0])
         q[j] = v[s, 0] * R[s, 0, 2] + v[s, 1] * R[s, 1, 2] + v[s, 2] * R[s, 2, 2]
-    return (lag_step(lag, w34, speed, strips, dt),
-            separation_step(attached, alpha, speed, strips, dt, fp), q)
+    return (
+        lag_step(lag, w34, speed, strips, dt),
+        separation_step(attached, alpha, speed, strips, dt, fp),
+        q,
+    )

@@ -72,8 +72,11 @@ def floor_contacts(results, floor, geometry_body):
 
 def robot_geometry_bodies(plant, robot) -> dict:
     """Each collision geometry of the ``robot`` model instance -> its body's index."""
-    return {g: int(index) for index in plant.GetBodyIndices(robot)
-            for g in plant.GetCollisionGeometriesForBody(plant.get_body(index))}
+    return {
+        g: int(index)
+        for index in plant.GetBodyIndices(robot)
+        for g in plant.GetCollisionGeometriesForBody(plant.get_body(index))
+    }
 
 
 class FootContacts(LeafSystem):
@@ -115,11 +118,10 @@ class FootContacts(LeafSystem):
             leg = plant.get_body(index).name().split("_")[0]
             self._carrier[int(index)] = CARRIERS.index(leg) if leg in LEGS else len(LEGS)
         self.DeclareAbstractInputPort("contact_results", Value(ContactResults()))
-        self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port()
-                                      .Allocate())
-        self.DeclareAbstractInputPort("body_spatial_velocities",
-                                      plant.get_body_spatial_velocities_output_port()
-                                      .Allocate())
+        self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self.DeclareAbstractInputPort(
+            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate()
+        )
         self._query = self.DeclareAbstractInputPort("query_object", Value(QueryObject()))
         self.DeclareVectorOutputPort("foot_contacts", SIZE, self._calc)
 
@@ -146,11 +148,11 @@ class FootContacts(LeafSystem):
     @staticmethod
     def AddToBuilder(builder, plant, scene_graph, robot, floor_geometries) -> FootContacts:
         """Adds the system and connects it to ``plant``'s and ``scene_graph``'s ports."""
-        system = builder.AddNamedSystem("foot_contacts",
-                                        FootContacts(plant, robot, floor_geometries))
+        system = builder.AddNamedSystem(
+            "foot_contacts", FootContacts(plant, robot, floor_geometries)
+        )
         builder.Connect(scene_graph.get_query_output_port(), system.GetInputPort("query_object"))
         builder.Connect(plant.get_contact_results_output_port(), system.get_input_port(0))
         builder.Connect(plant.get_body_poses_output_port(), system.get_input_port(1))
-        builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                        system.get_input_port(2))
+        builder.Connect(plant.get_body_spatial_velocities_output_port(), system.get_input_port(2))
         return system

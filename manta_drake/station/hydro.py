@@ -178,10 +178,14 @@ class HydrodynamicForces(LeafSystem):
 
     rho = _fixed("rho", "Water density [kg/m^3].")
     g = _fixed("g", "Gravity [m/s^2].")
-    current = _fixed("current", "The water's velocity in the world (3,) [m/s]: at all "
-                     "times without a time-varying ``current_schedule``, else at t = 0.")
-    current_schedule = _fixed("current_schedule",
-                              "The CurrentSchedule given (or None): the current over time.")
+    current = _fixed(
+        "current",
+        "The water's velocity in the world (3,) [m/s]: at all "
+        "times without a time-varying ``current_schedule``, else at t = 0.",
+    )
+    current_schedule = _fixed(
+        "current_schedule", "The CurrentSchedule given (or None): the current over time."
+    )
     time_step = _fixed("time_step", "The plant's period [s].")
     update_period = _fixed("update_period", "0 (forces at every step) or the hold period [s].")
     inputs = _fixed("inputs", "The port set: 'contract' or 'plant_state'.")
@@ -197,64 +201,98 @@ class HydrodynamicForces(LeafSystem):
     pitch_pressure = _fixed("pitch_pressure", "Passive pitch's reference pressure [Pa].")
     balloon_mount = _fixed("balloon_mount", "The balloon's centre on the hull (3,) [m].")
     added_mass_iso = _fixed("added_mass_iso", "Isotropic added mass in the mass matrix [kg].")
-    residual_added_mass = _fixed("residual_added_mass",
-                                 "Explicit added mass (surge, sway, heave) [kg].")
-    residual_added_inertia = _fixed("residual_added_inertia",
-                                    "Explicit added inertia (roll, pitch, yaw) [kg m^2].")
-    effective_mass = _fixed("effective_mass",
-                            "The robot's mass with the implicit added mass [kg].")
-    effective_inertia = _fixed("effective_inertia",
-                               "The robot's inertia per hull axis with the implicit added "
-                               "inertia (3,) [kg m^2].")
+    residual_added_mass = _fixed(
+        "residual_added_mass", "Explicit added mass (surge, sway, heave) [kg]."
+    )
+    residual_added_inertia = _fixed(
+        "residual_added_inertia", "Explicit added inertia (roll, pitch, yaw) [kg m^2]."
+    )
+    effective_mass = _fixed("effective_mass", "The robot's mass with the implicit added mass [kg].")
+    effective_inertia = _fixed(
+        "effective_inertia",
+        "The robot's inertia per hull axis with the implicit added inertia (3,) [kg m^2].",
+    )
 
-    def __init__(self, plant, robot, coeffs: HydroCoefficients, time_step: float,
-                 params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
-                 added_mass_iso: float | None = None, update_period: float = 0.0, *,
-                 inputs: str = "contract", backend: str = "compiled",
-                 current_schedule: CurrentSchedule | None = None,
-                 fin_model: str = "cross_flow"):
+    def __init__(
+        self,
+        plant,
+        robot,
+        coeffs: HydroCoefficients,
+        time_step: float,
+        params: RobotParams = DEFAULT_ROBOT,
+        current=(0.0, 0.0, 0.0),
+        added_mass_iso: float | None = None,
+        update_period: float = 0.0,
+        *,
+        inputs: str = "contract",
+        backend: str = "compiled",
+        current_schedule: CurrentSchedule | None = None,
+        fin_model: str = "cross_flow",
+    ):
         super().__init__()
         if not (_is_real(time_step) and math.isfinite(time_step) and time_step > 0):
-            raise ValueError(f"HydrodynamicForces.time_step: {time_step!r} must be a finite "
-                             "number > 0 [s]")
-        if not (_is_real(update_period) and math.isfinite(update_period)
-                and update_period >= 0):
-            raise ValueError(f"HydrodynamicForces.update_period: {update_period!r} must be a "
-                             "finite number >= 0 [s] (0: forces at every step)")
+            raise ValueError(
+                f"HydrodynamicForces.time_step: {time_step!r} must be a finite number > 0 [s]"
+            )
+        if not (_is_real(update_period) and math.isfinite(update_period) and update_period >= 0):
+            raise ValueError(
+                f"HydrodynamicForces.update_period: {update_period!r} must be a "
+                "finite number >= 0 [s] (0: forces at every step)"
+            )
         if not (isinstance(inputs, str) and inputs in INPUTS):
-            raise ValueError(f"HydrodynamicForces.inputs: {inputs!r} must be one of "
-                             f"{', '.join(map(repr, INPUTS))}")
+            raise ValueError(
+                f"HydrodynamicForces.inputs: {inputs!r} must be one of "
+                f"{', '.join(map(repr, INPUTS))}"
+            )
         if not (isinstance(backend, str) and backend in BACKENDS):
-            raise ValueError(f"HydrodynamicForces.backend: {backend!r} must be one of "
-                             f"{', '.join(map(repr, BACKENDS))}")
+            raise ValueError(
+                f"HydrodynamicForces.backend: {backend!r} must be one of "
+                f"{', '.join(map(repr, BACKENDS))}"
+            )
         if not (isinstance(fin_model, str) and fin_model in FIN_MODELS):
-            raise ValueError(f"HydrodynamicForces.fin_model: {fin_model!r} must be one of "
-                             f"{', '.join(map(repr, FIN_MODELS))}")
+            raise ValueError(
+                f"HydrodynamicForces.fin_model: {fin_model!r} must be one of "
+                f"{', '.join(map(repr, FIN_MODELS))}"
+            )
         self._foil = fin_model == "foil"
         if self._foil and not plant.HasModelInstanceNamed(FIN_ADDED_MASS_INSTANCE):
-            raise ValueError("HydrodynamicForces.fin_model: 'foil' needs the fins' added-mass "
-                             "bodies in the plant (add_plant(..., fin_added_mass='bodies'))")
+            raise ValueError(
+                "HydrodynamicForces.fin_model: 'foil' needs the fins' added-mass "
+                "bodies in the plant (add_plant(..., fin_added_mass='bodies'))"
+            )
         try:
             current_array = np.asarray(current, dtype=float)
         except (TypeError, ValueError):
             current_array = None
-        if current_array is None or current_array.shape != (3,) or not np.all(
-                np.isfinite(current_array)):
-            raise ValueError(f"HydrodynamicForces.current: {current!r} must be 3 finite "
-                             "numbers (the water's velocity in the world, m/s)")
+        if (
+            current_array is None
+            or current_array.shape != (3,)
+            or not np.all(np.isfinite(current_array))
+        ):
+            raise ValueError(
+                f"HydrodynamicForces.current: {current!r} must be 3 finite "
+                "numbers (the water's velocity in the world, m/s)"
+            )
         if np.linalg.norm(current_array) > self.MAX_CURRENT:
-            raise ValueError(f"HydrodynamicForces.current: |{current!r}| = "
-                             f"{np.linalg.norm(current_array):.3g} m/s is outside the allowed "
-                             f"range [0, {self.MAX_CURRENT}] m/s")
+            raise ValueError(
+                f"HydrodynamicForces.current: |{current!r}| = "
+                f"{np.linalg.norm(current_array):.3g} m/s is outside the allowed "
+                f"range [0, {self.MAX_CURRENT}] m/s"
+            )
         if current_schedule is not None:
             if not isinstance(current_schedule, CurrentSchedule):
-                raise ValueError(f"HydrodynamicForces.current_schedule: {current_schedule!r} "
-                                 "must be None or a CurrentSchedule")
+                raise ValueError(
+                    f"HydrodynamicForces.current_schedule: {current_schedule!r} "
+                    "must be None or a CurrentSchedule"
+                )
             if np.any(current_array != 0.0) and not np.array_equal(
-                    current_array, current_schedule.constant):
-                raise ValueError(f"HydrodynamicForces.current: {current!r} differs from the "
-                                 "current_schedule's constant "
-                                 f"{current_schedule.constant.tolist()}: give one of the two")
+                current_array, current_schedule.constant
+            ):
+                raise ValueError(
+                    f"HydrodynamicForces.current: {current!r} differs from the "
+                    "current_schedule's constant "
+                    f"{current_schedule.constant.tolist()}: give one of the two"
+                )
             current_array = current_schedule.at(0.0)
         # A time-varying schedule: the current is written, per evaluation, into a copy of
         # the kernels' parameter vector (see ``_current_now``).
@@ -274,21 +312,23 @@ class HydrodynamicForces(LeafSystem):
         b, links = coeffs.body, coeffs.links
         d_lin = np.zeros((nb, 6))
         d_quad = np.zeros((nb, 6))
-        d_lin[:len(names)] = links.linear_damping.value
-        d_quad[:len(names)] = links.quadratic_damping.value
+        d_lin[: len(names)] = links.linear_damping.value
+        d_quad[: len(names)] = links.quadratic_damping.value
         d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
         d_lift = np.zeros((nb, 4))
         d_lift[0] = b.body_lift.value
         carried = (0.0, 0.0, 0.0)
         if self._foil:  # the hull's heave rides its added-mass body (model.plant)
             iso, residual_added_mass, heave = split_hull_added_mass(
-                b.added_mass.value, coeffs.fins.hull_interaction_added_mass.value)
+                b.added_mass.value, coeffs.fins.hull_interaction_added_mass.value
+            )
             carried = heave_body_inertia(heave)
             added_mass_iso = iso if added_mass_iso is None else added_mass_iso
             residual_added_mass[:2] += iso - added_mass_iso
         elif added_mass_iso is None:
             added_mass_iso, residual_added_mass = split_added_mass(
-                b.added_mass.value, plant.GetBodyByName("body", robot).default_mass())
+                b.added_mass.value, plant.GetBodyByName("body", robot).default_mass()
+            )
         else:
             residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
         _, residual_added_inertia = split_added_inertia(b.added_inertia.value, carried)
@@ -297,16 +337,23 @@ class HydrodynamicForces(LeafSystem):
         # mass and inertia (implicit added mass included) along that axis.
         mass, inertia = effective_inertia(plant, robot)
         check_explicit_added_mass(residual_added_mass, mass)
-        check_explicit_added_mass(residual_added_inertia, inertia,
-                                  ("roll", "pitch", "yaw"), "kg m^2")
+        check_explicit_added_mass(
+            residual_added_inertia, inertia, ("roll", "pitch", "yaw"), "kg m^2"
+        )
         self._fixed_values = {
-            "rho": float(coeffs.water_density.value), "g": float(coeffs.gravity.value),
-            "current": _frozen(current_array), "current_schedule": current_schedule,
+            "rho": float(coeffs.water_density.value),
+            "g": float(coeffs.gravity.value),
+            "current": _frozen(current_array),
+            "current_schedule": current_schedule,
             "time_step": float(time_step),
-            "update_period": float(update_period), "inputs": inputs, "backend": backend,
+            "update_period": float(update_period),
+            "inputs": inputs,
+            "backend": backend,
             "body_indices": tuple(int(i) for i in body_index),
             "el": types.MappingProxyType({k: _frozen(v) for k, v in el.items()}),
-            "d_lin": _frozen(d_lin), "d_quad": _frozen(d_quad), "d_lift": _frozen(d_lift),
+            "d_lin": _frozen(d_lin),
+            "d_quad": _frozen(d_quad),
+            "d_lift": _frozen(d_lift),
             "c_normal": float(coeffs.fins.normal_force_coefficient.value),
             "c_friction": float(coeffs.fins.skin_friction_coefficient.value),
             "pitch_max": float(np.radians(coeffs.fins.passive_pitch_max_deg.value)),
@@ -315,7 +362,8 @@ class HydrodynamicForces(LeafSystem):
             "added_mass_iso": float(added_mass_iso),
             "residual_added_mass": _frozen(residual_added_mass),
             "residual_added_inertia": _frozen(residual_added_inertia),
-            "effective_mass": mass, "effective_inertia": _frozen(inertia),
+            "effective_mass": mass,
+            "effective_inertia": _frozen(inertia),
             "fin_model": fin_model,
         }
         self._strip_to_body = _frozen(np.eye(nb)[:, el["strip_body"]])
@@ -325,16 +373,28 @@ class HydrodynamicForces(LeafSystem):
             assert added is not None  # read above for the foil model
             strips = np.zeros((0, strips.shape[1]))
             self._foil_reference_args, self._foil_packed = self._pack_foil(coeffs, el, added)
-        self._packed = (elements, strips,
-                        np.ascontiguousarray(np.hstack([d_lin, d_quad, d_lift]), dtype=float),
-                        K.pack_params(self.rho, self.g, self.c_normal, self.c_friction,
-                                      self.pitch_max, self.pitch_pressure, self.added_mass_iso,
-                                      self.current, self.balloon_mount,
-                                      self.residual_added_mass, self.residual_added_inertia))
+        self._packed = (
+            elements,
+            strips,
+            np.ascontiguousarray(np.hstack([d_lin, d_quad, d_lift]), dtype=float),
+            K.pack_params(
+                self.rho,
+                self.g,
+                self.c_normal,
+                self.c_friction,
+                self.pitch_max,
+                self.pitch_pressure,
+                self.added_mass_iso,
+                self.current,
+                self.balloon_mount,
+                self.residual_added_mass,
+                self.residual_added_inertia,
+            ),
+        )
         # The per-evaluation parameter vector of a time-varying current, and a view of its
         # current's slot: ``current_at`` writes three floats into it, nothing is allocated.
         self._prm_now = self._packed[3].copy()
-        self._current_slot = self._prm_now[K.P_CURRENT:K.P_CURRENT + 3]
+        self._current_slot = self._prm_now[K.P_CURRENT : K.P_CURRENT + 3]
         # Scratch force objects for the outputs (body and point fixed here): each output
         # calculation overwrites every force and set_value copies the list into the output
         # (a C++ vector), so nothing of one evaluation outlives it. Reusing them halves the
@@ -353,33 +413,45 @@ class HydrodynamicForces(LeafSystem):
         if self._plant_state:
             self._tree_i, self._tree_f = K.pack_tree(plant, body_index)
             # Where the hull's [w_W, v_W] sit in the state (a floating hull), else None.
-            self._hull_v = (self._nq + int(self._tree_i[0, 3])
-                            if self._tree_i[0, 1] == K.QUATERNION_FLOATING else None)
+            self._hull_v = (
+                self._nq + int(self._tree_i[0, 3])
+                if self._tree_i[0, 1] == K.QUATERNION_FLOATING
+                else None
+            )
             self._state = self.DeclareVectorInputPort("plant_state", self._nq + self._nv)
         else:
             self._poses = self.DeclareAbstractInputPort(
-                "body_poses", plant.get_body_poses_output_port().Allocate())
+                "body_poses", plant.get_body_poses_output_port().Allocate()
+            )
             self._velocities = self.DeclareAbstractInputPort(
                 "body_spatial_velocities",
-                plant.get_body_spatial_velocities_output_port().Allocate())
+                plant.get_body_spatial_velocities_output_port().Allocate(),
+            )
         self._balloon = self.DeclareVectorInputPort("balloon_volume", 1)
         forces_model = lambda: AbstractValue.Make(list(self._forces))  # noqa: E731
         if self.update_period == 0.0:
             self.DeclareAbstractOutputPort("spatial_forces", forces_model, self._calc_forces)
             if self._plant_state:
-                self.DeclareVectorOutputPort("generalized_forces", self._nv,
-                                             self._calc_generalized)
+                self.DeclareVectorOutputPort("generalized_forces", self._nv, self._calc_generalized)
             self.DeclarePeriodicDiscreteUpdateEvent(self.time_step, 0.0, self._store_velocity)
         else:
             self._held = self.DeclareDiscreteState(6 * nb)  # held [tau_W, f_W] per body
             self.DeclareAbstractOutputPort(
-                "spatial_forces", forces_model, self._output_held,
-                prerequisites_of_calc={self.xd_ticket()})
+                "spatial_forces",
+                forces_model,
+                self._output_held,
+                prerequisites_of_calc={self.xd_ticket()},
+            )
             if self._plant_state:
                 self.DeclareVectorOutputPort(
-                    "generalized_forces", self._nv, self._output_held_generalized,
-                    prerequisites_of_calc={self.xd_ticket(), self.input_port_ticket(
-                        self._state.get_index())})
+                    "generalized_forces",
+                    self._nv,
+                    self._output_held_generalized,
+                    prerequisites_of_calc={
+                        self.xd_ticket(),
+                        self.input_port_ticket(self._state.get_index()),
+                    },
+                )
             self.DeclarePeriodicDiscreteUpdateEvent(self.update_period, 0.0, self._update_held)
             # Held forces start from the initial state, not from zero.
             self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
@@ -389,18 +461,27 @@ class HydrodynamicForces(LeafSystem):
         added-mass bodies; the kernels' tables of them with the plates' fraction weights and
         the discrete state at rest), both read-only mappings."""
         fins = coeffs.fins
-        params = {"rho": self.rho, "lift_slope": float(fins.lift_slope.value),
-                  "suction_efficiency": float(fins.suction_efficiency.value),
-                  "cross_flow_coefficient": self.c_normal,
-                  "friction_coefficient": self.c_friction,
-                  "stall_angle": float(np.radians(fins.stall_angle_deg.value)),
-                  "stall_width": float(np.radians(fins.stall_width_deg.value)),
-                  "separation_lag": float(fins.separation_lag.value)}
-        strips = {"body": el["strip_body"], "element": el["strip_element"], "p": el["strip_p"],
-                  "normal": el["strip_n"], "chord_dir": el["strip_c"], "span_dir": el["strip_s"],
-                  "area": el["strip_area"], "chord": el["strip_chord"]}
-        bodies = {k: added[k] for k in ("body", "plate", "mass", "inertia_normal", "R_PF",
-                                        "p_PF")}
+        params = {
+            "rho": self.rho,
+            "lift_slope": float(fins.lift_slope.value),
+            "suction_efficiency": float(fins.suction_efficiency.value),
+            "cross_flow_coefficient": self.c_normal,
+            "friction_coefficient": self.c_friction,
+            "stall_angle": float(np.radians(fins.stall_angle_deg.value)),
+            "stall_width": float(np.radians(fins.stall_width_deg.value)),
+            "separation_lag": float(fins.separation_lag.value),
+        }
+        strips = {
+            "body": el["strip_body"],
+            "element": el["strip_element"],
+            "p": el["strip_p"],
+            "normal": el["strip_n"],
+            "chord_dir": el["strip_c"],
+            "span_dir": el["strip_s"],
+            "area": el["strip_area"],
+            "chord": el["strip_chord"],
+        }
+        bodies = {k: added[k] for k in ("body", "plate", "mass", "inertia_normal", "R_PF", "p_PF")}
         # A plate's submerged fraction: the mean of its strips' elements' (equal volumes).
         weights = np.zeros((len(bodies["body"]), len(el["volume"])))
         for j, plate in enumerate(bodies["plate"]):
@@ -410,25 +491,38 @@ class HydrodynamicForces(LeafSystem):
             else:  # the hull's heave body: the hull's elements' volume-weighted mean
                 elements = np.flatnonzero(el["body"] == plate)
                 weights[j, elements] = el["volume"][elements] / el["volume"][elements].sum()
-        reference = types.MappingProxyType(
-            {"strips": strips, "params": params, "bodies": bodies})
-        return reference, types.MappingProxyType({
-            "strips": FK.pack_strips(*strips.values()),
-            "params": FK.pack_foil_params(**params, current=self.current),
-            "bodies": FK.pack_added_mass_bodies(*bodies.values()),
-            "weights": np.ascontiguousarray(weights),
-            "lag0": _frozen(np.zeros((len(el["strip_body"]), 2))),
-            "prev0": _frozen(np.r_[np.zeros(len(bodies["body"])), -1.0]),
-            "attached0": _frozen(np.ones(len(el["strip_body"])))})
+        reference = types.MappingProxyType({"strips": strips, "params": params, "bodies": bodies})
+        return reference, types.MappingProxyType(
+            {
+                "strips": FK.pack_strips(*strips.values()),
+                "params": FK.pack_foil_params(**params, current=self.current),
+                "bodies": FK.pack_added_mass_bodies(*bodies.values()),
+                "weights": np.ascontiguousarray(weights),
+                "lag0": _frozen(np.zeros((len(el["strip_body"]), 2))),
+                "prev0": _frozen(np.r_[np.zeros(len(bodies["body"])), -1.0]),
+                "attached0": _frozen(np.ones(len(el["strip_body"]))),
+            }
+        )
 
     @staticmethod
-    def AddToBuilder(builder, plant, robot, coeffs: HydroCoefficients, time_step: float,
-                     params: RobotParams = DEFAULT_ROBOT, current=(0.0, 0.0, 0.0),
-                     added_mass_iso: float | None = None, update_period: float = 0.0, *,
-                     inputs: str = "contract", backend: str = "compiled",
-                     current_schedule: CurrentSchedule | None = None,
-                     apply_as: str | None = None, name: str = "hydro",
-                     fin_model: str = "cross_flow") -> "HydrodynamicForces":
+    def AddToBuilder(
+        builder,
+        plant,
+        robot,
+        coeffs: HydroCoefficients,
+        time_step: float,
+        params: RobotParams = DEFAULT_ROBOT,
+        current=(0.0, 0.0, 0.0),
+        added_mass_iso: float | None = None,
+        update_period: float = 0.0,
+        *,
+        inputs: str = "contract",
+        backend: str = "compiled",
+        current_schedule: CurrentSchedule | None = None,
+        apply_as: str | None = None,
+        name: str = "hydro",
+        fin_model: str = "cross_flow",
+    ) -> "HydrodynamicForces":
         """Adds a HydrodynamicForces to ``builder`` and connects it to ``plant``, as Drake's
         ``Wing.AddToBuilder``: its kinematics inputs from the plant's outputs (the state
         vector, or the body poses and spatial velocities, as ``inputs`` says) and its forces
@@ -458,37 +552,73 @@ class HydrodynamicForces(LeafSystem):
             ValueError: naming the argument and its allowed values.
         """
         if apply_as is not None and apply_as not in APPLY_AS:
-            raise ValueError(f"HydrodynamicForces.AddToBuilder.apply_as: {apply_as!r} must be "
-                             f"None or one of {', '.join(map(repr, APPLY_AS))}")
+            raise ValueError(
+                f"HydrodynamicForces.AddToBuilder.apply_as: {apply_as!r} must be "
+                f"None or one of {', '.join(map(repr, APPLY_AS))}"
+            )
         if apply_as == "generalized_forces" and inputs != "plant_state":
-            raise ValueError("HydrodynamicForces.AddToBuilder.apply_as: 'generalized_forces' "
-                             f"needs inputs='plant_state', got inputs={inputs!r}")
-        hydro = builder.AddNamedSystem(name, HydrodynamicForces(
-            plant, robot, coeffs, time_step, params, current, added_mass_iso, update_period,
-            inputs=inputs, backend=backend, current_schedule=current_schedule,
-            fin_model=fin_model))
+            raise ValueError(
+                "HydrodynamicForces.AddToBuilder.apply_as: 'generalized_forces' "
+                f"needs inputs='plant_state', got inputs={inputs!r}"
+            )
+        hydro = builder.AddNamedSystem(
+            name,
+            HydrodynamicForces(
+                plant,
+                robot,
+                coeffs,
+                time_step,
+                params,
+                current,
+                added_mass_iso,
+                update_period,
+                inputs=inputs,
+                backend=backend,
+                current_schedule=current_schedule,
+                fin_model=fin_model,
+            ),
+        )
         if apply_as is None:
-            apply_as = ("generalized_forces" if inputs == "plant_state" and update_period == 0
-                        else "spatial_forces")
+            apply_as = (
+                "generalized_forces"
+                if inputs == "plant_state" and update_period == 0
+                else "spatial_forces"
+            )
         if inputs == "plant_state":
             builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
         else:
             builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-            builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                            hydro.GetInputPort("body_spatial_velocities"))
+            builder.Connect(
+                plant.get_body_spatial_velocities_output_port(),
+                hydro.GetInputPort("body_spatial_velocities"),
+            )
         if apply_as == "generalized_forces":
-            builder.Connect(hydro.GetOutputPort("generalized_forces"),
-                            plant.get_applied_generalized_force_input_port())
+            builder.Connect(
+                hydro.GetOutputPort("generalized_forces"),
+                plant.get_applied_generalized_force_input_port(),
+            )
         else:
-            builder.Connect(hydro.GetOutputPort("spatial_forces"),
-                            plant.get_applied_spatial_force_input_port())
+            builder.Connect(
+                hydro.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port()
+            )
         return hydro
 
     # -- the maths ------------------------------------------------------------------------------
 
-    def compute(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                hull_alpha_W=None, *, current=None, t: float = 0.0,
-                fin_state=None) -> np.ndarray:
+    def compute(
+        self,
+        R,
+        p,
+        w,
+        v,
+        balloon_volume: float,
+        hull_accel_W=None,
+        hull_alpha_W=None,
+        *,
+        current=None,
+        t: float = 0.0,
+        fin_state=None,
+    ) -> np.ndarray:
         """Spatial forces [tau_W, f_W] (per hydro body, about its origin) from kinematics,
         by this system's ``backend`` (``compute_compiled`` or ``compute_reference``).
 
@@ -507,15 +637,45 @@ class HydrodynamicForces(LeafSystem):
                 nothing known yet.
         """
         if self._compiled:
-            return self.compute_compiled(R, p, w, v, balloon_volume, hull_accel_W,
-                                         hull_alpha_W, current=current, t=t,
-                                         fin_state=fin_state)
-        return self.compute_reference(R, p, w, v, balloon_volume, hull_accel_W, hull_alpha_W,
-                                      current=current, t=t, fin_state=fin_state)
+            return self.compute_compiled(
+                R,
+                p,
+                w,
+                v,
+                balloon_volume,
+                hull_accel_W,
+                hull_alpha_W,
+                current=current,
+                t=t,
+                fin_state=fin_state,
+            )
+        return self.compute_reference(
+            R,
+            p,
+            w,
+            v,
+            balloon_volume,
+            hull_accel_W,
+            hull_alpha_W,
+            current=current,
+            t=t,
+            fin_state=fin_state,
+        )
 
-    def compute_compiled(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                         hull_alpha_W=None, *, current=None, t: float = 0.0,
-                         fin_state=None) -> np.ndarray:
+    def compute_compiled(
+        self,
+        R,
+        p,
+        w,
+        v,
+        balloon_volume: float,
+        hull_accel_W=None,
+        hull_alpha_W=None,
+        *,
+        current=None,
+        t: float = 0.0,
+        fin_state=None,
+    ) -> np.ndarray:
         """``compute`` by the numba kernels (``water_kernels.spatial_wrenches``, and
         ``foil_kernels.add_foil_forces`` for the foil model)."""
         elements, strips, damping, _ = self._packed
@@ -526,8 +686,20 @@ class HydrodynamicForces(LeafSystem):
             accel[:3], accel[3:] = hull_accel_W, hull_alpha_W
         R, p, w, v = (np.ascontiguousarray(a, dtype=float) for a in (R, p, w, v))
         frac = np.empty(len(elements))
-        F = K.spatial_wrenches(R, p, w, v, float(balloon_volume), accel, has_accel, elements,
-                               strips, damping, prm, frac)
+        F = K.spatial_wrenches(
+            R,
+            p,
+            w,
+            v,
+            float(balloon_volume),
+            accel,
+            has_accel,
+            elements,
+            strips,
+            damping,
+            prm,
+            frac,
+        )
         return self._add_foil_compiled(F, R, p, w, v, frac, prm, t, fin_state)
 
     def _add_foil_compiled(self, F, R, p, w, v, frac, prm, t: float, fin_state):
@@ -535,48 +707,89 @@ class HydrodynamicForces(LeafSystem):
             return F
         lag, prev, attached = self._fin_state_or_rest(fin_state)
         f = self._foil_packed
-        return FK.add_foil_forces(F, R, p, w, v, frac, prm[K.P_CURRENT:K.P_CURRENT + 3],
-                                  float(t), f["strips"], f["params"], lag, attached,
-                                  f["bodies"], f["weights"], prev, *self.CENTRING)
+        return FK.add_foil_forces(
+            F,
+            R,
+            p,
+            w,
+            v,
+            frac,
+            prm[K.P_CURRENT : K.P_CURRENT + 3],
+            float(t),
+            f["strips"],
+            f["params"],
+            lag,
+            attached,
+            f["bodies"],
+            f["weights"],
+            prev,
+            *self.CENTRING,
+        )
 
-    def compute_reference(self, R, p, w, v, balloon_volume: float, hull_accel_W=None,
-                          hull_alpha_W=None, *, current=None, t: float = 0.0,
-                          fin_state=None) -> np.ndarray:
+    def compute_reference(
+        self,
+        R,
+        p,
+        w,
+        v,
+        balloon_volume: float,
+        hull_accel_W=None,
+        hull_alpha_W=None,
+        *,
+        current=None,
+        t: float = 0.0,
+        fin_state=None,
+    ) -> np.ndarray:
         """``compute`` by the pure numpy functions of ``manta_drake.station.water`` (and
         ``manta_drake.station.foil`` for the foil model)."""
         if current is None:
             current = self.current
         F, frac, body_frac = buoyancy_wrenches(R, p, self.el, self.rho, self.g)
         F[0] += balloon_wrench(R[0], p[0], self.balloon_mount, balloon_volume, self.rho, self.g)
-        F += damping_wrenches(R, w, v, current, self.d_lin, self.d_quad, body_frac,
-                              self.d_lift)
+        F += damping_wrenches(R, w, v, current, self.d_lin, self.d_quad, body_frac, self.d_lift)
         if self._foil:
             F += self._foil_reference(R, p, w, v, current, frac, t, fin_state)
         else:
-            r_s, fs = fin_strip_forces(R, w, v, current, self.el, frac, self.rho,
-                                       self.c_normal, self.c_friction, self.pitch_max,
-                                       self.pitch_pressure)
+            r_s, fs = fin_strip_forces(
+                R,
+                w,
+                v,
+                current,
+                self.el,
+                frac,
+                self.rho,
+                self.c_normal,
+                self.c_friction,
+                self.pitch_max,
+                self.pitch_pressure,
+            )
             F += self._strip_to_body @ np.concatenate([cross(r_s, fs), fs], axis=1)
         # The isotropic added mass is in the mass matrix: cancel its weight.
         F[0, 5] += self.added_mass_iso * self.g
         if hull_accel_W is not None:
-            F[0] += residual_added_mass_wrench(R[0], hull_accel_W, hull_alpha_W,
-                                               self.residual_added_mass,
-                                               self.residual_added_inertia, body_frac[0])
+            F[0] += residual_added_mass_wrench(
+                R[0],
+                hull_accel_W,
+                hull_alpha_W,
+                self.residual_added_mass,
+                self.residual_added_inertia,
+                body_frac[0],
+            )
         return F
 
     def _foil_reference(self, R, p, w, v, current, frac, t: float, fin_state) -> np.ndarray:
         """The foil model's strip and added-mass-body forces by the numpy functions."""
         lag, prev, attached = self._fin_state_or_rest(fin_state)
         f = self._foil_reference_args
-        S, _, _, _ = foil.strip_wrenches(R, w, v, current, f["strips"], frac, lag, f["params"],
-                                         attached)
+        S, _, _, _ = foil.strip_wrenches(
+            R, w, v, current, f["strips"], frac, lag, f["params"], attached
+        )
         bodies = f["bodies"]
         nm = len(bodies["body"])
         a_n = foil.added_mass_normal_acceleration(R, w, v, bodies, prev[:nm], prev[nm], t)
-        A, _ = foil.added_mass_body_wrenches(R, p, w, v, current, bodies,
-                                             self._foil_packed["weights"] @ frac, a_n,
-                                             *self.CENTRING)
+        A, _ = foil.added_mass_body_wrenches(
+            R, p, w, v, current, bodies, self._foil_packed["weights"] @ frac, a_n, *self.CENTRING
+        )
         return S + A
 
     def _fin_state_or_rest(self, fin_state):
@@ -587,12 +800,15 @@ class HydrodynamicForces(LeafSystem):
             return f["lag0"], f["prev0"], f["attached0"]
         lag, prev, *rest = fin_state
         attached = rest[0] if rest else f["attached0"]
-        return (np.ascontiguousarray(lag, dtype=float).reshape(-1, 2),
-                np.ascontiguousarray(prev, dtype=float),
-                np.ascontiguousarray(attached, dtype=float))
+        return (
+            np.ascontiguousarray(lag, dtype=float).reshape(-1, 2),
+            np.ascontiguousarray(prev, dtype=float),
+            np.ascontiguousarray(attached, dtype=float),
+        )
 
-    def compute_from_state(self, x, balloon_volume: float, t: float, v_prev,
-                           fin_state=None) -> np.ndarray:
+    def compute_from_state(
+        self, x, balloon_volume: float, t: float, v_prev, fin_state=None
+    ) -> np.ndarray:
         """The spatial forces the system outputs at the plant state ``x`` = [q, v] and time
         ``t`` (needs ``inputs="plant_state"``), by its ``backend``; a time-varying
         ``current_schedule`` is read at ``t``.
@@ -606,22 +822,34 @@ class HydrodynamicForces(LeafSystem):
             fin_state: the foil model's discrete state, as ``compute``'s.
         """
         self._require_plant_state("compute_from_state")
-        return self._from_state(np.ascontiguousarray(x, dtype=float), float(balloon_volume),
-                                float(t), np.ascontiguousarray(v_prev, dtype=float),
-                                self._current_now(float(t)), fin_state)
+        return self._from_state(
+            np.ascontiguousarray(x, dtype=float),
+            float(balloon_volume),
+            float(t),
+            np.ascontiguousarray(v_prev, dtype=float),
+            self._current_now(float(t)),
+            fin_state,
+        )
 
     def generalized_forces(self, x, F) -> np.ndarray:
         """J^T F at the plant state ``x`` (needs ``inputs="plant_state"``): the generalized
         forces of the spatial forces F (nb, 6) [tau_W, f_W] at the body origins."""
         self._require_plant_state("generalized_forces")
         return K.generalized_forces_from_state(
-            np.ascontiguousarray(x, dtype=float), self._nq, self._nv,
-            np.ascontiguousarray(F, dtype=float).ravel(), self._tree_i, self._tree_f)
+            np.ascontiguousarray(x, dtype=float),
+            self._nq,
+            self._nv,
+            np.ascontiguousarray(F, dtype=float).ravel(),
+            self._tree_i,
+            self._tree_f,
+        )
 
     def _require_plant_state(self, what: str) -> None:
         if not self._plant_state:
-            raise ValueError(f"HydrodynamicForces.{what}: needs inputs='plant_state' (the "
-                             f"packed kinematic tree), this system has inputs={self.inputs!r}")
+            raise ValueError(
+                f"HydrodynamicForces.{what}: needs inputs='plant_state' (the "
+                f"packed kinematic tree), this system has inputs={self.inputs!r}"
+            )
 
     def _current_now(self, t: float):
         """The current at time ``t`` when it varies (a view of the per-evaluation
@@ -638,28 +866,49 @@ class HydrodynamicForces(LeafSystem):
             self._current_slot[:] = current
         return self._prm_now
 
-    def _from_state(self, x, balloon_volume: float, t: float, v_prev,
-                    current=None, fin_state=None) -> np.ndarray:
+    def _from_state(
+        self, x, balloon_volume: float, t: float, v_prev, current=None, fin_state=None
+    ) -> np.ndarray:
         if self._compiled:  # one kernel call: kinematics, acceleration estimate, forces
             elements, strips, damping, _ = self._packed
             prm = self._params_with(current)
             frac = np.empty(len(elements))
-            F, R, p, w, v = K.forces_from_state(x, self._nq, balloon_volume, t, v_prev,
-                                                self._tree_i, self._tree_f, elements, strips,
-                                                damping, prm, frac)
+            F, R, p, w, v = K.forces_from_state(
+                x,
+                self._nq,
+                balloon_volume,
+                t,
+                v_prev,
+                self._tree_i,
+                self._tree_f,
+                elements,
+                strips,
+                damping,
+                prm,
+                frac,
+            )
             return self._add_foil_compiled(F, R, p, w, v, frac, prm, t, fin_state)
         R, p, w, v, _, _ = K.body_kinematics(x, self._nq, self._tree_i, self._tree_f)
-        return self.compute_reference(R, p, w, v, balloon_volume,
-                                      *_hull_acceleration(v[0], w[0], t, v_prev),
-                                      current=current, t=t, fin_state=fin_state)
+        return self.compute_reference(
+            R,
+            p,
+            w,
+            v,
+            balloon_volume,
+            *_hull_acceleration(v[0], w[0], t, v_prev),
+            current=current,
+            t=t,
+            fin_state=fin_state,
+        )
 
     # -- evaluation -----------------------------------------------------------------------------
 
     def _kinematics(self, context):
         """(R, p, w, v) of the hydro bodies in the world, from the input ports."""
         if self._plant_state:
-            R, p, w, v, _, _ = K.body_kinematics(self._state.Eval(context), self._nq,
-                                                 self._tree_i, self._tree_f)
+            R, p, w, v, _, _ = K.body_kinematics(
+                self._state.Eval(context), self._nq, self._tree_i, self._tree_f
+            )
             return R, p, w, v
         poses = self._poses.Eval(context)
         velocities = self._velocities.Eval(context)
@@ -676,16 +925,25 @@ class HydrodynamicForces(LeafSystem):
         current = self._current_now(t)
         fin_state = self._fin_state(context)
         if self._plant_state:
-            F = self._from_state(self._state.Eval(context), balloon, t, v_prev, current,
-                                 fin_state)
+            F = self._from_state(self._state.Eval(context), balloon, t, v_prev, current, fin_state)
         else:
             R, p, w, v = self._kinematics(context)
-            F = self.compute(R, p, w, v, balloon, *_hull_acceleration(v[0], w[0], t, v_prev),
-                             current=current, t=t, fin_state=fin_state)
+            F = self.compute(
+                R,
+                p,
+                w,
+                v,
+                balloon,
+                *_hull_acceleration(v[0], w[0], t, v_prev),
+                current=current,
+                t=t,
+                fin_state=fin_state,
+            )
         if not math.isfinite(F.sum()):  # a NaN or inf anywhere makes the sum non-finite
             raise RuntimeError(
                 f"HydrodynamicForces: non-finite force at t = {t:.4f} s "
-                "(the body state is no longer finite)")
+                "(the body state is no longer finite)"
+            )
         return F
 
     def _write(self, F, output):
@@ -708,9 +966,16 @@ class HydrodynamicForces(LeafSystem):
 
     def _output_held_generalized(self, context, output: BasicVector):
         # At every plant step: keep it to one kernel call on the arrays as they come.
-        output.SetFromVector(K.generalized_forces_from_state(
-            self._state.Eval(context), self._nq, self._nv,
-            context.get_discrete_state(self._held).get_value(), self._tree_i, self._tree_f))
+        output.SetFromVector(
+            K.generalized_forces_from_state(
+                self._state.Eval(context),
+                self._nq,
+                self._nv,
+                context.get_discrete_state(self._held).get_value(),
+                self._tree_i,
+                self._tree_f,
+            )
+        )
 
     def _update_held(self, context, discrete_state):
         F = self._forces_now(context)
@@ -721,8 +986,10 @@ class HydrodynamicForces(LeafSystem):
         """The foil model's (lag, prev, attached) in ``context``, or None (cross-flow)."""
         if not self._foil:
             return None
-        return tuple(context.get_discrete_state(i).get_value()
-                     for i in (self._lag, self._am_prev, self._attached))
+        return tuple(
+            context.get_discrete_state(i).get_value()
+            for i in (self._lag, self._am_prev, self._attached)
+        )
 
     def _step_fin_state(self, context, discrete_state, dt: float) -> None:
         """Advances the foil model's discrete state by one period ``dt`` from the state in
@@ -739,19 +1006,35 @@ class HydrodynamicForces(LeafSystem):
         attached = np.ascontiguousarray(attached)
         if self._compiled:
             lag_next, attached_next, q = FK.foil_state_step(
-                R, w, v, np.ascontiguousarray(current, dtype=float), f["strips"], f["params"],
-                lag, attached, f["bodies"], dt)
+                R,
+                w,
+                v,
+                np.ascontiguousarray(current, dtype=float),
+                f["strips"],
+                f["params"],
+                lag,
+                attached,
+                f["bodies"],
+                dt,
+            )
         else:
             ref = self._foil_reference_args
             prm = ref["params"]
             _, w34, speed, alpha = foil.strip_wrenches(
-                R, w, v, current, ref["strips"], np.ones(len(self.el["volume"])), lag, prm,
-                attached)
+                R, w, v, current, ref["strips"], np.ones(len(self.el["volume"])), lag, prm, attached
+            )
             chord = ref["strips"]["chord"]
             lag_next = foil.wagner_step(lag, w34, speed, chord, dt)
-            attached_next = foil.separation_step(attached, alpha, speed, chord, dt,
-                                                 prm["stall_angle"], prm["stall_width"],
-                                                 prm["separation_lag"])
+            attached_next = foil.separation_step(
+                attached,
+                alpha,
+                speed,
+                chord,
+                dt,
+                prm["stall_angle"],
+                prm["stall_width"],
+                prm["separation_lag"],
+            )
             body = ref["bodies"]["body"]
             q = (v[body] * R[body][:, :, 2]).sum(axis=1)
         discrete_state.get_mutable_vector(self._lag).SetFromVector(lag_next.ravel())
@@ -765,7 +1048,7 @@ class HydrodynamicForces(LeafSystem):
         samples[7:] = context.get_discrete_state(self._v_prev).get_value()[:7]
         if self._plant_state and self._hull_v is not None:  # floating hull: [w, v] in x
             x, h = self._state.Eval(context), self._hull_v
-            samples[:3], samples[3:6] = x[h + 3:h + 6], x[h:h + 3]
+            samples[:3], samples[3:6] = x[h + 3 : h + 6], x[h : h + 3]
         elif self._plant_state:
             _, _, w, v = self._kinematics(context)
             samples[:3], samples[3:6] = v[0], w[0]
@@ -797,7 +1080,8 @@ def _hull_acceleration(v_hull, w_hull, t: float, v_prev):
 def _is_real(value) -> bool:
     """A real number (not a bool, string or array)."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_))
+        value, (bool, np.bool_)
+    )
 
 
 def _added_mass_bodies(plant, hydro_bodies) -> dict:
@@ -808,8 +1092,15 @@ def _added_mass_bodies(plant, hydro_bodies) -> dict:
     instance = plant.GetModelInstanceByName(FIN_ADDED_MASS_INSTANCE)
     rows = {int(b): k for k, b in enumerate(hydro_bodies)}
     joints = [plant.get_joint(j) for j in plant.GetJointIndices(instance)]
-    out: dict[str, list] = {"index": [], "body": [], "plate": [], "mass": [],
-                            "inertia_normal": [], "R_PF": [], "p_PF": []}
+    out: dict[str, list] = {
+        "index": [],
+        "body": [],
+        "plate": [],
+        "mass": [],
+        "inertia_normal": [],
+        "R_PF": [],
+        "p_PF": [],
+    }
     for k, joint in enumerate(joints):
         body = joint.child_body()
         X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
@@ -817,8 +1108,7 @@ def _added_mass_bodies(plant, hydro_bodies) -> dict:
         out["body"].append(len(hydro_bodies) + k)
         out["plate"].append(rows[int(joint.parent_body().index())])
         out["mass"].append(body.default_mass())
-        out["inertia_normal"].append(
-            body.default_rotational_inertia().CopyToFullMatrix3()[2, 2])
+        out["inertia_normal"].append(body.default_rotational_inertia().CopyToFullMatrix3()[2, 2])
         out["R_PF"].append(X_PF.rotation().matrix())
         out["p_PF"].append(X_PF.translation())
     return {k: (v if k == "index" else np.array(v)) for k, v in out.items()}

@@ -57,16 +57,28 @@ class ImuParams:
         and the allowed range. Returns self."""
         check_boolean(f"{prefix}.enabled", self.enabled)
         for name, lo, hi, unit, open_low in self.RANGES:
-            check_in_range(f"{prefix}.{name}", getattr(self, name), lo, hi,
-                           f"{'(' if open_low else '['}{lo:g}, {hi:g}] {unit}", open_low)
+            check_in_range(
+                f"{prefix}.{name}",
+                getattr(self, name),
+                lo,
+                hi,
+                f"{'(' if open_low else '['}{lo:g}, {hi:g}] {unit}",
+                open_low,
+            )
         check_vector(f"{prefix}.position", self.position, 3, HULL_SENSOR_REACH, " m")
         return self
 
     def noise_std(self) -> np.ndarray:
         """(9,) the white noise's standard deviation per output, in SI units (rad, rad/s,
         m/s^2)."""
-        return np.repeat([math.radians(self.attitude_noise_std_deg),
-                          math.radians(self.gyro_noise_std_deg_s), self.accel_noise_std], 3)
+        return np.repeat(
+            [
+                math.radians(self.attitude_noise_std_deg),
+                math.radians(self.gyro_noise_std_deg_s),
+                self.accel_noise_std,
+            ],
+            3,
+        )
 
     def bias_std(self) -> np.ndarray:
         """(9,) the bias's standard deviation per output (the attitude has none: the
@@ -76,6 +88,7 @@ class ImuParams:
 
 # --- pure maths ----------------------------------------------------------------------------------
 
+
 def wrap_angle(angle):
     """``angle`` [rad] wrapped into (-pi, pi] (an AHRS's convention: +pi, never -pi)."""
     return math.pi - np.mod(math.pi - np.asarray(angle, dtype=float), 2.0 * math.pi)
@@ -84,8 +97,9 @@ def wrap_angle(angle):
 def cross3(a, b) -> np.ndarray:
     """a x b of two 3-vectors (``np.cross`` costs ~10 us a call on 3-vectors, most of a
     sample's time)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def imu_true_reading(R_WB, w_W, alpha_W, a_WBo, p_BS, g_W) -> np.ndarray:
@@ -109,8 +123,7 @@ def imu_true_reading(R_WB, w_W, alpha_W, a_WBo, p_BS, g_W) -> np.ndarray:
     rpy = RollPitchYaw(RotationMatrix(R_WB)).vector()
     rpy[0], rpy[2] = wrap_angle(rpy[0]), wrap_angle(rpy[2])
     r_W = R_WB @ np.asarray(p_BS, dtype=float)
-    a_WS = (np.asarray(a_WBo, dtype=float) + cross3(alpha_W, r_W)
-            + cross3(w_W, cross3(w_W, r_W)))
+    a_WS = np.asarray(a_WBo, dtype=float) + cross3(alpha_W, r_W) + cross3(w_W, cross3(w_W, r_W))
     return np.concatenate([rpy, R_WB.T @ w_W, R_WB.T @ (a_WS - np.asarray(g_W, dtype=float))])
 
 
@@ -123,13 +136,17 @@ def imu_noisy_reading(true_reading, noise, bias, noise_std, bias_std) -> np.ndar
         noise, bias: (9,) standard normal samples (this sample's and the run's).
         noise_std, bias_std: (9,) ``ImuParams.noise_std()`` and ``bias_std()``.
     """
-    out = (np.asarray(true_reading, dtype=float) + np.asarray(noise_std) * noise
-           + np.asarray(bias_std) * bias)
+    out = (
+        np.asarray(true_reading, dtype=float)
+        + np.asarray(noise_std) * noise
+        + np.asarray(bias_std) * bias
+    )
     out[0], out[2] = wrap_angle(out[0]), wrap_angle(out[2])
     return out
 
 
 # --- the system ----------------------------------------------------------------------------------
+
 
 class ImuSensor(LeafSystem):
     """An AHRS on a body of a MultibodyPlant: attitude, angular rate and specific force,
@@ -193,12 +210,15 @@ class ImuSensor(LeafSystem):
         self.g_W = np.asarray(plant.gravity_field().gravity_vector(), dtype=float).copy()
         self._noise_std, self._bias_std = params.noise_std(), params.bias_std()
         self._poses = self.DeclareAbstractInputPort(
-            "body_poses", plant.get_body_poses_output_port().Allocate())
+            "body_poses", plant.get_body_poses_output_port().Allocate()
+        )
         self._velocities = self.DeclareAbstractInputPort(
-            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate())
+            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate()
+        )
         self._accelerations = self.DeclareAbstractInputPort(
             "body_spatial_accelerations",
-            plant.get_body_spatial_accelerations_output_port().Allocate())
+            plant.get_body_spatial_accelerations_output_port().Allocate(),
+        )
         self._noise = self.DeclareVectorInputPort("noise", 9)
         self._bias_in = self.DeclareVectorInputPort("bias", 9)
         # Before its first sample the sensor holds the noiseless reading of the body at rest
@@ -223,15 +243,22 @@ class ImuSensor(LeafSystem):
         X_WB = self._poses.Eval(context)[self.body_index]
         V_WB = self._velocities.Eval(context)[self.body_index]
         A_WB = self._accelerations.Eval(context)[self.body_index]
-        return imu_true_reading(X_WB.rotation().matrix(), V_WB.rotational(), A_WB.rotational(),
-                                A_WB.translational(), self.p_BS, self.g_W)
+        return imu_true_reading(
+            X_WB.rotation().matrix(),
+            V_WB.rotational(),
+            A_WB.rotational(),
+            A_WB.translational(),
+            self.p_BS,
+            self.g_W,
+        )
 
     def _store(self, context, discrete_state, bias) -> None:
         true = self.true_reading(context)
         noise = self._noise.Eval(context) if self._noise.HasValue(context) else np.zeros(9)
         discrete_state.get_mutable_vector(self._true).SetFromVector(true)
         discrete_state.get_mutable_vector(self._reading).SetFromVector(
-            imu_noisy_reading(true, noise, bias, self._noise_std, self._bias_std))
+            imu_noisy_reading(true, noise, bias, self._noise_std, self._bias_std)
+        )
 
     def _reset(self, context, discrete_state):
         bias = self._bias_in.Eval(context) if self._bias_in.HasValue(context) else np.zeros(9)
@@ -242,8 +269,7 @@ class ImuSensor(LeafSystem):
         self._store(context, discrete_state, context.get_discrete_state(self._bias).get_value())
 
 
-def add_imu(builder, plant, body, params: ImuParams | None = None,
-            name: str = "imu") -> ImuSensor:
+def add_imu(builder, plant, body, params: ImuParams | None = None, name: str = "imu") -> ImuSensor:
     """Adds an ImuSensor on ``body`` and its noise to ``builder``, wired to ``plant``.
 
     Adds three systems: the sensor (named ``name``), a Gaussian ``RandomSource`` of 9
@@ -261,14 +287,20 @@ def add_imu(builder, plant, body, params: ImuParams | None = None,
     """
     sensor = builder.AddNamedSystem(name, ImuSensor(plant, body, params))
     builder.Connect(plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
-    builder.Connect(plant.get_body_spatial_velocities_output_port(),
-                    sensor.GetInputPort("body_spatial_velocities"))
-    builder.Connect(plant.get_body_spatial_accelerations_output_port(),
-                    sensor.GetInputPort("body_spatial_accelerations"))
-    noise = builder.AddNamedSystem(f"{name}_noise", RandomSource(
-        RandomDistribution.kGaussian, 9, sensor.period))
-    bias = builder.AddNamedSystem(f"{name}_bias", RandomSource(
-        RandomDistribution.kGaussian, 9, BIAS_RESAMPLE_PERIOD))
+    builder.Connect(
+        plant.get_body_spatial_velocities_output_port(),
+        sensor.GetInputPort("body_spatial_velocities"),
+    )
+    builder.Connect(
+        plant.get_body_spatial_accelerations_output_port(),
+        sensor.GetInputPort("body_spatial_accelerations"),
+    )
+    noise = builder.AddNamedSystem(
+        f"{name}_noise", RandomSource(RandomDistribution.kGaussian, 9, sensor.period)
+    )
+    bias = builder.AddNamedSystem(
+        f"{name}_bias", RandomSource(RandomDistribution.kGaussian, 9, BIAS_RESAMPLE_PERIOD)
+    )
     builder.Connect(noise.get_output_port(), sensor.GetInputPort("noise"))
     builder.Connect(bias.get_output_port(), sensor.GetInputPort("bias"))
     return sensor

@@ -10,8 +10,13 @@ from pydrake.systems.framework import LeafSystem
 from manta_drake.config_io import check_in_range, short_repr
 
 
-def pressure_depth_sample(true_depth: float, noise_std: float, dropout_rate: float,
-                          normal_sample: float, uniform_sample: float) -> float:
+def pressure_depth_sample(
+    true_depth: float,
+    noise_std: float,
+    dropout_rate: float,
+    normal_sample: float,
+    uniform_sample: float,
+) -> float:
     """One reading: ``true_depth + noise_std * normal_sample``, or NaN (a dropped reading)
     when ``uniform_sample < dropout_rate``."""
     if uniform_sample < dropout_rate:
@@ -23,8 +28,7 @@ def check_plant_body(owner: str, plant, body) -> int:
     """The index of ``body`` after checking that ``plant`` is a MultibodyPlant and ``body``
     one of its RigidBodies; ValueError naming ``owner``'s argument otherwise."""
     if not isinstance(plant, MultibodyPlant):
-        raise ValueError(f"{owner}.plant: expected a MultibodyPlant, got "
-                         f"{type(plant).__name__}")
+        raise ValueError(f"{owner}.plant: expected a MultibodyPlant, got {type(plant).__name__}")
     if not isinstance(body, RigidBody):
         raise ValueError(f"{owner}.body: expected a RigidBody, got {type(body).__name__}")
     index = int(body.index())
@@ -78,19 +82,19 @@ class PressureSensor(LeafSystem):
         ValueError: one line naming the argument and what is allowed.
     """
 
-    def __init__(self, plant, body, p_BS, period: float, noise_std: float = 0.0,
-                 dropout_rate: float = 0.0):
+    def __init__(
+        self, plant, body, p_BS, period: float, noise_std: float = 0.0, dropout_rate: float = 0.0
+    ):
         super().__init__()
         self.body_index = check_plant_body("PressureSensor", plant, body)
-        self.p_BS = check_point("PressureSensor.p_BS", p_BS, "the sensor point in the body "
-                                "frame")
-        check_in_range("PressureSensor.period", period, 0.0, math.inf, "(0, inf) s",
-                       open_low=True)
+        self.p_BS = check_point("PressureSensor.p_BS", p_BS, "the sensor point in the body frame")
+        check_in_range("PressureSensor.period", period, 0.0, math.inf, "(0, inf) s", open_low=True)
         check_in_range("PressureSensor.noise_std", noise_std, 0.0, math.inf, "[0, inf) m")
         check_in_range("PressureSensor.dropout_rate", dropout_rate, 0.0, 1.0, "[0, 1]")
         self.noise_std, self.dropout_rate = float(noise_std), float(dropout_rate)
         self._poses = self.DeclareAbstractInputPort(
-            "body_poses", plant.get_body_poses_output_port().Allocate())
+            "body_poses", plant.get_body_poses_output_port().Allocate()
+        )
         self._noise = self.DeclareVectorInputPort("noise", 2)
         self._state = self.DeclareDiscreteState([np.nan])
         self.DeclareStateOutputPort("depth", self._state)
@@ -107,5 +111,9 @@ class PressureSensor(LeafSystem):
 
     def _sample(self, context, discrete_state):
         n, u = self._noise.Eval(context) if self._noise.HasValue(context) else (0.0, 1.0)
-        discrete_state.get_mutable_vector(self._state).SetAtIndex(0, pressure_depth_sample(
-            self.true_depth(context), self.noise_std, self.dropout_rate, n, u))
+        discrete_state.get_mutable_vector(self._state).SetAtIndex(
+            0,
+            pressure_depth_sample(
+                self.true_depth(context), self.noise_std, self.dropout_rate, n, u
+            ),
+        )

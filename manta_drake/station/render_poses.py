@@ -45,12 +45,16 @@ class RenderPoses(LeafSystem):
         super().__init__()
         self._frames = [(frame_id, int(index)) for frame_id, index in frames]
         self._poses = self.DeclareAbstractInputPort(
-            "body_poses", plant.get_body_poses_output_port().Allocate())
+            "body_poses", plant.get_body_poses_output_port().Allocate()
+        )
         # It depends on the body poses only (not on time), so a plant step that does not
         # move the robot leaves the rendered frame valid in the cache.
         self.DeclareAbstractOutputPort(
-            "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()), self._calc,
-            prerequisites_of_calc={self.input_port_ticket(self._poses.get_index())})
+            "geometry_pose",
+            lambda: AbstractValue.Make(FramePoseVector()),
+            self._calc,
+            prerequisites_of_calc={self.input_port_ticket(self._poses.get_index())},
+        )
 
     def _calc(self, context, output):
         poses = self._poses.Eval(context)
@@ -84,8 +88,9 @@ def add_camera_scene(builder, handles: PlantHandles):
     frames = {}
     for index in range(plant.num_bodies()):
         body = plant.get_body(BodyIndex(index))
-        geometries = inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body.index()),
-                                             Role.kPerception)
+        geometries = inspector.GetGeometries(
+            plant.GetBodyFrameIdOrThrow(body.index()), Role.kPerception
+        )
         if not geometries and index != mount:
             continue
         if index == world:
@@ -94,17 +99,22 @@ def add_camera_scene(builder, handles: PlantHandles):
             frame = scene.RegisterFrame(source, GeometryFrame(body.scoped_name().get_full()))
             frames[index] = frame
         for geometry in geometries:
-            instance = GeometryInstance(inspector.GetPoseInFrame(geometry),
-                                        inspector.GetShape(geometry),
-                                        inspector.GetName(geometry))
+            instance = GeometryInstance(
+                inspector.GetPoseInFrame(geometry),
+                inspector.GetShape(geometry),
+                inspector.GetName(geometry),
+            )
             instance.set_perception_properties(
-                PerceptionProperties(inspector.GetPerceptionProperties(geometry)))
+                PerceptionProperties(inspector.GetPerceptionProperties(geometry))
+            )
             if frame == scene.world_frame_id():
                 scene.RegisterAnchoredGeometry(source, instance)
             else:
                 scene.RegisterGeometry(source, frame, instance)
-    poses = builder.AddNamedSystem("camera_render_poses", RenderPoses(
-        plant, [(frame, index) for index, frame in frames.items()]))
+    poses = builder.AddNamedSystem(
+        "camera_render_poses",
+        RenderPoses(plant, [(frame, index) for index, frame in frames.items()]),
+    )
     builder.Connect(plant.get_body_poses_output_port(), poses.GetInputPort("body_poses"))
     builder.Connect(poses.GetOutputPort("geometry_pose"), scene.get_source_pose_port(source))
     return scene, poses, frames

@@ -22,8 +22,9 @@ def quantize_joint_state(x, encoder_resolution: float, velocity_unit: float = VE
     x = np.asarray(x, dtype=float)
     n = x.size // 2
     pulse = 2.0 * math.pi / encoder_resolution
-    return np.concatenate([np.round(x[:n] / pulse) * pulse,
-                           np.round(x[n:] / velocity_unit) * velocity_unit])
+    return np.concatenate(
+        [np.round(x[:n] / pulse) * pulse, np.round(x[n:] / velocity_unit) * velocity_unit]
+    )
 
 
 class ServoBus(LeafSystem):
@@ -53,8 +54,7 @@ class ServoBus(LeafSystem):
     command arrives after its initialization, runs exactly as the single diagram.
     """
 
-    def __init__(self, num_joints: int, period: float, encoder_resolution: float,
-                 start=None):
+    def __init__(self, num_joints: int, period: float, encoder_resolution: float, start=None):
         super().__init__()
         if not (math.isfinite(period) and period > 0):
             raise ValueError(f"ServoBus.period: {period!r} must be a finite number > 0 s")
@@ -64,8 +64,9 @@ class ServoBus(LeafSystem):
         n = 2 * num_joints
         start = np.zeros(n) if start is None else np.asarray(start, dtype=float)
         if start.shape != (n,) or not np.all(np.isfinite(start)):
-            raise ValueError(f"ServoBus.start: expected {n} finite numbers [q, qdot], got "
-                             f"shape {start.shape}")
+            raise ValueError(
+                f"ServoBus.start: expected {n} finite numbers [q, qdot], got shape {start.shape}"
+            )
         self._command = self.DeclareVectorInputPort("command", n)
         self._joints = self.DeclareVectorInputPort("joint_state", n)
         self._applied = self.DeclareDiscreteState(start)  # taken up at this cycle
@@ -80,6 +81,7 @@ class ServoBus(LeafSystem):
 
     def _cycle(self, context, state):
         state.get_mutable_vector(self._applied).SetFromVector(
-            context.get_discrete_state(self._written).get_value())
+            context.get_discrete_state(self._written).get_value()
+        )
         state.get_mutable_vector(self._written).SetFromVector(self._command.Eval(context))
         state.get_mutable_vector(self._read).SetFromVector(self._read_joints(context))

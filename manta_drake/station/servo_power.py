@@ -54,8 +54,11 @@ def motor_current(tau, qdot, servo: ServoConstants) -> np.ndarray:
     # Holding (qdot = 0) counts as driving: the datasheet's stall torque per ampere is
     # k_t N eta, measured with the motor pushing against the load.
     b = back_driven_share(tau, qdot, servo)
-    return tau / (servo.torque_constant * servo.gear_ratio) \
+    return (
+        tau
+        / (servo.torque_constant * servo.gear_ratio)
         * servo.gearbox_efficiency ** (2.0 * b - 1.0)
+    )
 
 
 def back_emf(qdot, servo: ServoConstants) -> np.ndarray:
@@ -79,8 +82,11 @@ def servo_power_terms(tau, qdot, servo: ServoConstants) -> dict[str, np.ndarray]
     shaft = back_emf(qdot, servo) * i
     if not servo.recover_negative_work:
         shaft = np.maximum(shaft, 0.0)
-    return {"copper": servo.winding_resistance * i * i, "shaft": shaft,
-            "standby": np.full(np.shape(i), servo.standby_power)}
+    return {
+        "copper": servo.winding_resistance * i * i,
+        "shaft": shaft,
+        "standby": np.full(np.shape(i), servo.standby_power),
+    }
 
 
 def servo_electrical_power(tau, qdot, servo: ServoConstants) -> np.ndarray:
@@ -102,9 +108,18 @@ def total_electrical_power(tau, qdot, servo: ServoConstants, electronics_power: 
 
 
 @njit(cache=True)
-def total_electrical_power_kernel(tau, qdot, gear_ratio, efficiency, torque_constant,
-                                  resistance, standby_power, recover, backdrive_speed,
-                                  electronics_power):
+def total_electrical_power_kernel(
+    tau,
+    qdot,
+    gear_ratio,
+    efficiency,
+    torque_constant,
+    resistance,
+    standby_power,
+    recover,
+    backdrive_speed,
+    electronics_power,
+):
     """``total_electrical_power`` compiled (one loop instead of a dozen numpy calls of ~1 us
     each, once per plant step); the tests hold it to the numpy reference."""
     k_n = torque_constant * gear_ratio
@@ -164,11 +179,13 @@ class ServoPower(LeafSystem):
             if not (np.isfinite(value) and value >= 0):
                 raise ValueError(f"ServoPower.servo.{name}: {value} must be a finite number >= 0")
         if servo.gearbox_efficiency > 1:
-            raise ValueError(f"ServoPower.servo.gearbox_efficiency: {servo.gearbox_efficiency} "
-                             "must be <= 1")
+            raise ValueError(
+                f"ServoPower.servo.gearbox_efficiency: {servo.gearbox_efficiency} must be <= 1"
+            )
         if not (np.isfinite(electronics_power) and electronics_power >= 0):
-            raise ValueError(f"ServoPower.electronics_power: {electronics_power} must be a "
-                             "finite number >= 0")
+            raise ValueError(
+                f"ServoPower.electronics_power: {electronics_power} must be a finite number >= 0"
+            )
         if int(num_joints) != num_joints or num_joints < 1:
             raise ValueError(f"ServoPower.num_joints: {num_joints} must be a whole number >= 1")
         self.servo, self.electronics_power = servo, float(electronics_power)
@@ -180,19 +197,29 @@ class ServoPower(LeafSystem):
         self.DeclareVectorOutputPort("joint_mechanical_power", n, self._calc_mechanical)
 
     def _torque_and_rate(self, context) -> tuple[np.ndarray, np.ndarray]:
-        return self._torque.Eval(context), self._state.Eval(context)[self.num_joints:]
+        return self._torque.Eval(context), self._state.Eval(context)[self.num_joints :]
 
     def _calc_total(self, context, output: BasicVector):
         tau, qdot = self._torque_and_rate(context)
         s = self.servo
-        output.SetAtIndex(0, total_electrical_power_kernel(
-            tau, qdot, s.gear_ratio, s.gearbox_efficiency, s.torque_constant,
-            s.winding_resistance, s.standby_power, s.recover_negative_work,
-            s.backdrive_speed, self.electronics_power))
+        output.SetAtIndex(
+            0,
+            total_electrical_power_kernel(
+                tau,
+                qdot,
+                s.gear_ratio,
+                s.gearbox_efficiency,
+                s.torque_constant,
+                s.winding_resistance,
+                s.standby_power,
+                s.recover_negative_work,
+                s.backdrive_speed,
+                self.electronics_power,
+            ),
+        )
 
     def _calc_servos(self, context, output: BasicVector):
-        output.SetFromVector(servo_electrical_power(*self._torque_and_rate(context),
-                                                    self.servo))
+        output.SetFromVector(servo_electrical_power(*self._torque_and_rate(context), self.servo))
 
     def _calc_mechanical(self, context, output: BasicVector):
         output.SetFromVector(joint_mechanical_power(*self._torque_and_rate(context)))

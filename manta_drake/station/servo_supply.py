@@ -38,8 +38,9 @@ from manta_drake.jit import njit
 
 
 @njit(cache=True)
-def supply_feed_forward_kernel(goal, state, voltage, kp_reference, saturation,
-                               reference_voltage, time_step, out):
+def supply_feed_forward_kernel(
+    goal, state, voltage, kp_reference, saturation, reference_voltage, time_step, out
+):
     """``model.servo.supply_feed_forward`` compiled, into ``out`` (n) from the servos' goal
     (2n) and the joints' state (2n): one loop instead of a dozen numpy calls on 16 values,
     once per plant step; the tests hold it to the numpy reference."""
@@ -80,12 +81,21 @@ class ServoSupply(LeafSystem):
         time_step: dt [s], the plant's step.
     """
 
-    def __init__(self, num_joints: int, kp_reference: float, saturation: float,
-                 reference_voltage: float, time_step: float):
+    def __init__(
+        self,
+        num_joints: int,
+        kp_reference: float,
+        saturation: float,
+        reference_voltage: float,
+        time_step: float,
+    ):
         super().__init__()
-        for name, value in (("kp_reference", kp_reference), ("saturation", saturation),
-                            ("reference_voltage", reference_voltage),
-                            ("time_step", time_step)):
+        for name, value in (
+            ("kp_reference", kp_reference),
+            ("saturation", saturation),
+            ("reference_voltage", reference_voltage),
+            ("time_step", time_step),
+        ):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"ServoSupply.{name}: {value} must be a finite number > 0")
         self.num_joints = int(num_joints)
@@ -99,6 +109,12 @@ class ServoSupply(LeafSystem):
 
     def _calc(self, context, output: BasicVector):
         supply_feed_forward_kernel(
-            self._goal.Eval(context), self._state.Eval(context),
-            self._battery.Eval(context)[1], self.kp_reference, self.saturation,
-            self.reference_voltage, self.time_step, output.get_mutable_value())
+            self._goal.Eval(context),
+            self._state.Eval(context),
+            self._battery.Eval(context)[1],
+            self.kp_reference,
+            self.saturation,
+            self.reference_voltage,
+            self.time_step,
+            output.get_mutable_value(),
+        )

@@ -31,7 +31,6 @@ The terms:
   refuses an explicit part that would make the explicit scheme diverge.
 """
 
-
 import dataclasses as dc
 
 import numpy as np
@@ -53,11 +52,17 @@ BOX_TO_ELLIPSOID = (6.0 / np.pi) ** (1.0 / 3.0)
 
 # --- pure maths ------------------------------------------------------------------------------
 
+
 def cross(a, b):
     """Row-wise cross product of (N, 3) arrays (np.cross is slow on small arrays)."""
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+    return np.stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ],
+        axis=1,
+    )
 
 
 def _rotate(R, x):
@@ -169,8 +174,9 @@ def build_elements(coeffs: HydroCoefficients, params: RobotParams = DEFAULT_ROBO
     for k, leg in enumerate(LEGS):
         base = 1 + 4 * k
         poses = link_poses_at_zero(leg, params)
-        carriers = [(0, poses["X_Body_L1"])] + [(base + i, X) for i, X in
-                                                 enumerate(poses["X_Lprev_L"])]
+        carriers = [(0, poses["X_Body_L1"])] + [
+            (base + i, X) for i, X in enumerate(poses["X_Lprev_L"])
+        ]
         for body, X_carrier_joint in carriers:
             e.body.append(body)
             e.p.append(X_carrier_joint[:3, 3])
@@ -265,8 +271,9 @@ def buoyancy_wrenches(R, p, elements, rho: float, g: float):
         to_body = np.eye(nb)[:, el["body"]]
     body_volume = to_body @ el["volume"]
     submerged = to_body @ (el["volume"] * frac)
-    body_fraction = np.divide(submerged, body_volume, out=np.zeros_like(submerged),
-                              where=body_volume > 0)  # no volume (added-mass bodies): 0
+    body_fraction = np.divide(
+        submerged, body_volume, out=np.zeros_like(submerged), where=body_volume > 0
+    )  # no volume (added-mass bodies): 0
     return to_body @ elem, frac, body_fraction
 
 
@@ -336,8 +343,19 @@ def damping_wrenches(R, w, v, current, d_lin, d_quad, submerged_fraction, d_lift
     return np.concatenate([_rotate(R, d[:, 3:]), _rotate(R, d[:, :3])], axis=1)
 
 
-def fin_strip_forces(R, w, v, current, elements, element_fraction, rho, c_normal, c_friction,
-                     pitch_max, pitch_pressure):
+def fin_strip_forces(
+    R,
+    w,
+    v,
+    current,
+    elements,
+    element_fraction,
+    rho,
+    c_normal,
+    c_friction,
+    pitch_max,
+    pitch_pressure,
+):
     """Blade-element forces on the fin strips (flat-plate normal force with passive pitching,
     skin friction), each scaled by its strip's submerged fraction.
 
@@ -356,11 +374,14 @@ def fin_strip_forces(R, w, v, current, elements, element_fraction, rho, c_normal
     return r_s, fs * element_fraction[el["strip_element"]][:, None]
 
 
-def residual_added_mass_wrench(R_hull, accel_W, alpha_W, residual_mass, residual_inertia,
-                               submerged_fraction: float):
+def residual_added_mass_wrench(
+    R_hull, accel_W, alpha_W, residual_mass, residual_inertia, submerged_fraction: float
+):
     """-M_res a and -I_res alpha in the hull frame, scaled by the submerged fraction;
     (6,) [tau_W, f_W] on the hull."""
     a_B = R_hull.T @ accel_W
     alpha_B = R_hull.T @ alpha_W
-    return np.concatenate([R_hull @ (-residual_inertia * alpha_B),
-                           R_hull @ (-residual_mass * a_B)]) * submerged_fraction
+    return (
+        np.concatenate([R_hull @ (-residual_inertia * alpha_B), R_hull @ (-residual_mass * a_B)])
+        * submerged_fraction
+    )

@@ -47,6 +47,7 @@ NUM_PARAMS = 19
 
 # --- packing (plain numpy, once per system) --------------------------------------------------
 
+
 def pack_elements(el: dict) -> tuple[np.ndarray, np.ndarray]:
     """The arrays of ``water.build_elements`` as two float tables.
 
@@ -55,20 +56,39 @@ def pack_elements(el: dict) -> tuple[np.ndarray, np.ndarray]:
          strips (ns, 12): [body, element, p_B (3), normal (3), chord (3), area]).
     """
     elements = np.column_stack([el["body"], el["p"], el["axes"], el["volume"]]).astype(float)
-    strips = np.column_stack([el["strip_body"], el["strip_element"], el["strip_p"],
-                              el["strip_n"], el["strip_c"], el["strip_area"]]).astype(float)
+    strips = np.column_stack(
+        [
+            el["strip_body"],
+            el["strip_element"],
+            el["strip_p"],
+            el["strip_n"],
+            el["strip_c"],
+            el["strip_area"],
+        ]
+    ).astype(float)
     return np.ascontiguousarray(elements), np.ascontiguousarray(strips)
 
 
-def pack_params(rho, g, c_normal, c_friction, pitch_max, pitch_pressure, added_mass_iso,
-                current, balloon_mount, residual_mass, residual_inertia) -> np.ndarray:
+def pack_params(
+    rho,
+    g,
+    c_normal,
+    c_friction,
+    pitch_max,
+    pitch_pressure,
+    added_mass_iso,
+    current,
+    balloon_mount,
+    residual_mass,
+    residual_inertia,
+) -> np.ndarray:
     """The scalar and 3-vector parameters as one float vector (layout: the P_* indices)."""
     prm = np.empty(NUM_PARAMS)
     prm[:7] = (rho, g, c_normal, c_friction, pitch_max, pitch_pressure, added_mass_iso)
-    prm[P_CURRENT:P_CURRENT + 3] = current
-    prm[P_MOUNT:P_MOUNT + 3] = balloon_mount
-    prm[P_M_RES:P_M_RES + 3] = residual_mass
-    prm[P_I_RES:P_I_RES + 3] = residual_inertia
+    prm[P_CURRENT : P_CURRENT + 3] = current
+    prm[P_MOUNT : P_MOUNT + 3] = balloon_mount
+    prm[P_M_RES : P_M_RES + 3] = residual_mass
+    prm[P_I_RES : P_I_RES + 3] = residual_inertia
     return prm
 
 
@@ -105,32 +125,55 @@ def pack_tree(plant, body_indices) -> tuple[np.ndarray, np.ndarray]:
             raise ValueError(f"hydro body {body.name()} has no inboard joint")
         parent = int(joint.parent_body().index())
         if parent != world and rows.get(parent, nb) >= k:
-            raise ValueError(f"hydro body {body.name()}: its parent {joint.parent_body().name()} "
-                             "is not an earlier hydro body (the compiled path needs the tree)")
-        kind = {"weld": WELD, "revolute": REVOLUTE, "planar": PLANAR,
-                "quaternion_floating": QUATERNION_FLOATING}.get(joint.type_name())
+            raise ValueError(
+                f"hydro body {body.name()}: its parent {joint.parent_body().name()} "
+                "is not an earlier hydro body (the compiled path needs the tree)"
+            )
+        kind = {
+            "weld": WELD,
+            "revolute": REVOLUTE,
+            "planar": PLANAR,
+            "quaternion_floating": QUATERNION_FLOATING,
+        }.get(joint.type_name())
         if kind is None:
-            raise ValueError(f"hydro body {body.name()}: joint type {joint.type_name()!r} is not "
-                             "supported by the compiled path (weld, revolute, planar, "
-                             "quaternion_floating)")
+            raise ValueError(
+                f"hydro body {body.name()}: joint type {joint.type_name()!r} is not "
+                "supported by the compiled path (weld, revolute, planar, "
+                "quaternion_floating)"
+            )
         X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
         X_MC = joint.frame_on_child().GetFixedPoseInBodyFrame().inverse()
         if kind == WELD:  # a weld's own fixed X_FM folds into the parent's offset
             X_PF = X_PF @ joint.X_FM()
         if kind == QUATERNION_FLOATING and not (
-                np.array_equal(X_PF.GetAsMatrix4(), np.eye(4))
-                and np.array_equal(X_MC.GetAsMatrix4(), np.eye(4))):
-            raise ValueError(f"hydro body {body.name()}: a floating joint with offset frames "
-                             "is not supported by the compiled path")
+            np.array_equal(X_PF.GetAsMatrix4(), np.eye(4))
+            and np.array_equal(X_MC.GetAsMatrix4(), np.eye(4))
+        ):
+            raise ValueError(
+                f"hydro body {body.name()}: a floating joint with offset frames "
+                "is not supported by the compiled path"
+            )
         axis = joint.revolute_axis() if kind == REVOLUTE else np.zeros(3)
-        tree_i[k] = (-1 if parent == world else rows[parent], kind, joint.position_start(),
-                     joint.velocity_start())
-        tree_f[k] = np.concatenate([X_PF.rotation().matrix().ravel(), X_PF.translation(),
-                                    X_MC.rotation().matrix().ravel(), X_MC.translation(), axis])
+        tree_i[k] = (
+            -1 if parent == world else rows[parent],
+            kind,
+            joint.position_start(),
+            joint.velocity_start(),
+        )
+        tree_f[k] = np.concatenate(
+            [
+                X_PF.rotation().matrix().ravel(),
+                X_PF.translation(),
+                X_MC.rotation().matrix().ravel(),
+                X_MC.translation(),
+                axis,
+            ]
+        )
     return tree_i, tree_f
 
 
 # --- kernels ---------------------------------------------------------------------------------
+
 
 @njit(cache=True)
 def _mul33(A, B, out):
@@ -200,9 +243,11 @@ def body_kinematics(x, nq, tree_i, tree_f):
         else:
             _mul33(R[parent], R_PF, R_WF)
             for i in range(3):
-                origin_W[b, i] = p[parent, i] + (R[parent, i, 0] * tree_f[b, 9]
-                                                 + R[parent, i, 1] * tree_f[b, 10]
-                                                 + R[parent, i, 2] * tree_f[b, 11])
+                origin_W[b, i] = p[parent, i] + (
+                    R[parent, i, 0] * tree_f[b, 9]
+                    + R[parent, i, 1] * tree_f[b, 10]
+                    + R[parent, i, 2] * tree_f[b, 11]
+                )
             wP0, wP1, wP2 = w[parent, 0], w[parent, 1], w[parent, 2]
             # Velocity of the point Fo fixed on the parent.
             d0 = origin_W[b, 0] - p[parent, 0]
@@ -261,8 +306,9 @@ def body_kinematics(x, nq, tree_i, tree_f):
             wJ0 = wJ1 = wJ2 = 0.0
         _mul33(R_WM, R_MC, R[b])
         for i in range(3):  # origin_W is Mo (= Fo but for a planar joint)
-            p[b, i] = origin_W[b, i] + (R_WM[i, 0] * tree_f[b, 21] + R_WM[i, 1] * tree_f[b, 22]
-                                        + R_WM[i, 2] * tree_f[b, 23])
+            p[b, i] = origin_W[b, i] + (
+                R_WM[i, 0] * tree_f[b, 21] + R_WM[i, 1] * tree_f[b, 22] + R_WM[i, 2] * tree_f[b, 23]
+            )
         w[b, 0], w[b, 1], w[b, 2] = wP0 + wJ0, wP1 + wJ1, wP2 + wJ2
         d0 = p[b, 0] - origin_W[b, 0]
         d1 = p[b, 1] - origin_W[b, 1]
@@ -293,8 +339,9 @@ def _submersion(p0, p1, p2, R, A0, A1, A2):
 
 
 @njit(cache=True)
-def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements, strips,
-                     damping, prm, frac):
+def spatial_wrenches(
+    R, p, w, v, balloon_volume, hull_accel, has_accel, elements, strips, damping, prm, frac
+):
     """``HydrodynamicForces.compute_reference`` compiled: (nb, 6) rows [tau_W, f_W].
 
     Args:
@@ -320,8 +367,7 @@ def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements
         q0 = p[b, 0] + (Rb[0, 0] * x0 + Rb[0, 1] * x1 + Rb[0, 2] * x2)
         q1 = p[b, 1] + (Rb[1, 0] * x0 + Rb[1, 1] * x1 + Rb[1, 2] * x2)
         q2 = p[b, 2] + (Rb[2, 0] * x0 + Rb[2, 1] * x1 + Rb[2, 2] * x2)
-        fe, c0, c1, c2 = _submersion(q0, q1, q2, Rb, elements[e, 4], elements[e, 5],
-                                     elements[e, 6])
+        fe, c0, c1, c2 = _submersion(q0, q1, q2, Rb, elements[e, 4], elements[e, 5], elements[e, 6])
         volume = elements[e, 7]
         frac[e] = fe
         lift = rho * g * volume * fe
@@ -424,11 +470,12 @@ def spatial_wrenches(R, p, w, v, balloon_volume, hull_accel, has_accel, elements
         R0 = R[0]
         fb = body_frac[0]
         for i in range(3):  # a_B = R^T a, alpha_B = R^T alpha, then scaled per hull axis
-            nu[i] = -prm[P_M_RES + i] * (R0[0, i] * hull_accel[0] + R0[1, i] * hull_accel[1]
-                                         + R0[2, i] * hull_accel[2])
-            nu[3 + i] = -prm[P_I_RES + i] * (R0[0, i] * hull_accel[3]
-                                             + R0[1, i] * hull_accel[4]
-                                             + R0[2, i] * hull_accel[5])
+            nu[i] = -prm[P_M_RES + i] * (
+                R0[0, i] * hull_accel[0] + R0[1, i] * hull_accel[1] + R0[2, i] * hull_accel[2]
+            )
+            nu[3 + i] = -prm[P_I_RES + i] * (
+                R0[0, i] * hull_accel[3] + R0[1, i] * hull_accel[4] + R0[2, i] * hull_accel[5]
+            )
         for i in range(3):
             F[0, i] += (R0[i, 0] * nu[3] + R0[i, 1] * nu[4] + R0[i, 2] * nu[5]) * fb
             F[0, 3 + i] += (R0[i, 0] * nu[0] + R0[i, 1] * nu[1] + R0[i, 2] * nu[2]) * fb
@@ -457,9 +504,11 @@ def generalized_forces(F, p, axis_W, origin_W, tree_i, nv):
             d0 = p[b, 0] - origin_W[b, 0]
             d1 = p[b, 1] - origin_W[b, 1]
             d2 = p[b, 2] - origin_W[b, 2]
-            tau[vs] = (axis_W[b, 0] * (t0 + (d1 * f2 - d2 * f1))
-                       + axis_W[b, 1] * (t1 + (d2 * f0 - d0 * f2))
-                       + axis_W[b, 2] * (t2 + (d0 * f1 - d1 * f0)))
+            tau[vs] = (
+                axis_W[b, 0] * (t0 + (d1 * f2 - d2 * f1))
+                + axis_W[b, 1] * (t1 + (d2 * f0 - d0 * f2))
+                + axis_W[b, 2] * (t2 + (d0 * f1 - d1 * f0))
+            )
         elif kind == PLANAR:
             # [f . x_F, f . y_F, torque about Mo . z_F].
             d0 = p[b, 0] - origin_W[b, 0]
@@ -467,9 +516,11 @@ def generalized_forces(F, p, axis_W, origin_W, tree_i, nv):
             d2 = p[b, 2] - origin_W[b, 2]
             tau[vs] = axis_W[b, 3] * f0 + axis_W[b, 4] * f1 + axis_W[b, 5] * f2
             tau[vs + 1] = axis_W[b, 6] * f0 + axis_W[b, 7] * f1 + axis_W[b, 8] * f2
-            tau[vs + 2] = (axis_W[b, 0] * (t0 + (d1 * f2 - d2 * f1))
-                           + axis_W[b, 1] * (t1 + (d2 * f0 - d0 * f2))
-                           + axis_W[b, 2] * (t2 + (d0 * f1 - d1 * f0)))
+            tau[vs + 2] = (
+                axis_W[b, 0] * (t0 + (d1 * f2 - d2 * f1))
+                + axis_W[b, 1] * (t1 + (d2 * f0 - d0 * f2))
+                + axis_W[b, 2] * (t2 + (d0 * f1 - d1 * f0))
+            )
         elif kind == QUATERNION_FLOATING:
             tau[vs], tau[vs + 1], tau[vs + 2] = t0, t1, t2
             tau[vs + 3], tau[vs + 4], tau[vs + 5] = f0, f1, f2
@@ -521,14 +572,16 @@ def hull_acceleration(v_hull, w_hull, t, v_prev):
 
 
 @njit(cache=True)
-def forces_from_state(x, nq, balloon_volume, t, v_prev, tree_i, tree_f, elements, strips,
-                      damping, prm, frac):
+def forces_from_state(
+    x, nq, balloon_volume, t, v_prev, tree_i, tree_f, elements, strips, damping, prm, frac
+):
     """``spatial_wrenches`` from the plant's state x = [q, v] in one call (kinematics, the
     hull's acceleration estimate from ``v_prev`` as in ``hull_acceleration``, forces):
     one crossing from Python instead of three. Returns (F, R, p, w, v): the forces and
     the kinematics they came from."""
     R, p, w, v, axis_W, origin_W = body_kinematics(x, nq, tree_i, tree_f)
     accel, known = hull_acceleration(v[0], w[0], t, v_prev)
-    F = spatial_wrenches(R, p, w, v, balloon_volume, accel, known, elements, strips,
-                         damping, prm, frac)
+    F = spatial_wrenches(
+        R, p, w, v, balloon_volume, accel, known, elements, strips, damping, prm, frac
+    )
     return F, R, p, w, v

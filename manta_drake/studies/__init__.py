@@ -19,29 +19,47 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 
 # name -> (module, what it measures and where it writes)
 STUDIES = {
-    "faults": ("manta_drake.studies.faults",
-               "random scenarios with faults (docs/fault_campaign.md)"),
-    "findings": ("manta_drake.studies.findings",
-                 "section 4.1's findings over the band (docs/findings.md)"),
-    "energy": ("manta_drake.studies.energy",
-               "power, cost of transport and operation time over the band (docs/energy.md)"),
-    "transitions": ("manta_drake.studies.transitions",
-                    "transitions against baselines (docs/transitions.md)"),
-    "stance": ("manta_drake.studies.stance",
-               "both gait readings on both fin sweeps (docs/stance.md)"),
-    "readings": ("manta_drake.studies.readings",
-                 "the gaits under readings of Eqs. (6)-(8) (docs/design.md)"),
-    "behaviours": ("manta_drake.studies.behaviours",
-                   "the heading hold and four_behaviors against the paper's runs "
-                   "(docs/behaviours.md)"),
-    "wall-noise": ("manta_drake.studies.wall_noise",
-                   "s_hat against depth noise (docs/figures/s_hat_vs_noise.png)"),
-    "cfd": ("manta_drake.studies.cfd",
-            "the hull's damping by OpenFOAM, the paper's section 2.3 (docs/cfd.md, "
-            "models/cfd/)"),
-    "validation": ("manta_drake.studies.validation",
-                   "each model against its independent reference, one --section at a time "
-                   "(docs/validation.md, models/reference/)"),
+    "faults": (
+        "manta_drake.studies.faults",
+        "random scenarios with faults (docs/fault_campaign.md)",
+    ),
+    "findings": (
+        "manta_drake.studies.findings",
+        "section 4.1's findings over the band (docs/findings.md)",
+    ),
+    "energy": (
+        "manta_drake.studies.energy",
+        "power, cost of transport and operation time over the band (docs/energy.md)",
+    ),
+    "transitions": (
+        "manta_drake.studies.transitions",
+        "transitions against baselines (docs/transitions.md)",
+    ),
+    "stance": (
+        "manta_drake.studies.stance",
+        "both gait readings on both fin sweeps (docs/stance.md)",
+    ),
+    "readings": (
+        "manta_drake.studies.readings",
+        "the gaits under readings of Eqs. (6)-(8) (docs/design.md)",
+    ),
+    "behaviours": (
+        "manta_drake.studies.behaviours",
+        "the heading hold and four_behaviors against the paper's runs (docs/behaviours.md)",
+    ),
+    "wall-noise": (
+        "manta_drake.studies.wall_noise",
+        "s_hat against depth noise (docs/figures/s_hat_vs_noise.png)",
+    ),
+    "cfd": (
+        "manta_drake.studies.cfd",
+        "the hull's damping by OpenFOAM, the paper's section 2.3 (docs/cfd.md, models/cfd/)",
+    ),
+    "validation": (
+        "manta_drake.studies.validation",
+        "each model against its independent reference, one --section at a time "
+        "(docs/validation.md, models/reference/)",
+    ),
 }
 
 
@@ -49,16 +67,19 @@ def add_study_parser(subparsers) -> None:
     """Adds ``study NAME [ARGS...]`` to the ``manta-drake`` command line."""
     listing = "\n".join(f"  {name:<12} {text}" for name, (_, text) in STUDIES.items())
     parser = subparsers.add_parser(
-        "study", help="run a study that regenerates a report of docs/",
+        "study",
+        help="run a study that regenerates a report of docs/",
         description="Runs a study that regenerates a report of docs/.",
-        epilog=f"studies:\n{listing}\n\n`manta-drake study NAME --help` gives a study's "
-               "options.",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("study", choices=list(STUDIES), metavar="NAME",
-                        help=f"one of {', '.join(STUDIES)}")
+        epilog=f"studies:\n{listing}\n\n`manta-drake study NAME --help` gives a study's options.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "study", choices=list(STUDIES), metavar="NAME", help=f"one of {', '.join(STUDIES)}"
+    )
     # Everything after NAME is the study's own command line (its --help included).
-    parser.add_argument("study_args", nargs=argparse.REMAINDER, metavar="ARGS",
-                        help="the study's options")
+    parser.add_argument(
+        "study_args", nargs=argparse.REMAINDER, metavar="ARGS", help="the study's options"
+    )
 
 
 def study_main(args) -> int:

@@ -28,20 +28,30 @@ from manta_drake.metrics import transition_span
 from manta_drake.studies import REPO
 from manta_drake.studies.stamp import stamp_line, write_stamped
 
-SCENARIOS = ("two_behaviors", "three_behaviors", "locomotion_swim", "swim_heading_hold",
-             "two_behaviors_heading_hold", "four_behaviors", "swim_heading_hold_reversed")
+SCENARIOS = (
+    "two_behaviors",
+    "three_behaviors",
+    "locomotion_swim",
+    "swim_heading_hold",
+    "two_behaviors_heading_hold",
+    "four_behaviors",
+    "swim_heading_hold_reversed",
+)
 # Runs that are a shipped scenario with overrides: name -> (scenario, overrides).
 VARIANTS = {"swim_heading_hold_reversed": ("swim_heading_hold", {"heading_hold.turn_sign": -1})}
 COMMAND = "`manta-drake study behaviours`"
 # The modalities' registry and the altimeter's floor detection: prose and a measurement the
 # study does not rerun (diagrams/nose_up_trot.py makes it), kept beside the generator.
-MODALITIES_SECTION = pathlib.Path(__file__).resolve().parent / "templates" / \
-    "behaviours_modalities.md"
+MODALITIES_SECTION = (
+    pathlib.Path(__file__).resolve().parent / "templates" / "behaviours_modalities.md"
+)
 # What drove each of four_behaviors' changes: the estimate whose node changed the target.
-DRIVERS = {("trot", "walk"): "flow (flow_hat rises: the cross current on the floor)",
-           ("walk", "trot"): "flow (flow_hat falls)",
-           ("trot", "swim"): "depth (z_hat falls: the balloon rule on flow filled the balloon)",
-           ("swim", "rest"): "energy (energy_hat rises: the charge reaches the reserve)"}
+DRIVERS = {
+    ("trot", "walk"): "flow (flow_hat rises: the cross current on the floor)",
+    ("walk", "trot"): "flow (flow_hat falls)",
+    ("trot", "swim"): "depth (z_hat falls: the balloon rule on flow filled the balloon)",
+    ("swim", "rest"): "energy (energy_hat rises: the charge reaches the reserve)",
+}
 
 
 def run_one(name: str, out: str) -> dict:
@@ -56,8 +66,7 @@ def run_one(name: str, out: str) -> dict:
 
 def _runs(args) -> dict:
     out = pathlib.Path(args.out)
-    todo = [n for n in SCENARIOS
-            if not (args.reuse and (out / n / "metrics.json").is_file())]
+    todo = [n for n in SCENARIOS if not (args.reuse and (out / n / "metrics.json").is_file())]
     with cluster_client(args) as client:
         if client is None:
             for name in todo:
@@ -69,16 +78,21 @@ def _runs(args) -> dict:
 
 
 def _transitions(m: dict) -> str:
-    return "; ".join(f"{t['from']} -> {t['to']} {transition_span(t)} s"
-                     for t in m.get("transitions", [])) or "none"
+    return (
+        "; ".join(
+            f"{t['from']} -> {t['to']} {transition_span(t)} s" for t in m.get("transitions", [])
+        )
+        or "none"
+    )
 
 
 def _walls(m: dict) -> str:
     near = m.get("near_wall_at_s")
-    return (f"within 0.3 m of a wall from {near:.1f} s" if near is not None
-            else "never within 0.3 m") + \
-        f"; closest {max(m['min_wall_clearance_m'], 0.0):.2f} m" + \
-        ("; touched" if m["touched_wall"] else "")
+    return (
+        (f"within 0.3 m of a wall from {near:.1f} s" if near is not None else "never within 0.3 m")
+        + f"; closest {max(m['min_wall_clearance_m'], 0.0):.2f} m"
+        + ("; touched" if m["touched_wall"] else "")
+    )
 
 
 def _uv(m: dict) -> str:
@@ -94,13 +108,18 @@ def _heading_figure(out: pathlib.Path, path: pathlib.Path) -> None:
 
     fig = Figure(figsize=(10, 6))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    for name, label in (("locomotion_swim", "swim (printed Phi'_swim lag)"),
-                        ("swim_heading_hold", "the same swim, heading held by the IMU")):
+    for name, label in (
+        ("locomotion_swim", "swim (printed Phi'_swim lag)"),
+        ("swim_heading_hold", "the same swim, heading held by the IMU"),
+    ):
         log = np.load(out / name / "log.npz")
         ax1.plot(log["t"], np.degrees(np.unwrap(log["body_rpy"][:, 2])), label=label)
         if "heading_trim" in log.files:
-            ax2.plot(log["t_heading_trim"], log["heading_trim"][:, 0],
-                     label="trim u (left x (1+u), right x (1-u))")
+            ax2.plot(
+                log["t_heading_trim"],
+                log["heading_trim"][:, 0],
+                label="trim u (left x (1+u), right x (1-u))",
+            )
     ax1.set_ylabel("yaw [deg]")
     ax1.legend(fontsize=8)
     ax2.set_ylabel("heading trim")
@@ -122,9 +141,13 @@ def _four_figure(out: pathlib.Path, metrics: dict, path: pathlib.Path) -> None:
 
     data = np.load(out / "four_behaviors" / "log.npz")
     log = {k: data[k] for k in data.files}
-    plots.fig_transition_run(log, metrics, path, "four_behaviors: flow, depth and the battery "
-                             "choose the behaviour (cf. paper Fig. 11)",
-                             leaves=load_scenario("four_behaviors").behaviour_tree().leaves)
+    plots.fig_transition_run(
+        log,
+        metrics,
+        path,
+        "four_behaviors: flow, depth and the battery choose the behaviour (cf. paper Fig. 11)",
+        leaves=load_scenario("four_behaviors").behaviour_tree().leaves,
+    )
 
 
 def _estimates_at(out: pathlib.Path, times) -> list:
@@ -133,8 +156,10 @@ def _estimates_at(out: pathlib.Path, times) -> list:
     def at(key, t):
         return float(log[key][min(np.searchsorted(log[f"t_{key}"], t), len(log[key]) - 1), 0])
 
-    return [(t, at("z_hat", t), at("flow_hat", t), at("energy_hat", t),
-             at("balloon_command", t)) for t in times]
+    return [
+        (t, at("z_hat", t), at("flow_hat", t), at("energy_hat", t), at("balloon_command", t))
+        for t in times
+    ]
 
 
 def page(metrics: dict, out: pathlib.Path) -> str:
@@ -155,8 +180,10 @@ def page(metrics: dict, out: pathlib.Path) -> str:
     lines = [
         "# Behaviours and modalities as data",
         "",
-        stamp_line(COMMAND + " (the runs: `manta-drake run NAME` for each scenario below; "
-                   "`python diagrams/four_behaviors.py`)."),
+        stamp_line(
+            COMMAND + " (the runs: `manta-drake run NAME` for each scenario below; "
+            "`python diagrams/four_behaviors.py`)."
+        ),
         "",
         "The paper's controller blends three gaits by two estimates (Eq. 12: swim, trot and "
         "turning by the depth z_hat and the wall rate s_hat), and names its own future work: "
@@ -186,12 +213,16 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "",
         "| weight | w0 (first child), w1 (second) | |",
         "| --- | --- | --- |",
-        ("| `potential` | -sin(a), cos(a), a = pi/2 (x - 1) | Eq. (12)'s depth pair; sums to up "
-         "to 1.41 |"),
+        (
+            "| `potential` | -sin(a), cos(a), a = pi/2 (x - 1) | Eq. (12)'s depth pair; sums to up "
+            "to 1.41 |"
+        ),
         "| `cosine` | 1 - w, w with w = (1 - cos(pi x)) / 2 | Eq. (12)'s vision weight |",
         "| `linear` | 1 - x, x | Eq. (11) |",
-        ("| `normalised` | the potential's, divided by their sum | a convex blend "
-         "(docs/transitions.md) |"),
+        (
+            "| `normalised` | the potential's, divided by their sum | a convex blend "
+            "(docs/transitions.md) |"
+        ),
         "| `switch` | 0/1 at threshold +- hysteresis / 2 | a decision with memory |",
         "",
         "A node with N children places them at x = k / (N - 1) and blends neighbours. The "
@@ -240,9 +271,11 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "| run | u, v m/s | yaw rate deg/s | free-water window s | walls | mean trim |",
         "| --- | --- | --- | --- | --- | --- |",
     ]
-    for name, label in (("locomotion_swim", "swim (printed Phi'_swim lag)"),
-                        ("swim_heading_hold", "swim_heading_hold"),
-                        ("swim_heading_hold_reversed", "the hold with the opposite sign")):
+    for name, label in (
+        ("locomotion_swim", "swim (printed Phi'_swim lag)"),
+        ("swim_heading_hold", "swim_heading_hold"),
+        ("swim_heading_hold_reversed", "the hold with the opposite sign"),
+    ):
         r = m[name]
         log = np.load(out / name / "log.npz")
         w = r["steady_window_s"]
@@ -250,8 +283,10 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         if "heading_trim" in log.files:
             sel = (log["t_heading_trim"] >= w[0]) & (log["t_heading_trim"] <= w[1])
             trim = f"{log['heading_trim'][sel, 0].mean():+.3f}"
-        lines.append(f"| {label} | {_uv(r)} | {r['yaw_rate_deg_s']:.2f} | {w[0]:.1f}-{w[1]:.1f} | "
-                     f"{_walls(r)} | {trim} |")
+        lines.append(
+            f"| {label} | {_uv(r)} | {r['yaw_rate_deg_s']:.2f} | {w[0]:.1f}-{w[1]:.1f} | "
+            f"{_walls(r)} | {trim} |"
+        )
     yaw_held = abs(held["yaw_rate_deg_s"])
     lines += [
         "",
@@ -303,8 +338,9 @@ def page(metrics: dict, out: pathlib.Path) -> str:
         "| t s | z_hat | flow_hat | energy_hat | balloon command |",
         "| --- | --- | --- | --- | --- |",
     ]
-    for t, z, f, e, b in _estimates_at(out, (4.0, on_until, off_at + 4.0, off_at + 8.0, 30.0,
-                                             50.0, 65.0)):
+    for t, z, f, e, b in _estimates_at(
+        out, (4.0, on_until, off_at + 4.0, off_at + 8.0, 30.0, 50.0, 65.0)
+    ):
         lines.append(f"| {t:.0f} | {z:.2f} | {f:.2f} | {e:.2f} | {b:.0f} |")
     energy = four.get("energy", {})
     log = np.load(out / "four_behaviors" / "log.npz")
@@ -317,23 +353,31 @@ def page(metrics: dict, out: pathlib.Path) -> str:
     tz, z = log["t_z_hat"], log["z_hat"][:, 0]
     z_low = z[tz <= 5.0].min()
     low, high = spec.flow_estimator.speed_low, spec.flow_estimator.speed_high
-    back = next((tr["start_s"] for tr in four["transitions"]
-                 if (tr["from"], tr["to"]) == ("walk", "trot")), None)
+    back = next(
+        (tr["start_s"] for tr in four["transitions"] if (tr["from"], tr["to"]) == ("walk", "trot")),
+        None,
+    )
     if lo_in >= low:
         reads = f"above the thresholds ({low:g}-{high:g} m/s)"
     else:
-        reads = (f"falling below the lower threshold ({low:g} m/s; the band is "
-                 f"{low:g}-{high:g} m/s) as the robot drifts with it")
+        reads = (
+            f"falling below the lower threshold ({low:g} m/s; the band is "
+            f"{low:g}-{high:g} m/s) as the robot drifts with it"
+        )
     if back is not None and back < on_until:
-        back_text = (f" The walk gives way to the trot at {back:.1f} s, before the current "
-                     f"stops at {on_until:g} s: drifting with it, the robot sees too little of it.")
+        back_text = (
+            f" The walk gives way to the trot at {back:.1f} s, before the current "
+            f"stops at {on_until:g} s: drifting with it, the robot sees too little of it."
+        )
     elif back is not None:
         back_text = f" The walk gives way to the trot at {back:.1f} s, once the current stops."
     else:
         back_text = ""
     if z_low < 0.99:
-        settle = (f"While the robot settles on its feet (the first 5 s) z_hat dips to "
-                  f"{z_low:.2f}, which gives the swim a share of the target for a moment.")
+        settle = (
+            f"While the robot settles on its feet (the first 5 s) z_hat dips to "
+            f"{z_low:.2f}, which gives the swim a share of the target for a moment."
+        )
     else:
         settle = f"While the robot settles on its feet (the first 5 s) z_hat stays at {z_low:.2f}."
     lines += [
@@ -361,10 +405,17 @@ def main(argv=None, prog=None) -> int:
     from manta_drake.studies.options import StudyParser
 
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/behaviours"),
-                        help="where the runs go (default out/behaviours)")
-    parser.add_argument("--reuse", action="store_true",
-                        help="reuse runs already in --out (their metrics.json and log.npz)")
+    parser.add_argument(
+        "--out",
+        type=pathlib.Path,
+        default=pathlib.Path("out/behaviours"),
+        help="where the runs go (default out/behaviours)",
+    )
+    parser.add_argument(
+        "--reuse",
+        action="store_true",
+        help="reuse runs already in --out (their metrics.json and log.npz)",
+    )
     add_cluster_arguments(parser)
     args = parser.parse_args(argv)
     check_cluster_arguments(args)  # every option before a cluster or a run starts

@@ -60,44 +60,98 @@ from manta_drake.studies.findings import Tally, _and, gait_of, read_results
 
 # The band's parameters by the sweep's names (links in diagrams/sweeps/energy.yaml), in the
 # table's order, and their shipped values.
-PARAMS = ("contact.friction", "hull_damping", "net_weight_kg", "standby_current",
-          "winding_resistance", "gearbox_efficiency", "position_gain", "lift_slope",
-          "suction_efficiency", "fin_hull_added_mass", "actuators.electronics_mode",
-          "stall_angle")
+PARAMS = (
+    "contact.friction",
+    "hull_damping",
+    "net_weight_kg",
+    "standby_current",
+    "winding_resistance",
+    "gearbox_efficiency",
+    "position_gain",
+    "lift_slope",
+    "suction_efficiency",
+    "fin_hull_added_mass",
+    "actuators.electronics_mode",
+    "stall_angle",
+)
 SHIPPED_NET_WEIGHT_KG = 0.845  # the shipped coefficients' deflated net weight, 3 decimals
 STALL_ANGLE_DEG = 15.0  # models/hydrodynamics.yaml fins.stall_angle_deg
-SHIPPED = {"contact.friction": 0.8, "hull_damping": 1.0, "net_weight_kg": SHIPPED_NET_WEIGHT_KG,
-           "standby_current": 1.0, "winding_resistance": 1.0, "gearbox_efficiency": 1.0,
-           "position_gain": 1.0, "lift_slope": 1.0, "suction_efficiency": 1.0,
-           "fin_hull_added_mass": 1.0, "actuators.electronics_mode": "10W", "stall_angle": 1.0}
-LABELS = {"contact.friction": "friction", "hull_damping": "hull damping",
-          "net_weight_kg": "net weight", "standby_current": "standby current",
-          "winding_resistance": "winding resistance", "gearbox_efficiency": "gearbox efficiency",
-          "position_gain": "servo position gain", "lift_slope": "fin lift slope",
-          "suction_efficiency": "leading-edge suction",
-          "fin_hull_added_mass": "fin-hull added mass",
-          "actuators.electronics_mode": "Jetson mode", "stall_angle": "stall angle"}
-FACTORS = ("hull_damping", "standby_current", "winding_resistance", "gearbox_efficiency",
-           "position_gain", "lift_slope", "suction_efficiency", "fin_hull_added_mass")
-CONTINUOUS = {"contact.friction": (0.5, 0.8), "hull_damping": (0.7, 1.3),
-              "net_weight_kg": (0.6, 1.1), "standby_current": (0.8, 1.2),
-              "winding_resistance": (0.8, 1.2), "gearbox_efficiency": (0.8, 1.1),
-              "position_gain": (0.5, 2.0), "lift_slope": (1.0, 1.39),
-              "suction_efficiency": (0.5, 1.0), "fin_hull_added_mass": (0.28, 1.0)}
+SHIPPED = {
+    "contact.friction": 0.8,
+    "hull_damping": 1.0,
+    "net_weight_kg": SHIPPED_NET_WEIGHT_KG,
+    "standby_current": 1.0,
+    "winding_resistance": 1.0,
+    "gearbox_efficiency": 1.0,
+    "position_gain": 1.0,
+    "lift_slope": 1.0,
+    "suction_efficiency": 1.0,
+    "fin_hull_added_mass": 1.0,
+    "actuators.electronics_mode": "10W",
+    "stall_angle": 1.0,
+}
+LABELS = {
+    "contact.friction": "friction",
+    "hull_damping": "hull damping",
+    "net_weight_kg": "net weight",
+    "standby_current": "standby current",
+    "winding_resistance": "winding resistance",
+    "gearbox_efficiency": "gearbox efficiency",
+    "position_gain": "servo position gain",
+    "lift_slope": "fin lift slope",
+    "suction_efficiency": "leading-edge suction",
+    "fin_hull_added_mass": "fin-hull added mass",
+    "actuators.electronics_mode": "Jetson mode",
+    "stall_angle": "stall angle",
+}
+FACTORS = (
+    "hull_damping",
+    "standby_current",
+    "winding_resistance",
+    "gearbox_efficiency",
+    "position_gain",
+    "lift_slope",
+    "suction_efficiency",
+    "fin_hull_added_mass",
+)
+CONTINUOUS = {
+    "contact.friction": (0.5, 0.8),
+    "hull_damping": (0.7, 1.3),
+    "net_weight_kg": (0.6, 1.1),
+    "standby_current": (0.8, 1.2),
+    "winding_resistance": (0.8, 1.2),
+    "gearbox_efficiency": (0.8, 1.1),
+    "position_gain": (0.5, 2.0),
+    "lift_slope": (1.0, 1.39),
+    "suction_efficiency": (0.5, 1.0),
+    "fin_hull_added_mass": (0.28, 1.0),
+}
 MODES = ("5W", "10W")
 MODE_WATTS = {"5W": 5.0, "10W": 10.0}  # the Jetson's budget in each mode
 STALL_FACTORS = (0.667, 1.0, 1.333, 1.667)  # x 15 deg: 10, 15 (shipped), 20, 25 deg
-ONE_AT_A_TIME = (("contact.friction", 0.5), ("contact.friction", 0.65),
-                 ("hull_damping", 0.7), ("hull_damping", 1.3),
-                 ("net_weight_kg", 0.6), ("net_weight_kg", 1.1),
-                 ("standby_current", 0.8), ("standby_current", 1.2),
-                 ("winding_resistance", 0.8), ("winding_resistance", 1.2),
-                 ("gearbox_efficiency", 0.8), ("gearbox_efficiency", 1.1),
-                 ("position_gain", 0.5), ("position_gain", 2.0),
-                 ("lift_slope", 1.39), ("suction_efficiency", 0.5),
-                 ("fin_hull_added_mass", 0.28),
-                 ("actuators.electronics_mode", "5W"),
-                 ("stall_angle", 0.667), ("stall_angle", 1.333), ("stall_angle", 1.667))
+ONE_AT_A_TIME = (
+    ("contact.friction", 0.5),
+    ("contact.friction", 0.65),
+    ("hull_damping", 0.7),
+    ("hull_damping", 1.3),
+    ("net_weight_kg", 0.6),
+    ("net_weight_kg", 1.1),
+    ("standby_current", 0.8),
+    ("standby_current", 1.2),
+    ("winding_resistance", 0.8),
+    ("winding_resistance", 1.2),
+    ("gearbox_efficiency", 0.8),
+    ("gearbox_efficiency", 1.1),
+    ("position_gain", 0.5),
+    ("position_gain", 2.0),
+    ("lift_slope", 1.39),
+    ("suction_efficiency", 0.5),
+    ("fin_hull_added_mass", 0.28),
+    ("actuators.electronics_mode", "5W"),
+    ("stall_angle", 0.667),
+    ("stall_angle", 1.333),
+    ("stall_angle", 1.667),
+)
 SAMPLE_SEED = 2026
 SAMPLE_POINTS = 12
 
@@ -131,8 +185,14 @@ def band_sample(n: int = SAMPLE_POINTS, seed: int = SAMPLE_SEED) -> list[dict]:
         strata = (rng.permutation(n) + rng.uniform(size=n)) / n
         columns.append([round(float(lo + (hi - lo) * x), 3) for x in strata])
     columns.append([MODES[i % len(MODES)] for i in rng.permutation(n)])
-    ranks = np.array([_ranks(np.asarray([MODE_WATTS[v] if isinstance(v, str) else v
-                                         for v in col], dtype=float)) for col in columns]).T
+    ranks = np.array(
+        [
+            _ranks(
+                np.asarray([MODE_WATTS[v] if isinstance(v, str) else v for v in col], dtype=float)
+            )
+            for col in columns
+        ]
+    ).T
 
     def cost(r):
         c = np.corrcoef(r, rowvar=False)
@@ -160,10 +220,13 @@ def rank_correlations(points: list[dict], names=None) -> dict:
     """{(a, b): Spearman rho} between every pair of the points' parameters (the Jetson mode
     as its watts)."""
     names = list(names or [k for k in PARAMS if k != "stall_angle"])
-    values = {k: [MODE_WATTS[p[k]] if isinstance(p[k], str) else float(p[k]) for p in points]
-              for k in names}
-    return {(a, b): spearman(values[a], values[b])
-            for i, a in enumerate(names) for b in names[i + 1:]}
+    values = {
+        k: [MODE_WATTS[p[k]] if isinstance(p[k], str) else float(p[k]) for p in points]
+        for k in names
+    }
+    return {
+        (a, b): spearman(values[a], values[b]) for i, a in enumerate(names) for b in names[i + 1 :]
+    }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -229,8 +292,9 @@ def swim_slower_than_walk(point: dict) -> bool | None:
     return u_swim < u_walk
 
 
-def walk_most_efficient(point: dict, others=("swim", "trot", "crab", "turning"),
-                        field: str = "cot") -> bool | None:
+def walk_most_efficient(
+    point: dict, others=("swim", "trot", "crab", "turning"), field: str = "cot"
+) -> bool | None:
     """The walk's cost of transport (``field``: ``cot`` electrical, ``cot_mech``
     mechanical) strictly below that of every gait in ``others`` (an infinite cost, a gait
     that does not travel, is above any finite one; two infinite costs are not below each
@@ -238,12 +302,15 @@ def walk_most_efficient(point: dict, others=("swim", "trot", "crab", "turning"),
     walk = getattr(_get(point, "walk"), field)
     if walk is None:
         return None
-    return _and(None if getattr(_get(point, g), field) is None
-                else walk < getattr(_get(point, g), field) for g in others)
+    return _and(
+        None if getattr(_get(point, g), field) is None else walk < getattr(_get(point, g), field)
+        for g in others
+    )
 
 
-def agrees_with_table1(hours: float | None, claim: float = TABLE1_HOURS,
-                       tolerance: float = TABLE1_TOLERANCE) -> bool | None:
+def agrees_with_table1(
+    hours: float | None, claim: float = TABLE1_HOURS, tolerance: float = TABLE1_TOLERANCE
+) -> bool | None:
     """A predicted operation time within ``tolerance`` (relative) of Table 1's figure."""
     if hours is None:
         return None
@@ -262,19 +329,32 @@ def steady_free_water(run: GaitEnergy, min_window_s: float = MIN_WINDOW_S) -> bo
 # (key, label, criterion text, function); the key is the column's name in the tables.
 FINDINGS = (
     ("A", "A. swimming is slower than walking", "u_swim < u_walk", swim_slower_than_walk),
-    ("B", "B. the walk is the most efficient gait",
-     "CoT_walk < CoT of swim, trot, crab and turning (electrical)", walk_most_efficient),
+    (
+        "B",
+        "B. the walk is the most efficient gait",
+        "CoT_walk < CoT of swim, trot, crab and turning (electrical)",
+        walk_most_efficient,
+    ),
 )
 VARIANTS = (
-    ("B-forward", "B-forward. walk most efficient of the forward gaits",
-     "CoT_walk < CoT_swim and CoT_trot (electrical)",
-     lambda p: walk_most_efficient(p, ("swim", "trot"))),
-    ("B-floor", "B-floor. walk most efficient of the floor gaits",
-     "CoT_walk < CoT of trot, crab and turning (electrical; swim left out)",
-     lambda p: walk_most_efficient(p, ("trot", "crab", "turning"))),
-    ("B-mech", "B-mech. walk most efficient by the mechanical CoT",
-     "CoT_mech,walk < CoT_mech of the other four",
-     lambda p: walk_most_efficient(p, field="cot_mech")),
+    (
+        "B-forward",
+        "B-forward. walk most efficient of the forward gaits",
+        "CoT_walk < CoT_swim and CoT_trot (electrical)",
+        lambda p: walk_most_efficient(p, ("swim", "trot")),
+    ),
+    (
+        "B-floor",
+        "B-floor. walk most efficient of the floor gaits",
+        "CoT_walk < CoT of trot, crab and turning (electrical; swim left out)",
+        lambda p: walk_most_efficient(p, ("trot", "crab", "turning")),
+    ),
+    (
+        "B-mech",
+        "B-mech. walk most efficient by the mechanical CoT",
+        "CoT_mech,walk < CoT_mech of the other four",
+        lambda p: walk_most_efficient(p, field="cot_mech"),
+    ),
 )
 
 
@@ -304,8 +384,12 @@ def _ranks(x: np.ndarray) -> np.ndarray:
 
 # The parts of the electrical draw each run's metrics give (``power_breakdown``): name in the
 # budget -> its column.
-BUDGET_PARTS = {"electronics": "computers_w", "standby": "standby_w", "copper": "copper_w",
-                "conversion": "shaft_w"}
+BUDGET_PARTS = {
+    "electronics": "computers_w",
+    "standby": "standby_w",
+    "copper": "copper_w",
+    "conversion": "shaft_w",
+}
 
 
 def power_budget(shipped: GaitEnergy, oat: dict) -> dict | None:
@@ -330,9 +414,13 @@ def power_budget(shipped: GaitEnergy, oat: dict) -> dict | None:
 
     params = load_actuators(DEFAULT_ACTUATORS_FILE)
     mode_step = electronics_power(params, "10W") - electronics_power(params, "5W")
-    return {"total": shipped.power_w, **parts,
-            "closure": shipped.power_w - sum(parts.values()),
-            "mode_step_measured": shipped.power_w - mode5.power_w, "mode_step_file": mode_step}
+    return {
+        "total": shipped.power_w,
+        **parts,
+        "closure": shipped.power_w - sum(parts.values()),
+        "mode_step_measured": shipped.power_w - mode5.power_w,
+        "mode_step_file": mode_step,
+    }
 
 
 def needed_for_table1(budget: dict, usable_wh: float, hours: float = TABLE1_HOURS) -> dict:
@@ -343,10 +431,13 @@ def needed_for_table1(budget: dict, usable_wh: float, hours: float = TABLE1_HOUR
     need = usable_wh / hours
     extra = need - budget["total"]
     copper = extra / budget["copper"] + 1.0 if budget["copper"] > 0 else math.inf
-    return {"power_w": need, "extra_w": extra,
-            "standby_factor": extra / budget["standby"] + 1.0 if budget["standby"] > 0
-            else math.inf,
-            "copper_factor": copper, "torque_factor": math.sqrt(copper)}
+    return {
+        "power_w": need,
+        "extra_w": extra,
+        "standby_factor": extra / budget["standby"] + 1.0 if budget["standby"] > 0 else math.inf,
+        "copper_factor": copper,
+        "torque_factor": math.sqrt(copper),
+    }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -376,8 +467,10 @@ def energy_of(row: dict) -> GaitEnergy:
         return UNDETERMINED
     speed = _float(row.get("energy.transport_speed_m_s"))
     speed = math.hypot(u, v) if speed is None else speed
-    cot, cot_mech = (_float(row.get("energy.cot_electrical_dry_weight")),
-                     _float(row.get("energy.cot_mechanical_dry_weight")))
+    cot, cot_mech = (
+        _float(row.get("energy.cot_electrical_dry_weight")),
+        _float(row.get("energy.cot_mechanical_dry_weight")),
+    )
     cots = {key: _float(row.get(f"energy.{key}")) for key in COT_KEYS}
     if cot is None:  # a window but too slow for a cost of transport: it does not travel
         cot = cot_mech = math.inf
@@ -386,16 +479,24 @@ def energy_of(row: dict) -> GaitEnergy:
     mean_power = _float(row.get("energy.mean_electrical_power_w"))
     usable = run_hours * mean_power if run_hours is not None and mean_power else None
     start, end = _float(row.get("steady_start_s")), _float(row.get("steady_end_s"))
-    return GaitEnergy(u=u, v=v, speed=speed, power_w=power,
-                      mech_w=_float(row.get("energy.steady_mechanical_power_w")),
-                      cot=cot, cot_mech=cot_mech, cots=cots,
-                      hours=usable / power if usable is not None else None,
-                      run_hours=run_hours,
-                      window_s=None if start is None or end is None else (start, end),
-                      near_wall_at_s=_float(row.get("near_wall_at_s")),
-                      touched_wall=_bool(row.get("touched_wall")),
-                      breakdown={column: _float(row.get(f"power_breakdown.{column}"))
-                                 for column in BUDGET_PARTS.values()})
+    return GaitEnergy(
+        u=u,
+        v=v,
+        speed=speed,
+        power_w=power,
+        mech_w=_float(row.get("energy.steady_mechanical_power_w")),
+        cot=cot,
+        cot_mech=cot_mech,
+        cots=cots,
+        hours=usable / power if usable is not None else None,
+        run_hours=run_hours,
+        window_s=None if start is None or end is None else (start, end),
+        near_wall_at_s=_float(row.get("near_wall_at_s")),
+        touched_wall=_bool(row.get("touched_wall")),
+        breakdown={
+            column: _float(row.get(f"power_breakdown.{column}")) for column in BUDGET_PARTS.values()
+        },
+    )
 
 
 def parameters_of(row: dict) -> dict:
@@ -457,21 +558,31 @@ def read_table(rows) -> Table:
             key = tuple(params[n] for n in PARAMS)
             point = band.setdefault(key, {})
         else:
-            raise ValueError(f"row {row.get('run_id')}: sets some but not all of the band's "
-                             f"parameters; expected the shipped point, one parameter, or all")
+            raise ValueError(
+                f"row {row.get('run_id')}: sets some but not all of the band's "
+                f"parameters; expected the shipped point, one parameter, or all"
+            )
         if gait in point:
             raise ValueError(f"{gait} appears twice at {key} (more than one seed?)")
         point[gait] = energy_of(row)
-        hours, power = (_float(row.get("energy.operation_time_h")),
-                        _float(row.get("energy.mean_electrical_power_w")))
+        hours, power = (
+            _float(row.get("energy.operation_time_h")),
+            _float(row.get("energy.mean_electrical_power_w")),
+        )
         if hours is not None and power is not None:
             usable.add(round(hours * power, 6))
     if len(usable) > 1:
-        raise ValueError(f"the runs used different usable energies {sorted(usable)} Wh; "
-                         "this study expects one pack")
-    return Table(shipped, dict(sorted(oat.items(), key=lambda kv: _oat_order(kv[0]))),
-                 dict(sorted(band.items(), key=lambda kv: _band_order(kv[0]))),
-                 usable.pop() if usable else None, len(rows))
+        raise ValueError(
+            f"the runs used different usable energies {sorted(usable)} Wh; "
+            "this study expects one pack"
+        )
+    return Table(
+        shipped,
+        dict(sorted(oat.items(), key=lambda kv: _oat_order(kv[0]))),
+        dict(sorted(band.items(), key=lambda kv: _band_order(kv[0]))),
+        usable.pop() if usable else None,
+        len(rows),
+    )
 
 
 def _oat_order(key):
@@ -521,13 +632,24 @@ def by_stall(band: dict) -> dict:
     return dict(sorted(out.items()))
 
 
-COT_LABELS = {f"cot_{p}_{w}": f"{pl}, {wl}"
-              for p, pl in (("electrical", "electrical"), ("net_of_hotel", "net of hotel"),
-                            ("mechanical", "mechanical"))
-              for w, wl in (("dry_weight", "dry weight"), ("weight_in_water", "in water"))}
-FIELDS = (("speed", "speed m/s", 3), ("power_w", "P el W", 1), ("mech_w", "P mech W", 2),
-          ("cot", "CoT el", 2), ("cot_net", "CoT net", 2), ("cot_mech", "CoT mech", 2),
-          ("hours", "operation h", 2))
+COT_LABELS = {
+    f"cot_{p}_{w}": f"{pl}, {wl}"
+    for p, pl in (
+        ("electrical", "electrical"),
+        ("net_of_hotel", "net of hotel"),
+        ("mechanical", "mechanical"),
+    )
+    for w, wl in (("dry_weight", "dry weight"), ("weight_in_water", "in water"))
+}
+FIELDS = (
+    ("speed", "speed m/s", 3),
+    ("power_w", "P el W", 1),
+    ("mech_w", "P mech W", 2),
+    ("cot", "CoT el", 2),
+    ("cot_net", "CoT net", 2),
+    ("cot_mech", "CoT mech", 2),
+    ("hours", "operation h", 2),
+)
 
 
 def quantiles(values) -> tuple | None:
@@ -547,8 +669,11 @@ def band_stats(points) -> dict:
     for gait in GAITS:
         runs = [_get(p, gait) for p in points]
         det = [r for r in runs if r.power_w is not None]
-        entry = {"n": len(runs), "undetermined": len(runs) - len(det),
-                 "no_travel": sum(1 for r in det if r.cot == math.inf)}
+        entry = {
+            "n": len(runs),
+            "undetermined": len(runs) - len(det),
+            "no_travel": sum(1 for r in det if r.cot == math.inf),
+        }
         for field, _, _ in FIELDS:
             entry[field] = quantiles(getattr(r, field) for r in det)
         out[gait] = entry
@@ -588,6 +713,7 @@ def largest_driver(gait_drivers: dict, by: str = "oat") -> tuple[str, float] | N
     one-at-a-time span (``oat``: the widest difference among its runs and the shipped
     run's, over the band's ends) or by the largest |Spearman rho| (``rho``, returned with
     its sign). None if no parameter has a value."""
+
     def size(d):
         if by == "rho":
             return abs(d["rho"]) if d["rho"] is not None else None
@@ -638,74 +764,118 @@ def _fmt_value(name: str, value) -> str:
 
 
 def _row(t: Tally) -> str:
-    return (f"| {t.label} | {t.criterion} | {t.holds}/{t.total} | {t.fails} | "
-            f"{t.undetermined} | {100 * t.fraction:.0f} % |" if t.total else
-            f"| {t.label} | {t.criterion} | 0/0 | 0 | 0 | - |")
+    return (
+        f"| {t.label} | {t.criterion} | {t.holds}/{t.total} | {t.fails} | "
+        f"{t.undetermined} | {100 * t.fraction:.0f} % |"
+        if t.total
+        else f"| {t.label} | {t.criterion} | 0/0 | 0 | 0 | - |"
+    )
 
 
 def markdown_block(table: Table, source: str) -> str:
     """The generated block of docs/energy.md."""
-    lines = [MARK_BEGIN,
-             f"<!-- generated by manta-drake study energy from {source}; do not edit by hand -->",
-             ""]
+    lines = [
+        MARK_BEGIN,
+        f"<!-- generated by manta-drake study energy from {source}; do not edit by hand -->",
+        "",
+    ]
     band = list(table.band.values())
     n_band, n_oat = len(band), len(table.oat)
-    lines += [(f"The table: {table.runs} runs; the shipped point, {n_oat} one-at-a-time sets "
-              f"and {n_band} band points ({len(by_stall(table.band))} stall angles), each "
-              f"with the five gaits. Usable energy of the pack (full to the cut-off, at "
-              f"open circuit): {_fmt(table.usable_wh, 2)} Wh."), ""]
+    lines += [
+        (
+            f"The table: {table.runs} runs; the shipped point, {n_oat} one-at-a-time sets "
+            f"and {n_band} band points ({len(by_stall(table.band))} stall angles), each "
+            f"with the five gaits. Usable energy of the pack (full to the cut-off, at "
+            f"open circuit): {_fmt(table.usable_wh, 2)} Wh."
+        ),
+        "",
+    ]
     sample = [dict(zip(PARAMS, key)) for key in table.band if stall_deg(key) == STALL_ANGLE_DEG]
     corr = [abs(r) for r in rank_correlations(sample).values() if r is not None]
     if corr:
-        lines[-2] += (f" The band's {len(sample)} points (each at every stall angle): the largest "
-                      f"rank correlation between two of their parameters is {max(corr):.2f}.")
+        lines[-2] += (
+            f" The band's {len(sample)} points (each at every stall angle): the largest "
+            f"rank correlation between two of their parameters is {max(corr):.2f}."
+        )
 
     # The shipped point.
-    lines += [("**At the shipped point** (free-water window means; operation time = usable "
-              "energy / window power, in brackets with the whole run's mean power, the "
-              "metrics' `operation_time_h`):"), "",
-              ("| gait | u m/s | speed m/s | P el W | P mech W | CoT el | CoT mech | "
-              "operation h | window s |"),
-              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines += [
+        (
+            "**At the shipped point** (free-water window means; operation time = usable "
+            "energy / window power, in brackets with the whole run's mean power, the "
+            "metrics' `operation_time_h`):"
+        ),
+        "",
+        (
+            "| gait | u m/s | speed m/s | P el W | P mech W | CoT el | CoT mech | "
+            "operation h | window s |"
+        ),
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for gait in GAITS:
         r = _get(table.shipped, gait)
         window = "-" if r.window_s is None else f"{r.window_s[0]:.1f}-{r.window_s[1]:.1f}"
-        lines.append(f"| {gait} | {_fmt(r.u, 3)} | {_fmt(r.speed, 3)} | {_fmt(r.power_w, 1)} | "
-                     f"{_fmt(r.mech_w, 2)} | {_fmt(r.cot, 2)} | {_fmt(r.cot_mech, 2)} | "
-                     f"{_fmt(r.hours, 2)} ({_fmt(r.run_hours, 2)}) | {window} |")
+        lines.append(
+            f"| {gait} | {_fmt(r.u, 3)} | {_fmt(r.speed, 3)} | {_fmt(r.power_w, 1)} | "
+            f"{_fmt(r.mech_w, 2)} | {_fmt(r.cot, 2)} | {_fmt(r.cot_mech, 2)} | "
+            f"{_fmt(r.hours, 2)} ({_fmt(r.run_hours, 2)}) | {window} |"
+        )
 
-    lines += ["", ("Every cost of transport the metrics give, at the shipped point (P / (W "
-              "|(u, v)|): the electrical power, the same net of the hotel load (the "
-              "computers and the servos' standby, drawn whatever the joints do) and the "
-              "joints' mechanical power, each over the dry weight W = m g and over the "
-              "deflated robot's weight in water):"), "",
-              "| gait | " + " | ".join(COT_LABELS[k] for k in COT_KEYS) + " |",
-              "| --- | " + " | ".join("---" for _ in COT_KEYS) + " |"]
+    lines += [
+        "",
+        (
+            "Every cost of transport the metrics give, at the shipped point (P / (W "
+            "|(u, v)|): the electrical power, the same net of the hotel load (the "
+            "computers and the servos' standby, drawn whatever the joints do) and the "
+            "joints' mechanical power, each over the dry weight W = m g and over the "
+            "deflated robot's weight in water):"
+        ),
+        "",
+        "| gait | " + " | ".join(COT_LABELS[k] for k in COT_KEYS) + " |",
+        "| --- | " + " | ".join("---" for _ in COT_KEYS) + " |",
+    ]
     for gait in GAITS:
         r = _get(table.shipped, gait)
-        lines.append(f"| {gait} | " + " | ".join(_fmt(r.cots.get(k), 2) for k in COT_KEYS)
-                     + " |")
+        lines.append(f"| {gait} | " + " | ".join(_fmt(r.cots.get(k), 2) for k in COT_KEYS) + " |")
 
     # Over the band.
     stats = band_stats(band)
-    lines += ["", (f"**Over the band** ({n_band} points): median (10 % to 90 %). A run slower "
-              "than 5 mm/s has no finite cost of transport (counted in 'no travel'; the "
-              "quantiles of the costs are over the others)."), "",
-              "| gait | runs | undetermined | no travel | "
-              + " | ".join(label for _, label, _ in FIELDS) + " |",
-              "| --- | --- | --- | --- | " + " | ".join("---" for _ in FIELDS) + " |"]
+    lines += [
+        "",
+        (
+            f"**Over the band** ({n_band} points): median (10 % to 90 %). A run slower "
+            "than 5 mm/s has no finite cost of transport (counted in 'no travel'; the "
+            "quantiles of the costs are over the others)."
+        ),
+        "",
+        "| gait | runs | undetermined | no travel | "
+        + " | ".join(label for _, label, _ in FIELDS)
+        + " |",
+        "| --- | --- | --- | --- | " + " | ".join("---" for _ in FIELDS) + " |",
+    ]
     for gait, s in stats.items():
-        lines.append(f"| {gait} | {s['n']} | {s['undetermined']} | {s['no_travel']} | "
-                     + " | ".join(_fmt_q(s[f], d) for f, _, d in FIELDS) + " |")
+        lines.append(
+            f"| {gait} | {s['n']} | {s['undetermined']} | {s['no_travel']} | "
+            + " | ".join(_fmt_q(s[f], d) for f, _, d in FIELDS)
+            + " |"
+        )
 
     # Power budget and Table 1.
-    lines += ["", ("**The shipped point's power budget** (W, window means, from each run's "
-              "`power_breakdown`: the computers, the servos' standby, their copper loss and the "
-              "power converted to the motors' shafts, i.e. the joints' work and the gearbox's "
-              "loss), and what 1.0 h would take:"), "",
-              ("| gait | total | electronics | servo standby | copper loss | conversion | "
-              "constant share | 1.0 h needs W | or standby x | or copper x | = torques x |"),
-              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines += [
+        "",
+        (
+            "**The shipped point's power budget** (W, window means, from each run's "
+            "`power_breakdown`: the computers, the servos' standby, their copper loss and the "
+            "power converted to the motors' shafts, i.e. the joints' work and the gearbox's "
+            "loss), and what 1.0 h would take:"
+        ),
+        "",
+        (
+            "| gait | total | electronics | servo standby | copper loss | conversion | "
+            "constant share | 1.0 h needs W | or standby x | or copper x | = torques x |"
+        ),
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
     budgets = {}
     for gait in GAITS:
         oat = {k: _get(p, gait) for k, p in table.oat.items()}
@@ -716,53 +886,83 @@ def markdown_block(table: Table, source: str) -> str:
             continue
         need = needed_for_table1(b, table.usable_wh)
         const = (b["electronics"] + b["standby"]) / b["total"]
-        lines.append(f"| {gait} | {b['total']:.1f} | {b['electronics']:.2f} | "
-                     f"{b['standby']:.2f} | {b['copper']:.2f} | {b['conversion']:.2f} | "
-                     f"{100 * const:.0f} % | {need['power_w']:.1f} | "
-                     f"{need['standby_factor']:.1f} | {need['copper_factor']:.0f} | "
-                     f"{need['torque_factor']:.1f} |")
+        lines.append(
+            f"| {gait} | {b['total']:.1f} | {b['electronics']:.2f} | "
+            f"{b['standby']:.2f} | {b['copper']:.2f} | {b['conversion']:.2f} | "
+            f"{100 * const:.0f} % | {need['power_w']:.1f} | "
+            f"{need['standby_factor']:.1f} | {need['copper_factor']:.0f} | "
+            f"{need['torque_factor']:.1f} |"
+        )
     checks = [b for b in budgets.values() if b is not None]
     if checks:
         closure = max(abs(b["closure"]) for b in checks)
         steps = [b["mode_step_measured"] for b in checks]
-        lines += ["", (f"Checks of the budget: the parts add up to the logged draw within "
-                  f"{closure:.1e} W; the 5W run draws {min(steps):.3f} to {max(steps):.3f} W "
-                  f"less (the file's electronics: {checks[0]['mode_step_file']:.3f} W; the "
-                  "rest is the battery's and the servos' response to the lower current).")]
+        lines += [
+            "",
+            (
+                f"Checks of the budget: the parts add up to the logged draw within "
+                f"{closure:.1e} W; the 5W run draws {min(steps):.3f} to {max(steps):.3f} W "
+                f"less (the file's electronics: {checks[0]['mode_step_file']:.3f} W; the "
+                "rest is the battery's and the servos' response to the lower current)."
+            ),
+        ]
 
     # Operation time.
-    all_hours = [r.hours for pt in [table.shipped, *table.oat.values(), *band]
-                 for r in pt.values() if r.hours is not None]
+    all_hours = [
+        r.hours
+        for pt in [table.shipped, *table.oat.values(), *band]
+        for r in pt.values()
+        if r.hours is not None
+    ]
     agree = [agrees_with_table1(h) for h in all_hours]
-    lines += ["", (f"**Operation time against Table 1** ({TABLE1_HOURS:.1f} h; a prediction "
-              f"agrees within {100 * TABLE1_TOLERANCE:.0f} %): over all {len(all_hours)} runs "
-              f"{_fmt(min(all_hours) if all_hours else None, 2)} to "
-              f"{_fmt(max(all_hours) if all_hours else None, 2)} h; "
-              f"{sum(1 for a in agree if a)} of them agree.")]
+    lines += [
+        "",
+        (
+            f"**Operation time against Table 1** ({TABLE1_HOURS:.1f} h; a prediction "
+            f"agrees within {100 * TABLE1_TOLERANCE:.0f} %): over all {len(all_hours)} runs "
+            f"{_fmt(min(all_hours) if all_hours else None, 2)} to "
+            f"{_fmt(max(all_hours) if all_hours else None, 2)} h; "
+            f"{sum(1 for a in agree if a)} of them agree."
+        ),
+    ]
     ship_budgets = [(g, b) for g, b in budgets.items() if b is not None]
     if ship_budgets and table.usable_wh is not None:
         half = table.usable_wh / 2
-        lines += ["", "Were each pack to feed one load (one pack the 16 servos, the other the "
-                  f"computers; {half:.2f} Wh usable each), the servos' pack would last "
-                  + ", ".join(f"{half / (b['total'] - b['electronics']):.2f} h ({g})"
-                              for g, b in ship_budgets)
-                  + f" and the computers' {half / ship_budgets[0][1]['electronics']:.2f} h, "
-                  "at the shipped point."]
-    lines += ["", ("What moves it, per gait: the one-at-a-time change from the shipped run "
-              "(h, at each end of the band) and Spearman's rho over the band points (the "
-              "Jetson mode as its watts, the stall angle as its factor):"), ""]
+        lines += [
+            "",
+            "Were each pack to feed one load (one pack the 16 servos, the other the "
+            f"computers; {half:.2f} Wh usable each), the servos' pack would last "
+            + ", ".join(
+                f"{half / (b['total'] - b['electronics']):.2f} h ({g})" for g, b in ship_budgets
+            )
+            + f" and the computers' {half / ship_budgets[0][1]['electronics']:.2f} h, "
+            "at the shipped point.",
+        ]
+    lines += [
+        "",
+        (
+            "What moves it, per gait: the one-at-a-time change from the shipped run "
+            "(h, at each end of the band) and Spearman's rho over the band points (the "
+            "Jetson mode as its watts, the stall angle as its factor):"
+        ),
+        "",
+    ]
     drv = drivers(table, "hours")
     header = "| parameter | band end | " + " | ".join(GAITS) + " |"
     lines += [header, "| --- | --- | " + " | ".join("---" for _ in GAITS) + " |"]
     for name in PARAMS:
-        values = sorted({v for (n, v) in table.oat if n == name},
-                        key=lambda v: MODE_WATTS.get(v, 0) if isinstance(v, str) else v)
+        values = sorted(
+            {v for (n, v) in table.oat if n == name},
+            key=lambda v: MODE_WATTS.get(v, 0) if isinstance(v, str) else v,
+        )
         for value in values:
             cells = [_fmt(drv[g][name]["oat"].get(value), 3) for g in GAITS]
-            lines.append(f"| {LABELS[name]} | {_fmt_value(name, value)} | "
-                         + " | ".join(cells) + " |")
+            lines.append(
+                f"| {LABELS[name]} | {_fmt_value(name, value)} | " + " | ".join(cells) + " |"
+            )
         cells = [_fmt(drv[g][name]["rho"], 2) for g in GAITS]
         lines.append(f"| {LABELS[name]} | rho over the band | " + " | ".join(cells) + " |")
+
     def driver_text(d, by, unit):
         found = largest_driver(d, by)
         if found is None:
@@ -770,44 +970,72 @@ def markdown_block(table: Table, source: str) -> str:
         name, size = found
         return f"{LABELS[name]} ({'rho ' if by == 'rho' else ''}{size:.2f}{unit})"
 
-    lines += ["", "The parameter that moves the operation time most, one at a time (the span "
-              "of its runs) and over the band (largest \\|rho\\|): "
-              + "; ".join(f"{g}: {driver_text(drv[g], 'oat', ' h')}, "
-                          f"{driver_text(drv[g], 'rho', '')}" for g in GAITS) + "."]
+    lines += [
+        "",
+        "The parameter that moves the operation time most, one at a time (the span "
+        "of its runs) and over the band (largest \\|rho\\|): "
+        + "; ".join(
+            f"{g}: {driver_text(drv[g], 'oat', ' h')}, {driver_text(drv[g], 'rho', '')}"
+            for g in GAITS
+        )
+        + ".",
+    ]
     cot = drivers(table, "cot")
-    lines += ["", "The same for the electrical cost of transport: "
-              + "; ".join(f"{g}: {driver_text(cot[g], 'oat', '')}, "
-                          f"{driver_text(cot[g], 'rho', '')}" for g in GAITS) + "."]
+    lines += [
+        "",
+        "The same for the electrical cost of transport: "
+        + "; ".join(
+            f"{g}: {driver_text(cot[g], 'oat', '')}, {driver_text(cot[g], 'rho', '')}"
+            for g in GAITS
+        )
+        + ".",
+    ]
 
     # Findings.
-    lines += ["", "**The findings over the band** (holds / band points):", "",
-              "| finding | criterion | holds | fails | undetermined | fraction of the band |",
-              "| --- | --- | --- | --- | --- | --- |"]
+    lines += [
+        "",
+        "**The findings over the band** (holds / band points):",
+        "",
+        "| finding | criterion | holds | fails | undetermined | fraction of the band |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
     lines += [_row(t) for t in tally(band)]
     lines += [_row(t) for t in tally(band, VARIANTS)]
     stalls = by_stall(table.band)
-    oat_stall = {stall_of(float(v)): p for (n, v), p in table.oat.items()
-                 if n == "stall_angle"}
+    oat_stall = {stall_of(float(v)): p for (n, v), p in table.oat.items() if n == "stall_angle"}
     oat_stall[stall_of(SHIPPED["stall_angle"])] = table.shipped
     everything = FINDINGS + VARIANTS
-    lines += ["", "Per stall angle: the band points where each holds, the swim's and the "
-              "walk's speed and the swim's cost (median, 10 % to 90 %), and at the shipped "
-              "point with that stall angle (the one-at-a-time runs; yes / **no** / ?, in the order "
-              + ", ".join(key for key, _, _, _ in everything) + "):", "",
-              "| stall angle deg | points | swim u m/s | walk u m/s | swim CoT el | "
-              + " | ".join(key for key, _, _, _ in everything) + " | at the shipped point |",
-              "| --- | --- | --- | --- | --- | " + " | ".join("---" for _ in everything)
-              + " | --- |"]
+    lines += [
+        "",
+        "Per stall angle: the band points where each holds, the swim's and the "
+        "walk's speed and the swim's cost (median, 10 % to 90 %), and at the shipped "
+        "point with that stall angle (the one-at-a-time runs; yes / **no** / ?, in the order "
+        + ", ".join(key for key, _, _, _ in everything)
+        + "):",
+        "",
+        "| stall angle deg | points | swim u m/s | walk u m/s | swim CoT el | "
+        + " | ".join(key for key, _, _, _ in everything)
+        + " | at the shipped point |",
+        "| --- | --- | --- | --- | --- | " + " | ".join("---" for _ in everything) + " | --- |",
+    ]
     for deg, points in stalls.items():
         ts = tally(points, everything)
         ref = oat_stall.get(deg)
-        marks = "-" if ref is None else ", ".join(
-            {True: "yes", False: "**no**", None: "?"}[fn(ref)] for _, _, _, fn in everything)
-        lines.append(f"| {deg:g} | {len(points)} | "
-                     f"{_fmt_q(quantiles(_get(p, 'swim').u for p in points), 3)} | "
-                     f"{_fmt_q(quantiles(_get(p, 'walk').u for p in points), 3)} | "
-                     f"{_fmt_q(quantiles(_get(p, 'swim').cot for p in points), 2)} | "
-                     + " | ".join(f"{t.holds}/{t.total}" for t in ts) + f" | {marks} |")
+        marks = (
+            "-"
+            if ref is None
+            else ", ".join(
+                {True: "yes", False: "**no**", None: "?"}[fn(ref)] for _, _, _, fn in everything
+            )
+        )
+        lines.append(
+            f"| {deg:g} | {len(points)} | "
+            f"{_fmt_q(quantiles(_get(p, 'swim').u for p in points), 3)} | "
+            f"{_fmt_q(quantiles(_get(p, 'walk').u for p in points), 3)} | "
+            f"{_fmt_q(quantiles(_get(p, 'swim').cot for p in points), 2)} | "
+            + " | ".join(f"{t.holds}/{t.total}" for t in ts)
+            + f" | {marks} |"
+        )
 
     # Free water and steady state.
     runs = [r for pt in [table.shipped, *table.oat.values(), *band] for r in pt.values()]
@@ -816,27 +1044,33 @@ def markdown_block(table: Table, source: str) -> str:
     windows = [r.window_s[1] - r.window_s[0] for r in det]
     walled = [r for r in det if r.near_wall_at_s is not None]
     touched = [r for r in det if r.touched_wall]
-    lines += ["", f"**Free water and steady state**: {len(det)} of {len(runs)} runs have a "
-              f"free-water window (from {min(r.window_s[0] for r in det):g} s, after the "
-              f"start's transient, until the run's end or the hull's first approach within "
-              f"0.3 m of a wall), {min(windows):.1f} to {max(windows):.1f} s long; "
-              f"{len(short)} shorter than {MIN_WINDOW_S:g} s (two gait cycles). "
-              f"{len(walled)} runs come near a wall before 20 s (their window ends there) and "
-              f"{len(touched)} touch one after it; every power, cost of transport and "
-              f"operation time above is a window figure, before any wall."
-              if det else "**Free water and steady state**: no run has a window."]
+    lines += [
+        "",
+        f"**Free water and steady state**: {len(det)} of {len(runs)} runs have a "
+        f"free-water window (from {min(r.window_s[0] for r in det):g} s, after the "
+        f"start's transient, until the run's end or the hull's first approach within "
+        f"0.3 m of a wall), {min(windows):.1f} to {max(windows):.1f} s long; "
+        f"{len(short)} shorter than {MIN_WINDOW_S:g} s (two gait cycles). "
+        f"{len(walled)} runs come near a wall before 20 s (their window ends there) and "
+        f"{len(touched)} touch one after it; every power, cost of transport and "
+        f"operation time above is a window figure, before any wall."
+        if det
+        else "**Free water and steady state**: no run has a window.",
+    ]
     lines += ["", MARK_END]
     return "\n".join(lines)
 
 
-def write_markdown(path: pathlib.Path, block: str,
-                   command: str = "manta-drake study energy") -> None:
+def write_markdown(
+    path: pathlib.Path, block: str, command: str = "manta-drake study energy"
+) -> None:
     """Replaces the marked block of ``path`` (keeping the rest), or writes a new file; a
     changed page's stamp takes today's date and commit (``manta_drake.studies.stamp``)."""
     from manta_drake.studies.stamp import replace_marked_block
 
-    replace_marked_block(path, block, MARK_BEGIN, MARK_END,
-                         new_page=("Energy over the uncertainty band", command))
+    replace_marked_block(
+        path, block, MARK_BEGIN, MARK_END, new_page=("Energy over the uncertainty band", command)
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -879,18 +1113,38 @@ def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
                 if y is None or not math.isfinite(y):
                     ax.plot(r.speed, 0, marker="x", color=_colour(deg), ms=5, ls="none")
                     continue
-                ax.plot(r.speed, y, marker=marker.get(mode, "o"), ms=5, ls="none",
-                        color=_colour(deg), mec="k", mew=0.3, alpha=0.85)
-            ys = [getattr(r, field) for _, _, r in runs if getattr(r, field) is not None
-                  and math.isfinite(getattr(r, field))]
+                ax.plot(
+                    r.speed,
+                    y,
+                    marker=marker.get(mode, "o"),
+                    ms=5,
+                    ls="none",
+                    color=_colour(deg),
+                    mec="k",
+                    mew=0.3,
+                    alpha=0.85,
+                )
+            ys = [
+                getattr(r, field)
+                for _, _, r in runs
+                if getattr(r, field) is not None and math.isfinite(getattr(r, field))
+            ]
             powers = [getattr(r, power) for _, _, r in runs if getattr(r, power) is not None]
             s = np.linspace(max(smax / 60, 1e-3), smax, 200)
             for p, ls in ((min(powers), ":"), (max(powers), "--")) if powers else ():
                 ax.plot(s, p / (weight * s), color="0.5", lw=0.8, ls=ls)
             y_ship = getattr(ship, field)
             if y_ship is not None and math.isfinite(y_ship):
-                ax.plot(ship.speed, y_ship, marker="*", ms=15, color="k", mfc="gold",
-                        ls="none", zorder=5)
+                ax.plot(
+                    ship.speed,
+                    y_ship,
+                    marker="*",
+                    ms=15,
+                    color="k",
+                    mfc="gold",
+                    ls="none",
+                    zorder=5,
+                )
             top = max(ys + ([y_ship] if y_ship and math.isfinite(y_ship) else [])) if ys else 1
             ax.set_ylim(0, top * 1.25)
             ax.set_xlim(0, smax)
@@ -901,19 +1155,47 @@ def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
             else:
                 ax.set_xlabel("speed of travel |(u, v)|  [m/s]", fontsize=9)
             if c == 0:
-                ax.set_ylabel(("electrical" if row == 0 else "mechanical")
-                              + " cost of transport", fontsize=9)
-    handles = [Line2D([], [], ls="none", marker="o", color=col, mec="k", mew=0.3,
-                      label=f"stall angle {deg:g} deg") for deg, col in STALL_COLOURS.items()]
-    handles += [Line2D([], [], ls="none", marker=m, color="0.6", mec="k", mew=0.3,
-                       label=f"Jetson {mode}") for mode, m in (("10W", "o"), ("5W", "^"))]
-    handles += [Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold",
-                       label="shipped point (15 deg)"),
-                Line2D([], [], color="0.5", ls=":", label="constant power: the band's lowest"),
-                Line2D([], [], color="0.5", ls="--", label="... and highest (per gait)")]
+                ax.set_ylabel(
+                    ("electrical" if row == 0 else "mechanical") + " cost of transport", fontsize=9
+                )
+    handles = [
+        Line2D(
+            [],
+            [],
+            ls="none",
+            marker="o",
+            color=col,
+            mec="k",
+            mew=0.3,
+            label=f"stall angle {deg:g} deg",
+        )
+        for deg, col in STALL_COLOURS.items()
+    ]
+    handles += [
+        Line2D([], [], ls="none", marker=m, color="0.6", mec="k", mew=0.3, label=f"Jetson {mode}")
+        for mode, m in (("10W", "o"), ("5W", "^"))
+    ]
+    handles += [
+        Line2D(
+            [],
+            [],
+            ls="none",
+            marker="*",
+            ms=12,
+            color="k",
+            mfc="gold",
+            label="shipped point (15 deg)",
+        ),
+        Line2D([], [], color="0.5", ls=":", label="constant power: the band's lowest"),
+        Line2D([], [], color="0.5", ls="--", label="... and highest (per gait)"),
+    ]
     fig.legend(handles=handles, loc="upper center", ncol=9, fontsize=8, frameon=False)
-    fig.suptitle("Speed against cost of transport, per gait, over the band "
-                 "(x at 0: slower than 5 mm/s, no finite cost)", y=0.96, fontsize=10)
+    fig.suptitle(
+        "Speed against cost of transport, per gait, over the band "
+        "(x at 0: slower than 5 mm/s, no finite cost)",
+        y=0.96,
+        fontsize=10,
+    )
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
@@ -938,27 +1220,52 @@ def plot_operation_time(table: Table, path: pathlib.Path) -> None:
             r = _get(point, gait)
             if r.hours is None:
                 continue
-            ax.plot(i + rng.uniform(-0.18, 0.18), r.hours, marker="o", ms=4, ls="none",
-                    color="tab:blue" if key[mode_i] == "5W" else "tab:purple", alpha=0.7)
+            ax.plot(
+                i + rng.uniform(-0.18, 0.18),
+                r.hours,
+                marker="o",
+                ms=4,
+                ls="none",
+                color="tab:blue" if key[mode_i] == "5W" else "tab:purple",
+                alpha=0.7,
+            )
         h = _get(table.shipped, gait).hours
         if h is not None:
             ax.plot(i, h, marker="*", ms=16, color="k", mfc="gold", ls="none", zorder=5)
-    ax.axhspan(TABLE1_HOURS * (1 - TABLE1_TOLERANCE), TABLE1_HOURS * (1 + TABLE1_TOLERANCE),
-               color="tab:red", alpha=0.12)
+    ax.axhspan(
+        TABLE1_HOURS * (1 - TABLE1_TOLERANCE),
+        TABLE1_HOURS * (1 + TABLE1_TOLERANCE),
+        color="tab:red",
+        alpha=0.12,
+    )
     ax.axhline(TABLE1_HOURS, color="tab:red", lw=1.2)
-    ax.text(len(GAITS) - 0.55, TABLE1_HOURS, "Table 1: approx. 1.0 h (+-25 %)",
-            color="tab:red", fontsize=8, va="bottom", ha="right")
+    ax.text(
+        len(GAITS) - 0.55,
+        TABLE1_HOURS,
+        "Table 1: approx. 1.0 h (+-25 %)",
+        color="tab:red",
+        fontsize=8,
+        va="bottom",
+        ha="right",
+    )
     ax.set_xticks(range(len(GAITS)), GAITS)
     ax.set_xlim(-0.5, len(GAITS) - 0.5)
     ax.set_ylim(0, None)
     ax.set_ylabel("operation time [h] (usable energy / window power)", fontsize=9)
     ax.grid(alpha=0.3, axis="y")
-    ax.legend(handles=[Line2D([], [], ls="none", marker="o", color="tab:purple",
-                              label="band point, Jetson 10W"),
-                       Line2D([], [], ls="none", marker="o", color="tab:blue",
-                              label="band point, Jetson 5W"),
-                       Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold",
-                              label="shipped point")], fontsize=8, loc="lower left")
+    ax.legend(
+        handles=[
+            Line2D(
+                [], [], ls="none", marker="o", color="tab:purple", label="band point, Jetson 10W"
+            ),
+            Line2D([], [], ls="none", marker="o", color="tab:blue", label="band point, Jetson 5W"),
+            Line2D(
+                [], [], ls="none", marker="*", ms=12, color="k", mfc="gold", label="shipped point"
+            ),
+        ],
+        fontsize=8,
+        loc="lower left",
+    )
     ax.set_title("Predicted operation time per gait", fontsize=10)
 
     drv = drivers(table, "hours")
@@ -975,8 +1282,13 @@ def plot_operation_time(table: Table, path: pathlib.Path) -> None:
     bx.invert_yaxis()
     bx.set_xlabel("change of the operation time from the shipped run [h]", fontsize=9)
     bx.grid(alpha=0.3, axis="x")
-    bx.legend(handles=[Line2D([], [], color="tab:cyan", lw=6, label="swim"),
-                       Line2D([], [], color="tab:brown", lw=6, label="walk")], fontsize=8)
+    bx.legend(
+        handles=[
+            Line2D([], [], color="tab:cyan", lw=6, label="swim"),
+            Line2D([], [], color="tab:brown", lw=6, label="walk"),
+        ],
+        fontsize=8,
+    )
     bx.set_title("One parameter at a time (the rest shipped)", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -1003,10 +1315,13 @@ def plot_findings(table: Table, path: pathlib.Path) -> None:
                 continue
             xs.append(x)
             ys.append(y)
-            ax.plot(x, y, marker="o", ms=6, ls="none", color=_colour(stall_deg(key)),
-                    mec="k", mew=0.3)
-        x, y = getattr(_get(table.shipped, "walk"), field), \
-            getattr(_get(table.shipped, "swim"), field)
+            ax.plot(
+                x, y, marker="o", ms=6, ls="none", color=_colour(stall_deg(key)), mec="k", mew=0.3
+            )
+        x, y = (
+            getattr(_get(table.shipped, "walk"), field),
+            getattr(_get(table.shipped, "swim"), field),
+        )
         if x is not None and y is not None:
             ax.plot(x, y, marker="*", ms=16, color="k", mfc="gold", ls="none", zorder=5)
             xs.append(x)
@@ -1021,10 +1336,22 @@ def plot_findings(table: Table, path: pathlib.Path) -> None:
         ax.grid(alpha=0.3)
     axes[0].set_title("swimming slower than walking: below the diagonal", fontsize=10)
     axes[1].set_title("the walk more efficient than the swim: above the diagonal", fontsize=10)
-    handles = [Line2D([], [], ls="none", marker="o", color=col, mec="k", mew=0.3,
-                      label=f"stall angle {deg:g} deg") for deg, col in STALL_COLOURS.items()]
-    handles.append(Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold",
-                          label="shipped point"))
+    handles = [
+        Line2D(
+            [],
+            [],
+            ls="none",
+            marker="o",
+            color=col,
+            mec="k",
+            mew=0.3,
+            label=f"stall angle {deg:g} deg",
+        )
+        for deg, col in STALL_COLOURS.items()
+    ]
+    handles.append(
+        Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold", label="shipped point")
+    )
     fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -1067,26 +1394,39 @@ def check_logs(sweep_dir: pathlib.Path) -> dict:
         if m.get("status") != "ok" or window is None or m.get("mean_velocity_body") is None:
             continue
         with np.load(log) as data:
-            halves = window_halves(data["t_electrical_power"], data["electrical_power"],
-                                   window)
+            halves = window_halves(data["t_electrical_power"], data["electrical_power"], window)
         if halves is not None:
             out[run.name] = (halves[1] - halves[0]) / (0.5 * (halves[0] + halves[1]))
     if out:
         worst = max(out, key=lambda k: abs(out[k]))
         diffs = np.abs(list(out.values()))
-        print(f"{len(out)} runs: |second half - first half| / mean of the window power: "
-              f"median {100 * np.median(diffs):.2f} %, 90 % {100 * np.percentile(diffs, 90):.2f}"
-              f" %, max {100 * diffs.max():.2f} % ({worst}: {out[worst]:+.4f})")
+        print(
+            f"{len(out)} runs: |second half - first half| / mean of the window power: "
+            f"median {100 * np.median(diffs):.2f} %, 90 % {100 * np.percentile(diffs, 90):.2f}"
+            f" %, max {100 * diffs.max():.2f} % ({worst}: {out[worst]:+.4f})"
+        )
     return out
 
 
 # The columns of the sweep's results.csv the report reads (``energy.transport_speed_m_s``
 # may be missing: |(u, v)| stands in), and the one ``--check-logs`` reads.
-RESULTS_COLUMNS = ("base", *PARAMS, "status", "u", "v", "steady_start_s", "steady_end_s",
-                   "near_wall_at_s", "touched_wall", "energy.steady_electrical_power_w",
-                   "energy.steady_mechanical_power_w", "energy.cot_electrical_dry_weight",
-                   "energy.cot_mechanical_dry_weight", "energy.operation_time_h",
-                   "energy.mean_electrical_power_w")
+RESULTS_COLUMNS = (
+    "base",
+    *PARAMS,
+    "status",
+    "u",
+    "v",
+    "steady_start_s",
+    "steady_end_s",
+    "near_wall_at_s",
+    "touched_wall",
+    "energy.steady_electrical_power_w",
+    "energy.steady_mechanical_power_w",
+    "energy.cot_electrical_dry_weight",
+    "energy.cot_mechanical_dry_weight",
+    "energy.operation_time_h",
+    "energy.mean_electrical_power_w",
+)
 LOGS_COLUMNS = ("run_id",)
 
 
@@ -1100,9 +1440,12 @@ def check_arguments(args) -> None:
     )
 
     if args.check_logs is not None:
-        check_results_csv("--check-logs", args.check_logs / "results.csv", LOGS_COLUMNS,
-                          hint=" (DIR is the output folder of `manta-drake sweep "
-                               "diagrams/sweeps/energy.yaml`)")
+        check_results_csv(
+            "--check-logs",
+            args.check_logs / "results.csv",
+            LOGS_COLUMNS,
+            hint=" (DIR is the output folder of `manta-drake sweep diagrams/sweeps/energy.yaml`)",
+        )
         return
     check_sweep_results(args.results, RESULTS_COLUMNS, "energy", SHIPPED_RESULTS)
     check_output_file("--out-md", args.out_md)
@@ -1113,21 +1456,37 @@ def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study energy``); returns the exit status."""
     from manta_drake.studies.options import StudyParser
 
-    p = StudyParser(prog=prog, description=__doc__.split("\n\n")[0],
-                    formatter_class=argparse.RawDescriptionHelpFormatter,
-                    epilog="Without a fresh sweep, use the table shipped in the "
-                           f"repository: --results {SHIPPED_RESULTS}")
-    p.add_argument("--results", default=DEFAULT_RESULTS,
-                   help=f"results.csv of the energy sweep (default {DEFAULT_RESULTS}; the "
-                        f"shipped copy: {SHIPPED_RESULTS})")
-    p.add_argument("--out-md", default="docs/energy.md",
-                   help="markdown file whose generated block is (re)written")
-    p.add_argument("--out-fig-dir", default="docs/figures",
-                   help="folder of the figures energy_speed_cot.png, energy_operation_time.png "
-                        "and energy_findings.png")
-    p.add_argument("--check-logs", metavar="DIR", type=pathlib.Path,
-                   help="instead of the report: read DIR/runs/*/log.npz of the sweep and print "
-                        "how steady each run's window power is")
+    p = StudyParser(
+        prog=prog,
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Without a fresh sweep, use the table shipped in the "
+        f"repository: --results {SHIPPED_RESULTS}",
+    )
+    p.add_argument(
+        "--results",
+        default=DEFAULT_RESULTS,
+        help=f"results.csv of the energy sweep (default {DEFAULT_RESULTS}; the "
+        f"shipped copy: {SHIPPED_RESULTS})",
+    )
+    p.add_argument(
+        "--out-md",
+        default="docs/energy.md",
+        help="markdown file whose generated block is (re)written",
+    )
+    p.add_argument(
+        "--out-fig-dir",
+        default="docs/figures",
+        help="folder of the figures energy_speed_cot.png, energy_operation_time.png "
+        "and energy_findings.png",
+    )
+    p.add_argument(
+        "--check-logs",
+        metavar="DIR",
+        type=pathlib.Path,
+        help="instead of the report: read DIR/runs/*/log.npz of the sweep and print "
+        "how steady each run's window power is",
+    )
     args = p.parse_args(argv)
     check_arguments(args)
     if args.check_logs is not None:
@@ -1135,14 +1494,19 @@ def main(argv=None, prog=None) -> int:
         return 0
     results = pathlib.Path(args.results)
     table = read_table(read_results(results))
-    write_markdown(pathlib.Path(args.out_md), markdown_block(table, args.results),
-                   f"manta-drake study energy --results {args.results}")
+    write_markdown(
+        pathlib.Path(args.out_md),
+        markdown_block(table, args.results),
+        f"manta-drake study energy --results {args.results}",
+    )
     figs = pathlib.Path(args.out_fig_dir)
     plot_speed_cot(table, figs / "energy_speed_cot.png")
     plot_operation_time(table, figs / "energy_operation_time.png")
     plot_findings(table, figs / "energy_findings.png")
     for t in tally(table.band.values(), FINDINGS + VARIANTS):
-        print(f"{t.label:45s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "
-              f"undetermined {t.undetermined:3d}")
+        print(
+            f"{t.label:45s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "
+            f"undetermined {t.undetermined:3d}"
+        )
     print(f"wrote {args.out_md} and the figures in {figs}")
     return 0

@@ -29,8 +29,7 @@ def gait_name_for(label: str) -> str:
     return "given_" + (re.sub(r"[^A-Za-z0-9]+", "_", str(label)).strip("_") or "gait")
 
 
-def scenario_with_gait(scenario, gait: GaitParams, folder, label: str = "gait",
-                       stance=None):
+def scenario_with_gait(scenario, gait: GaitParams, folder, label: str = "gait", stance=None):
     """``scenario`` running ``gait`` (from rest in its stance, or in ``stance``, 4x4).
 
     Writes ``folder/given_gait.yaml`` and returns the validated scenario that adds it to
@@ -49,17 +48,22 @@ def scenario_with_gait(scenario, gait: GaitParams, folder, label: str = "gait",
     start = name
     if stance is not None and not np.array_equal(np.asarray(stance, dtype=float), gait.X):
         start = f"{name}_stance"
-        gaits[start] = GaitParams(gait.R, np.asarray(stance, dtype=float), gait.Phi,
-                                  gait.Phi_prime)
-    path = write_gait_file(folder / GAIT_FILE, gaits,
-                           description=f"a gait given as data: {label}")
+        gaits[start] = GaitParams(gait.R, np.asarray(stance, dtype=float), gait.Phi, gait.Phi_prime)
+    path = write_gait_file(folder / GAIT_FILE, gaits, description=f"a gait given as data: {label}")
     files = list(scenario.controller.gait_files) + [str(path.resolve())]
-    return load_scenario(defaults=scenario, overrides={
-        "controller.gait_files": files, "controller.gait": name, "initial_stance": start})
+    return load_scenario(
+        defaults=scenario,
+        overrides={
+            "controller.gait_files": files,
+            "controller.gait": name,
+            "initial_stance": start,
+        },
+    )
 
 
-def run_with_gait(scenario, gait: GaitParams, out_dir, stance=None,
-                  gait_name: str = "given") -> dict:
+def run_with_gait(
+    scenario, gait: GaitParams, out_dir, stance=None, gait_name: str = "given"
+) -> dict:
     """Simulates ``scenario`` with ``gait`` (``scenario_with_gait``, its gait file in
     ``out_dir``) through ``simulate.run`` and returns its metrics; ``out_dir`` gets the run's
     outputs, its ``scenario.yaml`` naming the gait file.

@@ -103,20 +103,35 @@ GAIT_NAMES = ("swim", "trot", "walk", "turning", "crab")
 
 # Fault probabilities (independent per run).
 P = {
-    "current": 0.45, "current_over": 0.04,
-    "coeff_scales": 0.5, "coeff_scale_bad": 0.05,
+    "current": 0.45,
+    "current_over": 0.04,
+    "coeff_scales": 0.5,
+    "coeff_scale_bad": 0.05,
     "pressure_noise": 0.4,
-    "depth_noise": 0.3, "depth_noise_over": 0.04, "camera_on": 0.02,
-    "time_step": 0.35, "time_step_bad": 0.02,
-    "friction": 0.15, "update_period": 0.2, "balloon": 0.15, "gait_swap": 0.1,
+    "depth_noise": 0.3,
+    "depth_noise_over": 0.04,
+    "camera_on": 0.02,
+    "time_step": 0.35,
+    "time_step_bad": 0.02,
+    "friction": 0.15,
+    "update_period": 0.2,
+    "balloon": 0.15,
+    "gait_swap": 0.1,
 }
 # Each run's duration [s] when --duration does not fix it, and the earliest time of a drawn
 # balloon command (the command's time is drawn in [BALLOON_COMMAND_AFTER_S, duration], so a
 # duration below it leaves no time to draw from).
 DURATION_RANGE_S = (2.0, 4.0)
 BALLOON_COMMAND_AFTER_S = 0.3
-STARTS = {"none": 0.50, "tilted": 0.18, "upside_down": 0.08, "near_wall": 0.12,
-          "inside_wall": 0.04, "below_floor": 0.04, "above_surface": 0.04}
+STARTS = {
+    "none": 0.50,
+    "tilted": 0.18,
+    "upside_down": 0.08,
+    "near_wall": 0.12,
+    "inside_wall": 0.04,
+    "below_floor": 0.04,
+    "above_surface": 0.04,
+}
 
 # Pool (manta_drake.model.robot_params.DEFAULT_POOL; repeated here so drawing needs no
 # Drake import) and the "far above the surface" bound for the hull's origin.
@@ -132,10 +147,17 @@ JOINT_LIMIT_FLAG = 0.01  # rad
 JOINT_SPEED_LIMIT = 8.0  # rad/s (DEFAULT_ROBOT.velocity_limit)
 
 # Entries the coefficient file requires to be > 0 (manta_drake.model.coefficients.POSITIVE).
-POSITIVE_ENTRIES = ("water_density", "gravity", "body.sealed_volume", "body.sealed_semi_axes",
-                    "fins.strips_per_plate",
-                    "fins.normal_force_coefficient", "fins.passive_pitch_reference_pressure",
-                    "balloon.max_volume", "balloon.pump_rate")
+POSITIVE_ENTRIES = (
+    "water_density",
+    "gravity",
+    "body.sealed_volume",
+    "body.sealed_semi_axes",
+    "fins.strips_per_plate",
+    "fins.normal_force_coefficient",
+    "fins.passive_pitch_reference_pressure",
+    "balloon.max_volume",
+    "balloon.pump_rate",
+)
 
 OUTCOMES = ("ok", "refused", "build_failed", "sim_failed", "exception", "crashed", "timeout")
 EXPECTED_EXCEPTIONS = ("ScenarioError", "SimulationError")
@@ -316,20 +338,42 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
         faults.append("update_period")
     if water and rng.random() < P["balloon"]:
         o["balloon.initial_fill"] = _r(rng.uniform(0.0, 1.0), 4)
-        o["balloon.schedule"] = [{"time": _r(rng.uniform(BALLOON_COMMAND_AFTER_S, dur), 3),
-                                  "fill": _r(rng.uniform(0.0, 1.0), 4)}]
+        o["balloon.schedule"] = [
+            {
+                "time": _r(rng.uniform(BALLOON_COMMAND_AFTER_S, dur), 3),
+                "fill": _r(rng.uniform(0.0, 1.0), 4),
+            }
+        ]
         faults.append("balloon")
-    return {"run": run, "base": base, "faults": faults, "expect_refused": expect,
-            "camera": camera, "overrides": o}
+    return {
+        "run": run,
+        "base": base,
+        "faults": faults,
+        "expect_refused": expect,
+        "camera": camera,
+        "overrides": o,
+    }
 
 
-def make_spec(run: int, base: str, overrides: dict | None = None, faults=(), expect=(),
-              duration: float = 0.3) -> dict:
+def make_spec(
+    run: int, base: str, overrides: dict | None = None, faults=(), expect=(), duration: float = 0.3
+) -> dict:
     """A hand-written spec (tests, reproducing one case): ``overrides`` are dotted fields."""
-    o = {"name": f"fault_{run:04d}_{base}", "duration": duration, "random_seed": run,
-         "visualization.meshcat": False, **(overrides or {})}
-    return {"run": run, "base": base, "faults": list(faults), "expect_refused": list(expect),
-            "camera": bool(o.get("camera.enabled", base in CAMERA_BASES)), "overrides": o}
+    o = {
+        "name": f"fault_{run:04d}_{base}",
+        "duration": duration,
+        "random_seed": run,
+        "visualization.meshcat": False,
+        **(overrides or {}),
+    }
+    return {
+        "run": run,
+        "base": base,
+        "faults": list(faults),
+        "expect_refused": list(expect),
+        "camera": bool(o.get("camera.enabled", base in CAMERA_BASES)),
+        "overrides": o,
+    }
 
 
 def draw_specs(n: int, seed: int, duration: float | None = None) -> list[dict]:
@@ -343,6 +387,7 @@ def draw_specs(n: int, seed: int, duration: float | None = None) -> list[dict]:
 
 
 # --- one run (executed in a worker process) --------------------------------------------------
+
 
 def load_run_scenario(spec: dict):
     """The run's scenario: ``spec``'s base scenario with its overrides layered on
@@ -372,8 +417,10 @@ def scenario_yaml(spec: dict) -> str:
         for p in parents:
             node = node.setdefault(p, {})
         node[leaf] = copy.deepcopy(value)
-    header = (f"# fault campaign run {spec['run']}: base {spec['base']}, faults: "
-              f"{', '.join(spec['faults']) or 'none'}\n")
+    header = (
+        f"# fault campaign run {spec['run']}: base {spec['base']}, faults: "
+        f"{', '.join(spec['faults']) or 'none'}\n"
+    )
     return header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
 
 
@@ -411,19 +458,32 @@ def refused_field(message: str) -> str:
     text = message.strip()
     m = _FILE_PREFIX.match(text)
     if m and _FIELD_AT_START.match(text, m.end()):
-        text = text[m.end():]
+        text = text[m.end() :]
     m = _FIELD_AT_START.match(text)
     if not m:
         return cause_of(text)
     field = m.group(1)
     if field.startswith("scenario."):  # check_keys' path: scenario.water.curent
-        field = field[len("scenario."):]
+        field = field[len("scenario.") :]
     return field
 
 
-STATE_KEYS = ("t", "joint_angles", "joint_velocities", "commanded_joint_angles", "body_xyz",
-              "body_quat_wxyz", "body_rpy", "body_v_world", "body_w_world", "cpg_params",
-              "z_hat", "s_hat", "balloon_volume", "h_hat")
+STATE_KEYS = (
+    "t",
+    "joint_angles",
+    "joint_velocities",
+    "commanded_joint_angles",
+    "body_xyz",
+    "body_quat_wxyz",
+    "body_rpy",
+    "body_v_world",
+    "body_w_world",
+    "cpg_params",
+    "z_hat",
+    "s_hat",
+    "balloon_volume",
+    "h_hat",
+)
 
 
 def log_stats(log: dict, dropout: float) -> dict:
@@ -464,8 +524,9 @@ def log_stats(log: dict, dropout: float) -> dict:
     q = np.asarray(log.get("joint_angles", np.zeros((0, 16))), dtype=float)
     qd = np.asarray(log.get("joint_velocities", np.zeros((0, 16))), dtype=float)
     if q.size:
-        limits = np.array([DEFAULT_ROBOT.position_limits[j % JOINTS_PER_LEG]
-                           for j in range(q.shape[1])])
+        limits = np.array(
+            [DEFAULT_ROBOT.position_limits[j % JOINTS_PER_LEG] for j in range(q.shape[1])]
+        )
         viol = np.maximum(q - limits[:, 1], limits[:, 0] - q)
         viol = np.where(np.isfinite(viol), viol, 0.0)
         out["max_joint_limit_violation_rad"] = float(max(0.0, viol.max()))
@@ -492,18 +553,24 @@ def initial_penetration(scenario) -> tuple[float, str]:
     matter)."""
     from manta_drake.model.start_pose import deepest_start_contact
 
-    depth, names = deepest_start_contact(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg,
-                                         scenario.initial_joint_angles(),
-                                         scenario.fin_sweep_deg())
+    depth, names = deepest_start_contact(
+        scenario.initial_pose.xyz,
+        scenario.initial_pose.rpy_deg,
+        scenario.initial_joint_angles(),
+        scenario.fin_sweep_deg(),
+    )
     return depth, "/".join(names)
 
 
 def _flags(row: dict) -> bool:
     """Whether a finished run shows something worth keeping its log for."""
-    return bool(row.get("nan_in_log") or row.get("left_pool")
-                or (row.get("max_joint_limit_violation_rad") or 0) > JOINT_LIMIT_FLAG
-                or (row.get("max_joint_speed_rad_s") or 0) > JOINT_SPEED_LIMIT
-                or (row.get("max_penetration_m") or 0) > PENETRATION_FLAG)
+    return bool(
+        row.get("nan_in_log")
+        or row.get("left_pool")
+        or (row.get("max_joint_limit_violation_rad") or 0) > JOINT_LIMIT_FLAG
+        or (row.get("max_joint_speed_rad_s") or 0) > JOINT_SPEED_LIMIT
+        or (row.get("max_penetration_m") or 0) > PENETRATION_FLAG
+    )
 
 
 def _worker_address() -> str | None:
@@ -522,9 +589,16 @@ def run_one(spec: dict, out_root: str) -> dict:
     run_dir = pathlib.Path(out_root) / "runs" / f"run_{spec['run']:04d}"
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "scenario.yaml").write_text(scenario_yaml(spec))
-    (run_dir / "started.json").write_text(json.dumps(
-        {"pid": os.getpid(), "host": socket.gethostname(), "worker": _worker_address(),
-         "time": time.time()}))
+    (run_dir / "started.json").write_text(
+        json.dumps(
+            {
+                "pid": os.getpid(),
+                "host": socket.gethostname(),
+                "worker": _worker_address(),
+                "time": time.time(),
+            }
+        )
+    )
     if spec.get("inject_crash"):  # harness self-test: a segfault in this process
         import ctypes
 
@@ -540,8 +614,12 @@ def run_one(spec: dict, out_root: str) -> dict:
     except ScenarioError as e:
         row.update(outcome="refused", cause=refused_field(str(e)), message=str(e))
     except Exception as e:  # noqa: BLE001 - an unclear error from validation: a bug
-        row.update(outcome="exception", cause=type(e).__name__, message=str(e),
-                   traceback=traceback.format_exc())
+        row.update(
+            outcome="exception",
+            cause=type(e).__name__,
+            message=str(e),
+            traceback=traceback.format_exc(),
+        )
     log = None
     if row["outcome"] is None:
         try:  # a start the pose check accepted may still put a fin into the floor or a wall
@@ -558,16 +636,23 @@ def run_one(spec: dict, out_root: str) -> dict:
             failure = metrics.get("failure", {})
             stage = failure.get("stage", "?")
             reason = failure.get("reason", str(e))
-            row.update(outcome="build_failed" if stage == "build" else "sim_failed",
-                       cause=cause_of(reason), message=reason,
-                       failure_time_s=failure.get("time_s"))
+            row.update(
+                outcome="build_failed" if stage == "build" else "sim_failed",
+                cause=cause_of(reason),
+                message=reason,
+                failure_time_s=failure.get("time_s"),
+            )
             if (out / "log.npz").is_file():
                 with np.load(out / "log.npz") as z:
                     log = {k: z[k] for k in z.files}
         except Exception as e:  # noqa: BLE001 - anything but SimulationError: a bug
             metrics = {}
-            row.update(outcome="exception", cause=type(e).__name__, message=str(e),
-                       traceback=traceback.format_exc())
+            row.update(
+                outcome="exception",
+                cause=type(e).__name__,
+                message=str(e),
+                traceback=traceback.format_exc(),
+            )
         row["status"] = metrics.get("status")
         row["max_penetration_m"] = metrics.get("max_penetration_m")
         mv = metrics.get("mean_velocity_body")
@@ -592,19 +677,25 @@ def _read_json(path) -> dict:
 
 # --- the campaign ----------------------------------------------------------------------------
 
+
 def spec_columns(spec: dict) -> dict:
     """The drawn faults as flat CSV columns."""
     o = spec["overrides"]
     cur = o.get("water.current")
     return {
-        "run": spec["run"], "base": spec["base"], "faults": ";".join(spec["faults"]),
+        "run": spec["run"],
+        "base": spec["base"],
+        "faults": ";".join(spec["faults"]),
         "expect_refused": ";".join(spec["expect_refused"]),
-        "duration": o.get("duration"), "random_seed": o.get("random_seed"),
-        "time_step": o.get("time_step"), "update_period": o.get("water.update_period"),
+        "duration": o.get("duration"),
+        "random_seed": o.get("random_seed"),
+        "time_step": o.get("time_step"),
+        "update_period": o.get("water.update_period"),
         "current": json.dumps(cur) if cur else "",
         "current_norm": float(np.linalg.norm(cur)) if cur else "",
         "coefficient_scales": json.dumps(o["water.coefficient_scales"], sort_keys=True)
-        if "water.coefficient_scales" in o else "",
+        if "water.coefficient_scales" in o
+        else "",
         "friction": o.get("contact.friction"),
         "pressure_noise_std": o.get("pressure_sensor.noise_std"),
         "pressure_dropout": o.get("pressure_sensor.dropout_rate"),
@@ -613,10 +704,13 @@ def spec_columns(spec: dict) -> dict:
         "pixel_dropout": o.get("camera.pixel_dropout"),
         "initial_xyz": json.dumps(o["initial_pose.xyz"]) if "initial_pose.xyz" in o else "",
         "initial_rpy_deg": json.dumps(o["initial_pose.rpy_deg"])
-        if "initial_pose.rpy_deg" in o else "",
-        "gait": o.get("controller.gait"), "initial_stance": o.get("initial_stance"),
+        if "initial_pose.rpy_deg" in o
+        else "",
+        "gait": o.get("controller.gait"),
+        "initial_stance": o.get("initial_stance"),
         "balloon": json.dumps([o["balloon.initial_fill"], o["balloon.schedule"]])
-        if "balloon.initial_fill" in o else "",
+        if "balloon.initial_fill" in o
+        else "",
     }
 
 
@@ -627,8 +721,10 @@ def expectation(spec: dict, row: dict) -> str:
     if expect:
         if outcome == "refused":
             field = row["cause"]
-            if any(field == e or field.startswith((e + ".", e + "[")) or e.startswith(field + ".")
-                   for e in expect):
+            if any(
+                field == e or field.startswith((e + ".", e + "[")) or e.startswith(field + ".")
+                for e in expect
+            ):
                 return "as_expected"
             return "refused_other_field"
         if outcome == "build_failed":
@@ -642,16 +738,52 @@ def expectation(spec: dict, row: dict) -> str:
 
 
 CSV_COLUMNS = [
-    "run", "base", "faults", "expect_refused", "outcome", "expectation", "cause", "message",
-    "nan_in_log", "nan_keys", "sim_time_reached_s", "failure_time_s", "max_penetration_m",
-    "initial_penetration_m", "initial_contact",
-    "left_pool", "pool_exit", "min_body_z", "max_body_z", "max_joint_limit_violation_rad",
-    "max_joint_speed_rad_s", "mean_speed_m_s", "max_speed_m_s", "max_body_rate_rad_s",
-    "mean_u_m_s", "mean_v_m_s", "wall_time_s", "worker_pid",
-    "duration", "random_seed", "time_step", "update_period", "current", "current_norm",
-    "coefficient_scales", "friction", "pressure_noise_std", "pressure_dropout", "camera",
-    "depth_noise_std", "pixel_dropout", "initial_xyz", "initial_rpy_deg", "gait",
-    "initial_stance", "balloon",
+    "run",
+    "base",
+    "faults",
+    "expect_refused",
+    "outcome",
+    "expectation",
+    "cause",
+    "message",
+    "nan_in_log",
+    "nan_keys",
+    "sim_time_reached_s",
+    "failure_time_s",
+    "max_penetration_m",
+    "initial_penetration_m",
+    "initial_contact",
+    "left_pool",
+    "pool_exit",
+    "min_body_z",
+    "max_body_z",
+    "max_joint_limit_violation_rad",
+    "max_joint_speed_rad_s",
+    "mean_speed_m_s",
+    "max_speed_m_s",
+    "max_body_rate_rad_s",
+    "mean_u_m_s",
+    "mean_v_m_s",
+    "wall_time_s",
+    "worker_pid",
+    "duration",
+    "random_seed",
+    "time_step",
+    "update_period",
+    "current",
+    "current_norm",
+    "coefficient_scales",
+    "friction",
+    "pressure_noise_std",
+    "pressure_dropout",
+    "camera",
+    "depth_noise_std",
+    "pixel_dropout",
+    "initial_xyz",
+    "initial_rpy_deg",
+    "gait",
+    "initial_stance",
+    "balloon",
 ]
 
 
@@ -675,8 +807,14 @@ def _end_worker(client, marker: dict) -> None:
         client.restart_workers([marker["worker"]], timeout=60, raise_for_error=False)
 
 
-def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: float = 600.0,
-                 echo=print, scheduler: str | None = None) -> list[dict]:
+def run_campaign(
+    specs: list[dict],
+    out_dir,
+    workers: int = 2,
+    run_timeout: float = 600.0,
+    echo=print,
+    scheduler: str | None = None,
+) -> list[dict]:
     """Runs every spec and returns the rows in run order.
 
     Args:
@@ -697,16 +835,25 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
     def done(spec, row):
         rows[spec["run"]] = finish_row(spec, row)
         r = rows[spec["run"]]
-        echo(f"[{len(rows):4d}/{len(specs)}] run {spec['run']:4d} {spec['base']:<18} "
-             f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s  {r['cause'][:70]}")
+        echo(
+            f"[{len(rows):4d}/{len(specs)}] run {spec['run']:4d} {spec['base']:<18} "
+            f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s  {r['cause'][:70]}"
+        )
 
     if workers == 0 and not scheduler:
         for spec in specs:
             try:
                 done(spec, run_one(spec, str(out_dir)))
             except Exception as e:  # noqa: BLE001 - the harness itself
-                done(spec, {"outcome": "exception", "cause": type(e).__name__,
-                            "message": str(e), "wall_time_s": 0.0})
+                done(
+                    spec,
+                    {
+                        "outcome": "exception",
+                        "cause": type(e).__name__,
+                        "message": str(e),
+                        "wall_time_s": 0.0,
+                    },
+                )
         return [rows[s["run"]] for s in specs]
 
     import dask
@@ -718,12 +865,20 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
     # blamed on nothing), and one task per worker at a time, so a worker's death is the
     # death of exactly the run it was executing. A local cluster's scheduler and nannies
     # take this configuration when they start; a running scheduler keeps its own.
-    config = {"distributed.scheduler.allowed-failures": 0,
-              "distributed.scheduler.worker-saturation": 1.0,
-              "distributed.worker.daemon": False}
+    config = {
+        "distributed.scheduler.allowed-failures": 0,
+        "distributed.scheduler.worker-saturation": 1.0,
+        "distributed.worker.daemon": False,
+    }
     if not scheduler:  # the local workers inherit this process's environment
-        os.environ.update({"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                           "OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"})
+        os.environ.update(
+            {
+                "OMP_NUM_THREADS": "1",
+                "MKL_NUM_THREADS": "1",
+                "OPENBLAS_NUM_THREADS": "1",
+                "NUMBA_NUM_THREADS": "1",
+            }
+        )
     with dask.config.set(config), dask_client(scheduler, workers) as client:
         by_spec = {s["run"]: s for s in specs}
         attempts = collections.Counter()
@@ -732,8 +887,14 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
 
         def submit(spec):
             attempts[spec["run"]] += 1
-            f = client.submit(run_one, spec, str(out_dir), pure=False, retries=0,
-                              key=f"fault-run-{spec['run']}-{attempts[spec['run']]}")
+            f = client.submit(
+                run_one,
+                spec,
+                str(out_dir),
+                pure=False,
+                retries=0,
+                key=f"fault-run-{spec['run']}-{attempts[spec['run']]}",
+            )
             pending[f] = spec["run"]
 
         for spec in specs:
@@ -753,10 +914,16 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
                     # is stuck (e.g. workers that cannot take tasks). Give up on the
                     # rest rather than hang.
                     for f, run in list(pending.items()):
-                        done(by_spec[run], {"outcome": "timeout", "cause": "harness stall",
-                                            "message": "no run started or finished for "
-                                            f"{now - last_progress:.0f} s",
-                                            "wall_time_s": 0.0})
+                        done(
+                            by_spec[run],
+                            {
+                                "outcome": "timeout",
+                                "cause": "harness stall",
+                                "message": "no run started or finished for "
+                                f"{now - last_progress:.0f} s",
+                                "wall_time_s": 0.0,
+                            },
+                        )
                         f.cancel()
                     pending.clear()
                     break
@@ -770,28 +937,52 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
                     done(spec, f.result())
                 except distributed.KilledWorker:
                     if run in killed:
-                        done(spec, {"outcome": "timeout", "cause": "timeout",
-                                    "message": killed[run], "wall_time_s": run_timeout})
+                        done(
+                            spec,
+                            {
+                                "outcome": "timeout",
+                                "cause": "timeout",
+                                "message": killed[run],
+                                "wall_time_s": run_timeout,
+                            },
+                        )
                     elif marker is None and attempts[run] < 3:
                         submit(spec)  # its worker died before it started: not its fault
                     else:
                         wall = time.time() - marker["time"] if marker else 0.0
-                        done(spec, {"outcome": "crashed", "cause": "worker process died",
-                                    "message": "the worker process executing the run "
-                                    f"died (pid {marker and marker['pid']})",
-                                    "wall_time_s": wall,
-                                    "worker_pid": marker and marker["pid"]})
+                        done(
+                            spec,
+                            {
+                                "outcome": "crashed",
+                                "cause": "worker process died",
+                                "message": "the worker process executing the run "
+                                f"died (pid {marker and marker['pid']})",
+                                "wall_time_s": wall,
+                                "worker_pid": marker and marker["pid"],
+                            },
+                        )
                 except Exception as e:  # noqa: BLE001 - the task raised
-                    done(spec, {"outcome": "exception", "cause": type(e).__name__,
-                                "message": str(e), "wall_time_s": 0.0})
+                    done(
+                        spec,
+                        {
+                            "outcome": "exception",
+                            "cause": type(e).__name__,
+                            "message": str(e),
+                            "wall_time_s": 0.0,
+                        },
+                    )
                 f.release()
             # Watchdog: a run past the timeout gets its worker killed (recorded as a
             # timeout when its KilledWorker arrives).
             now = time.time()
             for run in list(pending.values()):
                 marker = _marker(out_dir, run)
-                if (run not in killed and marker and now - marker["time"] > run_timeout
-                        and not (out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()):
+                if (
+                    run not in killed
+                    and marker
+                    and now - marker["time"] > run_timeout
+                    and not (out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()
+                ):
                     killed[run] = f"no result after {run_timeout:.0f} s; worker killed"
                     _end_worker(client, marker)
     echo(f"campaign wall time {time.perf_counter() - t_start:.0f} s")
@@ -800,31 +991,52 @@ def run_campaign(specs: list[dict], out_dir, workers: int = 2, run_timeout: floa
 
 # --- summary ---------------------------------------------------------------------------------
 
+
 def _stats(values) -> dict:
     v = np.array([x for x in values if x is not None and x != "" and np.isfinite(x)], float)
     if not len(v):
         return {"n": 0}
-    return {"n": len(v), "median": float(np.median(v)), "p95": float(np.percentile(v, 95)),
-            "max": float(v.max())}
+    return {
+        "n": len(v),
+        "median": float(np.median(v)),
+        "p95": float(np.percentile(v, 95)),
+        "max": float(v.max()),
+    }
 
 
 def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
     """Counts per outcome with every cause (most common first), NaN, penetration, pool exits,
     joint limits and speeds, expectation mismatches, and the bugs that fail --check."""
     counts = collections.Counter(r["outcome"] for r in rows)
-    causes = {o: collections.Counter(r["cause"] for r in rows if r["outcome"] == o)
-              .most_common() for o in OUTCOMES if counts.get(o)}
-    ran = [r for r in rows if r["outcome"] in ("ok", "sim_failed", "build_failed", "exception")
-           and r.get("sim_time_reached_s") is not None]
+    causes = {
+        o: collections.Counter(r["cause"] for r in rows if r["outcome"] == o).most_common()
+        for o in OUTCOMES
+        if counts.get(o)
+    }
+    ran = [
+        r
+        for r in rows
+        if r["outcome"] in ("ok", "sim_failed", "build_failed", "exception")
+        and r.get("sim_time_reached_s") is not None
+    ]
     ok = [r for r in rows if r["outcome"] == "ok"]
     nan_runs = [r["run"] for r in rows if r.get("nan_in_log")]
     nan_silent = [r["run"] for r in ok if r.get("nan_in_log")]
-    exits = [{"run": r["run"], "outcome": r["outcome"], "exit": r["pool_exit"]}
-             for r in rows if r.get("left_pool")]
+    exits = [
+        {"run": r["run"], "outcome": r["outcome"], "exit": r["pool_exit"]}
+        for r in rows
+        if r.get("left_pool")
+    ]
     pen = [r.get("max_penetration_m") for r in ok]
-    start_contact = [{"run": r["run"], "depth_m": r["initial_penetration_m"],
-                      "pair": r.get("initial_contact", "")} for r in rows
-                     if (r.get("initial_penetration_m") or 0) > START_CONTACT_FLAG]
+    start_contact = [
+        {
+            "run": r["run"],
+            "depth_m": r["initial_penetration_m"],
+            "pair": r.get("initial_contact", ""),
+        }
+        for r in rows
+        if (r.get("initial_penetration_m") or 0) > START_CONTACT_FLAG
+    ]
     jl = [r.get("max_joint_limit_violation_rad") for r in ran]
     js = [r.get("max_joint_speed_rad_s") for r in ran]
     expect = collections.Counter(r["expectation"] for r in rows)
@@ -833,46 +1045,68 @@ def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
         "runs": len(rows),
         "outcomes": {o: counts.get(o, 0) for o in OUTCOMES},
         "causes": {o: [[c, n] for c, n in v] for o, v in causes.items()},
-        "per_base": {b: dict(collections.Counter(r["outcome"] for r in rows if r["base"] == b))
-                     for b in sorted({r["base"] for r in rows})},
+        "per_base": {
+            b: dict(collections.Counter(r["outcome"] for r in rows if r["base"] == b))
+            for b in sorted({r["base"] for r in rows})
+        },
         "expectation": dict(expect),
-        "silently_accepted": [{"run": r["run"], "expected": r["expect_refused"],
-                               "outcome": r["outcome"]} for r in rows
-                              if r["expectation"] == "silently_accepted"],
-        "refused_other_field": [{"run": r["run"], "expected": r["expect_refused"],
-                                 "cause": r["cause"]} for r in rows
-                                if r["expectation"] == "refused_other_field"],
+        "silently_accepted": [
+            {"run": r["run"], "expected": r["expect_refused"], "outcome": r["outcome"]}
+            for r in rows
+            if r["expectation"] == "silently_accepted"
+        ],
+        "refused_other_field": [
+            {"run": r["run"], "expected": r["expect_refused"], "cause": r["cause"]}
+            for r in rows
+            if r["expectation"] == "refused_other_field"
+        ],
         "unexpected_refusals": collections.Counter(
-            r["cause"] for r in rows if r["expectation"] == "unexpected_refusal").most_common(),
+            r["cause"] for r in rows if r["expectation"] == "unexpected_refusal"
+        ).most_common(),
         "nan": {"runs_with_nan": len(nan_runs), "ok_runs_with_nan": nan_silent},
-        "penetration_m_ok_runs": {**_stats(pen), "above_flag": sum(
-            1 for p in pen if p is not None and p > PENETRATION_FLAG),
-            "flag": PENETRATION_FLAG},
+        "penetration_m_ok_runs": {
+            **_stats(pen),
+            "above_flag": sum(1 for p in pen if p is not None and p > PENETRATION_FLAG),
+            "flag": PENETRATION_FLAG,
+        },
         "accepted_starts_in_contact": start_contact,
         "start_contact_flag_m": START_CONTACT_FLAG,
         "pool_exits": exits,
-        "joint_limit_violation_rad": {**_stats(jl), "above_flag": sum(
-            1 for x in jl if x is not None and x > JOINT_LIMIT_FLAG), "flag": JOINT_LIMIT_FLAG},
-        "joint_speed_rad_s": {**_stats(js), "above_limit": sum(
-            1 for x in js if x is not None and x > JOINT_SPEED_LIMIT), "limit": JOINT_SPEED_LIMIT},
+        "joint_limit_violation_rad": {
+            **_stats(jl),
+            "above_flag": sum(1 for x in jl if x is not None and x > JOINT_LIMIT_FLAG),
+            "flag": JOINT_LIMIT_FLAG,
+        },
+        "joint_speed_rad_s": {
+            **_stats(js),
+            "above_limit": sum(1 for x in js if x is not None and x > JOINT_SPEED_LIMIT),
+            "limit": JOINT_SPEED_LIMIT,
+        },
         "mean_speed_m_s_ok_runs": _stats([r.get("mean_speed_m_s") for r in ok]),
         "max_speed_m_s_ok_runs": _stats([r.get("max_speed_m_s") for r in ok]),
         "max_body_rate_rad_s_ok_runs": _stats([r.get("max_body_rate_rad_s") for r in ok]),
-        "wall_time_s": {"campaign": wall_time, "sum_of_runs": float(sum(
-            r.get("wall_time_s") or 0.0 for r in rows)),
-            "per_run": _stats([r.get("wall_time_s") for r in rows if r["outcome"] != "refused"])},
+        "wall_time_s": {
+            "campaign": wall_time,
+            "sum_of_runs": float(sum(r.get("wall_time_s") or 0.0 for r in rows)),
+            "per_run": _stats([r.get("wall_time_s") for r in rows if r["outcome"] != "refused"]),
+        },
     }
-    bugs = {"crashed": [r["run"] for r in rows if r["outcome"] == "crashed"],
-            "timeout": [r["run"] for r in rows if r["outcome"] == "timeout"],
-            "nan_without_failing": nan_silent,
-            "unexpected_exception": unexpected_types}
+    bugs = {
+        "crashed": [r["run"] for r in rows if r["outcome"] == "crashed"],
+        "timeout": [r["run"] for r in rows if r["outcome"] == "timeout"],
+        "nan_without_failing": nan_silent,
+        "unexpected_exception": unexpected_types,
+    }
     summary["check_failures"] = {k: v for k, v in bugs.items() if v}
     return summary
 
 
 def format_summary(s: dict) -> str:
-    lines = [f"fault campaign: {s['runs']} runs", "",
-             f"{'outcome':<14}{'runs':>6}  most common causes"]
+    lines = [
+        f"fault campaign: {s['runs']} runs",
+        "",
+        f"{'outcome':<14}{'runs':>6}  most common causes",
+    ]
     for o in OUTCOMES:
         n = s["outcomes"][o]
         causes = s["causes"].get(o, [])
@@ -885,58 +1119,100 @@ def format_summary(s: dict) -> str:
             if len(causes) > 1 + len(shown):
                 lines.append(f"{'':<22}... {len(causes) - 1 - len(shown)} more (summary.json)")
     lines.append("")
-    lines.append("expectation: "
-                 + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items())))
+    lines.append(
+        "expectation: " + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items()))
+    )
     if s["silently_accepted"]:
-        lines.append("  SILENTLY ACCEPTED (must be refused): " + "; ".join(
-            f"run {x['run']} ({x['expected']} -> {x['outcome']})" for x in s["silently_accepted"]))
+        lines.append(
+            "  SILENTLY ACCEPTED (must be refused): "
+            + "; ".join(
+                f"run {x['run']} ({x['expected']} -> {x['outcome']})"
+                for x in s["silently_accepted"]
+            )
+        )
     if s.get("refused_other_field"):
-        lines.append("  refused naming another field: " + "; ".join(
-            f"run {x['run']} ({x['expected']} -> {x['cause']})" for x in s["refused_other_field"]))
+        lines.append(
+            "  refused naming another field: "
+            + "; ".join(
+                f"run {x['run']} ({x['expected']} -> {x['cause']})"
+                for x in s["refused_other_field"]
+            )
+        )
     if s["unexpected_refusals"]:
-        lines.append("  refused without a must-refuse fault: " + ", ".join(
-            f"{c} x{n}" for c, n in s["unexpected_refusals"]))
+        lines.append(
+            "  refused without a must-refuse fault: "
+            + ", ".join(f"{c} x{n}" for c, n in s["unexpected_refusals"])
+        )
     nan = s["nan"]
-    lines.append(f"NaN/inf in the log: {nan['runs_with_nan']} runs; in runs that ended ok: "
-                 f"{len(nan['ok_runs_with_nan'])} {nan['ok_runs_with_nan'] or ''}")
+    lines.append(
+        f"NaN/inf in the log: {nan['runs_with_nan']} runs; in runs that ended ok: "
+        f"{len(nan['ok_runs_with_nan'])} {nan['ok_runs_with_nan'] or ''}"
+    )
 
     def st(d, unit):
         if not d.get("n"):
             return "-"
-        return (f"median {d['median']:.4g}, p95 {d['p95']:.4g}, max {d['max']:.4g} {unit} "
-                f"(n {d['n']})")
+        return (
+            f"median {d['median']:.4g}, p95 {d['p95']:.4g}, max {d['max']:.4g} {unit} (n {d['n']})"
+        )
 
     p = s["penetration_m_ok_runs"]
-    lines.append(f"penetration (ok runs): {st(p, 'm')}; > {p['flag'] * 1e3:g} mm: "
-                 f"{p['above_flag']}")
+    lines.append(
+        f"penetration (ok runs): {st(p, 'm')}; > {p['flag'] * 1e3:g} mm: {p['above_flag']}"
+    )
     sc = s["accepted_starts_in_contact"]
-    lines.append(f"accepted starts already > {s['start_contact_flag_m'] * 1e3:g} mm inside the "
-                 f"floor or a wall at t = 0: {len(sc)}" + (" " + "; ".join(
-                     f"run {x['run']} {x['depth_m'] * 1e3:.1f} mm {x['pair']}" for x in sc[:10])
-                     if sc else ""))
+    lines.append(
+        f"accepted starts already > {s['start_contact_flag_m'] * 1e3:g} mm inside the "
+        f"floor or a wall at t = 0: {len(sc)}"
+        + (
+            " "
+            + "; ".join(f"run {x['run']} {x['depth_m'] * 1e3:.1f} mm {x['pair']}" for x in sc[:10])
+            if sc
+            else ""
+        )
+    )
     ex = s["pool_exits"]
-    lines.append(f"pool exits: {len(ex)}" + (" " + "; ".join(
-        f"run {e['run']} ({e['outcome']}) {e['exit']}" for e in ex[:10]) if ex else ""))
+    lines.append(
+        f"pool exits: {len(ex)}"
+        + (
+            " " + "; ".join(f"run {e['run']} ({e['outcome']}) {e['exit']}" for e in ex[:10])
+            if ex
+            else ""
+        )
+    )
     j = s["joint_limit_violation_rad"]
     lines.append(f"joint-limit violation: {st(j, 'rad')}; > {j['flag']} rad: {j['above_flag']}")
     js = s["joint_speed_rad_s"]
     lines.append(f"joint speed: {st(js, 'rad/s')}; > {js['limit']:g} rad/s: {js['above_limit']}")
     lines.append(f"body speed, mean per run (ok runs): {st(s['mean_speed_m_s_ok_runs'], 'm/s')}")
     lines.append(f"body speed, max per run (ok runs): {st(s['max_speed_m_s_ok_runs'], 'm/s')}")
-    lines.append("body angular rate, max (ok runs): "
-                 f"{st(s['max_body_rate_rad_s_ok_runs'], 'rad/s')}")
+    lines.append(
+        f"body angular rate, max (ok runs): {st(s['max_body_rate_rad_s_ok_runs'], 'rad/s')}"
+    )
     w = s["wall_time_s"]
     camp = f"{w['campaign']:.0f} s" if w.get("campaign") else "-"
-    lines.append(f"wall time: campaign {camp}, sum of runs {w['sum_of_runs']:.0f} s, "
-                 f"per simulated run {st(w['per_run'], 's')}")
+    lines.append(
+        f"wall time: campaign {camp}, sum of runs {w['sum_of_runs']:.0f} s, "
+        f"per simulated run {st(w['per_run'], 's')}"
+    )
     lines.append("")
-    lines.append("per base: " + "; ".join(
-        f"{b}: " + " ".join(f"{k} {v}" for k, v in sorted(c.items()))
-        for b, c in s["per_base"].items()))
+    lines.append(
+        "per base: "
+        + "; ".join(
+            f"{b}: " + " ".join(f"{k} {v}" for k, v in sorted(c.items()))
+            for b, c in s["per_base"].items()
+        )
+    )
     cf = s["check_failures"]
     lines.append("")
-    lines.append("CHECK: " + ("FAIL " + json.dumps(cf) if cf else "pass (no crash, no timeout, "
-                 "no silent NaN, no unexpected exception type)"))
+    lines.append(
+        "CHECK: "
+        + (
+            "FAIL " + json.dumps(cf)
+            if cf
+            else "pass (no crash, no timeout, no silent NaN, no unexpected exception type)"
+        )
+    )
     return "\n".join(lines)
 
 
@@ -967,16 +1243,25 @@ def check_arguments(args) -> None:
     check_integer("--runs", args.runs, 1, MAX_RUNS)
     check_integer("--seed", args.seed, 0, MAX_RANDOM_SEED)
     if args.duration is not None:
-        check_in_range("--duration", args.duration, BALLOON_COMMAND_AFTER_S, MAX_DURATION_S,
-                       f"[{BALLOON_COMMAND_AFTER_S:g}, {MAX_DURATION_S:g}] s (a drawn balloon "
-                       f"command comes at {BALLOON_COMMAND_AFTER_S:g} s or later)")
+        check_in_range(
+            "--duration",
+            args.duration,
+            BALLOON_COMMAND_AFTER_S,
+            MAX_DURATION_S,
+            f"[{BALLOON_COMMAND_AFTER_S:g}, {MAX_DURATION_S:g}] s (a drawn balloon "
+            f"command comes at {BALLOON_COMMAND_AFTER_S:g} s or later)",
+        )
     lo, hi = RUN_TIMEOUT_RANGE_S
     check_in_range("--run-timeout", args.run_timeout, lo, hi, f"[{lo:g}, {hi:g}] s")
-    needs("--strict", args.strict, "--check", args.check,
-          "it adds the must-refuse and start-contact checks to --check's")
+    needs(
+        "--strict",
+        args.strict,
+        "--check",
+        args.check,
+        "it adds the must-refuse and start-contact checks to --check's",
+    )
     for i in args.inject_crash:
-        check_integer(f"--inject-crash (a run index of --runs {args.runs})", i, 0,
-                      args.runs - 1)
+        check_integer(f"--inject-crash (a run index of --runs {args.runs})", i, 0, args.runs - 1)
     check_cluster_arguments(args)
     check_writable_folder(args.out, "--out", example="out/fault_campaign")
 
@@ -986,25 +1271,49 @@ def main(argv=None, prog=None) -> int:
     from manta_drake.cluster import add_cluster_arguments
 
     ap = StudyParser(prog=prog, description=__doc__.split("\n")[0])
-    ap.add_argument("--runs", type=int, default=300,
-                    help=f"how many runs (1 to {MAX_RUNS}; default 300)")
-    ap.add_argument("--seed", type=int, default=0,
-                    help="the seed of numpy.random.default_rng the runs are drawn from")
+    ap.add_argument(
+        "--runs", type=int, default=300, help=f"how many runs (1 to {MAX_RUNS}; default 300)"
+    )
+    ap.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="the seed of numpy.random.default_rng the runs are drawn from",
+    )
     ap.add_argument("--out", default="out/fault_campaign", help="output folder")
     add_cluster_arguments(ap)  # --workers 0: in this process, without crash isolation
-    ap.add_argument("--duration", type=float, default=None,
-                    help="every run's duration [s], at least "
-                         f"{BALLOON_COMMAND_AFTER_S:g} (default: drawn in "
-                         f"[{DURATION_RANGE_S[0]:g}, {DURATION_RANGE_S[1]:g}])")
-    ap.add_argument("--run-timeout", type=float, default=600.0,
-                    help="kill a run after this many wall seconds (recorded as a timeout; "
-                         f"{RUN_TIMEOUT_RANGE_S[0]:g} to {RUN_TIMEOUT_RANGE_S[1]:g})")
-    ap.add_argument("--check", action="store_true",
-                    help="exit 1 on a crash, timeout, silent NaN or unexpected exception type")
-    ap.add_argument("--strict", action="store_true",
-                    help="with --check: also exit 1 if a must-refuse fault was accepted")
-    ap.add_argument("--inject-crash", type=int, action="append", default=[],
-                    help="(harness self-test) segfault the worker of this run index")
+    ap.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="every run's duration [s], at least "
+        f"{BALLOON_COMMAND_AFTER_S:g} (default: drawn in "
+        f"[{DURATION_RANGE_S[0]:g}, {DURATION_RANGE_S[1]:g}])",
+    )
+    ap.add_argument(
+        "--run-timeout",
+        type=float,
+        default=600.0,
+        help="kill a run after this many wall seconds (recorded as a timeout; "
+        f"{RUN_TIMEOUT_RANGE_S[0]:g} to {RUN_TIMEOUT_RANGE_S[1]:g})",
+    )
+    ap.add_argument(
+        "--check",
+        action="store_true",
+        help="exit 1 on a crash, timeout, silent NaN or unexpected exception type",
+    )
+    ap.add_argument(
+        "--strict",
+        action="store_true",
+        help="with --check: also exit 1 if a must-refuse fault was accepted",
+    )
+    ap.add_argument(
+        "--inject-crash",
+        type=int,
+        action="append",
+        default=[],
+        help="(harness self-test) segfault the worker of this run index",
+    )
     args = ap.parse_args(argv)
     check_arguments(args)
     specs = draw_specs(args.runs, args.seed, args.duration)
@@ -1014,8 +1323,9 @@ def main(argv=None, prog=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     (out / "specs.json").write_text(json.dumps(specs, indent=1) + "\n")
     t0 = time.perf_counter()
-    rows = run_campaign(specs, out, workers=args.workers, run_timeout=args.run_timeout,
-                        scheduler=args.scheduler)
+    rows = run_campaign(
+        specs, out, workers=args.workers, run_timeout=args.run_timeout, scheduler=args.scheduler
+    )
     wall = time.perf_counter() - t0
     summary = summarise(rows, wall)
     summary["seed"], summary["workers"] = args.seed, args.workers
@@ -1030,7 +1340,8 @@ def main(argv=None, prog=None) -> int:
         failures["silently_accepted"] = [x["run"] for x in summary["silently_accepted"]]
     if args.strict and summary["accepted_starts_in_contact"]:
         failures["accepted_starts_in_contact"] = [
-            x["run"] for x in summary["accepted_starts_in_contact"]]
+            x["run"] for x in summary["accepted_starts_in_contact"]
+        ]
     # The exit status is the check: nonzero on a bug even without --check (--check only
     # adds the message).
     if failures:

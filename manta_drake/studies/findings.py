@@ -76,8 +76,11 @@ GAITS = ("swim", "trot", "walk", "crab", "turning")
 FORWARD_GAITS = ("swim", "trot", "walk")  # section 4.1's forward locomotion (Figs. 6-7)
 FLOOR_GAITS = ("trot", "walk", "crab", "turning")
 BAND_KEYS = ("contact.friction", "hull_damping", "net_weight_kg")
-BAND_LABELS = {"contact.friction": "friction", "hull_damping": "hull damping x",
-               "net_weight_kg": "net weight kg"}
+BAND_LABELS = {
+    "contact.friction": "friction",
+    "hull_damping": "hull damping x",
+    "net_weight_kg": "net weight kg",
+}
 MARK_BEGIN = "<!-- findings-report:begin -->"
 MARK_END = "<!-- findings-report:end -->"
 DEFAULT_RESULTS = "out/findings/results.csv"
@@ -156,33 +159,59 @@ def turning_turns(point: dict, others=tuple(g for g in GAITS if g != "turning"))
         return None
     if abs(y) < YAW_TURN:
         return False
-    return _and(None if _get(point, g).yaw is None else abs(y) > abs(_get(point, g).yaw)
-                for g in others)
+    return _and(
+        None if _get(point, g).yaw is None else abs(y) > abs(_get(point, g).yaw) for g in others
+    )
 
 
 # (key, label, criterion text, function); the first five are the paper's findings.
 FINDINGS = (
-    ("forward", "1. every gait moves forward",
-     f"u > {U_FORWARD} m/s for swim, trot and walk", every_gait_forward),
-    ("walk_fastest", "2. walk is the fastest gait",
-     "u_walk > u of swim, trot, crab and turning", walk_fastest),
-    ("swim_slower", "3. swimming is slower than walking", "u_swim < u_walk",
-     swim_slower_than_walk),
-    ("crab_sideways", "4. crab moves mostly sideways",
-     f"\\|v\\| > {SIDEWAYS_RATIO:g} \\|u\\| and \\|v\\| > {V_SIDEWAYS} m/s", crab_sideways),
-    ("turning_turns", "5. turning turns",
-     f"\\|yaw rate\\| >= {YAW_TURN:g} deg/s and > every other gait's", turning_turns),
+    (
+        "forward",
+        "1. every gait moves forward",
+        f"u > {U_FORWARD} m/s for swim, trot and walk",
+        every_gait_forward,
+    ),
+    (
+        "walk_fastest",
+        "2. walk is the fastest gait",
+        "u_walk > u of swim, trot, crab and turning",
+        walk_fastest,
+    ),
+    ("swim_slower", "3. swimming is slower than walking", "u_swim < u_walk", swim_slower_than_walk),
+    (
+        "crab_sideways",
+        "4. crab moves mostly sideways",
+        f"\\|v\\| > {SIDEWAYS_RATIO:g} \\|u\\| and \\|v\\| > {V_SIDEWAYS} m/s",
+        crab_sideways,
+    ),
+    (
+        "turning_turns",
+        "5. turning turns",
+        f"\\|yaw rate\\| >= {YAW_TURN:g} deg/s and > every other gait's",
+        turning_turns,
+    ),
 )
 VARIANTS = (
-    ("walk_fastest_floor", "2'. walk fastest among the floor gaits",
-     "u_walk > u of trot, crab and turning (swim left out)",
-     lambda p: walk_fastest(p, ("trot", "crab", "turning"))),
-    ("turning_turns_floor", "5'. turning turns, compared with the floor gaits",
-     f"\\|yaw rate\\| >= {YAW_TURN:g} deg/s and > trot's, walk's and crab's",
-     lambda p: turning_turns(p, ("trot", "walk", "crab"))),
+    (
+        "walk_fastest_floor",
+        "2'. walk fastest among the floor gaits",
+        "u_walk > u of trot, crab and turning (swim left out)",
+        lambda p: walk_fastest(p, ("trot", "crab", "turning")),
+    ),
+    (
+        "turning_turns_floor",
+        "5'. turning turns, compared with the floor gaits",
+        f"\\|yaw rate\\| >= {YAW_TURN:g} deg/s and > trot's, walk's and crab's",
+        lambda p: turning_turns(p, ("trot", "walk", "crab")),
+    ),
 ) + tuple(
-    (f"forward_{g}", f"{g} moves forward", f"u_{g} > {U_FORWARD} m/s",
-     (lambda p, g=g: moves_forward(p, g)))
+    (
+        f"forward_{g}",
+        f"{g} moves forward",
+        f"u_{g} > {U_FORWARD} m/s",
+        (lambda p, g=g: moves_forward(p, g)),
+    )
     for g in GAITS
 )
 
@@ -236,9 +265,11 @@ def band_points(rows) -> dict:
 
     Raises ValueError on a gait that appears twice at one point (two seeds are not averaged
     silently)."""
-    points = _grouped(rows, lambda row: tuple(float(row[k]) for k in BAND_KEYS),
-                      lambda key: f"band point {key} (more than one seed?); give one row "
-                                  "per gait and point")
+    points = _grouped(
+        rows,
+        lambda row: tuple(float(row[k]) for k in BAND_KEYS),
+        lambda key: f"band point {key} (more than one seed?); give one row per gait and point",
+    )
     return dict(sorted(points.items()))
 
 
@@ -246,7 +277,7 @@ def _set_cells(row) -> tuple:
     """The row's parameter cells that are set: the columns between ``seed`` and
     ``status``, in the table's order."""
     names = list(row)
-    params = names[names.index("seed") + 1:names.index("status")]
+    params = names[names.index("seed") + 1 : names.index("status")]
     return tuple((k, row[k]) for k in params if str(row[k]).strip())
 
 
@@ -335,41 +366,68 @@ def _verdict_mark(v) -> str:
     return {True: "yes", False: "**no**", None: "?"}[v]
 
 
-def markdown_block(tallies, variant_tallies, stats, verdicts, source: str,
-                   sensitivity: list[str] | None = None) -> str:
-    lines = [MARK_BEGIN,
-             f"<!-- generated by manta-drake study findings from {source}; do not edit by hand -->",
-             "",
-             ("| finding | criterion at each band point | holds | fails | undetermined "
-              "| fraction of the band |"),
-             "| --- | --- | --- | --- | --- | --- |"]
+def markdown_block(
+    tallies, variant_tallies, stats, verdicts, source: str, sensitivity: list[str] | None = None
+) -> str:
+    lines = [
+        MARK_BEGIN,
+        f"<!-- generated by manta-drake study findings from {source}; do not edit by hand -->",
+        "",
+        (
+            "| finding | criterion at each band point | holds | fails | undetermined "
+            "| fraction of the band |"
+        ),
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
 
     def row(t):
         flag = "" if t.fraction >= PASS_LINE else " (below 80 %)"
-        return (f"| {t.label} | {t.criterion} | {t.holds}/{t.total} | {t.fails} | "
-                f"{t.undetermined} | {100 * t.fraction:.0f} %{flag} |")
+        return (
+            f"| {t.label} | {t.criterion} | {t.holds}/{t.total} | {t.fails} | "
+            f"{t.undetermined} | {100 * t.fraction:.0f} %{flag} |"
+        )
 
     lines += [row(t) for t in tallies]
-    lines += ["", "Variants (not the paper's statements; they separate the causes):", "",
-              "| variant | criterion | holds | fails | undetermined | fraction of the band |",
-              "| --- | --- | --- | --- | --- | --- |"]
+    lines += [
+        "",
+        "Variants (not the paper's statements; they separate the causes):",
+        "",
+        "| variant | criterion | holds | fails | undetermined | fraction of the band |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
     lines += [row(t) for t in variant_tallies]
-    lines += ["", ("Per gait over the band: median (min to max) of the free-water window's "
-                   "mean velocity and yaw rate."), "",
-              "| gait | runs | undetermined | u m/s | v m/s | yaw rate deg/s | window s |",
-              "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines += [
+        "",
+        (
+            "Per gait over the band: median (min to max) of the free-water window's "
+            "mean velocity and yaw rate."
+        ),
+        "",
+        "| gait | runs | undetermined | u m/s | v m/s | yaw rate deg/s | window s |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for gait, s in stats.items():
-        lines.append(f"| {gait} | {s['n']} | {s['undetermined']} | {_fmt_range(s['u'], 3)} | "
-                     f"{_fmt_range(s['v'], 3)} | {_fmt_range(s['yaw'], 1)} | "
-                     f"{_fmt_range(s['window_s'], 1)} |")
+        lines.append(
+            f"| {gait} | {s['n']} | {s['undetermined']} | {_fmt_range(s['u'], 3)} | "
+            f"{_fmt_range(s['v'], 3)} | {_fmt_range(s['yaw'], 1)} | "
+            f"{_fmt_range(s['window_s'], 1)} |"
+        )
     keys = [t.key for t in tallies]
-    lines += ["", "Per band point (yes = holds, **no** = fails, ? = undetermined):", "",
-              "| friction | hull damping x | net weight kg | "
-              + " | ".join(t.label.split(".")[0] for t in tallies) + " |",
-              "| --- | --- | --- | " + " | ".join("---" for _ in keys) + " |"]
+    lines += [
+        "",
+        "Per band point (yes = holds, **no** = fails, ? = undetermined):",
+        "",
+        "| friction | hull damping x | net weight kg | "
+        + " | ".join(t.label.split(".")[0] for t in tallies)
+        + " |",
+        "| --- | --- | --- | " + " | ".join("---" for _ in keys) + " |",
+    ]
     for pt, vd in verdicts.items():
-        lines.append(f"| {pt[0]:g} | {pt[1]:g} | {pt[2]:g} | "
-                     + " | ".join(_verdict_mark(vd[k]) for k in keys) + " |")
+        lines.append(
+            f"| {pt[0]:g} | {pt[1]:g} | {pt[2]:g} | "
+            + " | ".join(_verdict_mark(vd[k]) for k in keys)
+            + " |"
+        )
     lines += (sensitivity or []) + ["", MARK_END]
     return "\n".join(lines)
 
@@ -380,39 +438,64 @@ def sensitivity_lines(sets: dict, source: str) -> list[str]:
     single = {k: p for k, p in sets.items() if len(k) <= 1}
     multi = {k: p for k, p in sets.items() if len(k) > 1}
     keys = [k for k, _, _, _ in FINDINGS]
-    lines = ["", (f"**The models' other uncertain parameters** (the sweep of {source}: the "
-                  "five gaits at the shipped point, at one parameter at an end of its band, "
-                  "and at points of a hypercube over all of them; a value is the sweep's "
-                  "cell: a factor on the shipped value except for friction, net weight and "
-                  "the Jetson mode, so stall_angle 0.667 is 10 deg of the shipped 15; yes = "
-                  "holds, **no** = fails, ? = undetermined):"), "",
-             "| parameter set | " + " | ".join(t.split(".")[0] for _, t, _, _ in FINDINGS)
-             + " | swim u | walk u | crab v | turning yaw deg/s |",
-             "| --- | " + " | ".join("---" for _ in keys) + " | --- | --- | --- | --- |"]
+    lines = [
+        "",
+        (
+            f"**The models' other uncertain parameters** (the sweep of {source}: the "
+            "five gaits at the shipped point, at one parameter at an end of its band, "
+            "and at points of a hypercube over all of them; a value is the sweep's "
+            "cell: a factor on the shipped value except for friction, net weight and "
+            "the Jetson mode, so stall_angle 0.667 is 10 deg of the shipped 15; yes = "
+            "holds, **no** = fails, ? = undetermined):"
+        ),
+        "",
+        "| parameter set | "
+        + " | ".join(t.split(".")[0] for _, t, _, _ in FINDINGS)
+        + " | swim u | walk u | crab v | turning yaw deg/s |",
+        "| --- | " + " | ".join("---" for _ in keys) + " | --- | --- | --- | --- |",
+    ]
     for key, point in single.items():
         label = "shipped" if not key else f"{key[0][0]} = {key[0][1]}"
         verdicts = [_verdict_mark(fn(point)) for _, _, _, fn in FINDINGS]
-        cells = [_get(point, "swim").u, _get(point, "walk").u, _get(point, "crab").v,
-                 _get(point, "turning").yaw]
-        lines.append(f"| {label} | " + " | ".join(verdicts) + " | "
-                     + " | ".join("-" if x is None else f"{x:.{d}f}"
-                                  for x, d in zip(cells, (3, 3, 3, 1))) + " |")
+        cells = [
+            _get(point, "swim").u,
+            _get(point, "walk").u,
+            _get(point, "crab").v,
+            _get(point, "turning").yaw,
+        ]
+        lines.append(
+            f"| {label} | "
+            + " | ".join(verdicts)
+            + " | "
+            + " | ".join("-" if x is None else f"{x:.{d}f}" for x, d in zip(cells, (3, 3, 3, 1)))
+            + " |"
+        )
     if multi:
         tallies, _ = evaluate(multi)
-        lines += ["", f"Over the {len(multi)} hypercube points: "
-                  + "; ".join(f"{t.label.split('.')[0]}. holds at {t.holds}/{t.total}"
-                              for t in tallies) + "."]
+        lines += [
+            "",
+            f"Over the {len(multi)} hypercube points: "
+            + "; ".join(f"{t.label.split('.')[0]}. holds at {t.holds}/{t.total}" for t in tallies)
+            + ".",
+        ]
     return lines
 
 
-def write_markdown(path: pathlib.Path, block: str,
-                   command: str = "manta-drake study findings") -> None:
+def write_markdown(
+    path: pathlib.Path, block: str, command: str = "manta-drake study findings"
+) -> None:
     """Replaces the marked block of ``path`` (keeping the rest), or writes a new file; a
     changed page's stamp takes today's date and commit (``manta_drake.studies.stamp``)."""
     from manta_drake.studies.stamp import replace_marked_block
 
-    replace_marked_block(path, block, MARK_BEGIN, MARK_END, what="the table",
-                         new_page=("Findings of section 4.1 over the uncertainty band", command))
+    replace_marked_block(
+        path,
+        block,
+        MARK_BEGIN,
+        MARK_END,
+        what="the table",
+        new_page=("Findings of section 4.1 over the uncertainty band", command),
+    )
 
 
 def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
@@ -423,8 +506,17 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
     from matplotlib.lines import Line2D
 
     fig = plt.figure(figsize=(17, 8.5))
-    grid = fig.add_gridspec(3, 6, width_ratios=[1.6, 1, 1, 1, 1, 1], wspace=0.35, hspace=0.3,
-                            left=0.11, right=0.99, top=0.92, bottom=0.08)
+    grid = fig.add_gridspec(
+        3,
+        6,
+        width_ratios=[1.6, 1, 1, 1, 1, 1],
+        wspace=0.35,
+        hspace=0.3,
+        left=0.11,
+        right=0.99,
+        top=0.92,
+        bottom=0.08,
+    )
 
     # Left: fraction of the band where each finding (and variant) holds, fails, is undetermined.
     ax = fig.add_subplot(grid[:, 0])
@@ -433,10 +525,21 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
     for i, (yi, t) in enumerate(zip(y, shown)):
         n = max(t.total, 1)
         alpha = 1.0 if i < len(tallies) else 0.5
-        ax.barh(yi, t.holds / n, color="tab:green" if t.fraction >= PASS_LINE else "tab:red",
-                alpha=alpha)
-        ax.barh(yi, t.fails / n, left=t.holds / n, color="mistyrose", alpha=alpha,
-                edgecolor="tab:red", lw=0.5)
+        ax.barh(
+            yi,
+            t.holds / n,
+            color="tab:green" if t.fraction >= PASS_LINE else "tab:red",
+            alpha=alpha,
+        )
+        ax.barh(
+            yi,
+            t.fails / n,
+            left=t.holds / n,
+            color="mistyrose",
+            alpha=alpha,
+            edgecolor="tab:red",
+            lw=0.5,
+        )
         ax.barh(yi, t.undetermined / n, left=(t.holds + t.fails) / n, color="0.75")
         ax.text(1.02, yi, f"{t.holds}/{t.total}", va="center", fontsize=9)
     ax.axvline(PASS_LINE, color="k", ls="--", lw=1)
@@ -445,10 +548,14 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
     ax.set_xlim(0, 1.15)
     ax.set_xticks([0, 0.2, 0.4, 0.6, 0.8, 1.0])
     ax.set_ylim(-0.6, len(shown) - 0.2)
-    ax.set_xlabel(f"fraction of the {shown[0].total} band points\n"
-                  "(solid: holds, pale: fails, grey: undetermined)", fontsize=9)
-    ax.set_title("Findings of section 4.1 over the band\n(lighter: variants without the swim)",
-                 fontsize=10)
+    ax.set_xlabel(
+        f"fraction of the {shown[0].total} band points\n"
+        "(solid: holds, pale: fails, grey: undetermined)",
+        fontsize=9,
+    )
+    ax.set_title(
+        "Findings of section 4.1 over the band\n(lighter: variants without the swim)", fontsize=10
+    )
 
     # Right: u, v and yaw rate of each gait against friction; colour = net weight,
     # marker = hull damping, small horizontal offset per damping.
@@ -458,8 +565,11 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
     colour = {w: cmap(i / max(1, len(weights) - 1)) for i, w in enumerate(weights)}
     markers = dict(zip(dampings, ["v", "o", "^", "s", "D"]))
     offset = {d: (i - (len(dampings) - 1) / 2) * 0.012 for i, d in enumerate(dampings)}
-    rows = (("u", "u  [m/s]", U_FORWARD), ("v", "v  [m/s]", V_SIDEWAYS),
-            ("yaw", "yaw rate  [deg/s]", YAW_TURN))
+    rows = (
+        ("u", "u  [m/s]", U_FORWARD),
+        ("v", "v  [m/s]", V_SIDEWAYS),
+        ("yaw", "yaw rate  [deg/s]", YAW_TURN),
+    )
     axes = {}
     for r, (field, ylabel, thr) in enumerate(rows):
         for c, gait in enumerate(GAITS):
@@ -471,8 +581,16 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
                 if val is None:
                     a.plot(fr + offset[dmp], 0, marker="x", color="red", ms=6)
                     continue
-                a.plot(fr + offset[dmp], val, marker=markers[dmp], color=colour[w], ms=5,
-                       ls="none", mec="k", mew=0.3)
+                a.plot(
+                    fr + offset[dmp],
+                    val,
+                    marker=markers[dmp],
+                    color=colour[w],
+                    ms=5,
+                    ls="none",
+                    mec="k",
+                    mew=0.3,
+                )
             a.axhline(0, color="0.5", lw=0.6)
             for s in (1, -1):
                 a.axhline(s * thr, color="0.4", lw=0.7, ls=":")
@@ -489,14 +607,31 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
                 a.set_ylabel(ylabel, fontsize=9)
             else:
                 a.tick_params(labelleft=False)
-    handles = [Line2D([], [], ls="none", marker="o", color=colour[w], label=f"net weight {w:g} kg")
-               for w in weights]
-    handles += [Line2D([], [], ls="none", marker=markers[d], color="0.3",
-                       label=f"hull damping x{d:g}") for d in dampings]
-    handles += [Line2D([], [], color="0.4", ls=":", label=f"thresholds: {U_FORWARD} m/s, "
-                        f"{V_SIDEWAYS} m/s, {YAW_TURN:g} deg/s")]
-    fig.legend(handles=handles, loc="upper center", ncol=7, fontsize=8, frameon=False,
-               bbox_to_anchor=(0.6, 0.995))
+    handles = [
+        Line2D([], [], ls="none", marker="o", color=colour[w], label=f"net weight {w:g} kg")
+        for w in weights
+    ]
+    handles += [
+        Line2D([], [], ls="none", marker=markers[d], color="0.3", label=f"hull damping x{d:g}")
+        for d in dampings
+    ]
+    handles += [
+        Line2D(
+            [],
+            [],
+            color="0.4",
+            ls=":",
+            label=f"thresholds: {U_FORWARD} m/s, {V_SIDEWAYS} m/s, {YAW_TURN:g} deg/s",
+        )
+    ]
+    fig.legend(
+        handles=handles,
+        loc="upper center",
+        ncol=7,
+        fontsize=8,
+        frameon=False,
+        bbox_to_anchor=(0.6, 0.995),
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -519,18 +654,30 @@ LOADED = 0.1  # N: a leg bearing more of the floor's normal force than this stan
 #              (1 % of the deflated robot's 8.3 N; a grazing contact carries less)
 
 
-def band_scenario(gait: str, friction: float, damping: float, weight: float, duration: float,
-                  extra: dict | None = None):
+def band_scenario(
+    gait: str,
+    friction: float,
+    damping: float,
+    weight: float,
+    duration: float,
+    extra: dict | None = None,
+):
     """The shipped ``locomotion_<gait>`` at one band point, as the sweep resolves it (with
     the sweep file's ``fixed`` overrides: its fin model)."""
     from manta_drake.scenario import load_scenario
     from manta_drake.sweep import apply_overrides, load_sweep
 
-    overrides = {**load_sweep(SWEEP_FILE).fixed, "contact.friction": friction,
-                 "water.coefficient_scales.body.linear_damping": damping,
-                 "water.coefficient_scales.body.quadratic_damping": damping,
-                 "net_weight_kg": weight, "random_seed": 0, "duration": duration,
-                 "visualization.meshcat": False, **(extra or {})}
+    overrides = {
+        **load_sweep(SWEEP_FILE).fixed,
+        "contact.friction": friction,
+        "water.coefficient_scales.body.linear_damping": damping,
+        "water.coefficient_scales.body.quadratic_damping": damping,
+        "net_weight_kg": weight,
+        "random_seed": 0,
+        "duration": duration,
+        "visualization.meshcat": False,
+        **(extra or {}),
+    }
     return apply_overrides(load_scenario(f"locomotion_{gait}"), overrides)
 
 
@@ -600,8 +747,7 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     geometry_body = robot_geometry_bodies(plant, h.plant_handles.robot)
     steps = max(1, round(period / scenario.time_step))
     n = round(scenario.duration / (steps * scenario.time_step))
-    out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power",
-                           "contacts")}
+    out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power", "contacts")}
     sim.Initialize()
     for k in range(n + 1):
         if k:
@@ -621,12 +767,23 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
             wb = np.array([v.rotational() for v in Vs])
             vb = np.array([v.translational() for v in Vs])
             B, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
-            D = W.damping_wrenches(Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad,
-                                   body_frac, hydro.d_lift)
+            D = W.damping_wrenches(
+                Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad, body_frac, hydro.d_lift
+            )
             if cross_flow:
-                _, fs = W.fin_strip_forces(Rb, wb, vb, hydro.current, hydro.el, frac,
-                                           hydro.rho, hydro.c_normal, hydro.c_friction,
-                                           hydro.pitch_max, hydro.pitch_pressure)
+                _, fs = W.fin_strip_forces(
+                    Rb,
+                    wb,
+                    vb,
+                    hydro.current,
+                    hydro.el,
+                    frac,
+                    hydro.rho,
+                    hydro.c_normal,
+                    hydro.c_friction,
+                    hydro.pitch_max,
+                    hydro.pitch_pressure,
+                )
                 fins = fs.sum(0)
             else:  # the system's total on the robot less damping and buoyancy, and what
                 #    the added-mass bodies' joints pass on: the foil fins' share
@@ -635,19 +792,35 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
             out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fins]))
         if servos is not None:
             sctx = servos.GetMyContextFromRoot(root)
-            out["power"].append([servos.GetOutputPort("electrical_power").Eval(sctx)[0],
-                                 servos.GetOutputPort("joint_mechanical_power").Eval(sctx).sum()])
+            out["power"].append(
+                [
+                    servos.GetOutputPort("electrical_power").Eval(sctx)[0],
+                    servos.GetOutputPort("joint_mechanical_power").Eval(sctx).sum(),
+                ]
+            )
         results = plant.get_contact_results_output_port().Eval(pctx)
         contacts = []
         for index, f, p in floor_contacts(results, floor, geometry_body):
             body = plant.get_body(BodyIndex(index))
-            kind = ("hull" if body.name() == "body" else
-                    {"link3": "proximal plate", "link4": "distal plate"}.get(
-                        body.name().split("_")[-1], body.name()))
+            kind = (
+                "hull"
+                if body.name() == "body"
+                else {"link3": "proximal plate", "link4": "distal plate"}.get(
+                    body.name().split("_")[-1], body.name()
+                )
+            )
             Vb = plant.EvalBodySpatialVelocityInWorld(pctx, body)
             v = Vb.Shift(p - plant.EvalBodyPoseInWorld(pctx, body).translation()).translational()
-            contacts.append((kind, body.name().split("_")[0], np.array(p), np.array(f),
-                             np.array(v), float(np.linalg.norm(v[:2]))))
+            contacts.append(
+                (
+                    kind,
+                    body.name().split("_")[0],
+                    np.array(p),
+                    np.array(f),
+                    np.array(v),
+                    float(np.linalg.norm(v[:2])),
+                )
+            )
         out["contacts"].append(contacts)
     for key in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power"):
         out[key] = np.array(out[key])
@@ -672,8 +845,10 @@ def foil_share(plant, pctx, hydro, root, robot_bodies, added_joints):
     import numpy as np
 
     forces = hydro.GetOutputPort("spatial_forces").Eval(hydro.GetMyContextFromRoot(root))
-    total = sum((np.asarray(f.F_Bq_W.translational()) for f in forces
-                 if int(f.body_index) in robot_bodies), np.zeros(3))
+    total = sum(
+        (np.asarray(f.F_Bq_W.translational()) for f in forces if int(f.body_index) in robot_bodies),
+        np.zeros(3),
+    )
     reactions = plant.get_reaction_forces_output_port().Eval(pctx)
     for joint in added_joints:  # the reaction on the child at Jc, in Jc: minus on the parent
         R_WJc = joint.frame_on_child().CalcPoseInWorld(pctx).rotation()
@@ -690,9 +865,13 @@ def metric_window(samples: dict, scenario) -> tuple[float, float] | None:
     from manta_drake.simulate import MIN_STEADY_WINDOW
 
     t = samples["t"]
-    clearance = M.wall_clearance(samples["xyz"], samples["quat_wxyz"],
-                                 DEFAULT_ROBOT.body_semi_axes, DEFAULT_POOL.length / 2,
-                                 DEFAULT_POOL.width / 2)
+    clearance = M.wall_clearance(
+        samples["xyz"],
+        samples["quat_wxyz"],
+        DEFAULT_ROBOT.body_semi_axes,
+        DEFAULT_POOL.length / 2,
+        DEFAULT_POOL.width / 2,
+    )
     near = M.free_water_end(t, clearance, scenario.free_water_margin)
     start = min(scenario.steady_after, 0.5 * float(t[-1]))
     end = float(t[-1]) if near is None else near
@@ -724,9 +903,13 @@ def motion_summary(samples: dict, window) -> dict:
     t, q, xyz = samples["t"], samples["quat_wxyz"], samples["xyz"]
     u, v = M.mean_velocity_from_displacement(t, q, xyz, window[0], window[1])
     m = (t >= window[0]) & (t <= window[1])
-    return {"u": u, "v": v, "yaw_rate": M.yaw_rate_deg_s(t, q, window[0], window[1]),
-            "speed": float(np.linalg.norm(samples["v_world"][m][:, :2], axis=1).mean()),
-            "window": [float(window[0]), float(window[1])]}
+    return {
+        "u": u,
+        "v": v,
+        "yaw_rate": M.yaw_rate_deg_s(t, q, window[0], window[1]),
+        "speed": float(np.linalg.norm(samples["v_world"][m][:, :2], axis=1).mean()),
+        "window": [float(window[0]), float(window[1])],
+    }
 
 
 def hydro_summary(samples: dict, window) -> dict:
@@ -778,8 +961,9 @@ def contact_summary(samples: dict, window) -> dict:
             load[leg] = load.get(leg, 0.0) + fn
             kinds[kind] = kinds.get(kind, 0.0) + fn
             rel = v_hull - v  # the hull's velocity relative to the robot's contact point
-            row = fn * np.array([1.0, v @ fwd, v @ left, rel @ fwd, rel @ left,
-                                 1.0 if slip > SLIDING else 0.0])
+            row = fn * np.array(
+                [1.0, v @ fwd, v @ left, rel @ fwd, rel @ left, 1.0 if slip > SLIDING else 0.0]
+            )
             acc[leg] = acc.get(leg, np.zeros(6)) + row
             traction += float(f @ fwd)
         standing = [leg for leg, f in load.items() if f > LOADED]
@@ -789,24 +973,47 @@ def contact_summary(samples: dict, window) -> dict:
 
     def stats(a, leg):
         w = a[0] if a[0] > 0 else math.nan
-        return {"share": a[0] / total if total else math.nan, "slip_u": a[1] / w,
-                "slip_v": a[2] / w, "noslip_u": a[3] / w, "noslip_v": a[4] / w,
-                "sliding": a[5] / w, "duty": loaded.get(leg, 0) / n if n else math.nan}
+        return {
+            "share": a[0] / total if total else math.nan,
+            "slip_u": a[1] / w,
+            "slip_v": a[2] / w,
+            "noslip_u": a[3] / w,
+            "noslip_v": a[4] / w,
+            "sliding": a[5] / w,
+            "duty": loaded.get(leg, 0) / n if n else math.nan,
+        }
 
-    return {"load": total / max(n, 1), "traction": traction / max(n, 1),
-            "share": {k: v / total for k, v in sorted(kinds.items())},
-            "all": stats(sum(acc.values(), np.zeros(6)), "all"),
-            "legs": {leg: stats(a, leg) for leg, a in sorted(acc.items())}}
+    return {
+        "load": total / max(n, 1),
+        "traction": traction / max(n, 1),
+        "share": {k: v / total for k, v in sorted(kinds.items())},
+        "all": stats(sum(acc.values(), np.zeros(6)), "all"),
+        "legs": {leg: stats(a, leg) for leg, a in sorted(acc.items())},
+    }
 
 
 # name: (gait, friction, damping x, net weight kg, duration s, extra overrides, gait override)
 DIAGNOSTIC_RUNS = {
     # What sets the swim's speed and yaw (one band point, 10 s: steady from ~4 s).
     "swim": ("swim", 0.65, 1.0, 0.85, 10.0, {}, None),
-    "swim_stall_10deg": ("swim", 0.65, 1.0, 0.85, 10.0,
-                         {"water.coefficient_scales.fins.stall_angle_deg": 0.667}, None),
-    "swim_stall_25deg": ("swim", 0.65, 1.0, 0.85, 10.0,
-                         {"water.coefficient_scales.fins.stall_angle_deg": 1.667}, None),
+    "swim_stall_10deg": (
+        "swim",
+        0.65,
+        1.0,
+        0.85,
+        10.0,
+        {"water.coefficient_scales.fins.stall_angle_deg": 0.667},
+        None,
+    ),
+    "swim_stall_25deg": (
+        "swim",
+        0.65,
+        1.0,
+        0.85,
+        10.0,
+        {"water.coefficient_scales.fins.stall_angle_deg": 1.667},
+        None,
+    ),
     "swim_hull_damping_x3": ("swim", 0.65, 3.0, 0.85, 10.0, {}, None),
     "swim_no_phase_lag": ("swim", 0.65, 1.0, 0.85, 10.0, {}, "swim_no_phase_lag"),
     "swim_printed": ("swim", 0.65, 1.0, 0.85, 10.0, {}, "swim_printed"),
@@ -823,28 +1030,55 @@ DIAGNOSTIC_RUNS = {
     "turning_f0.65_w0.85": ("turning", 0.65, 1.0, 0.85, 20.0, {}, None),
     # The same with the earlier quasi-steady cross-flow fins (no added mass on the bodies):
     # contacts and slip against the foil runs above, at the gaits' 0.5 Hz and at 0.25 Hz.
-    "swim_cross_flow": ("swim", 0.65, 1.0, 0.85, 10.0, {"water.fin_model": "cross_flow"},
-                        None),
-    "trot_f0.8_w0.85_cross_flow": ("trot", 0.8, 1.0, 0.85, 20.0,
-                                   {"water.fin_model": "cross_flow"}, None),
-    "walk_f0.8_w0.85_cross_flow": ("walk", 0.8, 1.0, 0.85, 20.0,
-                                   {"water.fin_model": "cross_flow"}, None),
+    "swim_cross_flow": ("swim", 0.65, 1.0, 0.85, 10.0, {"water.fin_model": "cross_flow"}, None),
+    "trot_f0.8_w0.85_cross_flow": (
+        "trot",
+        0.8,
+        1.0,
+        0.85,
+        20.0,
+        {"water.fin_model": "cross_flow"},
+        None,
+    ),
+    "walk_f0.8_w0.85_cross_flow": (
+        "walk",
+        0.8,
+        1.0,
+        0.85,
+        20.0,
+        {"water.fin_model": "cross_flow"},
+        None,
+    ),
     "trot_f0.8_w0.85_0.25Hz": ("trot", 0.8, 1.0, 0.85, 20.0, {"cpg.frequency_hz": 0.25}, None),
-    "trot_f0.8_w0.85_cross_flow_0.25Hz": ("trot", 0.8, 1.0, 0.85, 20.0,
-                                          {"water.fin_model": "cross_flow",
-                                           "cpg.frequency_hz": 0.25}, None),
+    "trot_f0.8_w0.85_cross_flow_0.25Hz": (
+        "trot",
+        0.8,
+        1.0,
+        0.85,
+        20.0,
+        {"water.fin_model": "cross_flow", "cpg.frequency_hz": 0.25},
+        None,
+    ),
     # The foil trot with the plates' added mass scaled to 1/1000 (a factor must be > 0).
-    "trot_f0.8_w0.85_light_plates": ("trot", 0.8, 1.0, 0.85, 20.0,
-                                     {"water.coefficient_scales.fins.added_mass_factor":
-                                      0.001}, None),
+    "trot_f0.8_w0.85_light_plates": (
+        "trot",
+        0.8,
+        1.0,
+        0.85,
+        20.0,
+        {"water.coefficient_scales.fins.added_mass_factor": 0.001},
+        None,
+    ),
 }
 
 
 # The shipped locomotion scenarios as they are (20 s, their own friction and weight), with
 # either fin model: the README's table, with the water's forward forces and the power.
-SHIPPED_RUNS = {f"shipped_{gait}_{fins}": (gait, fins)
-                for gait in ("swim", "trot", "walk", "crab", "turning")
-                for fins in ("foil", "cross_flow")}
+SHIPPED_RUNS = {
+    f"shipped_{gait}_{fins}": (gait, fins)
+    for gait in ("swim", "trot", "walk", "crab", "turning")
+    for fins in ("foil", "cross_flow")
+}
 
 DIAGNOSTIC_NAMES = (*DIAGNOSTIC_RUNS, *SHIPPED_RUNS)
 
@@ -886,8 +1120,10 @@ def diagnose(out_dir: pathlib.Path, names=None) -> dict:
         start = time.perf_counter()
         samples = sample_run(scenario.validate(), gait=explicit)
         window = metric_window(samples, scenario)
-        entry = {"run": list(DIAGNOSTIC_RUNS.get(name, SHIPPED_RUNS.get(name))),
-                 "wall_s": time.perf_counter() - start}
+        entry = {
+            "run": list(DIAGNOSTIC_RUNS.get(name, SHIPPED_RUNS.get(name))),
+            "wall_s": time.perf_counter() - start,
+        }
         if window is not None:
             cycles = whole_cycles(window, 1.0 / scenario.cpg.frequency_hz)
             entry["motion"] = motion_summary(samples, window)
@@ -904,8 +1140,16 @@ def diagnose(out_dir: pathlib.Path, names=None) -> dict:
 
 
 # The columns of the sweep's results.csv the report reads.
-RESULTS_COLUMNS = ("base", *BAND_KEYS, "status", "u", "v", "yaw_rate_deg_s", "steady_start_s",
-                   "steady_end_s")
+RESULTS_COLUMNS = (
+    "base",
+    *BAND_KEYS,
+    "status",
+    "u",
+    "v",
+    "yaw_rate_deg_s",
+    "steady_start_s",
+    "steady_end_s",
+)
 
 
 def check_arguments(args) -> None:
@@ -919,20 +1163,25 @@ def check_arguments(args) -> None:
         needs,
     )
 
-    needs("--only", args.only is not None, "--diagnose", args.diagnose is not None,
-          "it chooses the diagnostic runs")
+    needs(
+        "--only",
+        args.only is not None,
+        "--diagnose",
+        args.diagnose is not None,
+        "it chooses the diagnostic runs",
+    )
     if args.diagnose is not None:
         if args.only is not None:
             if not args.only:
-                raise ScenarioError("--only: name at least one of "
-                                    f"{', '.join(DIAGNOSTIC_NAMES)}")
+                raise ScenarioError(f"--only: name at least one of {', '.join(DIAGNOSTIC_NAMES)}")
             check_names("--only", ",".join(args.only), DIAGNOSTIC_NAMES)
         check_writable_folder(args.diagnose, "--diagnose", example="out/findings_diagnostics")
         return
     check_sweep_results(args.results, RESULTS_COLUMNS, "findings", SHIPPED_RESULTS)
     if args.sensitivity:
-        check_sweep_results(args.sensitivity, ("base", "seed", *RESULTS_COLUMNS[4:]), "energy",
-                            SENSITIVITY_RESULTS)
+        check_sweep_results(
+            args.sensitivity, ("base", "seed", *RESULTS_COLUMNS[4:]), "energy", SENSITIVITY_RESULTS
+        )
     check_output_file("--out-md", args.out_md)
     check_figure_file("--out-fig", args.out_fig)
 
@@ -941,26 +1190,46 @@ def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study findings``); returns the exit status."""
     from manta_drake.studies.options import StudyParser
 
-    p = StudyParser(prog=prog, description=__doc__.split("\n\n")[0],
-                    formatter_class=argparse.RawDescriptionHelpFormatter,
-                    epilog="Without a fresh sweep, use the table shipped in the "
-                           f"repository: --results {SHIPPED_RESULTS}")
-    p.add_argument("--results", default=DEFAULT_RESULTS,
-                   help=f"results.csv of the findings sweep (default {DEFAULT_RESULTS}; "
-                        f"the shipped copy: {SHIPPED_RESULTS})")
-    p.add_argument("--sensitivity", default=SENSITIVITY_RESULTS, metavar="CSV",
-                   help="results.csv of a sweep over the same gaits whose parameter sets "
-                        "are reported one by one (default the shipped energy sweep, "
-                        f"{SENSITIVITY_RESULTS}; '' for none)")
-    p.add_argument("--out-md", default="docs/findings.md",
-                   help="markdown file whose generated block is (re)written")
+    p = StudyParser(
+        prog=prog,
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Without a fresh sweep, use the table shipped in the "
+        f"repository: --results {SHIPPED_RESULTS}",
+    )
+    p.add_argument(
+        "--results",
+        default=DEFAULT_RESULTS,
+        help=f"results.csv of the findings sweep (default {DEFAULT_RESULTS}; "
+        f"the shipped copy: {SHIPPED_RESULTS})",
+    )
+    p.add_argument(
+        "--sensitivity",
+        default=SENSITIVITY_RESULTS,
+        metavar="CSV",
+        help="results.csv of a sweep over the same gaits whose parameter sets "
+        "are reported one by one (default the shipped energy sweep, "
+        f"{SENSITIVITY_RESULTS}; '' for none)",
+    )
+    p.add_argument(
+        "--out-md",
+        default="docs/findings.md",
+        help="markdown file whose generated block is (re)written",
+    )
     p.add_argument("--out-fig", default="docs/figures/findings.png", help="the figure (PNG)")
-    p.add_argument("--diagnose", metavar="DIR", type=pathlib.Path,
-                   help="instead of the report: run the targeted simulations behind the "
-                        "explanations in docs/findings.md (one at a time, ~5 min) and write "
-                        "DIR/diagnostics.json")
-    p.add_argument("--only", nargs="*", help="with --diagnose: only these runs "
-                   f"({', '.join(DIAGNOSTIC_NAMES)})")
+    p.add_argument(
+        "--diagnose",
+        metavar="DIR",
+        type=pathlib.Path,
+        help="instead of the report: run the targeted simulations behind the "
+        "explanations in docs/findings.md (one at a time, ~5 min) and write "
+        "DIR/diagnostics.json",
+    )
+    p.add_argument(
+        "--only",
+        nargs="*",
+        help=f"with --diagnose: only these runs ({', '.join(DIAGNOSTIC_NAMES)})",
+    )
     args = p.parse_args(argv)
     check_arguments(args)
     if args.diagnose is not None:
@@ -972,15 +1241,21 @@ def main(argv=None, prog=None) -> int:
     tallies, verdicts = evaluate(points)
     variant_tallies, _ = evaluate(points, VARIANTS)
     stats = gait_stats(points)
-    sensitivity = (sensitivity_lines(parameter_sets(read_results(args.sensitivity)),
-                                     args.sensitivity) if args.sensitivity else None)
-    write_markdown(pathlib.Path(args.out_md),
-                   markdown_block(tallies, variant_tallies, stats, verdicts, args.results,
-                                  sensitivity),
-                   f"manta-drake study findings --results {args.results}")
+    sensitivity = (
+        sensitivity_lines(parameter_sets(read_results(args.sensitivity)), args.sensitivity)
+        if args.sensitivity
+        else None
+    )
+    write_markdown(
+        pathlib.Path(args.out_md),
+        markdown_block(tallies, variant_tallies, stats, verdicts, args.results, sensitivity),
+        f"manta-drake study findings --results {args.results}",
+    )
     plot(points, tallies, variant_tallies, pathlib.Path(args.out_fig))
     for t in list(tallies) + list(variant_tallies):
-        print(f"{t.label:52s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "
-              f"undetermined {t.undetermined:3d}  {100 * t.fraction:5.1f} %")
+        print(
+            f"{t.label:52s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "
+            f"undetermined {t.undetermined:3d}  {100 * t.fraction:5.1f} %"
+        )
     print(f"wrote {args.out_md} and {args.out_fig}")
     return 0

@@ -33,7 +33,7 @@ class StudyParser(argparse.ArgumentParser):
     def error(self, message: str):
         text = " ".join(message.split())  # argparse quotes the bad value: cut a long one
         if len(text) > MAX_MESSAGE_CHARS:
-            text = text[:MAX_MESSAGE_CHARS - 3] + "..."
+            text = text[: MAX_MESSAGE_CHARS - 3] + "..."
         raise ScenarioError(f"{self.prog}: {text} (see --help)")
 
 
@@ -50,8 +50,7 @@ def check_names(option: str, text: str, allowed) -> list[str]:
     seen = set()
     for name in names:
         if name not in allowed:
-            raise ScenarioError(f"{option}: {short_repr(name)} is not one of "
-                                f"{', '.join(allowed)}")
+            raise ScenarioError(f"{option}: {short_repr(name)} is not one of {', '.join(allowed)}")
         if name in seen:
             raise ScenarioError(f"{option}: {short_repr(name)} is given twice")
         seen.add(name)
@@ -67,8 +66,10 @@ def check_output_file(option: str, path, formats=None) -> pathlib.Path:
     if path.is_dir():
         raise ScenarioError(f"{option} {path}: is a folder, not a file")
     if formats is not None and path.suffix.lower().lstrip(".") not in formats:
-        raise ScenarioError(f"{option} {path}: the name must end in one of "
-                            f"{', '.join('.' + f for f in sorted(formats))}")
+        raise ScenarioError(
+            f"{option} {path}: the name must end in one of "
+            f"{', '.join('.' + f for f in sorted(formats))}"
+        )
     if path.exists() and not os.access(path, os.W_OK):
         raise ScenarioError(f"{option} {path}: cannot be written (no write permission)")
     check_writable_folder(path.parent, option=f"{option} {path}: the folder")
@@ -92,8 +93,10 @@ def check_run_folders(option: str, out, folders, files=("log.npz", "metrics.json
     for folder in folders:
         for name in files:
             if not (pathlib.Path(out) / folder / name).is_file():
-                raise ScenarioError(f"{option} {out}: no {pathlib.Path(folder) / name} to "
-                                    "reuse; run the study without --reuse first")
+                raise ScenarioError(
+                    f"{option} {out}: no {pathlib.Path(folder) / name} to "
+                    "reuse; run the study without --reuse first"
+                )
 
 
 def _first_row(f) -> bool:
@@ -134,16 +137,22 @@ def check_results_csv(option: str, path, columns, hint: str = "") -> pathlib.Pat
     except OSError as e:
         raise ScenarioError(f"{option} {path}: cannot be read ({e.strerror})") from None
     if len(header) > MAX_HEADER_CHARS:
-        raise ScenarioError(f"{option} {path}: its first line is longer than "
-                            f"{MAX_HEADER_CHARS} characters: not a results table's header")
+        raise ScenarioError(
+            f"{option} {path}: its first line is longer than "
+            f"{MAX_HEADER_CHARS} characters: not a results table's header"
+        )
     names = set(next(csv.reader([header]), []))
     if not header.strip():
-        raise ScenarioError(f"{option} {path}: an empty file; expected a results table (a "
-                            "header of column names, then one row per run)")
+        raise ScenarioError(
+            f"{option} {path}: an empty file; expected a results table (a "
+            "header of column names, then one row per run)"
+        )
     missing = [c for c in columns if c not in names]
     if missing:
-        raise ScenarioError(f"{option} {path}: no column{'s' if len(missing) > 1 else ''} "
-                            f"{', '.join(missing)} in its header")
+        raise ScenarioError(
+            f"{option} {path}: no column{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(missing)} in its header"
+        )
     if not has_row:
         raise ScenarioError(f"{option} {path}: a header but no rows (no run in the table)")
     return path
@@ -154,6 +163,9 @@ def check_sweep_results(path, columns, sweep: str, shipped) -> pathlib.Path:
     message says how to make it (``manta-drake sweep diagrams/sweeps/SWEEP.yaml``) or points
     to the shipped table ``shipped``."""
     return check_results_csv(
-        "--results", path, columns,
+        "--results",
+        path,
+        columns,
         hint=f"; run `manta-drake sweep diagrams/sweeps/{sweep}.yaml --out "
-             f"{pathlib.Path(path).parent}` or use --results {shipped}")
+        f"{pathlib.Path(path).parent}` or use --results {shipped}",
+    )

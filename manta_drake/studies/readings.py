@@ -52,8 +52,7 @@ def printed(name: str) -> G.GaitParams:
 def mirrored(g: G.GaitParams, from_left: bool) -> G.GaitParams:
     """``g`` with R and X made mirror-symmetric from its printed left (or right) rows."""
     if from_left:
-        return G.GaitParams(G.mirror_right_fins(g.R), G.mirror_right_fins(g.X), g.Phi,
-                            g.Phi_prime)
+        return G.GaitParams(G.mirror_right_fins(g.R), G.mirror_right_fins(g.X), g.Phi, g.Phi_prime)
     R, X = g.R.copy(), g.X.copy()
     R[[0, 2]], X[[0, 2]] = G.MIRROR_SIGNS * R[[1, 3]], G.MIRROR_SIGNS * X[[1, 3]]
     return G.GaitParams(R, X, g.Phi, g.Phi_prime)
@@ -75,23 +74,30 @@ READINGS = {
     "mirror_left": lambda name: mirrored(printed(name), True),
     "mirror_right": lambda name: mirrored(printed(name), False),
     "left_first": lambda name: left_first(printed(name)),
-    "swim_no_lag": lambda name: G.GaitParams(shipped("swim").R, shipped("swim").X,
-                                             shipped("swim").Phi, np.zeros((4, 4)))
-    if name == "swim" else shipped(name),
+    "swim_no_lag": lambda name: (
+        G.GaitParams(shipped("swim").R, shipped("swim").X, shipped("swim").Phi, np.zeros((4, 4)))
+        if name == "swim"
+        else shipped(name)
+    ),
 }
 
 
 def run_overrides(duration: float, fin_sweep_deg: float | None = None) -> dict:
     """The overrides of a run's locomotion scenario (``run_reading``)."""
-    overrides = {"visualization.meshcat": False, "duration": duration,
-                 "steady_after": duration / 2}
+    overrides = {"visualization.meshcat": False, "duration": duration, "steady_after": duration / 2}
     if fin_sweep_deg is not None:
         overrides["robot.fin_sweep_deg"] = fin_sweep_deg
     return overrides
 
 
-def run_reading(reading: str, gait: str, out: pathlib.Path, duration: float,
-                fin_sweep_deg: float | None = None, readings=READINGS) -> dict:
+def run_reading(
+    reading: str,
+    gait: str,
+    out: pathlib.Path,
+    duration: float,
+    fin_sweep_deg: float | None = None,
+    readings=READINGS,
+) -> dict:
     """One locomotion scenario with its gait and stance under ``reading`` (and the fins'
     rest sweep ``fin_sweep_deg``, the scenario's own if None); its metrics.
 
@@ -124,15 +130,21 @@ def check_arguments(args) -> tuple[list[str], list[str]]:
     from manta_drake.studies.options import check_names
 
     lo = shortest_duration()
-    check_in_range("--duration", args.duration, lo, MAX_DURATION_S,
-                   f"[{lo:g}, {MAX_DURATION_S:g}] s (the means are over the second half)")
+    check_in_range(
+        "--duration",
+        args.duration,
+        lo,
+        MAX_DURATION_S,
+        f"[{lo:g}, {MAX_DURATION_S:g}] s (the means are over the second half)",
+    )
     readings = check_names("--readings", args.readings, tuple(READINGS))
     gaits = check_names("--gaits", args.gaits, GAITS)
     if args.fin_sweep is not None:  # the scenarios' own check of robot.fin_sweep_deg
         for gait in gaits:
             try:
-                load_scenario(f"locomotion_{gait}",
-                              overrides=run_overrides(args.duration, args.fin_sweep))
+                load_scenario(
+                    f"locomotion_{gait}", overrides=run_overrides(args.duration, args.fin_sweep)
+                )
             except ScenarioError as e:
                 raise ScenarioError(f"--fin-sweep {args.fin_sweep:g}: {e}") from None
     check_writable_folder(args.out, "--out", example="out/gait_readings")
@@ -145,15 +157,26 @@ def main(argv=None, prog=None) -> int:
 
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/gait_readings"))
-    parser.add_argument("--duration", type=float, default=12.0,
-                        help="each run's duration [s] (the means are over its second half)")
-    parser.add_argument("--readings", default=",".join(READINGS),
-                        help=f"comma-separated, of {', '.join(READINGS)}")
-    parser.add_argument("--gaits", default=",".join(GAITS),
-                        help=f"comma-separated, of {', '.join(GAITS)}")
-    parser.add_argument("--fin-sweep", type=float, default=None, metavar="DEG",
-                        help="robot.fin_sweep_deg of every run (default: the scenario's, 10); "
-                             "docs/stance.md balances each reading's stance")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=12.0,
+        help="each run's duration [s] (the means are over its second half)",
+    )
+    parser.add_argument(
+        "--readings", default=",".join(READINGS), help=f"comma-separated, of {', '.join(READINGS)}"
+    )
+    parser.add_argument(
+        "--gaits", default=",".join(GAITS), help=f"comma-separated, of {', '.join(GAITS)}"
+    )
+    parser.add_argument(
+        "--fin-sweep",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="robot.fin_sweep_deg of every run (default: the scenario's, 10); "
+        "docs/stance.md balances each reading's stance",
+    )
     args = parser.parse_args(argv)
     readings, gaits = check_arguments(args)
     rows = []
@@ -167,16 +190,28 @@ def main(argv=None, prog=None) -> int:
             # enough): NaN in the table.
             u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
             yaw = m["yaw_rate_deg_s"]
-            row = (reading, gait, u, v, float("nan") if yaw is None else yaw,
-                   m["min_wall_clearance_m"])
+            row = (
+                reading,
+                gait,
+                u,
+                v,
+                float("nan") if yaw is None else yaw,
+                m["min_wall_clearance_m"],
+            )
             rows.append(row)
-            print("{:<13} {:<8} u {:+.3f}  v {:+.3f} m/s  yaw {:+6.2f} deg/s  clearance {:.2f} m"
-                  .format(*row), flush=True)
+            print(
+                "{:<13} {:<8} u {:+.3f}  v {:+.3f} m/s  yaw {:+6.2f} deg/s  clearance "
+                "{:.2f} m".format(*row),
+                flush=True,
+            )
     w0, w1 = args.duration / 2, args.duration
-    table = [f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`manta-drake study readings"
-             f" --duration {w1:g}`):", "",
-             "| reading | gait | u m/s | v m/s | yaw rate deg/s | min wall clearance m |",
-             "| --- | --- | --- | --- | --- | --- |"]
+    table = [
+        f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`manta-drake study readings"
+        f" --duration {w1:g}`):",
+        "",
+        "| reading | gait | u m/s | v m/s | yaw rate deg/s | min wall clearance m |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
     table += ["| {} | {} | {:+.3f} | {:+.3f} | {:+.2f} | {:.2f} |".format(*row) for row in rows]
     (args.out / "readings.md").write_text("\n".join(table) + "\n")
     print("\n" + "\n".join(table))

@@ -21,20 +21,29 @@ import subprocess
 
 from manta_drake.studies import REPO
 
-STAMP = re.compile(r"^Made (?P<date>\S+) at commit (?P<commit>\S+?)\. (?P<rest>.*)$",
-                   re.MULTILINE)
+STAMP = re.compile(r"^Made (?P<date>\S+) at commit (?P<commit>\S+?)\. (?P<rest>.*)$", re.MULTILINE)
 
 
 def commit(repo: pathlib.Path = REPO) -> str:
     """The short hash of ``repo``'s HEAD if ``repo`` is the top of a git checkout, else
     ``"unknown"``."""
     try:
-        top = subprocess.run(["git", "-C", str(repo), "rev-parse", "--show-toplevel"],
-                             capture_output=True, text=True, timeout=10, check=True)
+        top = subprocess.run(
+            ["git", "-C", str(repo), "rev-parse", "--show-toplevel"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
         if pathlib.Path(top.stdout.strip()).resolve() != pathlib.Path(repo).resolve():
             return "unknown"
-        out = subprocess.run(["git", "-C", str(repo), "rev-parse", "--short", "HEAD"],
-                             capture_output=True, text=True, timeout=10, check=True)
+        out = subprocess.run(
+            ["git", "-C", str(repo), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     return out.stdout.strip() or "unknown"
@@ -64,9 +73,14 @@ def write_stamped(path: pathlib.Path, text: str) -> bool:
     return True
 
 
-def replace_marked_block(path: pathlib.Path, block: str, begin: str, end: str,
-                         new_page: tuple[str, str] | None = None,
-                         what: str = "the tables") -> None:
+def replace_marked_block(
+    path: pathlib.Path,
+    block: str,
+    begin: str,
+    end: str,
+    new_page: tuple[str, str] | None = None,
+    what: str = "the tables",
+) -> None:
     """Replaces the block of ``path`` between the markers ``begin`` and ``end`` (which
     ``block`` carries itself), keeping the rest, through ``write_stamped``.
 
@@ -84,16 +98,18 @@ def replace_marked_block(path: pathlib.Path, block: str, begin: str, end: str,
     path = pathlib.Path(path)
     if new_page is not None and not path.exists():
         title, command = new_page
-        write_stamped(path, f"# {title}\n\n" + stamp_line(f"`{command}`.") + "\n\n" + block
-                      + "\n")
+        write_stamped(path, f"# {title}\n\n" + stamp_line(f"`{command}`.") + "\n\n" + block + "\n")
         return
     text = path.read_text() if path.exists() else ""
     if begin not in text or end not in text:
         if new_page is not None:
-            raise SystemExit(f"error: {path} exists but has no {begin} ... {end} block; add "
-                             f"the two markers where {what} belong, or choose another "
-                             "--out-md")
-        raise SystemExit(f"error: {path} has no {begin} ... {end} block; add the two "
-                         f"markers where {what} belong")
+            raise SystemExit(
+                f"error: {path} exists but has no {begin} ... {end} block; add "
+                f"the two markers where {what} belong, or choose another "
+                "--out-md"
+            )
+        raise SystemExit(
+            f"error: {path} has no {begin} ... {end} block; add the two markers where {what} belong"
+        )
     head, rest = text.split(begin, 1)
     write_stamped(path, head + block + rest.split(end, 1)[1])

@@ -45,8 +45,18 @@ SWEEPS_DEG = (0.0, 10.0, 20.0, 30.0, 40.0)
 GAITS = ("swim", "trot", "walk", "crab", "turning")
 # (reading, sweep) pairs of diagrams/sweeps/stance.yaml, the balanced ones first.
 CONFIGS = (("paper", 10.0), ("mirrored", 30.0), ("mirrored", 10.0), ("paper", 30.0))
-COLUMNS = ("gait_reading", "fin_sweep_deg", "gait", "u", "v", "yaw_rate_deg_s",
-           "mean_roll_deg", "mean_pitch_deg", "steady_start_s", "steady_end_s")
+COLUMNS = (
+    "gait_reading",
+    "fin_sweep_deg",
+    "gait",
+    "u",
+    "v",
+    "yaw_rate_deg_s",
+    "mean_roll_deg",
+    "mean_pitch_deg",
+    "steady_start_s",
+    "steady_end_s",
+)
 
 
 def stance_tips(reading: str, sweep_deg: float) -> np.ndarray:
@@ -70,8 +80,7 @@ def zero_pose_size(sweep_deg: float) -> np.ndarray:
     from pydrake.geometry import Role
 
     for body in h.plant.GetBodyIndices(h.robot):
-        for gid in inspector.GetGeometries(h.plant.GetBodyFrameIdOrThrow(body),
-                                           Role.kIllustration):
+        for gid in inspector.GetGeometries(h.plant.GetBodyFrameIdOrThrow(body), Role.kIllustration):
             shape, X = inspector.GetShape(gid), query.GetPoseInWorld(gid)
             R = np.abs(X.rotation().matrix())
             kind = type(shape).__name__
@@ -96,10 +105,20 @@ def kinematics_rows() -> list[dict]:
         size = zero_pose_size(sweep)
         for reading in READINGS:
             tips = stance_tips(reading, sweep)
-            d1, d2 = support_diagonal_offsets(get_gait("trot", reading).X,
-                                              robot_with_fin_sweep_deg(sweep))
-            rows.append({"reading": reading, "sweep": sweep, "fl_rr": d1, "fr_rl": d2,
-                         "centroid_x": float(tips[:, 0].mean()), "L": size[0], "W": size[1]})
+            d1, d2 = support_diagonal_offsets(
+                get_gait("trot", reading).X, robot_with_fin_sweep_deg(sweep)
+            )
+            rows.append(
+                {
+                    "reading": reading,
+                    "sweep": sweep,
+                    "fl_rr": d1,
+                    "fr_rl": d2,
+                    "centroid_x": float(tips[:, 0].mean()),
+                    "L": size[0],
+                    "W": size[1],
+                }
+            )
     return rows
 
 
@@ -114,15 +133,23 @@ def table_from_sweep(sweep_out: pathlib.Path) -> list[dict]:
         gait = r["base"].removeprefix("locomotion_")
         row = {"gait_reading": reading, "fin_sweep_deg": sweep, "gait": gait}
         if r["status"] != "ok" or not r["u"]:
-            raise SystemExit(f"error: run {r['run_id']} ({reading}, {sweep:g} deg, {gait}) "
-                             f"is {r['status']}: {r['reason']}")
+            raise SystemExit(
+                f"error: run {r['run_id']} ({reading}, {sweep:g} deg, {gait}) "
+                f"is {r['status']}: {r['reason']}"
+            )
         t0, t1 = float(r["steady_start_s"]), float(r["steady_end_s"])
         log = np.load(run / "log.npz")
         window = (log["t"] >= t0) & (log["t"] <= t1)
         roll, pitch = np.degrees(log["body_rpy"][window, :2]).mean(axis=0)
-        row.update(u=float(r["u"]), v=float(r["v"]), yaw_rate_deg_s=float(r["yaw_rate_deg_s"]),
-                   mean_roll_deg=float(roll), mean_pitch_deg=float(pitch),
-                   steady_start_s=t0, steady_end_s=t1)
+        row.update(
+            u=float(r["u"]),
+            v=float(r["v"]),
+            yaw_rate_deg_s=float(r["yaw_rate_deg_s"]),
+            mean_roll_deg=float(roll),
+            mean_pitch_deg=float(pitch),
+            steady_start_s=t0,
+            steady_end_s=t1,
+        )
         rows.append(row)
     return rows
 
@@ -137,41 +164,60 @@ def write_table(rows: list[dict], path: pathlib.Path) -> None:
 
 
 def read_table(path: pathlib.Path) -> list[dict]:
-    return [{k: (v if k in ("gait_reading", "gait") else float(v)) for k, v in r.items()}
-            for r in read_csv_table(path, what="table CSV")]
+    return [
+        {k: (v if k in ("gait_reading", "gait") else float(v)) for k, v in r.items()}
+        for r in read_csv_table(path, what="table CSV")
+    ]
 
 
 def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
-    lines = [MARK_BEGIN, "",
-             "**Kinematics** (Eq. 1; the trot's stance X_gait under each reading): distance of "
-             "the CG from the trot's two support diagonals fl-rr / fr-rl, the fin tips' mean x "
-             "(+ ahead of the CG), and the robot's size at the zero pose (Table 1: L 0.38 m, "
-             "W 0.85 m).", "",
-             "| fin sweep deg | zero-pose L x W m | paper: diagonals m | paper: tips' mean x m "
-             "| mirrored: diagonals m | mirrored: tips' mean x m |",
-             "| --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        MARK_BEGIN,
+        "",
+        "**Kinematics** (Eq. 1; the trot's stance X_gait under each reading): distance of "
+        "the CG from the trot's two support diagonals fl-rr / fr-rl, the fin tips' mean x "
+        "(+ ahead of the CG), and the robot's size at the zero pose (Table 1: L 0.38 m, "
+        "W 0.85 m).",
+        "",
+        "| fin sweep deg | zero-pose L x W m | paper: diagonals m | paper: tips' mean x m "
+        "| mirrored: diagonals m | mirrored: tips' mean x m |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
     for sweep in SWEEPS_DEG:
-        p, m = ([r for r in kin if r["sweep"] == sweep and r["reading"] == x][0]
-                for x in READINGS)
-        lines.append(f"| {sweep:g} | {p['L']:.2f} x {p['W']:.2f} | {p['fl_rr']:+.3f} / "
-                     f"{p['fr_rl']:+.3f} | {p['centroid_x']:+.3f} | {m['fl_rr']:+.3f} / "
-                     f"{m['fr_rl']:+.3f} | {m['centroid_x']:+.3f} |")
-    lines += ["", "**Dynamics** (20 s runs at the shipped defaults: friction 0.8, hull damping "
-              "x1, net weight 0.84 kg; means over each run's free-water window; body pitch + "
-              "is nose down). From `" + table_path + "`:", "",
-              "| reading, fin sweep | gait | u m/s | v m/s | yaw rate deg/s | mean roll / pitch "
-              "deg | window s |", "| --- | --- | --- | --- | --- | --- | --- |"]
+        p, m = ([r for r in kin if r["sweep"] == sweep and r["reading"] == x][0] for x in READINGS)
+        lines.append(
+            f"| {sweep:g} | {p['L']:.2f} x {p['W']:.2f} | {p['fl_rr']:+.3f} / "
+            f"{p['fr_rl']:+.3f} | {p['centroid_x']:+.3f} | {m['fl_rr']:+.3f} / "
+            f"{m['fr_rl']:+.3f} | {m['centroid_x']:+.3f} |"
+        )
+    lines += [
+        "",
+        "**Dynamics** (20 s runs at the shipped defaults: friction 0.8, hull damping "
+        "x1, net weight 0.84 kg; means over each run's free-water window; body pitch + "
+        "is nose down). From `" + table_path + "`:",
+        "",
+        "| reading, fin sweep | gait | u m/s | v m/s | yaw rate deg/s | mean roll / pitch "
+        "deg | window s |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for reading, sweep in CONFIGS:
         for gait in GAITS:
-            r = [x for x in dyn if x["gait_reading"] == reading and x["fin_sweep_deg"] == sweep
-                 and x["gait"] == gait]
+            r = [
+                x
+                for x in dyn
+                if x["gait_reading"] == reading
+                and x["fin_sweep_deg"] == sweep
+                and x["gait"] == gait
+            ]
             if not r:
                 continue
             r = r[0]
-            lines.append(f"| {reading}, {sweep:g} deg | {gait} | {r['u']:+.3f} | {r['v']:+.3f} "
-                         f"| {r['yaw_rate_deg_s']:+.2f} | {r['mean_roll_deg']:+.1f} / "
-                         f"{r['mean_pitch_deg']:+.1f} | {r['steady_start_s']:g}-"
-                         f"{r['steady_end_s']:.1f} |")
+            lines.append(
+                f"| {reading}, {sweep:g} deg | {gait} | {r['u']:+.3f} | {r['v']:+.3f} "
+                f"| {r['yaw_rate_deg_s']:+.2f} | {r['mean_roll_deg']:+.1f} / "
+                f"{r['mean_pitch_deg']:+.1f} | {r['steady_start_s']:g}-"
+                f"{r['steady_end_s']:.1f} |"
+            )
     lines += ["", MARK_END]
     return "\n".join(lines)
 
@@ -190,8 +236,7 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2),
-                             gridspec_kw={"width_ratios": [1.0, 1.3, 1.3]})
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), gridspec_kw={"width_ratios": [1.0, 1.3, 1.3]})
     ax = axes[0]
     for (reading, sweep), style in zip(CONFIGS[:2], ("o-", "s--")):
         tips = stance_tips(reading, sweep)
@@ -209,12 +254,20 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
     width = 0.8 / len(CONFIGS)
     x = np.arange(len(GAITS))
     for k, (reading, sweep) in enumerate(CONFIGS):
-        sel = {r["gait"]: r for r in dyn if r["gait_reading"] == reading
-               and r["fin_sweep_deg"] == sweep}
+        sel = {
+            r["gait"]: r
+            for r in dyn
+            if r["gait_reading"] == reading and r["fin_sweep_deg"] == sweep
+        }
         for ax, key in ((axes[1], "u"), (axes[2], "yaw_rate_deg_s")):
-            ax.bar(x + (k - 1.5) * width, [sel[g][key] if g in sel else np.nan for g in GAITS],
-                   width, label=f"{reading}, {sweep:g} deg",
-                   hatch="" if k < 2 else "//", alpha=1.0 if k < 2 else 0.5)
+            ax.bar(
+                x + (k - 1.5) * width,
+                [sel[g][key] if g in sel else np.nan for g in GAITS],
+                width,
+                label=f"{reading}, {sweep:g} deg",
+                hatch="" if k < 2 else "//",
+                alpha=1.0 if k < 2 else 0.5,
+            )
     for ax, label in ((axes[1], "u [m/s]"), (axes[2], "yaw rate [deg/s]")):
         ax.set_xticks(x, GAITS)
         ax.axhline(0, color="k", lw=0.8)
@@ -229,8 +282,17 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
 
 
 # The columns of the stance sweep's results.csv that ``table_from_sweep`` reads.
-SWEEP_COLUMNS = ("run_id", "base", "status", "reason", "u", "v", "yaw_rate_deg_s",
-                 "steady_start_s", "steady_end_s")
+SWEEP_COLUMNS = (
+    "run_id",
+    "base",
+    "status",
+    "reason",
+    "u",
+    "v",
+    "yaw_rate_deg_s",
+    "steady_start_s",
+    "steady_end_s",
+)
 
 
 def check_arguments(args) -> None:
@@ -242,13 +304,17 @@ def check_arguments(args) -> None:
     )
 
     if args.sweep_out is not None:
-        check_results_csv("--sweep-out", args.sweep_out / "results.csv", SWEEP_COLUMNS,
-                          hint=" (DIR is the output folder of `manta-drake sweep "
-                               "diagrams/sweeps/stance.yaml`)")
+        check_results_csv(
+            "--sweep-out",
+            args.sweep_out / "results.csv",
+            SWEEP_COLUMNS,
+            hint=" (DIR is the output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`)",
+        )
         check_output_file("--table", args.table)
     else:
-        check_results_csv("--table", args.table, COLUMNS,
-                          hint="; run the sweep and pass --sweep-out")
+        check_results_csv(
+            "--table", args.table, COLUMNS, hint="; run the sweep and pass --sweep-out"
+        )
     check_output_file("--out-md", args.out_md)
     check_figure_file("--out-fig", args.out_fig)
 
@@ -258,11 +324,17 @@ def main(argv=None, prog=None) -> int:
     from manta_drake.studies.options import StudyParser
 
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--sweep-out", type=pathlib.Path,
-                        help="output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`")
-    parser.add_argument("--table", type=pathlib.Path,
-                        default=ROOT / "diagrams/sweeps/data/stance_table.csv",
-                        help="the dynamics table: read (written with --sweep-out)")
+    parser.add_argument(
+        "--sweep-out",
+        type=pathlib.Path,
+        help="output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`",
+    )
+    parser.add_argument(
+        "--table",
+        type=pathlib.Path,
+        default=ROOT / "diagrams/sweeps/data/stance_table.csv",
+        help="the dynamics table: read (written with --sweep-out)",
+    )
     parser.add_argument("--out-md", type=pathlib.Path, default=ROOT / "docs/stance.md")
     parser.add_argument("--out-fig", type=pathlib.Path, default=ROOT / "docs/figures/stance.png")
     args = parser.parse_args(argv)

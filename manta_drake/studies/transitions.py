@@ -56,14 +56,19 @@ DEFAULT_OUT = "out/transition_baselines"
 DOC = ROOT / "docs" / "transitions.md"
 FIGURE = ROOT / "docs" / "figures" / "transition_baselines.png"
 COMMAND = "manta-drake study transitions"
-COLOURS = {"potential/descent": "C0", "normalised/descent": "C2", "linear/direct": "C1",
-           "switch/direct": "C3"}
+COLOURS = {
+    "potential/descent": "C0",
+    "normalised/descent": "C2",
+    "linear/direct": "C1",
+    "switch/direct": "C3",
+}
 NUMBER_WORDS = {2: "two", 3: "three", 4: "four", 5: "five"}
 
 
 # ----------------------------------------------------------------------------------------
 # Metric functions: plain numpy, tested on synthetic signals (tests/test_transition_baselines.py)
 # ----------------------------------------------------------------------------------------
+
 
 def window_mask(t, start: float, end: float) -> np.ndarray:
     """Samples with start <= t <= end."""
@@ -148,8 +153,14 @@ def target_outside(blend: str, z_t: float = 1.0, z=None, s=None) -> dict:
     envelopes = [gait_envelope(g) for g in gaits]
     j_lo = np.min([lo for lo, _ in envelopes], axis=0)
     j_hi = np.max([hi for _, hi in envelopes], axis=0)
-    best = {"params_rad": 0.0, "params_at": None, "param": None,
-            "joints_rad": 0.0, "joints_at": None, "joint": None}
+    best = {
+        "params_rad": 0.0,
+        "params_at": None,
+        "param": None,
+        "joints_rad": 0.0,
+        "joints_at": None,
+        "joint": None,
+    }
     for zi in z:
         for si in s:
             psi_d = target_params(zi, si, *gaits, z_t, blend)
@@ -205,8 +216,9 @@ def running_envelope(t, x, width: float):
     return lo, hi
 
 
-def joint_settle_time(t, q, lo_target, hi_target, tol: float, period: float,
-                      start: float, end: float):
+def joint_settle_time(
+    t, q, lo_target, hi_target, tol: float, period: float, start: float, end: float
+):
     """The first time s in [start, end - period] from which the commanded joints' range over
     every following period-long window stays within ``tol`` of [lo_target, hi_target] (both
     ends, every joint); None if the last full window is still off."""
@@ -252,6 +264,7 @@ def transition_event(t, psi_d, source, target, tol: float, after: float = -np.in
 # The runs
 # ----------------------------------------------------------------------------------------
 
+
 def make_scenario(blend: str, follow: str, duration: float | None):
     from manta_drake.scenario import load_scenario
 
@@ -269,13 +282,18 @@ def simulate_all(out: pathlib.Path, duration: float | None) -> None:
 
     for label, blend, follow, folder in METHODS:
         scenario = make_scenario(blend, follow, duration)
-        print(f"[{label}] simulating {scenario.duration:g} s of {SCENARIO} "
-              f"(blend={blend}, follow={follow}) -> {out / folder}", flush=True)
+        print(
+            f"[{label}] simulating {scenario.duration:g} s of {SCENARIO} "
+            f"(blend={blend}, follow={follow}) -> {out / folder}",
+            flush=True,
+        )
         start = time.perf_counter()
         result = simulate.run(scenario, out / folder, progress=True)
-        print(f"[{label}] done in {time.perf_counter() - start:.0f} s wall, status "
-              f"{result.metrics['status']}, transitions {result.metrics.get('transitions')}",
-              flush=True)
+        print(
+            f"[{label}] done in {time.perf_counter() - start:.0f} s wall, status "
+            f"{result.metrics['status']}, transitions {result.metrics.get('transitions')}",
+            flush=True,
+        )
 
 
 def load_run(folder: pathlib.Path) -> tuple[dict, dict]:
@@ -302,10 +320,11 @@ def joint_limits(params=None) -> tuple[np.ndarray, np.ndarray]:
 
     handles = add_plant(DiagramBuilder(), with_pool=False, robot_params=params)
     plant = handles.plant
-    actuators = [plant.get_joint_actuator(i)
-                 for i in plant.GetJointActuatorIndices(handles.robot)]
-    return (np.array([a.effort_limit() for a in actuators]),
-            np.array([a.joint().velocity_upper_limits()[0] for a in actuators]))
+    actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(handles.robot)]
+    return (
+        np.array([a.effort_limit() for a in actuators]),
+        np.array([a.joint().velocity_upper_limits()[0] for a in actuators]),
+    )
 
 
 def facts(scenario, effort, velocity) -> dict:
@@ -314,15 +333,25 @@ def facts(scenario, effort, velocity) -> dict:
 
     tr, c = scenario.transition, scenario.cpg
     change = np.abs(wrap(GAITS["trot"].to_vector() - GAITS["swim"].to_vector())).max()
-    return {"max_descent_step": tr.alpha * tr.g * tr.T, "period_ms": 1e3 * tr.period,
-            "a": c.a, "b": c.b, "effort": f"{effort.min():g}" if np.ptp(effort) == 0
-            else f"{effort.min():g}-{effort.max():g}",
-            "velocity": f"{velocity.min():g}" if np.ptp(velocity) == 0
-            else f"{velocity.min():g}-{velocity.max():g}",
-            "change": change, "settle_tol": SETTLE_FRACTION * change,
-            "tolerance": tr.arrival_tolerance, "frequency": c.frequency_hz,
-            "log_ms": 1e3 * scenario.log_period, "z_t": tr.z_t,
-            "commands": [(c.time, c.fill) for c in scenario.balloon.schedule]}
+    return {
+        "max_descent_step": tr.alpha * tr.g * tr.T,
+        "period_ms": 1e3 * tr.period,
+        "a": c.a,
+        "b": c.b,
+        "effort": f"{effort.min():g}"
+        if np.ptp(effort) == 0
+        else f"{effort.min():g}-{effort.max():g}",
+        "velocity": f"{velocity.min():g}"
+        if np.ptp(velocity) == 0
+        else f"{velocity.min():g}-{velocity.max():g}",
+        "change": change,
+        "settle_tol": SETTLE_FRACTION * change,
+        "tolerance": tr.arrival_tolerance,
+        "frequency": c.frequency_hz,
+        "log_ms": 1e3 * scenario.log_period,
+        "z_t": tr.z_t,
+        "commands": [(c.time, c.fill) for c in scenario.balloon.schedule],
+    }
 
 
 def balloon_times(scenario) -> list[float]:
@@ -332,9 +361,14 @@ def balloon_times(scenario) -> list[float]:
 def motion_metrics(log: dict, windows) -> dict:
     """Commanded step and rate, measured velocity, torque peak, roll and pitch excursion over
     the union of ``windows`` [(start, end)] (steps, rates and excursions within each)."""
-    out = {"max_cmd_step_rad": np.nan, "max_cmd_rate_rad_s": np.nan,
-           "max_meas_vel_rad_s": np.nan, "peak_torque_nm": np.nan,
-           "roll_exc_deg": np.nan, "pitch_exc_deg": np.nan}
+    out = {
+        "max_cmd_step_rad": np.nan,
+        "max_cmd_rate_rad_s": np.nan,
+        "max_meas_vel_rad_s": np.nan,
+        "peak_torque_nm": np.nan,
+        "roll_exc_deg": np.nan,
+        "pitch_exc_deg": np.nan,
+    }
 
     def put(key, value):
         if np.isfinite(value):
@@ -344,8 +378,10 @@ def motion_metrics(log: dict, windows) -> dict:
         wc = window_mask(log["t_command"], a, b)
         if wc.sum() >= 2:
             put("max_cmd_step_rad", max_step(log["commanded_joint_angles"][wc]))
-            put("max_cmd_rate_rad_s", max_rate(log["t_command"][wc],
-                                               log["commanded_joint_angles"][wc]))
+            put(
+                "max_cmd_rate_rad_s",
+                max_rate(log["t_command"][wc], log["commanded_joint_angles"][wc]),
+            )
         w = window_mask(log["t"], a, b)
         if w.any():
             put("max_meas_vel_rad_s", peak_abs(log["joint_velocities"][w]))
@@ -374,8 +410,13 @@ def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]
     for k, (src, dst) in enumerate(TRANSITIONS):
         source, target = GAITS[src].to_vector(), GAITS[dst].to_vector()
         t_cmd, t_next = events[k], min(events[k + 1], t_end)
-        row = {"method": label, "transition": f"{src}->{dst}", "balloon_command_s": t_cmd,
-               "blend": tr.blend, "follow": tr.follow}
+        row = {
+            "method": label,
+            "transition": f"{src}->{dst}",
+            "balloon_command_s": t_cmd,
+            "blend": tr.blend,
+            "follow": tr.follow,
+        }
         rows.append(row)
         t0 = transition_event(t_z, psi_d, source, target, tr.arrival_tolerance, after=t_cmd)
         row["event_s"] = t0
@@ -394,14 +435,16 @@ def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]
         # ... and the commanded joints: their range over each 1/f window within 2 deg of the
         # target gait's X -+ |R|.
         lo_g, hi_g = gait_envelope(target)
-        s = joint_settle_time(tc, qc, lo_g, hi_g, np.radians(SETTLE_JOINT_DEG),
-                              1.0 / DEFAULT_FREQUENCY_HZ, t0, t1)
+        s = joint_settle_time(
+            tc, qc, lo_g, hi_g, np.radians(SETTLE_JOINT_DEG), 1.0 / DEFAULT_FREQUENCY_HZ, t0, t1
+        )
         row["settle_joints_s"] = None if s is None else s - t0
         # Unexpected values: the commanded joints outside the range they span in the steady
         # parts of the two gaits: the STEADY_S s before the balloon command that causes the
         # transition and the STEADY_S s before the next command (or the run's end).
-        steady = window_mask(tc, t_cmd - STEADY_S, t_cmd) | window_mask(tc, t_next - STEADY_S,
-                                                                         t_next)
+        steady = window_mask(tc, t_cmd - STEADY_S, t_cmd) | window_mask(
+            tc, t_next - STEADY_S, t_next
+        )
         lo_a, hi_a = gait_envelope(source)
         lo_b, hi_b = gait_envelope(target)
         if t_next - STEADY_S > t1 and window_mask(tc, t_cmd - STEADY_S, t_cmd).any():
@@ -412,51 +455,71 @@ def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]
             ex = np.maximum(np.maximum(lo - qc[wc], qc[wc] - hi), 0.0).max(axis=0)
             j = int(ex.argmax())
             row["worst_steady"] = {
-                "joint": j, "steady": [float(lo[j]), float(hi[j])],
+                "joint": j,
+                "steady": [float(lo[j]), float(hi[j])],
                 "gaits": [float(min(lo_a[j], lo_b[j])), float(max(hi_a[j], hi_b[j]))],
-                "window": [float(qc[wc][:, j].min()), float(qc[wc][:, j].max())]}
+                "window": [float(qc[wc][:, j].min()), float(qc[wc][:, j].max())],
+            }
         else:
             row["outside_steady_deg"] = float("nan")
-        row["outside_gaits_deg"] = float(np.degrees(outside(
-            qc[wc], np.minimum(lo_a, lo_b), np.maximum(hi_a, hi_b))))
-        row["worst_joint"] = int(np.argmax(np.maximum(
-            np.maximum(np.minimum(lo_a, lo_b) - qc[wc], qc[wc] - np.maximum(hi_a, hi_b)),
-            0).max(axis=0)))
+        row["outside_gaits_deg"] = float(
+            np.degrees(outside(qc[wc], np.minimum(lo_a, lo_b), np.maximum(hi_a, hi_b)))
+        )
+        row["worst_joint"] = int(
+            np.argmax(
+                np.maximum(
+                    np.maximum(np.minimum(lo_a, lo_b) - qc[wc], qc[wc] - np.maximum(hi_a, hi_b)), 0
+                ).max(axis=0)
+            )
+        )
         # z_hat at the surface, in the steady swim windows: the noise floor the blends see.
-        zs = [log["z_hat"][window_mask(t_z, a, b), 0] for a, b in
-              ((t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next))]
-        row["z_hat_steady_range"] = [[float(z.min()), float(z.max())] if len(z) else None
-                                     for z in zs]
+        zs = [
+            log["z_hat"][window_mask(t_z, a, b), 0]
+            for a, b in ((t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next))
+        ]
+        row["z_hat_steady_range"] = [
+            [float(z.min()), float(z.max())] if len(z) else None for z in zs
+        ]
         # How often psi (the CPG's parameters) changed between the two gaits in the window
         # (a chattering switch changes more than once).
         from manta_drake import metrics as M
 
         wp = window_mask(t_p, ta, t1)
         row["psi_gait_changes"] = gait_changes(
-            M.behaviour_at(psi[wp], {src: source, dst: target}, tr.arrival_tolerance), src)
+            M.behaviour_at(psi[wp], {src: source, dst: target}, tr.arrival_tolerance), src
+        )
         # First arrival of psi at the new gait (metrics.json's rule), up to the run's end.
         arrived = np.flatnonzero((t_p >= t0) & at_behaviour(psi, target, tr.arrival_tolerance))
         row["arrival_s"] = float(t_p[arrived[0]] - t0) if len(arrived) else None
         # Where the commanded joints leave the two gaits' range the most, and why: the CPG
         # parameters (amplitude R, bias X of that joint) and z_hat at that moment.
-        ex = np.maximum(np.maximum(np.minimum(lo_a, lo_b) - qc[wc],
-                                   qc[wc] - np.maximum(hi_a, hi_b)), 0.0)
+        ex = np.maximum(
+            np.maximum(np.minimum(lo_a, lo_b) - qc[wc], qc[wc] - np.maximum(hi_a, hi_b)), 0.0
+        )
         i, j = np.unravel_index(int(ex.argmax()), ex.shape)
         if ex[i, j] > 1e-4:  # rad; below that it is round-off at a gait's own extreme
             tw = float(tc[wc][i])
             p = psi[min(np.searchsorted(t_p, tw, side="right") - 1, len(psi) - 1)]
             n = p.size // 4
             zi = float(log["z_hat"][max(np.searchsorted(t_z, tw, side="right") - 1, 0), 0])
-            row["worst"] = {"t_s": tw, "joint": j, "q_rad": float(qc[wc][i, j]),
-                            "R": float(p[j]), "X": float(p[n + j]), "z_hat": zi,
-                            "lo": float(min(lo_a[j], lo_b[j])),
-                            "hi": float(max(hi_a[j], hi_b[j]))}
+            row["worst"] = {
+                "t_s": tw,
+                "joint": j,
+                "q_rad": float(qc[wc][i, j]),
+                "R": float(p[j]),
+                "X": float(p[n + j]),
+                "z_hat": zi,
+                "lo": float(min(lo_a[j], lo_b[j])),
+                "hi": float(max(hi_a[j], hi_b[j])),
+            }
         # The same motion metrics over the steady parts of the two gaits, for reference.
-        row["steady"] = motion_metrics(log, [(t_cmd - STEADY_S, t_cmd),
-                                             (t_next - STEADY_S, t_next)])
+        row["steady"] = motion_metrics(
+            log, [(t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next)]
+        )
         # Transitions as metrics.json names them (psi at a behaviour, 0.05 rad).
-        row["metrics_json"] = [x for x in metrics.get("transitions", [])
-                               if x["from"] == src and x["to"] == dst]
+        row["metrics_json"] = [
+            x for x in metrics.get("transitions", []) if x["from"] == src and x["to"] == dst
+        ]
     return rows
 
 
@@ -467,8 +530,9 @@ def check_direct_follow(log: dict, scenario) -> float:
     psi_d = target_series(log["z_hat"], tr.blend, tr.z_t)
     t_p, psi = log["t_cpg_params"], log["cpg_params"]
     idx = np.searchsorted(t_p, log["t_z_hat"] + tr.period - 1e-9)
-    ok = (idx < len(t_p)) & np.isclose(t_p[np.minimum(idx, len(t_p) - 1)],
-                                       log["t_z_hat"] + tr.period, atol=1e-9)
+    ok = (idx < len(t_p)) & np.isclose(
+        t_p[np.minimum(idx, len(t_p) - 1)], log["t_z_hat"] + tr.period, atol=1e-9
+    )
     return float(np.abs(wrap(psi[idx[ok]] - psi_d[ok])).max()) if ok.any() else float("nan")
 
 
@@ -559,12 +623,10 @@ def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> Non
             col = COLOURS[label]
             m = window_mask(log["t_command"], t0 - lead, t0 + HORIZON_S)
             tt = log["t_command"][m] - t0
-            axes[0, c].plot(tt, log["commanded_joint_angles"][m, j], color=col, lw=0.8,
-                            label=label)
+            axes[0, c].plot(tt, log["commanded_joint_angles"][m, j], color=col, lw=0.8, label=label)
             m = window_mask(log["t"], t0 - lead, t0 + HORIZON_S)
             tt = log["t"][m] - t0
-            axes[1, c].plot(tt, np.degrees(log["body_rpy"][m, 1]), color=col, lw=0.8,
-                            label=label)
+            axes[1, c].plot(tt, np.degrees(log["body_rpy"][m, 1]), color=col, lw=0.8, label=label)
             if "joint_torque" in log:
                 mt = window_mask(log["t_joint_torque"], t0 - lead, t0 + HORIZON_S)
                 # The largest |torque| of the 16 joints over each 50 ms (the raw 1 ms
@@ -574,16 +636,26 @@ def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> Non
                 n = 50
                 k = len(tq) // n
                 if k:
-                    axes[2, c].plot(ttq[: k * n].reshape(k, n)[:, 0],
-                                    tq[: k * n].reshape(k, n).max(axis=1), color=col, lw=0.8,
-                                    label=f"{label} (peak {row['peak_torque_nm']:.2f})")
+                    axes[2, c].plot(
+                        ttq[: k * n].reshape(k, n)[:, 0],
+                        tq[: k * n].reshape(k, n).max(axis=1),
+                        color=col,
+                        lw=0.8,
+                        label=f"{label} (peak {row['peak_torque_nm']:.2f})",
+                    )
             mz = window_mask(log["t_z_hat"], t0 - lead, t0 + HORIZON_S)
-            axes[3, c].plot(log["t_z_hat"][mz] - t0, log["z_hat"][mz, 0], color=col, lw=0.8,
-                            label=label)
+            axes[3, c].plot(
+                log["t_z_hat"][mz] - t0, log["z_hat"][mz, 0], color=col, lw=0.8, label=label
+            )
         lo_a, hi_a = gait_envelope(GAITS[src].to_vector())
         lo_b, hi_b = gait_envelope(GAITS[dst].to_vector())
-        axes[0, c].axhspan(min(lo_a[j], lo_b[j]), max(hi_a[j], hi_b[j]), color="0.9",
-                           zorder=0, label="range of the two gaits (X -+ |R|)")
+        axes[0, c].axhspan(
+            min(lo_a[j], lo_b[j]),
+            max(hi_a[j], hi_b[j]),
+            color="0.9",
+            zorder=0,
+            label="range of the two gaits (X -+ |R|)",
+        )
         axes[0, c].set_title(f"{name}: commanded {joint_names[j]}")
         axes[0, c].set_ylabel("rad")
         axes[1, c].set_title("body pitch")
@@ -598,8 +670,7 @@ def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> Non
     for ax in axes[:, 0]:
         ax.legend(fontsize=7, loc="best")
     axes[2, 1].legend(fontsize=7, loc="best")
-    fig.suptitle(f"{SCENARIO}: the transitions of {NUMBER_WORDS[len(runs)]} methods",
-                 fontsize=12)
+    fig.suptitle(f"{SCENARIO}: the transitions of {NUMBER_WORDS[len(runs)]} methods", fontsize=12)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -615,37 +686,49 @@ def reading(rows: list[dict]) -> list[str]:
     out = ["", "### What the numbers show (computed from the runs)", ""]
     for r in rows:
         if r.get("psi_gait_changes", 0) > 1:
-            out.append(f"* {r['method']}, {r['transition']}: psi went between the two gaits "
-                       f"{r['psi_gait_changes']} times within the window (the target chattered "
-                       "as z_hat crossed the threshold back and forth).")
+            out.append(
+                f"* {r['method']}, {r['transition']}: psi went between the two gaits "
+                f"{r['psi_gait_changes']} times within the window (the target chattered "
+                "as z_hat crossed the threshold back and forth)."
+            )
     for r in rows:
         w = r.get("worst")
         if not w:
             continue
-        text = (f"* {r['method']}, {r['transition']}: {JOINT_NAMES[w['joint']]} was commanded "
-                f"{w['q_rad']:.3f} rad at t = {w['t_s']:.2f} s, {r['outside_gaits_deg']:.1f} deg "
-                f"outside the two gaits' range [{w['lo']:.3f}, {w['hi']:.3f}] rad; there psi "
-                f"had that joint's amplitude R = {w['R']:.3f} and bias X = {w['X']:.3f} "
-                f"(X - |R| = {w['X'] - abs(w['R']):.3f}, X + |R| = {w['X'] + abs(w['R']):.3f}) "
-                f"with z_hat = {w['z_hat']:.2f}.")
-        descent = (" psi is still on its way, off the straight line between the gaits: "
-                   "Eq. (15)'s descent moves every parameter by at most alpha g T per update, "
-                   "so the parameters with the larger changes (the phases, up to pi) arrive "
-                   "last and meanwhile amplitude and bias combine as in neither gait.")
+        text = (
+            f"* {r['method']}, {r['transition']}: {JOINT_NAMES[w['joint']]} was commanded "
+            f"{w['q_rad']:.3f} rad at t = {w['t_s']:.2f} s, {r['outside_gaits_deg']:.1f} deg "
+            f"outside the two gaits' range [{w['lo']:.3f}, {w['hi']:.3f}] rad; there psi "
+            f"had that joint's amplitude R = {w['R']:.3f} and bias X = {w['X']:.3f} "
+            f"(X - |R| = {w['X'] - abs(w['R']):.3f}, X + |R| = {w['X'] + abs(w['R']):.3f}) "
+            f"with z_hat = {w['z_hat']:.2f}."
+        )
+        descent = (
+            " psi is still on its way, off the straight line between the gaits: "
+            "Eq. (15)'s descent moves every parameter by at most alpha g T per update, "
+            "so the parameters with the larger changes (the phases, up to pi) arrive "
+            "last and meanwhile amplitude and bias combine as in neither gait."
+        )
         if r.get("blend") == "potential":
             z = min(max(w["z_hat"], 0.0), 1.0)
             weights = np.cos(np.pi * z / 2) + np.sin(np.pi * z / 2)
             if weights > 1.01:
-                text += (f" At that z_hat Eq. (12)'s weights on the two gaits, cos(pi z/2) and "
-                         f"sin(pi z/2), sum to {weights:.2f} (Eq. 11's always to 1): the blend "
-                         "is not convex, so a joint can keep most of the swimming amplitude "
-                         "while its bias already moves toward the trot's.")
+                text += (
+                    f" At that z_hat Eq. (12)'s weights on the two gaits, cos(pi z/2) and "
+                    f"sin(pi z/2), sum to {weights:.2f} (Eq. 11's always to 1): the blend "
+                    "is not convex, so a joint can keep most of the swimming amplitude "
+                    "while its bias already moves toward the trot's."
+                )
             else:
-                text += (f" At that z_hat the target is a gait (Eq. (12)'s weights sum to "
-                         f"{weights:.2f});" + descent)
+                text += (
+                    f" At that z_hat the target is a gait (Eq. (12)'s weights sum to "
+                    f"{weights:.2f});" + descent
+                )
         elif r.get("blend") == "normalised":
-            text += (" The target psi_d is a convex blend, inside the gaits' range at every "
-                     "z_hat (below);" + descent)
+            text += (
+                " The target psi_d is a convex blend, inside the gaits' range at every "
+                "z_hat (below);" + descent
+            )
         out.append(text)
     for r in rows:
         w = r.get("worst_steady")
@@ -659,33 +742,50 @@ def reading(rows: list[dict]) -> list[str]:
                 f"the two gaits' X -+ |R| ([{w['gaits'][0]:.3f}, {w['gaits'][1]:.3f}] rad): "
                 f"in the steady windows that joint's commands span only "
                 f"[{w['steady'][0]:.3f}, {w['steady'][1]:.3f}] rad, narrower than "
-                "X -+ |R|.")
-    surface = [r["z_hat_steady_range"][0] for r in rows
-               if r["transition"] == "swim->trot" and "z_hat_steady_range" in r]
-    surface += [r["z_hat_steady_range"][1] for r in rows
-                if r["transition"] == "trot->swim" and "z_hat_steady_range" in r]
+                "X -+ |R|."
+            )
+    surface = [
+        r["z_hat_steady_range"][0]
+        for r in rows
+        if r["transition"] == "swim->trot" and "z_hat_steady_range" in r
+    ]
+    surface += [
+        r["z_hat_steady_range"][1]
+        for r in rows
+        if r["transition"] == "trot->swim" and "z_hat_steady_range" in r
+    ]
     surface = [x for x in surface if x]
     if surface:
         z_hi = max(x[1] for x in surface)
         z_lo = min(x[0] for x in surface)
         gaits = [GAITS[b].to_vector() for b in BEHAVIOURS]
-        dev = {blend: float(np.abs(wrap(target_params(z_hi, 0.0, *gaits, 1.0, blend)
-                                        - gaits[0])).max())
-               for blend in ("potential", "normalised", "linear", "switch")}
-        varies = (" (the sensor's depth varies as the robot swims)"
-                  if f"{z_lo:.2f}" != f"{z_hi:.2f}" else "")
-        text = (f"* In steady swimming at the surface (the {STEADY_S:g} s windows) z_hat spans "
-                f"[{z_lo:.2f}, {z_hi:.2f}]{varies}. "
-                f"At z_hat = {z_hi:.2f} the target psi_d is up to {dev['potential']:.2f} rad "
-                f"from the swim gait with Eq. (12), {dev['normalised']:.2f} rad with the "
-                f"normalised blend, {dev['linear']:.2f} rad with Eq. (11) and "
-                f"{dev['switch']:.2f} rad with the switch (threshold 1/2).")
+        dev = {
+            blend: float(
+                np.abs(wrap(target_params(z_hi, 0.0, *gaits, 1.0, blend) - gaits[0])).max()
+            )
+            for blend in ("potential", "normalised", "linear", "switch")
+        }
+        varies = (
+            " (the sensor's depth varies as the robot swims)"
+            if f"{z_lo:.2f}" != f"{z_hi:.2f}"
+            else ""
+        )
+        text = (
+            f"* In steady swimming at the surface (the {STEADY_S:g} s windows) z_hat spans "
+            f"[{z_lo:.2f}, {z_hi:.2f}]{varies}. "
+            f"At z_hat = {z_hi:.2f} the target psi_d is up to {dev['potential']:.2f} rad "
+            f"from the swim gait with Eq. (12), {dev['normalised']:.2f} rad with the "
+            f"normalised blend, {dev['linear']:.2f} rad with Eq. (11) and "
+            f"{dev['switch']:.2f} rad with the switch (threshold 1/2)."
+        )
         tol = SETTLE_FRACTION * np.abs(wrap(gaits[1] - gaits[0])).max()
         if min(dev["potential"], dev["linear"]) > tol:
-            text += (f" Both blends' targets leave the {SETTLE_FRACTION:.0%} band "
-                     f"({tol:.3f} rad) at the surface, so after trot -> swim their CPG "
-                     "parameters cannot settle in it; the first arrival shows when they "
-                     "first reach the swim gait.")
+            text += (
+                f" Both blends' targets leave the {SETTLE_FRACTION:.0%} band "
+                f"({tol:.3f} rad) at the surface, so after trot -> swim their CPG "
+                "parameters cannot settle in it; the first arrival shows when they "
+                "first reach the swim gait."
+            )
         out.append(text)
     return out
 
@@ -693,21 +793,37 @@ def reading(rows: list[dict]) -> list[str]:
 def target_section(z_t: float) -> list[str]:
     """The table of ``target_outside`` for each method's blend: how far the target alone
     leaves the gaits' range, over every estimate."""
-    out = ["", "### The targets over every estimate (computed from the blends, no run)", "",
-           (f"psi_d of each blend (z_t = {z_t:g}) on a grid of 401 z_hat x 21 s_hat in [0, 1], "
+    out = [
+        "",
+        "### The targets over every estimate (computed from the blends, no run)",
+        "",
+        (
+            f"psi_d of each blend (z_t = {z_t:g}) on a grid of 401 z_hat x 21 s_hat in [0, 1], "
             "against the range of the three gaits it blends (swim, trot, turning): the largest "
             "distance of any of its 64 entries outside [min, max] of that entry over the gaits, "
             "and of its joint envelope [X - |R|, X + |R|] (what a CPG locked to psi_d commands) "
-            "outside [min (X - |R|), max (X + |R|)] over the gaits."), "",
-           ("| blend | psi_d entry outside (deg) | at z_hat, s_hat | joint envelope outside "
-            "(deg) | at z_hat, s_hat |"), "| --- | --- | --- | --- | --- |"]
+            "outside [min (X - |R|), max (X + |R|)] over the gaits."
+        ),
+        "",
+        (
+            "| blend | psi_d entry outside (deg) | at z_hat, s_hat | joint envelope outside "
+            "(deg) | at z_hat, s_hat |"
+        ),
+        "| --- | --- | --- | --- | --- |",
+    ]
     for _, blend, _, _ in METHODS:
         r = target_outside(blend, z_t)
         # Below 1e-9 rad the distance is round-off of a convex blend at a gait's own extreme.
-        at = {k: f"{r[k][0]:.2f}, {r[k][1]:.2f}" if r[k] and r[k.replace("_at", "_rad")] > 1e-9
-              else "n/a" for k in ("params_at", "joints_at")}
-        out.append(f"| {blend} | {np.degrees(r['params_rad']):.1f} | {at['params_at']} | "
-                   f"{np.degrees(r['joints_rad']):.1f} | {at['joints_at']} |")
+        at = {
+            k: f"{r[k][0]:.2f}, {r[k][1]:.2f}"
+            if r[k] and r[k.replace("_at", "_rad")] > 1e-9
+            else "n/a"
+            for k in ("params_at", "joints_at")
+        }
+        out.append(
+            f"| {blend} | {np.degrees(r['params_rad']):.1f} | {at['params_at']} | "
+            f"{np.degrees(r['joints_rad']):.1f} | {at['joints_at']} |"
+        )
     return out
 
 
@@ -725,11 +841,15 @@ COMPARED = (
     ("roll_exc_deg", "roll exc.", "deg", "{:.1f}"),
 )
 TIME_KEYS = ("arrival_s", "settle_params_s", "settle_joints_s")
-SMOOTH_KEYS = ("max_cmd_rate_rad_s", "max_meas_vel_rad_s", "peak_torque_nm", "pitch_exc_deg",
-               "roll_exc_deg")
+SMOOTH_KEYS = (
+    "max_cmd_rate_rad_s",
+    "max_meas_vel_rad_s",
+    "peak_torque_nm",
+    "pitch_exc_deg",
+    "roll_exc_deg",
+)
 RANGE_KEYS = ("outside_gaits_deg", "outside_steady_deg")
-CATEGORIES = (("in time", TIME_KEYS), ("in smoothness", SMOOTH_KEYS),
-              ("in range", RANGE_KEYS))
+CATEGORIES = (("in time", TIME_KEYS), ("in smoothness", SMOOTH_KEYS), ("in range", RANGE_KEYS))
 
 
 def _shown(row: dict, key: str, spec: str):
@@ -762,7 +882,8 @@ def normalised_section(rows: list[dict], z_t: float) -> list[str]:
                 # One of them is still off at the window's end.
                 late = "normalised" if a is None else "Eq. (12)"
                 (costs if a is None else gains)[category[key]].append(
-                    f"{what} not within the window for {late} ({name})")
+                    f"{what} not within the window for {late} ({name})"
+                )
                 continue
             if a is None or b is None or a == b:
                 continue
@@ -770,46 +891,68 @@ def normalised_section(rows: list[dict], z_t: float) -> list[str]:
             kind = "later" if key in TIME_KEYS else "larger"
             better = "earlier" if key in TIME_KEYS else "smaller"
             (costs if a > b else gains)[category[key]].append(
-                f"{what} {d} {unit} {kind if a > b else better} ({name})")
+                f"{what} {d} {unit} {kind if a > b else better} ({name})"
+            )
         out.append(f"* {name}: " + "; ".join(parts) + ".")
     target = target_outside("normalised", z_t)
     paper = target_outside("potential", z_t)
+
     def largest(method):
-        values = [r["outside_gaits_deg"] for r in rows if r["method"] == method
-                  and np.isfinite(r.get("outside_gaits_deg", np.nan))]
+        values = [
+            r["outside_gaits_deg"]
+            for r in rows
+            if r["method"] == method and np.isfinite(r.get("outside_gaits_deg", np.nan))
+        ]
         return max(values) if values else float("nan")
 
     run_n, run_p = largest(new), largest(ref)
-    text = (f"* In range: the normalised target never leaves the gaits' range (at most "
-            f"{np.degrees(target['params_rad']):.1f} deg on any entry and "
-            f"{np.degrees(target['joints_rad']):.1f} deg on the joint envelope, over every "
-            f"estimate; Eq. (12)'s target: {np.degrees(paper['params_rad']):.1f} and "
-            f"{np.degrees(paper['joints_rad']):.1f} deg). In these runs its commanded joints "
-            f"left the two gaits' range by at most {run_n:.1f} deg"
-            + (f" ({run_n:.0e} deg: round-off)" if 0.0 < run_n < 1e-6 else "")
-            + f", Eq. (12)'s by {run_p:.1f} deg")
+    text = (
+        f"* In range: the normalised target never leaves the gaits' range (at most "
+        f"{np.degrees(target['params_rad']):.1f} deg on any entry and "
+        f"{np.degrees(target['joints_rad']):.1f} deg on the joint envelope, over every "
+        f"estimate; Eq. (12)'s target: {np.degrees(paper['params_rad']):.1f} and "
+        f"{np.degrees(paper['joints_rad']):.1f} deg). In these runs its commanded joints "
+        f"left the two gaits' range by at most {run_n:.1f} deg"
+        + (f" ({run_n:.0e} deg: round-off)" if 0.0 < run_n < 1e-6 else "")
+        + f", Eq. (12)'s by {run_p:.1f} deg"
+    )
     if run_n >= 0.05:
-        text += ("; what remains comes from the descent, not the target: psi follows a "
-                 "convex target off the straight line between the gaits (above).")
+        text += (
+            "; what remains comes from the descent, not the target: psi follows a "
+            "convex target off the straight line between the gaits (above)."
+        )
     else:
         text += "."
     out.append(text)
 
     def listed(found: dict, none: str) -> str:
-        return "; ".join(f"{c}, " + (", ".join(found[c]) if found[c] else none)
-                         for c, _ in CATEGORIES)
+        return "; ".join(
+            f"{c}, " + (", ".join(found[c]) if found[c] else none) for c, _ in CATEGORIES
+        )
 
-    out.append("* What it costs against Eq. (12) (larger or later, to the digits shown): "
-               + listed(costs, "nothing") + ".")
+    out.append(
+        "* What it costs against Eq. (12) (larger or later, to the digits shown): "
+        + listed(costs, "nothing")
+        + "."
+    )
     out.append("* What it gains (smaller or earlier): " + listed(gains, "nothing") + ".")
-    out.append("* One run per method with the same seed: the robot's own motion (sinking, "
-               "landing, rising) differs between the runs, and this page does not measure the "
-               "spread over seeds, so small differences are not a ranking.")
+    out.append(
+        "* One run per method with the same seed: the robot's own motion (sinking, "
+        "landing, rising) differs between the runs, and this page does not measure the "
+        "spread over seeds, so small differences are not a ranking."
+    )
     return out
 
 
-def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: pathlib.Path,
-              command: str, duration: float, f: dict) -> None:
+def write_doc(
+    rows: list[dict],
+    checks: dict,
+    path: pathlib.Path,
+    figure_path: pathlib.Path,
+    command: str,
+    duration: float,
+    f: dict,
+) -> None:
     from manta_drake.studies.stamp import stamp_line, write_stamped
 
     rel_fig = pathlib.Path(figure_path).resolve()
@@ -819,9 +962,11 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
     def best(key, transition):
         """The method(s) with the largest value (all of them on a tie, to the shown digits)."""
         spec = next(s for k, _, s in COLUMNS if k == key)
-        vals = [(float(spec.format(r[key])), r["method"]) for r in rows
-                if r["transition"] == transition and r.get(key) is not None
-                and np.isfinite(r[key])]
+        vals = [
+            (float(spec.format(r[key])), r["method"])
+            for r in rows
+            if r["transition"] == transition and r.get(key) is not None and np.isfinite(r[key])
+        ]
         if not vals:
             return "n/a"
         top = max(v for v, _ in vals)
@@ -831,9 +976,11 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
     lines = [
         "# Transitions measured against baselines",
         "",
-        stamp_line(f"`{command}` ({runs} runs of {duration:g} s, one after the other; "
-                   "`--reuse` recomputes this page from the existing runs in `--out`, "
-                   f"default `{DEFAULT_OUT}`)."),
+        stamp_line(
+            f"`{command}` ({runs} runs of {duration:g} s, one after the other; "
+            "`--reuse` recomputes this page from the existing runs in `--out`, "
+            f"default `{DEFAULT_OUT}`)."
+        ),
         "Generated by `manta-drake study transitions`; do not edit by hand.",
         "",
         f"The scenario `{SCENARIO}` (swim at the surface; the balloon is commanded to "
@@ -933,16 +1080,22 @@ def write_doc(rows: list[dict], checks: dict, path: pathlib.Path, figure_path: p
             f"* {name}: largest commanded step: {best('max_cmd_step_rad', name)}; "
             f"largest torque peak: {best('peak_torque_nm', name)}; largest pitch excursion: "
             f"{best('pitch_exc_deg', name)}; largest excursion outside the steady envelope: "
-            f"{best('outside_steady_deg', name)}.")
+            f"{best('outside_steady_deg', name)}."
+        )
     lines += reading(rows)
     lines += target_section(f["z_t"])
     lines += normalised_section(rows, f["z_t"])
     lines += ["", "Checks made by the script on these runs:", ""]
     lines += [f"* {k}: {v}" for k, v in checks.items()]
-    lines += ["", f"![transitions]({rel_fig})", "",
-              "The figure: around each transition (t - t0), the commanded angle of the joint "
-              "that leaves the two gaits' range the most (grey: that range), the body pitch, "
-              f"the largest joint torque of the 16 and z_hat, for the {runs} methods.", ""]
+    lines += [
+        "",
+        f"![transitions]({rel_fig})",
+        "",
+        "The figure: around each transition (t - t0), the commanded angle of the joint "
+        "that leaves the two gaits' range the most (grey: that range), the body pitch, "
+        f"the largest joint torque of the 16 and z_hat, for the {runs} methods.",
+        "",
+    ]
     write_stamped(path, "\n".join(lines))
 
 
@@ -966,9 +1119,14 @@ def check_arguments(args, out: pathlib.Path, doc: pathlib.Path, fig_path: pathli
 
     if args.duration is not None:
         lo = shortest_duration()
-        check_in_range("--duration", args.duration, lo, MAX_DURATION_S,
-                       f"[{lo:g}, {MAX_DURATION_S:g}] s (the first balloon command of "
-                       f"{SCENARIO} and the {HORIZON_S:g} s window after it)")
+        check_in_range(
+            "--duration",
+            args.duration,
+            lo,
+            MAX_DURATION_S,
+            f"[{lo:g}, {MAX_DURATION_S:g}] s (the first balloon command of "
+            f"{SCENARIO} and the {HORIZON_S:g} s window after it)",
+        )
     check_writable_folder(out, "--out", example=DEFAULT_OUT)
     if args.reuse:
         check_run_folders("--out", out, [folder for *_, folder in METHODS])
@@ -980,25 +1138,41 @@ def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study transitions``); returns the exit status."""
     from manta_drake.studies.options import StudyParser
 
-    parser = StudyParser(prog=prog, description=__doc__.split("\n\n")[0],
-                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=None, help="folder of the runs "
-                        f"(default {DEFAULT_OUT} in the repository)")
-    parser.add_argument("--duration", type=float, default=None,
-                        help="simulate only this many seconds (a quick check; the table and "
-                        "figure then go into --out unless --doc/--figure say otherwise)")
-    parser.add_argument("--reuse", action="store_true",
-                        help="do not simulate: recompute the table from the runs in --out")
-    parser.add_argument("--doc", default=None,
-                        help=f"markdown output (default {DOC.relative_to(ROOT)})")
-    parser.add_argument("--figure", default=None,
-                        help=f"figure output (default {FIGURE.relative_to(ROOT)})")
+    parser = StudyParser(
+        prog=prog,
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--out", default=None, help=f"folder of the runs (default {DEFAULT_OUT} in the repository)"
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="simulate only this many seconds (a quick check; the table and "
+        "figure then go into --out unless --doc/--figure say otherwise)",
+    )
+    parser.add_argument(
+        "--reuse",
+        action="store_true",
+        help="do not simulate: recompute the table from the runs in --out",
+    )
+    parser.add_argument(
+        "--doc", default=None, help=f"markdown output (default {DOC.relative_to(ROOT)})"
+    )
+    parser.add_argument(
+        "--figure", default=None, help=f"figure output (default {FIGURE.relative_to(ROOT)})"
+    )
     args = parser.parse_args(argv)
     out = pathlib.Path(args.out) if args.out else ROOT / DEFAULT_OUT
     quick = args.duration is not None
     doc = pathlib.Path(args.doc) if args.doc else (out / "transitions.md" if quick else DOC)
-    fig_path = (pathlib.Path(args.figure) if args.figure
-                else (out / "transition_baselines.png" if quick else FIGURE))
+    fig_path = (
+        pathlib.Path(args.figure)
+        if args.figure
+        else (out / "transition_baselines.png" if quick else FIGURE)
+    )
     check_arguments(args, out, doc, fig_path)
     if not args.reuse:
         simulate_all(out, args.duration)
@@ -1019,22 +1193,23 @@ def main(argv=None, prog=None) -> int:
         runs[label] = (log, metrics)
         rows += analyse_method(log, metrics, scenario, label)
         if follow == "direct":
-            checks[f"{label}: logged cpg_params = psi_d(z_hat) one update later, max "
-                   "difference (rad)"] = f"{check_direct_follow(log, scenario):.2e}"
+            checks[
+                f"{label}: logged cpg_params = psi_d(z_hat) one update later, max difference (rad)"
+            ] = f"{check_direct_follow(log, scenario):.2e}"
         if "joint_torque" in log:  # the limit is the PD's, before the servo's braking
             pd = log["joint_torque"] + scenario.servo_braking() * log["joint_velocities"]
             at_limit = np.abs(pd) >= effort - 1e-9
-            limit = (f"{effort.min():g}" if np.ptp(effort) == 0
-                     else f"{effort.min():g}-{effort.max():g}")
-            checks[f"{label}: samples (1 ms) with a joint at its effort limit "
-                   f"({limit} N m), whole run"] = int(
-                       at_limit.any(axis=1).sum())
+            limit = (
+                f"{effort.min():g}" if np.ptp(effort) == 0 else f"{effort.min():g}-{effort.max():g}"
+            )
+            checks[
+                f"{label}: samples (1 ms) with a joint at its effort limit ({limit} N m), whole run"
+            ] = int(at_limit.any(axis=1).sum())
     command = COMMAND if not quick else f"{COMMAND} --duration {args.duration:g} --out {out}"
     print()
     print(markdown_table(with_references(rows)))
     figure(runs, rows, fig_path, JOINT_NAMES)
-    write_doc(rows, checks, doc, fig_path, command, duration,
-              facts(scenario, effort, velocity))
+    write_doc(rows, checks, doc, fig_path, command, duration, facts(scenario, effort, velocity))
     (out / "transition_baselines.json").write_text(json.dumps(rows, indent=2, default=float) + "\n")
     print(f"\nwrote {doc}, {fig_path} and {out / 'transition_baselines.json'}")
     return 0

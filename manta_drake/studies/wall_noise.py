@@ -50,19 +50,22 @@ def wall_frame(distance: float):
 def s_hat_samples(s, image, X_WC, noise_std: float, seeds) -> np.ndarray:
     """s_hat of the frame under ``noise_std`` for each seed, through the real pipeline."""
     cam = s.camera
-    to_cloud = DepthImageToPointCloud(camera_info(cam.width, cam.height, cam.fov_y_deg),
-                                      PixelType.kDepth32F, 1.0, BaseField.kXYZs)
+    to_cloud = DepthImageToPointCloud(
+        camera_info(cam.width, cam.height, cam.fov_y_deg), PixelType.kDepth32F, 1.0, BaseField.kXYZs
+    )
     context = to_cloud.CreateDefaultContext()
     to_cloud.camera_pose_input_port().FixValue(context, X_WC)
     out = []
     for seed in seeds:
         rng = np.random.default_rng(seed)
         n = image.data.size
-        noisy = noisy_depth(image.data, noise_std, 0.01, rng.standard_normal(n),
-                            rng.uniform(size=n))
+        noisy = noisy_depth(
+            image.data, noise_std, 0.01, rng.standard_normal(n), rng.uniform(size=n)
+        )
         filtered = ImageDepth32F(image.width(), image.height())
-        filtered.mutable_data[:] = median_filter_depth(noisy,
-                                                       s.wall_detector.depth_median_filter_px)
+        filtered.mutable_data[:] = median_filter_depth(
+            noisy, s.wall_detector.depth_median_filter_px
+        )
         to_cloud.depth_image_input_port().FixValue(context, filtered)
         xyz = to_cloud.point_cloud_output_port().Eval(context).xyzs()
         det = detect(xyz, s.wall_detector, X_WC.translation(), 0.0, X_WC.rotation().matrix()[:, 2])
@@ -78,10 +81,15 @@ MAX_SEEDS = 1000
 def main(argv=None, prog=None) -> int:
     """The command line (``manta-drake study wall-noise``); returns the exit status."""
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=8,
-                        help=f"noise seeds per noise level and distance (1 to {MAX_SEEDS})")
-    parser.add_argument("--out", default=str(ROOT / "docs" / "figures" / "s_hat_vs_noise.png"),
-                        help="the figure")
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        default=8,
+        help=f"noise seeds per noise level and distance (1 to {MAX_SEEDS})",
+    )
+    parser.add_argument(
+        "--out", default=str(ROOT / "docs" / "figures" / "s_hat_vs_noise.png"), help="the figure"
+    )
     args = parser.parse_args(argv)
     check_integer("--seeds", args.seeds, 1, MAX_SEEDS)  # before any frame is rendered
     check_figure_file("--out", args.out)
@@ -100,12 +108,17 @@ def main(argv=None, prog=None) -> int:
         table[d] = [s_hat_samples(s, image, X, mm * 1e-3, range(args.seeds)) for mm in NOISE_MM]
         mean = [v.mean() for v in table[d]]
         ax.plot(NOISE_MM, mean, marker="o", label=f"wall {d} m ahead")
-        ax.fill_between(NOISE_MM, [v.min() for v in table[d]], [v.max() for v in table[d]],
-                        alpha=0.12)
+        ax.fill_between(
+            NOISE_MM, [v.min() for v in table[d]], [v.max() for v in table[d]], alpha=0.12
+        )
     for i, mm in enumerate(NOISE_MM):
-        print(f"{mm:9.1f} " + " ".join(
-            f"{table[d][i].mean():7.2f} [{table[d][i].min():.2f},{table[d][i].max():.2f}]"
-            for d in DISTANCES))
+        print(
+            f"{mm:9.1f} "
+            + " ".join(
+                f"{table[d][i].mean():7.2f} [{table[d][i].min():.2f},{table[d][i].max():.2f}]"
+                for d in DISTANCES
+            )
+        )
     ax.set_xlabel("depth range noise (std) [mm]")
     ax.set_ylabel("s_hat (mean over seeds; band: min-max)")
     ax.set_ylim(-0.05, 1.05)

@@ -28,25 +28,37 @@ NO_RESULT = 1
 def add_sweep_parser(subparsers) -> None:
     """Adds ``manta-drake sweep``."""
     p = subparsers.add_parser(
-        "sweep", help="many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)",
+        "sweep",
+        help="many runs on a Dask cluster: grids, rows, Monte Carlo (docs/sweeps.md)",
         description="Runs every (base scenario, parameter set, seed) of a sweep file as a "
-                    "Dask task; writes DIR/results.csv, DIR/summary.png and DIR/runs/<id>/. "
-                    "Restarted with the same --out, it skips the runs already done. Exit "
-                    "status 1 when no run is ok or a run was lost to the cluster, 2 when "
-                    "the input is refused.")
+        "Dask task; writes DIR/results.csv, DIR/summary.png and DIR/runs/<id>/. "
+        "Restarted with the same --out, it skips the runs already done. Exit "
+        "status 1 when no run is ok or a run was lost to the cluster, 2 when "
+        "the input is refused.",
+    )
     p.add_argument("sweep", help="sweep YAML file (docs/sweeps.md)")
     p.add_argument("--out", required=True, help="output folder")
     add_cluster_arguments(p)
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="add to the file's `fixed` overrides, e.g. --set duration=2 (changes "
-                        "the run ids); repeatable")
-    p.add_argument("--limit", type=int, metavar="N",
-                   help=f"only the first N runs (1 to {MAX_RUNS}); only their parameter sets "
-                        "are drawn")
-    p.add_argument("--rerun-failed", action="store_true",
-                   help="run again the runs whose status is not ok")
-    p.add_argument("--dry-run", action="store_true",
-                   help="check the file and list the runs; simulate nothing")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="add to the file's `fixed` overrides, e.g. --set duration=2 (changes "
+        "the run ids); repeatable",
+    )
+    p.add_argument(
+        "--limit",
+        type=int,
+        metavar="N",
+        help=f"only the first N runs (1 to {MAX_RUNS}); only their parameter sets are drawn",
+    )
+    p.add_argument(
+        "--rerun-failed", action="store_true", help="run again the runs whose status is not ok"
+    )
+    p.add_argument(
+        "--dry-run", action="store_true", help="check the file and list the runs; simulate nothing"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -61,8 +73,10 @@ def sweep_main(args) -> int:
     try:
         return _sweep(args)
     except MemoryError:  # its message is empty: say what ran out
-        raise SweepError(f"{args.sweep}: out of memory while planning or running the sweep; "
-                         "use --limit or a smaller sweep") from None
+        raise SweepError(
+            f"{args.sweep}: out of memory while planning or running the sweep; "
+            "use --limit or a smaller sweep"
+        ) from None
 
 
 def _sweep(args) -> int:
@@ -80,21 +94,34 @@ def _sweep(args) -> int:
         return 0
     start = time.perf_counter()
     with cluster_client(args) as client:
-        result = run_sweep(config, args.out, client, progress=not args.quiet,
-                           limit=args.limit, rerun_failed=args.rerun_failed)
+        result = run_sweep(
+            config,
+            args.out,
+            client,
+            progress=not args.quiet,
+            limit=args.limit,
+            rerun_failed=args.rerun_failed,
+        )
     counts = ", ".join(f"{n} {status}" for status, n in sorted(result.counts.items()))
-    print(f"\n  {config.name}: {len(result.rows)} runs ({counts}); simulated now "
-          f"{len(result.simulated)} in {time.perf_counter() - start:.1f} s")
+    print(
+        f"\n  {config.name}: {len(result.rows)} runs ({counts}); simulated now "
+        f"{len(result.simulated)} in {time.perf_counter() - start:.1f} s"
+    )
     print(f"  table:  {result.table}")
     if result.figure:
         print(f"  figure: {result.figure}")
     print(f"  runs:   {pathlib.Path(args.out) / 'runs'}/<run_id>/")
     if not result.counts.get("ok"):
-        print(f"manta-drake: sweep {config.name}: no run is ok ({counts}); see "
-              f"{result.table}", file=sys.stderr)
+        print(
+            f"manta-drake: sweep {config.name}: no run is ok ({counts}); see {result.table}",
+            file=sys.stderr,
+        )
         return NO_RESULT
     if result.counts.get(LOST):
-        print(f"manta-drake: sweep {config.name}: {result.counts[LOST]} runs lost to the "
-              "cluster; run the same command again to finish them", file=sys.stderr)
+        print(
+            f"manta-drake: sweep {config.name}: {result.counts[LOST]} runs lost to the "
+            "cluster; run the same command again to finish them",
+            file=sys.stderr,
+        )
         return NO_RESULT
     return 0

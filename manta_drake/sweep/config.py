@@ -88,16 +88,16 @@ class RunSpec:
     invalid_reason: str = ""
 
 
-def check_config_keys(data: dict, schema, root: str, not_in_file=("folder",),
-                      error=SweepError) -> None:
+def check_config_keys(
+    data: dict, schema, root: str, not_in_file=("folder",), error=SweepError
+) -> None:
     """Checks a many-run file's keys and types against its dataclass (a sweep, calibration
     or optimisation spec); the ``not_in_file`` fields are set by the loader, never by the
     file. ``error`` (SweepError) names the path."""
     allowed = sorted(f.name for f in dc.fields(schema) if f.name not in not_in_file)
     for key in data:
         if key not in allowed:
-            raise error(f"{root}.{key}: unknown key (a typo?); allowed keys: "
-                        f"{', '.join(allowed)}")
+            raise error(f"{root}.{key}: unknown key (a typo?); allowed keys: {', '.join(allowed)}")
     try:
         check_keys(data, schema, root)
     except ScenarioError as e:
@@ -117,8 +117,9 @@ def check_parameter_name(name: str, links: dict, where: str) -> None:
     try:
         check_override_key(name)
     except ScenarioError as e:
-        raise SweepError(f"{where}: {e} (nor is it a link or one of {', '.join(DERIVED)})") \
-            from None
+        raise SweepError(
+            f"{where}: {e} (nor is it a link or one of {', '.join(DERIVED)})"
+        ) from None
 
 
 def _unwrap_optional(tp):
@@ -178,8 +179,9 @@ def canonical(value) -> str:
     return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
 
 
-def check_out_folder(out_dir, outputs=(), inputs=(), folders=(),
-                     option: str = "--out") -> pathlib.Path:
+def check_out_folder(
+    out_dir, outputs=(), inputs=(), folders=(), option: str = "--out"
+) -> pathlib.Path:
     """Checks, before anything is loaded or simulated, that a many-run command can write its
     outputs into ``out_dir`` (nothing is created here).
 
@@ -204,6 +206,8 @@ def check_out_folder(out_dir, outputs=(), inputs=(), folders=(),
     ours = {(out_dir / name).resolve(): name for name in outputs}
     for path in inputs:
         if path is not None and pathlib.Path(path).resolve() in ours:
-            raise SweepError(f"{option} {out_dir}: writing {ours[pathlib.Path(path).resolve()]} "
-                             f"would overwrite the input {path}; choose another output folder")
+            raise SweepError(
+                f"{option} {out_dir}: writing {ours[pathlib.Path(path).resolve()]} "
+                f"would overwrite the input {path}; choose another output folder"
+            )
     return out_dir

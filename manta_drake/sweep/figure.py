@@ -21,14 +21,14 @@ def _number(value) -> float:
 def _short(param: str) -> str:
     for prefix in _PREFIXES:
         if param.startswith(prefix):
-            return param[len(prefix):]
+            return param[len(prefix) :]
     return param
 
 
 def _listing(values, limit: int = 4) -> str:
     values = [str(v) for v in values]
     if len(values) > limit:
-        return ", ".join(values[:limit - 1]) + f", ... ({len(values)} in all)"
+        return ", ".join(values[: limit - 1]) + f", ... ({len(values)} in all)"
     return ", ".join(values)
 
 
@@ -82,15 +82,23 @@ def summary_figure(rows: list[dict], parameters: list[str], title: str):
     colours = {b: plt.cm.tab10(i % 10) for i, b in enumerate(bases)}
     xs = parameters or ["seed"]
     cats = {param: categories(rows, param) for param in xs}
-    fig, axes = plt.subplots(len(METRICS), 1 + len(xs), squeeze=False,
-                             figsize=(3.2 * (1 + len(xs)), 2.4 * len(METRICS) + 0.9))
+    fig, axes = plt.subplots(
+        len(METRICS),
+        1 + len(xs),
+        squeeze=False,
+        figsize=(3.2 * (1 + len(xs)), 2.4 * len(METRICS) + 0.9),
+    )
     for i, (key, label) in enumerate(METRICS):
         ax = axes[i, 0]
         data = [[_number(r.get(key)) for r in ok if r["base"] == b] for b in bases]
         data = [[v for v in d if math.isfinite(v)] or [math.nan] for d in data]
         ax.boxplot(data, whis=(0, 100))  # whiskers at min and max: the whole band
-        ax.set_xticks(range(1, len(bases) + 1), [pathlib.PurePath(str(b)).stem for b in bases],
-                      rotation=30, fontsize=8)
+        ax.set_xticks(
+            range(1, len(bases) + 1),
+            [pathlib.PurePath(str(b)).stem for b in bases],
+            rotation=30,
+            fontsize=8,
+        )
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
         if i == 0:
@@ -104,8 +112,12 @@ def summary_figure(rows: list[dict], parameters: list[str], title: str):
     handles = [plt.Line2D([], [], marker="o", ls="", color=colours[b], label=b) for b in bases]
     fig.legend(handles=handles, loc="upper right", fontsize=7, ncol=min(5, len(bases)))
     n_bad = len(rows) - len(ok)
-    fig.suptitle(f"{title}: {len(ok)} runs ok, {n_bad} not ok\nswept: "
-                 f"{swept_text(rows, parameters)}", x=0.02, ha="left", fontsize=9)
+    fig.suptitle(
+        f"{title}: {len(ok)} runs ok, {n_bad} not ok\nswept: {swept_text(rows, parameters)}",
+        x=0.02,
+        ha="left",
+        fontsize=9,
+    )
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     return fig
 
@@ -117,8 +129,11 @@ def _plot_against(ax, ok, bases, colours, key, param, cats) -> None:
         pts = [(r.get(param), _number(r.get(key))) for r in ok if r["base"] == b]
         if not pts:
             continue
-        xv = ([cats.index(str(x)) for x, _ in pts] if cats is not None
-              else [_number(x) for x, _ in pts])
+        xv = (
+            [cats.index(str(x)) for x, _ in pts]
+            if cats is not None
+            else [_number(x) for x, _ in pts]
+        )
         ax.plot(xv, [y for _, y in pts], "o", ms=3, alpha=0.7, color=colours[b])
     if cats is not None:
         ax.set_xticks(range(len(cats)), cats, rotation=30, fontsize=8)
@@ -126,8 +141,9 @@ def _plot_against(ax, ok, bases, colours, key, param, cats) -> None:
     ax.grid(alpha=0.3)
 
 
-def write_summary_figure(path: pathlib.Path, rows: list[dict], parameters: list[str],
-                         title: str) -> pathlib.Path:
+def write_summary_figure(
+    path: pathlib.Path, rows: list[dict], parameters: list[str], title: str
+) -> pathlib.Path:
     """Writes ``summary_figure(rows, parameters, title)`` to ``path`` (summary.png)."""
     fig = summary_figure(rows, parameters, title)
     import matplotlib.pyplot as plt  # after summary_figure chose the file backend

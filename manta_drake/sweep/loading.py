@@ -98,8 +98,10 @@ def validate_sweep(config: SweepConfig) -> None:
         except ScenarioError as e:
             raise SweepError(f"sweep.base: {e}") from None
         if file in files:  # two spellings of one file: one run under two ids
-            raise SweepError(f"sweep.base: {base} and {files[file]} are the same scenario "
-                             f"file ({file}); name it once")
+            raise SweepError(
+                f"sweep.base: {base} and {files[file]} are the same scenario "
+                f"file ({file}); name it once"
+            )
         files[file] = base
     if not config.seeds:
         raise SweepError("sweep.seeds: name at least one seed")
@@ -110,8 +112,10 @@ def validate_sweep(config: SweepConfig) -> None:
         raise SweepError(f"sweep.seeds: duplicate seeds in {short_repr(config.seeds)}")
     for name, keys in config.links.items():
         if "." in name or name in DERIVED or name in (schema_fields(Scenario) or {}):
-            raise SweepError(f"sweep.links.{name}: a link's name must not contain '.' nor be "
-                             "a scenario field or a derived parameter")
+            raise SweepError(
+                f"sweep.links.{name}: a link's name must not contain '.' nor be "
+                "a scenario field or a derived parameter"
+            )
         if not keys:
             raise SweepError(f"sweep.links.{name}: name at least one scenario key")
         for i, key in enumerate(keys):
@@ -119,8 +123,7 @@ def validate_sweep(config: SweepConfig) -> None:
                 check_override_key(key)
             except ScenarioError as e:
                 raise SweepError(f"sweep.links.{name}[{i}]: {e}") from None
-    modes = [m for m in ("grid", "rows", "random")
-             if getattr(config, m) not in ({}, [], None)]
+    modes = [m for m in ("grid", "rows", "random") if getattr(config, m) not in ({}, [], None)]
     if len(modes) > 1:
         raise SweepError(f"sweep: give one of grid, rows or random, not {' and '.join(modes)}")
     for name in config.fixed:
@@ -146,10 +149,15 @@ def validate_sweep(config: SweepConfig) -> None:
             raise SweepError("sweep.random.uniform: give at least one parameter: [low, high]")
         for name, bounds in r.uniform.items():
             check_parameter_name(name, config.links, f"sweep.random.uniform.{name}")
-            if len(bounds) != 2 or not all(math.isfinite(b) for b in bounds) \
-                    or bounds[0] > bounds[1]:
-                raise SweepError(f"sweep.random.uniform.{name}: expected [low, high] with "
-                                 f"low <= high, got {short_repr(bounds)}")
+            if (
+                len(bounds) != 2
+                or not all(math.isfinite(b) for b in bounds)
+                or bounds[0] > bounds[1]
+            ):
+                raise SweepError(
+                    f"sweep.random.uniform.{name}: expected [low, high] with "
+                    f"low <= high, got {short_repr(bounds)}"
+                )
     varied = set(parameter_names(config))
     for name in config.fixed:
         if name in varied:
@@ -176,7 +184,8 @@ def _check_size(config: SweepConfig) -> None:
         raise SweepError(
             f"sweep: {n} runs ({bases} base{'s' * (bases != 1)} x {sets} parameter "
             f"set{'s' * (sets != 1)} x {seeds} seed{'s' * (seeds != 1)}) is above the "
-            f"maximum of {MAX_RUNS} runs; split the sweep into smaller ones")
+            f"maximum of {MAX_RUNS} runs; split the sweep into smaller ones"
+        )
 
 
 def _check_distinct_values(name: str, values: list, links: dict) -> None:
@@ -186,11 +195,16 @@ def _check_distinct_values(name: str, values: list, links: dict) -> None:
     for value in values:
         key = canonical(typed_parameter(name, value, links))
         if key in seen:
-            same = "the same value" if json.dumps(seen[key]) == json.dumps(value) else \
-                "the same value once typed as the scenario field"
-            raise SweepError(f"sweep.grid.{name}: duplicate values in {short_repr(values)}: "
-                             f"{short_repr(seen[key])} and {short_repr(value)} are {same}; give "
-                             "each value once")
+            same = (
+                "the same value"
+                if json.dumps(seen[key]) == json.dumps(value)
+                else "the same value once typed as the scenario field"
+            )
+            raise SweepError(
+                f"sweep.grid.{name}: duplicate values in {short_repr(values)}: "
+                f"{short_repr(seen[key])} and {short_repr(value)} are {same}; give "
+                "each value once"
+            )
         seen[key] = value
 
 
@@ -200,8 +214,10 @@ def _check_distinct_rows(config: SweepConfig) -> None:
     for i, row in enumerate(config.rows):
         key = canonical({k: typed_parameter(k, v, config.links) for k, v in row.items()})
         if key in seen:
-            raise SweepError(f"sweep.rows[{i}]: the same values as sweep.rows[{seen[key]}] "
-                             "(compared as the scenario holds them); give each row once")
+            raise SweepError(
+                f"sweep.rows[{i}]: the same values as sweep.rows[{seen[key]}] "
+                "(compared as the scenario holds them); give each row once"
+            )
         seen[key] = i
 
 
@@ -228,5 +244,4 @@ def check_fixed_values(config: SweepConfig, file_fixed: dict | None = None) -> N
             try:
                 apply_overrides(scenario, expand_overrides(fixed, config.links))
             except ScenarioError as e:
-                raise SweepError(f"{where}: on base {base}: {' '.join(str(e).split())}") \
-                    from None
+                raise SweepError(f"{where}: on base {base}: {' '.join(str(e).split())}") from None

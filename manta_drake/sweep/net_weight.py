@@ -15,8 +15,13 @@ from manta_drake.scenario import Scenario
 from manta_drake.station.water import build_elements, deflated_net_weight_kg  # noqa: F401
 
 
-def hull_scale_for_net_weight(net_weight_kg: float, total_mass_kg: float, water_density: float,
-                              hull_volume_m3: float, other_volume_m3: float) -> float:
+def hull_scale_for_net_weight(
+    net_weight_kg: float,
+    total_mass_kg: float,
+    water_density: float,
+    hull_volume_m3: float,
+    other_volume_m3: float,
+) -> float:
     """Linear scale of the hull's sealed ellipsoid that gives a deflated net weight.
 
     The deflated robot's net weight is its mass minus the water displaced by its sealed
@@ -38,9 +43,11 @@ def hull_scale_for_net_weight(net_weight_kg: float, total_mass_kg: float, water_
         raise ValueError(f"net_weight_kg: {net_weight_kg!r} must be a finite number")
     target = (total_mass_kg - net_weight_kg) / water_density - other_volume_m3
     if target <= 0.0:
-        raise ValueError(f"net_weight_kg: {net_weight_kg} kg leaves the hull no sealed volume "
-                         f"(the robot weighs {total_mass_kg} kg; at most "
-                         f"{total_mass_kg - water_density * other_volume_m3:.3f} kg)")
+        raise ValueError(
+            f"net_weight_kg: {net_weight_kg} kg leaves the hull no sealed volume "
+            f"(the robot weighs {total_mass_kg} kg; at most "
+            f"{total_mass_kg - water_density * other_volume_m3:.3f} kg)"
+        )
     return (target / hull_volume_m3) ** (1.0 / 3.0)
 
 
@@ -53,8 +60,13 @@ def net_weight_scales(net_weight_kg: float, coeffs, params=None) -> dict[str, fl
     """
     params = params or DEFAULT_ROBOT
     volumes = build_elements(coeffs, params)["volume"]
-    s = hull_scale_for_net_weight(net_weight_kg, params.total_mass, coeffs.water_density.value,
-                                  float(volumes[0]), float(volumes[1:].sum()))
+    s = hull_scale_for_net_weight(
+        net_weight_kg,
+        params.total_mass,
+        coeffs.water_density.value,
+        float(volumes[0]),
+        float(volumes[1:].sum()),
+    )
     return {"body.sealed_semi_axes": s, "body.sealed_volume": s**3}
 
 
@@ -83,8 +95,9 @@ def apply_net_weight(scenario: Scenario, net_weight_kg) -> None:
         if key in scales:
             raise ScenarioError(f"net_weight_kg: sets the scale of {key}, which is also set")
     try:
-        coeffs = scale_coefficients(_cached_coefficients(resolve_path(scenario.water.coefficients)),
-                                    scales)
+        coeffs = scale_coefficients(
+            _cached_coefficients(resolve_path(scenario.water.coefficients)), scales
+        )
         scales.update(net_weight_scales(float(net_weight_kg), coeffs))
     except ValueError as e:
         raise ScenarioError(str(e)) from None

@@ -53,8 +53,12 @@ def make_run_id(base: str, overrides: dict, seed: int) -> str:
     The digest is SHA-256 of the canonical JSON of (base, overrides, seed), so it does not
     depend on the order of keys, the machine, or the Python process.
     """
-    payload = json.dumps({"base": base, "overrides": overrides, "seed": seed}, sort_keys=True,
-                         separators=(",", ":"), default=str)
+    payload = json.dumps(
+        {"base": base, "overrides": overrides, "seed": seed},
+        sort_keys=True,
+        separators=(",", ":"),
+        default=str,
+    )
     digest = hashlib.sha256(payload.encode()).hexdigest()[:10]
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", pathlib.PurePath(base).stem) or "run"
     return f"{stem}-s{seed}-{digest}"
@@ -160,16 +164,21 @@ def run_specs(config: SweepConfig, limit: int | None = None) -> list[RunSpec]:
         n_sets = min(n_sets, -(-limit // len(config.seeds)))  # the first base's share
     sets = parameter_sets(config, n_sets)
     fixed = expand_overrides(config.fixed, config.links)
-    runs = ((base, params, seed) for base in config.base
-            for params, seed in itertools.product(sets, config.seeds))
+    runs = (
+        (base, params, seed)
+        for base in config.base
+        for params, seed in itertools.product(sets, config.seeds)
+    )
     specs: list[RunSpec] = []
     seen: dict[str, int] = {}
     for base, params, seed in itertools.islice(runs, limit):
         overrides = {**fixed, **expand_overrides(params, config.links), "random_seed": seed}
         run_id = make_run_id(base, overrides, seed)
         if run_id in seen:
-            raise SweepError(f"sweep: run {len(specs)} ({base}, {params}, seed {seed}) is "
-                             f"the same as run {seen[run_id]}; remove the duplicate value")
+            raise SweepError(
+                f"sweep: run {len(specs)} ({base}, {params}, seed {seed}) is "
+                f"the same as run {seen[run_id]}; remove the duplicate value"
+            )
         seen[run_id] = len(specs)
         specs.append(RunSpec(len(specs), run_id, base, seed, params, overrides))
     return specs

@@ -50,9 +50,14 @@ def write_run(run_dir: pathlib.Path, spec: RunSpec, outcome: dict) -> dict:
     else:
         (run_dir / "log.npz").unlink(missing_ok=True)
     record = dict(outcome["metrics"])
-    record["run"] = {"run_id": spec.run_id, "base": spec.base, "seed": spec.seed,
-                     "parameters": spec.parameters, "overrides": spec.overrides,
-                     "log_npz": bool(outcome.get("log_npz"))}
+    record["run"] = {
+        "run_id": spec.run_id,
+        "base": spec.base,
+        "seed": spec.seed,
+        "parameters": spec.parameters,
+        "overrides": spec.overrides,
+        "log_npz": bool(outcome.get("log_npz")),
+    }
     _atomic_write(run_dir / "metrics.json", (json.dumps(record, indent=2) + "\n").encode())
     return record
 
@@ -86,8 +91,7 @@ def read_done(run_dir: pathlib.Path) -> dict | None:
 def format_transitions(transitions) -> str:
     """Behaviour transitions as one compact cell: ``swim>trot@8.10-16.20;trot>turning@...``
     (``never`` for an end the parameters did not reach)."""
-    return ";".join(f"{t['from']}>{t['to']}@{transition_span(t, 2)}"
-                    for t in transitions or [])
+    return ";".join(f"{t['from']}>{t['to']}@{transition_span(t, 2)}" for t in transitions or [])
 
 
 NAMED_VECTORS = {
@@ -97,14 +101,38 @@ NAMED_VECTORS = {
     "steady_window_s": ("steady_start_s", "steady_end_s"),
 }
 METRIC_COLUMNS = (
-    "u", "v", "yaw_rate_deg_s", "distance_m", "transitions", "sim_time_s", "wall_time_s",
-    "real_time_factor", "max_penetration_m", "max_joint_step_rad", "final_max_joint_error_rad",
-    "final_x", "final_y", "final_z", "final_roll_deg", "final_pitch_deg", "final_yaw_deg",
-    "failure_time_s", "steady_start_s", "steady_end_s",
+    "u",
+    "v",
+    "yaw_rate_deg_s",
+    "distance_m",
+    "transitions",
+    "sim_time_s",
+    "wall_time_s",
+    "real_time_factor",
+    "max_penetration_m",
+    "max_joint_step_rad",
+    "final_max_joint_error_rad",
+    "final_x",
+    "final_y",
+    "final_z",
+    "final_roll_deg",
+    "final_pitch_deg",
+    "final_yaw_deg",
+    "failure_time_s",
+    "steady_start_s",
+    "steady_end_s",
     # The run's energy block (metrics.json ``energy``), each key prefixed with ``energy.``.
-    *(f"energy.{k}" for k in ("mechanical_energy_j", "electrical_energy_j",
-                              "mean_electrical_power_w", *COT_KEYS, "battery_soc_end",
-                              "operation_time_h")),
+    *(
+        f"energy.{k}"
+        for k in (
+            "mechanical_energy_j",
+            "electrical_energy_j",
+            "mean_electrical_power_w",
+            *COT_KEYS,
+            "battery_soc_end",
+            "operation_time_h",
+        )
+    ),
 )
 
 
@@ -147,8 +175,14 @@ def table_rows(specs: list[RunSpec], records: dict) -> tuple[list[str], list[dic
         record = records.get(spec.run_id)
         if record is None:
             continue
-        row = {"run_id": spec.run_id, "base": spec.base, "seed": spec.seed, **spec.parameters,
-               "status": record.get("status", ""), "reason": record.get("reason", "")}
+        row = {
+            "run_id": spec.run_id,
+            "base": spec.base,
+            "seed": spec.seed,
+            **spec.parameters,
+            "status": record.get("status", ""),
+            "reason": record.get("reason", ""),
+        }
         flat = flatten_metrics(record)
         row.update(flat)
         extra.update(dict.fromkeys(k for k in flat if k not in METRIC_COLUMNS))

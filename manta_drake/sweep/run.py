@@ -32,12 +32,17 @@ def simulate_run(scenario_yaml: str) -> dict:
             metrics = run(scenario, out, progress=False, write_outputs=False).metrics
             metrics["reason"] = ""
         except SimulationError as e:
-            metrics = json.loads((out / "metrics.json").read_text()) \
-                if (out / "metrics.json").is_file() else {"status": "failed"}
+            metrics = (
+                json.loads((out / "metrics.json").read_text())
+                if (out / "metrics.json").is_file()
+                else {"status": "failed"}
+            )
             metrics["reason"] = failure_reason(metrics.get("failure")) or " ".join(str(e).split())
         except Exception as e:  # noqa: BLE001 - any failure is a row, never a lost sweep
-            metrics = {"status": "error",
-                       "reason": f"{type(e).__name__}: {' '.join(str(e).split())}"}
+            metrics = {
+                "status": "error",
+                "reason": f"{type(e).__name__}: {' '.join(str(e).split())}",
+            }
         log = (out / "log.npz").read_bytes() if (out / "log.npz").is_file() else None
     metrics.setdefault("status", "error")
     return {"metrics": metrics, "log_npz": log}

@@ -56,8 +56,9 @@ class _Table:
     ``min_interval`` s and at most a tenth of the time (a table of many thousand rows takes
     a while to write; rewriting it after every run would cost the square of the runs)."""
 
-    def __init__(self, path: pathlib.Path, specs: list[RunSpec], records: dict,
-                 min_interval: float = 1.0):
+    def __init__(
+        self, path: pathlib.Path, specs: list[RunSpec], records: dict, min_interval: float = 1.0
+    ):
         self.path, self.specs, self.records = path, specs, records
         self.min_interval = min_interval
         self.last = -float("inf")
@@ -74,8 +75,14 @@ class _Table:
         return columns, rows
 
 
-def run_sweep(config: SweepConfig, out_dir, client=None, progress: bool = True,
-              limit: int | None = None, rerun_failed: bool = False) -> SweepResult:
+def run_sweep(
+    config: SweepConfig,
+    out_dir,
+    client=None,
+    progress: bool = True,
+    limit: int | None = None,
+    rerun_failed: bool = False,
+) -> SweepResult:
     """Runs every run of the sweep not done yet and writes the table and the figure.
 
     Args:
@@ -108,8 +115,14 @@ def run_sweep(config: SweepConfig, out_dir, client=None, progress: bool = True,
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(specs), initial=len(specs) - len(todo), unit="run",
-                   desc=config.name, file=sys.stderr, dynamic_ncols=True)
+        bar = tqdm(
+            total=len(specs),
+            initial=len(specs) - len(todo),
+            unit="run",
+            desc=config.name,
+            file=sys.stderr,
+            dynamic_ncols=True,
+        )
 
     def finish(spec: RunSpec, outcome: dict) -> None:
         records[spec.run_id] = _kept(write_run(runs_dir / spec.run_id, spec, outcome))
@@ -141,8 +154,11 @@ def run_sweep(config: SweepConfig, out_dir, client=None, progress: bool = True,
         if bar is not None:
             bar.close()
     columns, rows = table.update(force=True)
-    figure = write_summary_figure(out_dir / "summary.png", rows, parameter_names(config),
-                                  config.name) if rows else None
+    figure = (
+        write_summary_figure(out_dir / "summary.png", rows, parameter_names(config), config.name)
+        if rows
+        else None
+    )
     counts: dict[str, int] = {}
     for row in rows:
         counts[row["status"]] = counts.get(row["status"], 0) + 1
@@ -160,11 +176,16 @@ def _run_on_cluster(client, runs, finish, simulated: list[str]) -> None:
     submits a run again when the cluster lost it."""
     # simulate_run returns every failure of a run: an exception is the cluster's.
     for spec, outcome in completed_resubmitting_lost(
-            client, simulate_run, runs, lambda spec: spec.scenario_yaml,
-            lambda spec: f"manta-run-{spec.run_id}",
-            window=lambda: max(16, 4 * sum(client.nthreads().values()))):
+        client,
+        simulate_run,
+        runs,
+        lambda spec: spec.scenario_yaml,
+        lambda spec: f"manta-run-{spec.run_id}",
+        window=lambda: max(16, 4 * sum(client.nthreads().values())),
+    ):
         if isinstance(outcome, TaskFailure):
-            outcome = {"metrics": {"status": LOST if outcome.lost else "error",
-                                   "reason": outcome.reason()}}
+            outcome = {
+                "metrics": {"status": LOST if outcome.lost else "error", "reason": outcome.reason()}
+            }
         finish(spec, outcome)
         simulated.append(spec.run_id)

@@ -130,8 +130,9 @@ def balloon_schedule(scenario: Scenario) -> TrajectorySource:
             values.append(fill)
     breaks.append(max(breaks[-1], scenario.duration) + 1.0)
     values.append(values[-1])
-    return TrajectorySource(PiecewisePolynomial.ZeroOrderHold(np.array(breaks),
-                                                              np.array(values)[None, :]))
+    return TrajectorySource(
+        PiecewisePolynomial.ZeroOrderHold(np.array(breaks), np.array(values)[None, :])
+    )
 
 
 # The hold mode's move from the initial stance to the held one: well inside the servos'
@@ -146,18 +147,24 @@ def stance_ramp(q_start, q_end, max_speed: float = HOLD_RAMP_SPEED) -> Trajector
     # A cubic with zero end rates peaks at 1.5 x the mean rate.
     T = max(1.5 * float(np.abs(q_end - q_start).max()) / max_speed, 1e-3)
     zero = np.zeros_like(q_start)
-    traj = PiecewisePolynomial.CubicHermite(np.array([0.0, T]), np.hstack([q_start, q_end]),
-                                            np.hstack([zero, zero]))
+    traj = PiecewisePolynomial.CubicHermite(
+        np.array([0.0, T]), np.hstack([q_start, q_end]), np.hstack([zero, zero])
+    )
     return TrajectorySource(traj, output_derivative_order=1, zero_derivatives_beyond_limits=True)
 
 
 def _add_sensing(builder, scenario: Scenario, handles: ControllerHandles) -> None:
     """depth -> FuzzyDepthEstimator (Eq. 9)."""
     ps = scenario.pressure_sensor
-    estimator = builder.AddNamedSystem("depth_estimator", FuzzyDepthEstimator(
-        scenario.depth_estimator.floor_distance, period=1.0 / ps.rate_hz,
-        initial_depth=initial_sensor_depth(scenario),
-        surface_depth=scenario.depth_estimator.surface_depth))
+    estimator = builder.AddNamedSystem(
+        "depth_estimator",
+        FuzzyDepthEstimator(
+            scenario.depth_estimator.floor_distance,
+            period=1.0 / ps.rate_hz,
+            initial_depth=initial_sensor_depth(scenario),
+            surface_depth=scenario.depth_estimator.surface_depth,
+        ),
+    )
     builder.ExportInput(estimator.GetInputPort("depth"), "depth")
     for name in ("h_hat", "z_hat"):
         builder.ExportOutput(estimator.GetOutputPort(name), name)
@@ -173,8 +180,9 @@ def _add_estimators(builder, scenario: Scenario, handles: ControllerHandles) -> 
         if m.estimation is None or not scenario.has_estimator(m.estimate):
             continue
         e = m.estimation
-        system = builder.AddNamedSystem(e.section, e.system(
-            getattr(scenario, e.section), e.period, **e.start(scenario)))
+        system = builder.AddNamedSystem(
+            e.section, e.system(getattr(scenario, e.section), e.period, **e.start(scenario))
+        )
         sensor = system.get_input_port()
         builder.ExportInput(sensor, sensor.get_name())
         for port in e.outputs:
@@ -196,11 +204,14 @@ def _add_heading_hold(builder, scenario: Scenario, handles: ControllerHandles, p
     if "transition" in handles.systems:
         transition = handles.systems["transition"]
         leaves = transition.tree.leaves
-        selector = np.array([[1.0 if leaf in scenario.heading_hold.behaviours else 0.0
-                              for leaf in leaves]])
+        selector = np.array(
+            [[1.0 if leaf in scenario.heading_hold.behaviours else 0.0 for leaf in leaves]]
+        )
         share = builder.AddNamedSystem("swim_share", MatrixGain(selector)).get_output_port()
-        builder.Connect(transition.GetOutputPort("behaviour_weights"),
-                        builder.GetSubsystemByName("swim_share").get_input_port())
+        builder.Connect(
+            transition.GetOutputPort("behaviour_weights"),
+            builder.GetSubsystemByName("swim_share").get_input_port(),
+        )
     else:  # a fixed gait: trimmed whole
         share = builder.AddNamedSystem("swim_share", ConstantVectorSource([1.0])).get_output_port()
     builder.Connect(share, hold.GetInputPort("swim_share"))
@@ -226,18 +237,31 @@ def _add_balloon(builder, scenario: Scenario, handles: ControllerHandles) -> Non
 def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, meshcat):
     """depth_image -> median filter -> point cloud (+ camera_pose) -> WallDetector (Eq. 10)."""
     cam = scenario.camera
-    denoise = builder.AddNamedSystem("depth_filter", DepthImageFilter(
-        cam.width, cam.height, scenario.wall_detector.depth_median_filter_px))
-    to_cloud = builder.AddNamedSystem("depth_to_cloud", DepthImageToPointCloud(
-        camera_info(cam.width, cam.height, cam.fov_y_deg), PixelType.kDepth32F, 1.0,
-        BaseField.kXYZs))
-    detector = builder.AddNamedSystem("wall_detector", WallDetector(
-        period=1.0 / cam.rate_hz, params=scenario.wall_detector, meshcat=meshcat))
+    denoise = builder.AddNamedSystem(
+        "depth_filter",
+        DepthImageFilter(cam.width, cam.height, scenario.wall_detector.depth_median_filter_px),
+    )
+    to_cloud = builder.AddNamedSystem(
+        "depth_to_cloud",
+        DepthImageToPointCloud(
+            camera_info(cam.width, cam.height, cam.fov_y_deg),
+            PixelType.kDepth32F,
+            1.0,
+            BaseField.kXYZs,
+        ),
+    )
+    detector = builder.AddNamedSystem(
+        "wall_detector",
+        WallDetector(period=1.0 / cam.rate_hz, params=scenario.wall_detector, meshcat=meshcat),
+    )
     builder.ExportInput(denoise.GetInputPort("depth_image"), "depth_image")
-    builder.Connect(denoise.GetOutputPort("filtered_depth_image"),
-                    to_cloud.depth_image_input_port())
-    builder.ConnectInput(builder.ExportInput(to_cloud.camera_pose_input_port(), "camera_pose"),
-                         detector.GetInputPort("camera_pose"))
+    builder.Connect(
+        denoise.GetOutputPort("filtered_depth_image"), to_cloud.depth_image_input_port()
+    )
+    builder.ConnectInput(
+        builder.ExportInput(to_cloud.camera_pose_input_port(), "camera_pose"),
+        detector.GetInputPort("camera_pose"),
+    )
     builder.Connect(to_cloud.point_cloud_output_port(), detector.GetInputPort("point_cloud"))
     for name in ("s_hat", "detector_status", "clusters", "best_clusters"):
         builder.ExportOutput(detector.GetOutputPort(name), name)
@@ -248,11 +272,20 @@ def _add_wall_detector(builder, scenario: Scenario, handles: ControllerHandles, 
 def _add_transition(builder, scenario: Scenario, handles: ControllerHandles):
     tr = scenario.transition
     tree = scenario.behaviour_tree()
-    transition = builder.AddNamedSystem("transition", PotentialTransition(
-        tr.period, tr.g, tr.T, tr.alpha, follow=tr.follow,
-        initial_params=initial_cpg_params(scenario, tree), tree=tree,
-        s_hat_time_constant=tr.s_hat_time_constant,
-        initial_values=initial_estimates(scenario, tree)))
+    transition = builder.AddNamedSystem(
+        "transition",
+        PotentialTransition(
+            tr.period,
+            tr.g,
+            tr.T,
+            tr.alpha,
+            follow=tr.follow,
+            initial_params=initial_cpg_params(scenario, tree),
+            tree=tree,
+            s_hat_time_constant=tr.s_hat_time_constant,
+            initial_values=initial_estimates(scenario, tree),
+        ),
+    )
     if "s_hat" not in handles.estimates:  # no camera: no wall is ever seen
         s_hat = builder.AddNamedSystem("no_camera", ConstantVectorSource([0.0])).get_output_port()
         builder.ExportOutput(s_hat, "s_hat")
@@ -264,8 +297,9 @@ def _add_transition(builder, scenario: Scenario, handles: ControllerHandles):
     return transition.GetOutputPort("cpg_params")
 
 
-def build_controller(scenario: Scenario, meshcat=None, *,
-                     compiled_cpg: bool = True) -> tuple[Diagram, ControllerHandles]:
+def build_controller(
+    scenario: Scenario, meshcat=None, *, compiled_cpg: bool = True
+) -> tuple[Diagram, ControllerHandles]:
     """Builds the controller of ``scenario`` (see the module docstring for its ports).
 
     Args:
@@ -288,24 +322,35 @@ def build_controller(scenario: Scenario, meshcat=None, *,
     _add_estimators(builder, scenario, handles)
     if mode == "hold":
         stance = scenario.gait(scenario.controller.gait).X
-        source = builder.AddNamedSystem("hold_stance", stance_ramp(
-            scenario.initial_joint_angles(), stance.ravel()))
+        source = builder.AddNamedSystem(
+            "hold_stance", stance_ramp(scenario.initial_joint_angles(), stance.ravel())
+        )
         builder.ExportOutput(source.get_output_port(), "desired_state")
     elif mode in ("gait", "transition"):
         if mode == "gait":
-            params = builder.AddNamedSystem("gait_params", ConstantVectorSource(
-                initial_cpg_params(scenario))).get_output_port()  # the fixed gait
+            params = builder.AddNamedSystem(
+                "gait_params", ConstantVectorSource(initial_cpg_params(scenario))
+            ).get_output_port()  # the fixed gait
         else:
             params = _add_transition(builder, scenario, handles)
         builder.ExportOutput(params, "cpg_params")  # the behaviour's, before any trim
         if scenario.heading_hold.enabled:
             params = _add_heading_hold(builder, scenario, handles, params)
         c = scenario.cpg
-        cpg = builder.AddNamedSystem("cpg", CpgOscillators(
-            frequency_hz=c.frequency_hz, chain_weight=c.chain_weight, fcs_weight=c.fcs_weight,
-            a=c.a, b=c.b, compiled=compiled_cpg,
-            initial_state=initial_state(initial_cpg_params(scenario),
-                                        scenario.initial_joint_angles())))
+        cpg = builder.AddNamedSystem(
+            "cpg",
+            CpgOscillators(
+                frequency_hz=c.frequency_hz,
+                chain_weight=c.chain_weight,
+                fcs_weight=c.fcs_weight,
+                a=c.a,
+                b=c.b,
+                compiled=compiled_cpg,
+                initial_state=initial_state(
+                    initial_cpg_params(scenario), scenario.initial_joint_angles()
+                ),
+            ),
+        )
         builder.Connect(params, cpg.GetInputPort("cpg_params"))
         builder.ExportOutput(cpg.GetOutputPort("joint_angles"), "joint_angles")
         builder.ExportOutput(cpg.GetOutputPort("desired_state"), "desired_state")

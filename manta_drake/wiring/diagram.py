@@ -28,11 +28,14 @@ def _modality_loggers() -> tuple:
     out = []
     for m in MODALITIES:
         if m.reading is not None:
-            out.append(("station", m.reading.port,
-                        lambda s, r=m.reading: max(s.log_period, r.period(s))))
+            out.append(
+                ("station", m.reading.port, lambda s, r=m.reading: max(s.log_period, r.period(s)))
+            )
         if m.estimation is not None:
-            out += [("controller", port, lambda s, e=m.estimation: max(s.log_period, e.period))
-                    for port in m.estimation.outputs]
+            out += [
+                ("controller", port, lambda s, e=m.estimation: max(s.log_period, e.period))
+                for port in m.estimation.outputs
+            ]
     return tuple(out)
 
 
@@ -50,13 +53,21 @@ _LOGGED = (
     # contact problem (~0.4 ms), so sampled at 100 Hz at most (the stances last 150-450
     # ms), on the other loggers' 10 ms grid (``FootContacts`` says why).
     ("station", "foot_contacts", lambda s: max(s.log_period, 0.01)),
-    ("controller", "cpg_params", lambda s: s.transition.period
-     if s.controller.mode == "transition" else max(s.log_period, 0.01)),
+    (
+        "controller",
+        "cpg_params",
+        lambda s: (
+            s.transition.period if s.controller.mode == "transition" else max(s.log_period, 0.01)
+        ),
+    ),
     ("station", "balloon_volume", lambda s: max(s.log_period, 0.01)),
     ("station", "depth", lambda s: 1.0 / s.pressure_sensor.rate_hz),
     ("controller", "z_hat", lambda s: 1.0 / s.pressure_sensor.rate_hz),
-    ("controller", "s_hat", lambda s: 1.0 / s.camera.rate_hz if s.camera.enabled
-     else max(s.log_period, 0.01)),
+    (
+        "controller",
+        "s_hat",
+        lambda s: 1.0 / s.camera.rate_hz if s.camera.enabled else max(s.log_period, 0.01),
+    ),
     ("controller", "detector_status", lambda s: 1.0 / s.camera.rate_hz),
     # The modalities' sensors and estimates (manta_drake.modalities), each at its own
     # period (each only when its half has the port).
@@ -105,9 +116,13 @@ def connect_by_name(builder: DiagramBuilder, source, sink) -> list[str]:
     return names
 
 
-def build_diagram(scenario: Scenario, *, hydro_plant_state: bool = True,
-                  camera_own_scene: bool = True,
-                  compiled_cpg: bool = True) -> tuple[Diagram, DiagramHandles]:
+def build_diagram(
+    scenario: Scenario,
+    *,
+    hydro_plant_state: bool = True,
+    camera_own_scene: bool = True,
+    compiled_cpg: bool = True,
+) -> tuple[Diagram, DiagramHandles]:
     """Builds the diagram of ``scenario``.
 
     The keyword arguments choose between equivalent implementations (the defaults are the
@@ -119,13 +134,15 @@ def build_diagram(scenario: Scenario, *, hydro_plant_state: bool = True,
         and whichever of ``cpg_params``, ``balloon_volume``, ``depth``, ``z_hat``,
         ``s_hat`` and ``detector_status`` the two halves have.
     """
-    meshcat = Meshcat(MeshcatParams(host="localhost", port=None)) \
-        if scenario.visualization.meshcat else None
-    station, station_handles = build_station(scenario, meshcat,
-                                             hydro_plant_state=hydro_plant_state,
-                                             camera_own_scene=camera_own_scene)
-    controller, controller_handles = build_controller(scenario, meshcat,
-                                                      compiled_cpg=compiled_cpg)
+    meshcat = (
+        Meshcat(MeshcatParams(host="localhost", port=None))
+        if scenario.visualization.meshcat
+        else None
+    )
+    station, station_handles = build_station(
+        scenario, meshcat, hydro_plant_state=hydro_plant_state, camera_own_scene=camera_own_scene
+    )
+    controller, controller_handles = build_controller(scenario, meshcat, compiled_cpg=compiled_cpg)
     builder = DiagramBuilder()
     builder.AddSystem(station)
     builder.AddSystem(controller)
@@ -135,17 +152,21 @@ def build_diagram(scenario: Scenario, *, hydro_plant_state: bool = True,
         for i in range(half.num_input_ports()):
             port = half.get_input_port(i)
             if not builder.IsConnectedOrExported(port):
-                raise RuntimeError(f"{half.get_name()}.{port.get_name()}: nothing drives this "
-                                   "input (the two halves' port names do not match)")
-    handles = DiagramHandles(station, controller, station_handles, controller_handles,
-                             meshcat=meshcat)
+                raise RuntimeError(
+                    f"{half.get_name()}.{port.get_name()}: nothing drives this "
+                    "input (the two halves' port names do not match)"
+                )
+    handles = DiagramHandles(
+        station, controller, station_handles, controller_handles, meshcat=meshcat
+    )
     handles.systems.update(station_handles.systems)
     handles.systems.update(controller_handles.systems)
     halves = {"station": station, "controller": controller}
     for half, port, period in _LOGGED:
         if halves[half].HasOutputPort(port):
             handles.loggers[port] = LogVectorOutput(
-                halves[half].GetOutputPort(port), builder, period(scenario))
+                halves[half].GetOutputPort(port), builder, period(scenario)
+            )
     diagram = builder.Build()
     diagram.set_name(f"manta_drake:{scenario.name}")
     return diagram, handles

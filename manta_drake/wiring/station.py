@@ -168,8 +168,9 @@ def _set_default_start(handles: PlantHandles, scenario: Scenario) -> None:
     """The scenario's initial pose and stance as the plant's defaults."""
     plant = handles.plant
     if handles.body.is_floating_base_body():
-        plant.SetDefaultFloatingBaseBodyPose(handles.body, body_pose(scenario.initial_pose.xyz,
-                                                             scenario.initial_pose.rpy_deg))
+        plant.SetDefaultFloatingBaseBodyPose(
+            handles.body, body_pose(scenario.initial_pose.xyz, scenario.initial_pose.rpy_deg)
+        )
     for name, q in zip(handles.joint_names, scenario.initial_joint_angles()):
         plant.GetJointByName(name, handles.robot).set_default_angle(q)
 
@@ -193,9 +194,15 @@ def _add_servo_bus(builder, scenario: Scenario, handles: PlantHandles, selector)
         builder.ExportInput(port, "desired_state")
         builder.ExportOutput(selector.get_output_port(), "measured_joint_state")
         return None
-    bus = builder.AddNamedSystem("servo_bus", ServoBus(
-        len(handles.joint_names), period, scenario.energy_model().servo.encoder_resolution,
-        start_command(scenario)))
+    bus = builder.AddNamedSystem(
+        "servo_bus",
+        ServoBus(
+            len(handles.joint_names),
+            period,
+            scenario.energy_model().servo.encoder_resolution,
+            start_command(scenario),
+        ),
+    )
     builder.ExportInput(bus.GetInputPort("command"), "desired_state")
     builder.Connect(bus.GetOutputPort("applied_command"), port)
     builder.Connect(selector.get_output_port(), bus.GetInputPort("joint_state"))
@@ -211,17 +218,24 @@ def _add_servo_supply(builder, scenario: Scenario, handles: StationHandles) -> N
     ph, servo = handles.plant_handles, scenario.energy_model().servo
     reference = scenario.bus_reference_voltage()
     kp, _, _ = joint_gains(servo, reference)
-    supply = builder.AddNamedSystem("servo_supply", ServoSupply(
-        len(ph.joint_names), kp, saturation_angle(servo), reference, scenario.time_step))
+    supply = builder.AddNamedSystem(
+        "servo_supply",
+        ServoSupply(
+            len(ph.joint_names), kp, saturation_angle(servo), reference, scenario.time_step
+        ),
+    )
     bus = handles.systems.get("servo_bus")
     if bus is None:
         builder.ConnectInput("desired_state", supply.GetInputPort("servo_goal"))
     else:
         builder.Connect(bus.GetOutputPort("applied_command"), supply.GetInputPort("servo_goal"))
-    builder.Connect(handles.systems["joint_state_selector"].get_output_port(),
-                    supply.GetInputPort("joint_state"))
-    builder.Connect(handles.systems["battery"].GetOutputPort("battery"),
-                    supply.GetInputPort("battery"))
+    builder.Connect(
+        handles.systems["joint_state_selector"].get_output_port(),
+        supply.GetInputPort("joint_state"),
+    )
+    builder.Connect(
+        handles.systems["battery"].GetOutputPort("battery"), supply.GetInputPort("battery")
+    )
     builder.Connect(supply.get_output_port(), ph.plant.get_actuation_input_port(ph.robot))
     handles.systems["servo_supply"] = supply
 
@@ -239,8 +253,9 @@ def _motor_torque(builder, scenario: Scenario, handles: PlantHandles):
     b = scenario.servo_braking()
     if b == 0.0:
         return hold
-    braking = builder.AddNamedSystem("back_emf_braking", MatrixGain(
-        -b * joint_state_selector(handles)[n:]))
+    braking = builder.AddNamedSystem(
+        "back_emf_braking", MatrixGain(-b * joint_state_selector(handles)[n:])
+    )
     builder.Connect(plant.get_state_output_port(), braking.get_input_port())
     total = builder.AddNamedSystem("joint_torque", Adder(2, n))
     builder.Connect(hold.get_output_port(), total.get_input_port(0))
@@ -252,17 +267,23 @@ def _random_source(builder, name: str, distribution, size: int, period: float):
     return builder.AddNamedSystem(name, RandomSource(distribution, size, period))
 
 
-def _add_water(builder, scenario: Scenario, handles: StationHandles,
-               hydro_plant_state: bool) -> None:
+def _add_water(
+    builder, scenario: Scenario, handles: StationHandles, hydro_plant_state: bool
+) -> None:
     """Balloon, hydrodynamic forces and the pressure sensor with its noise sources."""
     plant, ph, coeffs = handles.plant, handles.plant_handles, handles.coefficients
     b = coeffs.balloon
     # The pump moves ~3 mL per 10 ms: a 10 ms update is exact enough and 10x cheaper.
-    balloon = builder.AddNamedSystem("balloon", BalloonBuoyancy(
-        b.max_volume.value, b.pump_rate.value, max(scenario.time_step, 0.01),
-        scenario.balloon.initial_fill * b.max_volume.value))
-    fill_to_volume = builder.AddNamedSystem("balloon_fill_to_volume",
-                                            Gain(b.max_volume.value, 1))
+    balloon = builder.AddNamedSystem(
+        "balloon",
+        BalloonBuoyancy(
+            b.max_volume.value,
+            b.pump_rate.value,
+            max(scenario.time_step, 0.01),
+            scenario.balloon.initial_fill * b.max_volume.value,
+        ),
+    )
+    fill_to_volume = builder.AddNamedSystem("balloon_fill_to_volume", Gain(b.max_volume.value, 1))
     builder.Connect(fill_to_volume.get_output_port(), balloon.GetInputPort("volume_command"))
     builder.ExportInput(fill_to_volume.get_input_port(), "balloon_command")
     builder.ExportOutput(balloon.GetOutputPort("balloon_volume"), "balloon_volume")
@@ -271,25 +292,36 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles,
     # updates, mapped to joint torques in C++ at each step).
     current = scenario.current_schedule()
     hydro = HydrodynamicForces.AddToBuilder(
-        builder, plant, ph.robot, coeffs, scenario.time_step, params=scenario.robot_params(),
+        builder,
+        plant,
+        ph.robot,
+        coeffs,
+        scenario.time_step,
+        params=scenario.robot_params(),
         # A schedule that never changes is its one current (packed once, no per-step lookup).
         current=current.at(0.0) if current.is_constant else current.constant,
         added_mass_iso=ph.added_mass_iso,
         current_schedule=None if current.is_constant else current,
         update_period=scenario.water.update_period,
-        inputs="plant_state" if hydro_plant_state else "contract", name="hydro",
-        fin_model=scenario.water.fin_model)
+        inputs="plant_state" if hydro_plant_state else "contract",
+        name="hydro",
+        fin_model=scenario.water.fin_model,
+    )
     builder.Connect(balloon.GetOutputPort("balloon_volume"), hydro.GetInputPort("balloon_volume"))
 
     ps = scenario.pressure_sensor
     period = 1.0 / ps.rate_hz
-    sensor = builder.AddNamedSystem("pressure_sensor", PressureSensor(
-        plant, ph.body, ps.position, period, ps.noise_std, ps.dropout_rate))
+    sensor = builder.AddNamedSystem(
+        "pressure_sensor",
+        PressureSensor(plant, ph.body, ps.position, period, ps.noise_std, ps.dropout_rate),
+    )
     builder.Connect(plant.get_body_poses_output_port(), sensor.GetInputPort("body_poses"))
-    normal = _random_source(builder, "pressure_noise_normal", RandomDistribution.kGaussian, 1,
-                            period)
-    uniform = _random_source(builder, "pressure_noise_uniform", RandomDistribution.kUniform, 1,
-                             period)
+    normal = _random_source(
+        builder, "pressure_noise_normal", RandomDistribution.kGaussian, 1, period
+    )
+    uniform = _random_source(
+        builder, "pressure_noise_uniform", RandomDistribution.kUniform, 1, period
+    )
     mux = builder.AddNamedSystem("pressure_noise", Multiplexer([1, 1]))
     builder.Connect(normal.get_output_port(), mux.get_input_port(0))
     builder.Connect(uniform.get_output_port(), mux.get_input_port(1))
@@ -298,8 +330,9 @@ def _add_water(builder, scenario: Scenario, handles: StationHandles,
     handles.systems.update(balloon=balloon, hydro=hydro, pressure_sensor=sensor)
 
 
-def _add_camera(builder, scenario: Scenario, handles: StationHandles,
-                camera_own_scene: bool) -> None:
+def _add_camera(
+    builder, scenario: Scenario, handles: StationHandles, camera_own_scene: bool
+) -> None:
     """RGB-D camera on the head (VTK, in its own SceneGraph), its depth noise and the
     noise sources."""
     plant, ph = handles.plant, handles.plant_handles
@@ -313,22 +346,41 @@ def _add_camera(builder, scenario: Scenario, handles: StationHandles,
         if not scene.HasRenderer("vtk"):
             scene.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
         camera_frame = plant.GetBodyFrameIdOrThrow(ph.body.index())
-    core = RenderCameraCore("vtk", camera_info(cam.width, cam.height, cam.fov_y_deg),
-                            ClippingRange(0.5 * cam.min_range, 2.0 * cam.max_range),
-                            RigidTransform())
+    core = RenderCameraCore(
+        "vtk",
+        camera_info(cam.width, cam.height, cam.fov_y_deg),
+        ClippingRange(0.5 * cam.min_range, 2.0 * cam.max_range),
+        RigidTransform(),
+    )
     X_BC = plant.GetFrameByName("camera", ph.robot).GetFixedPoseInBodyFrame()
-    camera = builder.AddNamedSystem("camera", RgbdSensor(
-        camera_frame, X_BC,
-        DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range)), False))
+    camera = builder.AddNamedSystem(
+        "camera",
+        RgbdSensor(
+            camera_frame,
+            X_BC,
+            DepthRenderCamera(core, DepthRange(cam.min_range, cam.max_range)),
+            False,
+        ),
+    )
     builder.Connect(scene.get_query_output_port(), camera.query_object_input_port())
     # The range limit is the sensor's (light absorbed along each ray), applied with the noise.
-    noise = builder.AddNamedSystem("depth_noise", DepthImageNoise(
-        cam.width, cam.height, cam.depth_noise_std, cam.pixel_dropout,
-        max_range=cam.max_range, camera_info=camera_info(cam.width, cam.height, cam.fov_y_deg)))
+    noise = builder.AddNamedSystem(
+        "depth_noise",
+        DepthImageNoise(
+            cam.width,
+            cam.height,
+            cam.depth_noise_std,
+            cam.pixel_dropout,
+            max_range=cam.max_range,
+            camera_info=camera_info(cam.width, cam.height, cam.fov_y_deg),
+        ),
+    )
     builder.Connect(camera.depth_image_32F_output_port(), noise.GetInputPort("depth_image"))
     n_pixels, period = cam.width * cam.height, 1.0 / cam.rate_hz
-    for port, distribution in (("range_noise", RandomDistribution.kGaussian),
-                               ("dropout_sample", RandomDistribution.kUniform)):
+    for port, distribution in (
+        ("range_noise", RandomDistribution.kGaussian),
+        ("dropout_sample", RandomDistribution.kUniform),
+    ):
         source = _random_source(builder, f"depth_{port}", distribution, n_pixels, period)
         builder.Connect(source.get_output_port(), noise.GetInputPort(port))
     builder.ExportOutput(noise.GetOutputPort("noisy_depth_image"), "depth_image")
@@ -345,16 +397,23 @@ def _add_power(builder, scenario: Scenario, handles: StationHandles) -> None:
     n = len(ph.joint_names)
     # The station's joint torque is the last step's (``_motor_torque``), so it meets the
     # joint rate at that step's end and tau qdot dt is the step's work.
-    servos = builder.AddNamedSystem("servo_power", ServoPower(model.servo,
-                                                              model.electronics_power, n))
-    builder.Connect(handles.systems["joint_torque"].get_output_port(),
-                    servos.GetInputPort("joint_torque"))
-    builder.Connect(handles.systems["joint_state_selector"].get_output_port(),
-                    servos.GetInputPort("measured_joint_state"))
-    battery = builder.AddNamedSystem("battery", Battery(
-        model.pack, scenario.time_step, a.initial_soc, stop_at_cutoff=a.stop_when_empty))
-    builder.Connect(servos.GetOutputPort("electrical_power"),
-                    battery.GetInputPort("electrical_power"))
+    servos = builder.AddNamedSystem(
+        "servo_power", ServoPower(model.servo, model.electronics_power, n)
+    )
+    builder.Connect(
+        handles.systems["joint_torque"].get_output_port(), servos.GetInputPort("joint_torque")
+    )
+    builder.Connect(
+        handles.systems["joint_state_selector"].get_output_port(),
+        servos.GetInputPort("measured_joint_state"),
+    )
+    battery = builder.AddNamedSystem(
+        "battery",
+        Battery(model.pack, scenario.time_step, a.initial_soc, stop_at_cutoff=a.stop_when_empty),
+    )
+    builder.Connect(
+        servos.GetOutputPort("electrical_power"), battery.GetInputPort("electrical_power")
+    )
     builder.ExportOutput(servos.GetOutputPort("electrical_power"), "electrical_power")
     builder.ExportOutput(battery.GetOutputPort("battery"), "battery")
     builder.ExportOutput(servos.GetOutputPort("joint_mechanical_power"), "joint_mechanical_power")
@@ -376,14 +435,24 @@ def _add_foot_contacts(builder: DiagramBuilder, handles: StationHandles) -> None
     """The floor's load and slip per leg-fin (``FootContacts``), exported as
     ``foot_contacts``."""
     plant_handles = handles.plant_handles
-    system = FootContacts.AddToBuilder(builder, plant_handles.plant, plant_handles.scene_graph,
-                                       plant_handles.robot, floor_geometries(plant_handles))
+    system = FootContacts.AddToBuilder(
+        builder,
+        plant_handles.plant,
+        plant_handles.scene_graph,
+        plant_handles.robot,
+        floor_geometries(plant_handles),
+    )
     handles.systems["foot_contacts"] = system
     builder.ExportOutput(system.get_output_port(), "foot_contacts")
 
 
-def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool = True,
-                  camera_own_scene: bool = True) -> tuple[Diagram, StationHandles]:
+def build_station(
+    scenario: Scenario,
+    meshcat=None,
+    *,
+    hydro_plant_state: bool = True,
+    camera_own_scene: bool = True,
+) -> tuple[Diagram, StationHandles]:
     """Builds the station of ``scenario`` (see the module docstring for its ports).
 
     Args:
@@ -406,16 +475,21 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     """
     builder = DiagramBuilder()
     coeffs = scenario.hydro_coefficients()
-    plant_handles = add_plant(builder, time_step=scenario.time_step,
-                              discrete_contact_approximation=scenario.discrete_contact_approximation,
-                              hydro=coeffs, robot_params=scenario.robot_params(),
-                              fin_added_mass=fin_added_mass(scenario))
+    plant_handles = add_plant(
+        builder,
+        time_step=scenario.time_step,
+        discrete_contact_approximation=scenario.discrete_contact_approximation,
+        hydro=coeffs,
+        robot_params=scenario.robot_params(),
+        fin_added_mass=fin_added_mass(scenario),
+    )
     set_contact_friction(plant_handles, scenario.contact.friction)
     handles = StationHandles(plant_handles, coefficients=coeffs)
     plant = plant_handles.plant
     _set_default_start(plant_handles, scenario)
-    selector = builder.AddNamedSystem("joint_state_selector",
-                                      MatrixGain(joint_state_selector(plant_handles)))
+    selector = builder.AddNamedSystem(
+        "joint_state_selector", MatrixGain(joint_state_selector(plant_handles))
+    )
     builder.Connect(plant.get_state_output_port(), selector.get_input_port())
     handles.systems["joint_state_selector"] = selector  # the joints' true [q, qdot]
     bus = _add_servo_bus(builder, scenario, plant_handles, selector)
@@ -439,7 +513,8 @@ def build_station(scenario: Scenario, meshcat=None, *, hydro_plant_state: bool =
     if meshcat is not None:
         params = MeshcatVisualizerParams(publish_period=1.0 / scenario.visualization.recording_fps)
         handles.systems["visualizer"] = MeshcatVisualizer.AddToBuilder(
-            builder, plant_handles.scene_graph, meshcat, params)
+            builder, plant_handles.scene_graph, meshcat, params
+        )
     station = builder.Build()
     station.set_name("station")
     handles.systems.update(plant=plant, scene_graph=plant_handles.scene_graph)

@@ -82,12 +82,11 @@ MESHES = {
         "fine": MeshSpec(0.05, 4, near_level=2, wake_level=1),  # hydro_refs.md level 4
     },
     "robot": {
-        "coarse": MeshSpec(0.16, 4, fin_level=5, near_level=3, wake_level=2,
-                           max_iterations=1000),
-        "medium": MeshSpec(0.16 / math.sqrt(2), 4, fin_level=5, near_level=3, wake_level=2,
-                           max_iterations=1000),
-        "fine": MeshSpec(0.08, 4, fin_level=5, near_level=3, wake_level=2,
-                         max_iterations=1000),
+        "coarse": MeshSpec(0.16, 4, fin_level=5, near_level=3, wake_level=2, max_iterations=1000),
+        "medium": MeshSpec(
+            0.16 / math.sqrt(2), 4, fin_level=5, near_level=3, wake_level=2, max_iterations=1000
+        ),
+        "fine": MeshSpec(0.08, 4, fin_level=5, near_level=3, wake_level=2, max_iterations=1000),
     },
 }
 
@@ -108,18 +107,24 @@ class CaseSpec:
         if self.shape not in SHAPES:
             raise ValueError(f"shape {self.shape!r}: expected one of {', '.join(SHAPES)}")
         if self.mesh not in MESHES[self.shape]:
-            raise ValueError(f"mesh {self.mesh!r} for {self.shape}: expected one of "
-                             f"{', '.join(MESHES[self.shape])}")
+            raise ValueError(
+                f"mesh {self.mesh!r} for {self.shape}: expected one of "
+                f"{', '.join(MESHES[self.shape])}"
+            )
         if not self.speed > 0:
             raise ValueError(f"speed {self.speed}: must be > 0")
         if self.shape != "robot" and (self.pitch_deg or self.yaw_deg):
             raise ValueError(f"{self.shape}: incidence is for the robot only")
         if self.fin_section not in geometry.FIN_SECTIONS:
-            raise ValueError(f"fin section {self.fin_section!r}: expected one of "
-                             f"{', '.join(geometry.FIN_SECTIONS)}")
+            raise ValueError(
+                f"fin section {self.fin_section!r}: expected one of "
+                f"{', '.join(geometry.FIN_SECTIONS)}"
+            )
         if self.turbulence_model != "kEpsilon":
-            raise ValueError("turbulence model: the paper's standard kEpsilon only (its "
-                             "wall functions are set for it)")
+            raise ValueError(
+                "turbulence model: the paper's standard kEpsilon only (its "
+                "wall functions are set for it)"
+            )
 
     @property
     def name(self) -> str:
@@ -127,8 +132,10 @@ class CaseSpec:
             return f"{'m' if x < 0 else 'p'}{abs(x):04.1f}".replace(".", "")
 
         fins = "_platefins" if self.shape == "robot" and self.fin_section == "plate" else ""
-        return (f"{self.shape}_U{self.speed:.2f}_pitch{ang(self.pitch_deg)}"
-                f"_yaw{ang(self.yaw_deg)}_{self.mesh}{fins}").replace(".", "")
+        return (
+            f"{self.shape}_U{self.speed:.2f}_pitch{ang(self.pitch_deg)}"
+            f"_yaw{ang(self.yaw_deg)}_{self.mesh}{fins}"
+        ).replace(".", "")
 
     @property
     def mesh_spec(self) -> MeshSpec:
@@ -139,6 +146,7 @@ class CaseSpec:
 
 
 # --- the parts and the domain ------------------------------------------------------------------
+
 
 def body_parts(spec: CaseSpec) -> list[geometry.Part]:
     """The body's surfaces, turned to the case's incidence."""
@@ -187,14 +195,24 @@ def domain(spec: CaseSpec) -> dict:
     # Vertex numbering of blockMeshDict.j2: 0 (lo lo lo), 1 (hi lo lo), 2 (hi hi lo),
     # 3 (lo hi lo), 4-7 the same at z hi.
     faces = {"ymin": "0 1 5 4", "ymax": "3 7 6 2", "zmin": "0 3 2 1", "zmax": "4 5 6 7"}
-    sides = [{"name": name, "faces": f,
-              "symmetry": (name == "ymin" and 1 in sym) or (name == "zmin" and 2 in sym)}
-             for name, f in faces.items()]
+    sides = [
+        {
+            "name": name,
+            "faces": f,
+            "symmetry": (name == "ymin" and 1 in sym) or (name == "zmin" and 2 in sym),
+        }
+        for name, f in faces.items()
+    ]
     # A point in the water: near the inlet, off every cell face (irrational fractions).
     loc = lo + (hi - lo) * np.array([0.9 + 0.0123, 0.6 + 0.0137, 0.6 + 0.0171])
-    return {"lo": [_num(x) for x in lo], "hi": [_num(x) for x in hi], "cells": cells,
-            "sides": sides, "symmetry_axes": list(sym),
-            "location_in_mesh": [_num(x) for x in loc]}
+    return {
+        "lo": [_num(x) for x in lo],
+        "hi": [_num(x) for x in hi],
+        "cells": cells,
+        "sides": sides,
+        "symmetry_axes": list(sym),
+        "location_in_mesh": [_num(x) for x in loc],
+    }
 
 
 def _num(x: float) -> float:
@@ -212,17 +230,29 @@ def mesh_settings(spec: CaseSpec, parts) -> dict:
     wake_lo = lo - np.array([2.0 * ref, 0.5 * ref, 0.5 * ref])  # downstream is -x
     wake_hi = hi + np.array([0.5 * ref, 0.5 * ref, 0.5 * ref])
     boxes = [
-        {"name": "near", "lo": [_num(x) for x in near_lo], "hi": [_num(x) for x in near_hi],
-         "level": m.near_level},
-        {"name": "wake", "lo": [_num(x) for x in wake_lo], "hi": [_num(x) for x in wake_hi],
-         "level": m.wake_level},
+        {
+            "name": "near",
+            "lo": [_num(x) for x in near_lo],
+            "hi": [_num(x) for x in near_hi],
+            "level": m.near_level,
+        },
+        {
+            "name": "wake",
+            "lo": [_num(x) for x in wake_lo],
+            "hi": [_num(x) for x in wake_hi],
+            "level": m.wake_level,
+        },
     ]
     boxes = [b for b in boxes if b["level"] > 0]
     regions = {}
     if m.fin_level is not None:
         regions = {p.name: m.fin_level for p in parts if p.name.startswith("fin_")}
-    return {"surface_level": m.surface_level, "region_levels": regions, "boxes": boxes,
-            "feature_snap": spec.shape == "robot"}
+    return {
+        "surface_level": m.surface_level,
+        "region_levels": regions,
+        "boxes": boxes,
+        "feature_snap": spec.shape == "robot",
+    }
 
 
 # The parts whose forces are written apart from the whole body's (a ``forces_<part>``
@@ -238,23 +268,33 @@ def solver_settings(spec: CaseSpec, parts) -> dict:
     k = 1.5 * (TURBULENCE_INTENSITY * spec.speed) ** 2
     eps = C_MU * k * k / (VISCOSITY_RATIO * NU)
     if spec.shape == "sphere":
-        l_ref, a_ref = SPHERE_DIAMETER, math.pi * SPHERE_DIAMETER ** 2 / 4
+        l_ref, a_ref = SPHERE_DIAMETER, math.pi * SPHERE_DIAMETER**2 / 4
     else:
         a, b, c = DEFAULT_ROBOT.body_semi_axes
         l_ref, a_ref = 2 * a, geometry.ellipsoid_frontal_area((a, b, c))
     # forceCoeffs sees the meshed part of the body: scale its area by the kept fraction.
     kept = 0.5 ** len(symmetry_axes(spec))
     return {
-        "speed": spec.speed, "inflow": [-spec.speed, 0.0, 0.0], "drag_dir": [-1, 0, 0],
-        "rho": RHO, "nu": NU, "cofr": [0.0, 0.0, 0.0], "l_ref": l_ref, "a_ref": a_ref,
+        "speed": spec.speed,
+        "inflow": [-spec.speed, 0.0, 0.0],
+        "drag_dir": [-1, 0, 0],
+        "rho": RHO,
+        "nu": NU,
+        "cofr": [0.0, 0.0, 0.0],
+        "l_ref": l_ref,
+        "a_ref": a_ref,
         "a_ref_domain": _num(a_ref * kept),
-        "body_patches": ["body.*"], "part_patches": PART_PATCHES.get(spec.shape, {}),
+        "body_patches": ["body.*"],
+        "part_patches": PART_PATCHES.get(spec.shape, {}),
         "turbulence_model": spec.turbulence_model,
         "nut_wall_function": "nutkWallFunction",
-        "turbulence_intensity": TURBULENCE_INTENSITY, "viscosity_ratio": VISCOSITY_RATIO,
-        "k_inlet": _num(k), "epsilon_inlet": _num(eps),
+        "turbulence_intensity": TURBULENCE_INTENSITY,
+        "viscosity_ratio": VISCOSITY_RATIO,
+        "k_inlet": _num(k),
+        "epsilon_inlet": _num(eps),
         "max_iterations": spec.mesh_spec.max_iterations,
-        "residual_p": 1e-4, "residual_u": 1e-5,
+        "residual_p": 1e-4,
+        "residual_u": 1e-5,
         "rotation": R.tolist(),
     }
 
@@ -281,23 +321,31 @@ CASE_FILES = {
 def _environment():
     import jinja2
 
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)),
-                              undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
+    return jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+    )
 
 
 def settings(spec: CaseSpec) -> dict:
     """Everything the templates see (also written to the case as ``case.json``)."""
     parts = body_parts(spec)
-    return {"case": {**spec.to_json(), "name": spec.name}, "d": domain(spec),
-            "m": mesh_settings(spec, parts), "s": solver_settings(spec, parts)}
+    return {
+        "case": {**spec.to_json(), "name": spec.name},
+        "d": domain(spec),
+        "m": mesh_settings(spec, parts),
+        "s": solver_settings(spec, parts),
+    }
 
 
 def render(spec: CaseSpec) -> dict[str, str]:
     """The case's dictionaries: relative path -> text."""
     env = _environment()
     ctx = settings(spec)
-    return {path: env.get_template(t).render(template_name=t, **ctx)
-            for path, t in CASE_FILES.items()}
+    return {
+        path: env.get_template(t).render(template_name=t, **ctx) for path, t in CASE_FILES.items()
+    }
 
 
 def write_case(spec: CaseSpec, folder) -> pathlib.Path:
@@ -311,8 +359,7 @@ def write_case(spec: CaseSpec, folder) -> pathlib.Path:
     parts = body_parts(spec)
     geometry.write_stl(folder / "constant" / "triSurface" / "body.stl", parts)
     areas = {p.name: geometry.area(p) for p in parts}
-    (folder / "case.json").write_text(json.dumps({**settings(spec), "part_areas": areas},
-                                                 indent=1))
+    (folder / "case.json").write_text(json.dumps({**settings(spec), "part_areas": areas}, indent=1))
     return folder
 
 
@@ -330,8 +377,13 @@ def _tokens(text: str) -> list[str]:
         if depth > 0:  # inside a word's parentheses
             out[-1] += tok
             depth += (tok == "(") - (tok == ")")
-        elif (tok == "(" and out and m.start() == end and out[-1][:1].isalpha()
-              and out[-1] not in "(){};"):
+        elif (
+            tok == "("
+            and out
+            and m.start() == end
+            and out[-1][:1].isalpha()
+            and out[-1] not in "(){};"
+        ):
             out[-1] += tok
             depth = 1
         else:

@@ -44,15 +44,47 @@ class Part:
 
 # --- closed surfaces ---------------------------------------------------------------------------
 
+
 def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     """A unit icosphere: the icosahedron with each face split into 4^subdivisions, the new
     vertices pushed onto the unit sphere."""
-    t = (1.0 + 5.0 ** 0.5) / 2.0
-    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
-         (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
-         (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
-         (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    t = (1.0 + 5.0**0.5) / 2.0
+    v = [
+        (-1, t, 0),
+        (1, t, 0),
+        (-1, -t, 0),
+        (1, -t, 0),
+        (0, -1, t),
+        (0, 1, t),
+        (0, -1, -t),
+        (0, 1, -t),
+        (t, 0, -1),
+        (t, 0, 1),
+        (-t, 0, -1),
+        (-t, 0, 1),
+    ]
+    f = [
+        (0, 11, 5),
+        (0, 5, 1),
+        (0, 1, 7),
+        (0, 7, 10),
+        (0, 10, 11),
+        (1, 5, 9),
+        (5, 11, 4),
+        (11, 10, 2),
+        (10, 7, 6),
+        (7, 1, 8),
+        (3, 9, 4),
+        (3, 4, 2),
+        (3, 2, 6),
+        (3, 6, 8),
+        (3, 8, 9),
+        (4, 9, 5),
+        (2, 4, 11),
+        (6, 2, 10),
+        (8, 6, 7),
+        (9, 8, 1),
+    ]
     verts = [np.array(p, float) / np.linalg.norm(p) for p in v]
     faces = list(f)
 
@@ -74,8 +106,9 @@ def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     return np.array(verts), np.array(faces, dtype=np.int64)
 
 
-def ellipsoid_part(semi_axes, subdivisions: int = 5, name: str = "hull",
-                   center=(0.0, 0.0, 0.0)) -> Part:
+def ellipsoid_part(
+    semi_axes, subdivisions: int = 5, name: str = "hull", center=(0.0, 0.0, 0.0)
+) -> Part:
     """An ellipsoid with ``semi_axes`` (a, b, c): a unit icosphere scaled per axis
     (20 * 4^subdivisions triangles; 5: 20480, about 0.1 % low in volume)."""
     v, f = _icosphere(subdivisions)
@@ -120,8 +153,9 @@ def prism_part(outline: np.ndarray, thickness: float, X: np.ndarray, name: str) 
     outline = np.asarray(outline, float)
     k = len(outline)
     h = thickness / 2.0
-    local = np.vstack([np.column_stack([outline, np.full(k, -h)]),
-                       np.column_stack([outline, np.full(k, h)])])
+    local = np.vstack(
+        [np.column_stack([outline, np.full(k, -h)]), np.column_stack([outline, np.full(k, h)])]
+    )
     cap = _polygon_triangles(outline)
     tris = [(a + k, b + k, c + k) for a, b, c in cap]  # top (+n), counter-clockwise
     tris += [(a, c, b) for a, b, c in cap]  # bottom (-n), reversed
@@ -143,8 +177,11 @@ def naca_half_thickness(xi, thickness: float):
     half-thickness at the chord fraction ``xi`` for a maximum thickness ``thickness`` (m),
     reached at 30 % chord (Abbott and von Doenhoff 1959, eq. 6.2)."""
     xi = np.asarray(xi, float)
-    return 5.0 * thickness * (0.2969 * np.sqrt(xi) - 0.1260 * xi - 0.3516 * xi ** 2
-                              + 0.2843 * xi ** 3 - 0.1036 * xi ** 4)
+    return (
+        5.0
+        * thickness
+        * (0.2969 * np.sqrt(xi) - 0.1260 * xi - 0.3516 * xi**2 + 0.2843 * xi**3 - 0.1036 * xi**4)
+    )
 
 
 def _section_ring(chord: float, thickness: float, section: str) -> np.ndarray:
@@ -212,11 +249,15 @@ def fin_part(leg: str, p: RobotParams = DEFAULT_ROBOT, section: str = "naca0012"
     # The distal plate's centre and axes seen from link 3: it must continue the proximal one.
     X34 = np.linalg.inv(X3) @ X4
     c4 = X34[:3, :3] @ np.asarray(g["distal"]["center"]) + X34[:3, 3]
-    if not (np.allclose(c4, [0.0, 0.0, prox_span + dist_span / 2], atol=1e-9)
-            and np.allclose(X34[:3, 0], [1.0, 0.0, 0.0], atol=1e-9)
-            and np.isclose(prox_t, dist_t)):
-        raise ValueError(f"fin {leg}: the distal plate does not continue the proximal plate "
-                         "in its plane; fin_part assumes it does")
+    if not (
+        np.allclose(c4, [0.0, 0.0, prox_span + dist_span / 2], atol=1e-9)
+        and np.allclose(X34[:3, 0], [1.0, 0.0, 0.0], atol=1e-9)
+        and np.isclose(prox_t, dist_t)
+    ):
+        raise ValueError(
+            f"fin {leg}: the distal plate does not continue the proximal plate "
+            "in its plane; fin_part assumes it does"
+        )
     s1, s2 = prox_span, prox_span + dist_span
     X = np.eye(4)  # u = span (link 3 z), v = chord (link 3 y), n = normal (link 3 x)
     X[:3, 0], X[:3, 1], X[:3, 2] = X3[:3, 2], X3[:3, 1], X3[:3, 0]
@@ -224,8 +265,9 @@ def fin_part(leg: str, p: RobotParams = DEFAULT_ROBOT, section: str = "naca0012"
     if section == "plate":
         # Both plates' outline in the (span, chord) plane, extruded by the thickness.
         hp, hd = prox_chord / 2, dist_chord / 2
-        outline = np.array([(0.0, -hp), (s1, -hp), (s1, -hd), (s2, -hd), (s2, hd), (s1, hd),
-                            (s1, hp), (0.0, hp)])
+        outline = np.array(
+            [(0.0, -hp), (s1, -hp), (s1, -hd), (s2, -hd), (s2, hd), (s1, hd), (s1, hp), (0.0, hp)]
+        )
         Xp = X.copy()
         Xp[:3, 2] = -X3[:3, 0]  # u x v = n for the prism's right-handed frame
         return prism_part(outline, prox_t, Xp, f"fin_{leg}")
@@ -240,8 +282,9 @@ def hull_parts(p: RobotParams = DEFAULT_ROBOT, subdivisions: int = 5) -> list[Pa
     return [ellipsoid_part(p.body_semi_axes, subdivisions, "hull")]
 
 
-def robot_parts(p: RobotParams = DEFAULT_ROBOT, subdivisions: int = 5,
-                fin_section: str = "naca0012") -> list[Part]:
+def robot_parts(
+    p: RobotParams = DEFAULT_ROBOT, subdivisions: int = 5, fin_section: str = "naca0012"
+) -> list[Part]:
     """The paper's simplified robot model: the hull fairing and the four fins at the zero
     pose (each fin's two plates as one solid, ``fin_part``)."""
     return hull_parts(p, subdivisions) + [fin_part(m.name, p, fin_section) for m in p.mounts]
@@ -254,6 +297,7 @@ def sphere_parts(diameter: float, subdivisions: int = 5) -> list[Part]:
 
 
 # --- measures ----------------------------------------------------------------------------------
+
 
 def _triangle_vectors(part: Part):
     v = part.vertices[part.triangles]
@@ -306,6 +350,7 @@ def ellipsoid_frontal_area(semi_axes) -> float:
 
 
 # --- files -------------------------------------------------------------------------------------
+
 
 def write_stl(path, parts: list[Part]) -> pathlib.Path:
     """Writes ``parts`` to ``path`` as ASCII STL, one ``solid NAME`` block per part."""

@@ -51,8 +51,12 @@ def openfoam_environment() -> dict:
 def openfoam_version() -> str:
     """The Debian package's version (e.g. ``1912.200626-1+b1``), or ``unknown``."""
     try:
-        out = subprocess.run(["dpkg-query", "-W", "-f=${Version}", "openfoam"],
-                             capture_output=True, text=True, timeout=20)
+        out = subprocess.run(
+            ["dpkg-query", "-W", "-f=${Version}", "openfoam"],
+            capture_output=True,
+            text=True,
+            timeout=20,
+        )
         return out.stdout.strip() or "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
@@ -71,21 +75,27 @@ SETTLE_MIN_ITERATIONS = 200
 POLL_S = 10.0
 
 
-def forces_settled(forces: np.ndarray, moments: np.ndarray,
-                   window: int = SETTLE_WINDOW, tolerance: float = SETTLE_TOLERANCE,
-                   min_iterations: int = SETTLE_MIN_ITERATIONS) -> bool:
+def forces_settled(
+    forces: np.ndarray,
+    moments: np.ndarray,
+    window: int = SETTLE_WINDOW,
+    tolerance: float = SETTLE_TOLERANCE,
+    min_iterations: int = SETTLE_MIN_ITERATIONS,
+) -> bool:
     """Whether the totals (n, 3) of the last ``window`` iterations stay within ``tolerance``
     of their scale (see SETTLE_TOLERANCE)."""
     n = min(len(forces), len(moments))
     if n < max(window, min_iterations):
         return False
-    f, m = forces[n - window:n], moments[n - window:n]
+    f, m = forces[n - window : n], moments[n - window : n]
     f_scale = float(np.linalg.norm(f[-1]))
     m_scale = float(np.linalg.norm(m[-1])) + 0.38 * f_scale
     if f_scale == 0:
         return False
-    return bool(np.ptp(f, axis=0).max() <= tolerance * f_scale
-                and np.ptp(m, axis=0).max() <= tolerance * m_scale)
+    return bool(
+        np.ptp(f, axis=0).max() <= tolerance * f_scale
+        and np.ptp(m, axis=0).max() <= tolerance * m_scale
+    )
 
 
 def _stop_when_settled(folder: pathlib.Path) -> bool:
@@ -99,19 +109,20 @@ def _stop_when_settled(folder: pathlib.Path) -> bool:
         return False
     control = folder / "system" / "controlDict"
     text = control.read_text()
-    control.write_text(re.sub(r"^stopAt\s+\w+;", "stopAt          writeNow;", text,
-                              count=1, flags=re.M))
+    control.write_text(
+        re.sub(r"^stopAt\s+\w+;", "stopAt          writeNow;", text, count=1, flags=re.M)
+    )
     return True
 
 
-def _run_step(folder: pathlib.Path, args: list[str], log: str,
-              watch_forces: bool = False) -> dict:
+def _run_step(folder: pathlib.Path, args: list[str], log: str, watch_forces: bool = False) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.monotonic()
     stopped = False
     with open(folder / log, "w") as f:
-        proc = subprocess.Popen(args, cwd=folder, stdout=f, stderr=subprocess.STDOUT,
-                                env=openfoam_environment())
+        proc = subprocess.Popen(
+            args, cwd=folder, stdout=f, stderr=subprocess.STDOUT, env=openfoam_environment()
+        )
         try:
             while True:
                 try:
@@ -129,8 +140,12 @@ def _run_step(folder: pathlib.Path, args: list[str], log: str,
     wall = time.monotonic() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    out = {"returncode": proc.returncode, "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
-           "log": log}
+    out = {
+        "returncode": proc.returncode,
+        "wall_s": round(wall, 2),
+        "cpu_s": round(cpu, 2),
+        "log": log,
+    }
     if watch_forces:
         out["stopped_forces_settled"] = stopped
     return out
@@ -149,6 +164,7 @@ def _tail(path: pathlib.Path, n: int = 6) -> str:
 
 
 # --- reading the outputs -----------------------------------------------------------------------
+
 
 def read_vectors(path) -> tuple[np.ndarray, np.ndarray]:
     """A forces/moment .dat of v1912: ``Time (total) (pressure) (viscous)`` per line ->
@@ -175,13 +191,16 @@ def read_yplus(path) -> dict:
             continue
         w = line.split()
         if len(w) >= 5:
-            last[w[1]] = {"time": float(w[0]), "min": float(w[2]), "max": float(w[3]),
-                          "avg": float(w[4])}
+            last[w[1]] = {
+                "time": float(w[0]),
+                "min": float(w[2]),
+                "max": float(w[3]),
+                "avg": float(w[4]),
+            }
     if not last:
         return {}
     t = max(v["time"] for v in last.values())
-    return {k: {x: v[x] for x in ("min", "max", "avg")} for k, v in last.items()
-            if v["time"] == t}
+    return {k: {x: v[x] for x in ("min", "max", "avg")} for k, v in last.items() if v["time"] == t}
 
 
 _RESIDUAL = re.compile(r"Solving for (\w+), Initial residual = ([-+0-9.eE]+)")
@@ -202,8 +221,7 @@ def read_solver_log(path) -> dict:
         if seen:
             residuals = seen
     times = re.findall(r"^Time = (\S+)", text, flags=re.M)
-    exec_times = re.findall(r"ExecutionTime = ([0-9.eE+-]+) s\s+ClockTime = ([0-9.eE+-]+) s",
-                            text)
+    exec_times = re.findall(r"ExecutionTime = ([0-9.eE+-]+) s\s+ClockTime = ([0-9.eE+-]+) s", text)
     build = re.search(r"^Build\s*:\s*(.+)$", text, flags=re.M)
     return {
         "residuals": residuals,
@@ -222,10 +240,12 @@ def read_check_mesh(path) -> dict:
     cells = re.search(r"^\s*cells:\s+(\d+)", text, flags=re.M)
     failed = re.search(r"Failed (\d+) mesh checks", text)
     non_ortho = re.search(r"Mesh non-orthogonality Max: ([0-9.eE+-]+)", text)
-    return {"cells": int(cells.group(1)) if cells else 0,
-            "mesh_ok": "Mesh OK." in text,
-            "failed_checks": int(failed.group(1)) if failed else 0,
-            "max_non_orthogonality": float(non_ortho.group(1)) if non_ortho else None}
+    return {
+        "cells": int(cells.group(1)) if cells else 0,
+        "mesh_ok": "Mesh OK." in text,
+        "failed_checks": int(failed.group(1)) if failed else 0,
+        "max_non_orthogonality": float(non_ortho.group(1)) if non_ortho else None,
+    }
 
 
 def full_body(v: np.ndarray, symmetry_axes, moment: bool) -> np.ndarray:
@@ -259,8 +279,10 @@ def summarise(folder: pathlib.Path, spec: cfdcase.CaseSpec) -> dict:
 
     def parts(rows, moment, how):
         sel = rows[-1] if how == "final" else rows[tail].mean(axis=0)
-        return {k: frame(sel[j], moment).tolist()
-                for j, k in enumerate(("total", "pressure", "viscous"))}
+        return {
+            k: frame(sel[j], moment).tolist()
+            for j, k in enumerate(("total", "pressure", "viscous"))
+        }
 
     out = {}
     for how in ("final", "tail_mean"):
@@ -270,22 +292,25 @@ def summarise(folder: pathlib.Path, spec: cfdcase.CaseSpec) -> dict:
         _, pf = read_vectors(folder / f"postProcessing/forces_{name}/0/force.dat")
         _, pm = read_vectors(folder / f"postProcessing/forces_{name}/0/moment.dat")
         t = slice(max(0, len(pf) - max(20, len(pf) // 10)), len(pf))
-        out["parts"][name] = {"force": frame(pf[t, 0].mean(axis=0), False).tolist(),
-                              "pressure_force": frame(pf[t, 1].mean(axis=0), False).tolist(),
-                              "moment": frame(pm[t, 0].mean(axis=0), True).tolist()}
+        out["parts"][name] = {
+            "force": frame(pf[t, 0].mean(axis=0), False).tolist(),
+            "pressure_force": frame(pf[t, 1].mean(axis=0), False).tolist(),
+            "moment": frame(pm[t, 0].mean(axis=0), True).tolist(),
+        }
     # Drag: the force along the water's flow (-x in the domain), on the whole body.
     drag_series = -np.array([full_body(f[0], sym, False)[0] for f in forces])
     drag_tail = drag_series[tail]
     speed = spec.speed
-    q = 0.5 * cfdcase.RHO * speed ** 2
+    q = 0.5 * cfdcase.RHO * speed**2
     a_ref = settings["s"]["a_ref"]
     velocity_body = (R.T @ np.array([speed, 0.0, 0.0])).tolist()
     return {
         **out,
         "drag_n": float(drag_series[-1]),
         "drag_tail_mean_n": float(drag_tail.mean()),
-        "drag_tail_spread": float((drag_tail.max() - drag_tail.min())
-                                  / max(abs(drag_tail.mean()), 1e-30)),
+        "drag_tail_spread": float(
+            (drag_tail.max() - drag_tail.min()) / max(abs(drag_tail.mean()), 1e-30)
+        ),
         "drag_pressure_n": float(-full_body(forces[-1][1], sym, False)[0]),
         "drag_viscous_n": float(-full_body(forces[-1][2], sym, False)[0]),
         "cd": float(drag_series[-1] / (q * a_ref)),
@@ -300,7 +325,7 @@ def _area_weighted_yplus(yplus: dict, areas: dict) -> tuple[float | None, float 
         return None, None
     w, s = 0.0, 0.0
     for patch, v in yplus.items():
-        region = patch[len("body_"):] if patch.startswith("body_") else None
+        region = patch[len("body_") :] if patch.startswith("body_") else None
         a = areas.get(region, sum(areas.values()) if region is None else 0.0)
         w += a
         s += a * v["avg"]
@@ -310,12 +335,12 @@ def _area_weighted_yplus(yplus: dict, areas: dict) -> tuple[float | None, float 
 
 # --- one case ----------------------------------------------------------------------------------
 
+
 def result_path(root, spec: cfdcase.CaseSpec) -> pathlib.Path:
     return pathlib.Path(root) / spec.name / RESULT
 
 
-def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False,
-             command: str = "") -> dict:
+def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False, command: str = "") -> dict:
     """Runs ``spec`` in ``root/spec.name`` unless its result exists (a failed one: only with
     ``retry_failed``); returns the result. ``command`` is recorded in it."""
     folder = pathlib.Path(root) / spec.name
@@ -327,35 +352,47 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False,
             result["skipped"] = True
             return result
     if not openfoam_available():
-        raise OpenFoamMissing("simpleFoam is not installed: run scripts/ensure_debian.sh openfoam "
-                              "(Debian's openfoam)")
+        raise OpenFoamMissing(
+            "simpleFoam is not installed: run scripts/ensure_debian.sh openfoam (Debian's openfoam)"
+        )
     if folder.exists():
         shutil.rmtree(folder)  # a half-run case starts again from nothing
     folder.mkdir(parents=True)
     started = datetime.datetime.now(datetime.UTC)
-    result = {"case": spec.name, "spec": spec.to_json(), "status": "running",
-              "started": started.isoformat(timespec="seconds"),
-              "openfoam": openfoam_version(), "mesh": spec.mesh, "command": command,
-              "mesh_spec": cfdcase.dc.asdict(spec.mesh_spec), "steps": {}}
+    result = {
+        "case": spec.name,
+        "spec": spec.to_json(),
+        "status": "running",
+        "started": started.isoformat(timespec="seconds"),
+        "openfoam": openfoam_version(),
+        "mesh": spec.mesh,
+        "command": command,
+        "mesh_spec": cfdcase.dc.asdict(spec.mesh_spec),
+        "steps": {},
+    }
     try:
         cfdcase.write_case(spec, folder)
-        for step, args in (("blockMesh", ["blockMesh"]),
-                           ("snappyHexMesh", ["snappyHexMesh", "-overwrite"]),
-                           ("checkMesh", ["checkMesh"]),
-                           ("simpleFoam", ["simpleFoam"])):
+        for step, args in (
+            ("blockMesh", ["blockMesh"]),
+            ("snappyHexMesh", ["snappyHexMesh", "-overwrite"]),
+            ("checkMesh", ["checkMesh"]),
+            ("simpleFoam", ["simpleFoam"]),
+        ):
             info = _run_step(folder, args, f"log.{step}", watch_forces=step == "simpleFoam")
             result["steps"][step] = info
             if info["returncode"] != 0:
-                raise CaseFailed(f"{step} exited with {info['returncode']}: "
-                                 f"{_tail(folder / info['log'])}")
+                raise CaseFailed(
+                    f"{step} exited with {info['returncode']}: {_tail(folder / info['log'])}"
+                )
             if step == "checkMesh":
                 result["check_mesh"] = read_check_mesh(folder / "log.checkMesh")
                 if result["check_mesh"]["cells"] == 0:
                     raise CaseFailed("checkMesh reports no cells")
         log = read_solver_log(folder / "log.simpleFoam")
         if not (folder / "postProcessing/yPlus/0/yPlus.dat").exists():
-            _run_step(folder, ["simpleFoam", "-postProcess", "-func", "yPlus", "-latestTime"],
-                      "log.yPlus")
+            _run_step(
+                folder, ["simpleFoam", "-postProcess", "-func", "yPlus", "-latestTime"], "log.yPlus"
+            )
         yplus_file = folder / "postProcessing/yPlus/0/yPlus.dat"
         if not yplus_file.exists():
             yplus_file = next(folder.glob("postProcessing/yPlus/*/yPlus.dat"), yplus_file)
@@ -363,26 +400,34 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False,
         areas = json.loads((folder / "case.json").read_text())["part_areas"]
         yavg, ymax = _area_weighted_yplus(yplus, areas)
         result.update(summarise(folder, spec))
-        result.update({
-            "cells": result["check_mesh"]["cells"],
-            "residuals": log["residuals"], "iterations": log["iterations"],
-            "converged": log["converged"], "openfoam_build": log["build"],
-            "forces_settled": result["steps"]["simpleFoam"]["stopped_forces_settled"],
-            "stopped_by": ("residuals" if log["converged"] else "forces settled"
-                           if result["steps"]["simpleFoam"]["stopped_forces_settled"]
-                           else "iteration cap"),
-            "solver_cpu_s": log["solver_cpu_s"], "yplus": yplus, "yplus_avg": yavg,
-            "yplus_max": ymax,
-        })
+        result.update(
+            {
+                "cells": result["check_mesh"]["cells"],
+                "residuals": log["residuals"],
+                "iterations": log["iterations"],
+                "converged": log["converged"],
+                "openfoam_build": log["build"],
+                "forces_settled": result["steps"]["simpleFoam"]["stopped_forces_settled"],
+                "stopped_by": (
+                    "residuals"
+                    if log["converged"]
+                    else "forces settled"
+                    if result["steps"]["simpleFoam"]["stopped_forces_settled"]
+                    else "iteration cap"
+                ),
+                "solver_cpu_s": log["solver_cpu_s"],
+                "yplus": yplus,
+                "yplus_avg": yavg,
+                "yplus_max": ymax,
+            }
+        )
         result["status"] = "ok"
-    except (CaseFailed, subprocess.TimeoutExpired, OSError, ValueError, KeyError,
-            IndexError) as e:
+    except (CaseFailed, subprocess.TimeoutExpired, OSError, ValueError, KeyError, IndexError) as e:
         result["status"] = "failed"
         result["reason"] = f"{type(e).__name__}: {' '.join(str(e).split())}"[:2000]
     result["wall_s"] = round(sum(s["wall_s"] for s in result["steps"].values()), 1)
     result["cpu_s"] = round(sum(s["cpu_s"] for s in result["steps"].values()), 1)
-    result["finished"] = datetime.datetime.now(datetime.UTC).isoformat(
-        timespec="seconds")
+    result["finished"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     tmp = folder / (RESULT + ".tmp")
     tmp.write_text(json.dumps(result, indent=1))
     tmp.replace(done)

@@ -78,10 +78,21 @@ METHOD = "direct"
 # DNV-RP-H103 (April 2011), Appendix A, Table A-2 "Analytical added mass coefficient for
 # three-dimensional bodies", rectangular plates in normal motion: b/a -> C_A, with
 # A = C_A rho pi/4 a^2 b (a the short side); C_A -> 1 (the strip value) as b/a -> infinity.
-DNV_RECTANGULAR_PLATE_CA = ((1.00, 0.579), (1.25, 0.642), (1.50, 0.690), (1.59, 0.704),
-                            (2.00, 0.757), (2.50, 0.801), (3.00, 0.830), (3.17, 0.840),
-                            (4.00, 0.872), (5.00, 0.897), (6.25, 0.917), (8.00, 0.934),
-                            (10.00, 0.947))
+DNV_RECTANGULAR_PLATE_CA = (
+    (1.00, 0.579),
+    (1.25, 0.642),
+    (1.50, 0.690),
+    (1.59, 0.704),
+    (2.00, 0.757),
+    (2.50, 0.801),
+    (3.00, 0.830),
+    (3.17, 0.840),
+    (4.00, 0.872),
+    (5.00, 0.897),
+    (6.25, 0.917),
+    (8.00, 0.934),
+    (10.00, 0.947),
+)
 
 # The cases' meshes. (a): lat-long ellipsoid meshes of n x 2n panels.
 HULL_N = (16, 24, 44)  # 512, 1152, 3872 panels
@@ -109,12 +120,15 @@ def _pose_q(roll1_deg=0.0, pitch_left_deg=0.0, pitch_right_deg=0.0):
 POSES = {
     "flat": ("q = 0", _pose_q()),
     "stroke": ("roll1 +45 deg on all four fins, pitch 0", _pose_q(45.0)),
-    "stroke_feathered": ("roll1 +45 deg, pitch +45 deg (left fins) / -45 deg (right fins, the "
-                         "swim gait's mirror)", _pose_q(45.0, 45.0, -45.0)),
+    "stroke_feathered": (
+        "roll1 +45 deg, pitch +45 deg (left fins) / -45 deg (right fins, the swim gait's mirror)",
+        _pose_q(45.0, 45.0, -45.0),
+    ),
 }
 
 
 # --- references ---------------------------------------------------------------------------------
+
 
 def dnv_rectangular_plate_ca(aspect: float) -> float:
     """C_A of DNV-RP-H103 Table A-2 for a rectangular plate of side ratio ``aspect`` = b/a
@@ -147,7 +161,7 @@ def strip_plate_hinge_roll(chord: float, span: float, rho: float) -> float:
     rho pi c^2/4 int_0^span r^2 dr [kg m^2]."""
     from manta_drake.model.coefficients import plate_added_mass_per_span
 
-    return plate_added_mass_per_span(chord, rho) * span ** 3 / 3.0
+    return plate_added_mass_per_span(chord, rho) * span**3 / 3.0
 
 
 def strip_plate_feather(chord: float, span: float, rho: float) -> float:
@@ -166,6 +180,7 @@ def water_density() -> float:
 
 
 # --- geometry -----------------------------------------------------------------------------------
+
 
 def link_poses(leg: str, q, params: RobotParams = DEFAULT_ROBOT) -> list[np.ndarray]:
     """The poses (4x4) of a leg-fin's links 1..4 in the Drake body frame at its joint angles
@@ -265,8 +280,9 @@ def ellipsoid_quads(semi_axes, n: int) -> np.ndarray:
     a, b, c = semi_axes
 
     def point(t, p):
-        return np.stack([a * np.sin(t) * np.cos(p), b * np.sin(t) * np.sin(p),
-                         -c * np.cos(t)], axis=-1)
+        return np.stack(
+            [a * np.sin(t) * np.cos(p), b * np.sin(t) * np.sin(p), -c * np.cos(t)], axis=-1
+        )
 
     t0, p0 = np.meshgrid(theta[:-1], phi[:-1], indexing="ij")
     t1, p1 = np.meshgrid(theta[1:], phi[1:], indexing="ij")
@@ -284,8 +300,9 @@ def hull(params: RobotParams = DEFAULT_ROBOT) -> Ellipsoid:
     return Ellipsoid("hull", tuple(float(s) for s in params.body_semi_axes))
 
 
-def fin_plates(leg: str, q, params: RobotParams = DEFAULT_ROBOT,
-               thickness: float | None = None) -> tuple[Box, Box]:
+def fin_plates(
+    leg: str, q, params: RobotParams = DEFAULT_ROBOT, thickness: float | None = None
+) -> tuple[Box, Box]:
     """A leg-fin's proximal (link 3) and distal (link 4) plates at its joint angles ``q``:
     the SDFormat model's boxes (``model_sdf.fin_plate_geometry``), in the body frame. The
     proximal plate's chord is split where the narrower distal plate meets its tip face."""
@@ -293,8 +310,9 @@ def fin_plates(leg: str, q, params: RobotParams = DEFAULT_ROBOT,
     X = link_poses(leg, q, params)
     boxes = []
     for name, X_link, splits in (
-            ("proximal", X[2], ((), (-params.distal_chord / 2, params.distal_chord / 2), ())),
-            ("distal", X[3], ((), (), ()))):
+        ("proximal", X[2], ((), (-params.distal_chord / 2, params.distal_chord / 2), ())),
+        ("distal", X[3], ((), (), ())),
+    ):
         size = list(g[name]["size"])
         if thickness is not None:
             size[0] = thickness
@@ -329,13 +347,17 @@ def split_quads(quads) -> np.ndarray:
     g = np.array([0.0, 0.5, 1.0])
     u, v = np.meshgrid(g, g, indexing="ij")
     p = _bilinear(quads, u, v).reshape(len(quads), 3, 3, 3)
-    out = [np.stack([p[:, i, j], p[:, i + 1, j], p[:, i + 1, j + 1], p[:, i, j + 1]], axis=1)
-           for i in range(2) for j in range(2)]
+    out = [
+        np.stack([p[:, i, j], p[:, i + 1, j], p[:, i + 1, j + 1], p[:, i, j + 1]], axis=1)
+        for i in range(2)
+        for j in range(2)
+    ]
     return np.concatenate(out)
 
 
-def union_panels(parts, h: float, hull_n: int,
-                 seam_depth: int = SEAM_DEPTH) -> tuple[np.ndarray, np.ndarray, dict]:
+def union_panels(
+    parts, h: float, hull_n: int, seam_depth: int = SEAM_DEPTH
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """The panels of the union of ``parts``: each part's mesh (boxes at panel size ``h``,
     the hull at ``hull_n``) less what lies inside another part.
 
@@ -375,19 +397,25 @@ def union_panels(parts, h: float, hull_n: int,
             inside |= other.contains(centres)
         kept.append(quads[~inside])
         owner.append(np.full(int((~inside).sum()), i))
-        counts[part.name] = {"kept": int((~inside).sum()), "dropped": int(inside.sum()),
-                             "split": n_split}
+        counts[part.name] = {
+            "kept": int((~inside).sum()),
+            "dropped": int(inside.sum()),
+            "split": n_split,
+        }
     return np.concatenate(kept), np.concatenate(owner), counts
 
 
 # --- the solver ---------------------------------------------------------------------------------
 
+
 def _capytaine():
     try:
         import capytaine as cpt
     except ImportError:
-        raise ValidationError("capytaine is not installed: pip install -e '.[validation]' (or "
-                              "pip install 'capytaine>=3.0,<3.1')") from None
+        raise ValidationError(
+            "capytaine is not installed: pip install -e '.[validation]' (or "
+            "pip install 'capytaine>=3.0,<3.1')"
+        ) from None
     cpt.set_logging("ERROR")  # thin boxes: "aspect ratio > 5" warnings are harmless here
     return cpt
 
@@ -403,8 +431,9 @@ def rigid_mode(axis, point) -> np.ndarray:
     return np.concatenate([np.cross(np.asarray(point, float), e), e])
 
 
-def solve_added_mass(quads, rho: float, owner=None, modes=None, label: str = "",
-                     verbose: bool = True) -> dict:
+def solve_added_mass(
+    quads, rho: float, owner=None, modes=None, label: str = "", verbose: bool = True
+) -> dict:
     """The added-mass matrix of the rigid body meshed by ``quads`` (n, 4, 3) about the body
     origin (6x6), and of the generalised ``modes`` (name -> (part indices, axis, point): those
     parts turning at unit rate about the axis through the point, the rest still), by
@@ -437,17 +466,24 @@ def solve_added_mass(quads, rho: float, owner=None, modes=None, label: str = "",
     # The six rigid modes give the 6x6; a generalised mode gives its own column (its added
     # inertia and its force on the rigid modes); the matrices and their LU are built once.
     for j, dof in enumerate(names):
-        problem = cpt.RadiationProblem(body=body, radiating_dof=dof, free_surface=np.inf,
-                                       water_depth=np.inf, omega=np.inf, rho=rho)
+        problem = cpt.RadiationProblem(
+            body=body,
+            radiating_dof=dof,
+            free_surface=np.inf,
+            water_depth=np.inf,
+            omega=np.inf,
+            rho=rho,
+        )
         result = solver.solve(problem, method=METHOD, keep_details=False)
         for i, other in enumerate(names):
             A[i, j] = float(np.real(result.added_masses[other]))
     seconds = time.time() - started
     if verbose:
-        print(f"  {label}: {body.mesh.nb_faces} panels, {len(names)} modes, {seconds:.1f} s",
-              flush=True)
-    out = {"matrix": A[:6, :6], "panels": int(body.mesh.nb_faces), "seconds": seconds,
-           "modes": {}}
+        print(
+            f"  {label}: {body.mesh.nb_faces} panels, {len(names)} modes, {seconds:.1f} s",
+            flush=True,
+        )
+    out = {"matrix": A[:6, :6], "panels": int(body.mesh.nb_faces), "seconds": seconds, "modes": {}}
     for k, name in enumerate(names[6:], start=6):
         out["modes"][name] = {"inertia": float(A[k, k]), "coupling": A[:6, k].tolist()}
     assert rigid == ["Surge", "Sway", "Heave", "Roll", "Pitch", "Yaw"], rigid
@@ -469,8 +505,10 @@ def _skew(r) -> np.ndarray:
 
 # --- the cases ----------------------------------------------------------------------------------
 
-def hull_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, levels=HULL_N,
-              verbose: bool = True) -> dict:
+
+def hull_case(
+    params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, levels=HULL_N, verbose: bool = True
+) -> dict:
     """(a) the hull alone at each lat-long mesh ``levels`` (n x 2n panels) against Lamb."""
     from manta_drake.model.coefficients import body_added_mass_strip_theory
     from manta_drake.model.potential_flow import ellipsoid_added_mass
@@ -479,9 +517,12 @@ def hull_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, levels=H
     mass, inertia = ellipsoid_added_mass(shape.semi_axes, rho)
     lamb = np.concatenate([mass, inertia])
     strip = body_added_mass_strip_theory(shape.semi_axes, rho)
-    out = {"semi_axes": list(shape.semi_axes), "lamb": lamb.tolist(),
-           "strip_theory": np.concatenate([strip["mass"], strip["inertia"]]).tolist(),
-           "meshes": []}
+    out = {
+        "semi_axes": list(shape.semi_axes),
+        "lamb": lamb.tolist(),
+        "strip_theory": np.concatenate([strip["mass"], strip["inertia"]]).tolist(),
+        "meshes": [],
+    }
     if verbose:
         print("(a) hull alone against Lamb", flush=True)
     for n in levels:
@@ -489,14 +530,23 @@ def hull_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, levels=H
         A = r["matrix"]
         diag = np.diag(A)
         off = np.abs(A - np.diag(diag)).max() / np.abs(diag).max()
-        out["meshes"].append({"n": n, "panels": r["panels"], "seconds": r["seconds"],
-                              "diagonal": diag.tolist(), "error": (diag / lamb - 1).tolist(),
-                              "off_diagonal_max_rel": float(off), "matrix": A.tolist()})
+        out["meshes"].append(
+            {
+                "n": n,
+                "panels": r["panels"],
+                "seconds": r["seconds"],
+                "diagonal": diag.tolist(),
+                "error": (diag / lamb - 1).tolist(),
+                "off_diagonal_max_rel": float(off),
+                "matrix": A.tolist(),
+            }
+        )
     return out
 
 
-def plate_box(which: str, params: RobotParams = DEFAULT_ROBOT,
-              thickness: float | None = None) -> tuple[Box, dict]:
+def plate_box(
+    which: str, params: RobotParams = DEFAULT_ROBOT, thickness: float | None = None
+) -> tuple[Box, dict]:
     """One plate alone in its link's frame (the joint at the origin), and its axes there:
     ``normal`` (heave), ``hinge`` (the joint axis at its root: roll1 for the proximal plate,
     roll2 for the distal one), ``span`` (the feathering axis through mid-chord), its chord
@@ -513,13 +563,23 @@ def plate_box(which: str, params: RobotParams = DEFAULT_ROBOT,
     else:  # link 4: x normal, -y span, z chord (the roll2 axis)
         axes = {"normal": (1, 0, 0), "hinge": (0, 0, 1), "span": (0, -1, 0)}
         chord, span = size[2], size[1]
-    info = {"chord": chord, "span": span, "thickness": size[0], "axes": axes,
-            "centre": list(g["center"])}
+    info = {
+        "chord": chord,
+        "span": span,
+        "thickness": size[0],
+        "axes": axes,
+        "centre": list(g["center"]),
+    }
     return Box(which, pose, tuple(size)), info
 
 
-def plate_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, sizes=PLATE_H,
-               thicknesses=PLATE_THICKNESS, verbose: bool = True) -> dict:
+def plate_case(
+    params: RobotParams = DEFAULT_ROBOT,
+    rho: float = 1000.0,
+    sizes=PLATE_H,
+    thicknesses=PLATE_THICKNESS,
+    verbose: bool = True,
+) -> dict:
     """(b) each plate alone: heave normal to it, roll about its hinge, feathering about its
     span line, against strip theory and DNV-RP-H103; the mesh convergence at the model's
     thickness, then the thinner plates at the finest size."""
@@ -530,38 +590,62 @@ def plate_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, sizes=P
         _, info = plate_box(which, params)
         c, s = info["chord"], info["span"]
         ca, dnv = dnv_plate_heave(c, s, rho)
-        entry = {"chord": c, "span": s, "aspect": max(c, s) / min(c, s), "dnv_ca": ca,
-                 "dnv_heave": dnv, "strip_heave": strip_plate_heave(c, s, rho),
-                 "strip_hinge_roll": strip_plate_hinge_roll(c, s, rho),
-                 "strip_feather": strip_plate_feather(c, s, rho),
-                 "dnv_hinge_roll": ca * strip_plate_hinge_roll(c, s, rho),
-                 "runs": []}
+        entry = {
+            "chord": c,
+            "span": s,
+            "aspect": max(c, s) / min(c, s),
+            "dnv_ca": ca,
+            "dnv_heave": dnv,
+            "strip_heave": strip_plate_heave(c, s, rho),
+            "strip_hinge_roll": strip_plate_hinge_roll(c, s, rho),
+            "strip_feather": strip_plate_feather(c, s, rho),
+            "dnv_hinge_roll": ca * strip_plate_hinge_roll(c, s, rho),
+            "runs": [],
+        }
         runs = [(h, params.fin_thickness) for h in sizes]
         runs += [(sizes[-1], t) for t in thicknesses if not math.isclose(t, params.fin_thickness)]
         for h, t in runs:
             box, info = plate_box(which, params, thickness=t)
-            r = solve_added_mass(box.quads(h), rho,
-                                 label=f"{which} t={t * 1e3:.0f} mm h={h * 1e3:.0f} mm",
-                                 verbose=verbose)
+            r = solve_added_mass(
+                box.quads(h),
+                rho,
+                label=f"{which} t={t * 1e3:.0f} mm h={h * 1e3:.0f} mm",
+                verbose=verbose,
+            )
             A = r["matrix"]  # about the joint, link axes
             ax = info["axes"]
             centre = np.asarray(info["centre"])
-            entry["runs"].append({
-                "thickness": t, "h": h, "panels": r["panels"], "seconds": r["seconds"],
-                "heave": float(rigid_mode_translation(ax["normal"]) @ A
-                               @ rigid_mode_translation(ax["normal"])),
-                "hinge_roll": float(rigid_mode((ax["hinge"]), (0, 0, 0)) @ A
-                                    @ rigid_mode(ax["hinge"], (0, 0, 0))),
-                "feather": float(rigid_mode(ax["span"], centre) @ A
-                                 @ rigid_mode(ax["span"], centre)),
-                "matrix_about_joint": A.tolist()})
+            entry["runs"].append(
+                {
+                    "thickness": t,
+                    "h": h,
+                    "panels": r["panels"],
+                    "seconds": r["seconds"],
+                    "heave": float(
+                        rigid_mode_translation(ax["normal"])
+                        @ A
+                        @ rigid_mode_translation(ax["normal"])
+                    ),
+                    "hinge_roll": float(
+                        rigid_mode((ax["hinge"]), (0, 0, 0))
+                        @ A
+                        @ rigid_mode(ax["hinge"], (0, 0, 0))
+                    ),
+                    "feather": float(
+                        rigid_mode(ax["span"], centre) @ A @ rigid_mode(ax["span"], centre)
+                    ),
+                    "matrix_about_joint": A.tolist(),
+                }
+            )
         entry["elliptic"] = elliptic_plate_case(c, s, params.fin_thickness, rho, verbose)
         fine = [r for r in entry["runs"] if math.isclose(r["h"], sizes[-1])]
         fine.sort(key=lambda r: -r["thickness"])
         if len(fine) >= 2:  # linear in the thickness through the two thinnest
             a, b = fine[-2], fine[-1]
-            k = {q: (a[q] - b[q]) / (a["thickness"] - b["thickness"])
-                 for q in ("heave", "hinge_roll", "feather")}
+            k = {
+                q: (a[q] - b[q]) / (a["thickness"] - b["thickness"])
+                for q in ("heave", "hinge_roll", "feather")
+            }
             entry["thin_limit"] = {q: b[q] - k[q] * b["thickness"] for q in k}
         out[which] = entry
     return out
@@ -570,8 +654,9 @@ def plate_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, sizes=P
 ELLIPTIC_N = (24, 32)  # 1152, 2048 panels
 
 
-def elliptic_plate_case(chord: float, span: float, thickness: float, rho: float,
-                        verbose: bool = True, levels=ELLIPTIC_N) -> dict:
+def elliptic_plate_case(
+    chord: float, span: float, thickness: float, rho: float, verbose: bool = True, levels=ELLIPTIC_N
+) -> dict:
     """A thin body with an exact answer: the elliptic plate inscribed in the rectangular one
     (semi-axes chord/2, span/2, thickness/2) is an ellipsoid, so Lamb gives its heave added
     mass exactly; capytaine's error on it at ``levels`` (n x 2n panels, the poles on the
@@ -582,11 +667,22 @@ def elliptic_plate_case(chord: float, span: float, thickness: float, rho: float,
     lamb = float(ellipsoid_added_mass(axes, rho)[0][2])
     out = {"semi_axes": list(axes), "lamb_heave": lamb, "runs": []}
     for n in levels:
-        r = solve_added_mass(ellipsoid_quads(axes, n), rho,
-                             label=f"elliptic plate {chord:g} x {span:g} n={n}", verbose=verbose)
+        r = solve_added_mass(
+            ellipsoid_quads(axes, n),
+            rho,
+            label=f"elliptic plate {chord:g} x {span:g} n={n}",
+            verbose=verbose,
+        )
         heave = float(r["matrix"][2, 2])
-        out["runs"].append({"n": n, "panels": r["panels"], "seconds": r["seconds"],
-                            "heave": heave, "error": heave / lamb - 1.0})
+        out["runs"].append(
+            {
+                "n": n,
+                "panels": r["panels"],
+                "seconds": r["seconds"],
+                "heave": heave,
+                "error": heave / lamb - 1.0,
+            }
+        )
     return out
 
 
@@ -611,33 +707,54 @@ def joint_modes(q, params: RobotParams = DEFAULT_ROBOT, part_index=None) -> dict
     return modes
 
 
-def robot_case(params: RobotParams = DEFAULT_ROBOT, rho: float = 1000.0, poses=None,
-               levels=ROBOT_LEVELS, parts_level: int = PARTS_LEVEL,
-               verbose: bool = True) -> dict:
+def robot_case(
+    params: RobotParams = DEFAULT_ROBOT,
+    rho: float = 1000.0,
+    poses=None,
+    levels=ROBOT_LEVELS,
+    parts_level: int = PARTS_LEVEL,
+    verbose: bool = True,
+) -> dict:
     """(c) the whole robot at each pose and level; the isolated parts at ``parts_level``."""
     from manta_drake.model.coefficients import fin_hinge_added_inertia
 
     poses = POSES if poses is None else poses
-    out = {"levels": [{"h": h, "hull_n": n} for h, n in levels],
-           "parts_level": parts_level,
-           "strip_hinge_inertia": dict(zip(JOINTS, fin_hinge_added_inertia(params, rho)
-                                           .tolist())),
-           "poses": {}}
+    out = {
+        "levels": [{"h": h, "hull_n": n} for h, n in levels],
+        "parts_level": parts_level,
+        "strip_hinge_inertia": dict(zip(JOINTS, fin_hinge_added_inertia(params, rho).tolist())),
+        "poses": {},
+    }
     for name, (text, q) in poses.items():
         if verbose:
             print(f"(c) robot, pose {name}: {text}", flush=True)
         parts = robot_parts(q, params)
         index = {p.name: i for i, p in enumerate(parts)}
-        entry = {"description": text, "q_deg": np.degrees(q).tolist(), "meshes": [],
-                 "plate_normals": {p.name: p.pose[:3, 0].tolist() for p in parts[1:]}}
+        entry = {
+            "description": text,
+            "q_deg": np.degrees(q).tolist(),
+            "meshes": [],
+            "plate_normals": {p.name: p.pose[:3, 0].tolist() for p in parts[1:]},
+        }
         for level, (h, n) in enumerate(levels):
             quads, owner, counts = union_panels(parts, h, n)
             modes = joint_modes(q, params, index) if level == len(levels) - 1 else None
-            r = solve_added_mass(quads, rho, owner=owner, modes=modes,
-                                 label=f"robot {name} h={h * 1e3:.0f} mm", verbose=verbose)
-            mesh = {"h": h, "hull_n": n, "panels": r["panels"], "seconds": r["seconds"],
-                    "dropped_panels": sum(c["dropped"] for c in counts.values()),
-                    "matrix": r["matrix"].tolist()}
+            r = solve_added_mass(
+                quads,
+                rho,
+                owner=owner,
+                modes=modes,
+                label=f"robot {name} h={h * 1e3:.0f} mm",
+                verbose=verbose,
+            )
+            mesh = {
+                "h": h,
+                "hull_n": n,
+                "panels": r["panels"],
+                "seconds": r["seconds"],
+                "dropped_panels": sum(c["dropped"] for c in counts.values()),
+                "matrix": r["matrix"].tolist(),
+            }
             if r["modes"]:
                 mesh["joint_modes"] = r["modes"]
             entry["meshes"].append(mesh)
@@ -651,50 +768,67 @@ def isolated_parts(parts, level, rho: float, pose: str, verbose: bool = True) ->
     """The 6x6 (about the body origin) of each part alone, of each fin alone (its two
     plates), of the four fins without the hull; and their sums."""
     h, n = level
-    out = {"hull": solve_added_mass(parts[0].quads(n), rho, label=f"{pose}: hull alone",
-                                    verbose=verbose)["matrix"].tolist(), "plates": {},
-           "fins": {}}
+    out = {
+        "hull": solve_added_mass(
+            parts[0].quads(n), rho, label=f"{pose}: hull alone", verbose=verbose
+        )["matrix"].tolist(),
+        "plates": {},
+        "fins": {},
+    }
     plates = parts[1:]
     for p in plates:
-        out["plates"][p.name] = solve_added_mass(p.quads(h), rho, label=f"{pose}: {p.name} alone",
-                                                 verbose=verbose)["matrix"].tolist()
+        out["plates"][p.name] = solve_added_mass(
+            p.quads(h), rho, label=f"{pose}: {p.name} alone", verbose=verbose
+        )["matrix"].tolist()
     for k in range(0, len(plates), 2):
-        quads, owner, _ = union_panels(plates[k:k + 2], h, n)
+        quads, owner, _ = union_panels(plates[k : k + 2], h, n)
         leg = plates[k].name.split("_")[0]
-        out["fins"][leg] = solve_added_mass(quads, rho, owner=owner,
-                                            label=f"{pose}: fin {leg} alone",
-                                            verbose=verbose)["matrix"].tolist()
+        out["fins"][leg] = solve_added_mass(
+            quads, rho, owner=owner, label=f"{pose}: fin {leg} alone", verbose=verbose
+        )["matrix"].tolist()
     quads, owner, _ = union_panels(plates, h, n)
-    out["four_fins"] = solve_added_mass(quads, rho, owner=owner, label=f"{pose}: four fins",
-                                        verbose=verbose)["matrix"].tolist()
-    out["sum_hull_plates"] = (np.array(out["hull"])
-                              + sum(np.array(m) for m in out["plates"].values())).tolist()
-    out["sum_hull_fins"] = (np.array(out["hull"])
-                            + sum(np.array(m) for m in out["fins"].values())).tolist()
+    out["four_fins"] = solve_added_mass(
+        quads, rho, owner=owner, label=f"{pose}: four fins", verbose=verbose
+    )["matrix"].tolist()
+    out["sum_hull_plates"] = (
+        np.array(out["hull"]) + sum(np.array(m) for m in out["plates"].values())
+    ).tolist()
+    out["sum_hull_fins"] = (
+        np.array(out["hull"]) + sum(np.array(m) for m in out["fins"].values())
+    ).tolist()
     return out
 
 
-def run_all(params: RobotParams = DEFAULT_ROBOT, rho: float | None = None,
-            verbose: bool = True) -> dict:
+def run_all(
+    params: RobotParams = DEFAULT_ROBOT, rho: float | None = None, verbose: bool = True
+) -> dict:
     """Every case, with the provenance; numbers rounded to 6 significant digits."""
     rho = water_density() if rho is None else rho
     started = time.time()
-    results = {"hull": hull_case(params, rho, verbose=verbose),
-               "plates": plate_case(params, rho, verbose=verbose),
-               "robot": robot_case(params, rho, verbose=verbose)}
+    results = {
+        "hull": hull_case(params, rho, verbose=verbose),
+        "plates": plate_case(params, rho, verbose=verbose),
+        "robot": robot_case(params, rho, verbose=verbose),
+    }
     results = round_floats(results, 6)
     return {"provenance": provenance(rho, time.time() - started), **results}
 
 
-def uncommitted(paths=("manta_drake/model", "manta_drake/studies/validation",
-                        "models/hydrodynamics.yaml")) -> list[str]:
+def uncommitted(
+    paths=("manta_drake/model", "manta_drake/studies/validation", "models/hydrodynamics.yaml"),
+) -> list[str]:
     """The files under ``paths`` of the checkout that differ from its commit (``git status``;
     empty outside a git checkout): the numbers were made from them, not from the commit."""
     import subprocess
 
     try:
-        out = subprocess.run(["git", "-C", str(REPO), "status", "--porcelain", "--", *paths],
-                             capture_output=True, text=True, timeout=30, check=True).stdout
+        out = subprocess.run(
+            ["git", "-C", str(REPO), "status", "--porcelain", "--", *paths],
+            capture_output=True,
+            text=True,
+            timeout=30,
+            check=True,
+        ).stdout
     except (OSError, subprocess.SubprocessError):
         return []
     return sorted(line[3:] for line in out.splitlines() if line.strip())
@@ -711,7 +845,7 @@ def provenance(rho: float, seconds: float) -> dict:
         "fluid": "unbounded ideal fluid (free_surface=inf, water_depth=inf, omega=inf)",
         "rho": rho,
         "frame": "Drake body frame (x forward, y left, z up), about the hull's origin; rows "
-                 "and columns surge, sway, heave, roll, pitch, yaw; kg, kg m, kg m^2",
+        "and columns surge, sway, heave, roll, pitch, yaw; kg, kg m, kg m^2",
         "date": datetime.date.today().isoformat(),
         "commit": commit(),
         "uncommitted": uncommitted(),
@@ -724,11 +858,13 @@ def provenance(rho: float, seconds: float) -> dict:
 
 # --- files --------------------------------------------------------------------------------------
 
-HEADER = ("# Added mass of the robot's own geometry by capytaine (BEM, direct method, unbounded\n"
-          "# fluid): the hull against Lamb, the fin plates against strip theory and DNV-RP-H103,\n"
-          "# the whole robot at three poses. Generated by\n# `{command}`\n"
-          "# (manta_drake/studies/validation/added_mass.py); docs/validation.md's \"Added mass\"\n"
-          "# section is rendered from it. Do not edit.\n")
+HEADER = (
+    "# Added mass of the robot's own geometry by capytaine (BEM, direct method, unbounded\n"
+    "# fluid): the hull against Lamb, the fin plates against strip theory and DNV-RP-H103,\n"
+    "# the whole robot at three poses. Generated by\n# `{command}`\n"
+    '# (manta_drake/studies/validation/added_mass.py); docs/validation.md\'s "Added mass"\n'
+    "# section is rendered from it. Do not edit.\n"
+)
 
 
 def write_yaml(path, results: dict) -> pathlib.Path:
@@ -738,9 +874,11 @@ def write_yaml(path, results: dict) -> pathlib.Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     head = {"provenance": results["provenance"]}
     rest = {k: v for k, v in results.items() if k != "provenance"}
-    text = (HEADER.format(command=results["provenance"]["command"])
-            + yaml.safe_dump(head, sort_keys=False, default_flow_style=False, width=100)
-            + yaml.safe_dump(rest, sort_keys=False, default_flow_style=None, width=100))
+    text = (
+        HEADER.format(command=results["provenance"]["command"])
+        + yaml.safe_dump(head, sort_keys=False, default_flow_style=False, width=100)
+        + yaml.safe_dump(rest, sort_keys=False, default_flow_style=None, width=100)
+    )
     path.write_text(text)
     return path
 
@@ -754,10 +892,16 @@ def load_results(path=YAML_PATH) -> dict:
 
 # --- the page -----------------------------------------------------------------------------------
 
+
 def page_context(results: dict) -> dict:
     """Everything the template shows, computed from the results (the ratios, the sums)."""
-    ctx = {"p": results["provenance"], "hull": results["hull"], "plates": results["plates"],
-           "robot": results["robot"], "dofs": DOFS}
+    ctx = {
+        "p": results["provenance"],
+        "hull": results["hull"],
+        "plates": results["plates"],
+        "robot": results["robot"],
+        "dofs": DOFS,
+    }
     robot = results["robot"]
     rows = []
     for name, pose in robot["poses"].items():
@@ -767,12 +911,21 @@ def page_context(results: dict) -> dict:
         plates = sum(np.array(m) for m in parts["plates"].values())
         fins = sum(np.array(m) for m in parts["fins"].values())
         four = np.array(parts["four_fins"])
-        rows.append({"pose": name, "entries": [
-            ("hull alone", hull_m), ("8 plates alone, summed", plates),
-            ("4 fins alone (2 plates each), summed", fins), ("4 fins together, no hull", four),
-            ("hull + 8 plates, summed", hull_m + plates), ("whole robot", whole)],
-            "ratio_plates": np.diag(whole) / np.diag(hull_m + plates),
-            "ratio_fins": np.diag(whole) / np.diag(hull_m + fins)})
+        rows.append(
+            {
+                "pose": name,
+                "entries": [
+                    ("hull alone", hull_m),
+                    ("8 plates alone, summed", plates),
+                    ("4 fins alone (2 plates each), summed", fins),
+                    ("4 fins together, no hull", four),
+                    ("hull + 8 plates, summed", hull_m + plates),
+                    ("whole robot", whole),
+                ],
+                "ratio_plates": np.diag(whole) / np.diag(hull_m + plates),
+                "ratio_fins": np.diag(whole) / np.diag(hull_m + fins),
+            }
+        )
     ctx["parts_rows"] = rows
     # The sums the model's terms would give for heave: the hull's own value plus each plate's
     # normal added mass (strip, or DNV's 3-D plate) projected on z, (n . z)^2.
@@ -787,19 +940,29 @@ def page_context(results: dict) -> dict:
             strip += plates[which]["strip_heave"] * nz2
             dnv += plates[which]["dnv_heave"] * nz2
         bem = pose["meshes"][-1]["matrix"][2][2]
-        sums.append({"pose": name, "bem": bem, "rows": [
-            ("hull strip theory + plates' strip", results["hull"]
-             ["strip_theory"][2] + strip),
-            ("hull Lamb + plates' strip", lamb_heave + strip),
-            ("hull Lamb + plates' DNV 3-D", lamb_heave + dnv)]})
+        sums.append(
+            {
+                "pose": name,
+                "bem": bem,
+                "rows": [
+                    (
+                        "hull strip theory + plates' strip",
+                        results["hull"]["strip_theory"][2] + strip,
+                    ),
+                    ("hull Lamb + plates' strip", lamb_heave + strip),
+                    ("hull Lamb + plates' DNV 3-D", lamb_heave + dnv),
+                ],
+            }
+        )
     ctx["model_sums"] = sums
     spreads = []
     for pose in robot["poses"].values():
         diag = np.array([np.diag(np.array(m["matrix"])) for m in pose["meshes"]])
         spreads.append(diag.max(axis=0) / diag.min(axis=0) - 1.0)
     ctx["spread"] = np.max(spreads, axis=0)  # per axis, the largest over the poses
-    ctx["finest"] = {name: np.array(pose["meshes"][-1]["matrix"])
-                     for name, pose in robot["poses"].items()}
+    ctx["finest"] = {
+        name: np.array(pose["meshes"][-1]["matrix"]) for name, pose in robot["poses"].items()
+    }
     return ctx
 
 
@@ -822,24 +985,40 @@ def write_page(path, results: dict) -> None:
 
 # --- the command --------------------------------------------------------------------------------
 
+
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, metavar="DIR",
-                        help="writes DIR/added_mass.json (the results) and DIR/added_mass.md "
-                             "(the section)")
-    parser.add_argument("--yaml", default=str(YAML_PATH), metavar="FILE",
-                        help="the committed results (default models/reference/"
-                             "added_mass_bem.yaml of the checkout); '' writes none")
-    parser.add_argument("--page", default=str(PAGE_PATH), metavar="FILE",
-                        help="the page whose added-mass block is replaced (default "
-                             "docs/validation.md); '' writes none")
-    parser.add_argument("--from-yaml", action="store_true",
-                        help="solve nothing: render the page from --yaml as committed")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="writes DIR/added_mass.json (the results) and DIR/added_mass.md (the section)",
+    )
+    parser.add_argument(
+        "--yaml",
+        default=str(YAML_PATH),
+        metavar="FILE",
+        help="the committed results (default models/reference/"
+        "added_mass_bem.yaml of the checkout); '' writes none",
+    )
+    parser.add_argument(
+        "--page",
+        default=str(PAGE_PATH),
+        metavar="FILE",
+        help="the page whose added-mass block is replaced (default "
+        "docs/validation.md); '' writes none",
+    )
+    parser.add_argument(
+        "--from-yaml",
+        action="store_true",
+        help="solve nothing: render the page from --yaml as committed",
+    )
     args = parser.parse_args(argv)
     check_out(args.out)
     if args.from_yaml and not pathlib.Path(args.yaml).is_file():
-        raise ValidationError(f"--from-yaml: no results file {args.yaml}; run without "
-                              "--from-yaml first")
+        raise ValidationError(
+            f"--from-yaml: no results file {args.yaml}; run without --from-yaml first"
+        )
     return args
 
 

@@ -87,9 +87,13 @@ GARRICK_K = (0.3, math.pi / 4.0, math.pi / 2.0)
 # The bands of models/hydrodynamics.yaml's ``fins:`` sources (lift_slope "band 3.1-4.3",
 # suction_efficiency "band 0.5-1.0", stall_angle_deg "band 10-25 deg", stall_width_deg "band
 # 1-5 deg", separation_lag "band 2-4"); each end is one sensitivity case, the others held.
-BANDS = {"lift_slope": (3.1, 4.3), "suction_efficiency": (0.5, 1.0),
-         "stall_angle_deg": (10.0, 25.0), "stall_width_deg": (1.0, 5.0),
-         "separation_lag": (2.0, 4.0)}
+BANDS = {
+    "lift_slope": (3.1, 4.3),
+    "suction_efficiency": (0.5, 1.0),
+    "stall_angle_deg": (10.0, 25.0),
+    "stall_width_deg": (1.0, 5.0),
+    "separation_lag": (2.0, 4.0),
+}
 # Diagnostic cases (not bands): which term or switch makes the difference.
 DIAGNOSTICS = {
     "attached (no stall)": {"stall_angle_deg": 180.0},
@@ -98,9 +102,11 @@ DIAGNOSTICS = {
 }
 BASES = ("experiment", "shipped", "2d")
 ACCEPTED_BASE = "experiment"
-BASE_LABELS = {"experiment": "Helmbold at the experiment's aspect ratio",
-               "shipped": "shipped (Helmbold at the robot's fin)",
-               "2d": "2-D lift slope a = 2 pi"}
+BASE_LABELS = {
+    "experiment": "Helmbold at the experiment's aspect ratio",
+    "shipped": "shipped (Helmbold at the robot's fin)",
+    "2d": "2-D lift slope a = 2 pi",
+}
 # The experiment's band of effective aspect ratio: its geometric span / chord (both ends free)
 # to twice that (one end on a reflection plane: a wall or end plate, which the reachable texts
 # do not settle).
@@ -110,19 +116,22 @@ TERMS = ("circulatory", "suction", "separated", "friction")
 
 # --- parameters ---------------------------------------------------------------------------------
 
+
 def shipped_parameters(path=None) -> dict:
     """The fins' strip-model parameters as ``models/hydrodynamics.yaml`` ships them (degrees
     for the angles), the ones ``station.hydro`` hands the foil model."""
     from manta_drake.model.coefficients import DEFAULT_COEFFICIENTS_FILE, load_coefficients
 
     fins = load_coefficients(DEFAULT_COEFFICIENTS_FILE if path is None else path).fins
-    return {"lift_slope": float(fins.lift_slope.value),
-            "suction_efficiency": float(fins.suction_efficiency.value),
-            "cross_flow_coefficient": float(fins.normal_force_coefficient.value),
-            "friction_coefficient": float(fins.skin_friction_coefficient.value),
-            "stall_angle_deg": float(fins.stall_angle_deg.value),
-            "stall_width_deg": float(fins.stall_width_deg.value),
-            "separation_lag": float(fins.separation_lag.value)}
+    return {
+        "lift_slope": float(fins.lift_slope.value),
+        "suction_efficiency": float(fins.suction_efficiency.value),
+        "cross_flow_coefficient": float(fins.normal_force_coefficient.value),
+        "friction_coefficient": float(fins.skin_friction_coefficient.value),
+        "stall_angle_deg": float(fins.stall_angle_deg.value),
+        "stall_width_deg": float(fins.stall_width_deg.value),
+        "separation_lag": float(fins.separation_lag.value),
+    }
 
 
 def experiment_aspect_ratio(data: dict) -> float:
@@ -131,8 +140,9 @@ def experiment_aspect_ratio(data: dict) -> float:
     return float(cond["span_m"]) / float(cond["chord_m"])
 
 
-def base_parameters(base: str, shipped: dict | None = None,
-                    aspect_ratio: float | None = None) -> dict:
+def base_parameters(
+    base: str, shipped: dict | None = None, aspect_ratio: float | None = None
+) -> dict:
     """``shipped`` as is; ``experiment``: the same with Helmbold's lift slope at
     ``aspect_ratio`` (the data foil's); ``2d``: with the 2-D lift slope 2 pi."""
     p = dict(shipped_parameters() if shipped is None else shipped)
@@ -140,8 +150,10 @@ def base_parameters(base: str, shipped: dict | None = None,
         p["lift_slope"] = 2.0 * math.pi
     elif base == "experiment":
         if aspect_ratio is None or not aspect_ratio > 0.0:
-            raise ValueError(f"base_parameters: 'experiment' needs the foil's aspect ratio > 0, "
-                             f"got {aspect_ratio!r}")
+            raise ValueError(
+                f"base_parameters: 'experiment' needs the foil's aspect ratio > 0, "
+                f"got {aspect_ratio!r}"
+            )
         p["lift_slope"] = float(foil.helmbold_lift_slope(aspect_ratio))
     elif base != "shipped":
         raise ValueError(f"base_parameters: {base!r} is not one of {', '.join(BASES)}")
@@ -150,16 +162,20 @@ def base_parameters(base: str, shipped: dict | None = None,
 
 def foil_params(p: dict) -> dict:
     """The ``params`` dict of ``foil.prescribed_motion_forces`` (radians, rho)."""
-    return {"rho": RHO, "lift_slope": p["lift_slope"],
-            "suction_efficiency": p["suction_efficiency"],
-            "cross_flow_coefficient": p["cross_flow_coefficient"],
-            "friction_coefficient": p["friction_coefficient"],
-            "stall_angle": math.radians(p["stall_angle_deg"]),
-            "stall_width": math.radians(p["stall_width_deg"]),
-            "separation_lag": p.get("separation_lag", 0.0)}
+    return {
+        "rho": RHO,
+        "lift_slope": p["lift_slope"],
+        "suction_efficiency": p["suction_efficiency"],
+        "cross_flow_coefficient": p["cross_flow_coefficient"],
+        "friction_coefficient": p["friction_coefficient"],
+        "stall_angle": math.radians(p["stall_angle_deg"]),
+        "stall_width": math.radians(p["stall_width_deg"]),
+        "separation_lag": p.get("separation_lag", 0.0),
+    }
 
 
 # --- kinematics ---------------------------------------------------------------------------------
+
 
 def _phases(n: int = 7200) -> np.ndarray:
     return np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
@@ -168,8 +184,9 @@ def _phases(n: int = 7200) -> np.ndarray:
 def alpha_max_of(strouhal: float, theta0: float, psi: float) -> float:
     """max_t |atan(h_dot / U) - theta(t)| [rad]; h_dot / U = pi St cos(wt), St = 2 f h0 / U."""
     ph = _phases()
-    return float(np.max(np.abs(np.arctan(math.pi * strouhal * np.cos(ph))
-                               - theta0 * np.sin(ph + psi))))
+    return float(
+        np.max(np.abs(np.arctan(math.pi * strouhal * np.cos(ph)) - theta0 * np.sin(ph + psi)))
+    )
 
 
 def pitch_amplitude(strouhal: float, alpha_max: float, psi: float = math.pi / 2) -> float:
@@ -184,8 +201,16 @@ def pitch_amplitude(strouhal: float, alpha_max: float, psi: float = math.pi / 2)
     return float(brentq(g, 0.0, heave, xtol=1e-13, rtol=1e-13))
 
 
-def motion(strouhal: float, h0_over_c: float, theta0: float, psi: float, pivot: float,
-           chord: float, speed: float, t) -> dict:
+def motion(
+    strouhal: float,
+    h0_over_c: float,
+    theta0: float,
+    psi: float,
+    pivot: float,
+    chord: float,
+    speed: float,
+    t,
+) -> dict:
     """The strip's prescribed motion at the times t, as ``foil.prescribed_motion_forces``
     takes it ((nt, 1, 3) arrays), and the tunnel-frame velocity of the mid-chord point."""
     t = np.asarray(t, dtype=float)
@@ -204,9 +229,15 @@ def motion(strouhal: float, h0_over_c: float, theta0: float, psi: float, pivot: 
     v_mid = v_pivot + np.cross(omega, r_mid)
     v_tunnel = v_mid + np.array([speed, 0.0, 0.0])
     col = lambda x: x[:, None, :]  # noqa: E731
-    return {"v_mid": col(v_mid), "omega": col(omega), "normal": col(normal),
-            "chord_dir": col(chord_dir), "span_dir": col(span), "v_tunnel": v_tunnel,
-            "frequency": w / (2.0 * math.pi)}
+    return {
+        "v_mid": col(v_mid),
+        "omega": col(omega),
+        "normal": col(normal),
+        "chord_dir": col(chord_dir),
+        "span_dir": col(span),
+        "v_tunnel": v_tunnel,
+        "frequency": w / (2.0 * math.pi),
+    }
 
 
 def cycles_needed(strouhal: float, h0_over_c: float) -> int:
@@ -218,11 +249,21 @@ def cycles_needed(strouhal: float, h0_over_c: float) -> int:
 
 # --- the model on one case ----------------------------------------------------------------------
 
-def run_case(strouhal: float, h0_over_c: float, alpha_max_deg: float | None, p: dict,
-             psi_deg: float = 90.0, pivot: float = 1.0 / 3.0, chord: float = 0.1,
-             speed: float = SPEED, theta0: float | None = None,
-             steps_per_cycle: int = STEPS_PER_CYCLE, cycles: int | None = None,
-             terms: bool = False) -> dict:
+
+def run_case(
+    strouhal: float,
+    h0_over_c: float,
+    alpha_max_deg: float | None,
+    p: dict,
+    psi_deg: float = 90.0,
+    pivot: float = 1.0 / 3.0,
+    chord: float = 0.1,
+    speed: float = SPEED,
+    theta0: float | None = None,
+    steps_per_cycle: int = STEPS_PER_CYCLE,
+    cycles: int | None = None,
+    terms: bool = False,
+) -> dict:
     """The strip model's C_T, C_P and eta of one case (last whole cycle), its per-cycle C_T,
     theta0, the peak angle of attack of the model's own three-quarter-chord flow and the
     cycle-mean attached share; with ``terms`` the share of each term in C_T."""
@@ -239,9 +280,17 @@ def run_case(strouhal: float, h0_over_c: float, alpha_max_deg: float | None, p: 
     q = 0.5 * RHO * speed * speed * chord  # per unit span
 
     def forces(pp):
-        return foil.prescribed_motion_forces(dt, m["v_mid"], m["omega"], m["normal"],
-                                             m["chord_dir"], m["span_dir"], area, c,
-                                             foil_params(pp))[:, 0, :]
+        return foil.prescribed_motion_forces(
+            dt,
+            m["v_mid"],
+            m["omega"],
+            m["normal"],
+            m["chord_dir"],
+            m["span_dir"],
+            area,
+            c,
+            foil_params(pp),
+        )[:, 0, :]
 
     F = forces(p)
     thrust = -F[:, 0]
@@ -249,25 +298,43 @@ def run_case(strouhal: float, h0_over_c: float, alpha_max_deg: float | None, p: 
     ct = [x / q for x in cycle_means(thrust, steps_per_cycle)]
     cp = cycle_means(power, steps_per_cycle)[-1] / (q * speed)
     last = slice((cycles - 1) * steps_per_cycle, cycles * steps_per_cycle + 1)
-    kin = foil.strip_kinematics(m["v_mid"][last, 0], m["omega"][last, 0], m["normal"][last, 0],
-                                m["chord_dir"][last, 0], m["span_dir"][last, 0],
-                                np.full(len(t[last]), chord))
-    attached = foil.attached_fraction(kin["alpha"], math.radians(p["stall_angle_deg"]),
-                                      math.radians(p["stall_width_deg"]))
-    out = {"strouhal": strouhal, "h0_over_c": h0_over_c, "alpha_max_deg": alpha_max_deg,
-           "psi_deg": psi_deg, "pivot": pivot, "theta0_deg": math.degrees(theta0),
-           "frequency_hz": f, "reduced_frequency": math.pi * f * chord / speed,
-           "cycles": cycles, "steps_per_cycle": steps_per_cycle,
-           "ct": ct[-1], "cp": cp, "eta": ct[-1] / cp if cp else None,
-           "ct_change_last_cycle": ct[-1] - ct[-2],
-           "alpha34_max_deg": math.degrees(float(np.max(kin["alpha"]))),
-           "attached_mean": float(np.trapezoid(attached) / steps_per_cycle)}
+    kin = foil.strip_kinematics(
+        m["v_mid"][last, 0],
+        m["omega"][last, 0],
+        m["normal"][last, 0],
+        m["chord_dir"][last, 0],
+        m["span_dir"][last, 0],
+        np.full(len(t[last]), chord),
+    )
+    attached = foil.attached_fraction(
+        kin["alpha"], math.radians(p["stall_angle_deg"]), math.radians(p["stall_width_deg"])
+    )
+    out = {
+        "strouhal": strouhal,
+        "h0_over_c": h0_over_c,
+        "alpha_max_deg": alpha_max_deg,
+        "psi_deg": psi_deg,
+        "pivot": pivot,
+        "theta0_deg": math.degrees(theta0),
+        "frequency_hz": f,
+        "reduced_frequency": math.pi * f * chord / speed,
+        "cycles": cycles,
+        "steps_per_cycle": steps_per_cycle,
+        "ct": ct[-1],
+        "cp": cp,
+        "eta": ct[-1] / cp if cp else None,
+        "ct_change_last_cycle": ct[-1] - ct[-2],
+        "alpha34_max_deg": math.degrees(float(np.max(kin["alpha"]))),
+        "attached_mean": float(np.trapezoid(attached) / steps_per_cycle),
+    }
     if terms:
         # Each term is linear in its coefficient with the kinematics and lag fixed.
         share = {}
-        for name, key in (("suction", "suction_efficiency"),
-                          ("separated", "cross_flow_coefficient"),
-                          ("friction", "friction_coefficient")):
+        for name, key in (
+            ("suction", "suction_efficiency"),
+            ("separated", "cross_flow_coefficient"),
+            ("friction", "friction_coefficient"),
+        ):
             without = -forces({**p, key: 0.0})[:, 0]
             share[name] = cycle_means(thrust - without, steps_per_cycle)[-1] / q
         share["circulatory"] = ct[-1] - sum(share.values())
@@ -279,8 +346,14 @@ def garrick_rows(ks=GARRICK_K) -> list[dict]:
     """Small-amplitude pure plunge against Garrick (1936) at the reduced frequencies ``ks``: the
     strip model (a = 2 pi, eta_s = 1, attached, no friction), Garrick with Theodorsen's C(k)
     and with Jones's C(k) (the one the model's lag reproduces)."""
-    p = {"lift_slope": 2.0 * math.pi, "suction_efficiency": 1.0, "cross_flow_coefficient": 1.17,
-         "friction_coefficient": 0.0, "stall_angle_deg": 180.0, "stall_width_deg": 0.1}
+    p = {
+        "lift_slope": 2.0 * math.pi,
+        "suction_efficiency": 1.0,
+        "cross_flow_coefficient": 1.17,
+        "friction_coefficient": 0.0,
+        "stall_angle_deg": 180.0,
+        "stall_width_deg": 0.1,
+    }
     rows = []
     chord, speed = 0.1, SPEED
     for k in ks:
@@ -290,15 +363,24 @@ def garrick_rows(ks=GARRICK_K) -> list[dict]:
         q = 0.5 * RHO * speed * speed * chord
         theo = foil.garrick_plunge_thrust(RHO, chord / 2, w, GARRICK_H0C * chord, speed) / q
         jones = theo * abs(foil.jones_theodorsen(k)) ** 2 / abs(foil.theodorsen(k)) ** 2
-        rows.append({"reduced_frequency": k, "strouhal": st, "h0_over_c": GARRICK_H0C,
-                     "ct_model": r["ct"], "ct_garrick": float(theo), "ct_garrick_jones":
-                     float(jones), "ratio": r["ct"] / float(theo),
-                     "ratio_jones": r["ct"] / float(jones),
-                     "within_tol": abs(r["ct"] / float(theo) - 1.0) <= GARRICK_TOL})
+        rows.append(
+            {
+                "reduced_frequency": k,
+                "strouhal": st,
+                "h0_over_c": GARRICK_H0C,
+                "ct_model": r["ct"],
+                "ct_garrick": float(theo),
+                "ct_garrick_jones": float(jones),
+                "ratio": r["ct"] / float(theo),
+                "ratio_jones": r["ct"] / float(jones),
+                "within_tol": abs(r["ct"] / float(theo) - 1.0) <= GARRICK_TOL,
+            }
+        )
     return rows
 
 
 # --- the comparison -----------------------------------------------------------------------------
+
 
 def data_points(data: dict) -> list[dict]:
     """The data's points: St, C_T and (at the nearest digitized St, if within 0.01) eta."""
@@ -312,22 +394,35 @@ def data_points(data: dict) -> list[dict]:
             j = int(np.argmin(np.abs(np.asarray(eff["strouhal"]) - s)))
             if abs(eff["strouhal"][j] - s) <= 0.01:
                 e = eff["value"][j]
-        pts.append({"strouhal": float(s), "ct": float(c), "eta": e,
-                    "h0_over_c": float(cond["h0_over_c"]),
-                    "alpha_max_deg": float(cond["alpha_max_deg"]),
-                    "psi_deg": float(cond["psi_deg"]),
-                    "pivot": float(cond["pivot_from_leading_edge"]),
-                    "chord": float(cond["chord_m"])})
+        pts.append(
+            {
+                "strouhal": float(s),
+                "ct": float(c),
+                "eta": e,
+                "h0_over_c": float(cond["h0_over_c"]),
+                "alpha_max_deg": float(cond["alpha_max_deg"]),
+                "psi_deg": float(cond["psi_deg"]),
+                "pivot": float(cond["pivot_from_leading_edge"]),
+                "chord": float(cond["chord_m"]),
+            }
+        )
     return pts
 
 
 def model_point(pt: dict, p: dict, terms: bool = False) -> dict:
-    return run_case(pt["strouhal"], pt["h0_over_c"], pt["alpha_max_deg"], p,
-                    psi_deg=pt["psi_deg"], pivot=pt["pivot"], chord=pt["chord"], terms=terms)
+    return run_case(
+        pt["strouhal"],
+        pt["h0_over_c"],
+        pt["alpha_max_deg"],
+        p,
+        psi_deg=pt["psi_deg"],
+        pivot=pt["pivot"],
+        chord=pt["chord"],
+        terms=terms,
+    )
 
 
-def sensitivity_cases(base: dict, name: str = "shipped",
-                      aspect_ratio: float | None = None) -> dict:
+def sensitivity_cases(base: dict, name: str = "shipped", aspect_ratio: float | None = None) -> dict:
     """name -> parameters: each band end of BANDS (the rest of ``base`` held; not the lift
     slope's for the ``2d`` and ``experiment`` bases, which replace it: the latter gets the end
     of its aspect-ratio band instead) and the diagnostics."""
@@ -341,8 +436,10 @@ def sensitivity_cases(base: dict, name: str = "shipped",
     if name == "experiment":
         ar = REFLECTED_ASPECT_FACTOR * aspect_ratio
         a = float(foil.helmbold_lift_slope(ar))
-        cases[f"lift_slope = {a:.3g} (aspect ratio {ar:g}: one end reflected)"] = \
-            {**base, "lift_slope": a}
+        cases[f"lift_slope = {a:.3g} (aspect ratio {ar:g}: one end reflected)"] = {
+            **base,
+            "lift_slope": a,
+        }
     for label, over in DIAGNOSTICS.items():
         cases[label] = {**base, **over}
     return cases
@@ -365,23 +462,44 @@ def compare(data: dict, shipped: dict | None = None, log=print) -> dict:
             r["within_acceptance"] = abs(r["ratio"] - 1.0) <= ACCEPT
             r["eta_ratio"] = r["eta"] / pt["eta"] if (pt["eta"] and r["eta"]) else None
             rows.append(r)
-            log(f"{base}: St {pt['strouhal']:.3f} C_T {r['ct']:.4f} (data {pt['ct']:.3f}, "
-                f"ratio {r['ratio']:.2f}), eta {r['eta']:.3f}")
+            log(
+                f"{base}: St {pt['strouhal']:.3f} C_T {r['ct']:.4f} (data {pt['ct']:.3f}, "
+                f"ratio {r['ratio']:.2f}), eta {r['eta']:.3f}"
+            )
         sens = {}
         for name, pp in sensitivity_cases(p, base, ar).items():
             vals = [model_point(pt, pp)["ct"] for pt in pts]
-            sens[name] = {"parameters": pp, "ct": vals,
-                          "ratio": [v / pt["ct"] for v, pt in zip(vals, pts)]}
+            sens[name] = {
+                "parameters": pp,
+                "ct": vals,
+                "ratio": [v / pt["ct"] for v, pt in zip(vals, pts)],
+            }
             log(f"{base}: {name}: ratios " + ", ".join(f"{x:.2f}" for x in sens[name]["ratio"]))
         # The time step: the highest St again at twice the steps a cycle.
-        fine = run_case(pts[-1]["strouhal"], pts[-1]["h0_over_c"], pts[-1]["alpha_max_deg"], p,
-                        psi_deg=pts[-1]["psi_deg"], pivot=pts[-1]["pivot"],
-                        chord=pts[-1]["chord"], steps_per_cycle=2 * STEPS_PER_CYCLE)
-        step = {"strouhal": pts[-1]["strouhal"], "steps_per_cycle": 2 * STEPS_PER_CYCLE,
-                "ct": fine["ct"], "eta": fine["eta"],
-                "ct_change": fine["ct"] / rows[-1]["ct"] - 1.0}
-        out["bases"][base] = {"label": BASE_LABELS[base], "parameters": p, "points": rows,
-                              "sensitivity": sens, "time_step_check": step}
+        fine = run_case(
+            pts[-1]["strouhal"],
+            pts[-1]["h0_over_c"],
+            pts[-1]["alpha_max_deg"],
+            p,
+            psi_deg=pts[-1]["psi_deg"],
+            pivot=pts[-1]["pivot"],
+            chord=pts[-1]["chord"],
+            steps_per_cycle=2 * STEPS_PER_CYCLE,
+        )
+        step = {
+            "strouhal": pts[-1]["strouhal"],
+            "steps_per_cycle": 2 * STEPS_PER_CYCLE,
+            "ct": fine["ct"],
+            "eta": fine["eta"],
+            "ct_change": fine["ct"] / rows[-1]["ct"] - 1.0,
+        }
+        out["bases"][base] = {
+            "label": BASE_LABELS[base],
+            "parameters": p,
+            "points": rows,
+            "sensitivity": sens,
+            "time_step_check": step,
+        }
     out["acceptance"] = acceptance(out["bases"][ACCEPTED_BASE]["points"])
     out["garrick"] = garrick_rows()
     return out
@@ -391,19 +509,33 @@ def acceptance(points: list[dict]) -> dict:
     """The accepted base's worst ratio model / data (farthest from 1) and whether every point
     is within ACCEPT."""
     worst = max(points, key=lambda r: abs(r["ratio"] - 1.0))
-    return {"worst_ratio": worst["ratio"], "worst_strouhal": worst["strouhal"],
-            "within": all(r["within_acceptance"] for r in points)}
+    return {
+        "worst_ratio": worst["ratio"],
+        "worst_strouhal": worst["strouhal"],
+        "within": all(r["within_acceptance"] for r in points),
+    }
 
 
 # --- files --------------------------------------------------------------------------------------
 
-HEADER = ("# A published heaving-pitching foil data set (`data`, curated by hand with its "
-          "source) and\n# the fin strips' model (station/foil.py) on the same kinematics "
-          "(`model`, generated by\n# `{command}`,\n# manta_drake/studies/validation/"
-          "foil_data.py; docs/validation.md's \"Foil data\" section is\n# rendered from it). "
-          "Edit `data` only with its source; regenerate `model`.\n")
-PROVENANCE_FIELDS = ("repository", "path", "commit", "url", "variables", "digitized_from",
-                     "experiment", "digitized_by", "retrieved")
+HEADER = (
+    "# A published heaving-pitching foil data set (`data`, curated by hand with its "
+    "source) and\n# the fin strips' model (station/foil.py) on the same kinematics "
+    "(`model`, generated by\n# `{command}`,\n# manta_drake/studies/validation/"
+    'foil_data.py; docs/validation.md\'s "Foil data" section is\n# rendered from it). '
+    "Edit `data` only with its source; regenerate `model`.\n"
+)
+PROVENANCE_FIELDS = (
+    "repository",
+    "path",
+    "commit",
+    "url",
+    "variables",
+    "digitized_from",
+    "experiment",
+    "digitized_by",
+    "retrieved",
+)
 
 
 def load_reference(path=YAML_PATH) -> dict:
@@ -428,11 +560,19 @@ def load_reference(path=YAML_PATH) -> dict:
 def provenance(seconds: float) -> dict:
     from manta_drake.studies.stamp import commit
 
-    return {"generator": "manta_drake.studies.validation.foil_data", "command": COMMAND,
-            "date": datetime.date.today().isoformat(), "commit": commit(),
-            "seconds": round(seconds, 1), "rho": RHO, "speed": SPEED,
-            "steps_per_cycle": STEPS_PER_CYCLE, "min_travel_half_chords": MIN_TRAVEL,
-            "acceptance": ACCEPT, "garrick_tol": GARRICK_TOL}
+    return {
+        "generator": "manta_drake.studies.validation.foil_data",
+        "command": COMMAND,
+        "date": datetime.date.today().isoformat(),
+        "commit": commit(),
+        "seconds": round(seconds, 1),
+        "rho": RHO,
+        "speed": SPEED,
+        "steps_per_cycle": STEPS_PER_CYCLE,
+        "min_travel_half_chords": MIN_TRAVEL,
+        "acceptance": ACCEPT,
+        "garrick_tol": GARRICK_TOL,
+    }
 
 
 def write_reference(path, ref: dict) -> pathlib.Path:
@@ -452,8 +592,11 @@ def write_reference(path, ref: dict) -> pathlib.Path:
     Dumper.add_representer(dict, mapping)
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(HEADER.format(command=COMMAND) + yaml.dump(
-        ref, Dumper=Dumper, sort_keys=False, width=100, allow_unicode=True), encoding="utf-8")
+    path.write_text(
+        HEADER.format(command=COMMAND)
+        + yaml.dump(ref, Dumper=Dumper, sort_keys=False, width=100, allow_unicode=True),
+        encoding="utf-8",
+    )
     return path
 
 
@@ -461,20 +604,29 @@ def run_study(ref: dict, log=print) -> dict:
     """The reference with a fresh ``model`` block (the data block as given)."""
     started = time.time()
     model = round_floats(compare(ref["data"], log=log), 10)
-    return {"data": ref["data"], "model": {"provenance": provenance(time.time() - started),
-                                           **model}}
+    return {
+        "data": ref["data"],
+        "model": {"provenance": provenance(time.time() - started), **model},
+    }
 
 
 # --- the page -----------------------------------------------------------------------------------
+
 
 def render_section(ref: dict) -> str:
     from manta_drake.studies.validation import section_markers
 
     begin, end = section_markers(SECTION)
     m = ref["model"]
-    body = render_template(TEMPLATE, d=ref["data"], m=m, p=m["provenance"],
-                                                bases=m["bases"], garrick=m["garrick"],
-                                                terms=TERMS)
+    body = render_template(
+        TEMPLATE,
+        d=ref["data"],
+        m=m,
+        p=m["provenance"],
+        bases=m["bases"],
+        garrick=m["garrick"],
+        terms=TERMS,
+    )
     return f"{begin}\n{body.strip()}\n{end}"
 
 
@@ -486,22 +638,40 @@ def write_page(path, ref: dict) -> None:
 
 # --- the command --------------------------------------------------------------------------------
 
+
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, metavar="DIR",
-                        help="writes DIR/foil_data.json (data and model) and DIR/foil_data.md "
-                             "(the section)")
-    parser.add_argument("--yaml", default=str(YAML_PATH), metavar="FILE",
-                        help="the reference file: its `data` is read and its `model` block "
-                             "rewritten (default models/reference/heaving_pitching_foil.yaml of "
-                             "the checkout)")
-    parser.add_argument("--no-write-yaml", action="store_true",
-                        help="leave --yaml as it is (the results go to DIR only)")
-    parser.add_argument("--page", default=str(PAGE_PATH), metavar="FILE",
-                        help="the page whose foil-data block is replaced (default "
-                             "docs/validation.md); '' writes none")
-    parser.add_argument("--from-yaml", action="store_true",
-                        help="compute nothing: render the page from --yaml's committed `model`")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="writes DIR/foil_data.json (data and model) and DIR/foil_data.md (the section)",
+    )
+    parser.add_argument(
+        "--yaml",
+        default=str(YAML_PATH),
+        metavar="FILE",
+        help="the reference file: its `data` is read and its `model` block "
+        "rewritten (default models/reference/heaving_pitching_foil.yaml of "
+        "the checkout)",
+    )
+    parser.add_argument(
+        "--no-write-yaml",
+        action="store_true",
+        help="leave --yaml as it is (the results go to DIR only)",
+    )
+    parser.add_argument(
+        "--page",
+        default=str(PAGE_PATH),
+        metavar="FILE",
+        help="the page whose foil-data block is replaced (default "
+        "docs/validation.md); '' writes none",
+    )
+    parser.add_argument(
+        "--from-yaml",
+        action="store_true",
+        help="compute nothing: render the page from --yaml's committed `model`",
+    )
     args = parser.parse_args(argv)
     check_out(args.out)
     if not pathlib.Path(args.yaml).is_file():
@@ -517,8 +687,9 @@ def main(argv=None, prog=None) -> int:
     ref = load_reference(args.yaml)
     if args.from_yaml:
         if "model" not in ref:
-            raise ValidationError(f"--from-yaml: {args.yaml} has no `model` block; run "
-                                  "without --from-yaml first")
+            raise ValidationError(
+                f"--from-yaml: {args.yaml} has no `model` block; run without --from-yaml first"
+            )
     else:
         ref = run_study(ref, log=lambda msg: print(msg, flush=True))
         if not args.no_write_yaml:

@@ -38,11 +38,19 @@ def released_scenario(kind: str, fin_model: str):
     if kind not in ("heave", "roll"):
         raise ValueError(f"released_scenario.kind: {kind!r} is not heave or roll")
     roll = ROLL_DEG if kind == "roll" else 0.0
-    return load_scenario("float_sink", overrides={
-        "name": f"released_{kind}_{fin_model}", "duration": DURATION_S,
-        "initial_pose.xyz": [0.0, 0.0, DEPTH_M], "initial_pose.rpy_deg": [roll, 0.0, 0.0],
-        "balloon.initial_fill": 0.0, "balloon.schedule": [], "water.fin_model": fin_model,
-        "visualization.meshcat": False})
+    return load_scenario(
+        "float_sink",
+        overrides={
+            "name": f"released_{kind}_{fin_model}",
+            "duration": DURATION_S,
+            "initial_pose.xyz": [0.0, 0.0, DEPTH_M],
+            "initial_pose.rpy_deg": [roll, 0.0, 0.0],
+            "balloon.initial_fill": 0.0,
+            "balloon.schedule": [],
+            "water.fin_model": fin_model,
+            "visualization.meshcat": False,
+        },
+    )
 
 
 def release_wrench(diagram, handles) -> np.ndarray:
@@ -57,7 +65,7 @@ def release_wrench(diagram, handles) -> np.ndarray:
     if port.HasValue(plant_context):
         tau = tau + port.Eval(plant_context)
     start = handles.plant_handles.body.floating_velocities_start_in_v()
-    return np.asarray(tau[start:start + 6])
+    return np.asarray(tau[start : start + 6])
 
 
 def rigid_inertia(handles) -> tuple[float, np.ndarray]:
@@ -66,8 +74,9 @@ def rigid_inertia(handles) -> tuple[float, np.ndarray]:
     plant = handles.plant
     context = plant.CreateDefaultContext()
     robot = handles.plant_handles.robot
-    M = plant.CalcSpatialInertia(context, handles.plant_handles.body.body_frame(),
-                                 plant.GetBodyIndices(robot))
+    M = plant.CalcSpatialInertia(
+        context, handles.plant_handles.body.body_frame(), plant.GetBodyIndices(robot)
+    )
     return float(M.get_mass()), M.CalcRotationalInertia().CopyToFullMatrix3()
 
 
@@ -102,8 +111,7 @@ def measure(kind: str, fin_model: str, out_dir) -> dict:
     diagram, handles = build_diagram(scenario)
     wrench = release_wrench(diagram, handles)
     mass, inertia = rigid_inertia(handles)
-    log = run(scenario, out_dir, progress=False, write_outputs=False,
-              prepare=_lock_joints).log
+    log = run(scenario, out_dir, progress=False, write_outputs=False, prepare=_lock_joints).log
     t = log["t"]
     early = t <= FIT_S + 1e-12
     if kind == "heave":
@@ -112,9 +120,15 @@ def measure(kind: str, fin_model: str, out_dir) -> dict:
     else:
         a = fit_acceleration(t[early], log["body_w_world"][early, 0], 1)
         effective, rigid, force = wrench[0] / a, inertia[0, 0], wrench[0]
-    return {"kind": kind, "fin_model": fin_model, "force": float(force),
-            "acceleration": a, "effective": float(effective), "rigid": float(rigid),
-            "added": float(effective - rigid)}
+    return {
+        "kind": kind,
+        "fin_model": fin_model,
+        "force": float(force),
+        "acceleration": a,
+        "effective": float(effective),
+        "rigid": float(rigid),
+        "added": float(effective - rigid),
+    }
 
 
 # --- the section ---------------------------------------------------------------------------------
@@ -149,9 +163,17 @@ def run_all(out_dir) -> dict:
             row["bem"] = bem[kind]
             row["ratio"] = row["added"] / bem[kind]
             rows.append(row)
-    return {"rows": rows, "provenance": {
-        "date": datetime.date.today().isoformat(), "commit": commit(), "command": COMMAND,
-        "fit_s": FIT_S, "roll_deg": ROLL_DEG, "depth_m": DEPTH_M}}
+    return {
+        "rows": rows,
+        "provenance": {
+            "date": datetime.date.today().isoformat(),
+            "commit": commit(),
+            "command": COMMAND,
+            "fit_s": FIT_S,
+            "roll_deg": ROLL_DEG,
+            "depth_m": DEPTH_M,
+        },
+    }
 
 
 def render_section(results: dict) -> str:
@@ -174,10 +196,15 @@ def main(argv=None, prog=None) -> int:
     from manta_drake.studies.validation import PAGE_PATH, write_section
 
     parser = StudyParser(prog=prog or "released", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, metavar="DIR",
-                        help="the runs and DIR/released.json")
-    parser.add_argument("--page", default=str(PAGE_PATH), metavar="FILE",
-                        help="the page whose released block is replaced ('' : none)")
+    parser.add_argument(
+        "--out", required=True, metavar="DIR", help="the runs and DIR/released.json"
+    )
+    parser.add_argument(
+        "--page",
+        default=str(PAGE_PATH),
+        metavar="FILE",
+        help="the page whose released block is replaced ('' : none)",
+    )
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     out = check_writable_folder(args.out, create=True)
     results = run_all(out)
@@ -185,6 +212,8 @@ def main(argv=None, prog=None) -> int:
     if args.page:
         write_section(args.page, SECTION, render_section(results))
     for row in results["rows"]:
-        print(f"{row['kind']:>5} {row['fin_model']:<10} effective {row['effective']:.4g}, "
-              f"added {row['added']:.4g}, BEM {row['bem']:.4g} ({row['ratio']:.3f})")
+        print(
+            f"{row['kind']:>5} {row['fin_model']:<10} effective {row['effective']:.4g}, "
+            f"added {row['added']:.4g}, BEM {row['bem']:.4g} ({row['ratio']:.3f})"
+        )
     return 0

@@ -94,15 +94,20 @@ def shipped_stall() -> dict:
     from manta_drake.model.coefficients import load_coefficients
 
     fins = load_coefficients().fins
-    return {"stall_angle": math.radians(fins.stall_angle_deg.value),
-            "stall_width": math.radians(fins.stall_width_deg.value),
-            "cross_flow_coefficient": float(fins.normal_force_coefficient.value),
-            "separation_lag": float(fins.separation_lag.value)}
+    return {
+        "stall_angle": math.radians(fins.stall_angle_deg.value),
+        "stall_width": math.radians(fins.stall_width_deg.value),
+        "cross_flow_coefficient": float(fins.normal_force_coefficient.value),
+        "separation_lag": float(fins.separation_lag.value),
+    }
 
 
 STALL = shipped_stall()
-ATTACHED = {"stall_angle": math.pi, "stall_width": 1e-3,
-            "cross_flow_coefficient": STALL["cross_flow_coefficient"]}
+ATTACHED = {
+    "stall_angle": math.pi,
+    "stall_width": 1e-3,
+    "cross_flow_coefficient": STALL["cross_flow_coefficient"],
+}
 ACCEPT = 0.30  # the acceptance: |strip / UVLM - 1| <= 30 % in pure roll at 0.4 m/s
 PERIODIC_TOL = 0.02  # a cycle is periodic when its mean thrust is within 2 % of the previous
 
@@ -122,6 +127,7 @@ QUICK_CYCLES = 2
 
 
 # --- the fin and its stroke ---------------------------------------------------------------------
+
 
 def unswept(params: RobotParams = DEFAULT_ROBOT) -> RobotParams:
     """The robot with its fins unswept: the roll axes along the body's x, as pterasoftware's
@@ -183,15 +189,22 @@ def gait_stroke(gait: str = GAIT, leg: str = LEG, frequency_hz: float | None = N
     phases = np.degrees(locked_phases(g.to_vector())).reshape(4, 4)[k]
     amp = np.degrees(g.R[k])
     rel = phases - phases[1]
-    return Stroke(gait, tuple(round(float(a), 9) for a in amp[1:]),
-                  tuple(round(float(p), 9) for p in rel[1:]),
-                  swim_frequency() if frequency_hz is None else frequency_hz)
+    return Stroke(
+        gait,
+        tuple(round(float(a), 9) for a in amp[1:]),
+        tuple(round(float(p), 9) for p in rel[1:]),
+        swim_frequency() if frequency_hz is None else frequency_hz,
+    )
 
 
 def roll_stroke(frequency_hz: float | None = None) -> Stroke:
     """Case (a): roll1 +-ROLL_ONLY_DEG alone."""
-    return Stroke("pure_roll", (ROLL_ONLY_DEG, 0.0, 0.0), (0.0, 0.0, 0.0),
-                  swim_frequency() if frequency_hz is None else frequency_hz)
+    return Stroke(
+        "pure_roll",
+        (ROLL_ONLY_DEG, 0.0, 0.0),
+        (0.0, 0.0, 0.0),
+        swim_frequency() if frequency_hz is None else frequency_hz,
+    )
 
 
 def fin_dimensions(params: RobotParams = FIN_ROBOT) -> dict:
@@ -199,8 +212,15 @@ def fin_dimensions(params: RobotParams = FIN_ROBOT) -> dict:
     c1, c2 = params.proximal_chord, params.distal_chord
     area = d3 * c1 + dE * c2
     span = d3 + dE
-    return {"d3": d3, "dE": dE, "proximal_chord": c1, "distal_chord": c2, "span": span,
-            "area": area, "aspect_ratio": span * span / area}
+    return {
+        "d3": d3,
+        "dE": dE,
+        "proximal_chord": c1,
+        "distal_chord": c2,
+        "span": span,
+        "area": area,
+        "aspect_ratio": span * span / area,
+    }
 
 
 def plate_frames(q, params: RobotParams = FIN_ROBOT, leg: str = LEG):
@@ -208,8 +228,12 @@ def plate_frames(q, params: RobotParams = FIN_ROBOT, leg: str = LEG):
     relative to the fin root (the roll1/pitch axes' point): (R3, o3, R4, o4), (nt, 3, 3) and
     (nt, 3). Link 3: x normal, y chord (aft), z span; link 4: x normal, -y span, z chord."""
     q = np.atleast_2d(q)
-    out = [np.empty((len(q), 3, 3)), np.empty((len(q), 3)), np.empty((len(q), 3, 3)),
-           np.empty((len(q), 3))]
+    out = [
+        np.empty((len(q), 3, 3)),
+        np.empty((len(q), 3)),
+        np.empty((len(q), 3, 3)),
+        np.empty((len(q), 3)),
+    ]
     for i, qi in enumerate(q):
         F = leg_frames_ned(leg, qi, params)
         root = (X_BODYDRAKE_BODYNED @ F[1])[:3, 3]
@@ -225,15 +249,18 @@ def strip_layout(params: RobotParams = FIN_ROBOT, n: int = STRIPS_PER_PLATE) -> 
     strip's middle from its plate's hinge, width and chord."""
     d = fin_dimensions(params)
     plate, s, width, chord = [], [], [], []
-    for k, (length, c) in enumerate(((d["d3"], d["proximal_chord"]),
-                                     (d["dE"], d["distal_chord"]))):
+    for k, (length, c) in enumerate(((d["d3"], d["proximal_chord"]), (d["dE"], d["distal_chord"]))):
         w = length / n
         plate += [k] * n
         s += list((np.arange(n) + 0.5) * w)
         width += [w] * n
         chord += [c] * n
-    return {"plate": np.array(plate), "s": np.array(s), "width": np.array(width),
-            "chord": np.array(chord)}
+    return {
+        "plate": np.array(plate),
+        "s": np.array(s),
+        "width": np.array(width),
+        "chord": np.array(chord),
+    }
 
 
 def _strip_points(q, layout, params):
@@ -260,8 +287,13 @@ def _omega(Rp, Rm, h):
     return np.stack([A[:, 2, 1], A[:, 0, 2], A[:, 1, 0]], axis=1) / (2.0 * h)
 
 
-def strip_motion(stroke: Stroke, speed: float, t, params: RobotParams = FIN_ROBOT,
-                 n_strips: int = STRIPS_PER_PLATE) -> dict:
+def strip_motion(
+    stroke: Stroke,
+    speed: float,
+    t,
+    params: RobotParams = FIN_ROBOT,
+    n_strips: int = STRIPS_PER_PLATE,
+) -> dict:
     """The strips' prescribed motion at the times t: the inputs of
     ``foil.prescribed_motion_forces`` (the body swims at +speed along its x through still
     water: v_mid = speed x_hat + d/dt r, central differences of the DH chain)."""
@@ -275,14 +307,27 @@ def strip_motion(stroke: Stroke, speed: float, t, params: RobotParams = FIN_ROBO
     w3, w4 = _omega(R3p, R3m, h), _omega(R4p, R4m, h)
     prox = layout["plate"] == 0
     omega = np.where(prox[None, :, None], w3[:, None, :], w4[:, None, :])
-    return {"p": p0, "v_mid": v, "omega": omega, "normal": n, "chord_dir": c, "span_dir": sp,
-            "area": layout["width"] * layout["chord"], "chord": layout["chord"],
-            "layout": layout}
+    return {
+        "p": p0,
+        "v_mid": v,
+        "omega": omega,
+        "normal": n,
+        "chord_dir": c,
+        "span_dir": sp,
+        "area": layout["width"] * layout["chord"],
+        "chord": layout["chord"],
+        "layout": layout,
+    }
 
 
 def strip_params(lift_slope: float, stall: bool) -> dict:
-    return {"rho": RHO, "lift_slope": float(lift_slope), "suction_efficiency": 1.0,
-            "friction_coefficient": 0.0, **(STALL if stall else ATTACHED)}
+    return {
+        "rho": RHO,
+        "lift_slope": float(lift_slope),
+        "suction_efficiency": 1.0,
+        "friction_coefficient": 0.0,
+        **(STALL if stall else ATTACHED),
+    }
 
 
 def lift_slopes(params: RobotParams = FIN_ROBOT) -> dict:
@@ -297,7 +342,7 @@ def cycle_means(x, steps_per_cycle: int) -> list[float]:
     x = np.asarray(x, dtype=float)
     out = []
     for k in range((len(x) - 1) // steps_per_cycle):
-        seg = x[k * steps_per_cycle: (k + 1) * steps_per_cycle + 1]
+        seg = x[k * steps_per_cycle : (k + 1) * steps_per_cycle + 1]
         out.append(float(np.trapezoid(seg) / steps_per_cycle))
     return out
 
@@ -308,54 +353,88 @@ def cycles_to_periodic(means, tol: float = PERIODIC_TOL) -> int | None:
     m = np.asarray(means, dtype=float)
     scale = max(abs(m[-1]), 1e-12) if len(m) else 1.0
     for k in range(len(m) - 1):
-        if np.all(np.abs(m[k + 1:] - m[k]) <= tol * scale):
+        if np.all(np.abs(m[k + 1 :] - m[k]) <= tol * scale):
             return k + 1
     return None
 
 
-def strip_thrust(stroke: Stroke, speed: float, lift_slope: float, stall: bool,
-                 params: RobotParams = FIN_ROBOT, n_strips: int = STRIPS_PER_PLATE,
-                 steps_per_cycle: int = STRIP_STEPS_PER_CYCLE,
-                 cycles: int = STRIP_CYCLES) -> dict:
+def strip_thrust(
+    stroke: Stroke,
+    speed: float,
+    lift_slope: float,
+    stall: bool,
+    params: RobotParams = FIN_ROBOT,
+    n_strips: int = STRIPS_PER_PLATE,
+    steps_per_cycle: int = STRIP_STEPS_PER_CYCLE,
+    cycles: int = STRIP_CYCLES,
+) -> dict:
     """The strip model's mean thrust [N] (force along the body's +x, the swimming direction)
     over the last cycle, its per-cycle means, the mean side (y, the fin's outward -y is
     positive outward) and lift (z) forces, and the peak |thrust|."""
     dt = stroke.period / steps_per_cycle
     t = np.arange(cycles * steps_per_cycle + 1) * dt
     m = strip_motion(stroke, speed, t, params, n_strips)
-    f = foil.prescribed_motion_forces(dt, m["v_mid"], m["omega"], m["normal"], m["chord_dir"],
-                                      m["span_dir"], m["area"], m["chord"],
-                                      strip_params(lift_slope, stall))
+    f = foil.prescribed_motion_forces(
+        dt,
+        m["v_mid"],
+        m["omega"],
+        m["normal"],
+        m["chord_dir"],
+        m["span_dir"],
+        m["area"],
+        m["chord"],
+        strip_params(lift_slope, stall),
+    )
     total = f.sum(axis=1)
     per_cycle = cycle_means(total[:, 0], steps_per_cycle)
     last = slice(-steps_per_cycle - 1, None)
     prox = m["layout"]["plate"] == 0
-    plates = {name: float(np.trapezoid(f[last][:, sel, 0].sum(axis=1)) / steps_per_cycle)
-              for name, sel in (("proximal", prox), ("distal", ~prox))}
-    return {"thrust": per_cycle[-1], "per_cycle": per_cycle, "plates": plates,
-            "cycles_to_periodic": cycles_to_periodic(per_cycle),
-            "side_outward": float(-np.trapezoid(total[last, 1]) / steps_per_cycle),
-            "lift": float(np.trapezoid(total[last, 2]) / steps_per_cycle),
-            "peak_thrust": float(np.abs(total[last, 0]).max()),
-            "lift_slope": float(lift_slope), "stall": bool(stall), "strips": int(len(m["chord"]))}
+    plates = {
+        name: float(np.trapezoid(f[last][:, sel, 0].sum(axis=1)) / steps_per_cycle)
+        for name, sel in (("proximal", prox), ("distal", ~prox))
+    }
+    return {
+        "thrust": per_cycle[-1],
+        "per_cycle": per_cycle,
+        "plates": plates,
+        "cycles_to_periodic": cycles_to_periodic(per_cycle),
+        "side_outward": float(-np.trapezoid(total[last, 1]) / steps_per_cycle),
+        "lift": float(np.trapezoid(total[last, 2]) / steps_per_cycle),
+        "peak_thrust": float(np.abs(total[last, 0]).max()),
+        "lift_slope": float(lift_slope),
+        "stall": bool(stall),
+        "strips": int(len(m["chord"])),
+    }
 
 
-def stalled_area_fraction(stroke: Stroke, speed: float, params: RobotParams = FIN_ROBOT,
-                          n_strips: int = STRIPS_PER_PLATE, steps: int = 200) -> float:
+def stalled_area_fraction(
+    stroke: Stroke,
+    speed: float,
+    params: RobotParams = FIN_ROBOT,
+    n_strips: int = STRIPS_PER_PLATE,
+    steps: int = 200,
+) -> float:
     """The share of the fin's area whose geometric angle of attack at the 3/4 chord
     (``foil.strip_kinematics``) passes the stall angle during the stroke."""
     t = np.arange(steps) * stroke.period / steps
     m = strip_motion(stroke, speed, t, params, n_strips)
     peak = np.zeros(len(m["chord"]))
     for i in range(steps):
-        kin = foil.strip_kinematics(m["v_mid"][i], m["omega"][i], m["normal"][i],
-                                    m["chord_dir"][i], m["span_dir"][i], m["chord"])
+        kin = foil.strip_kinematics(
+            m["v_mid"][i],
+            m["omega"][i],
+            m["normal"][i],
+            m["chord_dir"][i],
+            m["span_dir"][i],
+            m["chord"],
+        )
         peak = np.maximum(peak, kin["alpha"])
     return float(m["area"][peak > STALL["stall_angle"]].sum() / m["area"].sum())
 
 
-def garrick_strip_thrust(stroke: Stroke, speed: float, params: RobotParams = FIN_ROBOT,
-                         n_strips: int = 40) -> float:
+def garrick_strip_thrust(
+    stroke: Stroke, speed: float, params: RobotParams = FIN_ROBOT, n_strips: int = 40
+) -> float:
     """Garrick's 2-D small-amplitude plunge thrust summed over strips, each heaving with the
     amplitude r theta0 of its mid-span radius r from the roll1 axis (pure roll only)."""
     if stroke.amp_deg[1] != 0.0 or stroke.amp_deg[2] != 0.0:
@@ -371,14 +450,19 @@ def garrick_strip_thrust(stroke: Stroke, speed: float, params: RobotParams = FIN
 def strouhal(stroke: Stroke, speed: float, params: RobotParams = FIN_ROBOT) -> float:
     """f A / U with A the tip's peak-to-peak excursion (roll1 and roll2 about parallel axes)."""
     t = np.linspace(0.0, stroke.period, 721)
-    layout = {"plate": np.array([1]), "s": np.array([params.dE]), "width": np.array([1.0]),
-              "chord": np.array([params.distal_chord])}
+    layout = {
+        "plate": np.array([1]),
+        "s": np.array([params.dE]),
+        "width": np.array([1.0]),
+        "chord": np.array([params.distal_chord]),
+    }
     p = _strip_points(stroke.angles(t), layout, params)[0][:, 0, :]
     d = p[:, None, :] - p[None, :, :]
     return float(stroke.frequency_hz * np.sqrt((d * d).sum(-1)).max() / speed)
 
 
 # --- pterasoftware -------------------------------------------------------------------------------
+
 
 def pterasoftware_version() -> str:
     from importlib.metadata import version
@@ -390,8 +474,10 @@ def _ps():
     try:
         import pterasoftware as ps
     except ImportError as e:  # pragma: no cover - the optional extra
-        raise ValidationError("pterasoftware is not installed: pip install "
-                              "'manta_drake[vortex-lattice]' (about 1.1 GB)") from e
+        raise ValidationError(
+            "pterasoftware is not installed: pip install "
+            "'manta_drake[vortex-lattice]' (about 1.1 GB)"
+        ) from e
     return ps
 
 
@@ -408,8 +494,10 @@ class Case:
 
     @property
     def key(self) -> str:
-        return (f"{self.stroke.name}_U{self.speed:.2f}_nc{self.nc}_ns{self.spanwise[0]}-"
-                f"{self.spanwise[1]}_cyc{self.cycles}_spc{self.steps_per_cycle}")
+        return (
+            f"{self.stroke.name}_U{self.speed:.2f}_nc{self.nc}_ns{self.spanwise[0]}-"
+            f"{self.spanwise[1]}_cyc{self.cycles}_spc{self.steps_per_cycle}"
+        )
 
     @property
     def dt(self) -> float:
@@ -433,30 +521,40 @@ def uvlm_movement(case: Case, params: RobotParams = FIN_ROBOT):
         WCS(af, n2, chord=c2, Lp_Wcsp_Lpp=((c1 - c2) / 2, g, 0.0), spanwise_spacing="uniform"),
         WCS(af, None, chord=c2, Lp_Wcsp_Lpp=(0.0, d["dE"] - g / 2, 0.0)),
     ]
-    wing = ps.geometry.wing.Wing(sections, name="fin", num_chordwise_panels=case.nc,
-                                 chordwise_spacing="uniform")
+    wing = ps.geometry.wing.Wing(
+        sections, name="fin", num_chordwise_panels=case.nc, chordwise_spacing="uniform"
+    )
     airplane = ps.geometry.airplane.Airplane([wing], name="fin")
     T = case.stroke.period
     WCSM = ps.movements.wing_cross_section_movement.WingCrossSectionMovement
     section_moves = [WCSM(s) for s in sections]
     a2, p2 = case.stroke.sine(3)
     if a2 != 0.0:
-        section_moves[2] = WCSM(sections[2], ampAngles_Wcsp_to_Wcs_ixyz=(a2, 0.0, 0.0),
-                                periodAngles_Wcsp_to_Wcs_ixyz=(T, 0.0, 0.0),
-                                phaseAngles_Wcsp_to_Wcs_ixyz=(p2, 0.0, 0.0))
+        section_moves[2] = WCSM(
+            sections[2],
+            ampAngles_Wcsp_to_Wcs_ixyz=(a2, 0.0, 0.0),
+            periodAngles_Wcsp_to_Wcs_ixyz=(T, 0.0, 0.0),
+            phaseAngles_Wcsp_to_Wcs_ixyz=(p2, 0.0, 0.0),
+        )
     amp, period, phase = [0.0] * 3, [0.0] * 3, [0.0] * 3
     for axis, joint in ((0, 1), (1, 2)):
         a, p = case.stroke.sine(joint)
         if a != 0.0:
             amp[axis], period[axis], phase[axis] = a, T, p
     wing_move = ps.movements.wing_movement.WingMovement(
-        wing, section_moves, ampAngles_Gs_to_Wn_ixyz=amp, periodAngles_Gs_to_Wn_ixyz=period,
-        phaseAngles_Gs_to_Wn_ixyz=phase, rotationPointOffset_Gs_Ler=(c1 / 2, 0.0, 0.0))
+        wing,
+        section_moves,
+        ampAngles_Gs_to_Wn_ixyz=amp,
+        periodAngles_Gs_to_Wn_ixyz=period,
+        phaseAngles_Gs_to_Wn_ixyz=phase,
+        rotationPointOffset_Gs_Ler=(c1 / 2, 0.0, 0.0),
+    )
     plane_move = ps.movements.airplane_movement.AirplaneMovement(airplane, [wing_move])
     op = ps.operating_point.OperatingPoint(rho=RHO, vCg__E=case.speed, alpha=0.0, nu=NU)
     op_move = ps.movements.operating_point_movement.OperatingPointMovement(op)
-    return ps.movements.movement.Movement([plane_move], op_move, delta_time=case.dt,
-                                          num_steps=case.cycles * case.steps_per_cycle + 1)
+    return ps.movements.movement.Movement(
+        [plane_move], op_move, delta_time=case.dt, num_steps=case.cycles * case.steps_per_cycle + 1
+    )
 
 
 def uvlm_panel_corners(movement, step: int) -> np.ndarray:
@@ -502,28 +600,42 @@ def run_uvlm(case: Case, params: RobotParams = FIN_ROBOT) -> dict:
     for k, i in enumerate(range(n - case.steps_per_cycle - 1, n)):
         panels = solver._get_steady_problem_at(i).airplanes[0].wings[0].panels
         fx = -np.array([[pan.forces_GP1[0] for pan in row] for row in panels]).sum(axis=0)
-        rows[k] = fx[:n1].sum(), fx[n1], fx[n1 + 1:].sum()
-    plates = dict(zip(("proximal", "step", "distal"),
-                      (float(x) for x in np.trapezoid(rows, axis=0) / case.steps_per_cycle)))
+        rows[k] = fx[:n1].sum(), fx[n1], fx[n1 + 1 :].sum()
+    plates = dict(
+        zip(
+            ("proximal", "step", "distal"),
+            (float(x) for x in np.trapezoid(rows, axis=0) / case.steps_per_cycle),
+        )
+    )
     wing = movement.airplanes[0][0].wings[0]
     return {
-        "key": case.key, "stroke": case.stroke.name, "speed": case.speed, "nc": case.nc,
-        "spanwise": list(case.spanwise), "panels": int(wing.num_panels),
-        "cycles": case.cycles, "steps_per_cycle": case.steps_per_cycle, "dt": case.dt,
-        "num_steps": int(n), "thrust": per_cycle[-1], "per_cycle": per_cycle, "plates": plates,
+        "key": case.key,
+        "stroke": case.stroke.name,
+        "speed": case.speed,
+        "nc": case.nc,
+        "spanwise": list(case.spanwise),
+        "panels": int(wing.num_panels),
+        "cycles": case.cycles,
+        "steps_per_cycle": case.steps_per_cycle,
+        "dt": case.dt,
+        "num_steps": int(n),
+        "thrust": per_cycle[-1],
+        "per_cycle": per_cycle,
+        "plates": plates,
         "cycles_to_periodic": cycles_to_periodic(per_cycle),
         "final_mean_forces_W": [float(x) for x in mean_w],
         "side_outward": float(np.trapezoid(f_w[last, 1]) / case.steps_per_cycle),
-        "lift": float(-np.trapezoid(f_w[last, 2]) / case.steps_per_cycle), "lift_up": True,
+        "lift": float(-np.trapezoid(f_w[last, 2]) / case.steps_per_cycle),
+        "lift_up": True,
         "peak_thrust": float(np.abs(thrust[last]).max()),
         "finite": bool(np.all(np.isfinite(f_w))),
-        "seconds_build": round(built - started, 1), "seconds_solve": round(done - built, 1),
+        "seconds_build": round(built - started, 1),
+        "seconds_solve": round(done - built, 1),
         "pterasoftware": pterasoftware_version(),
     }
 
 
-def cached_uvlm(case: Case, out: pathlib.Path, params: RobotParams = FIN_ROBOT,
-                log=print) -> dict:
+def cached_uvlm(case: Case, out: pathlib.Path, params: RobotParams = FIN_ROBOT, log=print) -> dict:
     """``run_uvlm`` through the cache ``out/cases/<key>.json`` (skipped when present)."""
     path = pathlib.Path(out) / "cases" / f"{case.key}.json"
     if path.is_file():
@@ -534,31 +646,47 @@ def cached_uvlm(case: Case, out: pathlib.Path, params: RobotParams = FIN_ROBOT,
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(result, indent=1))
     tmp.replace(path)
-    log(f"  {case.key}: thrust {result['thrust']:.3f} N, per cycle "
-        f"{[round(x, 3) for x in result['per_cycle']]}, {result['seconds_solve']} s")
+    log(
+        f"  {case.key}: thrust {result['thrust']:.3f} N, per cycle "
+        f"{[round(x, 3) for x in result['per_cycle']]}, {result['seconds_solve']} s"
+    )
     return result
 
 
 # --- the study ----------------------------------------------------------------------------------
+
 
 def cases(quick: bool = False) -> dict:
     """The UVLM cases of (a) and (b), by part."""
     roll = roll_stroke()
     gait = gait_stroke()
     if quick:
-        return {"a": [Case(roll, ROLL_SPEED, nc, QUICK_CYCLES) for nc in QUICK_NC],
-                "b": [Case(gait, u, nc, QUICK_CYCLES) for nc in QUICK_NC for u in SPEEDS]}
+        return {
+            "a": [Case(roll, ROLL_SPEED, nc, QUICK_CYCLES) for nc in QUICK_NC],
+            "b": [Case(gait, u, nc, QUICK_CYCLES) for nc in QUICK_NC for u in SPEEDS],
+        }
     # By nc, then speed: an interrupted run has whole coarse tables first.
-    return {"a": [Case(roll, ROLL_SPEED, nc, CYCLES[ROLL_SPEED]) for nc in ROLL_NC],
-            "b": [Case(gait, u, nc, CYCLES[u]) for nc in GAIT_NC for u in SPEEDS[::-1]],
-            "a_checks": [Case(roll, ROLL_SPEED, CHECK_NC, CYCLES[ROLL_SPEED], steps_per_cycle=n)
-                         for n in ROLL_DT_CHECK]
-            + [Case(roll, ROLL_SPEED, CHECK_NC, CYCLES[ROLL_SPEED], spanwise=ns)
-               for ns in SPANWISE_CHECK],
-            "b_checks": [Case(gait, u, CHECK_NC, CYCLES[u], steps_per_cycle=n)
-                         for u in GAIT_DT_CHECK_SPEEDS for n in DT_CHECK],
-            "plates": [Case(st, u, CHECK_NC, cyc) for st, u, cyc in
-                       ((roll, ROLL_SPEED, 3), (gait, 0.4, 3), (gait, 0.1, 4))]}
+    return {
+        "a": [Case(roll, ROLL_SPEED, nc, CYCLES[ROLL_SPEED]) for nc in ROLL_NC],
+        "b": [Case(gait, u, nc, CYCLES[u]) for nc in GAIT_NC for u in SPEEDS[::-1]],
+        "a_checks": [
+            Case(roll, ROLL_SPEED, CHECK_NC, CYCLES[ROLL_SPEED], steps_per_cycle=n)
+            for n in ROLL_DT_CHECK
+        ]
+        + [
+            Case(roll, ROLL_SPEED, CHECK_NC, CYCLES[ROLL_SPEED], spanwise=ns)
+            for ns in SPANWISE_CHECK
+        ],
+        "b_checks": [
+            Case(gait, u, CHECK_NC, CYCLES[u], steps_per_cycle=n)
+            for u in GAIT_DT_CHECK_SPEEDS
+            for n in DT_CHECK
+        ],
+        "plates": [
+            Case(st, u, CHECK_NC, cyc)
+            for st, u, cyc in ((roll, ROLL_SPEED, 3), (gait, 0.4, 3), (gait, 0.1, 4))
+        ],
+    }
 
 
 def _converged(rows: list[dict]) -> dict:
@@ -579,11 +707,22 @@ def _converged(rows: list[dict]) -> dict:
 def _checks(main: list[dict], checks: list[dict]) -> list[dict]:
     """The other resolutions at CHECK_NC, with their change from the main run at CHECK_NC."""
     base = next((r for r in main if r["nc"] == CHECK_NC), None)
-    return [{"nc": r["nc"], "steps_per_cycle": r["steps_per_cycle"], "dt": r["dt"],
-             "spanwise": r["spanwise"], "panels": r["panels"], "thrust": r["thrust"],
-             "cycles_to_periodic": r["cycles_to_periodic"], "seconds_solve": r["seconds_solve"],
-             "change": None if base is None else (r["thrust"] - base["thrust"])
-             / abs(base["thrust"])} for r in checks]
+    return [
+        {
+            "nc": r["nc"],
+            "steps_per_cycle": r["steps_per_cycle"],
+            "dt": r["dt"],
+            "spanwise": r["spanwise"],
+            "panels": r["panels"],
+            "thrust": r["thrust"],
+            "cycles_to_periodic": r["cycles_to_periodic"],
+            "seconds_solve": r["seconds_solve"],
+            "change": None
+            if base is None
+            else (r["thrust"] - base["thrust"]) / abs(base["thrust"]),
+        }
+        for r in checks
+    ]
 
 
 def strip_table(stroke: Stroke, speed: float, params: RobotParams = FIN_ROBOT) -> dict:
@@ -592,23 +731,37 @@ def strip_table(stroke: Stroke, speed: float, params: RobotParams = FIN_ROBOT) -
     for name, a in lift_slopes(params).items():
         for stall in (False, True):
             out[f"{name}_{'stall' if stall else 'attached'}"] = strip_thrust(
-                stroke, speed, a, stall, params)
+                stroke, speed, a, stall, params
+            )
     return out
 
 
-def summarize(out: pathlib.Path, quick: bool = False, run: bool = True,
-              params: RobotParams = FIN_ROBOT, log=print, command: str = COMMAND) -> dict:
+def summarize(
+    out: pathlib.Path,
+    quick: bool = False,
+    run: bool = True,
+    params: RobotParams = FIN_ROBOT,
+    log=print,
+    command: str = COMMAND,
+) -> dict:
     """Runs (or reads from the cache) every case and returns the summary."""
     started = time.time()
     parts = cases(quick)
     roll, gait = roll_stroke(), gait_stroke()
+
     def cached(c):
         path = pathlib.Path(out) / "cases" / f"{c.key}.json"
         return json.loads(path.read_text()) if path.is_file() else None
 
     # run=False: the summary of the cases already in the cache (an interrupted run's).
-    uv = {k: [r for r in (cached_uvlm(c, out, params, log) if run else cached(c) for c in v)
-              if r is not None] for k, v in parts.items()}
+    uv = {
+        k: [
+            r
+            for r in (cached_uvlm(c, out, params, log) if run else cached(c) for c in v)
+            if r is not None
+        ]
+        for k, v in parts.items()
+    }
     if not uv["a"]:
         raise ValidationError(f"{out}: no pure-roll case in the cache")
     dims = fin_dimensions(params)
@@ -619,27 +772,53 @@ def summarize(out: pathlib.Path, quick: bool = False, run: bool = True,
             r["cycles_to_periodic"] = cycles_to_periodic(r["per_cycle"])
 
     def slim(r):
-        return {k: r[k] for k in ("nc", "panels", "thrust", "per_cycle", "cycles_to_periodic",
-                                  "side_outward", "lift", "peak_thrust", "seconds_solve",
-                                  "num_steps", "finite")}
+        return {
+            k: r[k]
+            for k in (
+                "nc",
+                "panels",
+                "thrust",
+                "per_cycle",
+                "cycles_to_periodic",
+                "side_outward",
+                "lift",
+                "peak_thrust",
+                "seconds_solve",
+                "num_steps",
+                "finite",
+            )
+        }
 
     a_rows = [slim(r) for r in uv["a"]]
     a_conv = _converged(a_rows)
     a_strip = strip_table(roll, ROLL_SPEED, params)
     reference = a_conv["thrust"]
-    a = {"speed": ROLL_SPEED, "strouhal": strouhal(roll, ROLL_SPEED, params),
-         "reduced_frequency_root": math.pi * roll.frequency_hz * dims["proximal_chord"]
-         / ROLL_SPEED,
-         "tip_heave_speed": 2.0 * math.pi * roll.frequency_hz * dims["span"]
-         * math.radians(ROLL_ONLY_DEG),
-         "stalled_area_fraction": stalled_area_fraction(roll, ROLL_SPEED, params),
-         "cycles": parts["a"][0].cycles, "uvlm": a_rows, "converged": a_conv,
-         "garrick_2d": garrick_strip_thrust(roll, ROLL_SPEED, params),
-         "strip": {k: {"thrust": v["thrust"], "ratio": v["thrust"] / reference,
-                       "cycles_to_periodic": v["cycles_to_periodic"],
-                       "side_outward": v["side_outward"], "peak_thrust": v["peak_thrust"],
-                       "within_acceptance": bool(abs(v["thrust"] / reference - 1) <= ACCEPT)}
-                   for k, v in a_strip.items()}}
+    a = {
+        "speed": ROLL_SPEED,
+        "strouhal": strouhal(roll, ROLL_SPEED, params),
+        "reduced_frequency_root": math.pi * roll.frequency_hz * dims["proximal_chord"] / ROLL_SPEED,
+        "tip_heave_speed": 2.0
+        * math.pi
+        * roll.frequency_hz
+        * dims["span"]
+        * math.radians(ROLL_ONLY_DEG),
+        "stalled_area_fraction": stalled_area_fraction(roll, ROLL_SPEED, params),
+        "cycles": parts["a"][0].cycles,
+        "uvlm": a_rows,
+        "converged": a_conv,
+        "garrick_2d": garrick_strip_thrust(roll, ROLL_SPEED, params),
+        "strip": {
+            k: {
+                "thrust": v["thrust"],
+                "ratio": v["thrust"] / reference,
+                "cycles_to_periodic": v["cycles_to_periodic"],
+                "side_outward": v["side_outward"],
+                "peak_thrust": v["peak_thrust"],
+                "within_acceptance": bool(abs(v["thrust"] / reference - 1) <= ACCEPT),
+            }
+            for k, v in a_strip.items()
+        },
+    }
     a["garrick_ratio"] = a["garrick_2d"] / reference
     a["checks"] = _checks(uv["a"], uv.get("a_checks", []))
     b = {}
@@ -650,59 +829,107 @@ def summarize(out: pathlib.Path, quick: bool = False, run: bool = True,
         conv = _converged(rows)
         st = strip_table(gait, u, params)
         b[f"{u:.1f}"] = {
-            "speed": u, "strouhal": strouhal(gait, u, params),
+            "speed": u,
+            "strouhal": strouhal(gait, u, params),
             "stalled_area_fraction": stalled_area_fraction(gait, u, params),
-            "cycles": rows[0]["num_steps"] // STEPS_PER_CYCLE, "uvlm": rows, "converged": conv,
-            "strip": {k: {"thrust": v["thrust"], "ratio": v["thrust"] / conv["thrust"],
-                          "cycles_to_periodic": v["cycles_to_periodic"],
-                          "side_outward": v["side_outward"], "peak_thrust": v["peak_thrust"]}
-                      for k, v in st.items()},
-            "checks": _checks([r for r in uv["b"] if r["speed"] == u],
-                              [r for r in uv.get("b_checks", []) if r["speed"] == u])}
+            "cycles": rows[0]["num_steps"] // STEPS_PER_CYCLE,
+            "uvlm": rows,
+            "converged": conv,
+            "strip": {
+                k: {
+                    "thrust": v["thrust"],
+                    "ratio": v["thrust"] / conv["thrust"],
+                    "cycles_to_periodic": v["cycles_to_periodic"],
+                    "side_outward": v["side_outward"],
+                    "peak_thrust": v["peak_thrust"],
+                }
+                for k, v in st.items()
+            },
+            "checks": _checks(
+                [r for r in uv["b"] if r["speed"] == u],
+                [r for r in uv.get("b_checks", []) if r["speed"] == u],
+            ),
+        }
     plates = []
     for r in uv.get("plates", []):
         stroke = roll if r["stroke"] == roll.name else gait
-        strip = {k: strip_thrust(stroke, r["speed"], a, False, params)["plates"]
-                 for k, a in slopes.items()}
-        plates.append({"stroke": r["stroke"], "speed": r["speed"], "nc": r["nc"],
-                       "cycles": r["cycles"], "uvlm": r["plates"], "uvlm_thrust": r["thrust"],
-                       "strip_2d": strip["2d"], "strip_helmbold": strip["helmbold"]})
+        strip = {
+            k: strip_thrust(stroke, r["speed"], a, False, params)["plates"]
+            for k, a in slopes.items()
+        }
+        plates.append(
+            {
+                "stroke": r["stroke"],
+                "speed": r["speed"],
+                "nc": r["nc"],
+                "cycles": r["cycles"],
+                "uvlm": r["plates"],
+                "uvlm_thrust": r["thrust"],
+                "strip_2d": strip["2d"],
+                "strip_helmbold": strip["helmbold"],
+            }
+        )
     from manta_drake.studies.stamp import commit
 
     summary = {
         "provenance": {
             "generator": "manta_drake.studies.validation.vortex_lattice",
             "command": command + (" --quick" if quick else ""),
-            "pterasoftware": pterasoftware_version(), "date": datetime.date.today().isoformat(),
-            "commit": commit(), "quick": quick,
-            "seconds_total_uvlm": round(sum(r["seconds_solve"] + r.get("seconds_build", 0)
-                                            for v in uv.values() for r in v), 1),
+            "pterasoftware": pterasoftware_version(),
+            "date": datetime.date.today().isoformat(),
+            "commit": commit(),
+            "quick": quick,
+            "seconds_total_uvlm": round(
+                sum(r["seconds_solve"] + r.get("seconds_build", 0) for v in uv.values() for r in v),
+                1,
+            ),
             "seconds_this_run": round(time.time() - started, 1),
             "solver": "UnsteadyRingVortexLatticeMethodSolver.run(prescribed_wake=True)",
-            "rho": RHO, "nu": NU, "leg": LEG, "fin_sweep_deg": 0.0,
+            "rho": RHO,
+            "nu": NU,
+            "leg": LEG,
+            "fin_sweep_deg": 0.0,
             "steps_per_cycle": STEPS_PER_CYCLE,
-            "dt": roll.period / STEPS_PER_CYCLE, "spanwise_panels": list(SPANWISE_PANELS),
-            "step_gap": STEP_GAP, "chordwise_spacing": "uniform",
-            "strips_per_plate": STRIPS_PER_PLATE, "strip_steps_per_cycle": STRIP_STEPS_PER_CYCLE,
-            "strip_cycles": STRIP_CYCLES, "acceptance": ACCEPT, "periodic_tol": PERIODIC_TOL,
+            "dt": roll.period / STEPS_PER_CYCLE,
+            "spanwise_panels": list(SPANWISE_PANELS),
+            "step_gap": STEP_GAP,
+            "chordwise_spacing": "uniform",
+            "strips_per_plate": STRIPS_PER_PLATE,
+            "strip_steps_per_cycle": STRIP_STEPS_PER_CYCLE,
+            "strip_cycles": STRIP_CYCLES,
+            "acceptance": ACCEPT,
+            "periodic_tol": PERIODIC_TOL,
         },
-        "fin": {**dims, "lift_slope_2d": slopes["2d"], "lift_slope_helmbold": slopes["helmbold"],
-                "stall": {k: float(v) for k, v in STALL.items()}},
-        "strokes": {s.name: {"amp_deg": list(s.amp_deg), "phase_deg": list(s.phase_deg),
-                             "frequency_hz": s.frequency_hz,
-                             "sines_deg": [list(s.sine(j)) for j in (1, 2, 3)]}
-                    for s in (roll, gait)},
-        "a_pure_roll": a, "b_gait": b, "plates": plates,
+        "fin": {
+            **dims,
+            "lift_slope_2d": slopes["2d"],
+            "lift_slope_helmbold": slopes["helmbold"],
+            "stall": {k: float(v) for k, v in STALL.items()},
+        },
+        "strokes": {
+            s.name: {
+                "amp_deg": list(s.amp_deg),
+                "phase_deg": list(s.phase_deg),
+                "frequency_hz": s.frequency_hz,
+                "sines_deg": [list(s.sine(j)) for j in (1, 2, 3)],
+            }
+            for s in (roll, gait)
+        },
+        "a_pure_roll": a,
+        "b_gait": b,
+        "plates": plates,
     }
     return round_floats(summary, 5)
 
 
 # --- files --------------------------------------------------------------------------------------
 
-HEADER = ("# Mean thrust of one fin of the model by pterasoftware (unsteady ring-vortex lattice, "
-          "prescribed\n# wake) against the fin strips' model (station/foil.py) and Garrick. "
-          "Generated by\n# `{command}` (manta_drake/studies/validation/vortex_lattice.py);\n"
-          "# docs/validation.md's \"Vortex lattice\" section is rendered from it. Do not edit.\n")
+HEADER = (
+    "# Mean thrust of one fin of the model by pterasoftware (unsteady ring-vortex lattice, "
+    "prescribed\n# wake) against the fin strips' model (station/foil.py) and Garrick. "
+    "Generated by\n# `{command}` (manta_drake/studies/validation/vortex_lattice.py);\n"
+    '# docs/validation.md\'s "Vortex lattice" section is rendered from it. Do not edit.\n'
+)
 
 
 def write_yaml(path, summary: dict) -> pathlib.Path:
@@ -710,8 +937,10 @@ def write_yaml(path, summary: dict) -> pathlib.Path:
 
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(HEADER.format(command=summary["provenance"]["command"]) + yaml.safe_dump(
-        summary, sort_keys=False, default_flow_style=None, width=100))
+    path.write_text(
+        HEADER.format(command=summary["provenance"]["command"])
+        + yaml.safe_dump(summary, sort_keys=False, default_flow_style=None, width=100)
+    )
     return path
 
 
@@ -722,9 +951,12 @@ def load_summary(path=YAML_PATH) -> dict:
     return data
 
 
-STRIP_LABELS = {"2d_attached": "2 pi, attached", "2d_stall": "2 pi, with stall",
-                "helmbold_attached": "Helmbold, attached",
-                "helmbold_stall": "Helmbold, with stall"}
+STRIP_LABELS = {
+    "2d_attached": "2 pi, attached",
+    "2d_stall": "2 pi, with stall",
+    "helmbold_attached": "Helmbold, attached",
+    "helmbold_stall": "Helmbold, with stall",
+}
 
 
 def render_section(summary: dict) -> str:
@@ -740,32 +972,58 @@ def write_page(path, summary: dict) -> None:
     from manta_drake.studies.validation import section_markers
 
     begin, end = section_markers(SECTION)
-    replace_marked_block(pathlib.Path(path), render_section(summary), begin, end,
-                         new_page=("Validation", "manta-drake study validation --section NAME "
-                                                 "--out DIR"),
-                         what="the vortex-lattice section")
+    replace_marked_block(
+        pathlib.Path(path),
+        render_section(summary),
+        begin,
+        end,
+        new_page=("Validation", "manta-drake study validation --section NAME --out DIR"),
+        what="the vortex-lattice section",
+    )
 
 
 # --- the command --------------------------------------------------------------------------------
 
+
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, metavar="DIR",
-                        help="the case cache DIR/cases/*.json (a case there is not run again), "
-                             "the summary DIR/vortex_lattice.yaml and DIR/vortex_lattice.md")
-    parser.add_argument("--quick", action="store_true",
-                        help="nc 4 and 2 cycles only (a smoke run of a few minutes); writes "
-                             "neither the committed summary nor the page unless named")
-    parser.add_argument("--no-run", action="store_true",
-                        help="run no UVLM case: summarize the cases already in DIR/cases")
-    parser.add_argument("--reference", default=None, metavar="FILE",
-                        help="the committed summary (default models/reference/"
-                             "vortex_lattice.yaml of the checkout); '' writes none")
-    parser.add_argument("--page", default=None, metavar="FILE",
-                        help="the page whose vortex-lattice block is replaced (default "
-                             "docs/validation.md); '' writes none")
-    parser.add_argument("--from-yaml", action="store_true",
-                        help="run nothing: render the page from --reference as committed")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="the case cache DIR/cases/*.json (a case there is not run again), "
+        "the summary DIR/vortex_lattice.yaml and DIR/vortex_lattice.md",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="nc 4 and 2 cycles only (a smoke run of a few minutes); writes "
+        "neither the committed summary nor the page unless named",
+    )
+    parser.add_argument(
+        "--no-run",
+        action="store_true",
+        help="run no UVLM case: summarize the cases already in DIR/cases",
+    )
+    parser.add_argument(
+        "--reference",
+        default=None,
+        metavar="FILE",
+        help="the committed summary (default models/reference/"
+        "vortex_lattice.yaml of the checkout); '' writes none",
+    )
+    parser.add_argument(
+        "--page",
+        default=None,
+        metavar="FILE",
+        help="the page whose vortex-lattice block is replaced (default "
+        "docs/validation.md); '' writes none",
+    )
+    parser.add_argument(
+        "--from-yaml",
+        action="store_true",
+        help="run nothing: render the page from --reference as committed",
+    )
     args = parser.parse_args(argv)
     check_out(args.out)
     if args.reference is None:
@@ -773,8 +1031,9 @@ def parse_args(argv, prog):
     if args.page is None:
         args.page = "" if args.quick else str(PAGE_PATH)
     if args.from_yaml and not pathlib.Path(args.reference or YAML_PATH).is_file():
-        raise ValidationError(f"--from-yaml: no summary {args.reference or YAML_PATH}; run "
-                              "without --from-yaml first")
+        raise ValidationError(
+            f"--from-yaml: no summary {args.reference or YAML_PATH}; run without --from-yaml first"
+        )
     return args
 
 
@@ -787,8 +1046,9 @@ def main(argv=None, prog=None) -> int:
     if args.from_yaml:
         summary = load_summary(args.reference or YAML_PATH)
     else:
-        summary = summarize(out, quick=args.quick, run=not args.no_run,
-                            log=lambda m: print(m, flush=True))
+        summary = summarize(
+            out, quick=args.quick, run=not args.no_run, log=lambda m: print(m, flush=True)
+        )
         write_yaml(out / "vortex_lattice.yaml", summary)
         if args.reference:
             write_yaml(args.reference, summary)
@@ -797,8 +1057,10 @@ def main(argv=None, prog=None) -> int:
     if args.page:
         write_page(args.page, summary)
         print(f"wrote the {SECTION} block of {args.page}")
-    print(f"wrote {'' if args.from_yaml else str(out / 'vortex_lattice.yaml') + ' and '}"
-          f"{out / 'vortex_lattice.md'}")
+    print(
+        f"wrote {'' if args.from_yaml else str(out / 'vortex_lattice.yaml') + ' and '}"
+        f"{out / 'vortex_lattice.md'}"
+    )
     return 0
 
 

@@ -19,19 +19,27 @@ from manta_drake.studies.options import StudyParser
 
 # name -> (module with main(argv, prog) -> int, what it validates)
 SECTIONS = {
-    "released": ("manta_drake.studies.validation.released",
-                 "the simulator's effective heave mass and roll inertia, the robot released at "
-                 "rest under water, against the whole robot's BEM added mass"),
-    "added-mass": ("manta_drake.studies.validation.added_mass",
-                   "added mass of the hull, the fin plates and the robot against Lamb, strip "
-                   "theory, DNV-RP-H103 and capytaine (BEM); models/reference/added_mass_bem.yaml"),
-    "vortex-lattice": ("manta_drake.studies.validation.vortex_lattice",
-                       "the fin strips' thrust against pterasoftware (UVLM) and Garrick; "
-                       "models/reference/vortex_lattice.yaml"),
-    "foil-data": ("manta_drake.studies.validation.foil_data",
-                  "the fin strips' thrust and efficiency against a heaving-pitching foil "
-                  "experiment (MIT, h0/c 0.75, alpha_max 15 deg); "
-                  "models/reference/heaving_pitching_foil.yaml"),
+    "released": (
+        "manta_drake.studies.validation.released",
+        "the simulator's effective heave mass and roll inertia, the robot released at "
+        "rest under water, against the whole robot's BEM added mass",
+    ),
+    "added-mass": (
+        "manta_drake.studies.validation.added_mass",
+        "added mass of the hull, the fin plates and the robot against Lamb, strip "
+        "theory, DNV-RP-H103 and capytaine (BEM); models/reference/added_mass_bem.yaml",
+    ),
+    "vortex-lattice": (
+        "manta_drake.studies.validation.vortex_lattice",
+        "the fin strips' thrust against pterasoftware (UVLM) and Garrick; "
+        "models/reference/vortex_lattice.yaml",
+    ),
+    "foil-data": (
+        "manta_drake.studies.validation.foil_data",
+        "the fin strips' thrust and efficiency against a heaving-pitching foil "
+        "experiment (MIT, h0/c 0.75, alpha_max 15 deg); "
+        "models/reference/heaving_pitching_foil.yaml",
+    ),
 }
 PAGE_TITLE = "Validation"
 PAGE_COMMAND = "manta-drake study validation --section NAME --out DIR"
@@ -40,18 +48,11 @@ PAGE_PATH = REPO / "docs" / "validation.md"
 
 
 def template_env():
-    """The sections' Jinja2 environment (their templates in ``TEMPLATES``), with the number
-    filters they share: ``g`` (significant digits), ``f`` (decimals), ``pct`` (a ratio as a
-    signed percentage); None shows as ``-``."""
-    import jinja2
+    """The sections' Jinja2 environment (their templates in ``TEMPLATES``) with the reports'
+    number filters (``studies.report``)."""
+    from manta_drake.studies.report import template_env as report_env
 
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)),
-                             undefined=jinja2.StrictUndefined, keep_trailing_newline=True,
-                             trim_blocks=True, lstrip_blocks=True)
-    env.filters["g"] = lambda x, d=4: "-" if x is None else f"{float(x):.{d}g}"
-    env.filters["f"] = lambda x, d=3: "-" if x is None else f"{float(x):.{d}f}"
-    env.filters["pct"] = lambda x, d=2: "-" if x is None else f"{100.0 * float(x):+.{d}f} %"
-    return env
+    return report_env(TEMPLATES)
 
 
 def render_template(name: str, **context) -> str:
@@ -133,8 +134,9 @@ def write_section(path, name: str, block: str) -> None:
         if begin not in text and end not in text:
             write_stamped(path, text.rstrip("\n") + "\n\n" + block + "\n")
             return
-    replace_marked_block(path, block, begin, end, new_page=(PAGE_TITLE, PAGE_COMMAND),
-                         what=f"the {name} section")
+    replace_marked_block(
+        path, block, begin, end, new_page=(PAGE_TITLE, PAGE_COMMAND), what=f"the {name} section"
+    )
 
 
 def main(argv=None, prog=None) -> int:
@@ -143,13 +145,20 @@ def main(argv=None, prog=None) -> int:
     prog = prog or "manta-drake study validation"
     argv = sys.argv[1:] if argv is None else list(argv)
     listing = "\n".join(f"  {name:<15} {text}" for name, (_, text) in SECTIONS.items())
-    parser = StudyParser(prog=prog, add_help=False,
-                         description="Validates a model against its independent reference and "
-                                     "writes its section of docs/validation.md.",
-                         epilog=f"sections:\n{listing}")
+    parser = StudyParser(
+        prog=prog,
+        add_help=False,
+        description="Validates a model against its independent reference and "
+        "writes its section of docs/validation.md.",
+        epilog=f"sections:\n{listing}",
+    )
     parser.add_argument("--section", metavar="NAME", help=f"one of {', '.join(SECTIONS)}")
-    parser.add_argument("-h", "--help", action="store_true",
-                        help="this help, or with --section the section's options")
+    parser.add_argument(
+        "-h",
+        "--help",
+        action="store_true",
+        help="this help, or with --section the section's options",
+    )
     args, rest = parser.parse_known_args(argv)
     if args.section is None:
         if args.help:
@@ -158,11 +167,12 @@ def main(argv=None, prog=None) -> int:
             parser.formatter_class = argparse.RawDescriptionHelpFormatter
             parser.print_help()
             return 0
-        raise ScenarioError(f"{prog}: --section NAME is required (one of "
-                            f"{', '.join(SECTIONS)})")
+        raise ScenarioError(f"{prog}: --section NAME is required (one of {', '.join(SECTIONS)})")
     if args.section not in SECTIONS:
-        raise ScenarioError(f"{prog}: --section {args.section!r}: expected one of "
-                            f"{', '.join(SECTIONS)}")
+        raise ScenarioError(
+            f"{prog}: --section {args.section!r}: expected one of {', '.join(SECTIONS)}"
+        )
     module = importlib.import_module(SECTIONS[args.section][0])
-    return module.main(rest + (["--help"] if args.help else []),
-                       prog=f"{prog} --section {args.section}")
+    return module.main(
+        rest + (["--help"] if args.help else []), prog=f"{prog} --section {args.section}"
+    )

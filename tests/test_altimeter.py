@@ -113,6 +113,7 @@ def test_beyond_max_range_there_is_no_echo_and_the_reading_is_nan():
     assert sensor.GetOutputPort("altitude_true").Eval(context)[0] == math.inf
 
 
+@pytest.mark.slow
 def test_readings_scatter_by_noise_std_and_drop_out_at_dropout_rate():
     """200 pings at a fixed pose: the mean is the height within 4 standard errors, the
     spread is noise_std within 15 %, and the share of NaN is within 4 binomial sigmas."""

@@ -272,6 +272,7 @@ def test_study_faults_option_out_of_range_is_one_line(tmp_path, capsys, argv, ne
     assert not out.exists()  # nothing was drawn or written
 
 
+@pytest.mark.slow
 def test_study_faults_out_is_a_file_and_the_duration_floor_is_the_drawn_interval(tmp_path, capsys):
     """--out naming a file is one line; the floor of --duration is where a drawn balloon
     command's interval [BALLOON_COMMAND_AFTER_S, duration] stays valid: at it the draws work
@@ -983,6 +984,7 @@ def test_limits_big_results_table_and_long_csv_field_are_one_line(tmp_path):
         load_measured(long, where="m")
 
 
+@pytest.mark.slow
 def test_limits_20000_deep_nesting_of_every_kind_names_the_file_and_line(tmp_path, capsys):
     deep = "deep: " + "[" * 20000 + "]" * 20000 + "\n"
     kinds = _kinds(tmp_path, deep)
@@ -1004,6 +1006,7 @@ def test_limits_20000_deep_nesting_of_every_kind_names_the_file_and_line(tmp_pat
     assert "--set water.current: line 1: [0][0]" in message and "64 levels" in message
 
 
+@pytest.mark.slow
 def test_limits_3000_deep_behaviour_tree_names_the_field(tmp_path, capsys):
     nodes = "".join(f"    n{i}: {{children: [n{i + 1}, swim]}}\n" for i in range(1, 2999))
     scenario = tmp_path / "deep_tree.yaml"

@@ -90,6 +90,7 @@ experiments:
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "change, message",
     [
@@ -303,6 +304,7 @@ def no_simulation(monkeypatch):
     monkeypatch.setattr(evaluator, "simulate_trajectory", refuse)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "data, change, message",
     [
@@ -468,6 +470,7 @@ def test_calibrate_out_is_checked_before_the_fit(tmp_path, capsys, no_simulation
         C.calibrate(C.load_calibration(config_path), out, progress=False)
 
 
+@pytest.mark.slow
 def test_a_fit_whose_simulations_fail_writes_no_coefficients(tmp_path, capsys, monkeypatch):
     """Every simulation fails: the cost is the failures' penalty, so nothing is calibrated;
     the history is written, no coefficients file (an earlier one is removed), exit 1."""

@@ -41,6 +41,7 @@ def test_hull_stl_volume_and_frontal_area_match_the_ellipsoid(tmp_path, subdivis
     np.testing.assert_allclose(lo, -np.array(ABC), rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_robot_parts_are_closed_and_the_fins_have_their_plates_volume(tmp_path):
     path = geometry.write_stl(tmp_path / "robot.stl", geometry.robot_parts())
     parts = geometry.read_stl(path)

@@ -5,6 +5,8 @@ import pathlib
 import subprocess
 import sys
 
+import pytest
+
 from manta_drake.model import MODELS_DIR
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -20,6 +22,7 @@ def cli(*args):
     )
 
 
+@pytest.mark.slow
 def test_list_names_every_shipped_scenario():
     result = cli("list")
     assert result.returncode == 0
@@ -27,6 +30,7 @@ def test_list_names_every_shipped_scenario():
         assert any(line.split()[0] == name for line in result.stdout.splitlines() if line)
 
 
+@pytest.mark.slow
 def test_typo_is_one_clear_line(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("duration: 1\ncontroler: {mode: gait}\n")
@@ -36,6 +40,7 @@ def test_typo_is_one_clear_line(tmp_path):
     assert len(lines) == 1 and "scenario.controler" in lines[0] and "Traceback" not in result.stderr
 
 
+@pytest.mark.slow
 def test_run_writes_outputs(tmp_path):
     out = tmp_path / "o"
     result = cli("run", "stand", "--out", str(out), "--duration", "0.5", "--no-meshcat", "--quiet")
@@ -46,6 +51,7 @@ def test_run_writes_outputs(tmp_path):
     assert (out / "joints.png").exists() and (out / "log.npz").exists()
 
 
+@pytest.mark.slow
 def test_error_while_building_is_one_line_too(tmp_path):
     """A coefficients file that breaks the model fails with one line, not a traceback."""
     import shutil
@@ -65,6 +71,7 @@ def test_error_while_building_is_one_line_too(tmp_path):
     assert len(lines) == 1 and "sealed_volume" in lines[0] and "Traceback" not in result.stderr
 
 
+@pytest.mark.slow
 def test_diagram_script_errors_are_one_line_too(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("duration: 1\nballoon: {initial_fill: 2.0}\n")
@@ -87,6 +94,7 @@ def test_diagram_script_errors_are_one_line_too(tmp_path):
     assert len(lines) == 1 and "balloon.initial_fill" in lines[0] and "[0, 1]" in lines[0]
 
 
+@pytest.mark.slow
 def test_set_overrides_a_field_and_the_run_writes_its_resolved_scenario(tmp_path):
     """--set KEY=VALUE reaches the simulation (the resolved scenario.yaml has it) and the
     written scenario.yaml loads back to the same scenario, field for field."""
@@ -121,6 +129,7 @@ def test_set_overrides_a_field_and_the_run_writes_its_resolved_scenario(tmp_path
     assert yaml_dump_typed(again) == yaml_dump_typed(expected.validate())
 
 
+@pytest.mark.slow
 def test_set_with_a_misspelt_or_out_of_range_field_is_one_line(tmp_path):
     for setting, words in (
         ("contact.frction=0.6", "contact.frction"),

@@ -56,6 +56,7 @@ def cpg_diagram(params, **kw):
     return sim, cpg, angles, desired
 
 
+@pytest.mark.slow
 def test_derivatives_equal_eq5_by_hand(rng):
     kw = dict(frequency_hz=0.7, chain_weight=3.0, fcs_weight=5.0, a=17.0, b=23.0)
     cpg = CpgOscillators(**kw)
@@ -191,6 +192,7 @@ def test_constructor_rejects_bad_parameters():
         CpgOscillators(a=np.nan)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["trot", "swim"])
 def test_plant_tracks_cpg_with_body_welded_in_air(name):
     """Closed loop: the plant's implicit PD follows the CPG's desired state."""

@@ -199,6 +199,7 @@ def _hull_force(hydro, context) -> np.ndarray:
     return np.array([f.F_Bq_W.get_coeffs() for f in forces])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inputs", ["plant_state", "contract"])
 def test_robot_at_rest_in_a_current_ramp_feels_the_damping_of_that_times_current(inputs):
     """The hull at rest deep under water, yawed 30 deg: the water moves past it at the

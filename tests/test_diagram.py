@@ -19,6 +19,7 @@ def _scenario(name, **overrides):
     return s.validate()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fin_model, frequency", [("foil", 0.25), ("cross_flow", 0.5)])
 def test_trot_on_the_floor_moves_forward(fin_model, frequency, tmp_path):
     """The trot walks on the floor, upright on its fins: with the foil fins (the default) at
@@ -36,6 +37,7 @@ def test_trot_on_the_floor_moves_forward(fin_model, frequency, tmp_path):
     assert result.log["body_xyz"][-1, 2] < -0.2  # on the floor
 
 
+@pytest.mark.slow
 def test_two_behaviours_swim_to_trot_by_depth(tmp_path):
     """Deflated early, the robot sinks and the depth estimate moves the CPG to the trot. At
     half charge (15.2 V on the servos' bus): with a full pack's 16.4 V the trot rears the
@@ -62,6 +64,7 @@ def test_two_behaviours_swim_to_trot_by_depth(tmp_path):
     assert m["max_joint_step_rad"] < 0.01  # no jump in any commanded joint angle
 
 
+@pytest.mark.slow
 def test_a_switch_tree_arrives_at_the_trot(tmp_path):
     """A tree that switches between the swim and the trot on the depth (root: z_hat, switch)
     moves the target by exactly pi on the Phi entries where the two gaits are antipodal.
@@ -83,6 +86,7 @@ def test_a_switch_tree_arrives_at_the_trot(tmp_path):
     np.testing.assert_allclose(wrap(result.log["cpg_params"][-1] - trot), 0.0, atol=0.05)
 
 
+@pytest.mark.slow
 def test_three_behaviours_wall_seen_then_turning(tmp_path):
     """On the floor in trot, facing the end wall just beyond the camera's range: the camera,
     the wall detector and the tree put the robot in the turning gait. With the cross-flow
@@ -120,6 +124,7 @@ def test_three_behaviours_wall_seen_then_turning(tmp_path):
     assert m["max_joint_step_rad"] < 0.01
 
 
+@pytest.mark.slow
 def test_failed_run_still_writes_its_log_and_why(tmp_path, monkeypatch):
     import manta_drake.station.hydro as hydro
 
@@ -142,6 +147,7 @@ def test_failed_run_still_writes_its_log_and_why(tmp_path, monkeypatch):
     assert 0.45 < log["t"][-1] <= 0.51  # the log up to the failure
 
 
+@pytest.mark.slow
 def test_meshcat_recording_does_not_change_the_simulation(tmp_path):
     """The visualizer's publish period lies on the step grid: same run with or without it."""
     logs = []
@@ -153,6 +159,7 @@ def test_meshcat_recording_does_not_change_the_simulation(tmp_path):
     np.testing.assert_allclose(logs[0]["joint_angles"], logs[1]["joint_angles"], atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sweep_deg", [None, 10.0])
 def test_mirrored_trot_stands_level_and_goes_straight_only_on_its_balanced_sweep(
     sweep_deg, tmp_path

@@ -66,6 +66,7 @@ def html_out(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_a_build_writes_nothing_into_the_checkout(html_out):
     """docs/conf.py writes no bytecode (docs/_ext/__pycache__), and ``make docs`` puts Sphinx's
     cache beside DOCS_OUT: in docs/_build by default, outside the checkout when DOCS_OUT is."""
@@ -177,6 +178,7 @@ def test_the_package_has_systems():
     } <= names
 
 
+@pytest.mark.slow
 def test_every_system_page_draws_its_ports(html_out):
     for group, module, cls in leaf_systems():
         page = html_out / "api" / group / f"{module}.html"
@@ -190,6 +192,7 @@ def test_every_system_page_draws_its_ports(html_out):
         assert d["outputs"] == [port_name(p) for p in block.get("output_ports") or []], cls
 
 
+@pytest.mark.slow
 def test_depth_estimator_diagram(html_out):
     d = diagrams(html_out / "api" / "control" / "depth.html")["FuzzyDepthEstimator"]
     assert d["inputs"] == ["depth"]
@@ -199,6 +202,7 @@ def test_depth_estimator_diagram(html_out):
     assert d["x"]["depth"] < left < right < min(d["x"]["h_hat"], d["x"]["z_hat"])
 
 
+@pytest.mark.slow
 def test_the_builders_pages_draw_the_halves(html_out):
     station = diagrams(html_out / "api" / "wiring" / "station.html")["station"]
     controller = diagrams(html_out / "api" / "wiring" / "controller.html")["controller"]
@@ -248,6 +252,7 @@ def _check_drawn_against_built(name, drawn, built):
         )
 
 
+@pytest.mark.slow
 def test_diagrams_match_the_built_systems(html_out):
     """The three-behaviour scenario has every sensor, the camera, the transition and the
     energy model: its diagram holds one of each System of the package."""
@@ -278,6 +283,7 @@ def test_diagrams_match_the_built_systems(html_out):
     assert public | {"station", "controller"} <= checked, checked
 
 
+@pytest.mark.slow
 def test_every_public_name_is_documented_and_linked(html_out):
     pages = [p.read_text(encoding="utf-8") for p in (html_out / "api").rglob("*.html")]
     front = (html_out / "api" / "package.html").read_text(encoding="utf-8")

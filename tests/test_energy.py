@@ -52,6 +52,7 @@ def trot_runs(tmp_path_factory):
     }
 
 
+@pytest.mark.slow
 def test_with_the_ideal_servo_the_energy_model_changes_no_force(trot_runs):
     with_model, without = trot_runs[True][1], trot_runs[False][1]
     shared = set(without.log) & set(with_model.log)
@@ -69,6 +70,7 @@ def test_with_the_ideal_servo_the_energy_model_changes_no_force(trot_runs):
     assert new <= set(with_model.metrics) and not new & set(without.metrics)
 
 
+@pytest.mark.slow
 def test_the_battery_counts_the_logged_current(trot_runs):
     log = trot_runs[True][1].log
     soc, volts, amps = np.asarray(log["battery"]).T
@@ -86,6 +88,7 @@ def test_the_battery_counts_the_logged_current(trot_runs):
     assert amps[0] == 0.0 and volts[0] == pytest.approx(MODEL.pack.open_circuit_voltage(1.0))
 
 
+@pytest.mark.slow
 def test_mechanical_power_is_the_work_of_each_plant_step(trot_runs):
     log = trot_runs[True][1].log
     tau, v, p = log["joint_torque"], log["joint_velocities"], log["joint_mechanical_power"]
@@ -101,6 +104,7 @@ def test_mechanical_power_is_the_work_of_each_plant_step(trot_runs):
     assert np.sum(p[1:]) * 1e-3 == pytest.approx(work, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_standing_draws_the_holding_current(tmp_path):
     _, result = _run(tmp_path, "stand", 1.7)
     log = result.log
@@ -117,6 +121,7 @@ def test_standing_draws_the_holding_current(tmp_path):
     assert log["electrical_power"][0, 0] == pytest.approx(IDLE_W, rel=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name, duration",
     [("stand", 2.5), ("float_sink", 1.0), ("locomotion_swim", 2.5), ("two_behaviors", 1.0)],

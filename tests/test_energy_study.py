@@ -324,6 +324,7 @@ def test_the_shipped_values_are_the_models():
     assert {k: v * 1.0 for k, v in params.electronics.jetson_power.value.items()} == E.MODE_WATTS
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not SHIPPED.exists(), reason="no shipped sweep table")
 def test_the_shipped_table_is_the_whole_sweep():
     with open(SHIPPED, newline="") as f:
@@ -344,6 +345,7 @@ def test_the_shipped_table_is_the_whole_sweep():
     assert all(set(p) == set(E.GAITS) for p in [*t.oat.values(), *t.band.values()])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not SHIPPED.exists(), reason="no shipped sweep table")
 def test_the_study_command_writes_the_committed_energy_page(tmp_path, monkeypatch):
     """``manta-drake study energy`` on the shipped table reproduces docs/energy.md byte for

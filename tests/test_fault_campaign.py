@@ -14,6 +14,7 @@ def fc():
     return faults
 
 
+@pytest.mark.slow
 def test_draws_are_seeded_and_well_formed(fc):
     a, b = fc.draw_specs(40, seed=3), fc.draw_specs(40, seed=3)
     assert a == b
@@ -29,6 +30,7 @@ def test_draws_are_seeded_and_well_formed(fc):
             assert math.hypot(*o["water.current"]) <= 0.3 + 1e-9
 
 
+@pytest.mark.slow
 def test_rows_in_process(fc, tmp_path):
     specs = [
         fc.make_spec(
@@ -79,6 +81,7 @@ def test_rows_in_process(fc, tmp_path):
     assert (tmp_path / "runs.csv").read_text().count("\n") == 5
 
 
+@pytest.mark.slow
 def test_worker_crash_is_recorded_not_fatal(fc, tmp_path):
     crash = fc.make_spec(0, "stand", duration=0.1)
     crash["inject_crash"] = True  # segfaults the worker process executing it

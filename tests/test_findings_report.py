@@ -259,6 +259,7 @@ def test_contact_summary_without_contacts_is_nan_not_zero(fr):
 # The command line, and the diagnostics' gaits given as data (manta_drake.studies.explicit_gait).
 
 
+@pytest.mark.slow
 def test_the_study_command_writes_the_committed_findings_page(tmp_path, monkeypatch, capsys):
     """``manta-drake study findings`` on the shipped table reproduces docs/findings.md and its
     figure's file name; ``manta-drake study --help`` lists every study."""
@@ -356,6 +357,7 @@ def test_a_gait_given_as_data_starts_at_its_own_stance_and_leaves_the_library_al
     assert not np.allclose(variant.X, trot.X)
 
 
+@pytest.mark.slow
 def test_a_library_gait_given_as_data_runs_exactly_as_the_scenario_names_it(tmp_path):
     """run_with_gait with the scenario's own gait: the same log as simulate.run, sample for
     sample."""
@@ -373,6 +375,7 @@ def test_a_library_gait_given_as_data_runs_exactly_as_the_scenario_names_it(tmp_
         np.testing.assert_array_equal(named[key], data[key], err_msg=key)
 
 
+@pytest.mark.slow
 def test_foil_share_closes_the_robots_momentum_balance(fr):
     """What the water puts on the robot's own bodies plus what the added-mass bodies' joints
     pass on, with gravity, is the rate of change of the robot's own momentum (Newton for the

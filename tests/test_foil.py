@@ -61,6 +61,7 @@ def test_wagner_step_response_is_jones_indicial_function_for_any_step_size():
     assert effective_normal_velocity(np.zeros((1, 2)), np.ones(1))[0] == 0.5  # Phi(0)
 
 
+@pytest.mark.slow
 def test_harmonic_response_of_the_lag_is_its_frequency_response():
     """Driven by w = sin(omega t), the lag settles to |C| sin(omega t + arg C) with
     C = jones_theodorsen(k), k = omega c / (2 U): a time-domain run against the
@@ -105,6 +106,7 @@ def _plunge_mean_thrust(k, U=0.3, c=0.12, h0=0.002, cycles=30, steps=400):
     return f[-10 * steps :, 0, 0].mean(), omega
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", [0.5, 1.0, 2.0])
 def test_plunging_plate_thrust_is_garricks(k):
     """Small-amplitude pure plunge: Garrick's (1936) inviscid thrust pi rho b omega^2 h0^2

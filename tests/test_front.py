@@ -69,6 +69,7 @@ def cost_speed(task):
     }
 
 
+@pytest.mark.slow
 def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, capsys, monkeypatch):
     import manta_drake.optimize.cli as cli
     from manta_drake.optimize.front import pareto_mask

@@ -168,6 +168,7 @@ def test_identification_recovers_known_coefficients(rng):
         assert np.sqrt(np.mean(residual**2)) < 0.02 * np.abs(force).max()
 
 
+@pytest.mark.slow
 def test_identify_damping_script_reads_csv_and_writes_yaml(tmp_path):
     import shutil
     import subprocess
@@ -327,6 +328,7 @@ def _water_scenario(**kw) -> Scenario:
     return s.validate()
 
 
+@pytest.mark.slow
 def test_inflated_robot_floats_at_the_hydrostatic_draft(tmp_path):
     full = COEFFS.balloon.max_volume.value
     mass = P.total_mass
@@ -363,6 +365,7 @@ def test_inflated_robot_floats_at_the_hydrostatic_draft(tmp_path):
     assert lift == pytest.approx(mass * G, rel=0.01)
 
 
+@pytest.mark.slow
 def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
     """With the cross-flow fins, whose heave drag is one quadratic law, the sink reaches the
     closed-form terminal velocity in the pool's half metre; with the foil fins (38 kg of
@@ -399,6 +402,7 @@ def test_deflated_robot_sinks_at_terminal_velocity_and_rests_on_floor(tmp_path):
     assert z[-1] - P.body_semi_axes[2] == pytest.approx(-0.5, abs=0.01)
 
 
+@pytest.mark.slow
 def test_deflated_robot_with_foil_fins_sinks_and_rests(tmp_path):
     """The default fins: released at rest, the deflated robot starts down at net weight over
     the plant's own heave mass (M_zz of the mass matrix with the joints held: rigid, hull and
@@ -466,6 +470,7 @@ def test_surge_step_force_accelerates_with_added_mass():
     assert slope == pytest.approx(expected, rel=0.05)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dt", [0.5e-3, 1e-3, 2e-3])
 def test_swim_flapping_at_the_surface_moves_forward_stably(dt, tmp_path):
     s = _water_scenario(
@@ -491,6 +496,7 @@ def test_swim_flapping_at_the_surface_moves_forward_stably(dt, tmp_path):
     assert np.abs(log["body_xyz"][:, 2]).max() < 0.25
 
 
+@pytest.mark.slow
 def test_held_forces_agree_with_exact_forces(tmp_path):
     """water.update_period trades a small delay for speed; the swim speed barely moves."""
     speeds = []

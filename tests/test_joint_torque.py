@@ -91,6 +91,7 @@ def run(request):
     return _short_run(*request.param)
 
 
+@pytest.mark.slow
 def test_logged_with_its_own_times(run):
     scenario, _, log, _ = run
     assert log["joint_torque"].shape == (len(log["t"]), NUM_JOINTS)
@@ -99,6 +100,7 @@ def test_logged_with_its_own_times(run):
     assert np.all(np.isfinite(log["joint_torque"]))
 
 
+@pytest.mark.slow
 def test_equals_the_implicit_pd_law(run):
     scenario, handles, log, desired = run
     kp, kd, effort, damping = _actuator_parameters(handles)
@@ -161,6 +163,7 @@ def test_equals_the_implicit_pd_law(run):
     assert np.abs(tau[1:] - explicit).max() > 0.01
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "servo_model, pose",
     [
@@ -192,6 +195,7 @@ def test_stand_exercises_the_effort_limit(servo_model, pose):
     assert log["battery"][:, 1].max() <= scenario.bus_reference_voltage()
 
 
+@pytest.mark.slow
 def test_standing_torques_balance_gravity_and_the_floor():
     """At rest on the floor (the ``stand`` scenario after 3 s), the joint rows of the
     equations of motion are static: the actuators' torques plus gravity's generalized

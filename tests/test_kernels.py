@@ -186,6 +186,7 @@ def _hydro_diagram(inputs: str, backend: str, update_period: float, apply_as=Non
     return builder.Build(), h, hydro
 
 
+@pytest.mark.slow
 def test_every_port_set_and_backend_gives_the_same_forces(rng):
     """The output ports of the four (inputs, backend) variants on the same random plant
     states, with the hull's velocity samples set so the residual added mass is active."""
@@ -221,6 +222,7 @@ def test_every_port_set_and_backend_gives_the_same_forces(rng):
         assert np.abs(without - spatial[-1]).max() > 1e-6
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("update_period", [0.0, 0.004])
 @pytest.mark.parametrize("inputs, backend", VARIANTS[1:])
 def test_every_variant_moves_the_plant_as_the_stations(inputs, backend, update_period):

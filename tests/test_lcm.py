@@ -127,6 +127,7 @@ def test_the_old_module_name_gives_the_seams_objects():
 # The channel table and the schedule
 
 
+@pytest.mark.slow
 def test_channel_table_matches_the_ports_and_the_docs():
     from manta_drake.scenario import load_scenario
     from manta_drake.wiring.controller import build_controller
@@ -181,6 +182,7 @@ def test_controller_commands_do_not_depend_directly_on_the_sensors():
         assert not seam.has_feedthrough(controller, reads, sends), name
 
 
+@pytest.mark.slow
 def test_the_battery_crosses_where_the_controller_reads_the_charge_at_its_estimators_period():
     """``reads_battery`` is build_controller's choice (the energy model on, and energy_hat
     read by the tree or the balloon rule); the channel then comes at the energy estimator's
@@ -215,6 +217,7 @@ def test_the_battery_crosses_where_the_controller_reads_the_charge_at_its_estima
     assert all(j * 0.02 in seam.sample_times(0.01, 75.0) for j in range(3750))
 
 
+@pytest.mark.slow
 def test_every_periodic_reader_of_a_sensor_reads_at_exchange_times():
     """The posture, flow and energy estimators read at times the seam exchanges their
     channels, so in lockstep each reads the single diagram's value; an IMU at 30 Hz under a
@@ -1007,6 +1010,7 @@ def _split_run(path, out, *args, wall_timeout=90.0):
     )
 
 
+@pytest.mark.slow
 def test_a_lockstep_run_without_dropouts_reports_none(tmp_path):
     """0.1 s of the station and the controller in two processes, lockstep over udpm, with a
     pressure sensor that drops nothing: the controller names and counts no dropout (the

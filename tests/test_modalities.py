@@ -56,6 +56,7 @@ def test_sensors_add_their_noise_sources_after_the_old_ones():
     ]
 
 
+@pytest.mark.slow
 def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_path):
     """three_behaviors (the paper's run with the camera: a written tree reading s_hat needs
     it) with Eq. (12)'s tree written out runs as with the default tree, bit for bit."""
@@ -71,6 +72,7 @@ def test_a_tree_written_as_eq_12_runs_the_paper_scenario_to_the_last_bit(tmp_pat
         np.testing.assert_array_equal(plain.log[key], written.log[key])
 
 
+@pytest.mark.slow
 def test_flow_sensor_reads_the_current_on_the_floor(tmp_path):
     """four_behaviors starts on the floor in a 0.1 m/s cross current: the sensor's reading is
     R^T (current - v_head) (computed here from the logged hull state), with its noise's
@@ -98,6 +100,7 @@ def test_flow_sensor_reads_the_current_on_the_floor(tmp_path):
     np.testing.assert_array_equal(log["balloon_command"], 0.0)  # schedule, then the rule
 
 
+@pytest.mark.slow
 def test_heading_hold_slows_the_swims_turn(tmp_path):
     """The swim with the printed Phi'_swim lag turns right; held by the IMU it turns about
     a third slower over the steady window (8 s runs; the full measurement is
@@ -119,6 +122,7 @@ def test_heading_hold_slows_the_swims_turn(tmp_path):
     assert abs(rate[True]) < 0.8 * abs(rate[False])
 
 
+@pytest.mark.slow
 def test_the_charge_estimate_drives_the_tree(tmp_path):
     """Started below the reserve, four_behaviors' tree goes to its rest gait at once."""
     s = load_scenario(
@@ -130,6 +134,7 @@ def test_the_charge_estimate_drives_the_tree(tmp_path):
     np.testing.assert_allclose(r.log["behaviour_weights"][-1], np.eye(4)[rest], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_estimators_start_from_the_robots_pose_not_from_zero(tmp_path):
     """Yawed 90 deg at the start, the posture estimate starts at 90 deg (the IMU holds the
     reading at rest in the start pose before its first sample) and the heading hold holds
@@ -156,6 +161,7 @@ def test_estimators_start_from_the_robots_pose_not_from_zero(tmp_path):
     np.testing.assert_allclose(r.log["heading_trim"], ref.log["heading_trim"], atol=0.01)
 
 
+@pytest.mark.slow
 def test_the_wall_estimate_fills_the_balloon_and_turns_the_held_heading(tmp_path):
     """wall_and_back's rule and heading change, on the floor facing the end wall 0.6 m away
     (the camera sees it from its first frame): from the rule's ``after`` (1 s here) the
@@ -187,6 +193,7 @@ def test_the_wall_estimate_fills_the_balloon_and_turns_the_held_heading(tmp_path
     assert abs(target) > 3.0
 
 
+@pytest.mark.slow
 def test_the_altimeter_reads_the_hulls_height_and_the_tree_starts_on_the_floor(tmp_path):
     """nose_up_trot, 3 s: every reading is the transducer's height above the floor computed
     here from the logged hull pose (over cos of the tilt beyond the 15 deg half-beam), within

@@ -132,6 +132,7 @@ objective:
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "edit, message",
     [
@@ -252,6 +253,7 @@ def test_cli_refuses_a_bad_spec_in_one_line_before_any_run(tmp_path, capsys):
     assert "--population: 1 is not an integer" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_every_shipped_spec_validates():
     names = {p.stem for p in SHIPPED}
     assert {"straight_swim", "true_crab", "fast_walk", "efficient_gait"} <= names
@@ -428,6 +430,7 @@ def test_a_candidate_the_scenario_refuses_is_a_result_not_a_raise(tmp_path):
 # --- the search on a cluster ------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_cma_es_finds_the_known_minimum_on_a_local_cluster(tmp_path, client):
     spec = write(tmp_path / "quadratic.yaml", QUADRATIC_SPEC)
     problem = load_problem(spec, generations=25, population=8)
@@ -459,6 +462,7 @@ def test_cma_es_finds_the_known_minimum_on_a_local_cluster(tmp_path, client):
     assert (tmp_path / "out" / "convergence.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow
 def test_restart_reuses_done_generations_and_an_interrupted_one(tmp_path):
     """2 generations, then the same folder with --generations 3: only generation 3 runs.
     Then a run interrupted inside generation 3 and restarted: the simulations done before
@@ -535,6 +539,7 @@ def test_restart_reuses_done_generations_and_an_interrupted_one(tmp_path):
         )
 
 
+@pytest.mark.slow
 def test_failed_and_raising_candidates_are_penalised_rows(tmp_path, client):
     """Above 22 deg of yaw amplitude the evaluator returns status failed, below 240 deg of
     phase it raises: each such simulation is a row with its reason and the objective's
@@ -565,6 +570,7 @@ def test_failed_and_raising_candidates_are_penalised_rows(tmp_path, client):
     assert result.generations == 4
 
 
+@pytest.mark.slow
 def test_runs_without_the_objectives_metric_give_no_gait(tmp_path):
     """Every simulation runs but gives no u (as a run too short for a steady window does):
     each is `unscored` at failed_cost, and no gait file is written."""
@@ -586,6 +592,7 @@ def test_runs_without_the_objectives_metric_give_no_gait(tmp_path):
     assert not (tmp_path / "out" / "best_gait.yaml").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bound, status, code", [(0.5, "infeasible", 3), (-10.0, "ok", 0)])
 def test_an_infeasible_best_is_marked_everywhere_and_each_generation_is_a_line(
     tmp_path, capsys, monkeypatch, bound, status, code
@@ -672,6 +679,7 @@ def _counting():
     return evaluate, calls
 
 
+@pytest.mark.slow
 def test_a_planted_state_pkl_is_refused_and_never_unpickled(tmp_path, capsys):
     import pickle
 
@@ -697,6 +705,7 @@ def test_a_planted_state_pkl_is_refused_and_never_unpickled(tmp_path, capsys):
     assert sorted(p.name for p in out.iterdir()) == ["state.pkl"]  # nothing simulated
 
 
+@pytest.mark.slow
 def test_a_search_without_its_state_asks_again_what_the_table_holds(tmp_path):
     """The advice of the refusal above: with the state deleted, the search starts again,
     asks the same candidates and simulates none the table holds."""
@@ -744,6 +753,7 @@ def _first_candidate_nudged(data):
     x[0] = float(np.nextafter(x[0], 2.0))  # one bit
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "make, message",
     [
@@ -798,6 +808,7 @@ def test_a_bad_state_json_is_refused_in_one_line_before_any_simulation(
     assert calls == [] and not (out / "evaluations" / "g0002").exists()
 
 
+@pytest.mark.slow
 def test_a_state_json_too_large_or_not_a_file_is_never_read(tmp_path, one_generation):
     from manta_drake.optimize.state import state_limit
 
@@ -829,6 +840,7 @@ def _history_with(text: str, line: int, column: str, value: str) -> str:
     return buffer.getvalue()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "column, value, message",
     [
@@ -865,6 +877,7 @@ def test_a_bad_history_row_is_refused_and_no_file_outside_is_touched(
     assert calls == [] and (victim / "log.npz").read_bytes() == b"a user's log"
 
 
+@pytest.mark.slow
 def test_a_history_too_large_is_refused_unread(tmp_path, one_generation):
     from manta_drake.optimize.run import history_limit
 
@@ -995,6 +1008,7 @@ def test_the_scenario_line_names_the_spec_and_scenario_and_what_is_wrong(
 # --- real simulations ---------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_tiny_real_run_of_a_shipped_spec(tmp_path, capsys):
     """straight_swim with 4 candidates, 1 generation, 2 s simulations on --workers 2."""
     spec = REPO / "diagrams" / "optimize" / "straight_swim.yaml"
@@ -1067,6 +1081,7 @@ def test_tiny_real_run_of_a_shipped_spec(tmp_path, capsys):
     print(f"tiny straight_swim run: {wall:.1f} s")
 
 
+@pytest.mark.slow
 def test_the_command_against_a_running_scheduler(tmp_path, capsys):
     """A `dask scheduler` and one `dask worker --nthreads 1` on 127.0.0.1 (random ports),
     then `manta-drake optimize --scheduler`: every simulation ran on that worker."""
@@ -1158,6 +1173,7 @@ def test_metric_names_are_documented():
         assert f"`{name}`" in text, name
 
 
+@pytest.mark.slow
 def test_provenance_names_the_spec_inside_the_checkout_relatively(tmp_path):
     """A shipped result's provenance must mean the same file on another machine."""
     from manta_drake.optimize.run import REPO, spec_path_text

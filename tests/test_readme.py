@@ -342,6 +342,7 @@ def test_the_commit_outside_a_git_checkout_is_unknown(tmp_path):
     assert commit(tmp_path) == "unknown"
 
 
+@pytest.mark.slow
 def test_the_stance_study_regenerates_its_page_byte_for_byte(tmp_path):
     """``manta-drake study stance`` from the shipped table leaves docs/stance.md as it is
     (the kinematics are recomputed; the dynamics come from the shipped table)."""
@@ -410,6 +411,7 @@ def test_two_behaviors_runs_as_the_readme_says(tmp_path):
 # --- the README's gait file and behaviour tree, run as written --------------------------------
 
 
+@pytest.mark.slow
 def test_the_readmes_gait_file_and_tree_run_as_written(tmp_path):
     """The two files of "Gaits, behaviours and modalities as data", written where the README
     says, run by its commands (shortened to 3 s); the user's gait is the trot with 25 deg yaw
@@ -514,6 +516,7 @@ def short_runs(tmp_path_factory):
     return arrays, metrics, running
 
 
+@pytest.mark.slow
 def test_the_readme_lists_every_log_array_with_its_times_and_columns(short_runs):
     from manta_drake.simulate import LOG_KEYS
     from manta_drake.wiring.diagram import _LOGGED
@@ -550,6 +553,7 @@ def test_the_readme_lists_every_log_array_with_its_times_and_columns(short_runs)
             assert arrays[key].shape[1:] == (int(count.group(1)),), (key, arrays[key].shape)
 
 
+@pytest.mark.slow
 def test_the_readme_lists_every_metrics_key(short_runs):
     _, metrics, running = short_runs
     rows = {

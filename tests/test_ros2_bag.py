@@ -75,6 +75,7 @@ def _rows_at(times, stamps_ns) -> np.ndarray:
     return rows
 
 
+@pytest.mark.slow
 def test_each_topic_holds_duration_times_rate_messages_stamped_with_sim_time(bagged):
     out, log, _ = bagged
     topics = _read(out)
@@ -104,6 +105,7 @@ def test_each_topic_holds_duration_times_rate_messages_stamped_with_sim_time(bag
                 assert stamp.sec * 1_000_000_000 + stamp.nanosec == t_ns, topic
 
 
+@pytest.mark.slow
 def test_joint_states_are_the_logged_joints_at_their_times(bagged):
     out, log, _ = bagged
     messages = [msg for _, msg in _read(out)["/manta/joint_states"]]
@@ -127,6 +129,7 @@ def test_joint_states_are_the_logged_joints_at_their_times(bagged):
     )
 
 
+@pytest.mark.slow
 def test_the_hull_pose_in_tf_and_pose_is_the_logged_body_pose(bagged):
     out, log, _ = bagged
     topics = _read(out)
@@ -185,6 +188,7 @@ def _sdf_joints(scenario) -> dict:
     }
 
 
+@pytest.mark.slow
 def test_the_fin_links_in_tf_are_the_sdformat_joints_turned_by_the_logged_angles(bagged):
     out, log, scenario = bagged
     joints = _sdf_joints(scenario)
@@ -212,6 +216,7 @@ def test_the_fin_links_in_tf_are_the_sdformat_joints_turned_by_the_logged_angles
             np.testing.assert_allclose([p.x, p.y, p.z], X[:3, 3], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_the_sensors_are_the_logged_readings(bagged):
     out, log, scenario = bagged
     topics = _read(out)
@@ -249,6 +254,7 @@ def test_the_sensors_are_the_logged_readings(bagged):
     )
 
 
+@pytest.mark.slow
 def test_mcaps_crc_checked_reader_decodes_every_message(bagged):
     out, _, _ = bagged
     counts = {}
@@ -269,6 +275,7 @@ def test_mcaps_crc_checked_reader_decodes_every_message(bagged):
     assert sum(counts.values()) == summary.statistics.message_count
 
 
+@pytest.mark.slow
 def test_metadata_yaml_is_rosbag2_version_5_and_counts_the_messages(bagged):
     out, _, _ = bagged
     info = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
@@ -294,6 +301,7 @@ def test_metadata_yaml_is_rosbag2_version_5_and_counts_the_messages(bagged):
         assert listed[entry.topic]["topic_metadata"]["type"] == entry.type
 
 
+@pytest.mark.slow
 def test_the_bag_command_makes_the_same_bag_from_the_folder(bagged, tmp_path):
     out, _, _ = bagged
     again = tmp_path / "old_run"
@@ -310,6 +318,7 @@ def test_the_bag_command_makes_the_same_bag_from_the_folder(bagged, tmp_path):
     assert not (again / "run.mcap").exists() and not (again / "metadata.yaml").exists()
 
 
+@pytest.mark.slow
 def test_a_users_topic_map_renames_and_drops_topics(bagged, tmp_path):
     out, _, _ = bagged
     folder = tmp_path / "renamed"
@@ -400,6 +409,7 @@ def _experiment(name: str, measured, extra: str = "") -> str:
     )
 
 
+@pytest.mark.slow
 def test_calibrate_reads_the_same_trajectory_from_a_bag_as_from_its_csv(bagged, tmp_path):
     """The pose topic of a run's bag (a rosbag2 folder, or its bare .mcap) gives the arrays
     of a CSV written from the run's log.npz at the same times (yaw from Drake's rpy there,
@@ -441,6 +451,7 @@ def test_calibrate_reads_the_same_trajectory_from_a_bag_as_from_its_csv(bagged, 
     np.testing.assert_allclose(depth["z"], expected, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_calibrating_against_a_runs_own_bag_finds_that_run(bagged, tmp_path, capsys):
     """``manta-drake calibrate`` with the run's bag as the measurement: the simulation at the
     run's own coefficients is the measurement (stamps, positions and headings line up), so
@@ -462,6 +473,7 @@ def test_calibrating_against_a_runs_own_bag_finds_that_run(bagged, tmp_path, cap
     assert (tmp_path / "fit" / "calibration.png").stat().st_size > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "measured, extra, words",
     [

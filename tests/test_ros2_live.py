@@ -60,6 +60,7 @@ async def _watch(url: str, until_closed: float) -> tuple[dict, list]:
     return channels, frames
 
 
+@pytest.mark.slow
 def test_a_run_is_served_live_with_ros2_cdr_and_simulated_stamps(tmp_path):
     """1 s of four_behaviors with --foxglove 127.0.0.1:0: the client sees the bag's topics
     advertised with ros2msg schemas and cdr encoding, and every frame decodes with rosbags'

@@ -77,6 +77,7 @@ SEAM_TYPES = sorted(
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("typename", SEAM_TYPES)
 def test_types_are_laid_out_alike_in_humble_and_jazzy_and_cyclones_idl(typename):
     """Each type the seam carries: the same hash in Humble's and Jazzy's stores, and the IDL
@@ -420,6 +421,7 @@ def _shake(link, timeout=8.0):
     return thread, box
 
 
+@pytest.mark.slow
 def test_handshake_over_ros2_refuses_a_mismatch_and_a_second_station():
     """Over DDS as over LCM: a controller of another duration is named on both sides at
     once; a second station on a paired domain stops at once with one line naming the
@@ -566,6 +568,7 @@ def _single(path):
     return extract_log(handles, simulator.get_context())
 
 
+@pytest.mark.slow
 def test_two_processes_over_ros2_in_lockstep_are_the_single_diagram(tmp_path):
     """1 s of swim -> trot (the balloon deflates at 0.2 s, the depth crosses as
     FluidPressure, the commands as JointState and Float64) with the station and the
@@ -623,6 +626,7 @@ def _listen_commands(domain, heard):
     return listener
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "transport, mode",
     [("ros2", "wall-clock"), ("ros2", "lockstep"), ("lcm", "wall-clock"), ("lcm", "lockstep")],

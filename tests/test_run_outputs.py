@@ -67,6 +67,7 @@ def test_a_users_scenario_file_and_the_runs_own_input_are_never_replaced(tmp_pat
     assert check_output_folder(out) == out
 
 
+@pytest.mark.slow
 def test_a_second_run_leaves_no_file_of_the_first_and_no_staging_folder(tmp_path):
     out = tmp_path / "out"
     run(_stand(), out, progress=False)
@@ -116,6 +117,7 @@ def _old_ok_run(out: pathlib.Path) -> None:
     (out / "metrics.json").write_text(json.dumps({"scenario": "stand", "status": "ok"}))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
 @pytest.mark.parametrize("after", [0.2, 1.3])
 def test_a_signal_while_the_run_imports_says_so_in_place_of_the_earlier_story(tmp_path, sig, after):
@@ -200,6 +202,7 @@ def test_a_signal_mid_run_writes_the_partial_log_and_why(tmp_path, sig, code, re
         assert not (out / "log.npz").exists()
 
 
+@pytest.mark.slow
 def test_a_run_that_empties_the_battery_stops_and_says_so(tmp_path):
     """Started just above the cut-off, the trot drains the pack within a second: the run
     ends there (not at its duration), failed, with the battery's reason, and the log and

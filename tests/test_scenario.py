@@ -17,6 +17,7 @@ def _write(tmp_path, text):
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", shipped_scenarios(), ids=lambda p: p.name)
 def test_shipped_scenarios_load(path):
     scenario = load_scenario(path)

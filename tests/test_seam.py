@@ -72,6 +72,7 @@ def test_default_context_is_the_scenario_start():
     assert station.GetOutputPort("balloon_volume").Eval(sc)[0] == pytest.approx(full)
 
 
+@pytest.mark.slow
 def test_station_and_controller_alone_make_the_closed_loop():
     """What the README shows: the two builders and a by-name connection, nothing else."""
     s = _scenario("locomotion_swim", duration=0.3)
@@ -140,6 +141,7 @@ def test_two_contexts_interleaved_equal_two_runs_one_after_the_other():
     assert not np.array_equal(sequential[0], sequential[1])
 
 
+@pytest.mark.slow
 def test_monte_carlo_seeds_differ_and_repeat():
     """Drake's MonteCarloSimulation: the noise is drawn from the Context, so samples differ
     from one another and the same generator seed repeats them bit for bit."""
@@ -173,6 +175,7 @@ def test_monte_carlo_seeds_differ_and_repeat():
     assert np.all(np.abs(first - first.mean()) < 0.05)  # noise, not a broken sensor
 
 
+@pytest.mark.slow
 def test_scenario_seed_gives_bit_identical_logs(tmp_path):
     from manta_drake.simulate import run
 

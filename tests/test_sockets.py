@@ -6,6 +6,7 @@ import ipaddress
 import os
 
 import psutil
+import pytest
 
 from manta_drake.cluster import DEFAULT_DASHBOARD, dask_client
 
@@ -24,6 +25,7 @@ def _tree() -> list[int]:
     return [me.pid] + [p.pid for p in me.children(recursive=True)]
 
 
+@pytest.mark.slow
 def test_a_local_cluster_listens_on_loopback_only():
     before = set(_listening([os.getpid()]))
     with dask_client(workers=1) as client:

@@ -29,6 +29,7 @@ def stand_run(tmp_path_factory):
     return out, log, metrics
 
 
+@pytest.mark.slow
 def test_body_height_settles(stand_run):
     _, log, metrics = stand_run
     t, z = log["t"], log["body_xyz"][:, 2]
@@ -40,11 +41,13 @@ def test_body_height_settles(stand_run):
     assert z[-1] - 0.07 > -0.5 + 0.05
 
 
+@pytest.mark.slow
 def test_no_fin_penetrates_the_floor(stand_run):
     _, _, metrics = stand_run
     assert 0.0 < metrics["max_penetration_m"] < 0.005  # in contact, but not sinking in
 
 
+@pytest.mark.slow
 def test_joints_hold_the_gait_stance(stand_run):
     _, log, _ = stand_run
     target = GAITS["trot"].X.ravel()
@@ -52,6 +55,7 @@ def test_joints_hold_the_gait_stance(stand_run):
     assert err.max() < 0.05, dict(enumerate(err.round(3)))
 
 
+@pytest.mark.slow
 def test_outputs_written(stand_run):
     out, _, _ = stand_run
     html = (out / "recording.html").read_text()
@@ -61,6 +65,7 @@ def test_outputs_written(stand_run):
         assert (out / name).stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_the_four_feet_carry_the_dry_weight_and_hold(stand_run):
     """Dry, the floor carries the whole robot, m g (Table 1's 8.4 kg), on its four fin tips
     (``foot_contacts``, from the plant's hydroelastic contact patches), each leg all the

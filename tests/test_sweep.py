@@ -255,6 +255,7 @@ def test_cli_error_is_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()  # nothing ran
 
 
+@pytest.mark.slow
 def test_shipped_findings_sweep_plans_every_run():
     config = S.load_sweep(SWEEPS / "findings.yaml")
     assert [b.replace("locomotion_", "") for b in config.base] == [
@@ -311,6 +312,7 @@ def _compare(a: list[dict], b: list[dict]) -> None:
         }
 
 
+@pytest.mark.slow
 def test_cluster_gives_the_rows_of_series_and_records_failures(tmp_path):
     config = S.load_sweep(write(tmp_path / "mixed.yaml", MIXED))
     series = S.run_sweep(config, tmp_path / "series", client=None, progress=False)
@@ -351,6 +353,7 @@ def test_any_exception_is_a_record_not_a_raise():
     assert out["metrics"]["reason"].startswith("ScenarioError: scenario data: not valid YAML")
 
 
+@pytest.mark.slow
 def test_restart_skips_done_runs(tmp_path, monkeypatch):
     from manta_drake.sweep import runner
 
@@ -382,6 +385,7 @@ def test_restart_skips_done_runs(tmp_path, monkeypatch):
     assert len(calls) == 4 and third.simulated == [] and len(third.rows) == 3
 
 
+@pytest.mark.slow
 def test_rerun_failed_and_cli(tmp_path, capsys):
     from manta_drake.cli import main
 
@@ -401,6 +405,7 @@ def test_rerun_failed_and_cli(tmp_path, capsys):
     assert "2 runs; 1 invalid" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_progress_bar_counts_finished_runs(tmp_path, capsys):
     sweep = write(
         tmp_path / "s.yaml",
@@ -469,6 +474,7 @@ def test_a_huge_random_sample_is_refused_before_drawing(tmp_path, n, message):
     assert str(e.value) == message
 
 
+@pytest.mark.slow
 def test_the_refusal_is_one_line_under_a_memory_limit(tmp_path):
     """The command under a 1.5 GB address-space limit: the count and the maximum, not an
     empty out-of-memory line (expanding the grid needs ~3 GB)."""
@@ -510,6 +516,7 @@ def test_the_refusal_is_one_line_under_a_memory_limit(tmp_path):
     ]
 
 
+@pytest.mark.slow
 def test_limit_draws_only_the_runs_it_lists(tmp_path, monkeypatch):
     # numpy's Generator fills the (n, k) table row by row: the first K rows of the whole
     # draw are a draw of (K, k) from the same seed.
@@ -658,6 +665,7 @@ def test_fixed_and_set_are_checked_once_at_load(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_a_sweep_with_no_valid_run_exits_1(tmp_path, capsys):
     from manta_drake.cli import main
 
@@ -801,6 +809,7 @@ def test_read_done_infrastructure_and_missing_logs_are_not_done(
     assert (S.read_done(run_dir) is not None) == done
 
 
+@pytest.mark.slow
 def test_restart_reruns_a_run_whose_log_is_missing_or_lost(tmp_path, monkeypatch):
     from manta_drake.sweep import runner
 
@@ -841,6 +850,7 @@ def _kill_once(marker: str):
     return run
 
 
+@pytest.mark.slow
 def test_a_run_lost_with_its_worker_is_run_again(tmp_path, monkeypatch):
     """A real LocalCluster; the first task kills its worker. With allowed-failures 0
     distributed gives up on every task that worker held (the killer and the run queued
@@ -868,6 +878,7 @@ def test_a_run_lost_with_its_worker_is_run_again(tmp_path, monkeypatch):
         assert S.read_done(tmp_path / "o" / "runs" / row["run_id"])["status"] == "ok"
 
 
+@pytest.mark.slow
 def test_a_run_lost_on_every_attempt_is_lost_not_done(tmp_path, monkeypatch):
     """The cluster's exceptions are retried ATTEMPTS times, then the row says lost and the
     run is not done; any other exception from a task is the run's error."""
@@ -1052,6 +1063,7 @@ def _figure_rows():
     return rows
 
 
+@pytest.mark.slow
 def test_the_summary_figure_labels_categories_and_says_what_was_swept():
     import matplotlib.pyplot as plt
 

@@ -56,6 +56,7 @@ def _run(system, context, z_hat, s_hat, steps):
     return np.array(out)
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 2**31 - 1), st.floats(0, 1), st.floats(0, 1))
 def test_converges_monotonically_without_overshoot_from_any_start(seed, z_hat, s_hat):
@@ -133,6 +134,7 @@ def test_exact_antipode_escapes_in_the_documented_direction():
     assert np.abs(wrap(psi[-1] - TROT)).max() < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("start, s_step, goal", [(TURN, 0.0, TROT), (TROT, 1.0, TURN)])
 @pytest.mark.parametrize("tau", [0.0, 1.0])
 def test_a_camera_step_does_not_strand_parameters_on_the_antipode(start, s_step, goal, tau):
@@ -209,6 +211,7 @@ def _inputs(k):
     return z, s
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "blend, tau",
     [

@@ -160,6 +160,7 @@ def _outside(x, lo, hi):
     return float(np.maximum(np.maximum(lo - x, x - hi), 0.0).max())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("z_t", [1.0, 0.6])
 def test_the_normalised_blend_commands_nothing_outside_the_gaits_range(tb, z_t):
     from manta_drake.control.transition import target_params
@@ -216,6 +217,7 @@ def test_the_normalised_blend_sits_between_swim_and_the_gait(tb):
     )
 
 
+@pytest.mark.slow
 def test_the_normalised_comparison_names_its_costs_and_gains(tb):
     def row(method, transition, **values):
         base = {

@@ -189,6 +189,7 @@ def test_the_page_renders_from_the_committed_results():
 # --- capytaine --------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_hull_against_lamb():
     pytest.importorskip("capytaine", reason="capytaine is not installed (the validation extra)")
     from manta_drake.model.potential_flow import ellipsoid_added_mass
@@ -203,6 +204,7 @@ def test_hull_against_lamb():
     assert np.abs(off).max() < 1e-4 * diag.max()
 
 
+@pytest.mark.slow
 def test_committed_whole_robot_is_reproduced_at_the_coarsest_mesh():
     pytest.importorskip("capytaine", reason="capytaine is not installed (the validation extra)")
     data = _load()
@@ -217,6 +219,7 @@ def test_committed_whole_robot_is_reproduced_at_the_coarsest_mesh():
     np.testing.assert_allclose(np.diag(r["matrix"]), np.diag(level["matrix"]), rtol=0.03)
 
 
+@pytest.mark.slow
 def test_the_command_renders_its_block_beside_other_sections(tmp_path):
     """``--from-yaml`` solves nothing: it writes DIR/added_mass.json and .md and puts its block
     into a page that already holds another section (appended, then replaced in place)."""

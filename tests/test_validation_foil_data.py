@@ -73,6 +73,7 @@ def test_committed_model_uses_the_shipped_parameters_and_bands(ref):
         assert f"band {lo:g}-{hi:g}" in src or f"band {lo}-{hi}" in src, (key, src)
 
 
+@pytest.mark.slow
 def test_strip_model_recomputed_gives_the_committed_numbers(ref, shipped_runs):
     committed = ref["model"]["bases"]
     for i, run in shipped_runs.items():
@@ -142,6 +143,7 @@ def test_thrust_grows_with_strouhal_at_fixed_h0c(ref, shipped_runs):
     assert run["ct"] == pytest.approx(attached["ct"][0], rel=REL)
 
 
+@pytest.mark.slow
 def test_garrick_small_amplitude_plunge(ref):
     committed = ref["model"]["garrick"]
     assert len(committed) == len(FD.GARRICK_K)

@@ -35,6 +35,7 @@ def test_committed_summary_is_the_model_s_fin_and_stroke(committed):
     assert not committed["provenance"]["quick"]
 
 
+@pytest.mark.slow
 def test_strip_model_within_30_percent_of_converged_uvlm_in_pure_roll(committed):
     """The acceptance: the strip model with Helmbold's lift slope at the fin's aspect ratio,
     attached flow, suction efficiency 1, no friction, within +-30 % of UVLM's converged mean
@@ -65,6 +66,7 @@ def test_uvlm_thrust_is_converged_and_periodic_in_pure_roll(committed):
         assert abs(c["change"]) < 0.05
 
 
+@pytest.mark.slow
 def test_per_plate_thrusts_add_up_to_the_fin_s(committed):
     """UVLM's panel forces summed per plate add up to the wing's force, and the strip model's
     per-plate thrusts (recomputed) to its total."""
@@ -116,6 +118,7 @@ def test_strip_motion_is_the_dh_chain_differentiated():
     assert prox[0] and prox[1]
 
 
+@pytest.mark.slow
 def test_gait_uvlm_is_an_upper_bound_of_the_stalled_strip_model(committed):
     """At the gait's Strouhal numbers the stalled strip model makes less thrust than the
     inviscid UVLM at every swim speed (UVLM is the upper bound)."""

@@ -189,12 +189,14 @@ def _rendered_s_hat(x_body: float, tmp_path, depth_noise_std: float = 0.005) -> 
     return float(result.log["s_hat"][-1, 0])
 
 
+@pytest.mark.slow
 def test_rendered_pool_wall_near_and_far(tmp_path):
     camera_x = 0.19  # the camera frame's offset ahead of the body origin
     assert _rendered_s_hat(7.5 - 0.5 - camera_x, tmp_path / "near") > 0.9
     assert _rendered_s_hat(7.5 - 5.0 - camera_x, tmp_path / "far") < 0.1
 
 
+@pytest.mark.slow
 def test_rendered_wall_is_kept_at_the_largest_supported_noise(tmp_path):
     """Without the depth median filter and the PCA labelling of leftover points, at 12 mm of
     range noise and more the voxelised wall becomes a double sheet that fails the curvature
@@ -304,6 +306,7 @@ def _standing_detections(camera_to_wall: float, yaws_deg, max_range: float | Non
     return out
 
 
+@pytest.mark.slow
 def test_wall_ahead_is_seen_squarely_and_yawed_when_in_range():
     """Within the camera's range the detector finds the end wall ahead whether the robot
     faces it squarely or at +-15 deg (the trot's yaw swing); and with the range long enough

@@ -61,7 +61,7 @@ CFD_OUT ?= $(OUT)/cfd
 CFD_WORKERS ?= 2
 cfd: setup
 	@bash scripts/ensure_debian.sh openfoam
-	$(PY) -m manta_drake.cli study cfd --out $(CFD_OUT) --cases all --workers $(CFD_WORKERS)
+	$(PY) -m manta_drake.cli study cfd --runs $(CFD_OUT) --cases all --workers $(CFD_WORKERS)
 
 models: setup
 	$(PY) scripts/generate_models.py

@@ -335,9 +335,10 @@ def test_study_results_table_without_rows_or_columns_is_one_line(
 ):
     results = _table(tmp_path / "results.csv", text)
     page = tmp_path / "page.md"
-    message = _cli_error(capsys, "study", study, "--results", results, "--out-md", str(page))
+    out = ["--out", str(tmp_path / "out")] if study == "energy" else ["--out-md", str(page)]
+    message = _cli_error(capsys, "study", study, "--results", results, *out)
     assert f"--results {results}: {needle}" in message
-    assert not page.exists()  # nothing was written
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.csv"]  # nothing was written
 
 
 def test_study_results_table_that_is_missing_binary_or_a_folder(tmp_path, capsys):
@@ -389,14 +390,12 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
             f"--check-logs {tmp_path / 'results.csv'}: file not found",
         ),
         (
-            (
-                "energy",
-                "--results",
-                str(STUDY_DATA / "energy_results.csv"),
-                "--out-fig-dir",
-                shipped,
-            ),
-            f"--out-fig-dir {shipped}: is a file, not a folder",
+            ("energy", "--results", str(STUDY_DATA / "energy_results.csv"), "--out", shipped),
+            f"--out {shipped}: is a file, not a folder",
+        ),
+        (
+            ("stance", "--out", shipped),
+            f"--out {shipped}: is a file, not a folder",
         ),
         (
             ("stance", "--table", _table(tmp_path / "t.csv", "gait_reading,gait\n")),
@@ -427,6 +426,8 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
         ),
         (["readings", "--gaits", "swim,swim"], "--gaits: 'swim' is given twice"),
         (["readings", "--fin-sweep", "70"], "--fin-sweep 70: "),
+        (["readings", "--runs", "{tmp}/a_file"], "--runs {tmp}/a_file: is a file, not a folder"),
+        (["readings", "--out", "{tmp}/a_file"], "--out {tmp}/a_file: is a file, not a folder"),
         (
             ["transitions", "--duration", "5"],
             "--duration: 5.0 is outside the allowed range [20, 3600] s",

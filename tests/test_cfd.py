@@ -213,7 +213,7 @@ def test_study_options_are_one_line_errors(tmp_path, capsys):
         (["--workers", "3"], "--workers"),
         (["--workers", "x"], "--workers"),
     ):
-        status = cli.main(["study", "cfd", "--out", str(tmp_path / "o"), *argv])
+        status = cli.main(["study", "cfd", "--runs", str(tmp_path / "o"), *argv])
         err = capsys.readouterr().err.strip()
         assert status == 2 and needle in err and "\n" not in err, (argv, err)
 
@@ -350,5 +350,45 @@ def test_tables_only_without_cases_needs_the_samples_marker(tmp_path, capsys):
     from manta_drake.config_io import ScenarioError
     from manta_drake.studies.cfd import study
 
-    with pytest.raises(ScenarioError, match="no such folder of cases"):
-        study.main(["--tables-only", "--out", str(tmp_path / "none"), "--out-md", ""])
+    with pytest.raises(ScenarioError, match="^--runs .*none: no such folder of cases"):
+        study.main(["--tables-only", "--runs", str(tmp_path / "none"), "--out", str(tmp_path)])
+    with pytest.raises(ScenarioError, match="^--tables-only: --csv-dir '' names no samples"):
+        study.main(["--tables-only", "--runs", "-", "--out", str(tmp_path), "--csv-dir", ""])
+    with pytest.raises(ScenarioError, match="^--runs .*f: exists and is not a folder"):
+        (tmp_path / "f").write_text("")
+        study.main(["--runs", str(tmp_path / "f")])
+    assert [p.name for p in tmp_path.iterdir()] == ["f"]  # nothing was written
+
+
+def test_tables_only_writes_the_page_into_out(tmp_path):
+    """``--tables-only --runs - --out DIR``: the results block from the committed samples in
+    DIR/cfd.md (a new page: its title, stamp and the block); the samples are read only."""
+    from manta_drake.studies.cfd import study
+
+    before = {p.name: p.read_bytes() for p in study.CSV_DIR.iterdir()}
+    assert study.main(["--tables-only", "--runs", "-", "--out", str(tmp_path)]) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["cfd.md"]
+    lines = (tmp_path / "cfd.md").read_text().split("\n")
+    assert lines[0] == f"# {study.PAGE_TITLE}"
+    assert lines[2].endswith("Regenerate with `manta-drake study cfd --tables-only --runs -`.")
+    assert "\n".join(lines[4:-1]) == study.report_block(study.samples(study.CSV_DIR))
+    assert {p.name: p.read_bytes() for p in study.CSV_DIR.iterdir()} == before
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [([], "--out DIR is required"), (["--out", "{tmp}"], "--csv-dir DIR is required")],
+)
+def test_an_installed_package_names_the_page_and_the_samples_folders(
+    tmp_path, monkeypatch, argv, needle
+):
+    from manta_drake.config_io import ScenarioError
+    from manta_drake.studies import report
+    from manta_drake.studies.cfd import study
+
+    monkeypatch.setattr(report, "REPO", tmp_path)
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    with pytest.raises(ScenarioError) as err:
+        study.main(["--tables-only", "--runs", "-", *argv], prog="manta-drake study cfd")
+    assert str(err.value).startswith(f"manta-drake study cfd: {needle}: this manta_drake is ")
+    assert list(tmp_path.iterdir()) == []

@@ -350,8 +350,9 @@ def test_the_stance_study_regenerates_its_page_byte_for_byte(tmp_path):
 
     page = tmp_path / "stance.md"
     page.write_text((ROOT / "docs" / "stance.md").read_text())
-    assert stance.main(["--out-md", str(page), "--out-fig", str(tmp_path / "stance.png")]) == 0
+    assert stance.main(["--out", str(tmp_path)]) == 0
     assert page.read_text() == (ROOT / "docs" / "stance.md").read_text()
+    assert (tmp_path / "figures" / "stance.png").stat().st_size > 0
 
 
 # --- the two-behaviour run at the side wall ---------------------------------------------------

@@ -48,3 +48,14 @@ def test_a_name_the_study_does_not_give_fails(tmp_path):
     (tmp_path / "t.md.j2").write_text("{{ missing }}")
     with pytest.raises(jinja2.UndefinedError, match="missing"):
         report.render("t.md.j2", folder=tmp_path)
+
+
+def test_a_data_files_own_option_is_named_when_refused(tmp_path, monkeypatch):
+    monkeypatch.setattr(report, "REPO", tmp_path)
+    with pytest.raises(ScenarioError) as err:
+        report.output_folder(None, "manta-drake study x", default="models", option="--yaml FILE")
+    assert str(err.value) == (
+        f"manta-drake study x: --yaml FILE is required: this manta_drake is installed "
+        f"({tmp_path / 'manta_drake'}), not a source checkout whose models/ the study could "
+        "rewrite"
+    )

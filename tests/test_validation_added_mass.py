@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from manta_drake.model.robot_params import DEFAULT_ROBOT, LEGS
+from manta_drake.studies import REPO
 from manta_drake.studies.validation import added_mass as am
 
 RHO = 1000.0
@@ -178,8 +179,8 @@ def test_the_page_renders_from_the_committed_results():
     block = am.render_section(data)
     begin, end = "<!-- section: added-mass -->", "<!-- end section: added-mass -->"
     assert block.startswith(begin) and block.endswith(end)
-    assert data["provenance"]["command"] in block and data["provenance"]["commit"] in block
-    page = am.PAGE_PATH
+    assert f"Regenerate with `{am.COMMAND}`;" in block and data["provenance"]["commit"] in block
+    page = REPO / "docs" / "validation.md"
     if page.is_file():
         assert block in page.read_text(), (
             "docs/validation.md is stale: run the study with --from-yaml"
@@ -221,8 +222,9 @@ def test_committed_whole_robot_is_reproduced_at_the_coarsest_mesh():
 
 @pytest.mark.slow
 def test_the_command_renders_its_block_beside_other_sections(tmp_path):
-    """``--from-yaml`` solves nothing: it writes DIR/added_mass.json and .md and puts its block
-    into a page that already holds another section (appended, then replaced in place)."""
+    """``--from-yaml`` solves nothing: it writes RUNS/added_mass.json and .md and puts its block
+    into OUT/validation.md, which already holds another section (appended, then replaced in
+    place)."""
     import json
 
     from manta_drake.studies.validation import main, section_markers
@@ -231,19 +233,10 @@ def test_the_command_renders_its_block_beside_other_sections(tmp_path):
     page = tmp_path / "validation.md"
     other_begin, other_end = section_markers("other")
     page.write_text(f"# Validation\n\n{other_begin}\nthe other section\n{other_end}\n")
-    argv = [
-        "--section",
-        "added-mass",
-        "--out",
-        str(tmp_path / "out"),
-        "--from-yaml",
-        "--yaml",
-        str(am.YAML_PATH),
-        "--page",
-        str(page),
-    ]
+    argv = ["--section", "added-mass", "--runs", str(tmp_path / "runs"), "--out", str(tmp_path)]
+    argv += ["--from-yaml", "--yaml", str(am.YAML_PATH)]
     assert main(argv) == 0
-    assert json.loads((tmp_path / "out" / "added_mass.json").read_text()) == data
+    assert json.loads((tmp_path / "runs" / "added_mass.json").read_text()) == data
     text = page.read_text()
     assert "the other section" in text and am.render_section(data) in text
     assert main(argv) == 0

@@ -15,6 +15,7 @@ import re
 import numpy as np
 import pytest
 
+from manta_drake.studies import REPO as ROOT
 from manta_drake.studies.validation import SECTIONS
 from manta_drake.studies.validation import foil_data as FD
 
@@ -157,9 +158,16 @@ def test_garrick_small_amplitude_plunge(ref):
 
 
 def test_page_renders_from_the_committed_reference(ref, tmp_path):
-    assert FD.main(["--out", str(tmp_path), "--from-yaml", "--page", ""]) == 0
-    text = (tmp_path / "foil_data.md").read_text()
+    """``--from-yaml``: RUNS/foil_data.md and .json, and a new OUT/validation.md with the
+    block, which is the committed page's block."""
+    argv = ["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "page"), "--from-yaml"]
+    assert FD.main(argv) == 0
+    text = (tmp_path / "runs" / "foil_data.md").read_text()
     begin, end = f"<!-- section: {FD.SECTION} -->", f"<!-- end section: {FD.SECTION} -->"
     assert text.startswith(begin) and text.rstrip().endswith(end)
     assert ref["data"]["source"]["url"] in text
-    assert (tmp_path / "foil_data.json").is_file()
+    assert f"`{FD.COMMAND}`; the data and the numbers are" in text
+    assert (tmp_path / "runs" / "foil_data.json").is_file()
+    page = (tmp_path / "page" / "validation.md").read_text()
+    assert page.startswith("# Validation\n\nMade ")
+    assert text in page and text in (ROOT / "docs" / "validation.md").read_text()

@@ -41,7 +41,7 @@ STUDIES = {
     ),
     "readings": (
         "manta_drake.studies.readings",
-        "the gaits under readings of Eqs. (6)-(8) (docs/design.md)",
+        "the gaits under readings of Eqs. (6)-(8) (docs/readings.md, quoted in docs/design.md)",
     ),
     "behaviours": (
         "manta_drake.studies.behaviours",

@@ -10,8 +10,9 @@ foil parameter that moves the thrust most, docs/validation.md). Each run's metri
 free-water window's mean velocity, electrical and mechanical power, every cost of transport
 and, with the pack's usable energy, an operation time.
 
-It reports, in ``docs/energy.md`` between ``<!-- energy-report:begin -->`` and
-``<!-- energy-report:end -->`` (the hand-written text around the block is kept):
+It reports, in ``OUT/energy.md`` between ``<!-- energy-report:begin -->`` and
+``<!-- energy-report:end -->`` (the hand-written text around the block is kept; the prose is
+the template ``templates/energy.md.j2``):
 
 * per gait at the shipped point and over the band (median and 10-90 % range): speed,
   electrical and mechanical power, both costs of transport, operation time;
@@ -23,8 +24,9 @@ It reports, in ``docs/energy.md`` between ``<!-- energy-report:begin -->`` and
 * whether "swimming is slower than walking" and "the walk is the most efficient gait" hold
   over the band, per stall angle;
 
-and the figures ``docs/figures/energy_speed_cot.png``, ``energy_operation_time.png`` and
-``energy_findings.png``.
+and the figures ``OUT/figures/energy_speed_cot.png``, ``energy_operation_time.png`` and
+``energy_findings.png``. ``OUT`` is ``--out DIR``, by default the checkout's ``docs/``
+(``studies.report.output_folder``).
 
 A gait's criterion value is *undetermined* at a point when its run is not ok or has no
 free-water window (no mean velocity, no window power); the criteria are three-valued
@@ -37,6 +39,7 @@ Usage:
     manta-drake sweep diagrams/sweeps/energy.yaml --out out/energy
     manta-drake study energy                    # reads out/energy/results.csv
     manta-drake study energy --results diagrams/sweeps/data/energy_results.csv
+    manta-drake study energy --results ... --out out/report    # the page elsewhere
 
 ``--check-logs DIR`` instead reads the sweep's run folders (``DIR/runs/<id>/log.npz``) and
 prints how steady each run's electrical power is over its free-water window (whole gait
@@ -176,29 +179,26 @@ def band_sample(n: int = SAMPLE_POINTS, seed: int = SAMPLE_SEED) -> list[dict]:
     equal share of the points, in a random order. A random pairing of the columns leaves
     chance rank correlations between parameters (up to 0.6 with 12 points), which would
     lend one parameter another's effect; so the values are then swapped between points
-    within each column (which keeps every column's values, hence the hypercube and the
-    modes' shares) wherever a swap lowers the sum of the squared rank correlations of all
-    pairs of columns, until no swap does (``rank_correlations`` of the result)."""
+    within each column (``decorrelate``)."""
     rng = np.random.default_rng(seed)
     columns = []
     for lo, hi in CONTINUOUS.values():
         strata = (rng.permutation(n) + rng.uniform(size=n)) / n
         columns.append([round(float(lo + (hi - lo) * x), 3) for x in strata])
     columns.append([MODES[i % len(MODES)] for i in rng.permutation(n)])
-    ranks = np.array(
-        [
-            _ranks(
-                np.asarray([MODE_WATTS[v] if isinstance(v, str) else v for v in col], dtype=float)
-            )
-            for col in columns
-        ]
-    ).T
+    decorrelate(columns)
+    names = list(CONTINUOUS) + ["actuators.electronics_mode"]
+    return [{name: columns[k][i] for k, name in enumerate(names)} for i in range(n)]
 
-    def cost(r):
-        c = np.corrcoef(r, rowvar=False)
-        return float(np.sum(np.triu(c, 1) ** 2))
 
-    best = cost(ranks)
+def decorrelate(columns: list[list]) -> None:
+    """Swaps values between points within each column but the first (in place) wherever a
+    swap lowers the sum of the squared rank correlations of all pairs of columns, until no
+    swap does; every column keeps its values (hence a hypercube stays one, and the modes
+    their shares)."""
+    ranks = np.array([_ranks(np.asarray([_number(v) for v in col])) for col in columns]).T
+    n = ranks.shape[0]
+    best = _correlation_cost(ranks)
     improved = True
     while improved:
         improved = False
@@ -206,24 +206,29 @@ def band_sample(n: int = SAMPLE_POINTS, seed: int = SAMPLE_SEED) -> list[dict]:
             for i in range(n):
                 for j in range(i + 1, n):
                     ranks[[i, j], c] = ranks[[j, i], c]
-                    trial = cost(ranks)
+                    trial = _correlation_cost(ranks)
                     if trial < best - 1e-12:
                         best, improved = trial, True
                         columns[c][i], columns[c][j] = columns[c][j], columns[c][i]
                     else:
                         ranks[[i, j], c] = ranks[[j, i], c]
-    names = list(CONTINUOUS) + ["actuators.electronics_mode"]
-    return [{name: columns[k][i] for k, name in enumerate(names)} for i in range(n)]
+
+
+def _correlation_cost(ranks: np.ndarray) -> float:
+    c = np.corrcoef(ranks, rowvar=False)
+    return float(np.sum(np.triu(c, 1) ** 2))
+
+
+def _number(value) -> float:
+    """A parameter's value as a number (the Jetson mode as its watts)."""
+    return MODE_WATTS[value] if isinstance(value, str) else float(value)
 
 
 def rank_correlations(points: list[dict], names=None) -> dict:
     """{(a, b): Spearman rho} between every pair of the points' parameters (the Jetson mode
     as its watts)."""
     names = list(names or [k for k in PARAMS if k != "stall_angle"])
-    values = {
-        k: [MODE_WATTS[p[k]] if isinstance(p[k], str) else float(p[k]) for p in points]
-        for k in names
-    }
+    values = {k: [_number(p[k]) for p in points] for k in names}
     return {
         (a, b): spearman(values[a], values[b]) for i, a in enumerate(names) for b in names[i + 1 :]
     }
@@ -466,15 +471,6 @@ def energy_of(row: dict) -> GaitEnergy:
     if u is None or v is None or power is None:
         return UNDETERMINED
     speed = _float(row.get("energy.transport_speed_m_s"))
-    speed = math.hypot(u, v) if speed is None else speed
-    cot, cot_mech = (
-        _float(row.get("energy.cot_electrical_dry_weight")),
-        _float(row.get("energy.cot_mechanical_dry_weight")),
-    )
-    cots = {key: _float(row.get(f"energy.{key}")) for key in COT_KEYS}
-    if cot is None:  # a window but too slow for a cost of transport: it does not travel
-        cot = cot_mech = math.inf
-        cots = {key: math.inf for key in COT_KEYS}
     run_hours = _float(row.get("energy.operation_time_h"))
     mean_power = _float(row.get("energy.mean_electrical_power_w"))
     usable = run_hours * mean_power if run_hours is not None and mean_power else None
@@ -482,12 +478,10 @@ def energy_of(row: dict) -> GaitEnergy:
     return GaitEnergy(
         u=u,
         v=v,
-        speed=speed,
+        speed=math.hypot(u, v) if speed is None else speed,
         power_w=power,
         mech_w=_float(row.get("energy.steady_mechanical_power_w")),
-        cot=cot,
-        cot_mech=cot_mech,
-        cots=cots,
+        **costs_of(row),
         hours=usable / power if usable is not None else None,
         run_hours=run_hours,
         window_s=None if start is None or end is None else (start, end),
@@ -497,6 +491,20 @@ def energy_of(row: dict) -> GaitEnergy:
             column: _float(row.get(f"power_breakdown.{column}")) for column in BUDGET_PARTS.values()
         },
     )
+
+
+def costs_of(row: dict) -> dict:
+    """The costs of transport of a row that has a window (``cot``, ``cot_mech`` and every
+    convention ``cots``): all inf when the row has no electrical cost (too slow for one: it
+    does not travel)."""
+    cot = _float(row.get("energy.cot_electrical_dry_weight"))
+    if cot is None:
+        return {"cot": math.inf, "cot_mech": math.inf, "cots": dict.fromkeys(COT_KEYS, math.inf)}
+    return {
+        "cot": cot,
+        "cot_mech": _float(row.get("energy.cot_mechanical_dry_weight")),
+        "cots": {key: _float(row.get(f"energy.{key}")) for key in COT_KEYS},
+    }
 
 
 def parameters_of(row: dict) -> dict:
@@ -538,30 +546,37 @@ def _value(name: str, cell: str):
     return cell if name == "actuators.electronics_mode" else float(cell)
 
 
+def point_key(row: dict):
+    """(block, key) of a row: ``shipped`` and "shipped point", ``oat`` and (parameter, value),
+    ``band`` and the parameter values in PARAMS order.
+
+    Raises ValueError on a row that is neither."""
+    block = block_of(row)
+    if block == "shipped":
+        return block, "shipped point"
+    if block == "oat":
+        name = next(n for n in PARAMS if str(row.get(n) or "").strip())
+        return block, (name, _value(name, row[name].strip()))
+    if block == "band":
+        params = parameters_of(row)
+        return block, tuple(params[n] for n in PARAMS)
+    raise ValueError(
+        f"row {row.get('run_id')}: sets some but not all of the band's "
+        f"parameters; expected the shipped point, one parameter, or all"
+    )
+
+
 def read_table(rows) -> Table:
     """The sweep's rows (dicts of strings) sorted into its blocks.
 
     Raises ValueError on a gait twice at one point, or a row that is neither the shipped
     point, a one-at-a-time row nor a band point."""
-    shipped, oat, band, usable = {}, {}, {}, set()
+    blocks: dict = {"shipped": {}, "oat": {}, "band": {}}
+    usable = set()
     for row in rows:
-        gait, block = gait_of(row["base"]), block_of(row)
-        if block == "shipped":
-            point = shipped
-            key = "shipped point"
-        elif block == "oat":
-            name = next(n for n in PARAMS if str(row.get(n) or "").strip())
-            key = (name, _value(name, row[name].strip()))
-            point = oat.setdefault(key, {})
-        elif block == "band":
-            params = parameters_of(row)
-            key = tuple(params[n] for n in PARAMS)
-            point = band.setdefault(key, {})
-        else:
-            raise ValueError(
-                f"row {row.get('run_id')}: sets some but not all of the band's "
-                f"parameters; expected the shipped point, one parameter, or all"
-            )
+        block, key = point_key(row)
+        point = blocks[block] if block == "shipped" else blocks[block].setdefault(key, {})
+        gait = gait_of(row["base"])
         if gait in point:
             raise ValueError(f"{gait} appears twice at {key} (more than one seed?)")
         point[gait] = energy_of(row)
@@ -577,9 +592,9 @@ def read_table(rows) -> Table:
             "this study expects one pack"
         )
     return Table(
-        shipped,
-        dict(sorted(oat.items(), key=lambda kv: _oat_order(kv[0]))),
-        dict(sorted(band.items(), key=lambda kv: _band_order(kv[0]))),
+        blocks["shipped"],
+        dict(sorted(blocks["oat"].items(), key=lambda kv: _oat_order(kv[0]))),
+        dict(sorted(blocks["band"].items(), key=lambda kv: _band_order(kv[0]))),
         usable.pop() if usable else None,
         len(rows),
     )
@@ -700,8 +715,7 @@ def drivers(table: Table, field: str = "hours") -> dict:
                 y = getattr(_get(table.band[key], gait), field)
                 if y is None or not math.isfinite(y):
                     continue
-                value = key[PARAMS.index(name)]
-                xs.append(MODE_WATTS[value] if isinstance(value, str) else float(value))
+                xs.append(_number(key[PARAMS.index(name)]))
                 ys.append(y)
             entry[name] = {"oat": deltas, "rho": spearman(xs, ys), "n": len(ys)}
         out[gait] = entry
@@ -731,22 +745,9 @@ def largest_driver(gait_drivers: dict, by: str = "oat") -> tuple[str, float] | N
 
 
 # ---------------------------------------------------------------------------------------------
-# Output
+# The page: the numbers the template energy.md.j2 lays out
 
-
-def _fmt(x, digits: int) -> str:
-    if x is None:
-        return "-"
-    if math.isinf(x):
-        return "inf"
-    return f"{x:.{digits}f}"
-
-
-def _fmt_q(q, digits: int) -> str:
-    if q is None:
-        return "-"
-    med, lo, hi = q
-    return f"{med:.{digits}f} ({lo:.{digits}f} to {hi:.{digits}f})"
+TEMPLATE = "energy.md.j2"
 
 
 def _fmt_value(name: str, value) -> str:
@@ -763,302 +764,185 @@ def _fmt_value(name: str, value) -> str:
     return f"{value:g}"
 
 
-def _row(t: Tally) -> str:
-    return (
-        f"| {t.label} | {t.criterion} | {t.holds}/{t.total} | {t.fails} | "
-        f"{t.undetermined} | {100 * t.fraction:.0f} % |"
-        if t.total
-        else f"| {t.label} | {t.criterion} | 0/0 | 0 | 0 | - |"
-    )
-
-
-def markdown_block(table: Table, source: str) -> str:
-    """The generated block of docs/energy.md."""
-    lines = [
-        MARK_BEGIN,
-        f"<!-- generated by manta-drake study energy from {source}; do not edit by hand -->",
-        "",
-    ]
-    band = list(table.band.values())
-    n_band, n_oat = len(band), len(table.oat)
-    lines += [
-        (
-            f"The table: {table.runs} runs; the shipped point, {n_oat} one-at-a-time sets "
-            f"and {n_band} band points ({len(by_stall(table.band))} stall angles), each "
-            f"with the five gaits. Usable energy of the pack (full to the cut-off, at "
-            f"open circuit): {_fmt(table.usable_wh, 2)} Wh."
-        ),
-        "",
-    ]
+def sample_correlation(table: Table) -> dict | None:
+    """The band's points at the shipped stall angle (each is at every angle) and the largest
+    |rank correlation| between two of their parameters; None without a correlation."""
     sample = [dict(zip(PARAMS, key)) for key in table.band if stall_deg(key) == STALL_ANGLE_DEG]
     corr = [abs(r) for r in rank_correlations(sample).values() if r is not None]
-    if corr:
-        lines[-2] += (
-            f" The band's {len(sample)} points (each at every stall angle): the largest "
-            f"rank correlation between two of their parameters is {max(corr):.2f}."
-        )
+    return {"points": len(sample), "largest": max(corr)} if corr else None
 
-    # The shipped point.
-    lines += [
-        (
-            "**At the shipped point** (free-water window means; operation time = usable "
-            "energy / window power, in brackets with the whole run's mean power, the "
-            "metrics' `operation_time_h`):"
-        ),
-        "",
-        (
-            "| gait | u m/s | speed m/s | P el W | P mech W | CoT el | CoT mech | "
-            "operation h | window s |"
-        ),
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
-    ]
-    for gait in GAITS:
-        r = _get(table.shipped, gait)
-        window = "-" if r.window_s is None else f"{r.window_s[0]:.1f}-{r.window_s[1]:.1f}"
-        lines.append(
-            f"| {gait} | {_fmt(r.u, 3)} | {_fmt(r.speed, 3)} | {_fmt(r.power_w, 1)} | "
-            f"{_fmt(r.mech_w, 2)} | {_fmt(r.cot, 2)} | {_fmt(r.cot_mech, 2)} | "
-            f"{_fmt(r.hours, 2)} ({_fmt(r.run_hours, 2)}) | {window} |"
-        )
 
-    lines += [
-        "",
-        (
-            "Every cost of transport the metrics give, at the shipped point (P / (W "
-            "|(u, v)|): the electrical power, the same net of the hotel load (the "
-            "computers and the servos' standby, drawn whatever the joints do) and the "
-            "joints' mechanical power, each over the dry weight W = m g and over the "
-            "deflated robot's weight in water):"
-        ),
-        "",
-        "| gait | " + " | ".join(COT_LABELS[k] for k in COT_KEYS) + " |",
-        "| --- | " + " | ".join("---" for _ in COT_KEYS) + " |",
-    ]
-    for gait in GAITS:
-        r = _get(table.shipped, gait)
-        lines.append(f"| {gait} | " + " | ".join(_fmt(r.cots.get(k), 2) for k in COT_KEYS) + " |")
-
-    # Over the band.
-    stats = band_stats(band)
-    lines += [
-        "",
-        (
-            f"**Over the band** ({n_band} points): median (10 % to 90 %). A run slower "
-            "than 5 mm/s has no finite cost of transport (counted in 'no travel'; the "
-            "quantiles of the costs are over the others)."
-        ),
-        "",
-        "| gait | runs | undetermined | no travel | "
-        + " | ".join(label for _, label, _ in FIELDS)
-        + " |",
-        "| --- | --- | --- | --- | " + " | ".join("---" for _ in FIELDS) + " |",
-    ]
-    for gait, s in stats.items():
-        lines.append(
-            f"| {gait} | {s['n']} | {s['undetermined']} | {s['no_travel']} | "
-            + " | ".join(_fmt_q(s[f], d) for f, _, d in FIELDS)
-            + " |"
-        )
-
-    # Power budget and Table 1.
-    lines += [
-        "",
-        (
-            "**The shipped point's power budget** (W, window means, from each run's "
-            "`power_breakdown`: the computers, the servos' standby, their copper loss and the "
-            "power converted to the motors' shafts, i.e. the joints' work and the gearbox's "
-            "loss), and what 1.0 h would take:"
-        ),
-        "",
-        (
-            "| gait | total | electronics | servo standby | copper loss | conversion | "
-            "constant share | 1.0 h needs W | or standby x | or copper x | = torques x |"
-        ),
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
-    ]
-    budgets = {}
+def budget_rows(table: Table) -> list[dict]:
+    """Per gait: the shipped point's ``power_budget`` (``budget``, None without one), what
+    Table 1's hour needs (``need``, None without a budget or the pack's usable energy) and
+    the constant share (electronics and standby) of the draw."""
+    rows = []
     for gait in GAITS:
         oat = {k: _get(p, gait) for k, p in table.oat.items()}
         b = power_budget(_get(table.shipped, gait), oat)
-        budgets[gait] = b
-        if b is None or table.usable_wh is None:
-            lines.append(f"| {gait} | - | - | - | - | - | - | - | - | - | - |")
-            continue
-        need = needed_for_table1(b, table.usable_wh)
-        const = (b["electronics"] + b["standby"]) / b["total"]
-        lines.append(
-            f"| {gait} | {b['total']:.1f} | {b['electronics']:.2f} | "
-            f"{b['standby']:.2f} | {b['copper']:.2f} | {b['conversion']:.2f} | "
-            f"{100 * const:.0f} % | {need['power_w']:.1f} | "
-            f"{need['standby_factor']:.1f} | {need['copper_factor']:.0f} | "
-            f"{need['torque_factor']:.1f} |"
-        )
-    checks = [b for b in budgets.values() if b is not None]
-    if checks:
-        closure = max(abs(b["closure"]) for b in checks)
-        steps = [b["mode_step_measured"] for b in checks]
-        lines += [
-            "",
-            (
-                f"Checks of the budget: the parts add up to the logged draw within "
-                f"{closure:.1e} W; the 5W run draws {min(steps):.3f} to {max(steps):.3f} W "
-                f"less (the file's electronics: {checks[0]['mode_step_file']:.3f} W; the "
-                "rest is the battery's and the servos' response to the lower current)."
-            ),
-        ]
+        row = {"gait": gait, "budget": b, "need": None}
+        if b is not None and table.usable_wh is not None:
+            row["need"] = needed_for_table1(b, table.usable_wh)
+            row["constant_share"] = (b["electronics"] + b["standby"]) / b["total"]
+        rows.append(row)
+    return rows
 
-    # Operation time.
-    all_hours = [
-        r.hours
-        for pt in [table.shipped, *table.oat.values(), *band]
-        for r in pt.values()
-        if r.hours is not None
-    ]
-    agree = [agrees_with_table1(h) for h in all_hours]
-    lines += [
-        "",
-        (
-            f"**Operation time against Table 1** ({TABLE1_HOURS:.1f} h; a prediction "
-            f"agrees within {100 * TABLE1_TOLERANCE:.0f} %): over all {len(all_hours)} runs "
-            f"{_fmt(min(all_hours) if all_hours else None, 2)} to "
-            f"{_fmt(max(all_hours) if all_hours else None, 2)} h; "
-            f"{sum(1 for a in agree if a)} of them agree."
-        ),
-    ]
-    ship_budgets = [(g, b) for g, b in budgets.items() if b is not None]
-    if ship_budgets and table.usable_wh is not None:
-        half = table.usable_wh / 2
-        lines += [
-            "",
-            "Were each pack to feed one load (one pack the 16 servos, the other the "
-            f"computers; {half:.2f} Wh usable each), the servos' pack would last "
-            + ", ".join(
-                f"{half / (b['total'] - b['electronics']):.2f} h ({g})" for g, b in ship_budgets
-            )
-            + f" and the computers' {half / ship_budgets[0][1]['electronics']:.2f} h, "
-            "at the shipped point.",
-        ]
-    lines += [
-        "",
-        (
-            "What moves it, per gait: the one-at-a-time change from the shipped run "
-            "(h, at each end of the band) and Spearman's rho over the band points (the "
-            "Jetson mode as its watts, the stall angle as its factor):"
-        ),
-        "",
-    ]
-    drv = drivers(table, "hours")
-    header = "| parameter | band end | " + " | ".join(GAITS) + " |"
-    lines += [header, "| --- | --- | " + " | ".join("---" for _ in GAITS) + " |"]
+
+def budget_checks(rows: list[dict]) -> dict | None:
+    """Over the gaits' budgets: the largest |closure| [W], the 5W run's step (least and
+    most) and the file's; None without a budget."""
+    checks = [r["budget"] for r in rows if r["budget"] is not None]
+    if not checks:
+        return None
+    steps = [b["mode_step_measured"] for b in checks]
+    return {
+        "closure": max(abs(b["closure"]) for b in checks),
+        "step_min": min(steps),
+        "step_max": max(steps),
+        "step_file": checks[0]["mode_step_file"],
+    }
+
+
+def two_packs(rows: list[dict], usable_wh: float | None) -> dict | None:
+    """Each of the two packs feeding one load: half the usable energy [Wh], the hours the
+    servos' pack lasts per gait (the draw less the electronics) and the computers' pack."""
+    budgets = [(r["gait"], r["budget"]) for r in rows if r["budget"] is not None]
+    if not budgets or usable_wh is None:
+        return None
+    half = usable_wh / 2
+    return {
+        "half": half,
+        "servos": [(g, half / (b["total"] - b["electronics"])) for g, b in budgets],
+        "computers": half / budgets[0][1]["electronics"],
+    }
+
+
+def _all_runs(table: Table) -> list[GaitEnergy]:
+    points = [table.shipped, *table.oat.values(), *table.band.values()]
+    return [r for point in points for r in point.values()]
+
+
+def hours_against_table1(table: Table) -> dict:
+    """Over every run with an operation time: how many, the least and most hours (None
+    without any) and how many agree with Table 1."""
+    hours = [r.hours for r in _all_runs(table) if r.hours is not None]
+    return {
+        "n": len(hours),
+        "min": min(hours) if hours else None,
+        "max": max(hours) if hours else None,
+        "agree": sum(1 for h in hours if agrees_with_table1(h)),
+    }
+
+
+def driver_rows(table: Table, drv: dict) -> list[dict]:
+    """The rows of the drivers' table: per parameter, its one-at-a-time ends (``end`` as
+    shown, ``changes`` the change per gait) and then its rho over the band (``end`` None)."""
+    rows = []
     for name in PARAMS:
-        values = sorted(
+        ends = sorted(
             {v for (n, v) in table.oat if n == name},
             key=lambda v: MODE_WATTS.get(v, 0) if isinstance(v, str) else v,
         )
-        for value in values:
-            cells = [_fmt(drv[g][name]["oat"].get(value), 3) for g in GAITS]
-            lines.append(
-                f"| {LABELS[name]} | {_fmt_value(name, value)} | " + " | ".join(cells) + " |"
-            )
-        cells = [_fmt(drv[g][name]["rho"], 2) for g in GAITS]
-        lines.append(f"| {LABELS[name]} | rho over the band | " + " | ".join(cells) + " |")
+        for value in ends:
+            values = [drv[g][name]["oat"].get(value) for g in GAITS]
+            rows.append({"label": LABELS[name], "end": _fmt_value(name, value), "changes": values})
+        rho = [drv[g][name]["rho"] for g in GAITS]
+        rows.append({"label": LABELS[name], "end": None, "changes": rho})
+    return rows
 
-    def driver_text(d, by, unit):
-        found = largest_driver(d, by)
-        if found is None:
-            return "-"
-        name, size = found
-        return f"{LABELS[name]} ({'rho ' if by == 'rho' else ''}{size:.2f}{unit})"
 
-    lines += [
-        "",
-        "The parameter that moves the operation time most, one at a time (the span "
-        "of its runs) and over the band (largest \\|rho\\|): "
-        + "; ".join(
-            f"{g}: {driver_text(drv[g], 'oat', ' h')}, {driver_text(drv[g], 'rho', '')}"
-            for g in GAITS
-        )
-        + ".",
-    ]
-    cot = drivers(table, "cot")
-    lines += [
-        "",
-        "The same for the electrical cost of transport: "
-        + "; ".join(
-            f"{g}: {driver_text(cot[g], 'oat', '')}, {driver_text(cot[g], 'rho', '')}"
-            for g in GAITS
-        )
-        + ".",
-    ]
+def largest_drivers(drv: dict) -> list[tuple]:
+    """Per gait: (gait, the largest driver one at a time, the largest by |rho|)."""
+    return [(g, largest_driver(drv[g], "oat"), largest_driver(drv[g], "rho")) for g in GAITS]
 
-    # Findings.
-    lines += [
-        "",
-        "**The findings over the band** (holds / band points):",
-        "",
-        "| finding | criterion | holds | fails | undetermined | fraction of the band |",
-        "| --- | --- | --- | --- | --- | --- |",
-    ]
-    lines += [_row(t) for t in tally(band)]
-    lines += [_row(t) for t in tally(band, VARIANTS)]
-    stalls = by_stall(table.band)
-    oat_stall = {stall_of(float(v)): p for (n, v), p in table.oat.items() if n == "stall_angle"}
-    oat_stall[stall_of(SHIPPED["stall_angle"])] = table.shipped
+
+def stall_rows(table: Table) -> list[dict]:
+    """Per stall angle of the band: its points, the swim's and the walk's u and the swim's
+    cost (quantiles), the tallies of every finding and variant, and the verdicts at the
+    shipped point with that stall angle (``marks``, None without that run)."""
+    at_stall = {stall_of(float(v)): p for (n, v), p in table.oat.items() if n == "stall_angle"}
+    at_stall[stall_of(SHIPPED["stall_angle"])] = table.shipped
     everything = FINDINGS + VARIANTS
-    lines += [
-        "",
-        "Per stall angle: the band points where each holds, the swim's and the "
-        "walk's speed and the swim's cost (median, 10 % to 90 %), and at the shipped "
-        "point with that stall angle (the one-at-a-time runs; yes / **no** / ?, in the order "
-        + ", ".join(key for key, _, _, _ in everything)
-        + "):",
-        "",
-        "| stall angle deg | points | swim u m/s | walk u m/s | swim CoT el | "
-        + " | ".join(key for key, _, _, _ in everything)
-        + " | at the shipped point |",
-        "| --- | --- | --- | --- | --- | " + " | ".join("---" for _ in everything) + " | --- |",
-    ]
-    for deg, points in stalls.items():
-        ts = tally(points, everything)
-        ref = oat_stall.get(deg)
-        marks = (
-            "-"
-            if ref is None
-            else ", ".join(
-                {True: "yes", False: "**no**", None: "?"}[fn(ref)] for _, _, _, fn in everything
-            )
+    rows = []
+    for deg, points in by_stall(table.band).items():
+        ref = at_stall.get(deg)
+        rows.append(
+            {
+                "deg": deg,
+                "points": len(points),
+                "swim_u": quantiles(_get(p, "swim").u for p in points),
+                "walk_u": quantiles(_get(p, "walk").u for p in points),
+                "swim_cot": quantiles(_get(p, "swim").cot for p in points),
+                "tallies": tally(points, everything),
+                "marks": None if ref is None else [fn(ref) for _, _, _, fn in everything],
+            }
         )
-        lines.append(
-            f"| {deg:g} | {len(points)} | "
-            f"{_fmt_q(quantiles(_get(p, 'swim').u for p in points), 3)} | "
-            f"{_fmt_q(quantiles(_get(p, 'walk').u for p in points), 3)} | "
-            f"{_fmt_q(quantiles(_get(p, 'swim').cot for p in points), 2)} | "
-            + " | ".join(f"{t.holds}/{t.total}" for t in ts)
-            + f" | {marks} |"
-        )
+    return rows
 
-    # Free water and steady state.
-    runs = [r for pt in [table.shipped, *table.oat.values(), *band] for r in pt.values()]
+
+def free_water(table: Table) -> dict | None:
+    """Over the runs with a window: how many of all, the earliest start, the shortest and
+    longest window, how many are short of MIN_WINDOW_S, came near a wall or touched one;
+    None if no run has a window."""
+    runs = _all_runs(table)
     det = [r for r in runs if r.power_w is not None]
-    short = [r for r in det if steady_free_water(r) is False]
+    if not det:
+        return None
     windows = [r.window_s[1] - r.window_s[0] for r in det]
-    walled = [r for r in det if r.near_wall_at_s is not None]
-    touched = [r for r in det if r.touched_wall]
-    lines += [
-        "",
-        f"**Free water and steady state**: {len(det)} of {len(runs)} runs have a "
-        f"free-water window (from {min(r.window_s[0] for r in det):g} s, after the "
-        f"start's transient, until the run's end or the hull's first approach within "
-        f"0.3 m of a wall), {min(windows):.1f} to {max(windows):.1f} s long; "
-        f"{len(short)} shorter than {MIN_WINDOW_S:g} s (two gait cycles). "
-        f"{len(walled)} runs come near a wall before 20 s (their window ends there) and "
-        f"{len(touched)} touch one after it; every power, cost of transport and "
-        f"operation time above is a window figure, before any wall."
-        if det
-        else "**Free water and steady state**: no run has a window.",
-    ]
-    lines += ["", MARK_END]
-    return "\n".join(lines)
+    return {
+        "windowed": len(det),
+        "runs": len(runs),
+        "start": min(r.window_s[0] for r in det),
+        "shortest": min(windows),
+        "longest": max(windows),
+        "short": sum(1 for r in det if steady_free_water(r) is False),
+        "near_wall": sum(1 for r in det if r.near_wall_at_s is not None),
+        "touched": sum(1 for r in det if r.touched_wall),
+    }
+
+
+def page_context(table: Table, source: str) -> dict:
+    """Everything the block of docs/energy.md shows (``templates/energy.md.j2``)."""
+    band = list(table.band.values())
+    budgets = budget_rows(table)
+    hours_drivers = drivers(table, "hours")
+    return {
+        "begin": MARK_BEGIN,
+        "end": MARK_END,
+        "source": source,
+        "table": table,
+        "n_band": len(band),
+        "n_stalls": len(by_stall(table.band)),
+        "sample": sample_correlation(table),
+        "gaits": GAITS,
+        "shipped": {g: _get(table.shipped, g) for g in GAITS},
+        "cot_labels": [COT_LABELS[k] for k in COT_KEYS],
+        "shipped_cots": {g: [_get(table.shipped, g).cots.get(k) for k in COT_KEYS] for g in GAITS},
+        "fields": FIELDS,
+        "stats": band_stats(band),
+        "budgets": budgets,
+        "checks": budget_checks(budgets),
+        "hours": hours_against_table1(table),
+        "table1_hours": TABLE1_HOURS,
+        "table1_tolerance": TABLE1_TOLERANCE,
+        "two_packs": two_packs(budgets, table.usable_wh),
+        "driver_rows": driver_rows(table, hours_drivers),
+        "labels": LABELS,
+        "largest_hours": largest_drivers(hours_drivers),
+        "largest_cot": largest_drivers(drivers(table, "cot")),
+        "tallies": tally(band) + tally(band, VARIANTS),
+        "finding_keys": [key for key, _, _, _ in FINDINGS + VARIANTS],
+        "stalls": stall_rows(table),
+        "free_water": free_water(table),
+        "min_window_s": MIN_WINDOW_S,
+    }
+
+
+def markdown_block(table: Table, source: str) -> str:
+    """The generated block of docs/energy.md (its markers included)."""
+    from manta_drake.studies.report import render
+
+    return render(TEMPLATE, **page_context(table, source)).rstrip("\n")
 
 
 def write_markdown(
@@ -1083,113 +967,73 @@ def _colour(deg):
     return STALL_COLOURS.get(deg, "0.4")
 
 
+def _figure(*args, **kwargs):
+    """``plt.subplots(*args, **kwargs)`` on matplotlib's Agg backend: (figure, axes)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(*args, **kwargs)
+
+
+def _save(fig, path: pathlib.Path) -> None:
+    import matplotlib.pyplot as plt
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _star(ax, x, y, ms: float = 16) -> None:
+    """The shipped point."""
+    ax.plot(x, y, marker="*", ms=ms, color="k", mfc="gold", ls="none", zorder=5)
+
+
+def _star_handle(label: str):
+    from matplotlib.lines import Line2D
+
+    return Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold", label=label)
+
+
+def _stall_handles() -> list:
+    from matplotlib.lines import Line2D
+
+    return [
+        Line2D(
+            [], [], ls="none", marker="o", color=c, mec="k", mew=0.3, label=f"stall angle {d:g} deg"
+        )
+        for d, c in STALL_COLOURS.items()
+    ]
+
+
 def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
     """Speed of travel against the electrical (top) and mechanical (bottom) cost of transport,
     per gait: every band point a dot coloured by stall angle (a circle in the Jetson's 10W
     mode, a triangle in its 5W mode), the shipped point a star, curves of constant window
     power through the band's lowest and highest."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
     from manta_drake.model.robot_params import DEFAULT_ROBOT
 
     weight = DEFAULT_ROBOT.total_mass * 9.80665
-    fig, axes = plt.subplots(2, 5, figsize=(17, 7.5), sharex="col")
+    fig, axes = _figure(2, 5, figsize=(17, 7.5), sharex="col")
+    mode_i = PARAMS.index("actuators.electronics_mode")
     for c, gait in enumerate(GAITS):
-        mode_i = PARAMS.index("actuators.electronics_mode")
         runs = [(stall_deg(k), k[mode_i], _get(p, gait)) for k, p in table.band.items()]
-        marker = {"10W": "o", "5W": "^"}
         runs = [(d, m, r) for d, m, r in runs if r.power_w is not None]
         ship = _get(table.shipped, gait)
         speeds = [r.speed for _, _, r in runs] + ([ship.speed] if ship.speed else [])
         smax = max(speeds) * 1.15 if speeds else 0.1
         for row, (field, power) in enumerate((("cot", "power_w"), ("cot_mech", "mech_w"))):
             ax = axes[row, c]
-            for deg, mode, r in runs:
-                y = getattr(r, field)
-                if y is None or not math.isfinite(y):
-                    ax.plot(r.speed, 0, marker="x", color=_colour(deg), ms=5, ls="none")
-                    continue
-                ax.plot(
-                    r.speed,
-                    y,
-                    marker=marker.get(mode, "o"),
-                    ms=5,
-                    ls="none",
-                    color=_colour(deg),
-                    mec="k",
-                    mew=0.3,
-                    alpha=0.85,
-                )
-            ys = [
-                getattr(r, field)
-                for _, _, r in runs
-                if getattr(r, field) is not None and math.isfinite(getattr(r, field))
-            ]
-            powers = [getattr(r, power) for _, _, r in runs if getattr(r, power) is not None]
-            s = np.linspace(max(smax / 60, 1e-3), smax, 200)
-            for p, ls in ((min(powers), ":"), (max(powers), "--")) if powers else ():
-                ax.plot(s, p / (weight * s), color="0.5", lw=0.8, ls=ls)
-            y_ship = getattr(ship, field)
-            if y_ship is not None and math.isfinite(y_ship):
-                ax.plot(
-                    ship.speed,
-                    y_ship,
-                    marker="*",
-                    ms=15,
-                    color="k",
-                    mfc="gold",
-                    ls="none",
-                    zorder=5,
-                )
-            top = max(ys + ([y_ship] if y_ship and math.isfinite(y_ship) else [])) if ys else 1
-            ax.set_ylim(0, top * 1.25)
-            ax.set_xlim(0, smax)
-            ax.grid(alpha=0.3)
-            ax.tick_params(labelsize=8)
+            _speed_cot_panel(ax, runs, ship, (field, power), smax, weight)
             if row == 0:
                 ax.set_title(gait, fontsize=10)
             else:
                 ax.set_xlabel("speed of travel |(u, v)|  [m/s]", fontsize=9)
             if c == 0:
-                ax.set_ylabel(
-                    ("electrical" if row == 0 else "mechanical") + " cost of transport", fontsize=9
-                )
-    handles = [
-        Line2D(
-            [],
-            [],
-            ls="none",
-            marker="o",
-            color=col,
-            mec="k",
-            mew=0.3,
-            label=f"stall angle {deg:g} deg",
-        )
-        for deg, col in STALL_COLOURS.items()
-    ]
-    handles += [
-        Line2D([], [], ls="none", marker=m, color="0.6", mec="k", mew=0.3, label=f"Jetson {mode}")
-        for mode, m in (("10W", "o"), ("5W", "^"))
-    ]
-    handles += [
-        Line2D(
-            [],
-            [],
-            ls="none",
-            marker="*",
-            ms=12,
-            color="k",
-            mfc="gold",
-            label="shipped point (15 deg)",
-        ),
-        Line2D([], [], color="0.5", ls=":", label="constant power: the band's lowest"),
-        Line2D([], [], color="0.5", ls="--", label="... and highest (per gait)"),
-    ]
-    fig.legend(handles=handles, loc="upper center", ncol=9, fontsize=8, frameon=False)
+                kind = "electrical" if row == 0 else "mechanical"
+                ax.set_ylabel(f"{kind} cost of transport", fontsize=9)
+    fig.legend(handles=_speed_cot_handles(), loc="upper center", ncol=9, fontsize=8, frameon=False)
     fig.suptitle(
         "Speed against cost of transport, per gait, over the band "
         "(x at 0: slower than 5 mm/s, no finite cost)",
@@ -1197,22 +1041,69 @@ def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
         fontsize=10,
     )
     fig.tight_layout(rect=(0, 0, 1, 0.95))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
+
+
+def _speed_cot_panel(ax, runs, ship: GaitEnergy, fields, smax: float, weight: float) -> None:
+    """One panel of ``plot_speed_cot``: the cost ``fields[0]`` against the speed of ``runs``
+    ((stall angle, Jetson mode, GaitEnergy)) and ``ship``, the constant-power curves of the
+    power ``fields[1]``; a run without a finite cost is an x at 0."""
+    field, power = fields
+    marker = {"10W": "o", "5W": "^"}
+    for deg, mode, r in runs:
+        y = getattr(r, field)
+        if y is None or not math.isfinite(y):
+            ax.plot(r.speed, 0, marker="x", color=_colour(deg), ms=5, ls="none")
+            continue
+        style = dict(ms=5, ls="none", color=_colour(deg), mec="k", mew=0.3, alpha=0.85)
+        ax.plot(r.speed, y, marker=marker.get(mode, "o"), **style)
+    ys = [getattr(r, field) for _, _, r in runs]
+    ys = [y for y in ys if y is not None and math.isfinite(y)]
+    powers = [getattr(r, power) for _, _, r in runs if getattr(r, power) is not None]
+    s = np.linspace(max(smax / 60, 1e-3), smax, 200)
+    for p, ls in ((min(powers), ":"), (max(powers), "--")) if powers else ():
+        ax.plot(s, p / (weight * s), color="0.5", lw=0.8, ls=ls)
+    y_ship = getattr(ship, field)
+    if y_ship is not None and math.isfinite(y_ship):
+        _star(ax, ship.speed, y_ship, ms=15)
+    top = max(ys + ([y_ship] if y_ship and math.isfinite(y_ship) else [])) if ys else 1
+    ax.set_ylim(0, top * 1.25)
+    ax.set_xlim(0, smax)
+    ax.grid(alpha=0.3)
+    ax.tick_params(labelsize=8)
+
+
+def _speed_cot_handles() -> list:
+    from matplotlib.lines import Line2D
+
+    jetson = [
+        Line2D([], [], ls="none", marker=m, color="0.6", mec="k", mew=0.3, label=f"Jetson {mode}")
+        for mode, m in (("10W", "o"), ("5W", "^"))
+    ]
+    return [
+        *_stall_handles(),
+        *jetson,
+        _star_handle("shipped point (15 deg)"),
+        Line2D([], [], color="0.5", ls=":", label="constant power: the band's lowest"),
+        Line2D([], [], color="0.5", ls="--", label="... and highest (per gait)"),
+    ]
 
 
 def plot_operation_time(table: Table, path: pathlib.Path) -> None:
     """Left: each gait's operation time over the band (dots, coloured by Jetson mode) and at
     the shipped point (star) against Table 1's 1.0 h. Right: the one-at-a-time changes of
     the swim's and the walk's operation time per parameter end."""
-    import matplotlib
+    fig, (ax, bx) = _figure(1, 2, figsize=(14, 5.5), gridspec_kw={"width_ratios": [1, 1.3]})
+    _hours_panel(ax, table)
+    _one_at_a_time_panel(bx, table)
+    fig.tight_layout()
+    _save(fig, path)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+
+def _hours_panel(ax, table: Table) -> None:
+    """Each gait's operation time at the band points and the shipped point, against Table 1."""
     from matplotlib.lines import Line2D
 
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(14, 5.5), gridspec_kw={"width_ratios": [1, 1.3]})
     mode_i = PARAMS.index("actuators.electronics_mode")
     rng = np.random.default_rng(0)  # horizontal jitter only
     for i, gait in enumerate(GAITS):
@@ -1220,57 +1111,39 @@ def plot_operation_time(table: Table, path: pathlib.Path) -> None:
             r = _get(point, gait)
             if r.hours is None:
                 continue
-            ax.plot(
-                i + rng.uniform(-0.18, 0.18),
-                r.hours,
-                marker="o",
-                ms=4,
-                ls="none",
-                color="tab:blue" if key[mode_i] == "5W" else "tab:purple",
-                alpha=0.7,
-            )
+            colour = "tab:blue" if key[mode_i] == "5W" else "tab:purple"
+            x = i + rng.uniform(-0.18, 0.18)
+            ax.plot(x, r.hours, marker="o", ms=4, ls="none", color=colour, alpha=0.7)
         h = _get(table.shipped, gait).hours
         if h is not None:
-            ax.plot(i, h, marker="*", ms=16, color="k", mfc="gold", ls="none", zorder=5)
-    ax.axhspan(
-        TABLE1_HOURS * (1 - TABLE1_TOLERANCE),
-        TABLE1_HOURS * (1 + TABLE1_TOLERANCE),
-        color="tab:red",
-        alpha=0.12,
-    )
+            _star(ax, i, h)
+    band = (TABLE1_HOURS * (1 - TABLE1_TOLERANCE), TABLE1_HOURS * (1 + TABLE1_TOLERANCE))
+    ax.axhspan(*band, color="tab:red", alpha=0.12)
     ax.axhline(TABLE1_HOURS, color="tab:red", lw=1.2)
+    label = "Table 1: approx. 1.0 h (+-25 %)"
     ax.text(
-        len(GAITS) - 0.55,
-        TABLE1_HOURS,
-        "Table 1: approx. 1.0 h (+-25 %)",
-        color="tab:red",
-        fontsize=8,
-        va="bottom",
-        ha="right",
+        len(GAITS) - 0.55, TABLE1_HOURS, label, color="tab:red", fontsize=8, va="bottom", ha="right"
     )
     ax.set_xticks(range(len(GAITS)), GAITS)
     ax.set_xlim(-0.5, len(GAITS) - 0.5)
     ax.set_ylim(0, None)
     ax.set_ylabel("operation time [h] (usable energy / window power)", fontsize=9)
     ax.grid(alpha=0.3, axis="y")
-    ax.legend(
-        handles=[
-            Line2D(
-                [], [], ls="none", marker="o", color="tab:purple", label="band point, Jetson 10W"
-            ),
-            Line2D([], [], ls="none", marker="o", color="tab:blue", label="band point, Jetson 5W"),
-            Line2D(
-                [], [], ls="none", marker="*", ms=12, color="k", mfc="gold", label="shipped point"
-            ),
-        ],
-        fontsize=8,
-        loc="lower left",
-    )
+    dots = [
+        Line2D([], [], ls="none", marker="o", color=c, label=f"band point, Jetson {mode}")
+        for c, mode in (("tab:purple", "10W"), ("tab:blue", "5W"))
+    ]
+    ax.legend(handles=[*dots, _star_handle("shipped point")], fontsize=8, loc="lower left")
     ax.set_title("Predicted operation time per gait", fontsize=10)
+
+
+def _one_at_a_time_panel(bx, table: Table) -> None:
+    """The one-at-a-time changes of the swim's and the walk's operation time, per end."""
+    from matplotlib.lines import Line2D
 
     drv = drivers(table, "hours")
     labels, width = [], 0.38
-    items = [(n, v) for (n, v) in table.oat]
+    items = list(table.oat)
     for j, (name, value) in enumerate(items):
         labels.append(f"{LABELS[name]} {_fmt_value(name, value)}")
         for k, (gait, colour) in enumerate((("swim", "tab:cyan"), ("walk", "tab:brown"))):
@@ -1282,81 +1155,53 @@ def plot_operation_time(table: Table, path: pathlib.Path) -> None:
     bx.invert_yaxis()
     bx.set_xlabel("change of the operation time from the shipped run [h]", fontsize=9)
     bx.grid(alpha=0.3, axis="x")
-    bx.legend(
-        handles=[
-            Line2D([], [], color="tab:cyan", lw=6, label="swim"),
-            Line2D([], [], color="tab:brown", lw=6, label="walk"),
-        ],
-        fontsize=8,
-    )
+    bars = [
+        Line2D([], [], color=c, lw=6, label=g)
+        for g, c in (("swim", "tab:cyan"), ("walk", "tab:brown"))
+    ]
+    bx.legend(handles=bars, fontsize=8)
     bx.set_title("One parameter at a time (the rest shipped)", fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def plot_findings(table: Table, path: pathlib.Path) -> None:
     """Left: u_swim against u_walk at every band point; right: the swim's electrical cost of
     transport against the walk's; colour: stall angle; the diagonal: where a finding
     turns."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
-    for ax, field, label in ((axes[0], "u", "u  [m/s]"), (axes[1], "cot", "electrical CoT")):
-        xs, ys = [], []
-        for key, point in table.band.items():
-            x, y = getattr(_get(point, "walk"), field), getattr(_get(point, "swim"), field)
-            if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
-                continue
-            xs.append(x)
-            ys.append(y)
-            ax.plot(
-                x, y, marker="o", ms=6, ls="none", color=_colour(stall_deg(key)), mec="k", mew=0.3
-            )
-        x, y = (
-            getattr(_get(table.shipped, "walk"), field),
-            getattr(_get(table.shipped, "swim"), field),
-        )
-        if x is not None and y is not None:
-            ax.plot(x, y, marker="*", ms=16, color="k", mfc="gold", ls="none", zorder=5)
-            xs.append(x)
-            ys.append(y)
-        hi = max(xs + ys) * 1.1 if xs else 1.0
-        ax.plot([0, hi], [0, hi], color="0.3", lw=0.8, ls="--")
-        ax.set_xlim(0, hi)
-        ax.set_ylim(0, hi)
-        ax.set_aspect("equal")
-        ax.set_xlabel(f"walk {label}", fontsize=9)
-        ax.set_ylabel(f"swim {label}", fontsize=9)
-        ax.grid(alpha=0.3)
+    fig, axes = _figure(1, 2, figsize=(12, 5.5))
+    _swim_against_walk(axes[0], table, "u", "u  [m/s]")
+    _swim_against_walk(axes[1], table, "cot", "electrical CoT")
     axes[0].set_title("swimming slower than walking: below the diagonal", fontsize=10)
     axes[1].set_title("the walk more efficient than the swim: above the diagonal", fontsize=10)
-    handles = [
-        Line2D(
-            [],
-            [],
-            ls="none",
-            marker="o",
-            color=col,
-            mec="k",
-            mew=0.3,
-            label=f"stall angle {deg:g} deg",
-        )
-        for deg, col in STALL_COLOURS.items()
-    ]
-    handles.append(
-        Line2D([], [], ls="none", marker="*", ms=12, color="k", mfc="gold", label="shipped point")
-    )
+    handles = [*_stall_handles(), _star_handle("shipped point")]
     fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
+
+
+def _swim_against_walk(ax, table: Table, field: str, label: str) -> None:
+    """The swim's ``field`` against the walk's at every band point and the shipped point."""
+    xs, ys = [], []
+    for key, point in table.band.items():
+        x, y = getattr(_get(point, "walk"), field), getattr(_get(point, "swim"), field)
+        if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
+            continue
+        xs.append(x)
+        ys.append(y)
+        colour = _colour(stall_deg(key))
+        ax.plot(x, y, marker="o", ms=6, ls="none", color=colour, mec="k", mew=0.3)
+    x, y = getattr(_get(table.shipped, "walk"), field), getattr(_get(table.shipped, "swim"), field)
+    if x is not None and y is not None:
+        _star(ax, x, y)
+        xs.append(x)
+        ys.append(y)
+    hi = max(xs + ys) * 1.1 if xs else 1.0
+    ax.plot([0, hi], [0, hi], color="0.3", lw=0.8, ls="--")
+    ax.set_xlim(0, hi)
+    ax.set_ylim(0, hi)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"walk {label}", fontsize=9)
+    ax.set_ylabel(f"swim {label}", fontsize=9)
+    ax.grid(alpha=0.3)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1428,16 +1273,14 @@ RESULTS_COLUMNS = (
     "energy.mean_electrical_power_w",
 )
 LOGS_COLUMNS = ("run_id",)
+FIGURES = ("energy_speed_cot.png", "energy_operation_time.png", "energy_findings.png")
 
 
-def check_arguments(args) -> None:
-    """Every option before anything is read; raises ScenarioError naming it."""
-    from manta_drake.config_io import check_writable_folder
-    from manta_drake.studies.options import (
-        check_output_file,
-        check_results_csv,
-        check_sweep_results,
-    )
+def check_arguments(args, prog: str) -> pathlib.Path | None:
+    """Every option before anything is read; returns the output folder (None with
+    ``--check-logs``); raises ScenarioError naming the option."""
+    from manta_drake.studies.options import check_results_csv, check_sweep_results
+    from manta_drake.studies.report import output_folder
 
     if args.check_logs is not None:
         check_results_csv(
@@ -1446,14 +1289,23 @@ def check_arguments(args) -> None:
             LOGS_COLUMNS,
             hint=" (DIR is the output folder of `manta-drake sweep diagrams/sweeps/energy.yaml`)",
         )
-        return
+        return None
     check_sweep_results(args.results, RESULTS_COLUMNS, "energy", SHIPPED_RESULTS)
-    check_output_file("--out-md", args.out_md)
-    check_writable_folder(args.out_fig_dir, "--out-fig-dir", example="docs/figures")
+    return output_folder(args.out, prog)
 
 
-def main(argv=None, prog=None) -> int:
-    """The command line (``manta-drake study energy``); returns the exit status."""
+def write_report(table: Table, results: str, out: pathlib.Path) -> None:
+    """The page ``out/energy.md`` (its block) and the figures in ``out/figures``."""
+    write_markdown(
+        out / "energy.md",
+        markdown_block(table, results),
+        f"manta-drake study energy --results {results}",
+    )
+    for plot, name in zip((plot_speed_cot, plot_operation_time, plot_findings), FIGURES):
+        plot(table, out / "figures" / name)
+
+
+def parser(prog: str):
     from manta_drake.studies.options import StudyParser
 
     p = StudyParser(
@@ -1470,15 +1322,10 @@ def main(argv=None, prog=None) -> int:
         f"shipped copy: {SHIPPED_RESULTS})",
     )
     p.add_argument(
-        "--out-md",
-        default="docs/energy.md",
-        help="markdown file whose generated block is (re)written",
-    )
-    p.add_argument(
-        "--out-fig-dir",
-        default="docs/figures",
-        help="folder of the figures energy_speed_cot.png, energy_operation_time.png "
-        "and energy_findings.png",
+        "--out",
+        metavar="DIR",
+        help="the report's folder: DIR/energy.md (its generated block is rewritten) and "
+        f"DIR/figures/ ({', '.join(FIGURES)}); default the checkout's docs/",
     )
     p.add_argument(
         "--check-logs",
@@ -1487,26 +1334,23 @@ def main(argv=None, prog=None) -> int:
         help="instead of the report: read DIR/runs/*/log.npz of the sweep and print "
         "how steady each run's window power is",
     )
-    args = p.parse_args(argv)
-    check_arguments(args)
-    if args.check_logs is not None:
+    return p
+
+
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study energy``); returns the exit status."""
+    prog = prog or "manta-drake study energy"
+    args = parser(prog).parse_args(argv)
+    out = check_arguments(args, prog)
+    if out is None:
         check_logs(args.check_logs)
         return 0
-    results = pathlib.Path(args.results)
-    table = read_table(read_results(results))
-    write_markdown(
-        pathlib.Path(args.out_md),
-        markdown_block(table, args.results),
-        f"manta-drake study energy --results {args.results}",
-    )
-    figs = pathlib.Path(args.out_fig_dir)
-    plot_speed_cot(table, figs / "energy_speed_cot.png")
-    plot_operation_time(table, figs / "energy_operation_time.png")
-    plot_findings(table, figs / "energy_findings.png")
+    table = read_table(read_results(pathlib.Path(args.results)))
+    write_report(table, args.results, out)
     for t in tally(table.band.values(), FINDINGS + VARIANTS):
         print(
             f"{t.label:45s} {t.holds:3d}/{t.total:<3d} fails {t.fails:3d}  "
             f"undetermined {t.undetermined:3d}"
         )
-    print(f"wrote {args.out_md} and the figures in {figs}")
+    print(f"wrote {out / 'energy.md'} and the figures in {out / 'figures'}")
     return 0

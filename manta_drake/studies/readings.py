@@ -19,10 +19,13 @@ a gait file of its own folder (``explicit_gait``):
   images;
 * ``swim_no_lag``: the shipped swim with Phi'_swim set to zero (no left-right lag).
 
-Usage: manta-drake study readings [--out out/gait_readings] [--duration 12]
+Usage: manta-drake study readings [--runs out/readings] [--out DIR] [--duration 12]
        [--readings printed,shipped,...] [--gaits swim,trot,...] [--fin-sweep DEG]
-Prints a markdown table (u, v, yaw rate over the window; wall clearance) and writes it to
-OUT/readings.md, with a figure of the swims' paths (OUT/swim_paths.png).
+Each run goes to its folder ``RUNS/<reading>_<gait>``. Prints a markdown table (u, v, yaw rate
+over the window; wall clearance) and writes it to ``OUT/readings.md`` (the template
+``templates/readings.md.j2``), with a figure of the swims' paths
+(``OUT/figures/swim_paths.png``); ``OUT`` is ``--out DIR``, by default the checkout's
+``docs/`` (``studies.report.output_folder``).
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ from manta_drake.scenario import load_scenario
 from manta_drake.studies.explicit_gait import run_with_gait
 
 GAITS = ("swim", "trot", "walk", "crab", "turning")
+DEFAULT_RUNS = pathlib.Path("out/readings")
+TEMPLATE = "readings.md.j2"
 LEFT_FIRST = [0, 2, 1, 3]  # our row (fl, fr, rl, rr) <- printed row, when rows are fl, rl, fr, rr
 
 
@@ -122,12 +127,13 @@ def shortest_duration() -> float:
     return 2.0 * MIN_STEADY_WINDOW
 
 
-def check_arguments(args) -> tuple[list[str], list[str]]:
-    """Every option before anything is run; returns the readings and the gaits; raises
-    ScenarioError naming the option."""
+def check_arguments(args, prog: str) -> tuple[list[str], list[str], pathlib.Path]:
+    """Every option before anything is run; returns the readings, the gaits and the output
+    folder; raises ScenarioError naming the option."""
     from manta_drake.config_io import ScenarioError, check_in_range, check_writable_folder
     from manta_drake.scenario import MAX_DURATION_S
     from manta_drake.studies.options import check_names
+    from manta_drake.studies.report import output_folder
 
     lo = shortest_duration()
     check_in_range(
@@ -147,29 +153,93 @@ def check_arguments(args) -> tuple[list[str], list[str]]:
                 )
             except ScenarioError as e:
                 raise ScenarioError(f"--fin-sweep {args.fin_sweep:g}: {e}") from None
-    check_writable_folder(args.out, "--out", example="out/gait_readings")
-    return readings, gaits
+    check_writable_folder(args.runs, "--runs", example=str(DEFAULT_RUNS))
+    return readings, gaits, output_folder(args.out, prog)
 
 
-def main(argv=None, prog=None) -> int:
-    """The command line (``manta-drake study readings``); returns the exit status."""
+def measure(reading: str, gait: str, runs: pathlib.Path, duration: float, fin_sweep_deg) -> dict:
+    """One run of ``run_reading`` in ``runs/<reading>_<gait>``: its row of the table. No
+    mean velocity (the hull came near a wall before the window was long enough): NaN."""
+    m = run_reading(reading, gait, runs / f"{reading}_{gait}", duration, fin_sweep_deg)
+    u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
+    yaw = m["yaw_rate_deg_s"]
+    return {
+        "reading": reading,
+        "gait": gait,
+        "u": u,
+        "v": v,
+        "yaw_rate": float("nan") if yaw is None else yaw,
+        "clearance": m["min_wall_clearance_m"],
+    }
+
+
+def page(rows: list[dict], duration: float) -> str:
+    """The page: the rows' table, means over the second half of ``duration`` s runs."""
+    from manta_drake.studies.report import render
+
+    return render(TEMPLATE, rows=rows, window=(duration / 2, duration))
+
+
+def plot_swim_paths(runs: pathlib.Path, readings, duration: float, path: pathlib.Path) -> bool:
+    """The swims' paths of ``readings`` (those run in ``runs``) from their start, into
+    ``path``; returns whether there was one to draw."""
+    swims = [r for r in readings if (runs / f"{r}_swim" / "log.npz").exists()]
+    if not swims:
+        return False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1))]
+    for i, r in enumerate(swims):
+        log = np.load(runs / f"{r}_swim" / "log.npz")
+        xy = log["body_xyz"][:, :2] - log["body_xyz"][0, :2]
+        ax.plot(xy[:, 0], xy[:, 1], linestyle=styles[i % len(styles)], lw=2, label=r)
+    ax.set_xlabel("x [m] (start heading)")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    ax.set_title(f"locomotion_swim, {duration:g} s, under each reading of Eq. (6)")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return True
+
+
+def parser(prog: str):
     from manta_drake.studies.options import StudyParser
 
-    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/gait_readings"))
-    parser.add_argument(
+    p = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    p.add_argument(
+        "--runs",
+        type=pathlib.Path,
+        default=DEFAULT_RUNS,
+        metavar="DIR",
+        help=f"the runs' folders DIR/<reading>_<gait> (default {DEFAULT_RUNS})",
+    )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="the report's folder: DIR/readings.md and DIR/figures/swim_paths.png; "
+        "default the checkout's docs/",
+    )
+    p.add_argument(
         "--duration",
         type=float,
         default=12.0,
         help="each run's duration [s] (the means are over its second half)",
     )
-    parser.add_argument(
+    p.add_argument(
         "--readings", default=",".join(READINGS), help=f"comma-separated, of {', '.join(READINGS)}"
     )
-    parser.add_argument(
+    p.add_argument(
         "--gaits", default=",".join(GAITS), help=f"comma-separated, of {', '.join(GAITS)}"
     )
-    parser.add_argument(
+    p.add_argument(
         "--fin-sweep",
         type=float,
         default=None,
@@ -177,64 +247,32 @@ def main(argv=None, prog=None) -> int:
         help="robot.fin_sweep_deg of every run (default: the scenario's, 10); "
         "docs/stance.md balances each reading's stance",
     )
-    args = parser.parse_args(argv)
-    readings, gaits = check_arguments(args)
+    return p
+
+
+ROW = (
+    "{reading:<13} {gait:<8} u {u:+.3f}  v {v:+.3f} m/s  yaw {yaw_rate:+6.2f} deg/s  "
+    "clearance {clearance:.2f} m"
+)
+
+
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study readings``); returns the exit status."""
+    prog = prog or "manta-drake study readings"
+    args = parser(prog).parse_args(argv)
+    readings, gaits, out = check_arguments(args, prog)
     rows = []
     for reading in readings:
         for gait in gaits:
             if reading == "swim_no_lag" and gait != "swim":
                 continue
-            out = args.out / f"{reading}_{gait}"
-            m = run_reading(reading, gait, out, args.duration, args.fin_sweep)
-            # No mean velocity (the hull came near a wall before the window was long
-            # enough): NaN in the table.
-            u, v = m["mean_velocity_body"] or (float("nan"), float("nan"))
-            yaw = m["yaw_rate_deg_s"]
-            row = (
-                reading,
-                gait,
-                u,
-                v,
-                float("nan") if yaw is None else yaw,
-                m["min_wall_clearance_m"],
-            )
-            rows.append(row)
-            print(
-                "{:<13} {:<8} u {:+.3f}  v {:+.3f} m/s  yaw {:+6.2f} deg/s  clearance "
-                "{:.2f} m".format(*row),
-                flush=True,
-            )
-    w0, w1 = args.duration / 2, args.duration
-    table = [
-        f"Mean over {w0:g}-{w1:g} s of {w1:g} s runs (`manta-drake study readings"
-        f" --duration {w1:g}`):",
-        "",
-        "| reading | gait | u m/s | v m/s | yaw rate deg/s | min wall clearance m |",
-        "| --- | --- | --- | --- | --- | --- |",
-    ]
-    table += ["| {} | {} | {:+.3f} | {:+.3f} | {:+.2f} | {:.2f} |".format(*row) for row in rows]
-    (args.out / "readings.md").write_text("\n".join(table) + "\n")
-    print("\n" + "\n".join(table))
-    swims = [r for r in readings if (args.out / f"{r}_swim" / "log.npz").exists()]
-    if swims:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(8, 4))
-        styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1))]
-        for i, r in enumerate(swims):
-            log = np.load(args.out / f"{r}_swim" / "log.npz")
-            xy = log["body_xyz"][:, :2] - log["body_xyz"][0, :2]
-            ax.plot(xy[:, 0], xy[:, 1], linestyle=styles[i % len(styles)], lw=2, label=r)
-        ax.set_xlabel("x [m] (start heading)")
-        ax.set_ylabel("y [m]")
-        ax.set_aspect("equal")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="best")
-        ax.set_title(f"locomotion_swim, {w1:g} s, under each reading of Eq. (6)")
-        fig.tight_layout()
-        fig.savefig(args.out / "swim_paths.png", dpi=120)
-        print(f"figure: {args.out / 'swim_paths.png'}")
+            rows.append(measure(reading, gait, args.runs, args.duration, args.fin_sweep))
+            print(ROW.format(**rows[-1]), flush=True)
+    text = page(rows, args.duration)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "readings.md").write_text(text)
+    print("\n" + text.rstrip("\n"))
+    figure = out / "figures" / "swim_paths.png"
+    if plot_swim_paths(args.runs, readings, args.duration, figure):
+        print(f"figure: {figure}")
     return 0

@@ -33,20 +33,21 @@ def checkout() -> pathlib.Path | None:
     return None
 
 
-def output_folder(out, prog: str, default: str = "docs") -> pathlib.Path:
+def output_folder(out, prog: str, default: str = "docs", option: str = "--out DIR") -> pathlib.Path:
     """The folder a study writes into: ``out`` when given (checked writable), else the
-    checkout's ``default`` folder.
+    checkout's ``default`` folder. ``option`` is the option that names it in the message of
+    an installed package (a data file's own option, with ``default="models"``, say).
 
     Raises:
         ScenarioError: no ``out`` and no checkout (an installed package), or ``out`` cannot
             be written; one line naming the option.
     """
     if out is not None:
-        return check_writable_folder(out, "--out", example="out/report")
+        return check_writable_folder(out, option.split()[0], example="out/report")
     root = checkout()
     if root is None:
         raise ScenarioError(
-            f"{prog}: --out DIR is required: this manta_drake is installed "
+            f"{prog}: {option} is required: this manta_drake is installed "
             f"({REPO / 'manta_drake'}), not a source checkout whose {default}/ the study "
             "could rewrite"
         )

@@ -19,9 +19,10 @@ Usage:
     manta-drake study stance            # from the shipped table, no simulation
 
 ``--sweep-out`` also writes the dynamics table to ``--table`` (shipped as
-diagrams/sweeps/data/stance_table.csv). Writes the markdown block between
-``<!-- stance-study:begin -->`` and ``<!-- stance-study:end -->`` of ``--out-md`` and the
-figure ``--out-fig``.
+diagrams/sweeps/data/stance_table.csv, the default in a checkout). Writes the markdown block
+between ``<!-- stance-study:begin -->`` and ``<!-- stance-study:end -->`` of ``OUT/stance.md``
+(the template ``templates/stance.md.j2``) and the figure ``OUT/figures/stance.png``; ``OUT`` is
+``--out DIR``, by default the checkout's ``docs/`` (``studies.report.output_folder``).
 """
 
 from __future__ import annotations
@@ -170,74 +171,68 @@ def read_table(path: pathlib.Path) -> list[dict]:
     ]
 
 
+TEMPLATE = "stance.md.j2"
+PAGE_TITLE = "The stance behind each reading of the gait matrices"
+
+
+def page_context(kin: list[dict], dyn: list[dict], table_path: str) -> dict:
+    """What the block shows: per sweep (sweep, the paper row, the mirrored row) of ``kin``;
+    the rows of ``dyn`` in CONFIGS' then GAITS' order (the first of each, those present)."""
+    kin_first, dyn_first = {}, {}
+    for r in kin:
+        kin_first.setdefault((r["sweep"], r["reading"]), r)
+    for r in dyn:
+        dyn_first.setdefault((r["gait_reading"], r["fin_sweep_deg"], r["gait"]), r)
+    order = [(reading, sweep, gait) for reading, sweep in CONFIGS for gait in GAITS]
+    return {
+        "begin": MARK_BEGIN,
+        "end": MARK_END,
+        "kinematics": [
+            (sweep, kin_first[(sweep, "paper")], kin_first[(sweep, "mirrored")])
+            for sweep in SWEEPS_DEG
+        ],
+        "dynamics": [dyn_first[key] for key in order if key in dyn_first],
+        "table_path": table_path,
+    }
+
+
 def markdown(kin: list[dict], dyn: list[dict], table_path: str) -> str:
-    lines = [
-        MARK_BEGIN,
-        "",
-        "**Kinematics** (Eq. 1; the trot's stance X_gait under each reading): distance of "
-        "the CG from the trot's two support diagonals fl-rr / fr-rl, the fin tips' mean x "
-        "(+ ahead of the CG), and the robot's size at the zero pose (Table 1: L 0.38 m, "
-        "W 0.85 m).",
-        "",
-        "| fin sweep deg | zero-pose L x W m | paper: diagonals m | paper: tips' mean x m "
-        "| mirrored: diagonals m | mirrored: tips' mean x m |",
-        "| --- | --- | --- | --- | --- | --- |",
-    ]
-    for sweep in SWEEPS_DEG:
-        p, m = ([r for r in kin if r["sweep"] == sweep and r["reading"] == x][0] for x in READINGS)
-        lines.append(
-            f"| {sweep:g} | {p['L']:.2f} x {p['W']:.2f} | {p['fl_rr']:+.3f} / "
-            f"{p['fr_rl']:+.3f} | {p['centroid_x']:+.3f} | {m['fl_rr']:+.3f} / "
-            f"{m['fr_rl']:+.3f} | {m['centroid_x']:+.3f} |"
-        )
-    lines += [
-        "",
-        "**Dynamics** (20 s runs at the shipped defaults: friction 0.8, hull damping "
-        "x1, net weight 0.84 kg; means over each run's free-water window; body pitch + "
-        "is nose down). From `" + table_path + "`:",
-        "",
-        "| reading, fin sweep | gait | u m/s | v m/s | yaw rate deg/s | mean roll / pitch "
-        "deg | window s |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
-    ]
-    for reading, sweep in CONFIGS:
-        for gait in GAITS:
-            r = [
-                x
-                for x in dyn
-                if x["gait_reading"] == reading
-                and x["fin_sweep_deg"] == sweep
-                and x["gait"] == gait
-            ]
-            if not r:
-                continue
-            r = r[0]
-            lines.append(
-                f"| {reading}, {sweep:g} deg | {gait} | {r['u']:+.3f} | {r['v']:+.3f} "
-                f"| {r['yaw_rate_deg_s']:+.2f} | {r['mean_roll_deg']:+.1f} / "
-                f"{r['mean_pitch_deg']:+.1f} | {r['steady_start_s']:g}-"
-                f"{r['steady_end_s']:.1f} |"
-            )
-    lines += ["", MARK_END]
-    return "\n".join(lines)
+    """The block of docs/stance.md (its markers included)."""
+    from manta_drake.studies.report import render
+
+    return render(TEMPLATE, **page_context(kin, dyn, table_path)).rstrip("\n")
 
 
 def write_markdown(path: pathlib.Path, block: str) -> None:
-    """Replaces the marked block of ``path``; a changed page's stamp takes today's date and
-    commit (``manta_drake.studies.stamp``)."""
+    """Replaces the marked block of ``path`` (a missing page is written with its title and
+    stamp); a changed page's stamp takes today's date and commit
+    (``manta_drake.studies.stamp``)."""
     from manta_drake.studies.stamp import replace_marked_block
 
-    replace_marked_block(path, block, MARK_BEGIN, MARK_END)
+    replace_marked_block(
+        path, block, MARK_BEGIN, MARK_END, new_page=(PAGE_TITLE, "manta-drake study stance")
+    )
 
 
 def plot(dyn: list[dict], path: pathlib.Path) -> None:
+    """Left: the fin tips at the trot's stance and its support diagonals under each reading
+    on its balanced sweep; middle and right: every gait's u and yaw rate under each
+    (reading, sweep) of CONFIGS (hatched: each reading on the other's sweep)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), gridspec_kw={"width_ratios": [1.0, 1.3, 1.3]})
-    ax = axes[0]
+    _stance_panel(axes[0])
+    _gait_bars(axes[1:], dyn)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _stance_panel(ax) -> None:
     for (reading, sweep), style in zip(CONFIGS[:2], ("o-", "s--")):
         tips = stance_tips(reading, sweep)
         order = [0, 1, 3, 2, 0]  # fl fr rr rl: the support rectangle
@@ -251,6 +246,9 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
     ax.set_title("trot stance: fin tips, diagonals")
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
     ax.grid(alpha=0.3)
+
+
+def _gait_bars(axes, dyn: list[dict]) -> None:
     width = 0.8 / len(CONFIGS)
     x = np.arange(len(GAITS))
     for k, (reading, sweep) in enumerate(CONFIGS):
@@ -259,7 +257,7 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
             for r in dyn
             if r["gait_reading"] == reading and r["fin_sweep_deg"] == sweep
         }
-        for ax, key in ((axes[1], "u"), (axes[2], "yaw_rate_deg_s")):
+        for ax, key in zip(axes, ("u", "yaw_rate_deg_s")):
             ax.bar(
                 x + (k - 1.5) * width,
                 [sel[g][key] if g in sel else np.nan for g in GAITS],
@@ -268,17 +266,14 @@ def plot(dyn: list[dict], path: pathlib.Path) -> None:
                 hatch="" if k < 2 else "//",
                 alpha=1.0 if k < 2 else 0.5,
             )
-    for ax, label in ((axes[1], "u [m/s]"), (axes[2], "yaw rate [deg/s]")):
+    for ax, label in zip(axes, ("u [m/s]", "yaw rate [deg/s]")):
         ax.set_xticks(x, GAITS)
         ax.axhline(0, color="k", lw=0.8)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
-    axes[1].set_title("forward speed (free-water window)")
-    axes[2].set_title("yaw rate")
-    axes[1].legend(fontsize=7)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    axes[0].set_title("forward speed (free-water window)")
+    axes[1].set_title("yaw rate")
+    axes[0].legend(fontsize=7)
 
 
 # The columns of the stance sweep's results.csv that ``table_from_sweep`` reads.
@@ -295,14 +290,19 @@ SWEEP_COLUMNS = (
 )
 
 
-def check_arguments(args) -> None:
-    """Every option before anything is read or computed; raises ScenarioError naming it."""
-    from manta_drake.studies.options import (
-        check_figure_file,
-        check_output_file,
-        check_results_csv,
-    )
+TABLE = "stance_table.csv"  # the shipped dynamics table, in the checkout's diagrams/sweeps/data/
 
+
+def check_arguments(args, prog: str) -> pathlib.Path:
+    """Every option before anything is read or computed (a missing ``--table`` becomes the
+    checkout's shipped table); returns the output folder; raises ScenarioError naming the
+    option."""
+    from manta_drake.studies.options import check_output_file, check_results_csv
+    from manta_drake.studies.report import output_folder
+
+    if args.table is None:
+        data = output_folder(None, prog, default="diagrams/sweeps/data", option="--table FILE")
+        args.table = data / TABLE
     if args.sweep_out is not None:
         check_results_csv(
             "--sweep-out",
@@ -315,30 +315,38 @@ def check_arguments(args) -> None:
         check_results_csv(
             "--table", args.table, COLUMNS, hint="; run the sweep and pass --sweep-out"
         )
-    check_output_file("--out-md", args.out_md)
-    check_figure_file("--out-fig", args.out_fig)
+    return output_folder(args.out, prog)
 
 
-def main(argv=None, prog=None) -> int:
-    """The command line (``manta-drake study stance``); returns the exit status."""
+def parser(prog: str):
     from manta_drake.studies.options import StudyParser
 
-    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument(
+    p = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    p.add_argument(
         "--sweep-out",
         type=pathlib.Path,
         help="output folder of `manta-drake sweep diagrams/sweeps/stance.yaml`",
     )
-    parser.add_argument(
+    p.add_argument(
         "--table",
         type=pathlib.Path,
-        default=ROOT / "diagrams/sweeps/data/stance_table.csv",
-        help="the dynamics table: read (written with --sweep-out)",
+        help="the dynamics table: read (written with --sweep-out); default the "
+        f"checkout's diagrams/sweeps/data/{TABLE}",
     )
-    parser.add_argument("--out-md", type=pathlib.Path, default=ROOT / "docs/stance.md")
-    parser.add_argument("--out-fig", type=pathlib.Path, default=ROOT / "docs/figures/stance.png")
-    args = parser.parse_args(argv)
-    check_arguments(args)
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="the report's folder: DIR/stance.md (its generated block is rewritten) and "
+        "DIR/figures/stance.png; default the checkout's docs/",
+    )
+    return p
+
+
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study stance``); returns the exit status."""
+    prog = prog or "manta-drake study stance"
+    args = parser(prog).parse_args(argv)
+    out = check_arguments(args, prog)
     if args.sweep_out is not None:
         dyn = table_from_sweep(args.sweep_out)
         write_table(dyn, args.table)
@@ -351,7 +359,7 @@ def main(argv=None, prog=None) -> int:
         shown = str(args.table)
     block = markdown(kinematics_rows(), dyn, shown)
     print(block)
-    write_markdown(args.out_md, block)
-    plot(dyn, args.out_fig)
-    print(f"wrote {args.out_md} and {args.out_fig}")
+    write_markdown(out / "stance.md", block)
+    plot(dyn, out / "figures" / "stance.png")
+    print(f"wrote {out / 'stance.md'} and {out / 'figures' / 'stance.png'}")
     return 0

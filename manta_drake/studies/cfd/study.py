@@ -2,10 +2,11 @@
 
 Runs the cases (validation: the sphere at Re 1e5 and the hull alone; robot: three meshes at
 0.4 m/s for grid convergence, then 0.4/0.8/1.2 m/s x pitch -30..30 deg and yaw 15, 30 deg on
-one mesh), each in its own folder of ``--out`` and skipped when its result exists, on a Dask
-local cluster (one OpenFOAM run per worker), and writes the samples of every finished case
-under ``--out`` to ``models/cfd/`` (``robot_samples.csv``, ``validation_samples.csv``) and a
-progress page.
+one mesh), each in its own folder of ``--runs DIR`` (default ``out/cfd``) and skipped when its
+result exists, on a Dask local cluster (one OpenFOAM run per worker), and writes the samples of
+every finished case under ``--runs`` to ``--csv-dir`` (default the checkout's ``models/cfd/``:
+``robot_samples.csv``, ``validation_samples.csv``), a progress page and the results block of
+the report ``OUT/cfd.md`` (``--out DIR``, default the checkout's ``docs/``).
 """
 
 from __future__ import annotations
@@ -29,8 +30,10 @@ YAWS = (15.0, 30.0)  # yaw is symmetric: the paper's -30..30 from the positive h
 CASE_SETS = ("validation", "robot", "level", "sweep", "all")
 MESH_CHOICES = ("coarse", "medium", "fine")
 MAX_WORKERS = 2  # each case is one single-threaded OpenFOAM run
-CSV_DIR = REPO / "models" / "cfd"
-REPORT = REPO / "docs" / "cfd.md"
+CSV_DIR = REPO / "models" / "cfd"  # the checkout's committed samples
+PAGE = "cfd.md"  # the report in the --out folder
+PAGE_TITLE = "The hull's damping from CFD (the paper's section 2.3)"
+DEFAULT_RUNS = "out/cfd"
 BEGIN, END = "<!-- cfd results: begin (manta-drake study cfd) -->", "<!-- cfd results: end -->"
 # The validation sphere's reference: the standard drag curve of a smooth sphere, subcritical
 # at Re = 1e5 (laminar separation ahead of the equator): C_D = 0.47 (Schlichting,
@@ -40,7 +43,7 @@ SPHERE_CD_REFERENCE = 0.47
 # The hull alone at 0.4 m/s, k-epsilon, same kind of mesh (shared/reference/hydro_refs.md
 # section 3): level 3 (41 k cells) 0.108 N, level 4 (75 k cells) 0.129 N.
 HULL_REFERENCE_N = {"medium": (0.108, 41_000), "fine": (0.129, 75_000)}
-# ``--tables-only --out -``: no cases folder, the page from the samples in --csv-dir alone.
+# ``--tables-only --runs -``: no cases folder, the page from the samples in --csv-dir alone.
 TABLES_FROM_SAMPLES = "-"
 
 
@@ -516,9 +519,12 @@ def samples(csv_dir: pathlib.Path) -> list[dict]:
 
 
 def write_report(rows: list[dict], page: pathlib.Path) -> None:
+    """Replaces the results block of ``page`` (a missing page is written with its title,
+    stamp and the block)."""
     from manta_drake.studies.stamp import replace_marked_block
 
-    replace_marked_block(page, report_block(rows), BEGIN, END)
+    command = f"manta-drake study cfd --tables-only --runs {TABLES_FROM_SAMPLES}"
+    replace_marked_block(page, report_block(rows), BEGIN, END, new_page=(PAGE_TITLE, command))
 
 
 def write_progress(
@@ -563,10 +569,11 @@ def write_progress(
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--out",
-        required=True,
+        "--runs",
+        default=DEFAULT_RUNS,
         metavar="DIR",
-        help="the cases' root folder (one folder per case; rerunning skips the finished ones)",
+        help="the cases' root folder (one folder per case; rerunning skips the finished "
+        f"ones; default {DEFAULT_RUNS})",
     )
     parser.add_argument(
         "--cases", default="all", metavar="SET", help=f"one of {', '.join(CASE_SETS)} (default all)"
@@ -587,15 +594,15 @@ def parse_args(argv, prog):
     )
     parser.add_argument(
         "--csv-dir",
-        default=str(CSV_DIR),
+        default=None,
         metavar="DIR",
-        help="where the samples CSVs go (default models/cfd of the checkout)",
+        help="where the samples CSVs go (default models/cfd of the checkout; '' for none)",
     )
     parser.add_argument(
         "--progress",
         default=None,
         metavar="FILE",
-        help="a progress page rewritten after each case (default OUT/progress.md)",
+        help="a progress page rewritten after each case (default RUNS/progress.md)",
     )
     parser.add_argument(
         "--retry-failed",
@@ -603,19 +610,27 @@ def parse_args(argv, prog):
         help="run failed cases again (default: keep their result)",
     )
     parser.add_argument(
-        "--out-md",
-        default=str(REPORT),
-        metavar="FILE",
-        help="the report page whose results block is rewritten (default docs/cfd.md; '' for none)",
+        "--out",
+        default=None,
+        metavar="DIR",
+        help=f"the report's folder: DIR/{PAGE}, whose results block is rewritten (default "
+        "the checkout's docs/)",
     )
     parser.add_argument(
         "--tables-only",
         action="store_true",
         help="run nothing: write the samples from the cases already under "
-        "--out, then the report from the samples in --csv-dir (--out "
+        "--runs, then the report from the samples in --csv-dir (--runs "
         f"{TABLES_FROM_SAMPLES}: from the samples alone)",
     )
     args = parser.parse_args(argv)
+    check_choices(args)
+    check_folders(args, prog)
+    return args
+
+
+def check_choices(args) -> None:
+    """--cases, --mesh and --workers (the latter made an integer)."""
     if args.cases not in CASE_SETS:
         raise CfdError(f"--cases {args.cases!r}: expected one of {', '.join(CASE_SETS)}")
     if args.mesh not in MESH_CHOICES:
@@ -631,49 +646,50 @@ def parse_args(argv, prog):
             f"--workers {args.workers}: expected 0..{MAX_WORKERS} (each case is one "
             "single-threaded OpenFOAM run; this machine shares 2 cores)"
         )
-    out = pathlib.Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CfdError(f"--out {args.out}: exists and is not a folder")
-    if not args.out.strip():
-        raise CfdError("--out: empty path")
-    return args
 
 
-def main(argv=None, prog=None) -> int:
-    prog = prog or "manta-drake study cfd"
-    argv = sys.argv[1:] if argv is None else list(argv)
-    args = parse_args(argv, prog)
+def check_folders(args, prog: str) -> None:
+    """--runs, --out (made ``args.page``, the report) and --csv-dir (its default the
+    checkout's models/cfd; '' becomes None: no samples written)."""
+    from manta_drake.studies.report import output_folder
+
+    if not args.runs.strip():
+        raise CfdError("--runs: empty path")
+    runs = pathlib.Path(args.runs)
+    if runs.exists() and not runs.is_dir():
+        raise CfdError(f"--runs {args.runs}: exists and is not a folder")
+    if args.tables_only and not runs.is_dir() and args.runs != TABLES_FROM_SAMPLES:
+        raise CfdError(
+            f"--runs {args.runs}: no such folder of cases (--runs "
+            f"{TABLES_FROM_SAMPLES} with --tables-only: the page from the "
+            "committed samples alone)"
+        )
+    args.page = output_folder(args.out, prog) / PAGE
+    if args.csv_dir is None:
+        args.csv_dir = output_folder(None, prog, default="models", option="--csv-dir DIR") / "cfd"
+    args.csv_dir = pathlib.Path(args.csv_dir) if str(args.csv_dir) else None
+    if args.tables_only and args.csv_dir is None:
+        raise CfdError("--tables-only: --csv-dir '' names no samples; name their folder")
+
+
+def tables_only(args) -> int:
+    """``--tables-only``: the samples from the cases under --runs (none with ``--runs -``),
+    then the page from the samples in --csv-dir."""
+    if args.runs != TABLES_FROM_SAMPLES:
+        print(f"samples: {write_samples(pathlib.Path(args.runs), args.csv_dir)}")
+    write_report(samples(args.csv_dir), args.page)
+    print(f"report: {args.page}")
+    return 0
+
+
+def run_cases(cases, args, out: pathlib.Path, progress: pathlib.Path, command: str) -> int:
+    """Runs ``cases`` in ``out`` (in this process with --workers 0, else on a Dask local
+    cluster), writing the samples and the progress page after each; returns how many
+    failed."""
     from manta_drake.studies.cfd import run
 
-    out_md = pathlib.Path(args.out_md) if args.out_md else None
-    if args.tables_only:
-        out = pathlib.Path(args.out)
-        if out.is_dir():
-            counts = write_samples(out, pathlib.Path(args.csv_dir))
-            print(f"samples: {counts}")
-        elif args.out != TABLES_FROM_SAMPLES:
-            raise CfdError(
-                f"--out {args.out}: no such folder of cases (--out "
-                f"{TABLES_FROM_SAMPLES} with --tables-only: the page from the "
-                "committed samples alone)"
-            )
-        if out_md is not None:
-            write_report(samples(pathlib.Path(args.csv_dir)), out_md)
-            print(f"report: {out_md}")
-        return 0
-    if not run.openfoam_available():
-        raise CfdError(
-            "OpenFOAM's simpleFoam is not installed: run `bash "
-            "scripts/ensure_debian.sh openfoam` (Debian's openfoam) or `make cfd`"
-        )
-    out = pathlib.Path(args.out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
-    csv_dir = pathlib.Path(args.csv_dir) if args.csv_dir else None
-    progress = pathlib.Path(args.progress) if args.progress else out / "progress.md"
-    command = f"{prog} {shlex.join(argv)}"
-    cases = cases_for(args.cases, args.mesh)
-    started = time.time()
     jobs = [(c.to_json(), str(out), args.retry_failed, command) for c in cases]
+    started = time.time()
     failed = 0
 
     def finished(result) -> None:
@@ -688,8 +704,8 @@ def main(argv=None, prog=None) -> int:
             else result.get("reason", "")
         )
         print(f"{result['case']}: {status}{note}: {detail}", flush=True)
-        if csv_dir is not None:
-            write_samples(out, csv_dir)
+        if args.csv_dir is not None:
+            write_samples(out, args.csv_dir)
         write_progress(progress, out, cases, command, started)
 
     write_progress(progress, out, cases, command, started)
@@ -697,30 +713,52 @@ def main(argv=None, prog=None) -> int:
     if args.workers == 0:
         for job in jobs:
             finished(run.run_case_job(job))
-    else:
-        from manta_drake.cluster import completed_resubmitting_lost, dask_client
+        return failed
+    from manta_drake.cluster import completed_resubmitting_lost, dask_client
 
-        with dask_client(workers=args.workers, dashboard="") as client:
-            for job, outcome in completed_resubmitting_lost(
-                client,
-                run.run_case_job,
-                jobs,
-                lambda j: j,
-                lambda j: f"cfd-{cfd_name(j)}",
-                window=lambda: 2 * args.workers,
-            ):
-                if isinstance(outcome, dict):
-                    finished(outcome)
-                else:
-                    failed += 1
-                    print(f"{cfd_name(job)}: task failed: {outcome.reason()}", flush=True)
-                    write_progress(progress, out, cases, command, started)
-    if csv_dir is not None:
-        counts = write_samples(out, csv_dir)
-        print(f"samples: {', '.join(f'{csv_dir / k} ({v} rows)' for k, v in counts.items())}")
-    if out_md is not None and out_md.exists() and csv_dir is not None:
-        write_report(samples(csv_dir), out_md)
-        print(f"report: {out_md}")
+    with dask_client(workers=args.workers, dashboard="") as client:
+        for job, outcome in completed_resubmitting_lost(
+            client,
+            run.run_case_job,
+            jobs,
+            lambda j: j,
+            lambda j: f"cfd-{cfd_name(j)}",
+            window=lambda: 2 * args.workers,
+        ):
+            if isinstance(outcome, dict):
+                finished(outcome)
+            else:
+                failed += 1
+                print(f"{cfd_name(job)}: task failed: {outcome.reason()}", flush=True)
+                write_progress(progress, out, cases, command, started)
+    return failed
+
+
+def main(argv=None, prog=None) -> int:
+    prog = prog or "manta-drake study cfd"
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parse_args(argv, prog)
+    from manta_drake.studies.cfd import run
+
+    if args.tables_only:
+        return tables_only(args)
+    if not run.openfoam_available():
+        raise CfdError(
+            "OpenFOAM's simpleFoam is not installed: run `bash "
+            "scripts/ensure_debian.sh openfoam` (Debian's openfoam) or `make cfd`"
+        )
+    out = pathlib.Path(args.runs).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    progress = pathlib.Path(args.progress) if args.progress else out / "progress.md"
+    cases = cases_for(args.cases, args.mesh)
+    command = f"{prog} {shlex.join(argv)}"
+    failed = run_cases(cases, args, out, progress, command)
+    if args.csv_dir is not None:
+        counts = write_samples(out, args.csv_dir)
+        print(f"samples: {', '.join(f'{args.csv_dir / k} ({v} rows)' for k, v in counts.items())}")
+        if args.page.exists():
+            write_report(samples(args.csv_dir), args.page)
+            print(f"report: {args.page}")
     return 1 if failed else 0
 
 

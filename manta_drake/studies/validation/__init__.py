@@ -4,7 +4,12 @@ reference (theory, a published data set, an independent code), one section of
 
 The page holds one marked block per section (``<!-- section: NAME -->`` ...
 ``<!-- end section: NAME -->``); a section's study replaces its own block only, so the sections
-are regenerated apart. ``SECTIONS`` names them: ``--section NAME`` runs one.
+are regenerated apart. ``SECTIONS`` names them: ``--section NAME`` runs one. Every section
+takes the same folders (``add_folder_options``): ``--runs DIR`` for its work (its runs or
+cached cases, ``DIR/STEM.json`` and ``DIR/STEM.md``; default ``out/validation/NAME``) and
+``--out DIR`` for the page (``DIR/validation.md``; default the checkout's ``docs/``,
+``studies.report.output_folder``). A section's reference file in ``models/reference/`` has
+its own option, whose default is the checkout's file (``reference_file``).
 """
 
 from __future__ import annotations
@@ -14,7 +19,6 @@ import pathlib
 import sys
 
 from manta_drake.config_io import ScenarioError
-from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
 
 # name -> (module with main(argv, prog) -> int, what it validates)
@@ -42,9 +46,10 @@ SECTIONS = {
     ),
 }
 PAGE_TITLE = "Validation"
-PAGE_COMMAND = "manta-drake study validation --section NAME --out DIR"
+PAGE_COMMAND = "manta-drake study validation --section NAME"
+PAGE = "validation.md"  # the page in the --out folder
+RUNS = pathlib.Path("out/validation")  # the sections' work folders: RUNS/NAME
 TEMPLATES = pathlib.Path(__file__).resolve().parent / "templates"
-PAGE_PATH = REPO / "docs" / "validation.md"
 
 
 def template_env():
@@ -82,14 +87,47 @@ class ValidationError(ScenarioError):
     """A bad option, results or reference file of a validation section (one line, exit 2)."""
 
 
-def check_out(out) -> pathlib.Path:
-    """A section's ``--out``: a non-empty path that is a folder or does not exist yet."""
-    if not str(out).strip():
-        raise ValidationError("--out: an empty path; name the folder to write")
-    path = pathlib.Path(out)
-    if path.exists() and not path.is_dir():
-        raise ValidationError(f"--out {out}: exists and is not a folder")
-    return path
+def add_folder_options(parser, section: str, runs_help: str) -> None:
+    """A section's ``--runs DIR`` (what ``runs_help`` says it holds) and ``--out DIR`` (the
+    page's folder)."""
+    parser.add_argument(
+        "--runs",
+        metavar="DIR",
+        default=str(RUNS / section),
+        help=f"{runs_help} (default {RUNS / section})",
+    )
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        help=f"the page's folder: DIR/{PAGE}, whose {section} block is replaced (default the "
+        "checkout's docs/)",
+    )
+
+
+def check_runs(runs) -> pathlib.Path:
+    """A section's ``--runs``: a folder that can be written (or created)."""
+    from manta_drake.config_io import check_writable_folder
+
+    return check_writable_folder(runs, "--runs", example="out/validation", error=ValidationError)
+
+
+def page_path(out, prog: str) -> pathlib.Path:
+    """The page in the ``--out`` folder (the checkout's docs/ without one; refused from an
+    installed package)."""
+    from manta_drake.studies.report import output_folder
+
+    return output_folder(out, prog) / PAGE
+
+
+def reference_file(given, prog: str, option: str, name: str) -> str:
+    """A reference file's option: ``given``, else the checkout's ``models/reference/NAME``
+    (refused in one line naming ``option`` from an installed package)."""
+    if given is not None:
+        return given
+    from manta_drake.studies.report import output_folder
+
+    models = output_folder(None, prog, default="models", option=option)
+    return str(models / "reference" / name)
 
 
 def write_results(out, stem: str, results: dict, block: str) -> tuple[pathlib.Path, ...]:

@@ -1,6 +1,6 @@
 """Added mass of the robot's own geometry by capytaine (BEM) against the closed forms.
 
-``manta-drake study validation --section added-mass --out DIR`` (capytaine is a
+``manta-drake study validation --section added-mass [--runs DIR] [--out DIR]`` (capytaine is a
 boundary-element potential-flow solver, the ``validation`` extra).
 
 Cases (every matrix is the 6x6 added-mass matrix of a rigid motion, about the hull's origin in
@@ -59,9 +59,11 @@ from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS, LEGS, RobotPar
 from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
 from manta_drake.studies.validation import (
-    PAGE_PATH,
     ValidationError,
-    check_out,
+    add_folder_options,
+    check_runs,
+    page_path,
+    reference_file,
     render_template,
     round_floats,
     run_module,
@@ -69,7 +71,7 @@ from manta_drake.studies.validation import (
 )
 
 SECTION = "added-mass"
-COMMAND = "manta-drake study validation --section added-mass --out DIR"
+COMMAND = "manta-drake study validation --section added-mass"
 YAML_PATH = REPO / "models" / "reference" / "added_mass_bem.yaml"
 TEMPLATE = "added_mass.md.j2"
 DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
@@ -971,7 +973,7 @@ def render_section(results: dict) -> str:
     from manta_drake.studies.validation import section_markers
 
     begin, end = section_markers(SECTION)
-    body = render_template(TEMPLATE, **page_context(results))
+    body = render_template(TEMPLATE, **page_context(results), command=COMMAND)
     return f"{begin}\n{body.strip()}\n{end}"
 
 
@@ -988,25 +990,17 @@ def write_page(path, results: dict) -> None:
 
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="writes DIR/added_mass.json (the results) and DIR/added_mass.md (the section)",
+    add_folder_options(
+        parser,
+        SECTION,
+        "writes DIR/added_mass.json (the results) and DIR/added_mass.md (the section)",
     )
     parser.add_argument(
         "--yaml",
-        default=str(YAML_PATH),
+        default=None,
         metavar="FILE",
         help="the committed results (default models/reference/"
         "added_mass_bem.yaml of the checkout); '' writes none",
-    )
-    parser.add_argument(
-        "--page",
-        default=str(PAGE_PATH),
-        metavar="FILE",
-        help="the page whose added-mass block is replaced (default "
-        "docs/validation.md); '' writes none",
     )
     parser.add_argument(
         "--from-yaml",
@@ -1014,7 +1008,9 @@ def parse_args(argv, prog):
         help="solve nothing: render the page from --yaml as committed",
     )
     args = parser.parse_args(argv)
-    check_out(args.out)
+    args.yaml = reference_file(args.yaml, prog, "--yaml FILE", YAML_PATH.name)
+    args.page = page_path(args.out, prog)
+    check_runs(args.runs)
     if args.from_yaml and not pathlib.Path(args.yaml).is_file():
         raise ValidationError(
             f"--from-yaml: no results file {args.yaml}; run without --from-yaml first"
@@ -1026,8 +1022,8 @@ def main(argv=None, prog=None) -> int:
     prog = prog or "python -m manta_drake.studies.validation.added_mass"
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv, prog)
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    runs = pathlib.Path(args.runs)
+    runs.mkdir(parents=True, exist_ok=True)
     if args.from_yaml:
         results = load_results(args.yaml)
     else:
@@ -1036,10 +1032,9 @@ def main(argv=None, prog=None) -> int:
         results["provenance"]["command"] = COMMAND
         if args.yaml:
             print(f"results: {write_yaml(args.yaml, results)}")
-    written = write_results(out, "added_mass", results, render_section(results))
-    if args.page:
-        write_page(args.page, results)
-        print(f"page: {args.page}")
+    written = write_results(runs, "added_mass", results, render_section(results))
+    write_page(args.page, results)
+    print(f"page: {args.page}")
     print(f"wrote {written[0]} and {written[1]}")
     return 0
 

@@ -1,5 +1,5 @@
 """The fin strips' flapping-foil model against a published heaving-pitching foil experiment:
-``python -m manta_drake.studies.validation.foil_data --out DIR``.
+``manta-drake study validation --section foil-data [--runs DIR] [--out DIR]``.
 
 **The data** (``models/reference/heaving_pitching_foil.yaml``, its ``data`` block, curated by hand
 with its exact source): thrust coefficient C_T and efficiency eta against the Strouhal number of
@@ -57,9 +57,11 @@ from manta_drake.station import foil
 from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
 from manta_drake.studies.validation import (
-    PAGE_PATH,
     ValidationError,
-    check_out,
+    add_folder_options,
+    check_runs,
+    page_path,
+    reference_file,
     render_template,
     round_floats,
     run_module,
@@ -68,7 +70,7 @@ from manta_drake.studies.validation import (
 from manta_drake.studies.validation.vortex_lattice import cycle_means
 
 SECTION = "foil-data"
-COMMAND = "manta-drake study validation --section foil-data --out DIR"
+COMMAND = "manta-drake study validation --section foil-data"
 YAML_PATH = REPO / "models" / "reference" / "heaving_pitching_foil.yaml"
 TEMPLATE = "foil_data.md.j2"
 
@@ -626,6 +628,7 @@ def render_section(ref: dict) -> str:
         bases=m["bases"],
         garrick=m["garrick"],
         terms=TERMS,
+        command=COMMAND,
     )
     return f"{begin}\n{body.strip()}\n{end}"
 
@@ -641,15 +644,14 @@ def write_page(path, ref: dict) -> None:
 
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="writes DIR/foil_data.json (data and model) and DIR/foil_data.md (the section)",
+    add_folder_options(
+        parser,
+        SECTION,
+        "writes DIR/foil_data.json (data and model) and DIR/foil_data.md (the section)",
     )
     parser.add_argument(
         "--yaml",
-        default=str(YAML_PATH),
+        default=None,
         metavar="FILE",
         help="the reference file: its `data` is read and its `model` block "
         "rewritten (default models/reference/heaving_pitching_foil.yaml of "
@@ -661,19 +663,14 @@ def parse_args(argv, prog):
         help="leave --yaml as it is (the results go to DIR only)",
     )
     parser.add_argument(
-        "--page",
-        default=str(PAGE_PATH),
-        metavar="FILE",
-        help="the page whose foil-data block is replaced (default "
-        "docs/validation.md); '' writes none",
-    )
-    parser.add_argument(
         "--from-yaml",
         action="store_true",
         help="compute nothing: render the page from --yaml's committed `model`",
     )
     args = parser.parse_args(argv)
-    check_out(args.out)
+    args.yaml = reference_file(args.yaml, prog, "--yaml FILE", YAML_PATH.name)
+    args.page = page_path(args.out, prog)
+    check_runs(args.runs)
     if not pathlib.Path(args.yaml).is_file():
         raise ValidationError(f"--yaml {args.yaml}: no such file (it holds the data)")
     return args
@@ -683,7 +680,6 @@ def main(argv=None, prog=None) -> int:
     prog = prog or "python -m manta_drake.studies.validation.foil_data"
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv, prog)
-    out = pathlib.Path(args.out)
     ref = load_reference(args.yaml)
     if args.from_yaml:
         if "model" not in ref:
@@ -694,10 +690,9 @@ def main(argv=None, prog=None) -> int:
         ref = run_study(ref, log=lambda msg: print(msg, flush=True))
         if not args.no_write_yaml:
             print(f"reference: {write_reference(args.yaml, ref)}")
-    written = write_results(out, "foil_data", ref, render_section(ref))
-    if args.page:
-        write_page(args.page, ref)
-        print(f"page: {args.page}")
+    written = write_results(args.runs, "foil_data", ref, render_section(ref))
+    write_page(args.page, ref)
+    print(f"page: {args.page}")
     print(f"wrote {written[0]} and {written[1]}")
     return 0
 

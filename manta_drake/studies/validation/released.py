@@ -135,7 +135,7 @@ def measure(kind: str, fin_model: str, out_dir) -> dict:
 
 SECTION = "released"
 TEMPLATE = "released.md.j2"
-COMMAND = "manta-drake study validation --section released --out DIR"
+COMMAND = "manta-drake study validation --section released"
 FIN_MODELS = ("cross_flow", "foil")
 
 
@@ -181,39 +181,38 @@ def render_section(results: dict) -> str:
     from manta_drake.studies.validation import render_template, section_markers
 
     begin, end = section_markers(SECTION)
-    body = render_template(TEMPLATE, p=results["provenance"], rows=results["rows"])
+    body = render_template(TEMPLATE, p=results["provenance"], rows=results["rows"], command=COMMAND)
     return f"{begin}\n{body.strip()}\n{end}"
 
 
 def main(argv=None, prog=None) -> int:
-    """``manta-drake study validation --section released --out DIR [--page FILE]``."""
+    """``manta-drake study validation --section released [--runs DIR] [--out DIR]``."""
     import json
     import pathlib
     import sys
 
-    from manta_drake.config_io import check_writable_folder
     from manta_drake.studies.options import StudyParser
-    from manta_drake.studies.validation import PAGE_PATH, write_section
+    from manta_drake.studies.validation import (
+        add_folder_options,
+        check_runs,
+        page_path,
+        write_section,
+    )
 
-    parser = StudyParser(prog=prog or "released", description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--out", required=True, metavar="DIR", help="the runs and DIR/released.json"
-    )
-    parser.add_argument(
-        "--page",
-        default=str(PAGE_PATH),
-        metavar="FILE",
-        help="the page whose released block is replaced ('' : none)",
-    )
+    prog = prog or "python -m manta_drake.studies.validation.released"
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    add_folder_options(parser, SECTION, "the runs and DIR/released.json")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
-    out = check_writable_folder(args.out, create=True)
-    results = run_all(out)
-    (pathlib.Path(out) / "released.json").write_text(json.dumps(results, indent=1) + "\n")
-    if args.page:
-        write_section(args.page, SECTION, render_section(results))
+    page = page_path(args.out, prog)
+    runs = check_runs(args.runs)
+    results = run_all(runs)
+    runs.mkdir(parents=True, exist_ok=True)
+    (pathlib.Path(runs) / "released.json").write_text(json.dumps(results, indent=1) + "\n")
+    write_section(page, SECTION, render_section(results))
     for row in results["rows"]:
         print(
             f"{row['kind']:>5} {row['fin_model']:<10} effective {row['effective']:.4g}, "
             f"added {row['added']:.4g}, BEM {row['bem']:.4g} ({row['ratio']:.3f})"
         )
+    print(f"page: {page}")
     return 0

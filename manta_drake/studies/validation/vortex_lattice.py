@@ -1,6 +1,6 @@
 """One fin's mean thrust by the fin strips' model against pterasoftware's unsteady vortex lattice.
 
-``python -m manta_drake.studies.validation.vortex_lattice --out DIR [--quick]``.
+``manta-drake study validation --section vortex-lattice [--runs DIR] [--out DIR] [--quick]``.
 
 One fin of the model (``RobotParams``: the proximal plate d3 x proximal_chord, the distal plate
 dE x distal_chord, mid-chords in line, the roll1 and pitch axes through the root's mid-chord,
@@ -34,11 +34,12 @@ The added-mass (non-circulatory) force on a plate is -d/dt of its impulse (Kirch
 stroke: the strip model's mean thrust is its circulatory, suction and separated terms alone,
 while UVLM's holds every pressure force.
 
-Each pterasoftware case is cached as ``DIR/cases/<key>.json`` and skipped when present (the
-runs are restartable; the full run is about 30 min of solver time on 2 shared cores, ``--quick``
-about 3 min); ``DIR/vortex_lattice.yaml`` is the summary, also written to the committed
-``models/reference/vortex_lattice.yaml`` (``--reference``), and the ``vortex-lattice`` block of
-``docs/validation.md`` (``--page``) is rendered from it by ``templates/vortex_lattice.md.j2``.
+Each pterasoftware case is cached as ``RUNS/cases/<key>.json`` (``--runs``) and skipped when
+present (the runs are restartable; the full run is about 30 min of solver time on 2 shared
+cores, ``--quick`` about 3 min); ``RUNS/vortex_lattice.yaml`` is the summary, also written to the
+committed ``models/reference/vortex_lattice.yaml`` (``--reference``), and the ``vortex-lattice``
+block of ``OUT/validation.md`` (``--out``, the checkout's ``docs/`` by default) is rendered from
+it by ``templates/vortex_lattice.md.j2``.
 ``--from-yaml`` runs nothing and renders the page from the committed numbers; ``--no-run``
 summarizes the cases already cached.
 """
@@ -61,16 +62,20 @@ from manta_drake.station import foil
 from manta_drake.studies import REPO
 from manta_drake.studies.options import StudyParser
 from manta_drake.studies.validation import (
-    PAGE_PATH,
+    PAGE_COMMAND,
+    PAGE_TITLE,
     ValidationError,
-    check_out,
+    add_folder_options,
+    check_runs,
+    page_path,
+    reference_file,
     render_template,
     round_floats,
     run_module,
 )
 
 SECTION = "vortex-lattice"
-COMMAND = "manta-drake study validation --section vortex-lattice --out DIR"
+COMMAND = "manta-drake study validation --section vortex-lattice"
 YAML_PATH = REPO / "models" / "reference" / "vortex_lattice.yaml"
 TEMPLATE = "vortex_lattice.md.j2"
 
@@ -963,7 +968,10 @@ def render_section(summary: dict) -> str:
     from manta_drake.studies.validation import section_markers
 
     begin, end = section_markers(SECTION)
-    body = render_template(TEMPLATE, s=summary, p=summary["provenance"], labels=STRIP_LABELS)
+    command = COMMAND + (" --quick" if summary["provenance"]["quick"] else "")
+    body = render_template(
+        TEMPLATE, s=summary, p=summary["provenance"], labels=STRIP_LABELS, command=command
+    )
     return f"{begin}\n{body.strip()}\n{end}"
 
 
@@ -977,7 +985,7 @@ def write_page(path, summary: dict) -> None:
         render_section(summary),
         begin,
         end,
-        new_page=("Validation", "manta-drake study validation --section NAME --out DIR"),
+        new_page=(PAGE_TITLE, PAGE_COMMAND),
         what="the vortex-lattice section",
     )
 
@@ -987,12 +995,11 @@ def write_page(path, summary: dict) -> None:
 
 def parse_args(argv, prog):
     parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="the case cache DIR/cases/*.json (a case there is not run again), "
-        "the summary DIR/vortex_lattice.yaml and DIR/vortex_lattice.md",
+    add_folder_options(
+        parser,
+        SECTION,
+        "the case cache DIR/cases/*.json (a case there is not run again), the summary "
+        "DIR/vortex_lattice.yaml and DIR/vortex_lattice.md",
     )
     parser.add_argument(
         "--quick",
@@ -1013,23 +1020,16 @@ def parse_args(argv, prog):
         "vortex_lattice.yaml of the checkout); '' writes none",
     )
     parser.add_argument(
-        "--page",
-        default=None,
-        metavar="FILE",
-        help="the page whose vortex-lattice block is replaced (default "
-        "docs/validation.md); '' writes none",
-    )
-    parser.add_argument(
         "--from-yaml",
         action="store_true",
         help="run nothing: render the page from --reference as committed",
     )
     args = parser.parse_args(argv)
-    check_out(args.out)
-    if args.reference is None:
-        args.reference = "" if args.quick else str(YAML_PATH)
-    if args.page is None:
-        args.page = "" if args.quick else str(PAGE_PATH)
+    if args.reference is None and args.quick and not args.from_yaml:
+        args.reference = ""
+    args.reference = reference_file(args.reference, prog, "--reference FILE", YAML_PATH.name)
+    args.page = None if args.quick and args.out is None else page_path(args.out, prog)
+    check_runs(args.runs)
     if args.from_yaml and not pathlib.Path(args.reference or YAML_PATH).is_file():
         raise ValidationError(
             f"--from-yaml: no summary {args.reference or YAML_PATH}; run without --from-yaml first"
@@ -1041,25 +1041,25 @@ def main(argv=None, prog=None) -> int:
     prog = prog or "python -m manta_drake.studies.validation.vortex_lattice"
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv, prog)
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    runs = pathlib.Path(args.runs)
+    runs.mkdir(parents=True, exist_ok=True)
     if args.from_yaml:
         summary = load_summary(args.reference or YAML_PATH)
     else:
         summary = summarize(
-            out, quick=args.quick, run=not args.no_run, log=lambda m: print(m, flush=True)
+            runs, quick=args.quick, run=not args.no_run, log=lambda m: print(m, flush=True)
         )
-        write_yaml(out / "vortex_lattice.yaml", summary)
+        write_yaml(runs / "vortex_lattice.yaml", summary)
         if args.reference:
             write_yaml(args.reference, summary)
             print(f"wrote {args.reference}")
-    (out / "vortex_lattice.md").write_text(render_section(summary) + "\n")
-    if args.page:
+    (runs / "vortex_lattice.md").write_text(render_section(summary) + "\n")
+    if args.page is not None:
         write_page(args.page, summary)
         print(f"wrote the {SECTION} block of {args.page}")
     print(
-        f"wrote {'' if args.from_yaml else str(out / 'vortex_lattice.yaml') + ' and '}"
-        f"{out / 'vortex_lattice.md'}"
+        f"wrote {'' if args.from_yaml else str(runs / 'vortex_lattice.yaml') + ' and '}"
+        f"{runs / 'vortex_lattice.md'}"
     )
     return 0
 

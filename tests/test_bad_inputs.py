@@ -334,9 +334,8 @@ def test_study_results_table_without_rows_or_columns_is_one_line(
     tmp_path, capsys, study, text, needle
 ):
     results = _table(tmp_path / "results.csv", text)
-    page = tmp_path / "page.md"
-    out = ["--out", str(tmp_path / "out")] if study == "energy" else ["--out-md", str(page)]
-    message = _cli_error(capsys, "study", study, "--results", results, *out)
+    out = str(tmp_path / "out")
+    message = _cli_error(capsys, "study", study, "--results", results, "--out", out)
     assert f"--results {results}: {needle}" in message
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results.csv"]  # nothing was written
 
@@ -378,12 +377,17 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
         ),
         (("findings", "--diagnose", str(tmp_path / "d"), "--only"), "--only: name at least one"),
         (
-            ("findings", "--results", shipped, "--out-fig", str(tmp_path / "f.txt")),
-            f"--out-fig {tmp_path / 'f.txt'}: the name must end in one of",
+            ("findings", "--results", shipped, "--out", shipped),
+            f"--out {shipped}: is a file, not a folder",
         ),
         (
-            ("findings", "--results", shipped, "--out-md", str(tmp_path)),
-            f"--out-md {tmp_path}: is a folder, not a file",
+            ("findings", "--results", shipped, "--out", str(tmp_path), "--page", "docs/x"),
+            "--page 'docs/x': a file name without folder or ending (letters, digits, _ . -), "
+            "e.g. findings",
+        ),
+        (
+            ("findings", "--results", shipped, "--out", str(tmp_path), "--page", "folder"),
+            f"--page {tmp_path / 'folder.md'}: is a folder, not a file",
         ),
         (
             ("energy", "--check-logs", str(tmp_path)),
@@ -406,9 +410,10 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
             f"--sweep-out {tmp_path / 'results.csv'}: file not found",
         ),
     ]
+    (tmp_path / "folder.md").mkdir()
     for argv, needle in cases:
         assert needle in _cli_error(capsys, "study", *argv), argv
-    assert not (tmp_path / "d").exists()
+    assert not (tmp_path / "d").exists() and not (tmp_path / "figures").exists()
 
 
 @pytest.mark.parametrize(

@@ -61,6 +61,7 @@ import re
 import shlex
 import statistics
 import textwrap
+from typing import Any
 
 from manta_drake.studies import REPO
 
@@ -423,11 +424,12 @@ def write_markdown(
 
 
 def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
+    """The figure: the findings' tallies over the band (left) and every gait's u, v and yaw
+    rate against friction (right: colour = net weight, marker = hull damping)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
 
     fig = plt.figure(figsize=(17, 8.5))
     grid = fig.add_gridspec(
@@ -441,20 +443,25 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
         top=0.92,
         bottom=0.08,
     )
+    _plot_tallies(fig.add_subplot(grid[:, 0]), tallies, variant_tallies)
+    style = _point_style(points, plt.get_cmap("viridis"))
+    _plot_motions(fig, grid, points, style)
+    _plot_legend(fig, style)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
-    # Left: fraction of the band where each finding (and variant) holds, fails, is undetermined.
-    ax = fig.add_subplot(grid[:, 0])
+
+def _plot_tallies(ax, tallies, variant_tallies) -> None:
+    """Bars: the fraction of the band where each finding (and variant) holds, fails, is
+    undetermined."""
     shown = list(tallies) + [t for t in variant_tallies if not t.key.startswith("forward_")]
     y = list(range(len(shown)))[::-1]
     for i, (yi, t) in enumerate(zip(y, shown)):
         n = max(t.total, 1)
         alpha = 1.0 if i < len(tallies) else 0.5
-        ax.barh(
-            yi,
-            t.holds / n,
-            color="tab:green" if t.fraction >= PASS_LINE else "tab:red",
-            alpha=alpha,
-        )
+        colour = "tab:green" if t.fraction >= PASS_LINE else "tab:red"
+        ax.barh(yi, t.holds / n, color=colour, alpha=alpha)
         ax.barh(
             yi,
             t.fails / n,
@@ -481,49 +488,38 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
         "Findings of section 4.1 over the band\n(lighter: variants without the swim)", fontsize=10
     )
 
-    # Right: u, v and yaw rate of each gait against friction; colour = net weight,
-    # marker = hull damping, small horizontal offset per damping.
+
+def _point_style(points, cmap) -> dict:
+    """A band point's look: colour by net weight, marker and a small horizontal offset by
+    hull damping."""
     weights = sorted({p[2] for p in points})
     dampings = sorted({p[1] for p in points})
-    cmap = plt.get_cmap("viridis")
-    colour = {w: cmap(i / max(1, len(weights) - 1)) for i, w in enumerate(weights)}
-    markers = dict(zip(dampings, ["v", "o", "^", "s", "D"]))
-    offset = {d: (i - (len(dampings) - 1) / 2) * 0.012 for i, d in enumerate(dampings)}
-    rows = (
-        ("u", "u  [m/s]", U_FORWARD),
-        ("v", "v  [m/s]", V_SIDEWAYS),
-        ("yaw", "yaw rate  [deg/s]", YAW_TURN),
-    )
-    axes = {}
-    for r, (field, ylabel, thr) in enumerate(rows):
+    return {
+        "colour": {w: cmap(i / max(1, len(weights) - 1)) for i, w in enumerate(weights)},
+        "marker": dict(zip(dampings, ["v", "o", "^", "s", "D"])),
+        "offset": {d: (i - (len(dampings) - 1) / 2) * 0.012 for i, d in enumerate(dampings)},
+    }
+
+
+# The motion panels' rows: (Motion field, axis label, threshold).
+MOTION_ROWS = (
+    ("u", "u  [m/s]", U_FORWARD),
+    ("v", "v  [m/s]", V_SIDEWAYS),
+    ("yaw", "yaw rate  [deg/s]", YAW_TURN),
+)
+
+
+def _plot_motions(fig, grid, points, style) -> None:
+    """One panel per motion field (rows) and gait (columns), sharing each row's y axis."""
+    for r, (field, ylabel, threshold) in enumerate(MOTION_ROWS):
+        first = None
         for c, gait in enumerate(GAITS):
-            a = fig.add_subplot(grid[r, c + 1], sharey=axes.get((r, 0)))
-            axes[(r, c)] = a
-            for (fr, dmp, w), motions in points.items():
-                m = motions.get(gait, UNDETERMINED)
-                val = getattr(m, field)
-                if val is None:
-                    a.plot(fr + offset[dmp], 0, marker="x", color="red", ms=6)
-                    continue
-                a.plot(
-                    fr + offset[dmp],
-                    val,
-                    marker=markers[dmp],
-                    color=colour[w],
-                    ms=5,
-                    ls="none",
-                    mec="k",
-                    mew=0.3,
-                )
-            a.axhline(0, color="0.5", lw=0.6)
-            for s in (1, -1):
-                a.axhline(s * thr, color="0.4", lw=0.7, ls=":")
-            a.set_xticks(sorted({p[0] for p in points}))
-            a.tick_params(labelsize=8)
-            a.grid(alpha=0.3)
+            a = fig.add_subplot(grid[r, c + 1], sharey=first)
+            first = first or a
+            _motion_panel(a, points, gait, field, threshold, style)
             if r == 0:
                 a.set_title(gait, fontsize=10)
-            if r == len(rows) - 1:
+            if r == len(MOTION_ROWS) - 1:
                 a.set_xlabel("foot-floor friction", fontsize=9)
             else:
                 a.tick_params(labelbottom=False)
@@ -531,23 +527,48 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
                 a.set_ylabel(ylabel, fontsize=9)
             else:
                 a.tick_params(labelleft=False)
-    handles = [
-        Line2D([], [], ls="none", marker="o", color=colour[w], label=f"net weight {w:g} kg")
-        for w in weights
-    ]
-    handles += [
-        Line2D([], [], ls="none", marker=markers[d], color="0.3", label=f"hull damping x{d:g}")
-        for d in dampings
-    ]
-    handles += [
-        Line2D(
-            [],
-            [],
-            color="0.4",
-            ls=":",
-            label=f"thresholds: {U_FORWARD} m/s, {V_SIDEWAYS} m/s, {YAW_TURN:g} deg/s",
+
+
+def _motion_panel(a, points, gait: str, field: str, threshold: float, style) -> None:
+    """``gait``'s ``field`` at every band point against friction (a red x where it is
+    undetermined), with zero and the +-threshold lines."""
+    for (fr, dmp, w), motions in points.items():
+        val = getattr(motions.get(gait, UNDETERMINED), field)
+        x = fr + style["offset"][dmp]
+        if val is None:
+            a.plot(x, 0, marker="x", color="red", ms=6)
+            continue
+        a.plot(
+            x,
+            val,
+            marker=style["marker"][dmp],
+            color=style["colour"][w],
+            ms=5,
+            ls="none",
+            mec="k",
+            mew=0.3,
         )
+    a.axhline(0, color="0.5", lw=0.6)
+    for s in (1, -1):
+        a.axhline(s * threshold, color="0.4", lw=0.7, ls=":")
+    a.set_xticks(sorted({p[0] for p in points}))
+    a.tick_params(labelsize=8)
+    a.grid(alpha=0.3)
+
+
+def _plot_legend(fig, style) -> None:
+    from matplotlib.lines import Line2D
+
+    handles = [
+        Line2D([], [], ls="none", marker="o", color=c, label=f"net weight {w:g} kg")
+        for w, c in style["colour"].items()
     ]
+    handles += [
+        Line2D([], [], ls="none", marker=m, color="0.3", label=f"hull damping x{d:g}")
+        for d, m in style["marker"].items()
+    ]
+    thresholds = f"thresholds: {U_FORWARD} m/s, {V_SIDEWAYS} m/s, {YAW_TURN:g} deg/s"
+    handles += [Line2D([], [], color="0.4", ls=":", label=thresholds)]
     fig.legend(
         handles=handles,
         loc="upper center",
@@ -556,9 +577,6 @@ def plot(points, tallies, variant_tallies, path: pathlib.Path) -> None:
         frameon=False,
         bbox_to_anchor=(0.6, 0.995),
     )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -620,6 +638,9 @@ def swim_without_phase_lag():
 DIAGNOSTIC_GAITS = {"swim_no_phase_lag": swim_without_phase_lag}
 
 
+SAMPLED = ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power")
+
+
 def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     """Simulates ``scenario`` (with the GaitParams ``gait`` instead of the one it names, if
     given; ``explicit_gait.scenario_with_gait``, its gait file in a temporary folder) and
@@ -639,116 +660,180 @@ def sample_run(scenario, period: float = SAMPLE_PERIOD, gait=None) -> dict:
     (``station.foot_contacts.floor_contacts``: hydroelastic patches at their centroids);
     kind: proximal plate, distal plate (a fin plate's box), hull."""
     import numpy as np
+
+    scenario, diagram, h = _sampled_diagram(scenario, gait)
+    probe = _probe(scenario, diagram, h)
+    steps = max(1, round(period / scenario.time_step))
+    n = round(scenario.duration / (steps * scenario.time_step))
+    out: dict = {k: [] for k in (*SAMPLED, "contacts")}
+    probe.sim.Initialize()
+    for k in range(n + 1):
+        if k:
+            probe.sim.AdvanceTo(k * steps * scenario.time_step)
+        _sample(probe, out)
+    for key in SAMPLED:
+        out[key] = np.array(out[key])
+    return out
+
+
+def _sampled_diagram(scenario, gait):
+    """(scenario, diagram, handles): ``scenario`` built as it is, or with the GaitParams
+    ``gait`` written to a gait file in a temporary folder (read while the diagram is built)."""
+    from manta_drake.wiring.diagram import build_diagram
+
+    if gait is None:
+        return (scenario, *build_diagram(scenario))
+    import tempfile
+
+    from manta_drake.studies.explicit_gait import scenario_with_gait
+
+    with tempfile.TemporaryDirectory() as folder:
+        scenario = scenario_with_gait(scenario, gait, folder, "sampled")
+        return (scenario, *build_diagram(scenario))
+
+
+@dc.dataclass
+class _Probe:
+    """What ``sample_run`` reads at each sample: the simulator, its context and the systems."""
+
+    sim: Any
+    root: Any  # the simulator's (root) context
+    plant: Any
+    pctx: Any  # the plant's context
+    hull: Any  # the hull's body
+    robot_bodies: set  # the robot's own body indices
+    hydro: Any  # the water system, or None
+    cross_flow: bool  # the fin model is the quasi-steady cross-flow one
+    hydro_bodies: list  # the water system's bodies
+    added_joints: list  # the added-mass bodies' planar joints
+    servos: Any  # the servos' power system, or None
+    floor: Any  # the floor's geometries
+    geometry_body: dict  # the robot's geometries -> body index
+
+
+def _probe(scenario, diagram, h) -> _Probe:
     from pydrake.multibody.tree import BodyIndex
 
     from manta_drake.simulate import make_simulator
-    from manta_drake.station import water as W
-    from manta_drake.station.foot_contacts import floor_contacts, robot_geometry_bodies
-    from manta_drake.studies.explicit_gait import scenario_with_gait
-    from manta_drake.wiring.diagram import build_diagram
+    from manta_drake.station.foot_contacts import robot_geometry_bodies
 
-    if gait is not None:
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as folder:  # read while the diagram is built
-            scenario = scenario_with_gait(scenario, gait, folder, "sampled")
-            diagram, h = build_diagram(scenario)
-    else:
-        diagram, h = build_diagram(scenario)
-    context = diagram.CreateDefaultContext()
-    sim = make_simulator(diagram, scenario, context)
+    sim = make_simulator(diagram, scenario, diagram.CreateDefaultContext())
     root = sim.get_mutable_context()
-    plant = h.plant
-    pctx = plant.GetMyContextFromRoot(root)
-    robot_bodies = {int(i) for i in plant.GetBodyIndices(h.plant_handles.robot)}
-    hull = h.plant_handles.body
-    hydro = h.systems.get("hydro")
-    cross_flow = scenario.water.fin_model == "cross_flow"
-    hydro_bodies = [plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else []
-    added_joints = added_mass_joints(plant)
-    servos = h.systems.get("servo_power")
-    floor = h.systems["foot_contacts"].floor_geometries
-    geometry_body = robot_geometry_bodies(plant, h.plant_handles.robot)
-    steps = max(1, round(period / scenario.time_step))
-    n = round(scenario.duration / (steps * scenario.time_step))
-    out = {k: [] for k in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power", "contacts")}
-    sim.Initialize()
-    for k in range(n + 1):
-        if k:
-            sim.AdvanceTo(k * steps * scenario.time_step)
-        X = plant.EvalBodyPoseInWorld(pctx, hull)
-        out["t"].append(root.get_time())
-        out["xyz"].append(X.translation().copy())
-        out["quat_wxyz"].append(X.rotation().ToQuaternion().wxyz())
-        R = X.rotation().matrix()
-        out["yaw"].append(np.arctan2(R[1, 0], R[0, 0]))
-        out["v_world"].append(plant.EvalBodySpatialVelocityInWorld(pctx, hull).translational())
-        if hydro is not None:
-            Xs = [plant.EvalBodyPoseInWorld(pctx, b) for b in hydro_bodies]
-            Vs = [plant.EvalBodySpatialVelocityInWorld(pctx, b) for b in hydro_bodies]
-            Rb = np.array([x.rotation().matrix() for x in Xs])
-            pb = np.array([x.translation() for x in Xs])
-            wb = np.array([v.rotational() for v in Vs])
-            vb = np.array([v.translational() for v in Vs])
-            B, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
-            D = W.damping_wrenches(
-                Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad, body_frac, hydro.d_lift
+    plant, hydro = h.plant, h.systems.get("hydro")
+    return _Probe(
+        sim=sim,
+        root=root,
+        plant=plant,
+        pctx=plant.GetMyContextFromRoot(root),
+        hull=h.plant_handles.body,
+        robot_bodies={int(i) for i in plant.GetBodyIndices(h.plant_handles.robot)},
+        hydro=hydro,
+        cross_flow=scenario.water.fin_model == "cross_flow",
+        hydro_bodies=[plant.get_body(BodyIndex(i)) for i in hydro.body_indices] if hydro else [],
+        added_joints=added_mass_joints(plant),
+        servos=h.systems.get("servo_power"),
+        floor=h.systems["foot_contacts"].floor_geometries,
+        geometry_body=robot_geometry_bodies(plant, h.plant_handles.robot),
+    )
+
+
+def _sample(p: _Probe, out: dict) -> None:
+    """Appends the hull's pose and velocity, the water's forces, the power and the floor
+    contacts at the simulator's time to the lists of ``out``."""
+    import numpy as np
+
+    X = p.plant.EvalBodyPoseInWorld(p.pctx, p.hull)
+    out["t"].append(p.root.get_time())
+    out["xyz"].append(X.translation().copy())
+    out["quat_wxyz"].append(X.rotation().ToQuaternion().wxyz())
+    R = X.rotation().matrix()
+    out["yaw"].append(np.arctan2(R[1, 0], R[0, 0]))
+    out["v_world"].append(p.plant.EvalBodySpatialVelocityInWorld(p.pctx, p.hull).translational())
+    if p.hydro is not None:
+        out["hydro"].append(_water_forces(p))
+    if p.servos is not None:
+        sctx = p.servos.GetMyContextFromRoot(p.root)
+        out["power"].append(
+            [
+                p.servos.GetOutputPort("electrical_power").Eval(sctx)[0],
+                p.servos.GetOutputPort("joint_mechanical_power").Eval(sctx).sum(),
+            ]
+        )
+    out["contacts"].append(_floor_contacts(p))
+
+
+def _water_forces(p: _Probe):
+    """(3, 3): the world force [N] of the hull's damping, the links' damping and the fins
+    (``sample_run``), recomputed from the state with ``station.water``'s functions."""
+    import numpy as np
+
+    from manta_drake.station import water as W
+
+    hydro, plant, pctx = p.hydro, p.plant, p.pctx
+    Xs = [plant.EvalBodyPoseInWorld(pctx, b) for b in p.hydro_bodies]
+    Vs = [plant.EvalBodySpatialVelocityInWorld(pctx, b) for b in p.hydro_bodies]
+    Rb = np.array([x.rotation().matrix() for x in Xs])
+    pb = np.array([x.translation() for x in Xs])
+    wb = np.array([v.rotational() for v in Vs])
+    vb = np.array([v.translational() for v in Vs])
+    B, frac, body_frac = W.buoyancy_wrenches(Rb, pb, hydro.el, hydro.rho, hydro.g)
+    D = W.damping_wrenches(
+        Rb, wb, vb, hydro.current, hydro.d_lin, hydro.d_quad, body_frac, hydro.d_lift
+    )
+    if p.cross_flow:
+        _, fs = W.fin_strip_forces(
+            Rb,
+            wb,
+            vb,
+            hydro.current,
+            hydro.el,
+            frac,
+            hydro.rho,
+            hydro.c_normal,
+            hydro.c_friction,
+            hydro.pitch_max,
+            hydro.pitch_pressure,
+        )
+        fins = fs.sum(0)
+    else:  # the system's total on the robot less damping and buoyancy, and what the
+        #    added-mass bodies' joints pass on: the foil fins' share
+        fins = foil_share(plant, pctx, hydro, p.root, p.robot_bodies, p.added_joints)
+        fins = fins - D[:, 3:].sum(0) - B[:, 3:].sum(0)
+    return np.array([D[0, 3:], D[1:, 3:].sum(0), fins])
+
+
+# A contact's kind by the robot body's name's last part ("hull" for the body itself).
+CONTACT_KINDS = {"link3": "proximal plate", "link4": "distal plate"}
+
+
+def _floor_contacts(p: _Probe) -> list:
+    """The robot's contacts with the floor as ``sample_run`` lists them."""
+    import numpy as np
+    from pydrake.multibody.tree import BodyIndex
+
+    from manta_drake.station.foot_contacts import floor_contacts
+
+    plant, pctx = p.plant, p.pctx
+    results = plant.get_contact_results_output_port().Eval(pctx)
+    contacts = []
+    for index, f, point in floor_contacts(results, p.floor, p.geometry_body):
+        body = plant.get_body(BodyIndex(index))
+        name = body.name()
+        kind = "hull" if name == "body" else CONTACT_KINDS.get(name.split("_")[-1], name)
+        Vb = plant.EvalBodySpatialVelocityInWorld(pctx, body)
+        offset = point - plant.EvalBodyPoseInWorld(pctx, body).translation()
+        v = Vb.Shift(offset).translational()
+        contacts.append(
+            (
+                kind,
+                name.split("_")[0],
+                np.array(point),
+                np.array(f),
+                np.array(v),
+                float(np.linalg.norm(v[:2])),
             )
-            if cross_flow:
-                _, fs = W.fin_strip_forces(
-                    Rb,
-                    wb,
-                    vb,
-                    hydro.current,
-                    hydro.el,
-                    frac,
-                    hydro.rho,
-                    hydro.c_normal,
-                    hydro.c_friction,
-                    hydro.pitch_max,
-                    hydro.pitch_pressure,
-                )
-                fins = fs.sum(0)
-            else:  # the system's total on the robot less damping and buoyancy, and what
-                #    the added-mass bodies' joints pass on: the foil fins' share
-                fins = foil_share(plant, pctx, hydro, root, robot_bodies, added_joints)
-                fins = fins - D[:, 3:].sum(0) - B[:, 3:].sum(0)
-            out["hydro"].append(np.array([D[0, 3:], D[1:, 3:].sum(0), fins]))
-        if servos is not None:
-            sctx = servos.GetMyContextFromRoot(root)
-            out["power"].append(
-                [
-                    servos.GetOutputPort("electrical_power").Eval(sctx)[0],
-                    servos.GetOutputPort("joint_mechanical_power").Eval(sctx).sum(),
-                ]
-            )
-        results = plant.get_contact_results_output_port().Eval(pctx)
-        contacts = []
-        for index, f, p in floor_contacts(results, floor, geometry_body):
-            body = plant.get_body(BodyIndex(index))
-            kind = (
-                "hull"
-                if body.name() == "body"
-                else {"link3": "proximal plate", "link4": "distal plate"}.get(
-                    body.name().split("_")[-1], body.name()
-                )
-            )
-            Vb = plant.EvalBodySpatialVelocityInWorld(pctx, body)
-            v = Vb.Shift(p - plant.EvalBodyPoseInWorld(pctx, body).translation()).translational()
-            contacts.append(
-                (
-                    kind,
-                    body.name().split("_")[0],
-                    np.array(p),
-                    np.array(f),
-                    np.array(v),
-                    float(np.linalg.norm(v[:2])),
-                )
-            )
-        out["contacts"].append(contacts)
-    for key in ("t", "xyz", "quat_wxyz", "yaw", "v_world", "hydro", "power"):
-        out[key] = np.array(out[key])
-    return out
+        )
+    return contacts
 
 
 def added_mass_joints(plant) -> list:
@@ -871,31 +956,53 @@ def contact_summary(samples: dict, window) -> dict:
     import numpy as np
 
     t = samples["t"]
-    kinds: dict = {}
-    acc: dict = {}  # per leg: [fn, fn slip_u, fn slip_v, fn noslip_u, fn noslip_v, sliding fn]
-    loaded: dict = {}  # per leg, and "all": samples with the leg loaded
-    traction, n = 0.0, 0
+    sums = _ContactSums()
     for k in np.flatnonzero((t >= window[0]) & (t < window[1])):
-        n += 1
-        fwd, left = heading_frame(samples["yaw"][k])
-        v_hull = samples["v_world"][k]
+        sums.add(samples["contacts"][k], samples["yaw"][k], samples["v_world"][k])
+    total = sum(sums.kinds.values())
+    return {
+        "load": total / max(sums.n, 1),
+        "traction": sums.traction / max(sums.n, 1),
+        "share": {k: v / total for k, v in sorted(sums.kinds.items())},
+        "all": sums.stats(sum(sums.acc.values(), np.zeros(6)), "all", total),
+        "legs": {leg: sums.stats(a, leg, total) for leg, a in sorted(sums.acc.items())},
+    }
+
+
+@dc.dataclass
+class _ContactSums:
+    """``contact_summary``'s sums over the window's samples."""
+
+    kinds: dict = dc.field(default_factory=dict)  # normal force per kind of geometry
+    # per leg: [fn, fn slip_u, fn slip_v, fn noslip_u, fn noslip_v, sliding fn]
+    acc: dict = dc.field(default_factory=dict)
+    loaded: dict = dc.field(default_factory=dict)  # per leg, and "all": samples loaded
+    traction: float = 0.0
+    n: int = 0  # samples
+
+    def add(self, contacts, yaw, v_hull) -> None:
+        """One sample's contacts, with the hull's heading and velocity."""
+        import numpy as np
+
+        self.n += 1
+        fwd, left = heading_frame(yaw)
         load: dict = {}
-        for kind, leg, _, f, v, slip in samples["contacts"][k]:
+        for kind, leg, _, f, v, slip in contacts:
             fn = max(float(f[2]), 0.0)
             load[leg] = load.get(leg, 0.0) + fn
-            kinds[kind] = kinds.get(kind, 0.0) + fn
+            self.kinds[kind] = self.kinds.get(kind, 0.0) + fn
             rel = v_hull - v  # the hull's velocity relative to the robot's contact point
             row = fn * np.array(
                 [1.0, v @ fwd, v @ left, rel @ fwd, rel @ left, 1.0 if slip > SLIDING else 0.0]
             )
-            acc[leg] = acc.get(leg, np.zeros(6)) + row
-            traction += float(f @ fwd)
+            self.acc[leg] = self.acc.get(leg, np.zeros(6)) + row
+            self.traction += float(f @ fwd)
         standing = [leg for leg, f in load.items() if f > LOADED]
         for leg in standing + (["all"] if standing else []):
-            loaded[leg] = loaded.get(leg, 0) + 1
-    total = sum(kinds.values())
+            self.loaded[leg] = self.loaded.get(leg, 0) + 1
 
-    def stats(a, leg):
+    def stats(self, a, leg: str, total: float) -> dict:
+        """The sums ``a`` of ``leg`` as ``contact_summary``'s weighted means."""
         w = a[0] if a[0] > 0 else math.nan
         return {
             "share": a[0] / total if total else math.nan,
@@ -904,16 +1011,8 @@ def contact_summary(samples: dict, window) -> dict:
             "noslip_u": a[3] / w,
             "noslip_v": a[4] / w,
             "sliding": a[5] / w,
-            "duty": loaded.get(leg, 0) / n if n else math.nan,
+            "duty": self.loaded.get(leg, 0) / self.n if self.n else math.nan,
         }
-
-    return {
-        "load": total / max(n, 1),
-        "traction": traction / max(n, 1),
-        "share": {k: v / total for k, v in sorted(kinds.items())},
-        "all": stats(sum(acc.values(), np.zeros(6)), "all"),
-        "legs": {leg: stats(a, leg) for leg, a in sorted(acc.items())},
-    }
 
 
 # name: (gait, friction, damping x, net weight kg, duration s, extra overrides, gait override)
@@ -1032,7 +1131,6 @@ def diagnose(out_dir: pathlib.Path, names=None) -> dict:
     and returns ``out_dir/diagnostics.json`` (existing entries are kept, so an interrupted
     call resumes)."""
     import json
-    import time
 
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "diagnostics.json"
@@ -1040,27 +1138,37 @@ def diagnose(out_dir: pathlib.Path, names=None) -> dict:
     for name in DIAGNOSTIC_NAMES:
         if (names and name not in names) or name in done:
             continue
-        scenario, explicit = diagnostic_scenario(name)
-        start = time.perf_counter()
-        samples = sample_run(scenario.validate(), gait=explicit)
-        window = metric_window(samples, scenario)
-        entry = {
-            "run": list(DIAGNOSTIC_RUNS.get(name, SHIPPED_RUNS.get(name))),
-            "wall_s": time.perf_counter() - start,
-        }
-        if window is not None:
-            cycles = whole_cycles(window, 1.0 / scenario.cpg.frequency_hz)
-            entry["motion"] = motion_summary(samples, window)
-            entry["force_window"] = list(cycles)
-            if len(samples["hydro"]):
-                entry["water_forward_N"] = hydro_summary(samples, cycles)
-            if len(samples["power"]):
-                entry["power"] = power_summary(samples, cycles)
-            entry["contacts"] = contact_summary(samples, cycles)
-        done[name] = entry
+        done[name] = entry = diagnostic_entry(name)
         path.write_text(json.dumps(done, indent=1) + "\n")
         print(f"{name}: {json.dumps(entry)}", flush=True)
     return done
+
+
+def diagnostic_entry(name: str) -> dict:
+    """Simulates the diagnostic run ``name``; its entry of diagnostics.json: the run's
+    definition, its wall time, and over its free-water window (if it has one) the motion,
+    and over the window's whole cycles the water's forward forces, the power and the
+    contacts."""
+    import time
+
+    scenario, explicit = diagnostic_scenario(name)
+    start = time.perf_counter()
+    samples = sample_run(scenario.validate(), gait=explicit)
+    window = metric_window(samples, scenario)
+    entry = {
+        "run": list(DIAGNOSTIC_RUNS.get(name, SHIPPED_RUNS.get(name))),
+        "wall_s": time.perf_counter() - start,
+    }
+    if window is not None:
+        cycles = whole_cycles(window, 1.0 / scenario.cpg.frequency_hz)
+        entry["motion"] = motion_summary(samples, window)
+        entry["force_window"] = list(cycles)
+        if len(samples["hydro"]):
+            entry["water_forward_N"] = hydro_summary(samples, cycles)
+        if len(samples["power"]):
+            entry["power"] = power_summary(samples, cycles)
+        entry["contacts"] = contact_summary(samples, cycles)
+    return entry
 
 
 # The columns of the sweep's results.csv the report reads.

@@ -442,6 +442,7 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
             "--out {tmp}: no potential_descent/log.npz to reuse",
         ),
         (["behaviours", "--out", "{tmp}/a_file"], "--out {tmp}/a_file: is a file, not a folder"),
+        (["behaviours", "--runs", "{tmp}/a_file"], "--runs {tmp}/a_file: is a file, not a folder"),
         (["behaviours", "--scheduler", "nowhere"], "--scheduler 'nowhere': expected an address"),
     ],
 )

@@ -420,7 +420,7 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
     "argv, needle",
     [
         (["wall-noise", "--seeds", "0"], "--seeds: 0 is outside the allowed range [1, 1000]"),
-        (["wall-noise", "--out", "{tmp}"], "--out {tmp}: is a folder, not a file"),
+        (["wall-noise", "--out", "{tmp}/a_file"], "--out {tmp}/a_file: is a file, not a folder"),
         (
             ["readings", "--duration", "1"],
             "--duration: 1.0 is outside the allowed range [2, 3600] s",

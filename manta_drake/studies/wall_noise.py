@@ -4,9 +4,11 @@ The robot stands on the pool floor facing the end wall at several distances; the
 frame is rendered once per distance (VTK, as in the simulation), then for each noise level
 and seed the station's noise (``noisy_depth``, 1 % pixel dropout), the controller's median
 filter, ``DepthImageToPointCloud`` and the detector run on it. Prints the mean and the
-range of s_hat per noise level and distance, and writes docs/figures/s_hat_vs_noise.png.
+range of s_hat per noise level and distance, and writes the figure
+``DIR/figures/s_hat_vs_noise.png`` into ``--out DIR`` (default: the checkout's docs/; the
+figure there was made with ``--seeds 6``).
 
-Usage: manta-drake study wall-noise [--seeds 8] [--out docs/figures/s_hat_vs_noise.png]
+Usage: manta-drake study wall-noise [--seeds 8] [--out docs]
 """
 
 import pathlib
@@ -21,7 +23,6 @@ from manta_drake.model.camera import camera_info
 from manta_drake.scenario import load_scenario
 from manta_drake.simulate import make_simulator
 from manta_drake.station.depth_image_noise import noisy_depth
-from manta_drake.studies import REPO as ROOT
 from manta_drake.studies.options import StudyParser, check_figure_file
 from manta_drake.wiring.diagram import build_diagram
 
@@ -78,39 +79,21 @@ def s_hat_samples(s, image, X_WC, noise_std: float, seeds) -> np.ndarray:
 MAX_SEEDS = 1000
 
 
-def main(argv=None, prog=None) -> int:
-    """The command line (``manta-drake study wall-noise``); returns the exit status."""
-    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--seeds",
-        type=int,
-        default=8,
-        help=f"noise seeds per noise level and distance (1 to {MAX_SEEDS})",
-    )
-    parser.add_argument(
-        "--out", default=str(ROOT / "docs" / "figures" / "s_hat_vs_noise.png"), help="the figure"
-    )
-    args = parser.parse_args(argv)
-    check_integer("--seeds", args.seeds, 1, MAX_SEEDS)  # before any frame is rendered
-    check_figure_file("--out", args.out)
-    # Imported here, with the file-only backend: importing the study (``--help``) needs no
-    # plotting, and a figure file needs no display.
-    import matplotlib
+FIGURE = "s_hat_vs_noise.png"
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    print(f"{'noise mm':>9} " + " ".join(f"{'d=' + str(d) + ' m':>16}" for d in DISTANCES))
+def measure(seeds: int) -> dict:
+    """{distance: [s_hat of every seed, per noise level of NOISE_MM]}."""
     table = {}
     for d in DISTANCES:
         s, image, X = wall_frame(d)
-        table[d] = [s_hat_samples(s, image, X, mm * 1e-3, range(args.seeds)) for mm in NOISE_MM]
-        mean = [v.mean() for v in table[d]]
-        ax.plot(NOISE_MM, mean, marker="o", label=f"wall {d} m ahead")
-        ax.fill_between(
-            NOISE_MM, [v.min() for v in table[d]], [v.max() for v in table[d]], alpha=0.12
-        )
+        table[d] = [s_hat_samples(s, image, X, mm * 1e-3, range(seeds)) for mm in NOISE_MM]
+    return table
+
+
+def print_table(table: dict) -> None:
+    """The mean and the range of s_hat per noise level (rows) and distance (columns)."""
+    print(f"{'noise mm':>9} " + " ".join(f"{'d=' + str(d) + ' m':>16}" for d in DISTANCES))
     for i, mm in enumerate(NOISE_MM):
         print(
             f"{mm:9.1f} "
@@ -119,14 +102,58 @@ def main(argv=None, prog=None) -> int:
                 for d in DISTANCES
             )
         )
+
+
+def plot(table: dict, seeds: int, path: pathlib.Path) -> None:
+    """s_hat's mean over the seeds against the noise, one line per distance, with its range."""
+    # Imported here, with the file-only backend: importing the study (``--help``) needs no
+    # plotting, and a figure file needs no display.
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for d, samples in table.items():
+        ax.plot(NOISE_MM, [v.mean() for v in samples], marker="o", label=f"wall {d} m ahead")
+        ax.fill_between(
+            NOISE_MM, [v.min() for v in samples], [v.max() for v in samples], alpha=0.12
+        )
     ax.set_xlabel("depth range noise (std) [mm]")
     ax.set_ylabel("s_hat (mean over seeds; band: min-max)")
     ax.set_ylim(-0.05, 1.05)
     ax.grid(alpha=0.3)
     ax.legend()
-    ax.set_title(f"Wall detection under range noise (1 % dropout, {args.seeds} seeds)")
+    ax.set_title(f"Wall detection under range noise (1 % dropout, {seeds} seeds)")
     fig.tight_layout()
-    pathlib.Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(args.out, dpi=110)
-    print(f"figure: {args.out}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study wall-noise``); returns the exit status."""
+    from manta_drake.studies.report import output_folder
+
+    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        default=8,
+        help=f"noise seeds per noise level and distance (1 to {MAX_SEEDS})",
+    )
+    parser.add_argument(
+        "--out",
+        type=pathlib.Path,
+        metavar="DIR",
+        help=f"where the figure goes: DIR/figures/{FIGURE} (default the checkout's docs/)",
+    )
+    args = parser.parse_args(argv)
+    check_integer("--seeds", args.seeds, 1, MAX_SEEDS)  # before any frame is rendered
+    path = output_folder(args.out, prog or "manta-drake study wall-noise") / "figures" / FIGURE
+    check_figure_file("--out", path)
+    table = measure(args.seeds)
+    print_table(table)
+    plot(table, args.seeds, path)
+    print(f"figure: {path}")
     return 0

@@ -287,7 +287,7 @@ def parser(prog=None):
     """The command line's options."""
     from manta_drake.studies.options import StudyParser
 
-    parser = StudyParser(prog=prog, description=__doc__.splitlines()[0])
+    parser = StudyParser(prog=prog, description=" ".join(__doc__.split("\n\n")[0].split()))
     parser.add_argument(
         "--out",
         type=pathlib.Path,

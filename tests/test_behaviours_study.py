@@ -184,6 +184,7 @@ def test_the_page_reads_four_behaviors_from_its_log(runs):
     assert lines[-2:] == ["![four_behaviors](figures/four_behaviors.png)", ""]
 
 
+@pytest.mark.slow
 def test_out_and_runs_choose_where_the_study_reads_and_writes(runs, tmp_path, monkeypatch):
     """With --reuse the study simulates nothing: it reads --runs, writes the page and the
     figures under --out, and its stamp names both folders."""

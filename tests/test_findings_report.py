@@ -269,6 +269,7 @@ def _small_table(fr, path):
     return path
 
 
+@pytest.mark.slow
 def test_out_writes_the_page_and_the_figure_there(fr, tmp_path, capsys):
     """Into an empty --out: a new page (title, stamp with the command, the block) and the
     figure under figures/; --page and --figure rename them; the checkout is not touched."""

@@ -67,9 +67,8 @@ def write_calibrated_coefficients(
     coeffs = scale_coefficients(prior, parameter_scales(config, result.x))
     entries, prior_entries = dict(coeffs.entries()), dict(prior.entries())
     for name, text in calibrated_sources(config, result).items():
-        entries[name].source = (
-            f"{text}; prior value {prior_entries[name].value}: {prior_entries[name].source}"
-        )
+        prior_entry = prior_entries[name]
+        entries[name].source = f"{text}; prior value {prior_entry.value}: {prior_entry.source}"
     header = (
         f"# Hydrodynamic coefficients calibrated by `manta-drake calibrate` "
         f"({config.name}) from {config.coefficients}.\n"

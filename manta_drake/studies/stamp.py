@@ -106,7 +106,7 @@ def replace_marked_block(
             raise SystemExit(
                 f"error: {path} exists but has no {begin} ... {end} block; add "
                 f"the two markers where {what} belong, or choose another "
-                "--out-md"
+                "--out folder"
             )
         raise SystemExit(
             f"error: {path} has no {begin} ... {end} block; add the two markers where {what} belong"

@@ -440,6 +440,36 @@ def check_in_range(field, value, lo, hi, text, open_low=False, open_high=False) 
         raise ScenarioError(f"{field}: {short_repr(value)} is outside the allowed range {text}")
 
 
+@dc.dataclass(frozen=True)
+class Range:
+    """An allowed range of a number, declared once in the module that owns the concept (a
+    System's module) and checked by everything that takes such a number: the System's
+    constructor (naming its argument) and the scenario (naming its dotted field).
+
+    ``Range(0.0, 10.0, "m", open_low=True).text()`` is ``(0, 10] m``; ``check`` raises
+    ScenarioError (one line: the field, the value, the range and an optional note).
+    """
+
+    lo: float
+    hi: float
+    unit: str = ""
+    open_low: bool = False
+    open_high: bool = False
+
+    def text(self, note: str = "") -> str:
+        """The range as the messages state it, e.g. ``(0, 5] Hz`` (``note`` in parentheses
+        after it)."""
+        left, right = "(" if self.open_low else "[", ")" if self.open_high else "]"
+        text = f"{left}{self.lo:g}, {self.hi:g}{right}" + (f" {self.unit}" if self.unit else "")
+        return f"{text} ({note})" if note else text
+
+    def check(self, field: str, value, note: str = "") -> None:
+        """ScenarioError naming ``field`` unless ``value`` is a finite number in the range."""
+        check_in_range(
+            field, value, self.lo, self.hi, self.text(note), self.open_low, self.open_high
+        )
+
+
 def check_integer(field: str, value, lo: int, hi: int) -> None:
     """An int (or a numpy integer; not a bool, not 1.7) in [lo, hi]."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):

@@ -16,7 +16,7 @@ LAYERS = [
     ("model", ["manta_drake.model", "manta_drake.models", "manta_drake.lcmtypes"], True),
     ("halves", ["manta_drake.station", "manta_drake.control"], True),
     ("modalities", ["manta_drake.modalities"], False),
-    ("scenario", ["manta_drake.scenario"], False),
+    ("scenario", ["manta_drake.scenario"], True),
     # ROS 2 messages, topic map and bags: below the run that writes a bag and the seam
     # that will publish the same messages.
     ("ros2", ["manta_drake.ros2"], True),

@@ -33,7 +33,7 @@ Defaults and why:
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from manta_drake.config_io import check_in_range
+from manta_drake.config_io import Range
 from manta_drake.control import cpg_kernels as K
 from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ, phase_lock_targets
 from manta_drake.model.robot_params import (
@@ -45,6 +45,13 @@ from manta_drake.model.robot_params import (
 )
 
 NUM_OSC = NUM_JOINTS  # one oscillator per joint
+
+# The allowed ranges of the CPG's parameters, the constructor's and the scenario's cpg.*
+# fields alike: beyond 5 Hz a 1 ms step no longer resolves the oscillation, beyond 200 1/s
+# the RK2 step is unstable.
+FREQUENCY_HZ = Range(0.0, 5.0, "Hz", open_low=True)
+COUPLING_WEIGHT = Range(0.0, 100.0, "rad/s")  # chain_weight and fcs_weight
+GAIN = Range(0.0, 200.0, "1/s", open_low=True)  # a and b
 NUM_PARAMS = NUM_CPG_PARAMS
 NUM_STATES = 5 * NUM_OSC  # phi, r, dr, chi, dchi
 
@@ -193,17 +200,11 @@ class CpgOscillators(LeafSystem):
             raise ValueError(f"CpgOscillators.compiled: {compiled!r} is not true or false")
         if frequency_hz is None:
             frequency_hz = DEFAULT_FREQUENCY_HZ
-        # The ranges Scenario.validate gives the cpg.* fields: beyond 5 Hz a 1 ms step no
-        # longer resolves the oscillation, beyond 200 1/s the RK2 step is unstable.
-        check_in_range(
-            "CpgOscillators.frequency_hz", frequency_hz, 0.0, 5.0, "(0, 5] Hz", open_low=True
-        )
+        FREQUENCY_HZ.check("CpgOscillators.frequency_hz", frequency_hz)
         for name, value in (("chain_weight", chain_weight), ("fcs_weight", fcs_weight)):
-            check_in_range(f"CpgOscillators.{name}", value, 0.0, 100.0, "[0, 100] rad/s")
+            COUPLING_WEIGHT.check(f"CpgOscillators.{name}", value)
         for name, value in (("a", a), ("b", b)):
-            check_in_range(
-                f"CpgOscillators.{name}", value, 0.0, 200.0, "(0, 200] 1/s", open_low=True
-            )
+            GAIN.check(f"CpgOscillators.{name}", value)
         self.frequency_hz = float(frequency_hz)
         self.a, self.b = float(a), float(b)
         self.weights = pair_weights(chain_weight, fcs_weight)

@@ -30,7 +30,25 @@ swimming and made the return to swimming arrive or not by chance.
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.config_io import check_in_range
+from manta_drake.config_io import Range, check_in_range
+
+# The distance to the floor D [m] (the scenario's depth_estimator.floor_distance): D divides
+# h_hat, so it is positive; beyond 10 m it is no pool.
+FLOOR_DISTANCE = Range(0.0, 10.0, "m", open_low=True)
+
+
+def check_surface_depth(field: str, surface_depth, floor_distance: float) -> None:
+    """The surface float's depth h_s in [0, floor_distance) m (the layers divide
+    [h_s, D], which must not be empty); ScenarioError naming ``field``. The scenario's
+    depth_estimator.surface_depth and the estimator's argument are both checked here."""
+    check_in_range(
+        field,
+        surface_depth,
+        0.0,
+        floor_distance,
+        f"[0, floor_distance = {floor_distance}) m",
+        open_high=True,
+    )
 
 
 def memberships(h, D: float) -> np.ndarray:
@@ -89,23 +107,13 @@ class FuzzyDepthEstimator(LeafSystem):
         surface_depth: float = 0.0,
     ):
         super().__init__()
-        # The ranges Scenario.validate gives these fields (depth_estimator.*, pressure_sensor).
-        check_in_range(
+        # The same ranges as the scenario's depth_estimator.* fields (declared above).
+        FLOOR_DISTANCE.check(
             "FuzzyDepthEstimator.floor_distance",
             floor_distance,
-            0.0,
-            10.0,
-            "(0, 10] m (the distance to the floor D divides h_hat)",
-            open_low=True,
+            "the distance to the floor D divides h_hat",
         )
-        check_in_range(
-            "FuzzyDepthEstimator.surface_depth",
-            surface_depth,
-            0.0,
-            floor_distance,
-            f"[0, floor_distance = {floor_distance}) m",
-            open_high=True,
-        )
+        check_surface_depth("FuzzyDepthEstimator.surface_depth", surface_depth, floor_distance)
         check_in_range("FuzzyDepthEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
         check_in_range(
             "FuzzyDepthEstimator.initial_depth",

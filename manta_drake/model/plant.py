@@ -31,6 +31,7 @@ from pydrake.multibody.tree import (
 )
 from pydrake.systems.framework import DiagramBuilder
 
+from manta_drake.config_io import Range
 from manta_drake.model import package_map
 from manta_drake.model.added_mass import (
     fin_plates,
@@ -46,6 +47,9 @@ from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINT_NAMES, JOINTS_PE
 ROBOT_URL = "package://manta_drake/manta.sdf"
 FIN_ADDED_MASS = ("hinge", "bodies")
 FIN_ADDED_MASS_INSTANCE = "manta_fin_added_mass"
+# The foot-floor Coulomb friction (static = dynamic): set_contact_friction's mu and the
+# scenario's contact.friction. Above 2 no wet pair of materials grips.
+FRICTION = Range(0.0, 2.0, open_low=True)
 POOL_URL = "package://manta_drake/pool.sdf"
 
 
@@ -285,8 +289,7 @@ def set_contact_friction(handles: PlantHandles, mu: float) -> None:
     of the robot and the pool, so the foot-floor pair has exactly ``mu`` (Drake combines
     two materials' coefficients as 2 mu1 mu2 / (mu1 + mu2)). Read back from the model."""
 
-    if not (np.isfinite(mu) and 0.0 < mu <= 2.0):
-        raise ValueError(f"contact friction: {mu!r} is outside the allowed range (0, 2]")
+    FRICTION.check("set_contact_friction.mu", mu)
     plant, scene_graph = handles.plant, handles.scene_graph
     inspector = scene_graph.model_inspector()
     instances = [handles.robot] + ([handles.pool] if handles.pool is not None else [])

@@ -7,7 +7,11 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RigidBody
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.config_io import check_in_range, short_repr
+from manta_drake.config_io import Range, check_in_range, short_repr
+
+# The probability that a reading is lost (NaN): the constructor's dropout_rate and the
+# scenario's pressure_sensor.dropout_rate.
+DROPOUT_RATE = Range(0.0, 1.0)
 
 
 def pressure_depth_sample(
@@ -90,7 +94,7 @@ class PressureSensor(LeafSystem):
         self.p_BS = check_point("PressureSensor.p_BS", p_BS, "the sensor point in the body frame")
         check_in_range("PressureSensor.period", period, 0.0, math.inf, "(0, inf) s", open_low=True)
         check_in_range("PressureSensor.noise_std", noise_std, 0.0, math.inf, "[0, inf) m")
-        check_in_range("PressureSensor.dropout_rate", dropout_rate, 0.0, 1.0, "[0, 1]")
+        DROPOUT_RATE.check("PressureSensor.dropout_rate", dropout_rate)
         self.noise_std, self.dropout_rate = float(noise_std), float(dropout_rate)
         self._poses = self.DeclareAbstractInputPort(
             "body_poses", plant.get_body_poses_output_port().Allocate()

@@ -634,16 +634,22 @@ def test_silent_setting_through_set_is_refused_the_same(
     assert not (tmp_path / "out").exists()
 
 
-def test_a_written_tree_on_s_hat_needs_the_camera_the_default_tree_does_not():
-    """Eq. (12)'s default tree reads s_hat = 0 without a camera (the paper's two-behaviour
-    run); the same tree written out in the scenario is refused without the camera, in the
-    wording of the other sensors' refusals, and accepted with it."""
+def test_a_written_tree_on_s_hat_needs_the_camera_eq12s_trees_do_not():
+    """Eq. (12)'s trees (``default_tree(blend, z_t)``: the default, or written out, or read
+    from the deprecated blend and z_t) read s_hat = 0 without a camera (the paper's
+    two-behaviour run); any other tree that reads s_hat is refused without the camera, in
+    the wording of the other sensors' refusals, and accepted with it."""
     from manta_drake.config_io import ScenarioError
     from manta_drake.control.behaviour_tree import default_tree
     from manta_drake.scenario import load_scenario
 
     assert "s_hat" in load_scenario("two_behaviors").behaviour_tree().modalities
+    for blend in ("potential", "switch"):
+        written = {name: vars(node) for name, node in default_tree(blend, 0.8).items()}
+        s = load_scenario("two_behaviors", data={"transition": {"tree": written}})
+        assert not s.camera.enabled and "s_hat" in s.behaviour_tree().modalities
     tree = {name: vars(node) for name, node in default_tree().items()}
+    tree["gait"] = {**tree["gait"], "weight": "linear"}  # no longer Eq. (12)'s
     with pytest.raises(
         ScenarioError,
         match=r"two_behaviors\.yaml: transition\.tree: reads "
@@ -1111,3 +1117,98 @@ def test_limits_values_yaml_cannot_build_name_the_file(tmp_path, capsys, text, n
     path.write_text(text)
     message = _cli_error(capsys, "run", str(path), "--out", str(tmp_path / "o"))
     assert f"{path}: {needle}" in message and len(message) < 250 + len(str(path))
+
+
+# --- ranges declared once (config_io.Range in the System's module) ---------------------------
+
+
+def _system_with(name, value):
+    """The System (or function) whose argument a shared range bounds, given ``value``."""
+    from manta_drake.control.cpg import CpgOscillators
+    from manta_drake.control.depth import FuzzyDepthEstimator
+    from manta_drake.model.plant import add_plant, set_contact_friction
+    from manta_drake.station.pressure import PressureSensor
+
+    if name in ("frequency_hz", "chain_weight", "fcs_weight", "a", "b"):
+        return CpgOscillators(**{name: value})
+    if name == "floor_distance":
+        return FuzzyDepthEstimator(value, period=0.02)
+    if name == "surface_depth":
+        return FuzzyDepthEstimator(0.2, period=0.02, surface_depth=value)
+    if name == "dropout_rate":
+        from pydrake.systems.framework import DiagramBuilder
+
+        h = add_plant(DiagramBuilder())
+        return PressureSensor(h.plant, h.body, [0, 0, 0], 0.02, 0.0, value)
+    if name == "mu":
+        return set_contact_friction(None, value)  # checked before the plant is touched
+    raise AssertionError(name)
+
+
+# (scenario field, System argument as its messages name it, the range, the value just
+# outside it): each range is declared once, in the System's module, and both sides check it.
+SHARED_RANGES = [
+    ("cpg.frequency_hz", "CpgOscillators.frequency_hz", "(0, 5] Hz", 5.000001),
+    ("cpg.frequency_hz", "CpgOscillators.frequency_hz", "(0, 5] Hz", 0.0),
+    ("cpg.chain_weight", "CpgOscillators.chain_weight", "[0, 100] rad/s", 100.000001),
+    ("cpg.fcs_weight", "CpgOscillators.fcs_weight", "[0, 100] rad/s", -1e-09),
+    ("cpg.a", "CpgOscillators.a", "(0, 200] 1/s", 0.0),
+    ("cpg.b", "CpgOscillators.b", "(0, 200] 1/s", 200.000001),
+    (
+        "depth_estimator.floor_distance",
+        "FuzzyDepthEstimator.floor_distance",
+        "(0, 10] m",
+        10.000001,
+    ),
+    (
+        "depth_estimator.surface_depth",
+        "FuzzyDepthEstimator.surface_depth",
+        "[0, floor_distance = 0.2) m",
+        0.2,
+    ),
+    ("pressure_sensor.dropout_rate", "PressureSensor.dropout_rate", "[0, 1]", 1.000001),
+    ("contact.friction", "set_contact_friction.mu", "(0, 2]", 2.000001),
+]
+
+
+@pytest.mark.parametrize("field, argument, allowed, value", SHARED_RANGES)
+def test_a_range_declared_once_refuses_the_same_value_on_both_sides(
+    field, argument, allowed, value
+):
+    """A value just outside a shared range is refused by the scenario (naming the dotted
+    field) and by the System's constructor (naming its argument), with the same range."""
+    from manta_drake.config_io import ScenarioError
+    from manta_drake.scenario import load_scenario
+
+    overrides = {field: value}
+    if field == "depth_estimator.surface_depth":
+        overrides["depth_estimator.floor_distance"] = 0.2
+    base = load_scenario("two_behaviors")
+    with pytest.raises(ScenarioError) as scenario_error:
+        load_scenario(defaults=base, overrides=overrides)
+    assert str(scenario_error.value) == f"{field}: {value!r} is outside the allowed range {allowed}"
+    with pytest.raises(ValueError) as system_error:
+        _system_with(argument.split(".")[-1], value)
+    message = str(system_error.value)
+    assert message.startswith(f"{argument}: {value!r} is outside the allowed range {allowed}")
+    # Just inside, both accept it.
+    inside = {5.000001: 5.0, 0.0: 1e-06, 100.000001: 100.0, -1e-09: 0.0, 200.000001: 200.0}
+    inside |= {10.000001: 10.0, 0.2: 0.19, 1.000001: 1.0, 2.000001: 2.0}
+    overrides[field] = inside[value]
+    section, name = field.split(".")
+    loaded = load_scenario(defaults=base, overrides=overrides)
+    assert getattr(getattr(loaded, section), name) == inside[value]
+    if argument != "set_contact_friction.mu":  # which then needs a plant
+        _system_with(argument.split(".")[-1], inside[value])
+
+
+def test_range_text_states_open_and_closed_ends_and_the_note():
+    from manta_drake.config_io import Range, ScenarioError
+
+    assert Range(0.0, 10.0, "m", open_low=True).text() == "(0, 10] m"
+    assert Range(0.0, 1.0).text("a probability") == "[0, 1] (a probability)"
+    assert Range(-1.0, 0.5, "s", open_high=True).text() == "[-1, 0.5) s"
+    with pytest.raises(
+        ScenarioError, match=r"^x\.y: 0\.5 is outside the allowed range \[-1, 0\.5\) s$"
+    ):
+        Range(-1.0, 0.5, "s", open_high=True).check("x.y", 0.5)

@@ -73,7 +73,8 @@ def test_rows_in_process(fc, tmp_path):
     from manta_drake.scenario import load_scenario
 
     s = load_scenario(tmp_path / "runs" / "run_0000" / "scenario.yaml")
-    assert s.water.current == [0.1, -0.05, 0.0] and s.duration == 0.3
+    assert s.current_schedule().velocities.tolist() == [[0.1, -0.05, 0.0]]
+    assert s.duration == 0.3
     summary = fc.summarise(rows)
     assert summary["outcomes"]["ok"] == 1 and summary["outcomes"]["refused"] == 3
     assert summary["check_failures"] == {}

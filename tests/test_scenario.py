@@ -274,3 +274,75 @@ def test_a_zero_current_beside_a_schedule_is_no_constant():
         defaults=four, overrides={"water.current": [0.0, 0.05, 0.0], "water.current_schedule": []}
     )
     assert cleared.current_schedule().is_constant
+
+
+def test_a_constant_current_is_the_schedules_one_key_case(tmp_path):
+    """The deprecated water.current: V reads as the one-key schedule [{time: 0, velocity:
+    V}] (zero: no key, still water), in a file and through --set; the written scenario has
+    the schedule only, and reads back the same."""
+    from manta_drake.scenario import scenario_yaml
+    from manta_drake.station.current import CurrentPoint
+
+    old = load_scenario(_write(tmp_path, "water: {current: [0.05, 0, -0.01]}\n"))
+    assert old.water.current_schedule == [CurrentPoint(0.0, [0.05, 0.0, -0.01])]
+    new = load_scenario(
+        _write(tmp_path, "water: {current_schedule: [{time: 0, velocity: [0.05, 0, -0.01]}]}\n")
+    )
+    assert scenario_yaml(old) == scenario_yaml(new)
+    schedule = old.current_schedule()
+    assert schedule.is_constant and schedule.at(7.0).tolist() == [0.05, 0.0, -0.01]
+    text = scenario_yaml(old)
+    assert "\n  current:" not in text
+    assert "\n  current_schedule:\n  - time: 0.0\n    velocity: [0.05, 0.0, -0.01]\n" in text
+    assert scenario_yaml(load_scenario(data=text)) == text
+    still = load_scenario(defaults=old, overrides={"water.current": [0, 0, 0]})
+    assert still.water.current_schedule == [] and still.current_schedule().at(1.0).tolist() == [
+        0.0,
+        0.0,
+        0.0,
+    ]
+    # A constant replaces a constant (the base's one key).
+    faster = load_scenario(defaults=old, overrides={"water.current": [0.1, 0, 0]})
+    assert faster.water.current_schedule == [CurrentPoint(0.0, [0.1, 0.0, 0.0])]
+    with pytest.raises(ScenarioError, match=r"^water\.current: expected 3 finite numbers"):
+        load_scenario(overrides={"water.current": [0.1, 0]})
+    with pytest.raises(ScenarioError, match=r"^scenario\.water\.current: expected a list"):
+        load_scenario(overrides={"water.current": "fast"})
+
+
+def test_blend_and_z_t_read_as_eq12s_tree(tmp_path):
+    """The deprecated transition.blend and transition.z_t read as the tree
+    default_tree(blend, z_t) (potential and 1: the default tree, no tree written); a later
+    layer naming one keeps the other; beside another tree they are refused."""
+    from manta_drake.control.behaviour_tree import default_tree, default_tree_parameters
+    from manta_drake.scenario import scenario_yaml
+
+    linear = load_scenario(_write(tmp_path, "transition: {blend: normalised, z_t: 0.8}\n"))
+    assert linear.transition.tree == default_tree("normalised", 0.8)
+    assert default_tree_parameters(linear.behaviour_nodes()) == ("normalised", 0.8)
+    moved = load_scenario(defaults=linear, overrides={"transition.z_t": 0.6})
+    assert moved.transition.tree == default_tree("normalised", 0.6)
+    switch = load_scenario(defaults=moved, overrides={"transition.blend": "switch"})
+    assert switch.transition.tree["root"].threshold == 0.3  # z_t / 2, z_t kept
+    back = load_scenario(defaults=moved, data={"transition": {"blend": "potential", "z_t": 1}})
+    unnamed = scenario_yaml(load_scenario(overrides={"name": "s"}))
+    assert back.transition.tree == {} and scenario_yaml(back) == unnamed
+    eq12 = load_scenario(_write(tmp_path, "transition: {blend: potential, z_t: 1.0}\n"))
+    assert scenario_yaml(eq12) == unnamed
+    text = scenario_yaml(linear)
+    assert "blend" not in text and "z_t" not in text
+    assert load_scenario(data=text).transition.tree == linear.transition.tree
+    four = load_scenario("four_behaviors")
+    with pytest.raises(
+        ScenarioError,
+        match=r"^transition\.blend: 'linear' is set beside transition\.tree; a tree gives "
+        r"each node's weight and full_at itself",
+    ):
+        load_scenario(defaults=four, overrides={"transition.blend": "linear"})
+    # Saying Eq. (12) beside a tree changes nothing.
+    same = load_scenario(defaults=four, overrides={"transition.z_t": 1.0})
+    assert same.transition.tree == four.transition.tree
+    with pytest.raises(
+        ScenarioError, match=r"^transition\.blend: 'cubic' is not one of potential, normalised"
+    ):
+        load_scenario(overrides={"transition.blend": "cubic"})

@@ -84,8 +84,10 @@ def test_the_runs_and_the_changed_field(executed):
     for m in (swim, still, against):
         assert m["status"] == "ok" and m["sim_time_s"] == pytest.approx(6.0)
         _assert_whole_cycles(m["steady_window_s"], 0.5, at_least=2)
-    assert _scenario(out / "swim_no_lag")["water"]["current"] == [0.0, 0.0, 0.0]
-    assert _scenario(out / "swim_current")["water"]["current"] == [-0.03, 0.0, 0.0]
+    assert _scenario(out / "swim_no_lag")["water"]["current_schedule"] == []
+    assert _scenario(out / "swim_current")["water"]["current_schedule"] == [
+        {"time": 0.0, "velocity": [-0.03, 0.0, 0.0]}
+    ]
     # The straight swim against a 0.03 m/s current: slowed over the ground, but by less than
     # the current (started at rest on the ground, it has not picked the current up in 6 s).
     slowed = still["mean_velocity_body"][0] - against["mean_velocity_body"][0]

@@ -148,6 +148,25 @@ def default_tree(
     return {ROOT: root, "gait": gait}
 
 
+def default_tree_parameters(nodes: Mapping[str, BlendNode]) -> tuple[str, float] | None:
+    """``(blend, z_t)`` if ``nodes`` is ``default_tree(blend, z_t)`` (Eq. 12's family:
+    swim, trot and turning; ``linear`` gives z_t 1, which it ignores), else None."""
+    root = nodes.get(ROOT) if isinstance(nodes, Mapping) else None
+    if not isinstance(root, BlendNode) or not isinstance(root.weight, str):
+        return None
+    if root.weight == "switch":
+        z_t = 2.0 * root.threshold if isinstance(root.threshold, (int, float)) else None
+    else:
+        z_t = 1.0 if root.weight == "linear" else root.full_at
+    if root.weight not in ("potential", "normalised", "linear", "switch") or not (
+        isinstance(z_t, (int, float)) and 0.0 < z_t <= 1.0
+    ):
+        return None
+    if dict(nodes) != default_tree(root.weight, z_t):
+        return None
+    return root.weight, float(z_t)
+
+
 @dataclasses.dataclass(frozen=True)
 class _Node:
     name: str

@@ -24,6 +24,7 @@ from manta_drake.config_io import (
 from manta_drake.model import MODELS_DIR, PACKAGE_URL
 from manta_drake.model.coefficients import HydroCoefficients
 from manta_drake.scenario.checks import Scenario
+from manta_drake.scenario.legacy import LEGACY_KEYS, translate
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
 
@@ -70,6 +71,9 @@ def _walk_key(dotted: str):
     """
     if not dotted or not isinstance(dotted, str):
         raise ScenarioError(f"{dotted!r}: not a dotted scenario key")
+    if dotted in LEGACY_KEYS:  # read as the key that replaced it (scenario.legacy)
+        legacy_path, legacy_type = LEGACY_KEYS[dotted]
+        return list(legacy_path), legacy_type, None
     parts = dotted.split(".")
     schema: type[typing.Any] = Scenario
     path: list[str] = []
@@ -185,20 +189,25 @@ def _without_removed_simulator_fields(data: dict) -> dict:
 
 def _layer(base: Scenario, data, where: str) -> Scenario:
     """``data`` (a mapping) layered onto ``base`` with ``yaml_load_typed`` (fields it names
-    replace the base's, maps merge, lists are replaced); the keys and types are checked
-    first so that an error names the full dotted field."""
+    replace the base's, maps merge, lists are replaced); the deprecated keys are read as
+    what replaced them (``scenario.legacy``), and the keys and types are checked first so
+    that an error names the full dotted field."""
     if not data:
         return copy.deepcopy(base)
     data = _without_removed_simulator_fields(data)
+    data, tree = translate(data, base)
     check_keys(data, Scenario)
     try:
         text = yaml.safe_dump(data, sort_keys=False)
     except yaml.YAMLError as e:
         raise ScenarioError(f"{where}: a value cannot be written as YAML ({e})") from None
     try:
-        return yaml_load_typed(schema=Scenario, data=text, defaults=base)
+        layered = yaml_load_typed(schema=Scenario, data=text, defaults=base)
     except (RuntimeError, ValueError, TypeError) as e:
         raise ScenarioError(" ".join(str(e).split())) from None
+    if tree is not None:  # the tree blend and z_t shape replaces the base's whole
+        layered.transition.tree = tree
+    return layered
 
 
 def _anchor_gait_files(scenario: Scenario, data: dict, base_dir: pathlib.Path) -> None:

@@ -26,7 +26,6 @@ from manta_drake.config_io import (
     check_one_of,
     check_text,
     check_vector,
-    short_repr,
 )
 from manta_drake.control.behaviour_tree import BlendNode
 from manta_drake.control.cpg import COUPLING_WEIGHT, FREQUENCY_HZ, GAIN
@@ -36,7 +35,7 @@ from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients, scale_coefficients
 from manta_drake.model.plant import FRICTION
 from manta_drake.scenario.devices import section_error
-from manta_drake.station.current import CurrentPoint, CurrentSchedule
+from manta_drake.station.current import CurrentPoint, CurrentSchedule, check_current_schedule
 from manta_drake.station.foil import FIN_MODELS
 
 CONTROLLER_MODES = ("hold", "gait", "transition")
@@ -154,24 +153,24 @@ class TransitionConfig:
     g: float = 0.125
     T: float = 0.5
     alpha: float = 0.95
-    z_t: float = 1.0
-    blend: str = "potential"  # Eq. (12); "linear" is Eq. (11); "switch" an abrupt baseline
     follow: str = "descent"  # Eqs. (14)-(15); "direct": psi = psi_d at once (baselines)
     s_hat_time_constant: float = 1.0  # s, low-pass of the camera's step signal (0: none)
     # A behaviour counts as reached when every parameter is within this of it [rad].
     arrival_tolerance: float = 0.05
     # The behaviours as a tree (manta_drake.control.behaviour_tree): node name -> BlendNode,
     # the top node named root, each blending its children (nodes or gait names) by one
-    # modality. Empty: Eq. (12)'s tree from blend and z_t (Scenario.behaviour_nodes()).
+    # modality. Empty: the default tree, Eq. (12) exactly (behaviour_tree.default_tree():
+    # swim, trot, turning; Scenario.behaviour_nodes()). Eq. (11), Eq. (12) normalised, a
+    # switch or another z_t are default_tree(blend, z_t), as which the deprecated keys
+    # transition.blend and transition.z_t are read (manta_drake.scenario.legacy).
     tree: dict[str, BlendNode] = dc.field(default_factory=dict)
 
     def validate(self, where: str = "transition") -> None:
         """The descent's parameters (``control.transition.check_parameters``, which
         ``PotentialTransition`` checks too) and the tree's shape; the tree's nodes against
         the gait library and ``period`` against ``time_step`` are the Scenario's checks."""
-        for name in ("period", "g", "T", "alpha", "z_t", "s_hat_time_constant"):
+        for name in ("period", "g", "T", "alpha", "s_hat_time_constant"):
             check_number(f"{where}.{name}", getattr(self, name))
-        check_text(f"{where}.blend", self.blend)
         check_text(f"{where}.follow", self.follow)
         try:
             check_parameters(
@@ -179,8 +178,8 @@ class TransitionConfig:
                 self.g,
                 self.T,
                 self.alpha,
-                self.z_t,
-                self.blend,
+                1.0,  # z_t and blend: each tree node's own (checked with the tree)
+                "potential",
                 self.s_hat_time_constant,
                 self.follow,
             )
@@ -198,13 +197,6 @@ class TransitionConfig:
             raise ScenarioError(
                 f"{where}.tree: expected a mapping of node names to nodes, got {self.tree!r}"
             )
-        if self.tree and (self.blend != "potential" or self.z_t != 1.0):
-            field = "blend" if self.blend != "potential" else "z_t"
-            raise ScenarioError(
-                f"{where}.{field}: {getattr(self, field)!r} is set beside "
-                f"{where}.tree; a tree gives each node's weight and full_at "
-                "itself (blend and z_t shape the default tree only)"
-            )
 
 
 @dc.dataclass
@@ -214,10 +206,10 @@ class WaterConfig:
 
     enabled: bool = True
     coefficients: str = "package://manta_drake/hydrodynamics.yaml"
-    current: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])  # m/s, world
-    # Time-keyed currents, e.g. [{time: 10, velocity: [0, 0.06, 0]}, ...]: linear between
-    # keys, the first key's before it and the last's after it; empty: ``current`` throughout.
-    # Exclusive with a non-zero ``current`` (a schedule replaces the constant).
+    # The water's current [m/s, world] over time, as keys, e.g. [{time: 10, velocity: [0,
+    # 0.06, 0]}, ...]: linear between keys, the first key's before it and the last's after
+    # it; one key: a constant current; none: still water. The deprecated water.current: V
+    # is read as the one key {time: 0, velocity: V} (manta_drake.scenario.legacy).
     current_schedule: list[CurrentPoint] = dc.field(default_factory=list)
     # 0: forces from the current state at every plant step (exact, no delay). > 0: computed
     # every update_period seconds and held (faster; one period of delay).
@@ -233,28 +225,22 @@ class WaterConfig:
     fin_model: str = "foil"
 
     def schedule(self) -> CurrentSchedule:
-        """The water's current over time (``current``, ``current_schedule``)."""
-        return CurrentSchedule(self.current, self.current_schedule)
+        """The water's current over time (``current_schedule``; no key: still water)."""
+        return CurrentSchedule((0.0, 0.0, 0.0), self.current_schedule)
 
     def validate(self, where: str = "water") -> None:
         """The switch, the current (``station.current``'s checks, which the Systems that read
         the current use too), the update period, the fin model, and the coefficient file
         with its scales (read even with the water off when there are scales)."""
         check_boolean(f"{where}.enabled", self.enabled)
-        # A pool's current; beyond ~1 m/s the robot's 0.1 m/s swim means nothing and the
-        # quadratic damping's stiffness needs a smaller step.
-        check_vector(f"{where}.current", self.current, 3, bound=1.0, unit=" m/s")
+        # A pool's current: station.current's checks (MAX_SPEED: beyond ~1 m/s the robot's
+        # 0.1 m/s swim means nothing and the quadratic damping needs a smaller step).
         try:
-            self.schedule()
+            check_current_schedule(
+                self.current_schedule, (0.0, 0.0, 0.0), f"{where}.current_schedule"
+            )
         except ValueError as e:
             raise ScenarioError(str(e)) from None
-        if self.current_schedule and any(v != 0.0 for v in self.current):
-            raise ScenarioError(
-                f"{where}.current: {short_repr(self.current)} is set beside "
-                f"{where}.current_schedule; they are exclusive (the schedule "
-                "replaces the constant: make it a key of the schedule, or clear "
-                f"the schedule with {where}.current_schedule: [])"
-            )
         check_in_range(f"{where}.update_period", self.update_period, 0.0, 0.02, "[0, 0.02] s")
         check_one_of(f"{where}.fin_model", self.fin_model, FIN_MODELS)
         check_text(f"{where}.coefficients", self.coefficients)

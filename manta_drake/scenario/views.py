@@ -6,7 +6,7 @@ energy model, the estimates the controller reads), as methods of ``ScenarioViews
 import numpy as np
 
 from manta_drake.config_io import ScenarioError
-from manta_drake.control.behaviour_tree import compile_tree, default_tree
+from manta_drake.control.behaviour_tree import compile_tree, default_tree, default_tree_parameters
 from manta_drake.control.gait_files import gait_library
 from manta_drake.modalities import ESTIMATES, MODALITY_BY_ESTIMATE, NAMES
 from manta_drake.model import resolve_path
@@ -72,7 +72,7 @@ class ScenarioViews(ScenarioFields):
         )
 
     def current_schedule(self) -> CurrentSchedule:
-        """The water's current over time (``water.current``, ``water.current_schedule``)."""
+        """The water's current over time (``water.current_schedule``)."""
         return self.water.schedule()
 
     def gaits(self):
@@ -98,10 +98,9 @@ class ScenarioViews(ScenarioFields):
         return self.gait(self.initial_stance).X.ravel().copy()
 
     def behaviour_nodes(self) -> dict:
-        """The behaviour tree's nodes: ``transition.tree``, or if empty Eq. (12)'s tree
-        for ``transition.blend`` and ``transition.z_t`` (swim, trot, turning)."""
-        tr = self.transition
-        return dict(tr.tree) if tr.tree else default_tree(tr.blend, tr.z_t)
+        """The behaviour tree's nodes: ``transition.tree``, or if empty the default tree,
+        Eq. (12) exactly (swim, trot, turning)."""
+        return dict(self.transition.tree) if self.transition.tree else default_tree()
 
     def behaviour_tree(self):
         """The compiled behaviour tree (``control.behaviour_tree.BehaviourTree``) over this
@@ -136,16 +135,17 @@ class ScenarioViews(ScenarioFields):
 
     def estimates_read(self) -> dict[str, str]:
         """Every estimate the controller reads -> the field that reads it (the last of
-        several): the behaviour tree (transition mode; the default tree's s_hat only with
-        the camera, which it reads as 0 without), the balloon rule, the heading hold
-        (``posture_hat``) and its changes."""
+        several): the behaviour tree (transition mode; the s_hat of Eq. (12)'s trees,
+        ``default_tree(blend, z_t)``, only with the camera: they read it as 0 without), the
+        balloon rule, the heading hold (``posture_hat``) and its changes."""
         used = {}
         if self.controller.mode == "transition":
+            eq12 = default_tree_parameters(self.behaviour_nodes()) is not None
             used.update(
                 {
                     m: "transition.tree"
                     for m in self.behaviour_tree().modalities
-                    if self.transition.tree or m != "s_hat" or self.camera.enabled
+                    if not eq12 or m != "s_hat" or self.camera.enabled
                 }
             )
         rule = self.balloon.rule.estimate(NAMES)

@@ -266,10 +266,11 @@ def transition_event(t, psi_d, source, target, tol: float, after: float = -np.in
 
 
 def make_scenario(blend: str, follow: str, duration: float | None):
+    from manta_drake.control.behaviour_tree import default_tree
     from manta_drake.scenario import load_scenario
 
     scenario = load_scenario(SCENARIO)
-    scenario.transition.blend = blend
+    scenario.transition.tree = default_tree(blend)
     scenario.transition.follow = follow
     scenario.visualization.meshcat = False
     if duration is not None:
@@ -349,9 +350,20 @@ def facts(scenario, effort, velocity) -> dict:
         "tolerance": tr.arrival_tolerance,
         "frequency": c.frequency_hz,
         "log_ms": 1e3 * scenario.log_period,
-        "z_t": tr.z_t,
+        "z_t": eq12_parameters(scenario)[1],
         "commands": [(c.time, c.fill) for c in scenario.balloon.schedule],
     }
+
+
+def eq12_parameters(scenario) -> tuple[str, float]:
+    """(blend, z_t) of the scenario's behaviour tree, one of Eq. (12)'s family
+    (``behaviour_tree.default_tree(blend, z_t)``), as this study's runs have."""
+    from manta_drake.control.behaviour_tree import default_tree_parameters
+
+    shaped = default_tree_parameters(scenario.behaviour_nodes())
+    if shaped is None:
+        raise ValueError(f"{scenario.name}: transition.tree is not one of Eq. (12)'s trees")
+    return shaped
 
 
 def balloon_times(scenario) -> list[float]:
@@ -402,7 +414,8 @@ def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]
         raise NotImplementedError("a wall was seen: psi_d would need the filtered s_hat")
     tr = scenario.transition
     t_end = float(log["t"][-1])
-    t_z, psi_d = log["t_z_hat"], target_series(log["z_hat"], tr.blend, tr.z_t)
+    blend, z_t = eq12_parameters(scenario)
+    t_z, psi_d = log["t_z_hat"], target_series(log["z_hat"], blend, z_t)
     t_p, psi = log["t_cpg_params"], log["cpg_params"]
     tc, qc = log["t_command"], log["commanded_joint_angles"]
     events = balloon_times(scenario) + [np.inf]
@@ -414,7 +427,7 @@ def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]
             "method": label,
             "transition": f"{src}->{dst}",
             "balloon_command_s": t_cmd,
-            "blend": tr.blend,
+            "blend": blend,
             "follow": tr.follow,
         }
         rows.append(row)
@@ -527,7 +540,7 @@ def check_direct_follow(log: dict, scenario) -> float:
     """For a direct-follow run: max |psi(t_k+1) - psi_d(z_hat(t_k))|, which must be ~0
     (the logged cpg_params are the targets, one transition period late)."""
     tr = scenario.transition
-    psi_d = target_series(log["z_hat"], tr.blend, tr.z_t)
+    psi_d = target_series(log["z_hat"], *eq12_parameters(scenario))
     t_p, psi = log["t_cpg_params"], log["cpg_params"]
     idx = np.searchsorted(t_p, log["t_z_hat"] + tr.period - 1e-9)
     ok = (idx < len(t_p)) & np.isclose(

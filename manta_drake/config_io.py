@@ -440,6 +440,12 @@ def check_in_range(field, value, lo, hi, text, open_low=False, open_high=False) 
         raise ScenarioError(f"{field}: {short_repr(value)} is outside the allowed range {text}")
 
 
+def field_name(where: str, name: str) -> str:
+    """The dotted name of field ``name`` in the section ``where`` (``name`` alone when
+    ``where`` is empty: a System's own parameters)."""
+    return f"{where}.{name}" if where else name
+
+
 @dc.dataclass(frozen=True)
 class Range:
     """An allowed range of a number, declared once in the module that owns the concept (a

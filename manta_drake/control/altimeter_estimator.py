@@ -41,9 +41,10 @@ class AltimeterEstimatorParams:
     off_floor_range: float = 0.28  # floor_hat = 0 at or above this range
     time_constant: float = 1.0  # of the range's low-pass (0: no filter)
 
-    def validate(self) -> "AltimeterEstimatorParams":
-        """Checks every field's range; ValueError names the field and the allowed range."""
-        check_ramp(self, "on_floor_range", "off_floor_range", 100.0, " m")
+    def validate(self, where: str = "") -> "AltimeterEstimatorParams":
+        """Checks every field's range; ScenarioError names the field (``<where>.<field>``)
+        and the allowed range."""
+        check_ramp(self, "on_floor_range", "off_floor_range", 100.0, " m", where=where)
         return self
 
 

@@ -37,7 +37,13 @@ import dataclasses as dc
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.config_io import check_in_range, check_one_of, short_repr
+from manta_drake.config_io import (
+    ScenarioError,
+    check_in_range,
+    check_one_of,
+    field_name,
+    short_repr,
+)
 from manta_drake.control.behaviour_tree import WEIGHT_FUNCTIONS, pair_weights
 
 NONE, ABOVE, BELOW = 0.0, 1.0, -1.0  # the decision state's values
@@ -64,38 +70,44 @@ class BalloonRuleParams:
         through ``names`` (name or alias -> estimate; None: the name itself)."""
         return (names or {}).get(self.modality, self.modality)
 
-    def validate(self, names=None) -> "BalloonRuleParams":
+    def validate(self, names=None, where: str = "") -> "BalloonRuleParams":
         """Checks every field's type and range (``modality`` one of ``names``, a mapping of
         the names and aliases a rule may give to their estimates; None: any name);
-        ValueError names the field and the range."""
+        ScenarioError names the field (``<where>.<field>``) and the range."""
+
+        def at(name: str) -> str:
+            return field_name(where, name)
+
         if names is not None:
             if self.modality != "" and self.modality not in names:
-                raise ValueError(
-                    f"modality: {short_repr(self.modality)} is not an estimate's "
+                raise ScenarioError(
+                    f"{at('modality')}: {short_repr(self.modality)} is not an estimate's "
                     f"name; allowed: {', '.join(names)} (empty: no rule)"
                 )
         elif not (
             isinstance(self.modality, str) and (self.modality == "" or self.modality.isidentifier())
         ):
-            raise ValueError(f"modality: {short_repr(self.modality)} is not an estimate's name")
-        check_one_of("weight", self.weight, WEIGHT_FUNCTIONS)
-        check_in_range("fill_above", self.fill_above, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
-        check_in_range("fill_below", self.fill_below, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
-        check_in_range("full_at", self.full_at, 0.0, 1.0, "(0, 1]", open_low=True)
-        check_in_range("threshold", self.threshold, 0.0, 1.0, "[0, 1]")
-        check_in_range("hysteresis", self.hysteresis, 0.0, 1.0, "[0, 1]")
+            raise ScenarioError(
+                f"{at('modality')}: {short_repr(self.modality)} is not an estimate's name"
+            )
+        check_one_of(at("weight"), self.weight, WEIGHT_FUNCTIONS)
+        check_in_range(at("fill_above"), self.fill_above, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
+        check_in_range(at("fill_below"), self.fill_below, 0.0, 1.0, "[0, 1] (0 empty, 1 full)")
+        check_in_range(at("full_at"), self.full_at, 0.0, 1.0, "(0, 1]", open_low=True)
+        check_in_range(at("threshold"), self.threshold, 0.0, 1.0, "[0, 1]")
+        check_in_range(at("hysteresis"), self.hysteresis, 0.0, 1.0, "[0, 1]")
         lo, hi = band(self)
         if lo < 0.0 or hi > 1.0:
-            raise ValueError(
-                f"hysteresis: {self.hysteresis!r} puts the band threshold -+ "
+            raise ScenarioError(
+                f"{at('hysteresis')}: {self.hysteresis!r} puts the band threshold -+ "
                 f"hysteresis/2 = [{lo:g}, {hi:g}] outside [0, 1]"
             )
-        check_in_range("after", self.after, 0.0, 1e6, "[0, 1e6] s")
+        check_in_range(at("after"), self.after, 0.0, 1e6, "[0, 1e6] s")
         if self.weight != "switch":
             for name, default in SWITCH_ONLY.items():
                 if getattr(self, name) != default:
-                    raise ValueError(
-                        f"{name}: {short_repr(getattr(self, name))} is set on a "
+                    raise ScenarioError(
+                        f"{at(name)}: {short_repr(getattr(self, name))} is set on a "
                         f"{self.weight} rule, which ignores it (only switch reads "
                         f"{' and '.join(SWITCH_ONLY)}): leave it out"
                     )
@@ -105,8 +117,8 @@ class BalloonRuleParams:
             for f in dc.fields(self):
                 value = getattr(self, f.name)
                 if f.name != "modality" and value != getattr(defaults, f.name):
-                    raise ValueError(
-                        f"{f.name}: {short_repr(value)} is set but the rule's "
+                    raise ScenarioError(
+                        f"{at(f.name)}: {short_repr(value)} is set but the rule's "
                         "modality is empty (no rule: the schedule alone); set "
                         f"modality to {choices} or leave {f.name} out"
                     )

@@ -29,9 +29,10 @@ class EnergyEstimatorParams:
     soc_high: float = 0.4  # energy_hat = 0 at or above this state of charge
     time_constant: float = 5.0  # of the state-of-charge low-pass (0: no filter)
 
-    def validate(self) -> "EnergyEstimatorParams":
-        """Checks every field's range; ValueError names the field and the allowed range."""
-        check_ramp(self, "soc_low", "soc_high", 1.0, time_constant_max=1000.0)
+    def validate(self, where: str = "") -> "EnergyEstimatorParams":
+        """Checks every field's range; ScenarioError names the field (``<where>.<field>``)
+        and the allowed range."""
+        check_ramp(self, "soc_low", "soc_high", 1.0, time_constant_max=1000.0, where=where)
         return self
 
 

@@ -29,7 +29,7 @@ import dataclasses as dc
 
 import numpy as np
 
-from manta_drake.config_io import check_one_of
+from manta_drake.config_io import check_one_of, field_name
 from manta_drake.control.filtered_estimator import FilteredEstimator
 from manta_drake.control.memberships import check_ramp, ramp_membership
 
@@ -46,10 +46,11 @@ class FlowEstimatorParams:
     time_constant: float = 1.0  # of the velocity low-pass (0: no filter)
     axis: str = "magnitude"
 
-    def validate(self) -> "FlowEstimatorParams":
-        """Checks every field's range; ValueError names the field and the allowed range."""
-        check_ramp(self, "speed_low", "speed_high", 10.0, " m/s")
-        check_one_of("axis", self.axis, AXES)
+    def validate(self, where: str = "") -> "FlowEstimatorParams":
+        """Checks every field's range; ScenarioError names the field (``<where>.<field>``)
+        and the allowed range."""
+        check_ramp(self, "speed_low", "speed_high", 10.0, " m/s", where=where)
+        check_one_of(field_name(where, "axis"), self.axis, AXES)
         return self
 
 

@@ -42,7 +42,14 @@ import dataclasses as dc
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from manta_drake.config_io import check_boolean, check_in_range, check_number, check_one_of
+from manta_drake.config_io import (
+    ScenarioError,
+    check_boolean,
+    check_in_range,
+    check_number,
+    check_one_of,
+    field_name,
+)
 from manta_drake.control.gaits import RIGHT_LEGS
 from manta_drake.control.transition import wrap
 from manta_drake.model.robot_params import JOINTS, NUM_CPG_PARAMS, NUM_JOINTS, NUM_LEGS
@@ -67,10 +74,10 @@ class HeadingChange:
 
     def validate(self, where: str = "change", modalities=None) -> "HeadingChange":
         """Exactly one trigger and exactly one new target, each in range, the estimate one
-        of ``modalities`` (None: any name); ValueError names the field
+        of ``modalities`` (None: any name); ScenarioError names the field
         (``<where>.<field>``)."""
         if (self.time is None) == (not self.modality):
-            raise ValueError(
+            raise ScenarioError(
                 f"{where}: give either time or modality (a change happens at a "
                 f"time or on an estimate), got time={self.time!r}, "
                 f"modality={self.modality!r}"
@@ -81,13 +88,13 @@ class HeadingChange:
             if modalities is not None:
                 check_one_of(f"{where}.modality", self.modality, tuple(modalities))
             elif not (isinstance(self.modality, str) and self.modality.isidentifier()):
-                raise ValueError(
+                raise ScenarioError(
                     f"{where}.modality: {self.modality!r} is not an estimate's "
                     "name (an identifier, e.g. s_hat)"
                 )
         check_in_range(f"{where}.above", self.above, 0.0, 1.0, "[0, 1)", open_high=True)
         if (self.heading_deg is None) == (self.turn_deg is None):
-            raise ValueError(
+            raise ScenarioError(
                 f"{where}: give either heading_deg (the new target) or turn_deg "
                 f"(the heading at the change plus it), got heading_deg="
                 f"{self.heading_deg!r}, turn_deg={self.turn_deg!r}"
@@ -148,15 +155,19 @@ class HeadingHoldParams:
     # an estimate, to a heading or by a turn. The integral restarts at each change.
     changes: list[HeadingChange] = dc.field(default_factory=list)
 
-    def validate(self, modalities=None) -> "HeadingHoldParams":
+    def validate(self, modalities=None, where: str = "") -> "HeadingHoldParams":
         """Checks every field's type and range (a change's estimate one of ``modalities``;
-        None: any name); ValueError names the field and the range."""
-        check_boolean("enabled", self.enabled)
-        check_in_range("kp", self.kp, 0.0, 100.0, "[0, 100] 1/rad")
-        check_in_range("ki", self.ki, 0.0, 100.0, "[0, 100] 1/(rad s)")
-        check_in_range("kd", self.kd, 0.0, 100.0, "[0, 100] s/rad")
+        None: any name); ScenarioError names the field (``<where>.<field>``) and the range."""
+
+        def at(name: str) -> str:
+            return field_name(where, name)
+
+        check_boolean(at("enabled"), self.enabled)
+        check_in_range(at("kp"), self.kp, 0.0, 100.0, "[0, 100] 1/rad")
+        check_in_range(at("ki"), self.ki, 0.0, 100.0, "[0, 100] 1/(rad s)")
+        check_in_range(at("kd"), self.kd, 0.0, 100.0, "[0, 100] s/rad")
         check_in_range(
-            "max_trim",
+            at("max_trim"),
             self.max_trim,
             0.0,
             1.0,
@@ -165,22 +176,24 @@ class HeadingHoldParams:
         )
         if self.heading_deg is not None:
             check_in_range(
-                "heading_deg",
+                at("heading_deg"),
                 self.heading_deg,
                 -180.0,
                 180.0,
                 "[-180, 180] deg (or null: the heading at the first update)",
             )
-        check_in_range("period", self.period, 0.0, 1.0, "(0, 1] s", open_low=True)
-        check_number("turn_sign", self.turn_sign)
+        check_in_range(at("period"), self.period, 0.0, 1.0, "(0, 1] s", open_low=True)
+        check_number(at("turn_sign"), self.turn_sign)
         if self.turn_sign not in (1, -1):
-            raise ValueError(f"turn_sign: {self.turn_sign!r} is not +1 or -1")
+            raise ScenarioError(f"{at('turn_sign')}: {self.turn_sign!r} is not +1 or -1")
         if not isinstance(self.behaviours, list) or not all(
             isinstance(b, str) and b for b in self.behaviours
         ):
-            raise ValueError(f"behaviours: {self.behaviours!r} must be a list of gait names")
+            raise ScenarioError(
+                f"{at('behaviours')}: {self.behaviours!r} must be a list of gait names"
+            )
         for k, change in enumerate(self.changes):
-            change.validate(f"changes[{k}]", modalities)
+            change.validate(at(f"changes[{k}]"), modalities)
         return self
 
     def read(self) -> tuple[str, ...]:

@@ -26,23 +26,35 @@ Two plain functions, both vectorised over numpy arrays, and the check of their p
 
 import numpy as np
 
-from manta_drake.config_io import check_in_range
+from manta_drake.config_io import check_in_range, field_name
 from manta_drake.control.transition import wrap
 
 
 def check_ramp(
-    params, low: str, high: str, top: float, unit: str = "", time_constant_max: float = 100.0
+    params,
+    low: str,
+    high: str,
+    top: float,
+    unit: str = "",
+    time_constant_max: float = 100.0,
+    where: str = "",
 ) -> None:
     """Checks an estimator's ramp and lag parameters: ``params.<low>`` in [0, top),
     ``params.<high>`` in (low, top] and ``params.time_constant`` in [0, time_constant_max];
-    ValueError names the field and the allowed range (``unit`` after it, e.g. `` m/s``)."""
+    ScenarioError names the field (``<where>.<field>``, the field alone without ``where``)
+    and the allowed range (``unit`` after it, e.g. `` m/s``)."""
     lo = getattr(params, low)
-    check_in_range(low, lo, 0.0, top, f"[0, {top:g}){unit}", open_high=True)
+    check_in_range(field_name(where, low), lo, 0.0, top, f"[0, {top:g}){unit}", open_high=True)
     check_in_range(
-        high, getattr(params, high), lo, top, f"({low} = {lo:g}, {top:g}]{unit}", open_low=True
+        field_name(where, high),
+        getattr(params, high),
+        lo,
+        top,
+        f"({low} = {lo:g}, {top:g}]{unit}",
+        open_low=True,
     )
     check_in_range(
-        "time_constant",
+        field_name(where, "time_constant"),
         params.time_constant,
         0.0,
         time_constant_max,

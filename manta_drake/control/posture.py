@@ -48,9 +48,10 @@ class PostureEstimatorParams:
     tilt_high_deg: float = 30.0  # posture_hat = 1 at or above this tilt
     time_constant: float = 0.2  # of the attitude and yaw-rate low-pass (0: no filter)
 
-    def validate(self) -> "PostureEstimatorParams":
-        """Checks every field's range; ValueError names the field and the allowed range."""
-        check_ramp(self, "tilt_low_deg", "tilt_high_deg", 180.0, " deg")
+    def validate(self, where: str = "") -> "PostureEstimatorParams":
+        """Checks every field's range; ScenarioError names the field (``<where>.<field>``)
+        and the allowed range."""
+        check_ramp(self, "tilt_low_deg", "tilt_high_deg", 180.0, " deg", where=where)
         return self
 
 

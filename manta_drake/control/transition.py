@@ -60,6 +60,7 @@ the sinking).
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from manta_drake.config_io import ScenarioError, field_name
 from manta_drake.control.behaviour_tree import BehaviourTree, compile_tree, default_tree
 from manta_drake.control.gaits import get_gait
 from manta_drake.model.robot_params import NUM_CPG_PARAMS
@@ -82,25 +83,31 @@ def check_parameters(
     blend: str,
     s_hat_time_constant: float = 0.0,
     follow: str = "descent",
+    where: str = "",
 ) -> None:
-    """Raises ValueError naming the first invalid parameter and its allowed range."""
+    """Raises ScenarioError naming the first invalid parameter (``<where>.<name>``) and its
+    allowed range: the constructor's check and the scenario's (``transition``)."""
+
+    def at(name: str) -> str:
+        return field_name(where, name)
+
     for name, value in (("period", period), ("g", g), ("T", T), ("alpha", alpha)):
         if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name}: {value} must be a finite number > 0")
+            raise ScenarioError(f"{at(name)}: {value} must be a finite number > 0")
     if not (np.isfinite(s_hat_time_constant) and s_hat_time_constant >= 0):
-        raise ValueError(
-            f"s_hat_time_constant: {s_hat_time_constant} must be a finite number "
+        raise ScenarioError(
+            f"{at('s_hat_time_constant')}: {s_hat_time_constant} must be a finite number "
             ">= 0 (0: no filter)"
         )
     if not 0 < z_t <= 1:
-        raise ValueError(f"z_t: {z_t} is outside (0, 1]")
+        raise ScenarioError(f"{at('z_t')}: {z_t} is outside (0, 1]")
     if blend not in BLENDS:
-        raise ValueError(f"blend: {blend!r} is not one of {', '.join(BLENDS)}")
+        raise ScenarioError(f"{at('blend')}: {blend!r} is not one of {', '.join(BLENDS)}")
     if follow not in FOLLOWS:
-        raise ValueError(f"follow: {follow!r} is not one of {', '.join(FOLLOWS)}")
+        raise ScenarioError(f"{at('follow')}: {follow!r} is not one of {', '.join(FOLLOWS)}")
     if alpha * g * T > 1.0:
-        raise ValueError(
-            f"alpha * g * T = {alpha * g * T:.3g} > 1 would overshoot the target; "
+        raise ScenarioError(
+            f"{at('alpha')} * g * T = {alpha * g * T:.3g} > 1 would overshoot the target; "
             "reduce g, T or alpha"
         )
 
@@ -240,10 +247,9 @@ class PotentialTransition(LeafSystem):
         initial_values: dict[str, float] | None = None,
     ):
         super().__init__()
-        try:
-            check_parameters(period, g, T, alpha, z_t, blend, s_hat_time_constant, follow)
-        except ValueError as e:
-            raise ValueError(f"PotentialTransition.{e}") from None
+        check_parameters(
+            period, g, T, alpha, z_t, blend, s_hat_time_constant, follow, "PotentialTransition"
+        )
         if tree is None:
             behaviours = tuple(behaviours)
             if len(behaviours) != 3:

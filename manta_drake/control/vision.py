@@ -40,6 +40,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from manta_drake.config_io import ScenarioError, field_name
+
 LABELS = ("floor", "ceiling", "wall", "object")
 LABEL_COLORS = {
     "floor": (0.55, 0.35, 0.2),
@@ -94,27 +96,30 @@ class WallDetectorParams:
         ("depth_median_filter_px", 0, 15, True, False),
     )
 
-    def validate(self) -> "WallDetectorParams":
-        """Checks every field's type and range; ValueError names the field, the value and
-        the allowed range."""
+    def validate(self, where: str = "") -> "WallDetectorParams":
+        """Checks every field's type and range; ScenarioError names the field
+        (``<where>.<field>``), the value and the allowed range."""
         for name, lo, hi, integer, open_low in self.RANGES:
             value = getattr(self, name)
             kind = "an integer" if integer else "a number"
             if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
-                raise ValueError(f"{name}: {value!r} is not {kind}")
+                raise ScenarioError(f"{field_name(where, name)}: {value!r} is not {kind}")
             bracket = "(" if open_low else "["
             if not (
                 np.isfinite(value) and (value > lo if open_low else value >= lo) and value <= hi
             ):
-                raise ValueError(
-                    f"{name}: {value!r} is outside the allowed range {bracket}{lo:g}, {hi:g}]"
+                raise ScenarioError(
+                    f"{field_name(where, name)}: {value!r} is outside the allowed range "
+                    f"{bracket}{lo:g}, {hi:g}]"
                 )
         if not self.c_min < self.c_max:
-            raise ValueError(f"c_min: {self.c_min!r} must be below c_max = {self.c_max!r}")
+            raise ScenarioError(
+                f"{field_name(where, 'c_min')}: {self.c_min!r} must be below c_max = {self.c_max!r}"
+            )
         if self.depth_median_filter_px > 1 and self.depth_median_filter_px % 2 == 0:
-            raise ValueError(
-                f"depth_median_filter_px: {self.depth_median_filter_px!r} must be "
-                "odd (0 or 1: no filter)"
+            raise ScenarioError(
+                f"{field_name(where, 'depth_median_filter_px')}: "
+                f"{self.depth_median_filter_px!r} must be odd (0 or 1: no filter)"
             )
         return self
 

@@ -12,7 +12,7 @@ import dataclasses as dc
 from manta_drake.config_io import ScenarioError, check_in_range, check_one_of, short_repr
 from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE
 from manta_drake.model.start_pose import start_pose_problem
-from manta_drake.scenario.devices import section_error, validate_simulator
+from manta_drake.scenario.devices import validate_simulator
 from manta_drake.scenario.views import ScenarioViews
 
 # The sections whose own ``validate(where)`` checks them, in the order they are checked.
@@ -46,7 +46,6 @@ class Scenario(ScenarioViews):
         self.validate_top()
         for name in OWN_SECTIONS:
             getattr(self, name).validate(name)
-        self.balloon.validate_rule("balloon")
         validate_simulator(self.simulator, "simulator")
         self._validate_parameter_sections()
         self._validate_periods()
@@ -58,26 +57,13 @@ class Scenario(ScenarioViews):
     def _validate_parameter_sections(self) -> None:
         """The sections whose dataclasses the control and station modules own (the wall
         detector, the heading hold, each modality's sensor and estimator): their own
-        ``validate``, with the section's name in front of the field."""
-        try:
-            self.wall_detector.validate()
-        except ValueError as e:
-            raise section_error("wall_detector", e) from None
+        ``validate`` (the one their Systems run), naming the section's dotted fields."""
+        self.wall_detector.validate("wall_detector")
         for m in MODALITIES:
-            if m.reading is not None:
-                try:
-                    getattr(self, m.reading.section).validate(m.reading.section)
-                except ValueError as e:
-                    raise ScenarioError(str(e)) from None
-            if m.estimation is not None:
-                try:
-                    getattr(self, m.estimation.section).validate()
-                except ValueError as e:
-                    raise section_error(m.estimation.section, e) from None
-        try:
-            self.heading_hold.validate(ESTIMATES)
-        except ValueError as e:
-            raise section_error("heading_hold", e) from None
+            for part in (m.reading, m.estimation):
+                if part is not None:
+                    getattr(self, part.section).validate(part.section)
+        self.heading_hold.validate(ESTIMATES, where="heading_hold")
 
     def _validate_periods(self) -> None:
         """Every period and rate against the plant's ``time_step``."""

@@ -27,13 +27,6 @@ from manta_drake.model.actuators import load_actuators, scale_actuators
 from manta_drake.model.servo import SERVO_MODELS
 from manta_drake.station.pressure import DROPOUT_RATE
 
-
-def section_error(where: str, error: ValueError) -> ScenarioError:
-    """A section's ValueError (its message starting with the field's name) as the
-    ScenarioError naming the full dotted field ``where.<field>``."""
-    return ScenarioError(f"{where}.{error}")
-
-
 # Largest depth-image range noise the sensor model supports [m]: beyond ~30 mm at the 0.8 m
 # underwater range the point cloud no longer resolves the 4 cm voxels the detector works on.
 MAX_DEPTH_NOISE = 0.03
@@ -57,15 +50,10 @@ class BalloonConfig:
     # flow or energy; empty: the schedule alone; manta_drake.control.balloon_rule).
     rule: BalloonRuleParams = dc.field(default_factory=BalloonRuleParams)
 
-    def validate_rule(self, where: str = "balloon") -> None:
-        """The rule's fields (``BalloonRuleParams.validate``, the ``BalloonRule``'s check)."""
-        try:
-            self.rule.validate(NAMES)
-        except ValueError as e:
-            raise section_error(f"{where}.rule", e) from None
-
     def validate(self, where: str = "balloon") -> None:
-        """The initial fill and the schedule (fills in [0, 1], times not decreasing)."""
+        """The initial fill, the schedule (fills in [0, 1], times not decreasing) and the
+        rule (``BalloonRuleParams.validate``, the ``BalloonRule``'s check)."""
+        self.rule.validate(NAMES, where=f"{where}.rule")
         check_in_range(f"{where}.initial_fill", self.initial_fill, 0.0, 1.0, "[0, 1]")
         last = -math.inf
         for i, cmd in enumerate(self.schedule):

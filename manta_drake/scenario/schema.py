@@ -34,7 +34,6 @@ from manta_drake.control.transition import check_parameters
 from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients, scale_coefficients
 from manta_drake.model.plant import FRICTION
-from manta_drake.scenario.devices import section_error
 from manta_drake.station.current import CurrentPoint, CurrentSchedule, check_current_schedule
 from manta_drake.station.foil import FIN_MODELS
 
@@ -172,19 +171,17 @@ class TransitionConfig:
         for name in ("period", "g", "T", "alpha", "s_hat_time_constant"):
             check_number(f"{where}.{name}", getattr(self, name))
         check_text(f"{where}.follow", self.follow)
-        try:
-            check_parameters(
-                self.period,
-                self.g,
-                self.T,
-                self.alpha,
-                1.0,  # z_t and blend: each tree node's own (checked with the tree)
-                "potential",
-                self.s_hat_time_constant,
-                self.follow,
-            )
-        except ValueError as e:
-            raise section_error(where, e) from None
+        check_parameters(
+            self.period,
+            self.g,
+            self.T,
+            self.alpha,
+            1.0,  # z_t and blend: each tree node's own (checked with the tree)
+            "potential",
+            self.s_hat_time_constant,
+            self.follow,
+            where,
+        )
         check_in_range(
             f"{where}.arrival_tolerance",
             self.arrival_tolerance,

@@ -232,12 +232,7 @@ class WaterConfig:
         check_boolean(f"{where}.enabled", self.enabled)
         # A pool's current: station.current's checks (MAX_SPEED: beyond ~1 m/s the robot's
         # 0.1 m/s swim means nothing and the quadratic damping needs a smaller step).
-        try:
-            check_current_schedule(
-                self.current_schedule, (0.0, 0.0, 0.0), f"{where}.current_schedule"
-            )
-        except ValueError as e:
-            raise ScenarioError(str(e)) from None
+        check_current_schedule(self.current_schedule, (0.0, 0.0, 0.0), f"{where}.current_schedule")
         check_in_range(f"{where}.update_period", self.update_period, 0.0, 0.02, "[0, 0.02] s")
         check_one_of(f"{where}.fin_model", self.fin_model, FIN_MODELS)
         check_text(f"{where}.coefficients", self.coefficients)

@@ -18,8 +18,12 @@ import numbers
 
 import numpy as np
 
+from manta_drake.config_io import ScenarioError
+
 MAX_TIME = 3600.0  # s: a key beyond an hour is a units mistake (ms for s), not a run
-MAX_SPEED = 1.0  # m/s: the scenario's bound on water.current (a pool, not a river)
+# m/s: the bound on the water's speed (a pool, not a river), the scenario's and the Systems'
+# that read a schedule.
+MAX_SPEED = 1.0
 
 
 @dc.dataclass
@@ -69,7 +73,7 @@ def current_at(t: float, times, velocities, out=None) -> np.ndarray:
 
 
 def _check_velocity(field: str, value) -> None:
-    """3 finite numbers of magnitude <= MAX_SPEED (ValueError naming ``field``)."""
+    """3 finite numbers of magnitude <= MAX_SPEED (ScenarioError naming ``field``)."""
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if (
@@ -80,10 +84,10 @@ def _check_velocity(field: str, value) -> None:
             for v in value
         )
     ):
-        raise ValueError(f"{field}: {value!r} must be 3 finite numbers (m/s, world frame)")
+        raise ScenarioError(f"{field}: {value!r} must be 3 finite numbers (m/s, world frame)")
     speed = math.sqrt(sum(float(v) ** 2 for v in value))
     if speed > MAX_SPEED:
-        raise ValueError(
+        raise ScenarioError(
             f"{field}: {value!r} has magnitude {speed:.3g} m/s, outside the "
             f"allowed range [0, {MAX_SPEED:g}] m/s"
         )
@@ -92,7 +96,7 @@ def _check_velocity(field: str, value) -> None:
 def check_current_schedule(
     points, constant, field: str = "water.current_schedule", constant_field: str = "water.current"
 ) -> None:
-    """Checks a schedule; ValueError, one line naming ``<field>[i].time`` or
+    """Checks a schedule; ScenarioError (a ValueError), one line naming ``<field>[i].time`` or
     ``<field>[i].velocity`` (or ``constant_field``) and the allowed range.
 
     Args:
@@ -105,11 +109,11 @@ def check_current_schedule(
     """
     _check_velocity(constant_field, constant)
     if not isinstance(points, (list, tuple)):
-        raise ValueError(f"{field}: expected a list of {{time, velocity}} keys, got {points!r}")
+        raise ScenarioError(f"{field}: expected a list of {{time, velocity}} keys, got {points!r}")
     previous: numbers.Real | float = -math.inf
     for i, point in enumerate(points):
         if not (hasattr(point, "time") and hasattr(point, "velocity")):
-            raise ValueError(
+            raise ScenarioError(
                 f"{field}[{i}]: {point!r} is not a CurrentPoint (a time and a velocity)"
             )
         t = point.time
@@ -118,11 +122,11 @@ def check_current_schedule(
             or not isinstance(t, numbers.Real)
             or not (math.isfinite(t) and 0.0 <= float(t) <= MAX_TIME)
         ):
-            raise ValueError(
+            raise ScenarioError(
                 f"{field}[{i}].time: {t!r} is outside the allowed range [0, {MAX_TIME:g}] s"
             )
         if t < previous:
-            raise ValueError(
+            raise ScenarioError(
                 f"{field}[{i}].time: {t!r} is before the previous key's time "
                 f"{previous!r} (times must be non-decreasing)"
             )

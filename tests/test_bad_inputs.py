@@ -1212,3 +1212,30 @@ def test_range_text_states_open_and_closed_ends_and_the_note():
         ScenarioError, match=r"^x\.y: 0\.5 is outside the allowed range \[-1, 0\.5\) s$"
     ):
         Range(-1.0, 0.5, "s", open_high=True).check("x.y", 0.5)
+
+
+def test_the_pressure_rate_is_refused_where_the_depth_estimators_period_would_be():
+    """With the water on, the depth estimator updates at the pressure sensor's rate: a rate
+    whose period 1/rate_hz leaves the estimator's range (control.depth.PERIOD, (0, 1] s) is
+    refused at load time, as the estimator refuses the period; with the water off (no
+    estimator) only the rate's own range applies."""
+    from manta_drake.config_io import ScenarioError
+    from manta_drake.control.depth import FuzzyDepthEstimator
+    from manta_drake.scenario import load_scenario
+
+    base = load_scenario("two_behaviors")
+    with pytest.raises(ScenarioError) as error:
+        load_scenario(defaults=base, overrides={"pressure_sensor.rate_hz": 0.999})
+    assert str(error.value) == (
+        "pressure_sensor.rate_hz: 0.999 is outside the allowed range [1, 1/time_step = 1000] "
+        "Hz (the depth estimator's period, 1/rate_hz, is in (0, 1] s)"
+    )
+    with pytest.raises(ScenarioError, match=r"^FuzzyDepthEstimator\.period: 1\.001.* is outside "):
+        FuzzyDepthEstimator(0.2, period=1.0 / 0.999)
+    edge = load_scenario(defaults=base, overrides={"pressure_sensor.rate_hz": 1.0})
+    assert edge.pressure_sensor.rate_hz == 1.0
+    FuzzyDepthEstimator(0.2, period=1.0)
+    dry = load_scenario(
+        "stand", overrides={"pressure_sensor.rate_hz": 0.5, "controller.mode": "hold"}
+    )
+    assert not dry.water.enabled and dry.pressure_sensor.rate_hz == 0.5

@@ -35,6 +35,9 @@ from manta_drake.config_io import Range, check_in_range
 # The distance to the floor D [m] (the scenario's depth_estimator.floor_distance): D divides
 # h_hat, so it is positive; beyond 10 m it is no pool.
 FLOOR_DISTANCE = Range(0.0, 10.0, "m", open_low=True)
+# The update period [s]: the pressure sensor's (a scenario's 1 / pressure_sensor.rate_hz,
+# which is checked against it with the water on, where this estimator is built).
+PERIOD = Range(0.0, 1.0, "s", open_low=True)
 
 
 def check_surface_depth(field: str, surface_depth, floor_distance: float) -> None:
@@ -114,7 +117,7 @@ class FuzzyDepthEstimator(LeafSystem):
             "the distance to the floor D divides h_hat",
         )
         check_surface_depth("FuzzyDepthEstimator.surface_depth", surface_depth, floor_distance)
-        check_in_range("FuzzyDepthEstimator.period", period, 0.0, 1.0, "(0, 1] s", open_low=True)
+        PERIOD.check("FuzzyDepthEstimator.period", period)
         check_in_range(
             "FuzzyDepthEstimator.initial_depth",
             initial_depth,

@@ -10,6 +10,7 @@ behaviour tree against the gaits and the estimates, and what the modalities need
 import dataclasses as dc
 
 from manta_drake.config_io import ScenarioError, check_in_range, check_one_of, short_repr
+from manta_drake.control.depth import PERIOD as DEPTH_PERIOD
 from manta_drake.modalities import ESTIMATES, MODALITIES, MODALITY_BY_ESTIMATE
 from manta_drake.model.start_pose import start_pose_problem
 from manta_drake.scenario.devices import validate_simulator
@@ -82,6 +83,15 @@ class Scenario(ScenarioViews):
                 dt,
                 0.1,
                 f"0 or [time_step = {dt:g}, 0.1] s",
+            )
+        if self.water.enabled:  # the depth estimator updates at the sensor's rate
+            check_in_range(
+                "pressure_sensor.rate_hz",
+                self.pressure_sensor.rate_hz,
+                1.0 / DEPTH_PERIOD.hi,
+                1.0 / dt,
+                f"[{1.0 / DEPTH_PERIOD.hi:g}, 1/time_step = {1.0 / dt:g}] Hz (the depth "
+                f"estimator's period, 1/rate_hz, is in {DEPTH_PERIOD.text()})",
             )
         check_in_range(
             "pressure_sensor.rate_hz",

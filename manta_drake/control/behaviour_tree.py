@@ -52,7 +52,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from manta_drake.config_io import short_repr
+from manta_drake.config_io import ScenarioError, short_repr
 from manta_drake.model.robot_params import NUM_CPG_PARAMS
 
 WEIGHT_FUNCTIONS = ("potential", "cosine", "linear", "normalised", "switch")
@@ -200,42 +200,44 @@ def _number(
         and not isinstance(value, bool)
     )
     if not ok:
-        raise ValueError(f"{where}: {short_repr(value)} is not a finite number in {interval}")
+        raise ScenarioError(f"{where}: {short_repr(value)} is not a finite number in {interval}")
     return v
 
 
-def _check_node(name: str, node, nodes: Mapping, gaits: Mapping, modalities) -> None:
-    where = f"tree.{name}"
+def _check_node(
+    name: str, node, nodes: Mapping, gaits: Mapping, modalities, tree: str = "tree"
+) -> None:
+    where = f"{tree}.{name}"
     if not isinstance(node, BlendNode):
-        raise ValueError(f"{where}: expected a BlendNode, got {type(node).__name__}")
+        raise ScenarioError(f"{where}: expected a BlendNode, got {type(node).__name__}")
     if modalities is not None and node.modality not in modalities:
-        raise ValueError(
+        raise ScenarioError(
             f"{where}.modality: {short_repr(node.modality)} is not one of {', '.join(modalities)}"
         )
     if not (isinstance(node.modality, str) and node.modality.isidentifier()):
-        raise ValueError(
+        raise ScenarioError(
             f"{where}.modality: {short_repr(node.modality)} is not an "
             "estimate's name (an identifier, e.g. z_hat)"
         )
     if node.weight not in WEIGHT_FUNCTIONS:
-        raise ValueError(
+        raise ScenarioError(
             f"{where}.weight: {short_repr(node.weight)} is not one of {', '.join(WEIGHT_FUNCTIONS)}"
         )
     if not isinstance(node.children, (list, tuple)):
-        raise ValueError(
+        raise ScenarioError(
             f"{where}.children: expected a list of node or gait names, got "
             f"{type(node.children).__name__}"
         )
     if len(node.children) < 2:
-        raise ValueError(f"{where}.children: needs at least 2, got {len(node.children)}")
+        raise ScenarioError(f"{where}.children: needs at least 2, got {len(node.children)}")
     for k, child in enumerate(node.children):
         at = f"{where}.children[{k}]"
         if not isinstance(child, str):
-            raise ValueError(f"{at}: {short_repr(child)} is not a name (of a node or a gait)")
+            raise ScenarioError(f"{at}: {short_repr(child)} is not a name (of a node or a gait)")
         if child in nodes and child in gaits:
-            raise ValueError(f"{at}: {short_repr(child)} is both a node and a gait; rename one")
+            raise ScenarioError(f"{at}: {short_repr(child)} is both a node and a gait; rename one")
         if child not in nodes and child not in gaits:
-            raise ValueError(
+            raise ScenarioError(
                 f"{at}: {short_repr(child)} is neither a node nor a gait "
                 f"(gaits: {', '.join(gaits)})"
             )
@@ -243,7 +245,7 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping, modalities) -> 
     if node.weight != "switch":
         for field in SWITCH_DEFAULTS:
             if getattr(node, field) is not None:
-                raise ValueError(
+                raise ScenarioError(
                     f"{where}.{field}: {short_repr(getattr(node, field))} is set on "
                     f"a {node.weight} node, which ignores it (only switch reads "
                     f"{' and '.join(SWITCH_DEFAULTS)}): leave it out"
@@ -254,13 +256,13 @@ def _check_node(name: str, node, nodes: Mapping, gaits: Mapping, modalities) -> 
     h = _number(f"{where}.hysteresis", h, 0.0, 1.0, "[0, 1)", open_hi=True)
     lo, hi = threshold - 0.5 * h, threshold + 0.5 * h
     if lo < 0.0 or hi > 1.0:
-        raise ValueError(
+        raise ScenarioError(
             f"{where}.hysteresis: threshold {threshold:g} +- hysteresis/2 = "
             f"[{lo:g}, {hi:g}] is not inside [0, 1]"
         )
 
 
-def _depth_first(nodes: Mapping[str, BlendNode]) -> list[str]:
+def _depth_first(nodes: Mapping[str, BlendNode], tree: str = "tree") -> list[str]:
     """Node names in first-seen depth-first order from the root; refuses a cycle and a tree
     more than ``MAX_TREE_DEPTH`` nodes deep (its longest path from the root, shared subtrees
     included). Iterative: a tree of any depth is refused without recursion, and every
@@ -277,36 +279,41 @@ def _depth_first(nodes: Mapping[str, BlendNode]) -> list[str]:
                 (height[c] for c in nodes[name].children if c in nodes), default=0
             )
             if len(path) + height[name] > MAX_TREE_DEPTH:
-                _refuse_depth(nodes, path + [name], height)
+                _refuse_depth(nodes, path + [name], height, tree)
             continue
         if child not in nodes or child in height:
             continue
         if child in path:
             cycle = path[path.index(child) :] + [child]
-            raise ValueError(f"tree.{' -> '.join(cycle)}: a cycle")
+            raise ScenarioError(f"{tree}.{' -> '.join(cycle)}: a cycle")
         if len(path) == MAX_TREE_DEPTH:
-            _refuse_depth(nodes, path + [child], height)
+            _refuse_depth(nodes, path + [child], height, tree)
         order.append(child)
         path.append(child)
         pending.append(iter(nodes[child].children))
     return order
 
 
-def _refuse_depth(nodes: Mapping[str, BlendNode], path: list, height: dict) -> None:
+def _refuse_depth(
+    nodes: Mapping[str, BlendNode], path: list, height: dict, tree: str = "tree"
+) -> None:
     """Raises the depth error naming the node at level ``MAX_TREE_DEPTH + 1`` of a longest
     path through ``path`` (followed down by ``height``)."""
     while len(path) <= MAX_TREE_DEPTH:
         below = [c for c in nodes[path[-1]].children if c in height]
         path.append(max(below, key=height.__getitem__))
-    raise ValueError(
-        f"tree.{path[MAX_TREE_DEPTH]}: {MAX_TREE_DEPTH + 1} nodes deep from "
+    raise ScenarioError(
+        f"{tree}.{path[MAX_TREE_DEPTH]}: {MAX_TREE_DEPTH + 1} nodes deep from "
         f"root ({' -> '.join(path[:3])} -> ...); a tree may be at most "
         f"{MAX_TREE_DEPTH} nodes deep"
     )
 
 
 def compile_tree(
-    nodes: Mapping[str, BlendNode], gaits: Mapping[str, np.ndarray], modalities=None
+    nodes: Mapping[str, BlendNode],
+    gaits: Mapping[str, np.ndarray],
+    modalities=None,
+    where: str = "tree",
 ) -> "BehaviourTree":
     """Checks a tree and returns it compiled (immutable).
 
@@ -317,36 +324,38 @@ def compile_tree(
             (a scenario passes ``manta_drake.modalities.ESTIMATES``); None: any name, in
             the order the tree first reads them.
 
+        where: the tree's name in the messages (a scenario's ``transition.tree``).
+
     Raises:
-        ValueError: one line naming the node and the field (``tree.<node>.<field>``) or the
-            gait (``gaits.<name>``).
+        ScenarioError: one line naming the node and the field (``<where>.<node>.<field>``)
+            or the gait (``gaits.<name>``).
     """
     if not isinstance(nodes, Mapping):
-        raise ValueError(
-            f"tree: expected a mapping of node name -> BlendNode, got {type(nodes).__name__}"
+        raise ScenarioError(
+            f"{where}: expected a mapping of node name -> BlendNode, got {type(nodes).__name__}"
         )
     if not isinstance(gaits, Mapping):
-        raise ValueError(
+        raise ScenarioError(
             f"gaits: expected a mapping of gait name -> 64-vector, got {type(gaits).__name__}"
         )
     vectors = {}
     for name, vector in gaits.items():
         v = np.array(vector, dtype=float)
         if v.shape != (NUM_CPG_PARAMS,) or not np.all(np.isfinite(v)):
-            raise ValueError(
+            raise ScenarioError(
                 f"gaits.{name}: expected {NUM_CPG_PARAMS} finite values "
                 f"(R, X, Phi, Phi' in rad), got shape {v.shape}"
             )
         v.flags.writeable = False
         vectors[name] = v
     if ROOT not in nodes:
-        raise ValueError("tree.root: missing (the tree's top node is named root)")
+        raise ScenarioError(f"{where}.root: missing (the tree's top node is named root)")
     for name, node in nodes.items():
-        _check_node(name, node, nodes, vectors, modalities)
-    order = _depth_first(nodes)
+        _check_node(name, node, nodes, vectors, modalities, where)
+    order = _depth_first(nodes, where)
     for name in nodes:
         if name not in order:
-            raise ValueError(f"tree.{name}: not reachable from root")
+            raise ScenarioError(f"{where}.{name}: not reachable from root")
     read = [nodes[n].modality for n in order]
     ordered = tuple(m for m in (modalities if modalities is not None else read) if m in read)
     return BehaviourTree(

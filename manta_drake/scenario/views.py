@@ -106,14 +106,12 @@ class ScenarioViews(ScenarioFields):
         """The compiled behaviour tree (``control.behaviour_tree.BehaviourTree``) over this
         scenario's gait library."""
         library = self.gaits()
-        try:
-            return compile_tree(
-                self.behaviour_nodes(),
-                {name: gait.to_vector() for name, gait in library.items()},
-                ESTIMATES,
-            )
-        except ValueError as e:
-            raise ScenarioError(f"transition.{e}") from None
+        return compile_tree(
+            self.behaviour_nodes(),
+            {name: gait.to_vector() for name, gait in library.items()},
+            ESTIMATES,
+            "transition.tree",
+        )
 
     def reads_charge_estimate(self) -> bool:
         """Whether the controller estimates the battery's charge (``EnergyEstimator``, a

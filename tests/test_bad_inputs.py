@@ -267,22 +267,25 @@ def _table(path, text: str):
 )
 def test_study_faults_option_out_of_range_is_one_line(tmp_path, capsys, argv, needle):
     out = tmp_path / "fc"
-    message = _cli_error(capsys, "study", "faults", "--out", str(out), "--workers", "0", *argv)
+    message = _cli_error(capsys, "study", "faults", "--runs-dir", str(out), "--workers", "0", *argv)
     assert needle in message
     assert not out.exists()  # nothing was drawn or written
 
 
 @pytest.mark.slow
-def test_study_faults_out_is_a_file_and_the_duration_floor_is_the_drawn_interval(tmp_path, capsys):
-    """--out naming a file is one line; the floor of --duration is where a drawn balloon
+def test_study_faults_runs_dir_is_a_file_and_the_duration_floor_is_the_drawn_interval(
+    tmp_path, capsys
+):
+    """--runs-dir naming a file is one line; the floor of --duration is where a drawn balloon
     command's interval [BALLOON_COMMAND_AFTER_S, duration] stays valid: at it the draws work
     (and draw balloon commands), just below it numpy would refuse them."""
     from manta_drake.studies import faults as fc
 
     a_file = tmp_path / "a_file"
     a_file.write_text("")
-    assert _cli_error(capsys, "study", "faults", "--out", str(a_file)) == (
-        f"manta-drake: error: --out {a_file}: is a file, not a folder (--debug shows the traceback)"
+    assert _cli_error(capsys, "study", "faults", "--runs-dir", str(a_file)) == (
+        f"manta-drake: error: --runs-dir {a_file}: is a file, not a folder (--debug shows the "
+        "traceback)"
     )
     floor = fc.BALLOON_COMMAND_AFTER_S
     specs = fc.draw_specs(60, 0, floor)
@@ -293,7 +296,13 @@ def test_study_faults_out_is_a_file_and_the_duration_floor_is_the_drawn_interval
     with pytest.raises(ValueError, match="high - low < 0"):
         fc.draw_specs(60, 0, floor - 0.01)
     assert f"[{floor:g}, 3600] s" in _cli_error(
-        capsys, "study", "faults", "--duration", f"{floor - 0.01:g}", "--out", str(tmp_path / "o")
+        capsys,
+        "study",
+        "faults",
+        "--duration",
+        f"{floor - 0.01:g}",
+        "--runs-dir",
+        str(tmp_path / "o"),
     )
 
 

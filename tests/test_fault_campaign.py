@@ -280,3 +280,80 @@ def test_refused_field_of_the_package_own_refusals(fc):
         with pytest.raises(ScenarioError) as e:
             fc.load_run_scenario(fc.make_spec(0, "locomotion_swim", overrides))
         assert fc.refused_field(str(e.value)) == field, str(e.value)
+
+
+def _row(run, base, outcome, cause="", expectation="as_expected", **values):
+    return {
+        "run": run,
+        "base": base,
+        "outcome": outcome,
+        "cause": cause,
+        "expectation": expectation,
+        "expect_refused": "",
+        **values,
+    }
+
+
+def test_the_printed_summary_puts_each_number_in_its_place(fc):
+    rows = [
+        _row(0, "stand", "ok", sim_time_reached_s=2.0, max_penetration_m=0.001,
+             max_joint_speed_rad_s=9.5, max_joint_limit_violation_rad=0.0, wall_time_s=1.0,
+             mean_speed_m_s=0.1, max_speed_m_s=0.3, max_body_rate_rad_s=2.0),
+        _row(1, "stand", "ok", sim_time_reached_s=2.0, max_penetration_m=0.007,
+             max_joint_speed_rad_s=3.0, max_joint_limit_violation_rad=0.0, wall_time_s=3.0,
+             mean_speed_m_s=0.2, max_speed_m_s=0.5, max_body_rate_rad_s=4.0, nan_in_log=True),
+        _row(2, "locomotion_swim", "refused", "water.current"),
+        _row(3, "locomotion_swim", "refused", "water.current"),
+        _row(4, "locomotion_swim", "refused", "initial_pose", "unexpected_refusal"),
+        _row(5, "float_sink", "crashed", "worker process died", "unexpected_failure",
+             wall_time_s=5.0),
+    ]  # fmt: skip
+    s = fc.summarise(rows, wall_time=12.4)
+    lines = fc.format_summary(s).splitlines()
+    # Column layout: outcome left in 14, count right in 6, then the causes.
+    assert lines[:7] == [
+        "fault campaign: 6 runs",
+        "",
+        "outcome         runs  most common causes",
+        "ok                 2  ",
+        "refused            3     2 x water.current",
+        "                         1 x initial_pose",
+        "build_failed       0  ",
+    ]
+    assert "crashed            1     1 x worker process died" in lines
+    assert "expectation: as_expected 4, unexpected_failure 1, unexpected_refusal 1" in lines
+    assert "  refused without a must-refuse fault: initial_pose x1" in lines
+    assert "NaN/inf in the log: 1 runs; in runs that ended ok: 1 [1]" in lines
+    # The ok runs' penetrations 1 and 7 mm: median 4 mm, p95 6.7 mm; one above 5 mm.
+    assert "penetration (ok runs): median 0.004, p95 0.0067, max 0.007 m (n 2); > 5 mm: 1" in lines
+    assert "joint speed: median 6.25, p95 9.175, max 9.5 rad/s (n 2); > 8 rad/s: 1" in lines
+    assert (
+        "wall time: campaign 12 s, sum of runs 9 s, per simulated run median 3, p95 4.8, "
+        "max 5 s (n 3)"
+    ) in lines
+    assert "per base: float_sink: crashed 1; locomotion_swim: refused 3; stand: ok 2" in lines
+    assert lines[-1] == 'CHECK: FAIL {"crashed": [5], "nan_without_failing": [1]}'
+
+
+def test_runs_dir_holds_the_campaign_and_runs_is_the_count(tmp_path, capsys):
+    from manta_drake.studies.faults import main
+
+    runs_dir = tmp_path / "campaign"
+    argv = ["--runs", "2", "--seed", "3", "--duration", "0.3", "--workers", "0"]
+    assert main([*argv, "--runs-dir", str(runs_dir)], prog="manta-drake study faults") == 0
+    assert sorted(p.name for p in runs_dir.iterdir()) == [
+        "runs",
+        "runs.csv",
+        "specs.json",
+        "summary.json",
+    ]
+    assert sorted(p.name for p in (runs_dir / "runs").iterdir()) == ["run_0000", "run_0001"]
+    assert (runs_dir / "runs.csv").read_text().count("\n") == 3  # the header and two runs
+    printed = capsys.readouterr().out
+    assert "fault campaign: 2 runs" in printed and str(runs_dir / "summary.json") in printed
+    # The runs folder was --out before; that name is refused in one line.
+    from manta_drake.config_io import ScenarioError
+
+    with pytest.raises(ScenarioError, match=r"unrecognized arguments: --out .* \(see --help\)$"):
+        main([*argv, "--out", str(tmp_path / "x")], prog="manta-drake study faults")
+    assert not (tmp_path / "x").exists()

@@ -23,7 +23,7 @@ kept to a small share) and draws faults from a seeded numpy Generator:
 Each run is one ``dask.distributed`` task on the cluster of ``manta_drake.cluster``
 (``--workers N``: a local cluster of N single-threaded worker processes; ``--scheduler
 ADDRESS``: a running one, whose scheduler must allow no retry,
-``distributed.scheduler.allowed-failures: 0``, and whose workers must see ``--out``).
+``distributed.scheduler.allowed-failures: 0``, and whose workers must see ``--runs-dir``).
 A worker that dies (segfault, abort, out of memory) is recorded as a *crash* of the run it
 was executing (the scheduler allows no retry, so the death surfaces as ``KilledWorker`` on
 that future); a run that exceeds ``--run-timeout`` is killed and recorded as a *timeout*.
@@ -43,15 +43,19 @@ Per run it records the drawn faults, the outcome and its cause and message, whet
 logged state is NaN/inf, the deepest contact penetration, whether the hull's origin left
 the pool's volume (beyond a wall, below the floor, or more than 0.2 m above the surface),
 the largest joint-limit violation [rad] and joint speed [rad/s], mean and largest body
-speed, largest body angular rate, and wall time. Writes ``DIR/runs.csv`` (one row per run),
-``DIR/summary.json``, and per run ``DIR/runs/run_NNNN/scenario.yaml`` (the base scenario's
-YAML with the faults merged in: ``manta-drake run DIR/runs/run_NNNN/scenario.yaml``
-reproduces it) and its ``metrics.json`` (``log.npz`` kept only for runs that did not end
-``ok`` / ``refused`` or showed NaN, a pool exit or a limit violation).
+speed, largest body angular rate, and wall time. Into the runs folder ``DIR``
+(``--runs-dir``, default ``out/faults``) it writes ``DIR/specs.json`` (the drawn specs),
+``DIR/runs.csv`` (one row per run), ``DIR/summary.json`` (the summary as data), and per run
+``DIR/runs/run_NNNN/scenario.yaml`` (the base scenario's YAML with the faults merged in:
+``manta-drake run DIR/runs/run_NNNN/scenario.yaml`` reproduces it) and its
+``metrics.json`` (``log.npz`` kept only for runs that did not end ``ok`` / ``refused`` or
+showed NaN, a pool exit or a limit violation). It prints the summary as text
+(``templates/faults_summary.txt.j2``) and writes no page: docs/fault_campaign.md's results
+are read from the summary.
 
-Usage:
-  manta-drake study faults --runs 300 --seed 1 --out out/fault_campaign --workers 2
-  manta-drake study faults --runs 20 --seed 3 --out /tmp/fc --duration 1 --check
+Usage (``--runs N`` is how many runs, ``--runs-dir DIR`` where they go):
+  manta-drake study faults --runs 300 --seed 1 --runs-dir out/faults --workers 2
+  manta-drake study faults --runs 20 --seed 3 --runs-dir /tmp/fc --duration 1 --check
 
 Exit status: 1 if any run crashed, timed out, produced NaN without failing, or raised an
 unexpected exception type (with ``--strict`` also: a fault that must be refused was
@@ -65,6 +69,7 @@ import collections
 import contextlib
 import copy
 import csv
+import dataclasses
 import json
 import os
 import pathlib
@@ -176,6 +181,21 @@ def _r(x, nd=6):
     return float(round(float(x), nd))
 
 
+def _weights(table: dict) -> np.ndarray:
+    """The probabilities of a weight table (``BASES``, ``STARTS``) for ``rng.choice``."""
+    return np.array(list(table.values())) / sum(table.values())
+
+
+@dataclasses.dataclass
+class _Drawn:
+    """One run's draws so far: the overrides (dotted field -> value), the fault tags and the
+    fields that must be refused."""
+
+    o: dict
+    faults: list[str] = dataclasses.field(default_factory=list)
+    expect: list[str] = dataclasses.field(default_factory=list)
+
+
 def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -> dict:
     """One run's scenario: a base scenario name, the overrides (dotted field -> value), the
     fault tags, and the fields that must be refused (empty: the run must be accepted).
@@ -188,107 +208,133 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
         coeff_names: the dotted coefficient names a scale may name.
         bases: the loaded base Scenario of each name in ``BASES``.
     """
-    base = str(rng.choice(list(BASES), p=np.array(list(BASES.values())) / sum(BASES.values())))
+    base = str(rng.choice(list(BASES), p=_weights(BASES)))
     data = bases[base]
     water = base not in NO_WATER_BASES
-    o: dict = {}
-    faults: list[str] = []
-    expect: list[str] = []
     dur = _r(duration if duration is not None else rng.uniform(*DURATION_RANGE_S), 3)
-    o["name"] = f"fault_{run:04d}_{base}"
-    o["duration"] = dur
-    o["random_seed"] = int(rng.integers(0, 2**31 - 1))
-    o["visualization.meshcat"] = False
-
-    if water and rng.random() < P["current"]:
-        o["water.current"] = [_r(c) for c in rng.uniform(0.0, 0.3) * np.array(_unit_vector(rng))]
-        faults.append("current")
-    if rng.random() < P["current_over"]:
-        o["water.current"] = [_r(c) for c in rng.uniform(1.05, 3.0) * np.array(_unit_vector(rng))]
-        faults.append("current_over")
-        expect.append("water.current")
-
+    d = _Drawn(
+        {
+            "name": f"fault_{run:04d}_{base}",
+            "duration": dur,
+            "random_seed": int(rng.integers(0, 2**31 - 1)),
+            "visualization.meshcat": False,
+        }
+    )
+    _draw_current(rng, d, water)
     if water and rng.random() < P["coeff_scales"]:
-        k = int(rng.integers(1, 5))
-        names = rng.choice(coeff_names, size=k, replace=False)
-        scales = {str(n): _r(rng.uniform(0.5, 1.5), 4) for n in names}
-        o["water.coefficient_scales"] = scales
-        faults.append("coeff_scales")
-        if "fins.strips_per_plate" in scales:
-            strips = 4.0 * scales["fins.strips_per_plate"]  # the shipped file: 4 strips
-            if abs(strips - round(strips)) > 1e-9:
-                expect.append("water.coefficient_scales.fins.strips_per_plate")
-        # The sealed volume must stay the semi-axes' ellipsoid volume (coefficients.py):
-        # scaling one without the other's cube is refused.
-        volume = scales.get("body.sealed_volume", 1.0)
-        axes = scales.get("body.sealed_semi_axes", 1.0)
-        if abs(volume - axes**3) > 0.01 * volume:
-            expect.append("water.coefficient_scales.body.sealed_volume")
-        # The physical constants have ranges (a pool of water on Earth): a scale that takes
-        # one outside them is refused.
-        for name, (lo, hi, _) in RANGES.items():
-            if name in scales and not lo <= _SHIPPED_CONSTANTS[name] * scales[name] <= hi:
-                expect.append(f"water.coefficient_scales.{name}")
+        _draw_scales(rng, d, coeff_names)
     if rng.random() < P["coeff_scale_bad"]:
-        scales = dict(o.get("water.coefficient_scales", {}))
-        kind = rng.random()
-        if kind < 1 / 3:  # a negative factor
-            name = str(rng.choice(coeff_names))
-            scales[name] = _r(-rng.uniform(0.1, 1.0), 4)
-        elif kind < 2 / 3:  # zero on an entry the coefficient file requires to be > 0
-            name = str(rng.choice(POSITIVE_ENTRIES))
-            scales[name] = 0.0
-        else:
-            name = "body.linear_dampnig"  # a typo
-            scales[name] = 1.2
-        o["water.coefficient_scales"] = scales
-        faults.append("coeff_scale_bad")
-        expect.append(f"water.coefficient_scales.{name}")
+        _draw_bad_scale(rng, d, coeff_names)
+    camera = _draw_sensors(rng, d, water, bool(data.camera.enabled))
+    if data.controller.mode != "transition" and rng.random() < P["gait_swap"]:
+        d.o["controller.gait"] = str(rng.choice(GAIT_NAMES))
+        d.o["initial_stance"] = str(rng.choice(GAIT_NAMES + ("zero",)))
+        d.faults.append("gait_swap")
+    _draw_start(rng, d, data)
+    _draw_steps(rng, d)
+    _draw_contact_water_balloon(rng, d, water, dur)
+    return {
+        "run": run,
+        "base": base,
+        "faults": d.faults,
+        "expect_refused": d.expect,
+        "camera": camera,
+        "overrides": d.o,
+    }
 
+
+def _draw_current(rng, d: _Drawn, water: bool) -> None:
+    """A current up to 0.3 m/s (with water), and sometimes one beyond the allowed 1 m/s."""
+    if water and rng.random() < P["current"]:
+        d.o["water.current"] = [_r(c) for c in rng.uniform(0.0, 0.3) * np.array(_unit_vector(rng))]
+        d.faults.append("current")
+    if rng.random() < P["current_over"]:
+        d.o["water.current"] = [_r(c) for c in rng.uniform(1.05, 3.0) * np.array(_unit_vector(rng))]
+        d.faults.append("current_over")
+        d.expect.append("water.current")
+
+
+def _draw_scales(rng, d: _Drawn, coeff_names) -> None:
+    """Scales x0.5-1.5 on 1-4 coefficient entries; those the coefficient checks refuse are
+    must-refuse (``scales_refused``)."""
+    k = int(rng.integers(1, 5))
+    names = rng.choice(coeff_names, size=k, replace=False)
+    scales = {str(n): _r(rng.uniform(0.5, 1.5), 4) for n in names}
+    d.o["water.coefficient_scales"] = scales
+    d.faults.append("coeff_scales")
+    d.expect.extend(scales_refused(scales))
+
+
+def scales_refused(scales: dict) -> list[str]:
+    """The fields of ``water.coefficient_scales`` the coefficient file's checks refuse: a
+    fractional strip count, a sealed volume scaled apart from its semi-axes' cube, a physical
+    constant scaled out of its range (``coefficients.RANGES``)."""
+    refused = []
+    if "fins.strips_per_plate" in scales:
+        strips = 4.0 * scales["fins.strips_per_plate"]  # the shipped file: 4 strips
+        if abs(strips - round(strips)) > 1e-9:
+            refused.append("water.coefficient_scales.fins.strips_per_plate")
+    # The sealed volume must stay the semi-axes' ellipsoid volume (coefficients.py): scaling
+    # one without the other's cube is refused.
+    volume = scales.get("body.sealed_volume", 1.0)
+    axes = scales.get("body.sealed_semi_axes", 1.0)
+    if abs(volume - axes**3) > 0.01 * volume:
+        refused.append("water.coefficient_scales.body.sealed_volume")
+    # The physical constants have ranges (a pool of water on Earth).
+    for name, (lo, hi, _) in RANGES.items():
+        if name in scales and not lo <= _SHIPPED_CONSTANTS[name] * scales[name] <= hi:
+            refused.append(f"water.coefficient_scales.{name}")
+    return refused
+
+
+def _draw_bad_scale(rng, d: _Drawn, coeff_names) -> None:
+    """A must-refuse scale: a negative factor, zero on a positive entry, or a misspelt name."""
+    scales = dict(d.o.get("water.coefficient_scales", {}))
+    kind = rng.random()
+    if kind < 1 / 3:  # a negative factor
+        name = str(rng.choice(coeff_names))
+        scales[name] = _r(-rng.uniform(0.1, 1.0), 4)
+    elif kind < 2 / 3:  # zero on an entry the coefficient file requires to be > 0
+        name = str(rng.choice(POSITIVE_ENTRIES))
+        scales[name] = 0.0
+    else:
+        name = "body.linear_dampnig"  # a typo
+        scales[name] = 1.2
+    d.o["water.coefficient_scales"] = scales
+    d.faults.append("coeff_scale_bad")
+    d.expect.append(f"water.coefficient_scales.{name}")
+
+
+def _draw_sensors(rng, d: _Drawn, water: bool, camera: bool) -> bool:
+    """Pressure noise and dropouts, the camera switched on, depth-image noise (sometimes
+    beyond its range); returns whether the run has the camera."""
     if water and rng.random() < P["pressure_noise"]:
-        o["pressure_sensor.noise_std"] = _r(rng.uniform(0.0, 0.02))
-        o["pressure_sensor.dropout_rate"] = _r(rng.uniform(0.0, 0.5), 4)
-        faults.append("pressure_noise")
-
-    camera = bool(data.camera.enabled)
+        d.o["pressure_sensor.noise_std"] = _r(rng.uniform(0.0, 0.02))
+        d.o["pressure_sensor.dropout_rate"] = _r(rng.uniform(0.0, 0.5), 4)
+        d.faults.append("pressure_noise")
     if water and not camera and rng.random() < P["camera_on"]:
-        o["camera.enabled"] = True
+        d.o["camera.enabled"] = True
         camera = True
-        faults.append("camera_on")
+        d.faults.append("camera_on")
     if rng.random() < P["depth_noise"]:
-        o["camera.depth_noise_std"] = _r(rng.uniform(0.0, 0.03))
-        o["camera.pixel_dropout"] = _r(rng.uniform(0.0, 0.3), 4)
-        faults.append("depth_noise")
+        d.o["camera.depth_noise_std"] = _r(rng.uniform(0.0, 0.03))
+        d.o["camera.pixel_dropout"] = _r(rng.uniform(0.0, 0.3), 4)
+        d.faults.append("depth_noise")
     if rng.random() < P["depth_noise_over"]:
-        o["camera.depth_noise_std"] = _r(rng.uniform(0.031, 0.1))
-        faults.append("depth_noise_over")
-        expect.append("camera.depth_noise_std")
+        d.o["camera.depth_noise_std"] = _r(rng.uniform(0.031, 0.1))
+        d.faults.append("depth_noise_over")
+        d.expect.append("camera.depth_noise_std")
+    return camera
 
-    mode = data.controller.mode
-    if mode != "transition" and rng.random() < P["gait_swap"]:
-        gait = str(rng.choice(GAIT_NAMES))
-        o["controller.gait"] = gait
-        o["initial_stance"] = str(rng.choice(GAIT_NAMES + ("zero",)))
-        faults.append("gait_swap")
-    # Start pose.
+
+def _draw_start(rng, d: _Drawn, data) -> None:
+    """The start pose: one of ``STARTS`` (``none`` keeps the base scenario's)."""
     xyz = list(data.initial_pose.xyz)
     rpy = list(data.initial_pose.rpy_deg)
-    start = str(rng.choice(list(STARTS), p=np.array(list(STARTS.values())) / sum(STARTS.values())))
+    start = str(rng.choice(list(STARTS), p=_weights(STARTS)))
     if start == "tilted":
         rpy = [rng.uniform(-45, 45), rng.uniform(-45, 45), rng.uniform(-180, 180)]
-        # Raised (dropped from a height) until no fin is below the floor, when possible.
-        from manta_drake.control.gaits import get_gait
-        from manta_drake.model.start_pose import start_pose_problem
-        from manta_drake.scenario import resolve_fin_sweep_deg
-
-        stance = o.get("initial_stance", data.initial_stance)
-        reading = data.controller.gait_reading
-        q = np.zeros((4, 4)) if stance == "zero" else get_gait(stance, reading).X
-        sweep = resolve_fin_sweep_deg(data.robot.fin_sweep_deg, reading)
-        for z in np.arange(xyz[2], -0.02, 0.01):
-            if not start_pose_problem([xyz[0], xyz[1], z], rpy, q, sweep, stance):
-                xyz[2] = float(z)
-                break
+        xyz[2] = _raised_clear(xyz, rpy, data, d.o.get("initial_stance", data.initial_stance))
     elif start == "upside_down":
         rpy = [180.0 + rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-180, 180)]
     elif start == "near_wall":
@@ -298,61 +344,79 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
         else:
             xyz[0], xyz[1] = rng.uniform(-6.5, 6.5), side * (HALF_Y - rng.uniform(0.45, 0.8))
         rpy[2] = rng.uniform(-180, 180)
-    elif start == "inside_wall":
+    elif start in ("inside_wall", "below_floor", "above_surface"):
+        _refused_start(rng, start, xyz)
+        d.expect.append("initial_pose")
+    if start != "none":
+        d.o["initial_pose.xyz"] = [_r(v) for v in xyz]
+        d.o["initial_pose.rpy_deg"] = [_r(v, 3) for v in rpy]
+        d.faults.append(f"start_{start}")
+
+
+def _raised_clear(xyz, rpy, data, stance: str):
+    """The start's height raised in 1 cm steps (a drop) until no fin is below the floor; the
+    drawn height if no step up to the surface passes."""
+    from manta_drake.control.gaits import get_gait
+    from manta_drake.model.start_pose import start_pose_problem
+    from manta_drake.scenario import resolve_fin_sweep_deg
+
+    reading = data.controller.gait_reading
+    q = np.zeros((4, 4)) if stance == "zero" else get_gait(stance, reading).X
+    sweep = resolve_fin_sweep_deg(data.robot.fin_sweep_deg, reading)
+    for z in np.arange(xyz[2], -0.02, 0.01):
+        if not start_pose_problem([xyz[0], xyz[1], z], rpy, q, sweep, stance):
+            return float(z)
+    return xyz[2]
+
+
+def _refused_start(rng, start: str, xyz: list) -> None:
+    """Moves ``xyz`` inside a wall, below the floor or above the water (``start``)."""
+    if start == "inside_wall":
         side = rng.choice([-1.0, 1.0])
         if rng.random() < 0.5:
             xyz[0] = side * rng.uniform(HALF_X - 0.05, HALF_X + 0.5)
         else:
             xyz[1] = side * rng.uniform(HALF_Y - 0.05, HALF_Y + 0.3)
-        expect.append("initial_pose")
     elif start == "below_floor":
         xyz[2] = rng.uniform(FLOOR_Z - 0.3, FLOOR_Z - 0.001)
-        expect.append("initial_pose")
-    elif start == "above_surface":
+    else:
         xyz[2] = rng.uniform(0.005, 0.3)
-        expect.append("initial_pose")
-    if start != "none":
-        o["initial_pose.xyz"] = [_r(v) for v in xyz]
-        o["initial_pose.rpy_deg"] = [_r(v, 3) for v in rpy]
-        faults.append(f"start_{start}")
 
+
+def _draw_steps(rng, d: _Drawn) -> None:
+    """A plant time step of 0.5-2 ms, and sometimes one out of range (must be refused)."""
     if rng.random() < P["time_step"]:
         h = _r(rng.uniform(0.5e-3, 2e-3), 5)
-        o["time_step"] = h
-        o["simulator.max_step_size"] = h
-        o["log_period"] = max(1e-3, h)
-        faults.append("time_step")
+        d.o["time_step"] = h
+        d.o["simulator.max_step_size"] = h
+        d.o["log_period"] = max(1e-3, h)
+        d.faults.append("time_step")
     if rng.random() < P["time_step_bad"]:
         h = float(rng.choice([5e-5, 0.02, 0.05]))
-        o["time_step"] = h
-        o["simulator.max_step_size"] = min(h, 0.01)
-        o["log_period"] = max(1e-3, h)
-        faults.append("time_step_bad")
-        expect.append("time_step")
+        d.o["time_step"] = h
+        d.o["simulator.max_step_size"] = min(h, 0.01)
+        d.o["log_period"] = max(1e-3, h)
+        d.faults.append("time_step_bad")
+        d.expect.append("time_step")
 
+
+def _draw_contact_water_balloon(rng, d: _Drawn, water: bool, dur: float) -> None:
+    """Contact friction, the water's update period, a balloon fill and one command."""
     if rng.random() < P["friction"]:
-        o["contact.friction"] = _r(rng.uniform(0.3, 1.2), 4)
-        faults.append("friction")
+        d.o["contact.friction"] = _r(rng.uniform(0.3, 1.2), 4)
+        d.faults.append("friction")
     if water and rng.random() < P["update_period"]:
-        o["water.update_period"] = float(rng.choice([0.0, 0.002, 0.004, 0.008]))
-        faults.append("update_period")
+        d.o["water.update_period"] = float(rng.choice([0.0, 0.002, 0.004, 0.008]))
+        d.faults.append("update_period")
     if water and rng.random() < P["balloon"]:
-        o["balloon.initial_fill"] = _r(rng.uniform(0.0, 1.0), 4)
-        o["balloon.schedule"] = [
+        d.o["balloon.initial_fill"] = _r(rng.uniform(0.0, 1.0), 4)
+        d.o["balloon.schedule"] = [
             {
                 "time": _r(rng.uniform(BALLOON_COMMAND_AFTER_S, dur), 3),
                 "fill": _r(rng.uniform(0.0, 1.0), 4),
             }
         ]
-        faults.append("balloon")
-    return {
-        "run": run,
-        "base": base,
-        "faults": faults,
-        "expect_refused": expect,
-        "camera": camera,
-        "overrides": o,
-    }
+        d.faults.append("balloon")
 
 
 def make_spec(
@@ -488,25 +552,51 @@ STATE_KEYS = (
 
 def log_stats(log: dict, dropout: float) -> dict:
     """NaN, pool exits, joint limits and speeds, body speeds from a run's log."""
-    from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS_PER_LEG
+    nonfinite = _nonfinite_keys(log, dropout)
+    t = np.asarray(log.get("t", []), dtype=float)
+    out: dict = {
+        "nan_in_log": bool(nonfinite),
+        "nan_keys": ";".join(nonfinite),
+        "sim_time_reached_s": float(t[-1]) if len(t) else 0.0,
+    }
+    out.update(pool_exits(_finite_rows(log.get("body_xyz", np.zeros((0, 3))))))
+    out.update(joint_extremes(log))
+    v = _finite_rows(log.get("body_v_world", np.zeros((0, 3))))
+    if len(v):
+        s = np.linalg.norm(v, axis=1)
+        out["mean_speed_m_s"] = float(s.mean())
+        out["max_speed_m_s"] = float(s.max())
+    w = _finite_rows(log.get("body_w_world", np.zeros((0, 3))))
+    if len(w):
+        out["max_body_rate_rad_s"] = float(np.linalg.norm(w, axis=1).max())
+    return out
 
-    out: dict = {}
-    nonfinite = []
+
+def _nonfinite_keys(log: dict, dropout: float) -> list[str]:
+    """The logged float arrays with a NaN or inf (``depth`` excepted under a dropout: its NaN
+    readings are the modelled dropout)."""
+    keys = []
     for key, value in log.items():
         arr = np.asarray(value)
         if not np.issubdtype(arr.dtype, np.floating) or arr.size == 0:
             continue
-        if key == "depth" and dropout > 0:  # NaN readings are the modelled dropout
+        if key == "depth" and dropout > 0:
             continue
         if not np.all(np.isfinite(arr)):
-            nonfinite.append(key)
-    out["nan_in_log"] = bool(nonfinite)
-    out["nan_keys"] = ";".join(nonfinite)
-    t = np.asarray(log.get("t", []), dtype=float)
-    out["sim_time_reached_s"] = float(t[-1]) if len(t) else 0.0
-    xyz = np.asarray(log.get("body_xyz", np.zeros((0, 3))), dtype=float)
-    fin = np.all(np.isfinite(xyz), axis=1) if len(xyz) else np.zeros(0, bool)
-    xyz = xyz[fin]
+            keys.append(key)
+    return keys
+
+
+def _finite_rows(x) -> np.ndarray:
+    """The rows of ``x`` (N, 3) whose every entry is finite."""
+    x = np.asarray(x, dtype=float)
+    return x[np.all(np.isfinite(x), axis=1)] if len(x) else x
+
+
+def pool_exits(xyz) -> dict:
+    """Where the hull's origin (finite samples ``xyz``, (N, 3)) left the pool: beyond an end
+    or side wall, below the floor, more than ``ABOVE_SURFACE_Z`` above the surface."""
+    out: dict = {}
     exits = []
     if len(xyz):
         if np.abs(xyz[:, 0]).max() > HALF_X:
@@ -521,6 +611,15 @@ def log_stats(log: dict, dropout: float) -> dict:
         out["max_body_z"] = float(xyz[:, 2].max())
     out["left_pool"] = bool(exits)
     out["pool_exit"] = ";".join(exits)
+    return out
+
+
+def joint_extremes(log: dict) -> dict:
+    """The largest excess of a joint angle over its limit [rad] and the largest |joint
+    speed| [rad/s] of a log (non-finite samples ignored)."""
+    from manta_drake.model.robot_params import DEFAULT_ROBOT, JOINTS_PER_LEG
+
+    out: dict = {}
     q = np.asarray(log.get("joint_angles", np.zeros((0, 16))), dtype=float)
     qd = np.asarray(log.get("joint_velocities", np.zeros((0, 16))), dtype=float)
     if q.size:
@@ -533,16 +632,6 @@ def log_stats(log: dict, dropout: float) -> dict:
     if qd.size:
         speed = np.where(np.isfinite(qd), np.abs(qd), 0.0)
         out["max_joint_speed_rad_s"] = float(speed.max())
-    v = np.asarray(log.get("body_v_world", np.zeros((0, 3))), dtype=float)
-    v = v[np.all(np.isfinite(v), axis=1)] if len(v) else v
-    if len(v):
-        s = np.linalg.norm(v, axis=1)
-        out["mean_speed_m_s"] = float(s.mean())
-        out["max_speed_m_s"] = float(s.max())
-    w = np.asarray(log.get("body_w_world", np.zeros((0, 3))), dtype=float)
-    w = w[np.all(np.isfinite(w), axis=1)] if len(w) else w
-    if len(w):
-        out["max_body_rate_rad_s"] = float(np.linalg.norm(w, axis=1).max())
     return out
 
 
@@ -587,72 +676,20 @@ def run_one(spec: dict, out_root: str) -> dict:
     """Runs one spec and returns its row. Never raises for a run's own failure: every
     exception is classified into the row (so only a dying process escapes)."""
     run_dir = pathlib.Path(out_root) / "runs" / f"run_{spec['run']:04d}"
-    run_dir.mkdir(parents=True, exist_ok=True)
-    (run_dir / "scenario.yaml").write_text(scenario_yaml(spec))
-    (run_dir / "started.json").write_text(
-        json.dumps(
-            {
-                "pid": os.getpid(),
-                "host": socket.gethostname(),
-                "worker": _worker_address(),
-                "time": time.time(),
-            }
-        )
-    )
+    _mark_started(spec, run_dir)
     if spec.get("inject_crash"):  # harness self-test: a segfault in this process
         import ctypes
 
         ctypes.string_at(0)
     row: dict = {"outcome": None, "cause": "", "message": "", "worker_pid": os.getpid()}
     t0 = time.perf_counter()
-    from manta_drake.scenario import ScenarioError
-    from manta_drake.simulate import SimulationError, run
-
-    scenario = None
-    try:
-        scenario = load_run_scenario(spec)
-    except ScenarioError as e:
-        row.update(outcome="refused", cause=refused_field(str(e)), message=str(e))
-    except Exception as e:  # noqa: BLE001 - an unclear error from validation: a bug
-        row.update(
-            outcome="exception",
-            cause=type(e).__name__,
-            message=str(e),
-            traceback=traceback.format_exc(),
-        )
-    log = None
+    scenario = _load_classified(spec, row)
     if row["outcome"] is None:
         try:  # a start the pose check accepted may still put a fin into the floor or a wall
             row["initial_penetration_m"], row["initial_contact"] = initial_penetration(scenario)
         except Exception as e:  # noqa: BLE001 - the measurement, not the run
             row["initial_contact"] = f"not measured: {type(e).__name__}: {e}"
-        out = run_dir / "out"
-        try:
-            result = run(scenario, out, progress=False, write_outputs=False)
-            log, metrics = result.log, result.metrics
-            row["outcome"] = "ok"
-        except SimulationError as e:
-            metrics = _read_json(out / "metrics.json")
-            failure = metrics.get("failure", {})
-            stage = failure.get("stage", "?")
-            reason = failure.get("reason", str(e))
-            row.update(
-                outcome="build_failed" if stage == "build" else "sim_failed",
-                cause=cause_of(reason),
-                message=reason,
-                failure_time_s=failure.get("time_s"),
-            )
-            if (out / "log.npz").is_file():
-                with np.load(out / "log.npz") as z:
-                    log = {k: z[k] for k in z.files}
-        except Exception as e:  # noqa: BLE001 - anything but SimulationError: a bug
-            metrics = {}
-            row.update(
-                outcome="exception",
-                cause=type(e).__name__,
-                message=str(e),
-                traceback=traceback.format_exc(),
-            )
+        log, metrics = _simulate_classified(scenario, run_dir / "out", row)
         row["status"] = metrics.get("status")
         row["max_penetration_m"] = metrics.get("max_penetration_m")
         mv = metrics.get("mean_velocity_body")
@@ -666,6 +703,72 @@ def run_one(spec: dict, out_root: str) -> dict:
         (run_dir / "out" / "log.npz").unlink()
     (run_dir / "row.json").write_text(json.dumps(row, indent=1, default=str))
     return row
+
+
+def _mark_started(spec: dict, run_dir: pathlib.Path) -> None:
+    """The run's folder with its ``scenario.yaml`` and ``started.json`` (pid, host, worker,
+    time: what the harness finds a crashed or hung run's worker by)."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "scenario.yaml").write_text(scenario_yaml(spec))
+    started = {
+        "pid": os.getpid(),
+        "host": socket.gethostname(),
+        "worker": _worker_address(),
+        "time": time.time(),
+    }
+    (run_dir / "started.json").write_text(json.dumps(started))
+
+
+def _exception(e: Exception) -> dict:
+    """A row's fields for an exception that is a bug (called while it is handled)."""
+    return {
+        "outcome": "exception",
+        "cause": type(e).__name__,
+        "message": str(e),
+        "traceback": traceback.format_exc(),
+    }
+
+
+def _load_classified(spec: dict, row: dict):
+    """The run's validated scenario, or None with the refusal (or the bug) in ``row``."""
+    from manta_drake.scenario import ScenarioError
+
+    try:
+        return load_run_scenario(spec)
+    except ScenarioError as e:
+        row.update(outcome="refused", cause=refused_field(str(e)), message=str(e))
+    except Exception as e:  # noqa: BLE001 - an unclear error from validation: a bug
+        row.update(_exception(e))
+    return None
+
+
+def _simulate_classified(scenario, out: pathlib.Path, row: dict) -> tuple[dict | None, dict]:
+    """Simulates the scenario into ``out``; returns its log (None: none) and metrics, with
+    the outcome in ``row`` (a ``SimulationError``'s stage and reason, another exception's
+    type)."""
+    from manta_drake.simulate import SimulationError, run
+
+    try:
+        result = run(scenario, out, progress=False, write_outputs=False)
+    except SimulationError as e:
+        metrics = _read_json(out / "metrics.json")
+        failure = metrics.get("failure", {})
+        reason = failure.get("reason", str(e))
+        row.update(
+            outcome="build_failed" if failure.get("stage", "?") == "build" else "sim_failed",
+            cause=cause_of(reason),
+            message=reason,
+            failure_time_s=failure.get("time_s"),
+        )
+        if not (out / "log.npz").is_file():
+            return None, metrics
+        with np.load(out / "log.npz") as z:
+            return {k: z[k] for k in z.files}, metrics
+    except Exception as e:  # noqa: BLE001 - anything but SimulationError: a bug
+        row.update(_exception(e))
+        return None, {}
+    row["outcome"] = "ok"
+    return result.log, result.metrics
 
 
 def _read_json(path) -> dict:
@@ -819,7 +922,7 @@ def run_campaign(
 
     Args:
         specs: the run specs (``draw_specs``, ``make_spec``).
-        out_dir: the campaign's output folder (every worker must see it).
+        out_dir: the campaign's runs folder (every worker must see it).
         workers: worker processes of a local cluster (``manta_drake.cluster.dask_client``);
             0: one run after the other in this process, without crash isolation.
         run_timeout: wall seconds after which a run's worker is ended (a timeout).
@@ -833,8 +936,7 @@ def run_campaign(
     t_start = time.perf_counter()
 
     def done(spec, row):
-        rows[spec["run"]] = finish_row(spec, row)
-        r = rows[spec["run"]]
+        rows[spec["run"]] = r = finish_row(spec, row)
         echo(
             f"[{len(rows):4d}/{len(specs)}] run {spec['run']:4d} {spec['base']:<18} "
             f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s  {r['cause'][:70]}"
@@ -845,19 +947,21 @@ def run_campaign(
             try:
                 done(spec, run_one(spec, str(out_dir)))
             except Exception as e:  # noqa: BLE001 - the harness itself
-                done(
-                    spec,
-                    {
-                        "outcome": "exception",
-                        "cause": type(e).__name__,
-                        "message": str(e),
-                        "wall_time_s": 0.0,
-                    },
-                )
+                done(spec, _harness_row("exception", type(e).__name__, str(e)))
         return [rows[s["run"]] for s in specs]
+    _run_on_cluster(specs, out_dir, workers, run_timeout, scheduler, done)
+    echo(f"campaign wall time {time.perf_counter() - t_start:.0f} s")
+    return [rows[s["run"]] for s in specs]
 
+
+def _harness_row(outcome: str, cause: str, message: str, wall: float = 0.0, **extra) -> dict:
+    """The row of a run the harness ended (crashed, timed out, or its task raised)."""
+    return {"outcome": outcome, "cause": cause, "message": message, "wall_time_s": wall, **extra}
+
+
+def _run_on_cluster(specs, out_dir, workers, run_timeout, scheduler, done) -> None:
+    """Every spec as one task of a Dask cluster; ``done(spec, row)`` as each one ends."""
     import dask
-    import distributed
 
     from manta_drake.cluster import dask_client
 
@@ -880,113 +984,114 @@ def run_campaign(
             }
         )
     with dask.config.set(config), dask_client(scheduler, workers) as client:
-        by_spec = {s["run"]: s for s in specs}
-        attempts = collections.Counter()
-        killed: dict[int, str] = {}
-        pending = {}
+        _Tasks(client, specs, out_dir, run_timeout, done).run()
 
-        def submit(spec):
-            attempts[spec["run"]] += 1
-            f = client.submit(
-                run_one,
-                spec,
-                str(out_dir),
-                pure=False,
-                retries=0,
-                key=f"fault-run-{spec['run']}-{attempts[spec['run']]}",
-            )
-            pending[f] = spec["run"]
 
-        for spec in specs:
-            submit(spec)
-        last_progress, started = time.time(), set()
-        while pending:
-            finished = [f for f in pending if f.done()]
+class _Tasks:
+    """The campaign's tasks on a Dask client: submitted, collected as they end, a worker
+    that died recorded as the crash (or the timeout) of the run it was executing."""
+
+    def __init__(self, client, specs, out_dir: pathlib.Path, run_timeout: float, done):
+        self.client, self.out_dir, self.run_timeout, self.done = client, out_dir, run_timeout, done
+        self.specs, self.by_spec = specs, {s["run"]: s for s in specs}
+        self.attempts: collections.Counter = collections.Counter()
+        self.killed: dict[int, str] = {}
+        self.pending: dict = {}
+        self.started: set[int] = set()
+        self.last_progress = time.time()
+
+    def submit(self, spec: dict) -> None:
+        self.attempts[spec["run"]] += 1
+        f = self.client.submit(
+            run_one,
+            spec,
+            str(self.out_dir),
+            pure=False,
+            retries=0,
+            key=f"fault-run-{spec['run']}-{self.attempts[spec['run']]}",
+        )
+        self.pending[f] = spec["run"]
+
+    def run(self) -> None:
+        for spec in self.specs:
+            self.submit(spec)
+        self.last_progress = time.time()
+        while self.pending:
+            finished = [f for f in self.pending if f.done()]
             if not finished:
                 time.sleep(0.5)
-                now = time.time()
-                for run in pending.values():
-                    if run not in started and _marker(out_dir, run):
-                        started.add(run)
-                        last_progress = now
-                if now - last_progress > run_timeout + 60.0:
-                    # Nothing started or finished for that long: the harness itself
-                    # is stuck (e.g. workers that cannot take tasks). Give up on the
-                    # rest rather than hang.
-                    for f, run in list(pending.items()):
-                        done(
-                            by_spec[run],
-                            {
-                                "outcome": "timeout",
-                                "cause": "harness stall",
-                                "message": "no run started or finished for "
-                                f"{now - last_progress:.0f} s",
-                                "wall_time_s": 0.0,
-                            },
-                        )
-                        f.cancel()
-                    pending.clear()
-                    break
+                if self.stalled():
+                    return
             else:
-                last_progress = time.time()
+                self.last_progress = time.time()
             for f in finished:
-                run = pending.pop(f)
-                spec = by_spec[run]
-                marker = _marker(out_dir, run)
-                try:
-                    done(spec, f.result())
-                except distributed.KilledWorker:
-                    if run in killed:
-                        done(
-                            spec,
-                            {
-                                "outcome": "timeout",
-                                "cause": "timeout",
-                                "message": killed[run],
-                                "wall_time_s": run_timeout,
-                            },
-                        )
-                    elif marker is None and attempts[run] < 3:
-                        submit(spec)  # its worker died before it started: not its fault
-                    else:
-                        wall = time.time() - marker["time"] if marker else 0.0
-                        done(
-                            spec,
-                            {
-                                "outcome": "crashed",
-                                "cause": "worker process died",
-                                "message": "the worker process executing the run "
-                                f"died (pid {marker and marker['pid']})",
-                                "wall_time_s": wall,
-                                "worker_pid": marker and marker["pid"],
-                            },
-                        )
-                except Exception as e:  # noqa: BLE001 - the task raised
-                    done(
-                        spec,
-                        {
-                            "outcome": "exception",
-                            "cause": type(e).__name__,
-                            "message": str(e),
-                            "wall_time_s": 0.0,
-                        },
-                    )
-                f.release()
-            # Watchdog: a run past the timeout gets its worker killed (recorded as a
-            # timeout when its KilledWorker arrives).
-            now = time.time()
-            for run in list(pending.values()):
-                marker = _marker(out_dir, run)
-                if (
-                    run not in killed
-                    and marker
-                    and now - marker["time"] > run_timeout
-                    and not (out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()
-                ):
-                    killed[run] = f"no result after {run_timeout:.0f} s; worker killed"
-                    _end_worker(client, marker)
-    echo(f"campaign wall time {time.perf_counter() - t_start:.0f} s")
-    return [rows[s["run"]] for s in specs]
+                self.collect(f)
+            self.watchdog()
+
+    def stalled(self) -> bool:
+        """Whether nothing started or finished for ``run_timeout`` + 60 s: the harness itself
+        is stuck (e.g. workers that cannot take tasks); then the rest are given up (timeouts)
+        rather than hang."""
+        now = time.time()
+        for run in self.pending.values():
+            if run not in self.started and _marker(self.out_dir, run):
+                self.started.add(run)
+                self.last_progress = now
+        if now - self.last_progress <= self.run_timeout + 60.0:
+            return False
+        message = f"no run started or finished for {now - self.last_progress:.0f} s"
+        for f, run in list(self.pending.items()):
+            self.done(self.by_spec[run], _harness_row("timeout", "harness stall", message))
+            f.cancel()
+        self.pending.clear()
+        return True
+
+    def collect(self, f) -> None:
+        """The row of a finished task (its worker's death classified)."""
+        import distributed
+
+        run = self.pending.pop(f)
+        spec = self.by_spec[run]
+        marker = _marker(self.out_dir, run)
+        try:
+            self.done(spec, f.result())
+        except distributed.KilledWorker:
+            if run in self.killed:
+                row = _harness_row("timeout", "timeout", self.killed[run], self.run_timeout)
+                self.done(spec, row)
+            elif marker is None and self.attempts[run] < 3:
+                self.submit(spec)  # its worker died before it started: not its fault
+            else:
+                self.done(spec, _crashed_row(marker))
+        except Exception as e:  # noqa: BLE001 - the task raised
+            self.done(spec, _harness_row("exception", type(e).__name__, str(e)))
+        f.release()
+
+    def watchdog(self) -> None:
+        """A run past the timeout gets its worker killed (recorded as a timeout when its
+        KilledWorker arrives)."""
+        now = time.time()
+        for run in list(self.pending.values()):
+            marker = _marker(self.out_dir, run)
+            if (
+                run not in self.killed
+                and marker
+                and now - marker["time"] > self.run_timeout
+                and not (self.out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()
+            ):
+                self.killed[run] = f"no result after {self.run_timeout:.0f} s; worker killed"
+                _end_worker(self.client, marker)
+
+
+def _crashed_row(marker: dict | None) -> dict:
+    """The row of a run whose worker process died while executing it."""
+    return _harness_row(
+        "crashed",
+        "worker process died",
+        f"the worker process executing the run died (pid {marker and marker['pid']})",
+        time.time() - marker["time"] if marker else 0.0,
+        worker_pid=marker and marker["pid"],
+    )
 
 
 # --- summary ---------------------------------------------------------------------------------
@@ -1004,44 +1109,34 @@ def _stats(values) -> dict:
     }
 
 
+def _above(values, limit: float) -> int:
+    """How many of ``values`` (None: not measured) exceed ``limit``."""
+    return sum(1 for x in values if x is not None and x > limit)
+
+
 def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
     """Counts per outcome with every cause (most common first), NaN, penetration, pool exits,
     joint limits and speeds, expectation mismatches, and the bugs that fail --check."""
+    summary = {
+        **tally_outcomes(rows),
+        **tally_expectations(rows),
+        **safety_measures(rows),
+        **motion_measures(rows, wall_time),
+    }
+    summary["check_failures"] = check_failures(rows)
+    return summary
+
+
+def tally_outcomes(rows: list[dict]) -> dict:
+    """The runs, their count per outcome, every cause per outcome (most common first) and
+    the outcomes per base scenario."""
     counts = collections.Counter(r["outcome"] for r in rows)
     causes = {
         o: collections.Counter(r["cause"] for r in rows if r["outcome"] == o).most_common()
         for o in OUTCOMES
         if counts.get(o)
     }
-    ran = [
-        r
-        for r in rows
-        if r["outcome"] in ("ok", "sim_failed", "build_failed", "exception")
-        and r.get("sim_time_reached_s") is not None
-    ]
-    ok = [r for r in rows if r["outcome"] == "ok"]
-    nan_runs = [r["run"] for r in rows if r.get("nan_in_log")]
-    nan_silent = [r["run"] for r in ok if r.get("nan_in_log")]
-    exits = [
-        {"run": r["run"], "outcome": r["outcome"], "exit": r["pool_exit"]}
-        for r in rows
-        if r.get("left_pool")
-    ]
-    pen = [r.get("max_penetration_m") for r in ok]
-    start_contact = [
-        {
-            "run": r["run"],
-            "depth_m": r["initial_penetration_m"],
-            "pair": r.get("initial_contact", ""),
-        }
-        for r in rows
-        if (r.get("initial_penetration_m") or 0) > START_CONTACT_FLAG
-    ]
-    jl = [r.get("max_joint_limit_violation_rad") for r in ran]
-    js = [r.get("max_joint_speed_rad_s") for r in ran]
-    expect = collections.Counter(r["expectation"] for r in rows)
-    unexpected_types = [r["run"] for r in rows if r["outcome"] == "exception"]
-    summary = {
+    return {
         "runs": len(rows),
         "outcomes": {o: counts.get(o, 0) for o in OUTCOMES},
         "causes": {o: [[c, n] for c, n in v] for o, v in causes.items()},
@@ -1049,7 +1144,14 @@ def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
             b: dict(collections.Counter(r["outcome"] for r in rows if r["base"] == b))
             for b in sorted({r["base"] for r in rows})
         },
-        "expectation": dict(expect),
+    }
+
+
+def tally_expectations(rows: list[dict]) -> dict:
+    """The count per expectation, and the runs whose must-refuse fault was accepted or
+    refused naming another field, and the causes of refusals without one."""
+    return {
+        "expectation": dict(collections.Counter(r["expectation"] for r in rows)),
         "silently_accepted": [
             {"run": r["run"], "expected": r["expect_refused"], "outcome": r["outcome"]}
             for r in rows
@@ -1063,25 +1165,68 @@ def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
         "unexpected_refusals": collections.Counter(
             r["cause"] for r in rows if r["expectation"] == "unexpected_refusal"
         ).most_common(),
-        "nan": {"runs_with_nan": len(nan_runs), "ok_runs_with_nan": nan_silent},
+    }
+
+
+def _simulated(rows: list[dict]) -> list[dict]:
+    """The runs that were simulated (not refused, not lost with their worker)."""
+    return [
+        r
+        for r in rows
+        if r["outcome"] in ("ok", "sim_failed", "build_failed", "exception")
+        and r.get("sim_time_reached_s") is not None
+    ]
+
+
+def safety_measures(rows: list[dict]) -> dict:
+    """NaN, penetration (ok runs), accepted starts already in contact, pool exits, joint
+    limits and speeds (simulated runs), each against its flag."""
+    ok = [r for r in rows if r["outcome"] == "ok"]
+    pen = [r.get("max_penetration_m") for r in ok]
+    jl = [r.get("max_joint_limit_violation_rad") for r in _simulated(rows)]
+    js = [r.get("max_joint_speed_rad_s") for r in _simulated(rows)]
+    return {
+        "nan": {
+            "runs_with_nan": sum(1 for r in rows if r.get("nan_in_log")),
+            "ok_runs_with_nan": [r["run"] for r in ok if r.get("nan_in_log")],
+        },
         "penetration_m_ok_runs": {
             **_stats(pen),
-            "above_flag": sum(1 for p in pen if p is not None and p > PENETRATION_FLAG),
+            "above_flag": _above(pen, PENETRATION_FLAG),
             "flag": PENETRATION_FLAG,
         },
-        "accepted_starts_in_contact": start_contact,
+        "accepted_starts_in_contact": [
+            {
+                "run": r["run"],
+                "depth_m": r["initial_penetration_m"],
+                "pair": r.get("initial_contact", ""),
+            }
+            for r in rows
+            if (r.get("initial_penetration_m") or 0) > START_CONTACT_FLAG
+        ],
         "start_contact_flag_m": START_CONTACT_FLAG,
-        "pool_exits": exits,
+        "pool_exits": [
+            {"run": r["run"], "outcome": r["outcome"], "exit": r["pool_exit"]}
+            for r in rows
+            if r.get("left_pool")
+        ],
         "joint_limit_violation_rad": {
             **_stats(jl),
-            "above_flag": sum(1 for x in jl if x is not None and x > JOINT_LIMIT_FLAG),
+            "above_flag": _above(jl, JOINT_LIMIT_FLAG),
             "flag": JOINT_LIMIT_FLAG,
         },
         "joint_speed_rad_s": {
             **_stats(js),
-            "above_limit": sum(1 for x in js if x is not None and x > JOINT_SPEED_LIMIT),
+            "above_limit": _above(js, JOINT_SPEED_LIMIT),
             "limit": JOINT_SPEED_LIMIT,
         },
+    }
+
+
+def motion_measures(rows: list[dict], wall_time: float | None) -> dict:
+    """Body speeds and rates of the ok runs, and the wall times."""
+    ok = [r for r in rows if r["outcome"] == "ok"]
+    return {
         "mean_speed_m_s_ok_runs": _stats([r.get("mean_speed_m_s") for r in ok]),
         "max_speed_m_s_ok_runs": _stats([r.get("max_speed_m_s") for r in ok]),
         "max_body_rate_rad_s_ok_runs": _stats([r.get("max_body_rate_rad_s") for r in ok]),
@@ -1091,129 +1236,29 @@ def summarise(rows: list[dict], wall_time: float | None = None) -> dict:
             "per_run": _stats([r.get("wall_time_s") for r in rows if r["outcome"] != "refused"]),
         },
     }
+
+
+def check_failures(rows: list[dict]) -> dict:
+    """The runs that fail --check, by kind (kinds without a run left out): crashed, timed
+    out, NaN in a run that ended ok, an exception type the package does not raise."""
     bugs = {
         "crashed": [r["run"] for r in rows if r["outcome"] == "crashed"],
         "timeout": [r["run"] for r in rows if r["outcome"] == "timeout"],
-        "nan_without_failing": nan_silent,
-        "unexpected_exception": unexpected_types,
+        "nan_without_failing": [
+            r["run"] for r in rows if r["outcome"] == "ok" and r.get("nan_in_log")
+        ],
+        "unexpected_exception": [r["run"] for r in rows if r["outcome"] == "exception"],
     }
-    summary["check_failures"] = {k: v for k, v in bugs.items() if v}
-    return summary
+    return {k: v for k, v in bugs.items() if v}
 
 
 def format_summary(s: dict) -> str:
-    lines = [
-        f"fault campaign: {s['runs']} runs",
-        "",
-        f"{'outcome':<14}{'runs':>6}  most common causes",
-    ]
-    for o in OUTCOMES:
-        n = s["outcomes"][o]
-        causes = s["causes"].get(o, [])
-        first = f"{causes[0][1]:>4} x {causes[0][0]}" if causes and o != "ok" else ""
-        lines.append(f"{o:<14}{n:>6}  {first}")
-        if o != "ok":
-            shown = causes[1:] if o == "refused" else causes[1:6]  # refusals: every field
-            for c, k in shown:
-                lines.append(f"{'':<22}{k:>4} x {c}")
-            if len(causes) > 1 + len(shown):
-                lines.append(f"{'':<22}... {len(causes) - 1 - len(shown)} more (summary.json)")
-    lines.append("")
-    lines.append(
-        "expectation: " + ", ".join(f"{k} {v}" for k, v in sorted(s["expectation"].items()))
-    )
-    if s["silently_accepted"]:
-        lines.append(
-            "  SILENTLY ACCEPTED (must be refused): "
-            + "; ".join(
-                f"run {x['run']} ({x['expected']} -> {x['outcome']})"
-                for x in s["silently_accepted"]
-            )
-        )
-    if s.get("refused_other_field"):
-        lines.append(
-            "  refused naming another field: "
-            + "; ".join(
-                f"run {x['run']} ({x['expected']} -> {x['cause']})"
-                for x in s["refused_other_field"]
-            )
-        )
-    if s["unexpected_refusals"]:
-        lines.append(
-            "  refused without a must-refuse fault: "
-            + ", ".join(f"{c} x{n}" for c, n in s["unexpected_refusals"])
-        )
-    nan = s["nan"]
-    lines.append(
-        f"NaN/inf in the log: {nan['runs_with_nan']} runs; in runs that ended ok: "
-        f"{len(nan['ok_runs_with_nan'])} {nan['ok_runs_with_nan'] or ''}"
-    )
+    """The summary as the study prints it (``templates/faults_summary.txt.j2``)."""
+    from manta_drake.studies.report import render
 
-    def st(d, unit):
-        if not d.get("n"):
-            return "-"
-        return (
-            f"median {d['median']:.4g}, p95 {d['p95']:.4g}, max {d['max']:.4g} {unit} (n {d['n']})"
-        )
-
-    p = s["penetration_m_ok_runs"]
-    lines.append(
-        f"penetration (ok runs): {st(p, 'm')}; > {p['flag'] * 1e3:g} mm: {p['above_flag']}"
-    )
-    sc = s["accepted_starts_in_contact"]
-    lines.append(
-        f"accepted starts already > {s['start_contact_flag_m'] * 1e3:g} mm inside the "
-        f"floor or a wall at t = 0: {len(sc)}"
-        + (
-            " "
-            + "; ".join(f"run {x['run']} {x['depth_m'] * 1e3:.1f} mm {x['pair']}" for x in sc[:10])
-            if sc
-            else ""
-        )
-    )
-    ex = s["pool_exits"]
-    lines.append(
-        f"pool exits: {len(ex)}"
-        + (
-            " " + "; ".join(f"run {e['run']} ({e['outcome']}) {e['exit']}" for e in ex[:10])
-            if ex
-            else ""
-        )
-    )
-    j = s["joint_limit_violation_rad"]
-    lines.append(f"joint-limit violation: {st(j, 'rad')}; > {j['flag']} rad: {j['above_flag']}")
-    js = s["joint_speed_rad_s"]
-    lines.append(f"joint speed: {st(js, 'rad/s')}; > {js['limit']:g} rad/s: {js['above_limit']}")
-    lines.append(f"body speed, mean per run (ok runs): {st(s['mean_speed_m_s_ok_runs'], 'm/s')}")
-    lines.append(f"body speed, max per run (ok runs): {st(s['max_speed_m_s_ok_runs'], 'm/s')}")
-    lines.append(
-        f"body angular rate, max (ok runs): {st(s['max_body_rate_rad_s_ok_runs'], 'rad/s')}"
-    )
-    w = s["wall_time_s"]
-    camp = f"{w['campaign']:.0f} s" if w.get("campaign") else "-"
-    lines.append(
-        f"wall time: campaign {camp}, sum of runs {w['sum_of_runs']:.0f} s, "
-        f"per simulated run {st(w['per_run'], 's')}"
-    )
-    lines.append("")
-    lines.append(
-        "per base: "
-        + "; ".join(
-            f"{b}: " + " ".join(f"{k} {v}" for k, v in sorted(c.items()))
-            for b, c in s["per_base"].items()
-        )
-    )
-    cf = s["check_failures"]
-    lines.append("")
-    lines.append(
-        "CHECK: "
-        + (
-            "FAIL " + json.dumps(cf)
-            if cf
-            else "pass (no crash, no timeout, no silent NaN, no unexpected exception type)"
-        )
-    )
-    return "\n".join(lines)
+    failures = json.dumps(s["check_failures"]) if s["check_failures"] else ""
+    text = render("faults_summary.txt.j2", s=s, outcomes=OUTCOMES, failures=failures)
+    return text.removesuffix("\n")
 
 
 def write_outputs(rows: list[dict], summary: dict, out_dir) -> None:
@@ -1233,6 +1278,7 @@ def write_outputs(rows: list[dict], summary: dict, out_dir) -> None:
 # healthy runs; a day is the longest a run may take.
 MAX_RUNS = 10_000
 RUN_TIMEOUT_RANGE_S = (30.0, 86400.0)
+DEFAULT_RUNS_DIR = "out/faults"
 
 
 def check_arguments(args) -> None:
@@ -1263,11 +1309,10 @@ def check_arguments(args) -> None:
     for i in args.inject_crash:
         check_integer(f"--inject-crash (a run index of --runs {args.runs})", i, 0, args.runs - 1)
     check_cluster_arguments(args)
-    check_writable_folder(args.out, "--out", example="out/fault_campaign")
+    check_writable_folder(args.runs_dir, "--runs-dir", example=DEFAULT_RUNS_DIR)
 
 
-def main(argv=None, prog=None) -> int:
-    """The command line (``manta-drake study faults``); returns the exit status."""
+def _parser(prog):
     from manta_drake.cluster import add_cluster_arguments
 
     ap = StudyParser(prog=prog, description=__doc__.split("\n")[0])
@@ -1280,7 +1325,12 @@ def main(argv=None, prog=None) -> int:
         default=0,
         help="the seed of numpy.random.default_rng the runs are drawn from",
     )
-    ap.add_argument("--out", default="out/fault_campaign", help="output folder")
+    ap.add_argument(
+        "--runs-dir",
+        default=DEFAULT_RUNS_DIR,
+        help="the folder of the run folders, runs.csv, summary.json and specs.json "
+        f"(default {DEFAULT_RUNS_DIR})",
+    )
     add_cluster_arguments(ap)  # --workers 0: in this process, without crash isolation
     ap.add_argument(
         "--duration",
@@ -1314,34 +1364,49 @@ def main(argv=None, prog=None) -> int:
         default=[],
         help="(harness self-test) segfault the worker of this run index",
     )
-    args = ap.parse_args(argv)
+    return ap
+
+
+def strict_failures(summary: dict, strict: bool) -> dict:
+    """The runs that fail the campaign: ``check_failures``, with ``strict`` also the
+    must-refuse faults accepted and the accepted starts already in contact."""
+    failures = dict(summary["check_failures"])
+    if strict and summary["silently_accepted"]:
+        failures["silently_accepted"] = [x["run"] for x in summary["silently_accepted"]]
+    if strict and summary["accepted_starts_in_contact"]:
+        failures["accepted_starts_in_contact"] = [
+            x["run"] for x in summary["accepted_starts_in_contact"]
+        ]
+    return failures
+
+
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study faults``); returns the exit status."""
+    args = _parser(prog).parse_args(argv)
     check_arguments(args)
     specs = draw_specs(args.runs, args.seed, args.duration)
     for i in args.inject_crash:
         specs[i]["inject_crash"] = True
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "specs.json").write_text(json.dumps(specs, indent=1) + "\n")
+    runs_dir = pathlib.Path(args.runs_dir)
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    (runs_dir / "specs.json").write_text(json.dumps(specs, indent=1) + "\n")
     t0 = time.perf_counter()
     rows = run_campaign(
-        specs, out, workers=args.workers, run_timeout=args.run_timeout, scheduler=args.scheduler
+        specs,
+        runs_dir,
+        workers=args.workers,
+        run_timeout=args.run_timeout,
+        scheduler=args.scheduler,
     )
-    wall = time.perf_counter() - t0
-    summary = summarise(rows, wall)
+    summary = summarise(rows, time.perf_counter() - t0)
     summary["seed"], summary["workers"] = args.seed, args.workers
     if args.scheduler:
         summary["scheduler"] = args.scheduler
-    write_outputs(rows, summary, out)
+    write_outputs(rows, summary, runs_dir)
     print()
     print(format_summary(summary))
-    print(f"\nwrote {out / 'runs.csv'}, {out / 'summary.json'}")
-    failures = dict(summary["check_failures"])
-    if args.strict and summary["silently_accepted"]:
-        failures["silently_accepted"] = [x["run"] for x in summary["silently_accepted"]]
-    if args.strict and summary["accepted_starts_in_contact"]:
-        failures["accepted_starts_in_contact"] = [
-            x["run"] for x in summary["accepted_starts_in_contact"]
-        ]
+    print(f"\nwrote {runs_dir / 'runs.csv'}, {runs_dir / 'summary.json'}")
+    failures = strict_failures(summary, args.strict)
     # The exit status is the check: nonzero on a bug even without --check (--check only
     # adds the message).
     if failures:

@@ -447,8 +447,8 @@ def test_study_findings_energy_stance_outputs_and_options(tmp_path, capsys):
             "--duration: 5.0 is outside the allowed range [20, 3600] s",
         ),
         (
-            ["transitions", "--reuse", "--out", "{tmp}"],
-            "--out {tmp}: no potential_descent/log.npz to reuse",
+            ["transitions", "--reuse", "--runs", "{tmp}"],
+            "--runs {tmp}: no potential_descent/log.npz to reuse",
         ),
         (["behaviours", "--out", "{tmp}/a_file"], "--out {tmp}/a_file: is a file, not a folder"),
         (["behaviours", "--runs", "{tmp}/a_file"], "--runs {tmp}/a_file: is a file, not a folder"),

@@ -1,5 +1,7 @@
 """The metric functions of the transitions study (manta_drake.studies.transitions) on
-signals with known answers."""
+signals with known answers; its page's template and the folders it writes."""
+
+import argparse
 
 import numpy as np
 import pytest
@@ -256,3 +258,180 @@ def test_the_normalised_comparison_names_its_costs_and_gains(tb):
     assert "by at most 0.0 deg, Eq. (12)'s by 14.6 deg" in text
     # Without a normalised run there is nothing to compare.
     assert tb.normalised_section(rows[::2], 1.0) == []
+
+
+def _page_rows():
+    """Two methods' rows of swim->trot (no trot->swim event in the run)."""
+    steady = {
+        "max_cmd_step_rad": 0.006,
+        "max_cmd_rate_rad_s": 5.98,
+        "max_meas_vel_rad_s": 6.02,
+        "peak_torque_nm": 4.95,
+        "roll_exc_deg": 25.0,
+        "pitch_exc_deg": 45.8,
+    }
+    paper = {
+        "method": "potential/descent",
+        "transition": "swim->trot",
+        "blend": "potential",
+        "event_s": 11.56,
+        "window_s": [9.56, 23.56],
+        "max_cmd_step_rad": 0.00351,
+        "max_cmd_rate_rad_s": 3.531,
+        "max_meas_vel_rad_s": 3.9,
+        "peak_torque_nm": 9.744,
+        "roll_exc_deg": 23.2,
+        "pitch_exc_deg": 63.46,
+        "psi_gait_changes": 1,
+        "arrival_s": 4.42,
+        "settle_params_s": None,
+        "settle_joints_s": None,
+        "outside_steady_deg": 7.6,
+        "outside_gaits_deg": 14.8,
+        "worst_joint": 2,
+        "steady": steady,
+    }
+    switch = {
+        **paper,
+        "method": "switch/direct",
+        "blend": "switch",
+        "event_s": 8.16,
+        "window_s": [6.16, 20.16],
+        "max_cmd_step_rad": 0.006,
+        "peak_torque_nm": 7.19,
+        "pitch_exc_deg": 59.2,
+        "psi_gait_changes": 9,
+        "arrival_s": 0.04,
+        "settle_params_s": 6.02,
+        "outside_steady_deg": 0.0,
+        "outside_gaits_deg": 0.0,
+    }
+    later = {"transition": "trot->swim", "event_s": None, "note": "never"}
+    return [
+        paper,
+        {**later, "method": "potential/descent"},
+        switch,
+        {**later, "method": "switch/direct"},
+    ]
+
+
+def _facts():
+    return {
+        "max_descent_step": 0.0589,
+        "period_ms": 20.0,
+        "a": 20.0,
+        "b": 20.0,
+        "effort": (4.5, 9.2),
+        "velocity": (8.0, 8.0),
+        "change": 3.14159,
+        "settle_tol": 0.0314159,
+        "tolerance": 0.05,
+        "frequency": 0.5,
+        "log_ms": 1.0,
+        "z_t": 1.0,
+        "commands": [(8.0, 0.0), (38.0, 1.0)],
+    }
+
+
+def test_the_page_puts_each_number_in_its_place(tb):
+    checks = [
+        {"method": "potential/descent", "kind": "limit", "limit": (4.5, 9.2), "value": 3},
+        {"method": "switch/direct", "kind": "direct", "value": 0.0},
+    ]
+    command = "manta-drake study transitions --duration 30 --runs R"
+    lines = tb.page(_page_rows(), checks, _facts(), command, 30.0).splitlines()
+    assert lines[2] == (
+        "Made unknown at commit unknown. Regenerate with `manta-drake study transitions "
+        "--duration 30 --runs R` (four runs of 30 s, one after the other; `--reuse` recomputes "
+        "this page from the existing runs in `--runs`, default `out/transitions`)."
+    )
+    text = "\n".join(lines)
+    assert "the balloon is commanded to fill 0 at 8 s, then fill 1 at 38 s: the robot" in text
+    assert "at most 0.059 rad per 20 ms update" in text
+    assert "(servo limit in the model: 8 rad/s)" in text
+    assert "the PD's effort limit is 4.5-9.2 N m." in text
+    # The tables: the rows in order, each cell to its digits; a reference row per transition.
+    motion = lines.index("How abrupt:") + 2
+    assert lines[motion + 2 : motion + 5] == [
+        "| potential/descent | swim->trot | 11.56 | 0.0035 | 3.53 | 3.90 | 9.74 | 23.2 | 63.5 |",
+        "| switch/direct | swim->trot | 8.16 | 0.0060 | 3.53 | 3.90 | 7.19 | 23.2 | 59.2 |",
+        "| *steady swim and trot (ref.)* | swim->trot | n/a | 0.0060 | 5.98 | 6.02 | 4.95 | "
+        "25.0 | 45.8 |",
+    ]
+    timing = lines.index("How long, and how far off the two gaits:") + 2
+    assert lines[timing + 2] == (
+        "| potential/descent | swim->trot | 1 | 4.42 | > 12 | > 12 | 7.6 | 14.8 |"
+    )
+    assert "| switch/direct | swim->trot | 9 | 0.04 | 6.02 | > 12 | 0.0 | 0.0 |" in lines
+    assert (
+        "* swim->trot: largest commanded step: switch/direct; largest torque peak: "
+        "potential/descent; largest pitch excursion: potential/descent; largest excursion "
+        "outside the steady envelope: potential/descent." in lines
+    )
+    assert (
+        "* trot->swim: largest commanded step: n/a; largest torque peak: n/a; largest pitch "
+        "excursion: n/a; largest excursion outside the steady envelope: n/a." in lines
+    )
+    assert (
+        "* switch/direct, swim->trot: psi went between the two gaits 9 times within the window "
+        "(the target chattered as z_hat crossed the threshold back and forth)." in lines
+    )
+    assert "| potential | 74.6 | 0.50, 0.00 | 18.6 | 0.50, 0.00 |" in lines
+    assert "| switch | 0.0 | n/a | 0.0 | n/a |" in lines
+    # Without a normalised run there is no comparison: one blank line before the checks.
+    assert "### The normalised blend" not in text
+    checks_at = lines.index("Checks made by the script on these runs:")
+    assert lines[checks_at - 2].startswith("| switch |") and lines[checks_at - 1] == ""
+    assert lines[checks_at + 2 : checks_at + 4] == [
+        "* potential/descent: samples (1 ms) with a joint at its effort limit (4.5-9.2 N m), "
+        "whole run: 3",
+        "* switch/direct: logged cpg_params = psi_d(z_hat) one update later, max difference "
+        "(rad): 0.00e+00",
+    ]
+    assert "![transitions](figures/transition_baselines.png)" in lines
+    assert text.endswith("for the four methods.")
+
+
+@pytest.mark.filterwarnings("ignore:No artists with labels")  # no trot->swim in these runs
+def test_out_holds_the_page_and_the_figure_and_runs_the_runs(tb, tmp_path, monkeypatch):
+    from manta_drake.studies import REPO
+
+    runs = tmp_path / "runs"
+    for *_, folder in tb.METHODS:  # --reuse: the runs' files must be there
+        (runs / folder).mkdir(parents=True)
+        for name in ("log.npz", "metrics.json"):
+            (runs / folder / name).write_text("")
+    rows = _page_rows()
+    t = np.arange(0.0, 30.0, 0.01)
+    log = {
+        "t": t,
+        "t_command": t,
+        "t_z_hat": t,
+        "commanded_joint_angles": np.zeros((len(t), 16)),
+        "body_rpy": np.zeros((len(t), 3)),
+        "z_hat": np.zeros((len(t), 1)),
+    }
+    logs = {"potential/descent": (log, {}), "switch/direct": (log, {})}
+    monkeypatch.setattr(tb, "analyse_runs", lambda folder: (logs, rows, [], _facts(), 70.0))
+    out = tmp_path / "report"
+    assert tb.main(["--reuse", "--runs", str(runs), "--out", str(out)], prog="x") == 0
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.*")) == sorted(
+        [
+            f"runs/{folder}/{name}"
+            for *_, folder in tb.METHODS
+            for name in ("log.npz", "metrics.json")
+        ]
+        + [
+            "report/transitions.md",
+            "report/figures/transition_baselines.png",
+            "runs/transition_baselines.json",
+        ]
+    )
+    page = (out / "transitions.md").read_text()
+    assert "Regenerate with `manta-drake study transitions` (four runs of 70 s," in page
+    assert "| switch/direct | swim->trot | 8.16 |" in page
+    # Where the page goes without --out: the checkout's docs/, or beside a shortened run.
+    args = argparse.Namespace(runs=str(runs), out=None, duration=None, reuse=False)
+    assert tb.check_arguments(args, "x") == (runs, REPO / "docs")
+    args.duration = 30.0
+    assert tb.check_arguments(args, "x") == (runs, runs)

@@ -13,21 +13,23 @@ four transition methods,
 computes per method and per transition the metrics defined below from each run's log.npz,
 measures how far each blend's target psi_d leaves the gaits' range over every estimate
 (``target_outside``, no run needed), and writes the tables and their explanation to
-docs/transitions.md and a figure to docs/figures/transition_baselines.png.
+``OUT/transitions.md`` and a figure to ``OUT/figures/transition_baselines.png`` (``--out
+OUT``, default the checkout's docs/). The runs go to ``--runs DIR`` (default
+``out/transitions``), with the rows as ``DIR/transition_baselines.json``.
 
 Usage::
 
-    manta-drake study transitions               # 4 runs of 70 s, then the table
-    manta-drake study transitions --reuse       # the table from the existing runs
-    manta-drake study transitions --duration 20 # a quick check (writes into --out)
+    manta-drake study transitions               # 4 runs of 70 s, then the page
+    manta-drake study transitions --reuse       # the page from the existing runs
+    manta-drake study transitions --duration 20 # a quick check (its page goes into --runs)
 
-Every number in the table is computed here from the runs; none is typed in.
+Every number on the page is computed here from the runs; none is typed in. The page's
+prose is ``templates/transitions.md.j2`` (with ``transitions_macros.md.j2``).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import pathlib
 import time
@@ -36,7 +38,6 @@ import numpy as np
 
 from manta_drake.control.transition import wrap  # angles to (-pi, pi]
 from manta_drake.metrics import at_behaviour
-from manta_drake.studies import REPO as ROOT
 
 SCENARIO = "two_behaviors"
 # (label, transition.blend, transition.follow, folder)
@@ -52,9 +53,9 @@ LEAD_S = 2.0
 STEADY_S = 5.0  # length of the steady-gait windows that give the joint envelope
 SETTLE_FRACTION = 0.01  # settled: every CPG parameter within 1 % of the largest change
 SETTLE_JOINT_DEG = 2.0  # settled joints: one-period envelope within 2 deg of X -+ |R|
-DEFAULT_OUT = "out/transition_baselines"
-DOC = ROOT / "docs" / "transitions.md"
-FIGURE = ROOT / "docs" / "figures" / "transition_baselines.png"
+DEFAULT_RUNS = "out/transitions"  # the runs folder (--runs)
+PAGE = "transitions.md"  # the page and the figure in the report folder (--out)
+FIGURE = "figures/transition_baselines.png"
 COMMAND = "manta-drake study transitions"
 COLOURS = {
     "potential/descent": "C0",
@@ -339,12 +340,8 @@ def facts(scenario, effort, velocity) -> dict:
         "period_ms": 1e3 * tr.period,
         "a": c.a,
         "b": c.b,
-        "effort": f"{effort.min():g}"
-        if np.ptp(effort) == 0
-        else f"{effort.min():g}-{effort.max():g}",
-        "velocity": f"{velocity.min():g}"
-        if np.ptp(velocity) == 0
-        else f"{velocity.min():g}-{velocity.max():g}",
+        "effort": (effort.min(), effort.max()),  # over the 16 joints
+        "velocity": (velocity.min(), velocity.max()),
         "change": change,
         "settle_tol": SETTLE_FRACTION * change,
         "tolerance": tr.arrival_tolerance,
@@ -408,16 +405,14 @@ def motion_metrics(log: dict, windows) -> dict:
 
 def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]:
     """The metrics of both transitions of one run (a row per transition)."""
-    from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ, GAITS
+    from manta_drake.control.gaits import GAITS
 
     if np.any(np.asarray(log.get("s_hat", 0.0)) != 0.0):
         raise NotImplementedError("a wall was seen: psi_d would need the filtered s_hat")
     tr = scenario.transition
     t_end = float(log["t"][-1])
     blend, z_t = eq12_parameters(scenario)
-    t_z, psi_d = log["t_z_hat"], target_series(log["z_hat"], blend, z_t)
-    t_p, psi = log["t_cpg_params"], log["cpg_params"]
-    tc, qc = log["t_command"], log["commanded_joint_angles"]
+    psi_d = target_series(log["z_hat"], blend, z_t)
     events = balloon_times(scenario) + [np.inf]
     rows = []
     for k, (src, dst) in enumerate(TRANSITIONS):
@@ -431,109 +426,148 @@ def analyse_method(log: dict, metrics: dict, scenario, label: str) -> list[dict]
             "follow": tr.follow,
         }
         rows.append(row)
-        t0 = transition_event(t_z, psi_d, source, target, tr.arrival_tolerance, after=t_cmd)
+        t0 = transition_event(
+            log["t_z_hat"], psi_d, source, target, tr.arrival_tolerance, after=t_cmd
+        )
         row["event_s"] = t0
         if t0 is None:
             row["note"] = "psi_d never reached the target gait in this run"
             continue
-        ta, t1 = t0 - LEAD_S, min(t0 + HORIZON_S, t_end)
-        row["window_s"] = [ta, t1]
-        row.update(motion_metrics(log, [(ta, t1)]))
-        wc = window_mask(tc, ta, t1)
-        # Settling: psi (the CPG's parameters) within 1 % of the largest parameter change.
-        tol = SETTLE_FRACTION * np.abs(wrap(target - source)).max()
-        row["settle_tol_rad"] = float(tol)
-        s = settle_time(t_p, psi, target, tol, t0, t1)
-        row["settle_params_s"] = None if s is None else s - t0
-        # ... and the commanded joints: their range over each 1/f window within 2 deg of the
-        # target gait's X -+ |R|.
-        lo_g, hi_g = gait_envelope(target)
-        s = joint_settle_time(
-            tc, qc, lo_g, hi_g, np.radians(SETTLE_JOINT_DEG), 1.0 / DEFAULT_FREQUENCY_HZ, t0, t1
-        )
-        row["settle_joints_s"] = None if s is None else s - t0
-        # Unexpected values: the commanded joints outside the range they span in the steady
-        # parts of the two gaits: the STEADY_S s before the balloon command that causes the
-        # transition and the STEADY_S s before the next command (or the run's end).
-        steady = window_mask(tc, t_cmd - STEADY_S, t_cmd) | window_mask(
-            tc, t_next - STEADY_S, t_next
-        )
-        lo_a, hi_a = gait_envelope(source)
-        lo_b, hi_b = gait_envelope(target)
-        if t_next - STEADY_S > t1 and window_mask(tc, t_cmd - STEADY_S, t_cmd).any():
-            lo, hi = envelope(qc[steady])
-            row["outside_steady_deg"] = float(np.degrees(outside(qc[wc], lo, hi)))
-            # The joint of that excursion: its steady range, the gaits' X -+ |R| and the
-            # window's range (the steady range can be narrower than X -+ |R|).
-            ex = np.maximum(np.maximum(lo - qc[wc], qc[wc] - hi), 0.0).max(axis=0)
-            j = int(ex.argmax())
-            row["worst_steady"] = {
-                "joint": j,
-                "steady": [float(lo[j]), float(hi[j])],
-                "gaits": [float(min(lo_a[j], lo_b[j])), float(max(hi_a[j], hi_b[j]))],
-                "window": [float(qc[wc][:, j].min()), float(qc[wc][:, j].max())],
-            }
-        else:
-            row["outside_steady_deg"] = float("nan")
-        row["outside_gaits_deg"] = float(
-            np.degrees(outside(qc[wc], np.minimum(lo_a, lo_b), np.maximum(hi_a, hi_b)))
-        )
-        row["worst_joint"] = int(
-            np.argmax(
-                np.maximum(
-                    np.maximum(np.minimum(lo_a, lo_b) - qc[wc], qc[wc] - np.maximum(hi_a, hi_b)), 0
-                ).max(axis=0)
-            )
-        )
-        # z_hat at the surface, in the steady swim windows: the noise floor the blends see.
-        zs = [
-            log["z_hat"][window_mask(t_z, a, b), 0]
-            for a, b in ((t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next))
-        ]
-        row["z_hat_steady_range"] = [
-            [float(z.min()), float(z.max())] if len(z) else None for z in zs
-        ]
-        # How often psi (the CPG's parameters) changed between the two gaits in the window
-        # (a chattering switch changes more than once).
-        from manta_drake import metrics as M
-
-        wp = window_mask(t_p, ta, t1)
-        row["psi_gait_changes"] = gait_changes(
-            M.behaviour_at(psi[wp], {src: source, dst: target}, tr.arrival_tolerance), src
-        )
-        # First arrival of psi at the new gait (metrics.json's rule), up to the run's end.
-        arrived = np.flatnonzero((t_p >= t0) & at_behaviour(psi, target, tr.arrival_tolerance))
-        row["arrival_s"] = float(t_p[arrived[0]] - t0) if len(arrived) else None
-        # Where the commanded joints leave the two gaits' range the most, and why: the CPG
-        # parameters (amplitude R, bias X of that joint) and z_hat at that moment.
-        ex = np.maximum(
-            np.maximum(np.minimum(lo_a, lo_b) - qc[wc], qc[wc] - np.maximum(hi_a, hi_b)), 0.0
-        )
-        i, j = np.unravel_index(int(ex.argmax()), ex.shape)
-        if ex[i, j] > 1e-4:  # rad; below that it is round-off at a gait's own extreme
-            tw = float(tc[wc][i])
-            p = psi[min(np.searchsorted(t_p, tw, side="right") - 1, len(psi) - 1)]
-            n = p.size // 4
-            zi = float(log["z_hat"][max(np.searchsorted(t_z, tw, side="right") - 1, 0), 0])
-            row["worst"] = {
-                "t_s": tw,
-                "joint": j,
-                "q_rad": float(qc[wc][i, j]),
-                "R": float(p[j]),
-                "X": float(p[n + j]),
-                "z_hat": zi,
-                "lo": float(min(lo_a[j], lo_b[j])),
-                "hi": float(max(hi_a[j], hi_b[j])),
-            }
-        # The same motion metrics over the steady parts of the two gaits, for reference.
-        row["steady"] = motion_metrics(
-            log, [(t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next)]
-        )
+        gaits = {src: source, dst: target}
+        measure_transition(row, log, gaits, (t_cmd, t0, t_next, t_end), tr.arrival_tolerance)
         # Transitions as metrics.json names them (psi at a behaviour, 0.05 rad).
         row["metrics_json"] = [
             x for x in metrics.get("transitions", []) if x["from"] == src and x["to"] == dst
         ]
     return rows
+
+
+def measure_transition(row: dict, log: dict, gaits: dict, times, tolerance: float) -> None:
+    """Adds to ``row`` the metrics of one transition between ``gaits`` (source, then target:
+    name -> 64-vector), ``times`` = (balloon command, event t0, next command or the run's
+    end, the run's end) [s]; ``tolerance`` [rad]: at a gait (``transition.arrival_tolerance``)."""
+    from manta_drake import metrics as M
+
+    (src, source), (dst, target) = gaits.items()
+    t_cmd, t0, t_next, t_end = times
+    ta, t1 = t0 - LEAD_S, min(t0 + HORIZON_S, t_end)
+    row["window_s"] = [ta, t1]
+    row.update(motion_metrics(log, [(ta, t1)]))
+    row.update(settling(log, source, target, t0, t1))
+    row.update(unexpected_values(log, source, target, (t_cmd, t_next), (ta, t1)))
+    # z_hat at the surface, in the steady swim windows: the noise floor the blends see.
+    t_z = log["t_z_hat"]
+    zs = [
+        log["z_hat"][window_mask(t_z, a, b), 0]
+        for a, b in ((t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next))
+    ]
+    row["z_hat_steady_range"] = [[float(z.min()), float(z.max())] if len(z) else None for z in zs]
+    # How often psi (the CPG's parameters) changed between the two gaits in the window
+    # (a chattering switch changes more than once).
+    t_p, psi = log["t_cpg_params"], log["cpg_params"]
+    wp = window_mask(t_p, ta, t1)
+    row["psi_gait_changes"] = gait_changes(M.behaviour_at(psi[wp], gaits, tolerance), src)
+    # First arrival of psi at the new gait (metrics.json's rule), up to the run's end.
+    arrived = np.flatnonzero((t_p >= t0) & at_behaviour(psi, target, tolerance))
+    row["arrival_s"] = float(t_p[arrived[0]] - t0) if len(arrived) else None
+    worst = worst_command(log, source, target, (ta, t1))
+    if worst is not None:
+        row["worst"] = worst
+    # The same motion metrics over the steady parts of the two gaits, for reference.
+    row["steady"] = motion_metrics(log, [(t_cmd - STEADY_S, t_cmd), (t_next - STEADY_S, t_next)])
+
+
+def settling(log: dict, source, target, t0: float, t1: float) -> dict:
+    """Settling times from ``t0`` [s] in the window ending at ``t1``: psi (the CPG's
+    parameters) within ``SETTLE_FRACTION`` of the largest parameter change, and the
+    commanded joints' range over each 1/f window within ``SETTLE_JOINT_DEG`` of the target
+    gait's X -+ |R| (None: not within the window)."""
+    from manta_drake.control.gaits import DEFAULT_FREQUENCY_HZ
+
+    tol = SETTLE_FRACTION * np.abs(wrap(target - source)).max()
+    s = settle_time(log["t_cpg_params"], log["cpg_params"], target, tol, t0, t1)
+    lo_g, hi_g = gait_envelope(target)
+    j = joint_settle_time(
+        log["t_command"],
+        log["commanded_joint_angles"],
+        lo_g,
+        hi_g,
+        np.radians(SETTLE_JOINT_DEG),
+        1.0 / DEFAULT_FREQUENCY_HZ,
+        t0,
+        t1,
+    )
+    return {
+        "settle_tol_rad": float(tol),
+        "settle_params_s": None if s is None else s - t0,
+        "settle_joints_s": None if j is None else j - t0,
+    }
+
+
+def _two_gaits(source, target):
+    """Per joint, the range [min(X - |R|), max(X + |R|)] of the two gaits."""
+    lo_a, hi_a = gait_envelope(source)
+    lo_b, hi_b = gait_envelope(target)
+    return np.minimum(lo_a, lo_b), np.maximum(hi_a, hi_b)
+
+
+def unexpected_values(log: dict, source, target, commands, window) -> dict:
+    """How far the commanded joints leave, in ``window`` (start, end) [s], the range they
+    span in the steady parts of the two gaits (the ``STEADY_S`` s before each of
+    ``commands``: the balloon command of the transition, the next one or the run's end) and
+    the two gaits' X -+ |R|; the joint of each largest excursion."""
+    tc, qc = log["t_command"], log["commanded_joint_angles"]
+    (t_cmd, t_next), (ta, t1) = commands, window
+    wc = window_mask(tc, ta, t1)
+    lo_g, hi_g = _two_gaits(source, target)
+    out: dict = {"outside_steady_deg": float("nan")}
+    if t_next - STEADY_S > t1 and window_mask(tc, t_cmd - STEADY_S, t_cmd).any():
+        steady = window_mask(tc, t_cmd - STEADY_S, t_cmd) | window_mask(
+            tc, t_next - STEADY_S, t_next
+        )
+        lo, hi = envelope(qc[steady])
+        out["outside_steady_deg"] = float(np.degrees(outside(qc[wc], lo, hi)))
+        # The joint of that excursion: its steady range, the gaits' X -+ |R| and the
+        # window's range (the steady range can be narrower than X -+ |R|).
+        j = int(np.maximum(np.maximum(lo - qc[wc], qc[wc] - hi), 0.0).max(axis=0).argmax())
+        out["worst_steady"] = {
+            "joint": j,
+            "steady": [float(lo[j]), float(hi[j])],
+            "gaits": [float(lo_g[j]), float(hi_g[j])],
+            "window": [float(qc[wc][:, j].min()), float(qc[wc][:, j].max())],
+        }
+    out["outside_gaits_deg"] = float(np.degrees(outside(qc[wc], lo_g, hi_g)))
+    out["worst_joint"] = int(
+        np.argmax(np.maximum(np.maximum(lo_g - qc[wc], qc[wc] - hi_g), 0).max(axis=0))
+    )
+    return out
+
+
+def worst_command(log: dict, source, target, window) -> dict | None:
+    """Where in ``window`` (start, end) [s] the commanded joints leave the two gaits' range
+    the most, and why: the CPG parameters (amplitude R, bias X of that joint) and z_hat at
+    that moment; None within 1e-4 rad (round-off at a gait's own extreme)."""
+    tc, qc = log["t_command"], log["commanded_joint_angles"]
+    t_p, psi, t_z = log["t_cpg_params"], log["cpg_params"], log["t_z_hat"]
+    wc = window_mask(tc, *window)
+    lo_g, hi_g = _two_gaits(source, target)
+    ex = np.maximum(np.maximum(lo_g - qc[wc], qc[wc] - hi_g), 0.0)
+    i, j = np.unravel_index(int(ex.argmax()), ex.shape)
+    if not ex[i, j] > 1e-4:
+        return None
+    tw = float(tc[wc][i])
+    p = psi[min(np.searchsorted(t_p, tw, side="right") - 1, len(psi) - 1)]
+    n = p.size // 4
+    return {
+        "t_s": tw,
+        "joint": j,
+        "q_rad": float(qc[wc][i, j]),
+        "R": float(p[j]),
+        "X": float(p[n + j]),
+        "z_hat": float(log["z_hat"][max(np.searchsorted(t_z, tw, side="right") - 1, 0), 0]),
+        "lo": float(lo_g[j]),
+        "hi": float(hi_g[j]),
+    }
 
 
 def check_direct_follow(log: dict, scenario) -> float:
@@ -550,7 +584,7 @@ def check_direct_follow(log: dict, scenario) -> float:
 
 
 # ----------------------------------------------------------------------------------------
-# Outputs
+# Outputs: the numbers the page shows; its prose is templates/transitions.md.j2
 # ----------------------------------------------------------------------------------------
 
 # Two tables: how abrupt (the motion), and how long / how far off (the timing and the
@@ -577,6 +611,8 @@ TIMING_COLUMNS = (
     ("outside_gaits_deg", "outside X-+abs(R) (deg)", "{:.1f}"),
 )
 COLUMNS = MOTION_COLUMNS + TIMING_COLUMNS[2:]
+# The keys of the sentence under the tables: the method(s) with the largest value.
+LARGEST_KEYS = ("max_cmd_step_rad", "peak_torque_nm", "pitch_exc_deg", "outside_steady_deg")
 
 
 def fmt(row: dict, key: str, spec: str) -> str:
@@ -606,241 +642,154 @@ def with_references(rows: list[dict]) -> list[dict]:
     return out
 
 
+def table(rows: list[dict], columns=COLUMNS) -> dict:
+    """A table's header and cells (``fmt``) for the template's ``table`` macro."""
+    return {
+        "header": [h for _, h, _ in columns],
+        "cells": [[fmt(r, k, s) for k, _, s in columns] for r in rows],
+    }
+
+
+def _macros():
+    """The macros of ``templates/transitions_macros.md.j2``, callable from here."""
+    from manta_drake.studies.report import template_env
+
+    return template_env().get_template("transitions_macros.md.j2").module
+
+
 def markdown_table(rows: list[dict], columns=COLUMNS) -> str:
-    head = "| " + " | ".join(h for _, h, _ in columns) + " |"
-    rule = "| " + " | ".join("---" for _ in columns) + " |"
-    body = ["| " + " | ".join(fmt(r, k, s) for k, _, s in columns) + " |" for r in rows]
-    return "\n".join([head, rule, *body])
+    return str(_macros().table(table(rows, columns)))
 
 
-def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from manta_drake.control.gaits import GAITS
-
-    # The joint shown: the one that leaves the two gaits' range the most in any run.
-    worst = [r for r in rows if "outside_gaits_deg" in r]
-    j = max(worst, key=lambda r: r["outside_gaits_deg"])["worst_joint"] if worst else 2
-    fig, axes = plt.subplots(4, len(TRANSITIONS), figsize=(13, 11), sharex="col", squeeze=False)
-    lead = LEAD_S
-    for c, (src, dst) in enumerate(TRANSITIONS):
-        name = f"{src}->{dst}"
-        for label, (log, _) in runs.items():
-            row = next(r for r in rows if r["method"] == label and r["transition"] == name)
-            t0 = row.get("event_s")
-            if t0 is None:
-                continue
-            col = COLOURS[label]
-            m = window_mask(log["t_command"], t0 - lead, t0 + HORIZON_S)
-            tt = log["t_command"][m] - t0
-            axes[0, c].plot(tt, log["commanded_joint_angles"][m, j], color=col, lw=0.8, label=label)
-            m = window_mask(log["t"], t0 - lead, t0 + HORIZON_S)
-            tt = log["t"][m] - t0
-            axes[1, c].plot(tt, np.degrees(log["body_rpy"][m, 1]), color=col, lw=0.8, label=label)
-            if "joint_torque" in log:
-                mt = window_mask(log["t_joint_torque"], t0 - lead, t0 + HORIZON_S)
-                # The largest |torque| of the 16 joints over each 50 ms (the raw 1 ms
-                # signal is too dense to read).
-                ttq = log["t_joint_torque"][mt] - t0
-                tq = np.abs(log["joint_torque"][mt]).max(axis=1)
-                n = 50
-                k = len(tq) // n
-                if k:
-                    axes[2, c].plot(
-                        ttq[: k * n].reshape(k, n)[:, 0],
-                        tq[: k * n].reshape(k, n).max(axis=1),
-                        color=col,
-                        lw=0.8,
-                        label=f"{label} (peak {row['peak_torque_nm']:.2f})",
-                    )
-            mz = window_mask(log["t_z_hat"], t0 - lead, t0 + HORIZON_S)
-            axes[3, c].plot(
-                log["t_z_hat"][mz] - t0, log["z_hat"][mz, 0], color=col, lw=0.8, label=label
-            )
-        lo_a, hi_a = gait_envelope(GAITS[src].to_vector())
-        lo_b, hi_b = gait_envelope(GAITS[dst].to_vector())
-        axes[0, c].axhspan(
-            min(lo_a[j], lo_b[j]),
-            max(hi_a[j], hi_b[j]),
-            color="0.9",
-            zorder=0,
-            label="range of the two gaits (X -+ |R|)",
-        )
-        axes[0, c].set_title(f"{name}: commanded {joint_names[j]}")
-        axes[0, c].set_ylabel("rad")
-        axes[1, c].set_title("body pitch")
-        axes[1, c].set_ylabel("deg")
-        axes[2, c].set_title("largest joint |torque| (max over 50 ms)")
-        axes[2, c].set_ylabel("N m")
-        axes[3, c].set_title("z_hat (drives psi_d)")
-        axes[3, c].set_xlabel("t - t0 (s): t0 = the target psi_d leaves the old gait")
-        for ax in axes[:, c]:
-            ax.axvline(0.0, color="k", lw=0.5)
-            ax.grid(alpha=0.3)
-    for ax in axes[:, 0]:
-        ax.legend(fontsize=7, loc="best")
-    axes[2, 1].legend(fontsize=7, loc="best")
-    fig.suptitle(f"{SCENARIO}: the transitions of {NUMBER_WORDS[len(runs)]} methods", fontsize=12)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+def largest(rows: list[dict], key: str, transition: str) -> list[str]:
+    """The method(s) of ``transition`` with the largest ``key`` to the digits the tables show
+    (all of them on a tie; none without a value)."""
+    spec = next(s for k, _, s in COLUMNS if k == key)
+    vals = [
+        (float(spec.format(r[key])), r["method"])
+        for r in rows
+        if r["transition"] == transition and r.get(key) is not None and np.isfinite(r[key])
+    ]
+    top = max((v for v, _ in vals), default=None)
+    return [m for v, m in vals if v == top]
 
 
-def reading(rows: list[dict]) -> list[str]:
-    """Statements about the rows, computed from them (no number typed in)."""
-    from manta_drake.control.gaits import GAITS
-    from manta_drake.control.transition import BEHAVIOURS, target_params
+def largest_by_transition(rows: list[dict]) -> list[dict]:
+    """Per transition, ``largest``'s methods of each of ``LARGEST_KEYS`` (" = " on a tie)."""
+    return [
+        {
+            "transition": name,
+            **{key: " = ".join(largest(rows, key, name)) or "n/a" for key in LARGEST_KEYS},
+        }
+        for name in (f"{a}->{b}" for a, b in TRANSITIONS)
+    ]
+
+
+def observations(rows: list[dict]) -> dict:
+    """What the numbers show, computed from the rows: the chattering transitions, where
+    each method commanded a joint furthest outside the two gaits, the excursions outside the
+    steady envelope that stay inside the gaits' X -+ |R|, z_hat at the surface."""
     from manta_drake.model.robot_params import JOINT_NAMES
 
-    out = ["", "### What the numbers show (computed from the runs)", ""]
-    for r in rows:
-        if r.get("psi_gait_changes", 0) > 1:
-            out.append(
-                f"* {r['method']}, {r['transition']}: psi went between the two gaits "
-                f"{r['psi_gait_changes']} times within the window (the target chattered "
-                "as z_hat crossed the threshold back and forth)."
-            )
-    for r in rows:
-        w = r.get("worst")
-        if not w:
-            continue
-        text = (
-            f"* {r['method']}, {r['transition']}: {JOINT_NAMES[w['joint']]} was commanded "
-            f"{w['q_rad']:.3f} rad at t = {w['t_s']:.2f} s, {r['outside_gaits_deg']:.1f} deg "
-            f"outside the two gaits' range [{w['lo']:.3f}, {w['hi']:.3f}] rad; there psi "
-            f"had that joint's amplitude R = {w['R']:.3f} and bias X = {w['X']:.3f} "
-            f"(X - |R| = {w['X'] - abs(w['R']):.3f}, X + |R| = {w['X'] + abs(w['R']):.3f}) "
-            f"with z_hat = {w['z_hat']:.2f}."
-        )
-        descent = (
-            " psi is still on its way, off the straight line between the gaits: "
-            "Eq. (15)'s descent moves every parameter by at most alpha g T per update, "
-            "so the parameters with the larger changes (the phases, up to pi) arrive "
-            "last and meanwhile amplitude and bias combine as in neither gait."
-        )
-        if r.get("blend") == "potential":
-            z = min(max(w["z_hat"], 0.0), 1.0)
-            weights = np.cos(np.pi * z / 2) + np.sin(np.pi * z / 2)
-            if weights > 1.01:
-                text += (
-                    f" At that z_hat Eq. (12)'s weights on the two gaits, cos(pi z/2) and "
-                    f"sin(pi z/2), sum to {weights:.2f} (Eq. 11's always to 1): the blend "
-                    "is not convex, so a joint can keep most of the swimming amplitude "
-                    "while its bias already moves toward the trot's."
-                )
-            else:
-                text += (
-                    f" At that z_hat the target is a gait (Eq. (12)'s weights sum to "
-                    f"{weights:.2f});" + descent
-                )
-        elif r.get("blend") == "normalised":
-            text += (
-                " The target psi_d is a convex blend, inside the gaits' range at every "
-                "z_hat (below);" + descent
-            )
-        out.append(text)
-    for r in rows:
-        w = r.get("worst_steady")
-        if not w or not r.get("outside_steady_deg", 0.0) >= 0.05:
-            continue
-        if r.get("outside_gaits_deg", np.inf) < 0.05:
-            out.append(
-                f"* {r['method']}, {r['transition']}: its {r['outside_steady_deg']:.1f} deg "
-                f"outside the steady envelope ({JOINT_NAMES[w['joint']]}, commanded "
-                f"[{w['window'][0]:.3f}, {w['window'][1]:.3f}] rad in the window) are inside "
-                f"the two gaits' X -+ |R| ([{w['gaits'][0]:.3f}, {w['gaits'][1]:.3f}] rad): "
-                f"in the steady windows that joint's commands span only "
-                f"[{w['steady'][0]:.3f}, {w['steady'][1]:.3f}] rad, narrower than "
-                "X -+ |R|."
-            )
-    surface = [
-        r["z_hat_steady_range"][0]
+    steady_inside = [
+        {
+            "method": r["method"],
+            "transition": r["transition"],
+            "outside_steady_deg": r["outside_steady_deg"],
+            **r["worst_steady"],
+            "joint": JOINT_NAMES[r["worst_steady"]["joint"]],
+        }
         for r in rows
-        if r["transition"] == "swim->trot" and "z_hat_steady_range" in r
+        if r.get("worst_steady")
+        and r.get("outside_steady_deg", 0.0) >= 0.05
+        and r.get("outside_gaits_deg", np.inf) < 0.05
     ]
-    surface += [
-        r["z_hat_steady_range"][1]
+    return {
+        "chatter": [
+            {"method": r["method"], "transition": r["transition"], "changes": r["psi_gait_changes"]}
+            for r in rows
+            if r.get("psi_gait_changes", 0) > 1
+        ],
+        "worst": [_worst_observed(r) for r in rows if r.get("worst")],
+        "steady_inside": steady_inside,
+        "surface": surface_targets(rows),
+    }
+
+
+def _worst_observed(r: dict) -> dict:
+    """A row's ``worst`` command with the joint's name, its envelope, and for Eq. (12) the
+    sum of the two weights at that z_hat (above 1.01: not a convex blend)."""
+    from manta_drake.model.robot_params import JOINT_NAMES
+
+    w = r["worst"]
+    z = min(max(w["z_hat"], 0.0), 1.0)
+    weights = np.cos(np.pi * z / 2) + np.sin(np.pi * z / 2)
+    return {
+        **w,
+        "method": r["method"],
+        "transition": r["transition"],
+        "blend": r.get("blend"),
+        "outside_gaits_deg": r["outside_gaits_deg"],
+        "joint": JOINT_NAMES[w["joint"]],
+        "low": w["X"] - abs(w["R"]),
+        "high": w["X"] + abs(w["R"]),
+        "weights": weights,
+        "not_convex": bool(weights > 1.01),
+    }
+
+
+def surface_targets(rows: list[dict]) -> dict | None:
+    """z_hat's range in steady swimming at the surface (the swim windows of both
+    transitions), how far each blend's target is from the swim gait at its top, and whether
+    both blends' targets leave the settling band there (None without a steady window)."""
+    from manta_drake.control.gaits import GAITS
+    from manta_drake.control.transition import BEHAVIOURS, target_params
+
+    surface = [
+        r["z_hat_steady_range"][0 if r["transition"] == "swim->trot" else 1]
         for r in rows
-        if r["transition"] == "trot->swim" and "z_hat_steady_range" in r
+        if r["transition"] in ("swim->trot", "trot->swim") and "z_hat_steady_range" in r
     ]
     surface = [x for x in surface if x]
-    if surface:
-        z_hi = max(x[1] for x in surface)
-        z_lo = min(x[0] for x in surface)
-        gaits = [GAITS[b].to_vector() for b in BEHAVIOURS]
-        dev = {
-            blend: float(
-                np.abs(wrap(target_params(z_hi, 0.0, *gaits, 1.0, blend) - gaits[0])).max()
-            )
-            for blend in ("potential", "normalised", "linear", "switch")
-        }
-        varies = (
-            " (the sensor's depth varies as the robot swims)"
-            if f"{z_lo:.2f}" != f"{z_hi:.2f}"
-            else ""
-        )
-        text = (
-            f"* In steady swimming at the surface (the {STEADY_S:g} s windows) z_hat spans "
-            f"[{z_lo:.2f}, {z_hi:.2f}]{varies}. "
-            f"At z_hat = {z_hi:.2f} the target psi_d is up to {dev['potential']:.2f} rad "
-            f"from the swim gait with Eq. (12), {dev['normalised']:.2f} rad with the "
-            f"normalised blend, {dev['linear']:.2f} rad with Eq. (11) and "
-            f"{dev['switch']:.2f} rad with the switch (threshold 1/2)."
-        )
-        tol = SETTLE_FRACTION * np.abs(wrap(gaits[1] - gaits[0])).max()
-        if min(dev["potential"], dev["linear"]) > tol:
-            text += (
-                f" Both blends' targets leave the {SETTLE_FRACTION:.0%} band "
-                f"({tol:.3f} rad) at the surface, so after trot -> swim their CPG "
-                "parameters cannot settle in it; the first arrival shows when they "
-                "first reach the swim gait."
-            )
-        out.append(text)
-    return out
+    if not surface:
+        return None
+    z_hi = max(x[1] for x in surface)
+    z_lo = min(x[0] for x in surface)
+    gaits = [GAITS[b].to_vector() for b in BEHAVIOURS]
+    dev = {
+        blend: float(np.abs(wrap(target_params(z_hi, 0.0, *gaits, 1.0, blend) - gaits[0])).max())
+        for blend in ("potential", "normalised", "linear", "switch")
+    }
+    tol = SETTLE_FRACTION * np.abs(wrap(gaits[1] - gaits[0])).max()
+    return {
+        "z_lo": z_lo,
+        "z_hi": z_hi,
+        "varies": f"{z_lo:.2f}" != f"{z_hi:.2f}",
+        "dev": dev,
+        "tol": tol,
+        "off_band": bool(min(dev["potential"], dev["linear"]) > tol),
+    }
 
 
-def target_section(z_t: float) -> list[str]:
-    """The table of ``target_outside`` for each method's blend: how far the target alone
-    leaves the gaits' range, over every estimate."""
-    out = [
-        "",
-        "### The targets over every estimate (computed from the blends, no run)",
-        "",
-        (
-            f"psi_d of each blend (z_t = {z_t:g}) on a grid of 401 z_hat x 21 s_hat in [0, 1], "
-            "against the range of the three gaits it blends (swim, trot, turning): the largest "
-            "distance of any of its 64 entries outside [min, max] of that entry over the gaits, "
-            "and of its joint envelope [X - |R|, X + |R|] (what a CPG locked to psi_d commands) "
-            "outside [min (X - |R|), max (X + |R|)] over the gaits."
-        ),
-        "",
-        (
-            "| blend | psi_d entry outside (deg) | at z_hat, s_hat | joint envelope outside "
-            "(deg) | at z_hat, s_hat |"
-        ),
-        "| --- | --- | --- | --- | --- |",
-    ]
+def target_rows(z_t: float) -> list[dict]:
+    """``target_outside`` of each method's blend in degrees, with the (z_hat, s_hat) of each
+    maximum (None below 1e-9 rad: round-off of a convex blend at a gait's own extreme)."""
+    out = []
     for _, blend, _, _ in METHODS:
         r = target_outside(blend, z_t)
-        # Below 1e-9 rad the distance is round-off of a convex blend at a gait's own extreme.
-        at = {
-            k: f"{r[k][0]:.2f}, {r[k][1]:.2f}"
-            if r[k] and r[k.replace("_at", "_rad")] > 1e-9
-            else "n/a"
-            for k in ("params_at", "joints_at")
-        }
         out.append(
-            f"| {blend} | {np.degrees(r['params_rad']):.1f} | {at['params_at']} | "
-            f"{np.degrees(r['joints_rad']):.1f} | {at['joints_at']} |"
+            {
+                "blend": blend,
+                "params_deg": np.degrees(r["params_rad"]),
+                "params_at": r["params_at"] if r["params_rad"] > 1e-9 else None,
+                "joints_deg": np.degrees(r["joints_rad"]),
+                "joints_at": r["joints_at"] if r["joints_rad"] > 1e-9 else None,
+            }
         )
     return out
 
 
-# What normalised_section compares: key, what, unit, format.
+# What normalised_comparison compares: key, what, unit, format.
 COMPARED = (
     ("outside_gaits_deg", "outside the two gaits' range (X -+ |R|)", "deg", "{:.1f}"),
     ("outside_steady_deg", "outside the steady envelope", "deg", "{:.1f}"),
@@ -863,6 +812,7 @@ SMOOTH_KEYS = (
 )
 RANGE_KEYS = ("outside_gaits_deg", "outside_steady_deg")
 CATEGORIES = (("in time", TIME_KEYS), ("in smoothness", SMOOTH_KEYS), ("in range", RANGE_KEYS))
+NEW, REF = "normalised/descent", "potential/descent"
 
 
 def _shown(row: dict, key: str, spec: str):
@@ -873,243 +823,240 @@ def _shown(row: dict, key: str, spec: str):
     return float(spec.format(v))
 
 
-def normalised_section(rows: list[dict], z_t: float) -> list[str]:
+def compare(n: dict, p: dict, transition: str) -> tuple[list[dict], list[dict], list[dict]]:
+    """The normalised blend's row ``n`` against Eq. (12)'s ``p`` of one transition, on each
+    of ``COMPARED`` to the digits shown: the values side by side, and its costs and gains
+    (for the template's ``change``: a difference, or a time one of them does not reach)."""
+    parts, costs, gains = [], [], []
+    for key, what, unit, spec in COMPARED:
+        a, b = _shown(n, key, spec), _shown(p, key, spec)
+        shown = {"normalised": fmt(n, key, spec), "paper": fmt(p, key, spec)}
+        parts.append({"what": what, "unit": unit, **shown})
+        change = {"key": key, "what": what, "transition": transition, "time": key in TIME_KEYS}
+        if key in TIME_KEYS and (a is None) != (b is None):  # one still off at the end
+            (costs if a is None else gains).append({**change, "late": a is None})
+        elif not (a is None or b is None or a == b):
+            change.update(late=None, diff=spec.format(abs(a - b)), unit=unit, worse=a > b)
+            (costs if a > b else gains).append(change)
+    return parts, costs, gains
+
+
+def _by_category(changes: list[dict]) -> list[tuple[str, list[dict]]]:
+    return [(c, [x for x in changes if x["key"] in keys]) for c, keys in CATEGORIES]
+
+
+def _largest_outside(rows: list[dict], method: str) -> float:
+    values = [
+        r["outside_gaits_deg"]
+        for r in rows
+        if r["method"] == method and np.isfinite(r.get("outside_gaits_deg", np.nan))
+    ]
+    return max(values) if values else float("nan")
+
+
+def _degrees(outside: dict) -> dict:
+    """``target_outside``'s two distances in degrees."""
+    return {
+        "params_deg": np.degrees(outside["params_rad"]),
+        "joints_deg": np.degrees(outside["joints_rad"]),
+    }
+
+
+def normalised_comparison(rows: list[dict], z_t: float) -> dict | None:
     """The normalised blend against Eq. (12) (both followed by the descent), transition by
-    transition, and what it costs or gains, all from the rows and ``target_outside``."""
-    new, ref = "normalised/descent", "potential/descent"
-    if not any(r["method"] == new for r in rows) or not any(r["method"] == ref for r in rows):
+    transition, what it costs or gains, and how far each one's target and commands leave
+    the gaits' range (``target_outside``); None without both runs."""
+    if not any(r["method"] == NEW for r in rows) or not any(r["method"] == REF for r in rows):
+        return None
+    transitions, costs, gains = [], [], []
+    for name in (f"{src}->{dst}" for src, dst in TRANSITIONS):
+        n = next(r for r in rows if r["method"] == NEW and r["transition"] == name)
+        p = next(r for r in rows if r["method"] == REF and r["transition"] == name)
+        parts, c, g = compare(n, p, name)
+        transitions.append({"name": name, "parts": parts})
+        costs += c
+        gains += g
+    target, paper = target_outside("normalised", z_t), target_outside("potential", z_t)
+    run_n = _largest_outside(rows, NEW)
+    return {
+        "transitions": transitions,
+        "costs": _by_category(costs),
+        "gains": _by_category(gains),
+        "target": _degrees(target),
+        "paper": _degrees(paper),
+        "run_normalised": run_n,
+        "run_paper": _largest_outside(rows, REF),
+        "round_off": 0.0 < run_n < 1e-6,
+        "descent_remains": run_n >= 0.05,
+    }
+
+
+def normalised_section(rows: list[dict], z_t: float) -> list[str]:
+    """``normalised_comparison`` as the page's lines (a blank line first; none without it)."""
+    comparison = normalised_comparison(rows, z_t)
+    if comparison is None:
         return []
-    out = ["", "### The normalised blend against Eq. (12) (computed from the runs)", ""]
-    costs = {c: [] for c, _ in CATEGORIES}
-    gains = {c: [] for c, _ in CATEGORIES}
-    category = {k: c for c, keys in CATEGORIES for k in keys}
-    for src, dst in TRANSITIONS:
-        name = f"{src}->{dst}"
-        n = next(r for r in rows if r["method"] == new and r["transition"] == name)
-        p = next(r for r in rows if r["method"] == ref and r["transition"] == name)
-        parts = []
-        for key, what, unit, spec in COMPARED:
-            a, b = _shown(n, key, spec), _shown(p, key, spec)
-            parts.append(f"{what} {fmt(n, key, spec)} {unit} (Eq. 12: {fmt(p, key, spec)})")
-            if key in TIME_KEYS and (a is None) != (b is None):
-                # One of them is still off at the window's end.
-                late = "normalised" if a is None else "Eq. (12)"
-                (costs if a is None else gains)[category[key]].append(
-                    f"{what} not within the window for {late} ({name})"
-                )
-                continue
-            if a is None or b is None or a == b:
-                continue
-            d = spec.format(abs(a - b))
-            kind = "later" if key in TIME_KEYS else "larger"
-            better = "earlier" if key in TIME_KEYS else "smaller"
-            (costs if a > b else gains)[category[key]].append(
-                f"{what} {d} {unit} {kind if a > b else better} ({name})"
+    return ["", *str(_macros().normalised(comparison)).splitlines()]
+
+
+def page(rows: list[dict], checks: list[dict], f: dict, command: str, duration: float) -> str:
+    """docs/transitions.md's text (``templates/transitions.md.j2``; its stamp undated)."""
+    from manta_drake.studies.report import render
+    from manta_drake.studies.stamp import stamp_line
+
+    return render(
+        "transitions.md.j2",
+        stamp_line=stamp_line,
+        command=command,
+        duration=duration,
+        default_runs=DEFAULT_RUNS,
+        runs=NUMBER_WORDS[len(METHODS)],
+        scenario=SCENARIO,
+        f=f,
+        lead=LEAD_S,
+        horizon=HORIZON_S,
+        steady_s=STEADY_S,
+        settle_fraction=SETTLE_FRACTION,
+        settle_joint_deg=SETTLE_JOINT_DEG,
+        motion=table(with_references(rows), MOTION_COLUMNS),
+        timing=table(rows, TIMING_COLUMNS),
+        largest=largest_by_transition(rows),
+        reading=observations(rows),
+        targets=target_rows(f["z_t"]),
+        comparison=normalised_comparison(rows, f["z_t"]),
+        checks=checks,
+        figure=FIGURE,
+    )
+
+
+def _window(log: dict, key: str, t0: float) -> np.ndarray:
+    """The samples of ``log[key]`` (a time array) in the figure's window around ``t0``."""
+    return window_mask(log[key], t0 - LEAD_S, t0 + HORIZON_S)
+
+
+def _plot_run(axes, log: dict, row: dict, label: str, j: int) -> None:
+    """One run around one transition, in one column of ``figure``'s four panels."""
+    t0, col = row["event_s"], COLOURS[label]
+    m = _window(log, "t_command", t0)
+    tt = log["t_command"][m] - t0
+    axes[0].plot(tt, log["commanded_joint_angles"][m, j], color=col, lw=0.8, label=label)
+    m = _window(log, "t", t0)
+    axes[1].plot(
+        log["t"][m] - t0, np.degrees(log["body_rpy"][m, 1]), color=col, lw=0.8, label=label
+    )
+    if "joint_torque" in log:
+        # The largest |torque| of the 16 joints over each 50 ms (the raw 1 ms signal is too
+        # dense to read).
+        mt = _window(log, "t_joint_torque", t0)
+        ttq = log["t_joint_torque"][mt] - t0
+        tq = np.abs(log["joint_torque"][mt]).max(axis=1)
+        n = 50
+        k = len(tq) // n
+        if k:
+            axes[2].plot(
+                ttq[: k * n].reshape(k, n)[:, 0],
+                tq[: k * n].reshape(k, n).max(axis=1),
+                color=col,
+                lw=0.8,
+                label=f"{label} (peak {row['peak_torque_nm']:.2f})",
             )
-        out.append(f"* {name}: " + "; ".join(parts) + ".")
-    target = target_outside("normalised", z_t)
-    paper = target_outside("potential", z_t)
+    mz = _window(log, "t_z_hat", t0)
+    axes[3].plot(log["t_z_hat"][mz] - t0, log["z_hat"][mz, 0], color=col, lw=0.8, label=label)
 
-    def largest(method):
-        values = [
-            r["outside_gaits_deg"]
-            for r in rows
-            if r["method"] == method and np.isfinite(r.get("outside_gaits_deg", np.nan))
-        ]
-        return max(values) if values else float("nan")
 
-    run_n, run_p = largest(new), largest(ref)
-    text = (
-        f"* In range: the normalised target never leaves the gaits' range (at most "
-        f"{np.degrees(target['params_rad']):.1f} deg on any entry and "
-        f"{np.degrees(target['joints_rad']):.1f} deg on the joint envelope, over every "
-        f"estimate; Eq. (12)'s target: {np.degrees(paper['params_rad']):.1f} and "
-        f"{np.degrees(paper['joints_rad']):.1f} deg). In these runs its commanded joints "
-        f"left the two gaits' range by at most {run_n:.1f} deg"
-        + (f" ({run_n:.0e} deg: round-off)" if 0.0 < run_n < 1e-6 else "")
-        + f", Eq. (12)'s by {run_p:.1f} deg"
-    )
-    if run_n >= 0.05:
-        text += (
-            "; what remains comes from the descent, not the target: psi follows a "
-            "convex target off the straight line between the gaits (above)."
+def _label_column(axes, src: str, dst: str, j: int, joint_name: str) -> None:
+    """The two gaits' range of joint ``j``, the titles and units of one column."""
+    from manta_drake.control.gaits import GAITS
+
+    lo, hi = _two_gaits(GAITS[src].to_vector(), GAITS[dst].to_vector())
+    axes[0].axhspan(lo[j], hi[j], color="0.9", zorder=0, label="range of the two gaits (X -+ |R|)")
+    axes[0].set_title(f"{src}->{dst}: commanded {joint_name}")
+    axes[0].set_ylabel("rad")
+    axes[1].set_title("body pitch")
+    axes[1].set_ylabel("deg")
+    axes[2].set_title("largest joint |torque| (max over 50 ms)")
+    axes[2].set_ylabel("N m")
+    axes[3].set_title("z_hat (drives psi_d)")
+    axes[3].set_xlabel("t - t0 (s): t0 = the target psi_d leaves the old gait")
+    for ax in axes:
+        ax.axvline(0.0, color="k", lw=0.5)
+        ax.grid(alpha=0.3)
+
+
+def figure(runs: dict, rows: list[dict], path: pathlib.Path, joint_names) -> None:
+    """Around each transition, every run's commanded angle of the joint that leaves the two
+    gaits' range the most, body pitch, largest joint torque and z_hat."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    # The joint shown: the one that leaves the two gaits' range the most in any run.
+    worst = [r for r in rows if "outside_gaits_deg" in r]
+    j = max(worst, key=lambda r: r["outside_gaits_deg"])["worst_joint"] if worst else 2
+    fig, axes = plt.subplots(4, len(TRANSITIONS), figsize=(13, 11), sharex="col", squeeze=False)
+    for c, (src, dst) in enumerate(TRANSITIONS):
+        for label, (log, _) in runs.items():
+            row = next(
+                r for r in rows if r["method"] == label and r["transition"] == f"{src}->{dst}"
+            )
+            if row.get("event_s") is not None:
+                _plot_run(axes[:, c], log, row, label, j)
+        _label_column(axes[:, c], src, dst, j, joint_names[j])
+    for ax in axes[:, 0]:
+        ax.legend(fontsize=7, loc="best")
+    axes[2, 1].legend(fontsize=7, loc="best")
+    fig.suptitle(f"{SCENARIO}: the transitions of {NUMBER_WORDS[len(runs)]} methods", fontsize=12)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ----------------------------------------------------------------------------------------
+# The command line
+# ----------------------------------------------------------------------------------------
+
+
+def run_checks(log: dict, scenario, label: str, effort) -> list[dict]:
+    """The checks of one run the page lists: a direct follow's cpg_params against psi_d one
+    update later (max difference, rad), and the 1 ms samples with a joint at its effort
+    limit (the PD's torque, before the servo's braking)."""
+    out = []
+    if scenario.transition.follow == "direct":
+        out.append({"method": label, "kind": "direct", "value": check_direct_follow(log, scenario)})
+    if "joint_torque" in log:
+        pd = log["joint_torque"] + scenario.servo_braking() * log["joint_velocities"]
+        at_limit = np.abs(pd) >= effort - 1e-9
+        out.append(
+            {
+                "method": label,
+                "kind": "limit",
+                "limit": (effort.min(), effort.max()),
+                "value": int(at_limit.any(axis=1).sum()),
+            }
         )
-    else:
-        text += "."
-    out.append(text)
-
-    def listed(found: dict, none: str) -> str:
-        return "; ".join(
-            f"{c}, " + (", ".join(found[c]) if found[c] else none) for c, _ in CATEGORIES
-        )
-
-    out.append(
-        "* What it costs against Eq. (12) (larger or later, to the digits shown): "
-        + listed(costs, "nothing")
-        + "."
-    )
-    out.append("* What it gains (smaller or earlier): " + listed(gains, "nothing") + ".")
-    out.append(
-        "* One run per method with the same seed: the robot's own motion (sinking, "
-        "landing, rising) differs between the runs, and this page does not measure the "
-        "spread over seeds, so small differences are not a ranking."
-    )
     return out
 
 
-def write_doc(
-    rows: list[dict],
-    checks: dict,
-    path: pathlib.Path,
-    figure_path: pathlib.Path,
-    command: str,
-    duration: float,
-    f: dict,
-) -> None:
-    from manta_drake.studies.stamp import stamp_line, write_stamped
-
-    rel_fig = pathlib.Path(figure_path).resolve()
-    with contextlib.suppress(ValueError):
-        rel_fig = rel_fig.relative_to(pathlib.Path(path).resolve().parent)
-
-    def best(key, transition):
-        """The method(s) with the largest value (all of them on a tie, to the shown digits)."""
-        spec = next(s for k, _, s in COLUMNS if k == key)
-        vals = [
-            (float(spec.format(r[key])), r["method"])
-            for r in rows
-            if r["transition"] == transition and r.get(key) is not None and np.isfinite(r[key])
-        ]
-        if not vals:
-            return "n/a"
-        top = max(v for v, _ in vals)
-        return " = ".join(m for v, m in vals if v == top)
-
-    runs = NUMBER_WORDS[len(METHODS)]
-    lines = [
-        "# Transitions measured against baselines",
-        "",
-        stamp_line(
-            f"`{command}` ({runs} runs of {duration:g} s, one after the other; "
-            "`--reuse` recomputes this page from the existing runs in `--out`, "
-            f"default `{DEFAULT_OUT}`)."
-        ),
-        "Generated by `manta-drake study transitions`; do not edit by hand.",
-        "",
-        f"The scenario `{SCENARIO}` (swim at the surface; the balloon is commanded to "
-        + ", then ".join(f"fill {fill:g} at {time:g} s" for time, fill in f["commands"])
-        + ": the robot sinks and the controller changes swim -> trot, then it rises, "
-        f"trot -> swim) is run {NUMBER_WORDS[len(METHODS)]} times, changing only "
-        "`transition.blend` and `transition.follow`:",
-        "",
-        "* **potential/descent** (the paper's): the target psi_d of Eq. (12), "
-        "psi_d = cos(pi z/2) Theta_swim + sin(pi z/2) Theta_trot (for z_t = 1; here "
-        f"z_t = {f['z_t']:g}), followed by the "
-        "CPG parameters psi through the descent on Eq. (14)'s potential (Eq. 15), at most "
-        f"{f['max_descent_step']:.3f} rad per {f['period_ms']:g} ms update. Its two weights "
-        "sum to up to sqrt(2) = 1.41 (at z = 1/2), so the target is not a convex blend;",
-        "* **normalised/descent**: Eq. (12)'s two weights divided by their sum, "
-        "psi_d = (cos(pi z/2) Theta_swim + sin(pi z/2) Theta_trot) / (cos(pi z/2) + "
-        "sin(pi z/2)), a convex blend (`transition.blend: normalised`), followed by the same "
-        "descent;",
-        "* **linear/direct**: Eq. (11), psi_d = (1 - z) Theta_swim + z Theta_trot, and "
-        "psi = psi_d at once;",
-        "* **switch/direct**: psi = Theta_trot when z_hat >= 1/2, Theta_swim below, at once.",
-        "",
-        f"In all {runs} the CPG (Eq. 5) sits between psi and the joints: its amplitudes and "
-        f"biases follow R and X through critically damped second-order filters (a = {f['a']:g}, "
-        f"b = {f['b']:g} 1/s) "
-        "and its phases lock through the coupling, so even the switch does not step the joint "
-        "commands. Same seed, same noise draws; the runs differ only by the method and what "
-        "the method makes the robot do.",
-        "",
-        "## Metrics",
-        "",
-        f"Per method and transition, over the window [t0 - {LEAD_S:g} s, t0 + {HORIZON_S:g} s] "
-        "(clipped at the run's end; the lead catches a blend's partial moves while z_hat "
-        "hovers before it commits). The rows *steady ... (ref.)* give the same motion "
-        f"metrics over the steady parts of the two gaits (the {STEADY_S:g} s windows below; "
-        f"the largest of the {runs} runs): what the gaits themselves do, without a "
-        "transition.",
-        "",
-        "* **event t0**: the start of the transition of the *target* psi_d, the same rule for "
-        "every method: psi_d is recomputed from the logged z_hat with the method's blend, and "
-        "t0 is the last sample at which it was at the old gait (every parameter within "
-        f"`transition.arrival_tolerance` = {f['tolerance']:g} rad, as metrics.json's "
-        "`transitions`) before it first reaches the new one, after the balloon command. "
-        "For the switch that is the sample before the jump; for the blends it is the last "
-        "time z_hat was ~0 (~1) before it reached ~1 (~0). metrics.json's own "
-        "`transitions` time psi (the CPG parameters), which for the switch take a single "
-        "update.",
-        "* **max cmd step**: the largest change of any commanded joint angle (desired_state) "
-        f"between consecutive command samples ({f['log_ms']:g} ms) [rad]; **max cmd rate**: "
-        "the same divided by the sample interval [rad/s] (so, with a uniform log, the same "
-        "ranking).",
-        "* **max meas. vel**: the largest |joint velocity| measured [rad/s] (servo limit in "
-        f"the model: {f['velocity']} rad/s).",
-        "* **peak abs torque**: the largest |joint torque| the actuators apply (the station's "
-        "`joint_torque`: the plant's net actuation including the PD, less the datasheet "
-        "servo's back-EMF braking) [N m]; the PD's effort limit "
-        f"is {f['effort']} N m.",
-        "* **roll / pitch exc.**: max - min of the body's roll and pitch over the window [deg] "
-        "(includes the sinking/rising and landing, which every method has).",
-        "* **psi gait changes**: how many times psi went from one gait to the other within "
-        f"the window (every parameter within {f['tolerance']:g} rad): 1 for a clean "
-        "transition, more when it chatters back and forth.",
-        "* **first arrival**: time from t0 until psi is first at the new gait (every "
-        f"parameter within {f['tolerance']:g} rad, metrics.json's rule), looked for up to "
-        "the run's end.",
-        "* **settle, params**: time from t0 until psi (the logged CPG parameters) comes and "
-        f"stays within {SETTLE_FRACTION:.0%} of the largest parameter change between the two "
-        f"gaits ({f['change']:.3f} rad, so {f['settle_tol']:.3f} rad) of the new gait, on every "
-        f"parameter (wrapped), to the end of the window; `> {HORIZON_S:g}` when still outside "
-        "at the window's end.",
-        "* **settle, joints**: time from t0 until the commanded joints' range over every "
-        f"following oscillation period ({1.0 / f['frequency']:g} s) stays within "
-        f"{SETTLE_JOINT_DEG:g} deg of the new gait's [X - |R|, X + |R|] on both ends, every "
-        "joint (this sees the amplitudes and biases the CPG really produces, not the phases).",
-        "* **outside steady env.**: the unexpected values: per joint, the envelope [min, max] "
-        f"of the commanded angles in the steady parts of the two gaits of the same run (the "
-        f"{STEADY_S:g} s before the balloon command that causes the transition and the "
-        f"{STEADY_S:g} s before the next command or the run's end); reported is the largest "
-        "excursion of any commanded joint outside its envelope during the window [deg].",
-        "* **outside X-+abs(R)**: the same against the ideal envelope of the two gaits, "
-        "[min(X - |R|), max(X + |R|)] over both gaits per joint (what a CPG locked to either "
-        "gait commands), independent of the run.",
-        "",
-        "## Results",
-        "",
-        "How abrupt:",
-        "",
-        markdown_table(with_references(rows), MOTION_COLUMNS),
-        "",
-        "How long, and how far off the two gaits:",
-        "",
-        markdown_table([r for r in rows], TIMING_COLUMNS),
-        "",
-    ]
-    for name in (f"{a}->{b}" for a, b in TRANSITIONS):
-        lines.append(
-            f"* {name}: largest commanded step: {best('max_cmd_step_rad', name)}; "
-            f"largest torque peak: {best('peak_torque_nm', name)}; largest pitch excursion: "
-            f"{best('pitch_exc_deg', name)}; largest excursion outside the steady envelope: "
-            f"{best('outside_steady_deg', name)}."
-        )
-    lines += reading(rows)
-    lines += target_section(f["z_t"])
-    lines += normalised_section(rows, f["z_t"])
-    lines += ["", "Checks made by the script on these runs:", ""]
-    lines += [f"* {k}: {v}" for k, v in checks.items()]
-    lines += [
-        "",
-        f"![transitions]({rel_fig})",
-        "",
-        "The figure: around each transition (t - t0), the commanded angle of the joint "
-        "that leaves the two gaits' range the most (grey: that range), the body pitch, "
-        f"the largest joint torque of the 16 and z_hat, for the {runs} methods.",
-        "",
-    ]
-    write_stamped(path, "\n".join(lines))
+def analyse_runs(runs_dir: pathlib.Path):
+    """The four runs of ``runs_dir`` analysed: (runs: label -> (log, metrics), rows, checks,
+    facts, duration [s])."""
+    reference = make_scenario(*METHODS[0][1:3], None)  # the servos of every run
+    effort, velocity = joint_limits(reference.robot_params())
+    runs, rows, checks = {}, [], []
+    for label, blend, follow, folder in METHODS:
+        print(f"[{label}] analysing {runs_dir / folder}", flush=True)
+        log, metrics = load_run(runs_dir / folder)
+        if metrics.get("status") != "ok":
+            raise SystemExit(
+                f"{runs_dir / folder}: the run did not finish: {metrics.get('failure')}"
+            )
+        scenario = make_scenario(blend, follow, float(metrics["sim_time_s"]))
+        runs[label] = (log, metrics)
+        rows += analyse_method(log, metrics, scenario, label)
+        checks += run_checks(log, scenario, label, effort)
+    return runs, rows, checks, facts(scenario, effort, velocity), scenario.duration
 
 
 def shortest_duration() -> float:
@@ -1120,15 +1067,13 @@ def shortest_duration() -> float:
     return balloon_times(load_scenario(SCENARIO))[0] + HORIZON_S
 
 
-def check_arguments(args, out: pathlib.Path, doc: pathlib.Path, fig_path: pathlib.Path) -> None:
-    """Every option before anything is simulated; raises ScenarioError naming it."""
+def check_arguments(args, prog) -> tuple[pathlib.Path, pathlib.Path]:
+    """Every option before anything is simulated; returns the runs folder and the report
+    folder. Raises ScenarioError naming the option."""
     from manta_drake.config_io import check_in_range, check_writable_folder
     from manta_drake.scenario import MAX_DURATION_S
-    from manta_drake.studies.options import (
-        check_figure_file,
-        check_output_file,
-        check_run_folders,
-    )
+    from manta_drake.studies.options import check_run_folders
+    from manta_drake.studies.report import output_folder
 
     if args.duration is not None:
         lo = shortest_duration()
@@ -1140,15 +1085,17 @@ def check_arguments(args, out: pathlib.Path, doc: pathlib.Path, fig_path: pathli
             f"[{lo:g}, {MAX_DURATION_S:g}] s (the first balloon command of "
             f"{SCENARIO} and the {HORIZON_S:g} s window after it)",
         )
-    check_writable_folder(out, "--out", example=DEFAULT_OUT)
+    runs_dir = check_writable_folder(args.runs, "--runs", example=DEFAULT_RUNS)
     if args.reuse:
-        check_run_folders("--out", out, [folder for *_, folder in METHODS])
-    check_output_file("--doc", doc)
-    check_figure_file("--figure", fig_path)
+        check_run_folders("--runs", runs_dir, [folder for *_, folder in METHODS])
+    # A shortened run's page goes beside its runs unless --out says otherwise.
+    quick = args.out is None and args.duration is not None
+    out = output_folder(runs_dir if quick else args.out, prog)
+    check_writable_folder(out / pathlib.Path(FIGURE).parent, "--out", example="docs")
+    return runs_dir, out
 
 
-def main(argv=None, prog=None) -> int:
-    """The command line (``manta-drake study transitions``); returns the exit status."""
+def _parser(prog):
     from manta_drake.studies.options import StudyParser
 
     parser = StudyParser(
@@ -1157,72 +1104,51 @@ def main(argv=None, prog=None) -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
-        "--out", default=None, help=f"folder of the runs (default {DEFAULT_OUT} in the repository)"
+        "--runs",
+        default=DEFAULT_RUNS,
+        metavar="DIR",
+        help=f"folder of the runs (default {DEFAULT_RUNS})",
+    )
+    parser.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help=f"where the report goes: DIR/{PAGE} and DIR/{FIGURE} (default: the checkout's "
+        "docs/; with --duration, the --runs folder)",
     )
     parser.add_argument(
         "--duration",
         type=float,
         default=None,
-        help="simulate only this many seconds (a quick check; the table and "
-        "figure then go into --out unless --doc/--figure say otherwise)",
+        help="simulate only this many seconds (a quick check)",
     )
     parser.add_argument(
         "--reuse",
         action="store_true",
-        help="do not simulate: recompute the table from the runs in --out",
+        help="do not simulate: recompute the page from the runs in --runs",
     )
-    parser.add_argument(
-        "--doc", default=None, help=f"markdown output (default {DOC.relative_to(ROOT)})"
-    )
-    parser.add_argument(
-        "--figure", default=None, help=f"figure output (default {FIGURE.relative_to(ROOT)})"
-    )
-    args = parser.parse_args(argv)
-    out = pathlib.Path(args.out) if args.out else ROOT / DEFAULT_OUT
-    quick = args.duration is not None
-    doc = pathlib.Path(args.doc) if args.doc else (out / "transitions.md" if quick else DOC)
-    fig_path = (
-        pathlib.Path(args.figure)
-        if args.figure
-        else (out / "transition_baselines.png" if quick else FIGURE)
-    )
-    check_arguments(args, out, doc, fig_path)
-    if not args.reuse:
-        simulate_all(out, args.duration)
+    return parser
 
+
+def main(argv=None, prog=None) -> int:
+    """The command line (``manta-drake study transitions``); returns the exit status."""
     from manta_drake.model.robot_params import JOINT_NAMES
+    from manta_drake.studies.stamp import write_stamped
 
-    runs, rows, checks = {}, [], {}
-    reference = make_scenario(*METHODS[0][1:3], None)  # the servos of every run
-    effort, velocity = joint_limits(reference.robot_params())
-    duration = None
-    for label, blend, follow, folder in METHODS:
-        print(f"[{label}] analysing {out / folder}", flush=True)
-        log, metrics = load_run(out / folder)
-        if metrics.get("status") != "ok":
-            raise SystemExit(f"{out / folder}: the run did not finish: {metrics.get('failure')}")
-        scenario = make_scenario(blend, follow, float(metrics["sim_time_s"]))
-        duration = scenario.duration
-        runs[label] = (log, metrics)
-        rows += analyse_method(log, metrics, scenario, label)
-        if follow == "direct":
-            checks[
-                f"{label}: logged cpg_params = psi_d(z_hat) one update later, max difference (rad)"
-            ] = f"{check_direct_follow(log, scenario):.2e}"
-        if "joint_torque" in log:  # the limit is the PD's, before the servo's braking
-            pd = log["joint_torque"] + scenario.servo_braking() * log["joint_velocities"]
-            at_limit = np.abs(pd) >= effort - 1e-9
-            limit = (
-                f"{effort.min():g}" if np.ptp(effort) == 0 else f"{effort.min():g}-{effort.max():g}"
-            )
-            checks[
-                f"{label}: samples (1 ms) with a joint at its effort limit ({limit} N m), whole run"
-            ] = int(at_limit.any(axis=1).sum())
-    command = COMMAND if not quick else f"{COMMAND} --duration {args.duration:g} --out {out}"
+    args = _parser(prog).parse_args(argv)
+    runs_dir, out = check_arguments(args, prog)
+    if not args.reuse:
+        simulate_all(runs_dir, args.duration)
+    runs, rows, checks, f, duration = analyse_runs(runs_dir)
     print()
     print(markdown_table(with_references(rows)))
-    figure(runs, rows, fig_path, JOINT_NAMES)
-    write_doc(rows, checks, doc, fig_path, command, duration, facts(scenario, effort, velocity))
-    (out / "transition_baselines.json").write_text(json.dumps(rows, indent=2, default=float) + "\n")
-    print(f"\nwrote {doc}, {fig_path} and {out / 'transition_baselines.json'}")
+    figure(runs, rows, out / FIGURE, JOINT_NAMES)
+    command = COMMAND
+    if args.duration is not None:
+        command += f" --duration {args.duration:g} --runs {runs_dir}"
+        command += f" --out {out}" if args.out is not None else ""
+    write_stamped(out / PAGE, page(rows, checks, f, command, duration))
+    table_path = runs_dir / "transition_baselines.json"
+    table_path.write_text(json.dumps(rows, indent=2, default=float) + "\n")
+    print(f"\nwrote {out / PAGE}, {out / FIGURE} and {table_path}")
     return 0

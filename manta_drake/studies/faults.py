@@ -1317,7 +1317,11 @@ def _parser(prog):
 
     ap = StudyParser(prog=prog, description=__doc__.split("\n")[0])
     ap.add_argument(
-        "--runs", type=int, default=300, help=f"how many runs (1 to {MAX_RUNS}; default 300)"
+        "--runs",
+        type=int,
+        default=300,
+        metavar="N",
+        help=f"how many runs (1 to {MAX_RUNS}; default 300)",
     )
     ap.add_argument(
         "--seed",
@@ -1328,6 +1332,7 @@ def _parser(prog):
     ap.add_argument(
         "--runs-dir",
         default=DEFAULT_RUNS_DIR,
+        metavar="DIR",
         help="the folder of the run folders, runs.csv, summary.json and specs.json "
         f"(default {DEFAULT_RUNS_DIR})",
     )

@@ -335,6 +335,7 @@ def test_the_printed_summary_puts_each_number_in_its_place(fc):
     assert lines[-1] == 'CHECK: FAIL {"crashed": [5], "nan_without_failing": [1]}'
 
 
+@pytest.mark.slow
 def test_runs_dir_holds_the_campaign_and_runs_is_the_count(tmp_path, capsys):
     from manta_drake.studies.faults import main
 

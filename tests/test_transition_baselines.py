@@ -392,6 +392,7 @@ def test_the_page_puts_each_number_in_its_place(tb):
     assert text.endswith("for the four methods.")
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:No artists with labels")  # no trot->swim in these runs
 def test_out_holds_the_page_and_the_figure_and_runs_the_runs(tb, tmp_path, monkeypatch):
     from manta_drake.studies import REPO

@@ -367,19 +367,36 @@ def energy_metrics(
         (first time at the cut-off, or None) and ``cost_of_transport_note`` (why the costs
         of transport are None).
     """
+    wet = None if weight_in_water_kg is None else float(weight_in_water_kg) * gravity
+    out = _run_energy(log, mass * gravity, wet, usable_energy_wh, cutoff_soc, hotel_power_w)
+    out["cost_of_transport_note"] = _add_costs_of_transport(
+        out, log, steady_window, mean_velocity, hotel_power_w, min_speed
+    )
+    return out
+
+
+def _run_energy(
+    log: dict,
+    dry_weight_n: float,
+    wet: float | None,
+    usable_energy_wh: float,
+    cutoff_soc: float,
+    hotel_power_w: float,
+) -> dict:
+    """``energy_metrics``' block over the whole run (energies, mean power, battery), its
+    steady-window entries and costs of transport None."""
     t_p, power = log["t_electrical_power"], log["electrical_power"]
     t_m, mech = log["t_joint_mechanical_power"], np.abs(log["joint_mechanical_power"])
     t_b, battery = log["t_battery"], np.asarray(log["battery"], dtype=float)
     electrical, duration = _step_integral(t_p, power)
     mechanical, _ = _step_integral(t_m, mech)
     mean_power = electrical / duration if duration > 0 else None
-    wet = None if weight_in_water_kg is None else float(weight_in_water_kg) * gravity
     out = {
         "mechanical_energy_j": mechanical,
         "electrical_energy_j": electrical,
         "mean_electrical_power_w": mean_power,
         "hotel_power_w": float(hotel_power_w),
-        "dry_weight_n": mass * gravity,
+        "dry_weight_n": dry_weight_n,
         "weight_in_water_n": wet,
         **dict.fromkeys(COT_KEYS),
         **dict.fromkeys(COT_ALIASES),
@@ -396,31 +413,36 @@ def energy_metrics(
     empty = np.flatnonzero(battery[:, 0] <= cutoff_soc) if len(battery) else []
     if len(empty):
         out["battery_cutoff_at_s"] = float(t_b[empty[0]])
+    return out
+
+
+def _add_costs_of_transport(
+    out: dict, log: dict, steady_window, mean_velocity, hotel_power_w: float, min_speed: float
+) -> str | None:
+    """Fills ``out``'s steady powers, speed of travel and costs of transport (with their
+    aliases) as far as the run has them; returns the note on why they are None, if any."""
     if steady_window is None:
-        out["cost_of_transport_note"] = "no steady window: no cost of transport"
-        return out
+        return "no steady window: no cost of transport"
     start, end = steady_window
     if mean_velocity is None:
-        out["cost_of_transport_note"] = (
+        return (
             f"no mean velocity over the steady window "
             f"{start:.2f}-{end:.2f} s (the run's note says why): "
             "no cost of transport"
         )
-        return out
+    t_p, power = log["t_electrical_power"], log["electrical_power"]
+    t_m, mech = log["t_joint_mechanical_power"], np.abs(log["joint_mechanical_power"])
     e_steady, t_steady = _step_integral(t_p, power, start, end)
     m_steady, t_steady_m = _step_integral(t_m, mech, start, end)
     if t_steady <= 0 or t_steady_m <= 0:
-        out["cost_of_transport_note"] = "no energy samples in the steady window"
-        return out
+        return "no energy samples in the steady window"
     out["steady_electrical_power_w"] = e_steady / t_steady
     out["steady_mechanical_power_w"] = m_steady / t_steady_m
     speed = float(np.hypot(*mean_velocity))
     out["transport_speed_m_s"] = speed
     if speed < min_speed:
-        out["cost_of_transport_note"] = (
-            f"speed of travel {speed:.4f} m/s is below {min_speed} m/s: no cost of transport"
-        )
-        return out
+        return f"speed of travel {speed:.4f} m/s is below {min_speed} m/s: no cost of transport"
+    wet = out["weight_in_water_n"]
     out.update(
         costs_of_transport(
             out["steady_electrical_power_w"],
@@ -433,10 +455,10 @@ def energy_metrics(
     )
     out.update({alias: out[name] for alias, name in COT_ALIASES.items()})
     if wet is not None and wet <= 0:
-        out["cost_of_transport_note"] = (
+        return (
             f"the deflated robot floats (weight in water {wet:.2f} N): no cost of transport by it"
         )
-    return out
+    return None
 
 
 def step_mean(t, values, start: float = -np.inf, end: float = np.inf) -> float | None:

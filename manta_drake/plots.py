@@ -241,10 +241,9 @@ def fig_transition_run(
     purple brackets on every panel so the run can be compared with the printed figure.
     ``wall_margin`` [m]: the time the hull is within it of a wall is hatched red on every
     panel, ``wall_label`` in the legends."""
-    t, tc = log["t"], log["t_command"]
+    t = log["t"]
     spans = behaviour_spans(metrics.get("transitions", []), float(t[-1]) if len(t) else 0)
     walls = wall_spans(log, wall_margin) if wall_margin is not None and len(t) else []
-    estimates = [(key, label) for key, label in ESTIMATES if key in log]
     rows = [
         ("joint outputs [deg]", "joints"),
         ("Euler angles [deg]", "euler"),
@@ -256,96 +255,125 @@ def fig_transition_run(
     fig = Figure(figsize=(11, 2.5 * len(rows)))
     axes = fig.subplots(len(rows), 1, sharex=True)
     for ax, (ylabel, kind) in zip(axes, rows):
-        for start, end, label in spans:
-            transition = "->" in label
-            ax.axvspan(
-                start,
-                end,
-                color="tab:orange" if transition else "gray",
-                alpha=0.18 if transition else 0.07,
-            )
-            if kind == "joints":
-                ax.text(
-                    (start + end) / 2,
-                    1.01,
-                    label,
-                    transform=ax.get_xaxis_transform(),
-                    ha="center",
-                    va="bottom",
-                    fontsize=8,
-                )
-        for k, (start, end) in enumerate(walls):  # labelled once, in each panel's legend
-            ax.axvspan(
-                start,
-                end,
-                facecolor="none",
-                edgecolor="tab:red",
-                hatch="//",
-                lw=0,
-                alpha=0.35,
-                label=wall_label if k == 0 else None,
-            )
-        for label, start, end in paper_windows:
-            for x in (start, end):
-                ax.axvline(x, color="tab:purple", ls="--", lw=1.0, alpha=0.8)
-            if kind == "sensing":
-                ax.annotate(
-                    "",
-                    xy=(end, 0.5),
-                    xytext=(start, 0.5),
-                    xycoords=ax.get_xaxis_transform(),
-                    arrowprops=dict(arrowstyle="<->", color="tab:purple"),
-                )
-                ax.text(
-                    (start + end) / 2,
-                    0.53,
-                    f"paper: {label}",
-                    color="tab:purple",
-                    transform=ax.get_xaxis_transform(),
-                    ha="center",
-                    va="bottom",
-                    fontsize=8,
-                )
-        if kind == "joints":
-            for leg in joints:
-                k = LEGS.index(leg)
-                for j, joint in enumerate(JOINTS):
-                    ax.plot(
-                        tc,
-                        np.degrees(log["commanded_joint_angles"][:, 4 * k + j]),
-                        lw=1.0,
-                        label=f"{LEG_TITLES[leg]} {joint}",
-                    )
-            ax.legend(ncol=4, fontsize=7, loc="lower left")
-        elif kind == "euler":
-            for i, name in enumerate(("roll", "pitch", "yaw")):
-                ax.plot(t, np.degrees(np.unwrap(log["body_rpy"][:, i])), label=name)
-            ax.legend(ncol=3, fontsize=8)
-        elif kind == "depth":
-            ax.plot(t, -log["body_xyz"][:, 2], label="hull centre")
-            if "depth" in log:
-                ax.plot(log["t_depth"], log["depth"][:, 0], lw=0.8, label="pressure sensor (head)")
-            ax.invert_yaxis()
-            ax.legend(fontsize=8)
-        elif kind == "weights":
-            for i, leaf in enumerate(leaves):
-                ax.plot(log["t_behaviour_weights"], log["behaviour_weights"][:, i], label=leaf)
-            ax.set_ylim(-0.05, 1.45)  # Eq. (12)'s weights sum to up to 1.41
-            ax.legend(ncol=len(leaves), fontsize=8)
-        else:
-            for key, label in estimates:
-                if key == "s_hat":  # the camera's step signal
-                    ax.step(log["t_s_hat"], log["s_hat"][:, 0], where="post", label=label)
-                else:
-                    ax.plot(log[f"t_{key}"], log[key][:, 0], label=label)
-            ax.set_ylim(-0.05, 1.05)
-            ax.legend(fontsize=8, ncol=len(estimates))
+        _shade_behaviours(ax, spans, labelled=kind == "joints")
+        _hatch_walls(ax, walls, wall_label)
+        _mark_paper_windows(ax, paper_windows, annotated=kind == "sensing")
+        _draw_transition_panel(ax, kind, log, joints, leaves)
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+def _shade_behaviours(ax, spans: list, labelled: bool) -> None:
+    """``behaviour_spans`` shaded (grey: a behaviour held, orange: a transition), each
+    labelled above the panel when ``labelled``."""
+    for start, end, label in spans:
+        transition = "->" in label
+        ax.axvspan(
+            start,
+            end,
+            color="tab:orange" if transition else "gray",
+            alpha=0.18 if transition else 0.07,
+        )
+        if labelled:
+            ax.text(
+                (start + end) / 2,
+                1.01,
+                label,
+                transform=ax.get_xaxis_transform(),
+                ha="center",
+                va="bottom",
+                fontsize=8,
+            )
+
+
+def _hatch_walls(ax, walls: list, wall_label: str) -> None:
+    """The (start, end) stretches near a wall hatched red, labelled once in the legend."""
+    for k, (start, end) in enumerate(walls):
+        ax.axvspan(
+            start,
+            end,
+            facecolor="none",
+            edgecolor="tab:red",
+            hatch="//",
+            lw=0,
+            alpha=0.35,
+            label=wall_label if k == 0 else None,
+        )
+
+
+def _mark_paper_windows(ax, paper_windows, annotated: bool) -> None:
+    """The paper's (label, start_s, end_s) transitions as dashed purple lines, with a
+    labelled bracket when ``annotated``."""
+    for label, start, end in paper_windows:
+        for x in (start, end):
+            ax.axvline(x, color="tab:purple", ls="--", lw=1.0, alpha=0.8)
+        if annotated:
+            ax.annotate(
+                "",
+                xy=(end, 0.5),
+                xytext=(start, 0.5),
+                xycoords=ax.get_xaxis_transform(),
+                arrowprops=dict(arrowstyle="<->", color="tab:purple"),
+            )
+            ax.text(
+                (start + end) / 2,
+                0.53,
+                f"paper: {label}",
+                color="tab:purple",
+                transform=ax.get_xaxis_transform(),
+                ha="center",
+                va="bottom",
+                fontsize=8,
+            )
+
+
+def _draw_transition_panel(ax, kind: str, log: dict, joints, leaves) -> None:
+    """One panel of ``fig_transition_run``'s: its curves and legend."""
+    t = log["t"]
+    if kind == "joints":
+        for leg in joints:
+            k = LEGS.index(leg)
+            for j, joint in enumerate(JOINTS):
+                ax.plot(
+                    log["t_command"],
+                    np.degrees(log["commanded_joint_angles"][:, 4 * k + j]),
+                    lw=1.0,
+                    label=f"{LEG_TITLES[leg]} {joint}",
+                )
+        ax.legend(ncol=4, fontsize=7, loc="lower left")
+    elif kind == "euler":
+        for i, name in enumerate(("roll", "pitch", "yaw")):
+            ax.plot(t, np.degrees(np.unwrap(log["body_rpy"][:, i])), label=name)
+        ax.legend(ncol=3, fontsize=8)
+    elif kind == "depth":
+        ax.plot(t, -log["body_xyz"][:, 2], label="hull centre")
+        if "depth" in log:
+            ax.plot(log["t_depth"], log["depth"][:, 0], lw=0.8, label="pressure sensor (head)")
+        ax.invert_yaxis()
+        ax.legend(fontsize=8)
+    elif kind == "weights":
+        for i, leaf in enumerate(leaves):
+            ax.plot(log["t_behaviour_weights"], log["behaviour_weights"][:, i], label=leaf)
+        ax.set_ylim(-0.05, 1.45)  # Eq. (12)'s weights sum to up to 1.41
+        ax.legend(ncol=len(leaves), fontsize=8)
+    else:
+        _draw_estimates(ax, log)
+
+
+def _draw_estimates(ax, log: dict) -> None:
+    """Every modality estimate in the log (``ESTIMATES``) over time, 0 to 1."""
+    estimates = [(key, label) for key, label in ESTIMATES if key in log]
+    for key, label in estimates:
+        if key == "s_hat":  # the camera's step signal
+            ax.step(log["t_s_hat"], log["s_hat"][:, 0], where="post", label=label)
+        else:
+            ax.plot(log[f"t_{key}"], log[key][:, 0], label=label)
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=8, ncol=len(estimates))
 
 
 def fig_velocities(speeds: dict, path):

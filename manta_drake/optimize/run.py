@@ -284,30 +284,78 @@ def run_optimization(
     """
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
-    spec, space = problem.spec, problem.space
     out_dir = check_optimize_out(problem, out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     evaluate = evaluate or simulate_candidate
     started = time.perf_counter()
     source = source_version()  # the code this run is made with, not the code at its end
-    identity = problem.identity()
-    points, seeds = spec.points(), list(spec.robustness.seeds)
-    budget = spec.budget
-    scenario_sha = identity["scenario"]
+    search = _Search(problem, out_dir, started)
+    bar = search.progress_bar() if progress else None
+    runner = _Runner(client, evaluate, bar)
+    try:
+        with interrupts_as_exceptions():
+            stop = search.run_generations(runner, bar)
+            search.final_rows = _final_stage(
+                problem, out_dir, search.state.best, runner, search.scenario_sha
+            )
+    finally:
+        # Every simulation finished so far is in the table, also after Ctrl-C.
+        search.write_table(force=True)
+        if bar is not None:
+            bar.close()
+    search.save()
+    return _finish(
+        problem,
+        out_dir,
+        search.state,
+        search.rows,
+        search.final_rows,
+        runner.simulated,
+        search.reused,
+        stop,
+        time.perf_counter() - started,
+        source=source,
+    )
 
-    def jobs_of(generation: int, candidates) -> list[dict]:
+
+class _Search:
+    """The CMA-ES search of one ``run_optimization`` call: its state (loaded or new, its
+    told generations replayed), the history's rows, the table and the saved wall time."""
+
+    def __init__(self, problem: Problem, out_dir: pathlib.Path, started: float):
+        spec, space = problem.spec, problem.space
+        self.problem, self.out_dir = problem, out_dir
+        self.identity = problem.identity()
+        self.points, self.seeds = spec.points(), list(spec.robustness.seeds)
+        self.scenario_sha = self.identity["scenario"]
+        self.state = load_state(out_dir, problem) or new_search(problem)
+        for generation, (candidates, costs) in enumerate(self.state.told, start=1):
+            jobs = self.jobs_of(generation, candidates)
+            self.state.best = _better(self.state.best, generation, costs, jobs)
+        history = read_history(
+            out_dir / HISTORY, space.names, max_bytes=history_limit(problem, self.state.generation)
+        )
+        self.rows = {r["key"]: r for r in history if r["kind"] == "search"}
+        self.final_rows: list[dict] = [r for r in history if r["kind"] != "search"]
+        self.table = _Table(out_dir / HISTORY, space.names)
+        self.reused = 0
+        self.clock = started
+
+    def jobs_of(self, generation: int, candidates) -> list[dict]:
+        """The simulations of a generation's candidates: each at every point and seed."""
+        spec, space = self.problem.spec, self.problem.space
         out = []
         for c, unit in enumerate(candidates):
             # The injected start (module docstring) in its exact degrees, not through the
             # unit cube's round-off: its entries are the start gait's to the bit.
             degrees = space.start_vector() if (generation, c) == (1, 0) else space.to_degrees(unit)
             gait_text = candidate_gait_text(spec.name, space.gait(degrees))
-            for p, point in enumerate(points):
-                for seed in seeds:
+            for p, point in enumerate(self.points):
+                for seed in self.seeds:
                     out.append(
                         _job(
-                            problem,
-                            scenario_sha,
+                            self.problem,
+                            self.scenario_sha,
                             "search",
                             generation,
                             c,
@@ -321,141 +369,132 @@ def run_optimization(
                     )
         return out
 
-    state = load_state(out_dir, problem) or new_search(problem)
-    for generation, (candidates, costs) in enumerate(state.told, start=1):
-        state.best = _better(state.best, generation, costs, jobs_of(generation, candidates))
-    history = read_history(
-        out_dir / HISTORY, space.names, max_bytes=history_limit(problem, state.generation)
-    )
-    rows = {r["key"]: r for r in history if r["kind"] == "search"}
-    final_rows: list[dict] = [r for r in history if r["kind"] != "search"]
-    per_candidate = len(points) * len(seeds)
-    # The search's simulations, then the best gait's re-run and its held-out re-checks.
-    total = (
-        max(budget.generations, state.generation) * budget.population * per_candidate
-        + 1
-        + len(spec.held_out.points) * len(spec.held_out_seeds())
-    )
-    bar = None
-    if progress:
+    def progress_bar(self):
+        """A tqdm bar over the search's simulations, then the best gait's re-run and its
+        held-out re-checks, started at the simulations the history holds."""
         from tqdm import tqdm
 
-        bar = tqdm(
+        spec, budget = self.problem.spec, self.problem.spec.budget
+        per_candidate = len(self.points) * len(self.seeds)
+        total = (
+            max(budget.generations, self.state.generation) * budget.population * per_candidate
+            + 1
+            + len(spec.held_out.points) * len(spec.held_out_seeds())
+        )
+        return tqdm(
             total=total,
-            initial=min(len(rows), total),
+            initial=min(len(self.rows), total),
             unit="sim",
             file=sys.stderr,
             desc=f"optimizing {spec.name}",
             dynamic_ncols=True,
         )
-    runner = _Runner(client, evaluate, bar)
-    reused = 0
-    clock = [started]
 
-    def save() -> None:
-        state.wall_time_s += time.perf_counter() - clock[0]
-        clock[0] = time.perf_counter()
-        save_state(out_dir, state, identity)
+    def save(self) -> None:
+        """Saves the state, its wall time brought up to now."""
+        self.state.wall_time_s += time.perf_counter() - self.clock
+        self.clock = time.perf_counter()
+        save_state(self.out_dir, self.state, self.identity)
 
-    table = _Table(out_dir / HISTORY, space.names)
+    def write_table(self, force: bool = False) -> None:
+        self.table.write(list(self.rows.values()) + self.final_rows, force=force)
 
-    def record(job: dict, outcome: dict) -> None:
-        row = _row(problem, job, outcome)
+    def record(self, job: dict, outcome: dict) -> None:
+        """Writes a finished simulation's folder and its row (the table when it is cheap)."""
+        row = _row(self.problem, job, outcome)
         write_evaluation(
-            out_dir / row["folder"],
+            self.out_dir / row["folder"],
             job["task"]["gait_text"],
-            _record(row, outcome, space),
+            _record(row, outcome, self.problem.space),
             outcome.get("log_npz"),
         )
-        rows[row["key"]] = row
-        table.write(list(rows.values()) + final_rows)
+        self.rows[row["key"]] = row
+        self.write_table()
 
-    stop = ""
-    try:
-        with interrupts_as_exceptions():
-            while True:
-                t_generation, resumed = time.perf_counter(), state.pending is not None
-                if state.pending is None:
-                    if state.generation >= budget.generations:
-                        n = budget.generations
-                        stop = f"{n} generation{'s' if n != 1 else ''}"
-                        break
-                    cma_stop = state.stop()
-                    if cma_stop:
-                        stop = "CMA-ES: " + ", ".join(f"{k} {v}" for k, v in cma_stop.items())
-                        break
-                    state.ask()
-                    save()
-                generation = state.generation
-                jobs = jobs_of(generation, state.pending)
-                todo = list(
-                    {
-                        j["key"]: j
-                        for j in jobs
-                        if j["key"] not in rows or rows[j["key"]]["status"] == "lost"
-                    }.values()
-                )
-                reused += sum(
-                    1 for j in jobs if j["key"] in rows and rows[j["key"]]["status"] != "lost"
-                )
-                runner.run(todo, record)
-                costs = []
-                for c in range(len(state.pending)):
-                    mine = [rows[j["key"]] for j in jobs if j["candidate"] == c]
-                    costs.append(aggregate([r["cost"] for r in mine], spec.robustness.aggregate))
-                    for r in mine:
-                        r["candidate_cost"] = costs[-1]
-                state.tell(costs)
-                state.best = _better(state.best, generation, costs, jobs)
-                _say(
-                    bar,
-                    generation_line(
-                        generation,
-                        budget.generations,
-                        costs,
-                        state.best,
-                        [
-                            [rows[j["key"]] for j in jobs if j["candidate"] == c]
-                            for c in range(len(costs))
-                        ],
-                        len(todo),
-                        time.perf_counter() - t_generation,
-                    ),
-                )
-                _prune_logs(out_dir, rows, state.best)
-                table.write(list(rows.values()) + final_rows, force=True)
-                walls = [rows[j["key"]]["wall_time_s"] or 0.0 for j in todo]
-                state.timings.append(
-                    {
-                        "generation": generation,
-                        "wall_s": time.perf_counter() - t_generation,
-                        "simulated": len(todo),
-                        "reused": len(jobs) - len(todo),
-                        "longest_simulation_s": max(walls, default=0.0),
-                        "sum_simulation_s": float(sum(walls)),
-                        "resumed": resumed,
-                    }
-                )
-                save()
-            final_rows = _final_stage(problem, out_dir, state.best, runner, scenario_sha)
-    finally:
-        # Every simulation finished so far is in the table, also after Ctrl-C.
-        table.write(list(rows.values()) + final_rows, force=True)
-        if bar is not None:
-            bar.close()
-    save()
-    return _finish(
-        problem,
-        out_dir,
-        state,
-        rows,
-        final_rows,
-        runner.simulated,
-        reused,
-        stop,
-        time.perf_counter() - started,
-        source=source,
-    )
+    def run_generations(self, runner: _Runner, bar) -> str:
+        """Asks, simulates and tells generations until the budget or CMA-ES stops the
+        search (an interrupted generation first, asking nothing new); returns why."""
+        while True:
+            t_generation, resumed = time.perf_counter(), self.state.pending is not None
+            if self.state.pending is None:
+                stop = self._stop_reason()
+                if stop:
+                    return stop
+                self.state.ask()
+                self.save()
+            self._run_generation(runner, bar, t_generation, resumed)
+
+    def _stop_reason(self) -> str:
+        """Why the search ends before asking another generation, or ""."""
+        n = self.problem.spec.budget.generations
+        if self.state.generation >= n:
+            return f"{n} generation{'s' if n != 1 else ''}"
+        cma_stop = self.state.stop()
+        if cma_stop:
+            return "CMA-ES: " + ", ".join(f"{k} {v}" for k, v in cma_stop.items())
+        return ""
+
+    def _run_generation(self, runner: _Runner, bar, t_generation: float, resumed: bool) -> None:
+        """Simulates the pending generation (what the history lacks), tells its costs,
+        keeps the best candidate's logs only, and saves the table and the state."""
+        rows, generation = self.rows, self.state.generation
+        jobs = self.jobs_of(generation, self.state.pending)
+        todo = list(
+            {
+                j["key"]: j
+                for j in jobs
+                if j["key"] not in rows or rows[j["key"]]["status"] == "lost"
+            }.values()
+        )
+        self.reused += sum(
+            1 for j in jobs if j["key"] in rows and rows[j["key"]]["status"] != "lost"
+        )
+        runner.run(todo, self.record)
+        costs = self._tell(generation, jobs)
+        _say(
+            bar,
+            generation_line(
+                generation,
+                self.problem.spec.budget.generations,
+                costs,
+                self.state.best,
+                [[rows[j["key"]] for j in jobs if j["candidate"] == c] for c in range(len(costs))],
+                len(todo),
+                time.perf_counter() - t_generation,
+            ),
+        )
+        _prune_logs(self.out_dir, rows, self.state.best)
+        self.write_table(force=True)
+        self.state.timings.append(self._timing(generation, jobs, todo, t_generation, resumed))
+        self.save()
+
+    def _tell(self, generation: int, jobs: list[dict]) -> list:
+        """Each candidate's aggregated cost (also written into its rows), told to CMA-ES;
+        the best candidate updated."""
+        costs = []
+        for c in range(len(self.state.pending)):
+            mine = [self.rows[j["key"]] for j in jobs if j["candidate"] == c]
+            costs.append(
+                aggregate([r["cost"] for r in mine], self.problem.spec.robustness.aggregate)
+            )
+            for r in mine:
+                r["candidate_cost"] = costs[-1]
+        self.state.tell(costs)
+        self.state.best = _better(self.state.best, generation, costs, jobs)
+        return costs
+
+    def _timing(self, generation: int, jobs, todo, t_generation: float, resumed: bool) -> dict:
+        """A generation's entry of ``timings`` (``OptimizationResult``)."""
+        walls = [self.rows[j["key"]]["wall_time_s"] or 0.0 for j in todo]
+        return {
+            "generation": generation,
+            "wall_s": time.perf_counter() - t_generation,
+            "simulated": len(todo),
+            "reused": len(jobs) - len(todo),
+            "longest_simulation_s": max(walls, default=0.0),
+            "sum_simulation_s": float(sum(walls)),
+            "resumed": resumed,
+        }
 
 
 def _say(bar, line: str) -> None:
@@ -771,15 +810,47 @@ def _finish(
     wall_time: float,
     source: str = "",
 ) -> OptimizationResult:
+    """The result, with best_gait.yaml (when the best candidate's simulations all ran),
+    convergence.png and summary.json written."""
     from manta_drake.optimize.figure import write_convergence_figure
 
+    result = _result(
+        problem, out_dir, state, rows, final_rows, simulated, reused, stop, wall_time, source
+    )
+    (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
+    if result.best_ok:
+        result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
+    result.history_file = out_dir / HISTORY
+    result.figure = write_convergence_figure(
+        out_dir / "convergence.png", problem, list(rows.values())
+    )
+    summary = _summary(problem, result, state, rows)
+    result.summary_file = out_dir / "summary.json"
+    tmp = out_dir / ".summary.json.tmp"
+    tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    os.replace(tmp, result.summary_file)
+    return result
+
+
+def _result(
+    problem: Problem,
+    out_dir: pathlib.Path,
+    state: SearchState,
+    rows: dict,
+    final_rows: list[dict],
+    simulated: int,
+    reused: int,
+    stop: str,
+    wall_time: float,
+    source: str,
+) -> OptimizationResult:
+    """The search's result from its state and the history's rows (files not yet written)."""
     spec, space = problem.spec, problem.space
     best = state.best
     start_rows = _candidate_rows(rows, 1, 0)
     start_cost = start_rows[0]["candidate_cost"] if start_rows else math.nan
     best_rows = _candidate_rows(rows, best["generation"], best["candidate"])
-    best_ok = bool(best_rows) and all(r["status"] == "ok" for r in best_rows)
-    result = OptimizationResult(
+    return OptimizationResult(
         name=spec.name,
         names=space.names,
         start_degrees=space.start_vector(),
@@ -788,7 +859,7 @@ def _finish(
         best_cost=float(best["cost"]),
         best_generation=best["generation"],
         best_candidate=best["candidate"],
-        best_ok=best_ok,
+        best_ok=bool(best_rows) and all(r["status"] == "ok" for r in best_rows),
         generations=len(state.told),
         evaluations=len(rows),
         simulated=simulated,
@@ -802,14 +873,13 @@ def _finish(
         source=source,
         violations=violations(best_rows + final_rows),
     )
-    (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
-    if best_ok:
-        result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
-    result.history_file = out_dir / HISTORY
-    result.figure = write_convergence_figure(
-        out_dir / "convergence.png", problem, list(rows.values())
-    )
-    summary = {
+
+
+def _summary(problem: Problem, result: OptimizationResult, state: SearchState, rows: dict) -> dict:
+    """summary.json: the spec and provenance, the start and the best with their terms, the
+    final stage's rows and the search's effort."""
+    spec, space = problem.spec, problem.space
+    return {
         "name": spec.name,
         "status": result.status,
         "feasible": result.feasible,
@@ -818,7 +888,7 @@ def _finish(
         "spec_sha256": spec.text_sha256,
         "scenario": spec.scenario,
         "start_gait": spec.gait,
-        "source": source,
+        "source": result.source,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "parameters": [
             {
@@ -833,21 +903,9 @@ def _finish(
         "start": {
             "cost": result.start_cost,
             "degrees": dict(zip(space.names, map(float, result.start_degrees))),
-            **term_values(problem, start_rows),
+            **term_values(problem, _candidate_rows(rows, 1, 0)),
         },
-        "best": {
-            "cost": result.best_cost,
-            "generation": result.best_generation,
-            "candidate": result.best_candidate,
-            "ok": best_ok,
-            "feasible": result.feasible,
-            "degrees": dict(zip(space.names, map(float, result.best_degrees))),
-            "entries": [
-                {"entry": e, "start": s, "best": b}
-                for e, s, b in space.changed_entries(result.best_degrees)
-            ],
-            **term_values(problem, best_rows),
-        },
+        "best": _best_summary(problem, result, rows),
         "best_run": _final_summary(result.best_run),
         "held_out": [_final_summary(r) for r in result.held_out],
         "generations": result.generations,
@@ -856,19 +914,33 @@ def _finish(
         "seeds": list(spec.robustness.seeds),
         "aggregate": spec.robustness.aggregate,
         "evaluations": result.evaluations,
-        "simulated_now": simulated,
-        "reused_now": reused,
+        "simulated_now": result.simulated,
+        "reused_now": result.reused,
         "stop": result.stop,
-        "wall_time_s": wall_time,
+        "wall_time_s": result.wall_time_s,
         "generation_timings": result.timings,
         "wall_time_total_s": state.wall_time_s,
         "best_gait": str(result.best_gait_file) if result.best_gait_file else None,
     }
-    result.summary_file = out_dir / "summary.json"
-    tmp = out_dir / ".summary.json.tmp"
-    tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
-    os.replace(tmp, result.summary_file)
-    return result
+
+
+def _best_summary(problem: Problem, result: OptimizationResult, rows: dict) -> dict:
+    """summary.json's ``best``: the best candidate, its changed entries and its terms."""
+    space = problem.space
+    best_rows = _candidate_rows(rows, result.best_generation, result.best_candidate)
+    return {
+        "cost": result.best_cost,
+        "generation": result.best_generation,
+        "candidate": result.best_candidate,
+        "ok": result.best_ok,
+        "feasible": result.feasible,
+        "degrees": dict(zip(space.names, map(float, result.best_degrees))),
+        "entries": [
+            {"entry": e, "start": s, "best": b}
+            for e, s, b in space.changed_entries(result.best_degrees)
+        ],
+        **term_values(problem, best_rows),
+    }
 
 
 def _final_summary(row: dict | None) -> dict | None:

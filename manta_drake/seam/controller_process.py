@@ -182,156 +182,324 @@ def run_controller(
         SeamError: the handshake failed, or the station was silent for ``timeout`` s (then
             with ``result``: what it did until then, its failsafe in its metrics).
     """
-    controller, _ = build_controller(scenario)
-    controller = controller_with_tick(controller, scenario.time_step)
-    sends, reads = controller_channels(controller)
-    incidents = Incidents("controller")
-    hello = hello_for("controller", scenario, wall_clock, sends)
-    # Every station channel it might log is subscribed from the start: the station's first
-    # samples may arrive right after the handshake.
-    loggable = [c for c in CHANNELS if c.sender == "station" and c not in reads]
-    link = Link(
-        url,
-        reads + loggable,
-        "controller",
-        lockstep=not wall_clock,
-        incidents=incidents,
-        monitor=[c.name for c in loggable],
-        hello=hello,
-    )
-    guard = Guard.for_controller(scenario, incidents)
-    simulator = make_simulator(controller, scenario)
-    context = simulator.get_mutable_context()
-    monitors = [p for p in MONITORED_OUTPUTS if controller.HasOutputPort(p)]
-    log = {"t_command": [], "commanded_joint_angles": [], **{p: [] for p in monitors}}
-    mode = "wall-clock" if wall_clock else "lockstep"
-    state = {"last_t": 0.0}
-    if not wall_clock:  # a reader between exchanges: the split run is not the single diagram
-        for line in unexchanged_reads(controller, scenario):
-            warn(f"controller: {line}; this lockstep run will differ from the single diagram")
-
-    failsafe = Failsafe(scenario, link, sends, lockstep=not wall_clock)
-
-    def command(t: float) -> None:
-        if failsafe.active:
-            failsafe.release("resumed")
-            link.holding = None
-        for channel in sends:
-            value = controller.GetOutputPort(channel.port).Eval(context)
-            link.publish(channel.name, link.message(channel, t, value), to_utime(t))
-            if channel.port == "desired_state":
-                log["t_command"].append(t)
-                log["commanded_joint_angles"].append(value[:NUM_JOINTS].copy())
-        for p in monitors:
-            log[p].append(controller.GetOutputPort(p).Eval(context).copy())
-        state["last_t"] = t
-
-    def on_stale(waited):  # lockstep: the failsafe at the link-loss point
-        failsafe.engage(state["last_t"], waited, timeout)
-        link.holding = failsafe.hold
-
-    def on_timeout(waited):
-        failsafe.release("gave up")
-        skipped = incidents.count(kind="malformed")
-        skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
-        if link.last_arrival is None:
-            return SeamError(
-                f"controller: nothing from the station within {waited:.1f} s; is "
-                "`manta-drake station` running with the same scenario, "
-                f"{link.transport.medium.option} and --wall-clock setting?"
-                f"{skipped}"
-            )
-        return SeamError(
-            f"controller: the station has been silent for {waited:.1f} s "
-            f"(last command stamped t = {state['last_t']:.3f} s; the safe state "
-            f"commanded since); stopped{skipped}"
-        )
-
-    def result(exchanges, wall, peer_run_id="", **ended) -> SeamResult:
-        arrays = {k: np.array(v) for k, v in log.items() if len(v)}
-        if station_log is not None:
-            arrays.update(station_log.arrays())
-        return SeamResult(
-            "controller",
-            mode,
-            link.url,
-            float(context.get_time()),
-            wall,
-            exchanges,
-            link.resends,
-            arrays,
-            incidents=incidents.counts,
-            run_id=hello.run_id,
-            peer_run_id=peer_run_id,
-            failsafe=failsafe.metrics(),
-            **ended,
-        )
-
+    run = _ControllerRun(scenario, url, wall_clock, timeout)
     if progress:
         warn(
-            f"controller: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
-            f"station on {link.url}"
+            f"controller: {scenario.name}, {run.mode}, run {run.hello.run_id}, waiting for the "
+            f"station on {run.link.url}"
         )
-    stopped = ""
-    station_log = None
-    try:
-        peer = link.shake_hands(startup_timeout)
-        missing = [c.name for c in reads if c.name not in peer.channels]
+    return run.run(startup_timeout, progress, failsafe_after)
+
+
+class _ControllerRun:
+    """One run of the controller against a station (see ``run_controller``): its diagram,
+    link, guard, failsafe and log, and the exchanges in lockstep or on the wall clock."""
+
+    def __init__(self, scenario, url, wall_clock: bool, timeout: float):
+        self.scenario, self.wall_clock, self.timeout = scenario, wall_clock, timeout
+        controller, _ = build_controller(scenario)
+        self.controller = controller_with_tick(controller, scenario.time_step)
+        self.sends, self.reads = controller_channels(self.controller)
+        self.incidents = Incidents("controller")
+        self.hello = hello_for("controller", scenario, wall_clock, self.sends)
+        self.link = self._open_link(url)
+        self.guard = Guard.for_controller(scenario, self.incidents)
+        self.simulator = make_simulator(self.controller, scenario)
+        self.context = self.simulator.get_mutable_context()
+        self.monitors = [p for p in MONITORED_OUTPUTS if self.controller.HasOutputPort(p)]
+        self.log: dict[str, list] = {
+            "t_command": [],
+            "commanded_joint_angles": [],
+            **{p: [] for p in self.monitors},
+        }
+        self.mode = "wall-clock" if wall_clock else "lockstep"
+        self.last_t = 0.0  # the last command's time
+        self.station_log: StationLog | None = None
+        if not wall_clock:  # a reader between exchanges: the split run is not the single diagram
+            for line in unexchanged_reads(self.controller, scenario):
+                warn(f"controller: {line}; this lockstep run will differ from the single diagram")
+        self.failsafe = Failsafe(scenario, self.link, self.sends, lockstep=not wall_clock)
+
+    def _open_link(self, url) -> Link:
+        """The link, subscribed to what the controller reads and to every station channel
+        it might log: the station's first samples may arrive right after the handshake."""
+        loggable = [c for c in CHANNELS if c.sender == "station" and c not in self.reads]
+        return Link(
+            url,
+            self.reads + loggable,
+            "controller",
+            lockstep=not self.wall_clock,
+            incidents=self.incidents,
+            monitor=[c.name for c in loggable],
+            hello=self.hello,
+        )
+
+    def run(self, startup_timeout: float, progress: bool, failsafe_after: float) -> SeamResult:
+        """Shakes hands, runs every exchange and says goodbye; the result (a failure's
+        SeamError carries what it did until then, when its failsafe acted)."""
+        stopped = ""
+        try:
+            peer = self._shake_hands(startup_timeout)
+            channels = monitor_channels(self.controller, peer.channels)
+            self.station_log = StationLog(channels, self.link, self.guard, self.scenario)
+            paired_at = time.monotonic()
+            try:
+                exchanges, wall = self._exchanges(startup_timeout, progress, failsafe_after)
+            except PeerStopped as e:  # the station ended the run (its battery): so does this side
+                stopped = str(e)
+                warn(f"controller: {stopped}; stopping too")
+                exchanges, wall = len(self.log["t_command"]), time.monotonic() - paired_at
+            self.station_log.take_arrived()
+        except BaseException as e:
+            self.link.say_goodbye(failure_status(e))
+            if isinstance(e, SeamError) and self.failsafe.events:  # what it did, for its metrics
+                e.result = self.result(len(self.log["t_command"]), 0.0, failed=str(e))
+            raise
+        self.link.say_goodbye("finished")
+        return self.result(exchanges, wall, stopped=stopped, peer_run_id=peer.run_id)
+
+    def _shake_hands(self, startup_timeout: float):
+        """The station's handshake (its peer), checked to publish every sensor read."""
+        peer = self.link.shake_hands(startup_timeout)
+        missing = [c.name for c in self.reads if c.name not in peer.channels]
         if missing:
             raise SeamError(
                 f"controller: {peer.describe()} does not publish "
                 f"{', '.join(missing)}, which this controller reads (has its "
                 "scenario the same water and camera settings?)"
             )
-        station_log = StationLog(monitor_channels(controller, peer.channels), link, guard, scenario)
-        paired_at = time.monotonic()
-        try:
-            if wall_clock:
-                wall_start, exchanges = _controller_wall_clock(
-                    scenario,
-                    simulator,
-                    link,
-                    reads,
-                    command,
-                    timeout,
-                    startup_timeout,
-                    failsafe,
-                    failsafe_after,
-                    on_timeout,
-                    progress,
-                    guard,
-                    station_log,
+        return peer
+
+    def _exchanges(self, startup_timeout: float, progress: bool, failsafe_after: float):
+        """(number of exchanges, wall time) of the run on the wall clock or in lockstep."""
+        if self.wall_clock:
+            wall_start, exchanges = self._run_wall_clock(startup_timeout, progress, failsafe_after)
+            return exchanges, time.monotonic() - wall_start
+        exchanges, wall = self._run_lockstep(startup_timeout, progress)
+        _linger(self.link)
+        return exchanges, wall
+
+    def command(self, t: float) -> None:
+        """Publishes the commands for ``t`` (releasing a failsafe) and logs them."""
+        if self.failsafe.active:
+            self.failsafe.release("resumed")
+            self.link.holding = None
+        for channel in self.sends:
+            value = self.controller.GetOutputPort(channel.port).Eval(self.context)
+            self.link.publish(channel.name, self.link.message(channel, t, value), to_utime(t))
+            if channel.port == "desired_state":
+                self.log["t_command"].append(t)
+                self.log["commanded_joint_angles"].append(value[:NUM_JOINTS].copy())
+        for p in self.monitors:
+            self.log[p].append(self.controller.GetOutputPort(p).Eval(self.context).copy())
+        self.last_t = t
+
+    def on_stale(self, waited) -> None:
+        """Lockstep: the failsafe at the link-loss point."""
+        self.failsafe.engage(self.last_t, waited, self.timeout)
+        self.link.holding = self.failsafe.hold
+
+    def on_timeout(self, waited) -> SeamError:
+        self.failsafe.release("gave up")
+        skipped = self.incidents.count(kind="malformed")
+        skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
+        if self.link.last_arrival is None:
+            return SeamError(
+                f"controller: nothing from the station within {waited:.1f} s; is "
+                "`manta-drake station` running with the same scenario, "
+                f"{self.link.transport.medium.option} and --wall-clock setting?"
+                f"{skipped}"
+            )
+        return SeamError(
+            f"controller: the station has been silent for {waited:.1f} s "
+            f"(last command stamped t = {self.last_t:.3f} s; the safe state "
+            f"commanded since); stopped{skipped}"
+        )
+
+    def result(self, exchanges, wall, peer_run_id="", **ended) -> SeamResult:
+        arrays = {k: np.array(v) for k, v in self.log.items() if len(v)}
+        if self.station_log is not None:
+            arrays.update(self.station_log.arrays())
+        return SeamResult(
+            "controller",
+            self.mode,
+            self.link.url,
+            float(self.context.get_time()),
+            wall,
+            exchanges,
+            self.link.resends,
+            arrays,
+            incidents=self.incidents.counts,
+            run_id=self.hello.run_id,
+            peer_run_id=peer_run_id,
+            failsafe=self.failsafe.metrics(),
+            **ended,
+        )
+
+    def _run_lockstep(self, startup_timeout: float, progress: bool) -> tuple[int, float]:
+        """The controller in lockstep with the station's time (see ``run_controller``).
+        Returns (number of exchanges, wall time from the first exchange)."""
+        scenario, simulator, controller = self.scenario, self.simulator, self.controller
+        schedule = exchange_schedule(
+            scenario.duration, {c.name: c.period(scenario) for c in self.sends + self.reads}
+        )
+        inputs = {c.name for c in self.reads if controller.HasInputPort(c.port)}
+        sending = {c.name for c in self.sends}
+        wait_first = has_feedthrough(controller, self.reads, self.sends)
+        wall_start = None
+        next_progress = 1.0
+        self._fix_before_start(inputs, startup_timeout)
+        for ex in schedule:
+            first = wall_start is None
+            if not first:
+                advance_to(simulator, ex.time)
+            self.link.advance_floor(ex.utime)
+            commands_due = any(name in sending for name in ex.channels)
+            if commands_due and not (first or wait_first):
+                self._publish_when_acknowledged(ex)
+            wanted = {name: ex.utime for name in ex.channels if name in inputs}
+            if first:  # the station is there: its clock at the start
+                wanted[CLOCK.name] = ex.utime
+            if wanted:
+                got = self.link.wait_for(
+                    lambda wanted=wanted: self.link.take(wanted),
+                    startup_timeout if first else self.timeout,
+                    (lambda waited: None) if first else self.on_stale,
+                    self.on_timeout,
                 )
-                wall = time.monotonic() - wall_start
-            else:
-                exchanges, wall = _controller_lockstep(
-                    scenario,
-                    simulator,
-                    link,
-                    sends,
-                    reads,
-                    command,
-                    timeout,
-                    startup_timeout,
-                    on_stale,
-                    on_timeout,
-                    progress,
-                    guard,
-                    station_log,
+            if first:  # on the values from before the station's initialization
+                simulator.Initialize()
+                wall_start = time.monotonic()
+            if wanted:
+                fix_inputs(controller, self.context, self.guard.screen(got, ex.time))
+            if commands_due and (first or wait_first):
+                self._publish_when_acknowledged(ex)
+            if progress and ex.time >= next_progress:
+                warn(f"controller: t = {ex.time:.1f} s")
+                next_progress += 1.0
+        if wall_start is None:
+            return 0, 0.0
+        simulator.AdvanceTo(scenario.duration)
+        return len(schedule), time.monotonic() - wall_start
+
+    def _fix_before_start(self, inputs: set, startup_timeout: float) -> None:
+        """What its initialization events read: the station's sensors before its
+        initialization (stamped ``BEFORE_START_UTIME``)."""
+        before_start = {name: BEFORE_START_UTIME for name in inputs}
+        if before_start:
+            got = self.link.wait_for(
+                lambda: self.link.take(before_start),
+                startup_timeout,
+                lambda waited: None,
+                self.on_timeout,
+            )
+            fix_inputs(
+                self.controller, self.context, self.guard.screen(got, 0.0, before_start=True)
+            )
+
+    def _publish_when_acknowledged(self, ex) -> None:
+        """The commands for ``ex``, once the station's clock is no more than
+        ``MAX_LEAD_STEPS`` behind and every logged sample stamped before it has arrived."""
+        # Flow control: no further ahead of the station's clock than MAX_LEAD_STEPS; and a
+        # command stamped tau says the controller has everything stamped before tau (the
+        # station stops re-sending it), so the logged channels' samples come first.
+        lead = MAX_LEAD_STEPS * to_utime(self.scenario.time_step)
+        link, station_log = self.link, self.station_log
+        assert station_log is not None  # made at the handshake
+        link.wait_for(
+            lambda: (
+                True
+                if link.newest.get(CLOCK.name, -1) >= ex.utime - lead
+                and station_log.complete_before(ex.utime)
+                else None
+            ),
+            self.timeout,
+            self.on_stale,
+            self.on_timeout,
+        )
+        self.command(ex.time)
+
+    def _run_wall_clock(
+        self, startup_timeout: float, progress: bool, failsafe_after: float
+    ) -> tuple[float, int]:
+        """The controller on this machine's clock: latest sensor values, a command after
+        every plant step of its own time; after ``failsafe_after`` s of silence from the
+        station its clock stops and it commands the safe state (``failsafe``) until the
+        station is back. Returns (wall start, number of commands)."""
+        simulator, link, failsafe = self.simulator, self.link, self.failsafe
+        assert self.station_log is not None  # made at the handshake
+        h = self.scenario.time_step
+        self._fix_first_inputs(startup_timeout)
+        simulator.Initialize()
+        self.command(0.0)
+        wall_start = time.monotonic()
+        held_for = 0.0  # wall time spent holding: the controller's clock stops meanwhile
+        k, commands, next_progress = 0, 1, 1.0
+        holding_since = None
+        last_resend = 0.0
+        n_steps = round(self.scenario.duration / h)
+        while k < n_steps:
+            link.poll(1)
+            if link.handshake.peer_status == "finished":  # nothing more to command
+                break
+            fresh = link.newest_values(c.name for c in self.reads)
+            fix_inputs(
+                self.controller, self.context, self.guard.screen(fresh, self.context.get_time())
+            )
+            self.station_log.take_arrived()
+            now = time.monotonic()
+            silent = now - link.last_arrival
+            if silent > failsafe_after:  # the clock stops; the safe state instead of the gait
+                holding_since, last_resend = self._hold_safe_state(
+                    k * h, now, silent, holding_since, last_resend
                 )
-                _linger(link)
-        except PeerStopped as e:  # the station ended the run (its battery): so does this side
-            stopped = str(e)
-            warn(f"controller: {stopped}; stopping too")
-            exchanges, wall = len(log["t_command"]), time.monotonic() - paired_at
-        station_log.take_arrived()
-    except BaseException as e:
-        link.say_goodbye(failure_status(e))
-        if isinstance(e, SeamError) and failsafe.events:  # what it did, for its metrics
-            e.result = result(len(log["t_command"]), 0.0, failed=str(e))
-        raise
-    link.say_goodbye("finished")
-    return result(exchanges, wall, stopped=stopped, peer_run_id=peer.run_id)
+                continue
+            if holding_since is not None:
+                failsafe.release("resumed")
+                held_for += now - holding_since
+                holding_since = None
+            k_target = min(int((now - wall_start - held_for) / h), n_steps)
+            if k_target > k:
+                k = k_target
+                simulator.AdvanceTo(k * h)
+                link.acknowledge_all()  # re-send (hold) only the newest command
+                self.command(k * h)
+                commands += 1
+                if progress and k * h >= next_progress:
+                    warn(f"controller: t = {k * h:.1f} s")
+                    next_progress += 1.0
+        return wall_start, commands
+
+    def _hold_safe_state(self, t: float, now: float, silent: float, holding_since, last_resend):
+        """While the station is silent on the wall clock: the failsafe engaged at ``t`` (once),
+        the safe state re-sent every ``RESEND_PERIOD_S``, the run given up after ``timeout``.
+        Returns the updated (holding_since, last_resend)."""
+        if holding_since is None:
+            holding_since = now - silent
+            self.failsafe.engage(t, silent, self.timeout)
+            last_resend = now
+        if silent > self.timeout:
+            raise self.on_timeout(silent)
+        if now - last_resend > RESEND_PERIOD_S:
+            self.failsafe.send(t)
+            last_resend = now
+        return holding_since, last_resend
+
+    def _fix_first_inputs(self, startup_timeout: float) -> None:
+        """Waits for every input's first message and fixes them."""
+        start = time.monotonic()
+        latest: dict = {}
+        while len(latest) < len(self.reads):  # every input once before starting
+            self.link.poll(50)
+            latest.update(self.link.newest_values(c.name for c in self.reads))
+            if time.monotonic() - start > startup_timeout:
+                missing = sorted(c.name for c in self.reads if c.name not in latest)
+                raise SeamError(
+                    f"controller: nothing on {', '.join(missing)} within "
+                    f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
+                    f"running with the same scenario and {self.link.transport.medium.option}?"
+                )
+        fix_inputs(self.controller, self.context, self.guard.screen(latest, 0.0))
 
 
 def has_feedthrough(controller, inputs, outputs) -> bool:
@@ -348,92 +516,6 @@ def has_feedthrough(controller, inputs, outputs) -> bool:
     )
 
 
-def _controller_lockstep(
-    scenario,
-    simulator,
-    link,
-    sends,
-    reads,
-    command,
-    timeout,
-    startup_timeout,
-    on_stale,
-    on_timeout,
-    progress,
-    guard,
-    station_log,
-):
-    """The controller in lockstep with the station's time (see ``run_controller``).
-    Returns (number of exchanges, wall time from the first exchange)."""
-    controller, context = simulator.get_system(), simulator.get_mutable_context()
-    schedule = exchange_schedule(
-        scenario.duration, {c.name: c.period(scenario) for c in sends + reads}
-    )
-    inputs = {c.name for c in reads if controller.HasInputPort(c.port)}
-    sending = {c.name for c in sends}
-    wait_first = has_feedthrough(controller, reads, sends)
-    lead = MAX_LEAD_STEPS * to_utime(scenario.time_step)
-    wall_start = None
-    next_progress = 1.0
-
-    def publish(ex) -> None:
-        # Flow control: no further ahead of the station's clock than MAX_LEAD_STEPS; and a
-        # command stamped tau says the controller has everything stamped before tau (the
-        # station stops re-sending it), so the logged channels' samples come first.
-        link.wait_for(
-            lambda: (
-                True
-                if link.newest.get(CLOCK.name, -1) >= ex.utime - lead
-                and station_log.complete_before(ex.utime)
-                else None
-            ),
-            timeout,
-            on_stale,
-            on_timeout,
-        )
-        command(ex.time)
-
-    # What its initialization events read: the station's sensors before its initialization.
-    before_start = {name: BEFORE_START_UTIME for name in inputs}
-    if before_start:
-        got = link.wait_for(
-            lambda: link.take(before_start), startup_timeout, lambda waited: None, on_timeout
-        )
-        fix_inputs(controller, context, guard.screen(got, 0.0, before_start=True))
-    for ex in schedule:
-        first = wall_start is None
-        if not first:
-            advance_to(simulator, ex.time)
-        link.advance_floor(ex.utime)
-        commands_due = any(name in sending for name in ex.channels)
-        if commands_due and not (first or wait_first):
-            publish(ex)
-        wanted = {name: ex.utime for name in ex.channels if name in inputs}
-        if first:  # the station is there: its clock at the start
-            wanted[CLOCK.name] = ex.utime
-        if wanted:
-            got = link.wait_for(
-                lambda wanted=wanted: link.take(wanted),
-                startup_timeout if first else timeout,
-                (lambda waited: None) if first else on_stale,
-                on_timeout,
-            )
-        if first:  # on the values from before the station's initialization
-            simulator.Initialize()
-            wall_start = time.monotonic()
-        if wanted:
-            fix_inputs(controller, context, guard.screen(got, ex.time))
-        if commands_due and (first or wait_first):
-            publish(ex)
-        if progress and ex.time >= next_progress:
-            warn(f"controller: t = {ex.time:.1f} s")
-            next_progress += 1.0
-    if wall_start is None:
-        return 0, 0.0
-    simulator.AdvanceTo(scenario.duration)
-    return len(schedule), time.monotonic() - wall_start
-
-
 def _linger(link: Link, quiet_s: float = 0.3) -> None:
     """After the last command: while the station still sends (it re-sends while it waits
     for a command it did not get), re-send what it may not have; leave once it has
@@ -446,82 +528,3 @@ def _linger(link: Link, quiet_s: float = 0.3) -> None:
             if time.monotonic() - last_resend > RESEND_PERIOD_S:
                 link.resend()
                 last_resend = time.monotonic()
-
-
-def _controller_wall_clock(
-    scenario,
-    simulator,
-    link,
-    reads,
-    command,
-    timeout,
-    startup_timeout,
-    failsafe,
-    failsafe_after,
-    on_timeout,
-    progress,
-    guard,
-    station_log,
-):
-    """The controller on this machine's clock: latest sensor values, a command after every
-    plant step of its own time; after ``failsafe_after`` s of silence from the station its
-    clock stops and it commands the safe state (``failsafe``) until the station is back.
-    Returns (wall start, number of commands)."""
-    controller, context = simulator.get_system(), simulator.get_mutable_context()
-    h = scenario.time_step
-    start = time.monotonic()
-    latest: dict = {}
-    while len(latest) < len(reads):  # every input once before starting
-        link.poll(50)
-        latest.update(link.newest_values(c.name for c in reads))
-        if time.monotonic() - start > startup_timeout:
-            missing = sorted(c.name for c in reads if c.name not in latest)
-            raise SeamError(
-                f"controller: nothing on {', '.join(missing)} within "
-                f"{startup_timeout:g} s; is `manta-drake station --wall-clock` "
-                f"running with the same scenario and {link.transport.medium.option}?"
-            )
-    fix_inputs(controller, context, guard.screen(latest, 0.0))
-    simulator.Initialize()
-    command(0.0)
-    wall_start = time.monotonic()
-    held_for = 0.0  # wall time spent holding: the controller's clock stops meanwhile
-    k, commands, next_progress = 0, 1, 1.0
-    holding_since = None
-    last_resend = 0.0
-    n_steps = round(scenario.duration / h)
-    while k < n_steps:
-        link.poll(1)
-        if link.handshake.peer_status == "finished":  # nothing more to command
-            break
-        fresh = link.newest_values(c.name for c in reads)
-        fix_inputs(controller, context, guard.screen(fresh, context.get_time()))
-        station_log.take_arrived()
-        now = time.monotonic()
-        silent = now - link.last_arrival
-        if silent > failsafe_after:  # the clock stops; the safe state instead of the gait
-            if holding_since is None:
-                holding_since = now - silent
-                failsafe.engage(k * h, silent, timeout)
-                last_resend = now
-            if silent > timeout:
-                raise on_timeout(silent)
-            if now - last_resend > RESEND_PERIOD_S:
-                failsafe.send(k * h)
-                last_resend = now
-            continue
-        if holding_since is not None:
-            failsafe.release("resumed")
-            held_for += now - holding_since
-            holding_since = None
-        k_target = min(int((now - wall_start - held_for) / h), n_steps)
-        if k_target > k:
-            k = k_target
-            simulator.AdvanceTo(k * h)
-            link.acknowledge_all()  # re-send (hold) only the newest command
-            command(k * h)
-            commands += 1
-            if progress and k * h >= next_progress:
-                warn(f"controller: t = {k * h:.1f} s")
-                next_progress += 1.0
-    return wall_start, commands

@@ -109,52 +109,31 @@ def run_station(
         hello=hello,
     )
     simulator = make_simulator(station, scenario)
-    context = simulator.get_mutable_context()
-    held = initial_commands(scenario)
-    guard = Guard.for_station(handles.plant_handles, held, incidents)
-    for channel in reads:
-        station.GetInputPort(channel.port).FixValue(context, held[channel.port])
+    guard = _hold_initial_commands(scenario, simulator, handles, reads, incidents)
     # Lockstep: the sensors before initialization, encoded now (the messages copy the values),
     # for the controller's initialization events (``BEFORE_START_UTIME``).
-    before_start = (
-        {}
-        if wall_clock
-        else {
-            c.name: link.message(c, BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(context))
-            for c in sends
-            if not c.clock
-        }
-    )
+    before_start = {} if wall_clock else _sensors_before_start(simulator, link, sends)
     simulator.Initialize()
-    mode = "wall-clock" if wall_clock else "lockstep"
     if progress:
         warn(
-            f"station: {scenario.name}, {mode}, run {hello.run_id}, waiting for the "
-            f"controller on {link.url}"
+            f"station: {scenario.name}, {_mode(wall_clock)}, run {hello.run_id}, waiting for "
+            f"the controller on {link.url}"
         )
     try:
-        peer = link.shake_hands(startup_timeout)
-        missing = [c.name for c in reads if c.name not in peer.channels]
-        if missing:
-            raise SeamError(
-                f"station: {peer.describe()} does not publish {', '.join(missing)}, "
-                "which this station reads (is the water on in its scenario?)"
-            )
-        result = _station_loop(
+        peer = _shake_hands(link, reads, startup_timeout)
+        loop = _StationLoop(
             scenario,
             simulator,
-            station,
             handles,
             link,
             guard,
             sends,
             reads,
-            wall_clock,
-            timeout,
-            startup_timeout,
-            progress,
-            before_start,
+            wall_clock=wall_clock,
+            timeout=timeout,
+            startup_timeout=startup_timeout,
         )
+        result = loop.run(progress, before_start)
     except PeerStopped as e:
         raise SeamError(f"station: {e}") from None  # a controller has no reason to stop early
     except BaseException as e:
@@ -166,149 +145,226 @@ def run_station(
     return result
 
 
-def _station_loop(
-    scenario,
-    simulator,
-    station,
-    handles,
-    link,
-    guard,
-    sends,
-    reads,
-    wall_clock,
-    timeout,
-    startup_timeout,
-    progress,
-    before_start,
-) -> SeamResult:
-    """The station's exchanges, after the handshake (see ``run_station``); ``before_start``:
-    channel -> its message stamped ``BEFORE_START_UTIME``, sent first (lockstep)."""
-    context = simulator.get_mutable_context()
-    schedule = exchange_schedule(
-        scenario.duration, {c.name: c.period(scenario) for c in sends + reads}
-    )
-    sending = {c.name for c in sends}
-    reading = {c.name for c in reads}
-    body = _body_indices(handles)
-    # The joints' true state, as the single diagram logs it (``measured_joint_state`` is
-    # the servo bus's quantized reading when the scenario has one).
-    selector = handles.systems["joint_state_selector"]
-    selector_context = selector.GetMyContextFromRoot(context)
-    state_port = station.GetOutputPort("plant_state")
-    logged = [c for c in sends if c.codec == "vector"]  # sensors logged as sent
-    log = {
-        "t": [],
-        "joint_angles": [],
-        "joint_velocities": [],
-        "body_xyz": [],
-        "body_quat_wxyz": [],
-        **{k: [] for c in logged for k in (f"t_{c.port}", c.port)},
+def _shake_hands(link: Link, reads, startup_timeout: float):
+    """The controller's handshake (its peer), checked to publish every command read."""
+    peer = link.shake_hands(startup_timeout)
+    missing = [c.name for c in reads if c.name not in peer.channels]
+    if missing:
+        raise SeamError(
+            f"station: {peer.describe()} does not publish {', '.join(missing)}, "
+            "which this station reads (is the water on in its scenario?)"
+        )
+    return peer
+
+
+def _mode(wall_clock: bool) -> str:
+    return "wall-clock" if wall_clock else "lockstep"
+
+
+def _hold_initial_commands(scenario, simulator, handles, reads, incidents: Incidents) -> Guard:
+    """Fixes the station's command inputs at ``initial_commands`` (what it holds until the
+    first command) and returns the guard that screens the commands against them."""
+    station, context = simulator.get_system(), simulator.get_mutable_context()
+    held = initial_commands(scenario)
+    guard = Guard.for_station(handles.plant_handles, held, incidents)
+    for channel in reads:
+        station.GetInputPort(channel.port).FixValue(context, held[channel.port])
+    return guard
+
+
+def _sensors_before_start(simulator, link: Link, sends) -> dict:
+    """Each sensor channel's message of its value before ``Simulator.Initialize``, stamped
+    ``BEFORE_START_TIME``."""
+    station, context = simulator.get_system(), simulator.get_mutable_context()
+    return {
+        c.name: link.message(c, BEFORE_START_TIME, station.GetOutputPort(c.port).Eval(context))
+        for c in sends
+        if not c.clock
     }
-    logged = {c.name for c in logged}
 
-    def record(t):
-        x = selector.get_output_port().Eval(selector_context)
-        log["t"].append(t)
-        log["joint_angles"].append(x[:NUM_JOINTS].copy())
-        log["joint_velocities"].append(x[NUM_JOINTS:].copy())
-        if body is not None:
-            s = state_port.Eval(context)
-            log["body_quat_wxyz"].append(s[body[0] : body[1]].copy())
-            log["body_xyz"].append(s[body[1] : body[1] + 3].copy())
 
-    def on_stale(waited):
+class _StationLoop:
+    """The station's exchanges, after the handshake (see ``run_station``): the schedule,
+    the log and, on the wall clock, the pacing and the controller's silence."""
+
+    def __init__(
+        self,
+        scenario,
+        simulator,
+        handles,
+        link,
+        guard,
+        sends,
+        reads,
+        *,
+        wall_clock: bool,
+        timeout: float,
+        startup_timeout: float,
+    ):
+        self.scenario, self.simulator, self.link, self.guard = scenario, simulator, link, guard
+        self.sends, self.wall_clock = sends, wall_clock
+        self.timeout, self.startup_timeout = timeout, startup_timeout
+        self.station, self.context = simulator.get_system(), simulator.get_mutable_context()
+        self.schedule = exchange_schedule(
+            scenario.duration, {c.name: c.period(scenario) for c in sends + reads}
+        )
+        self.sending = {c.name for c in sends}
+        self.reading = {c.name for c in reads}
+        self.body = _body_indices(handles)
+        # The joints' true state, as the single diagram logs it (``measured_joint_state`` is
+        # the servo bus's quantized reading when the scenario has one).
+        self.selector = handles.systems["joint_state_selector"]
+        self.selector_context = self.selector.GetMyContextFromRoot(self.context)
+        self.state_port = self.station.GetOutputPort("plant_state")
+        logged = [c for c in sends if c.codec == "vector"]  # sensors logged as sent
+        self.log: dict[str, list] = {
+            "t": [],
+            "joint_angles": [],
+            "joint_velocities": [],
+            "body_xyz": [],
+            "body_quat_wxyz": [],
+            **{k: [] for c in logged for k in (f"t_{c.port}", c.port)},
+        }
+        self.logged = {c.name for c in logged}
+        self.wall_start: float | None = None  # the wall time of t = 0
+        self.last_command = time.monotonic()  # wall clock: the newest command's arrival
+        self.silent_warned = False
+
+    def run(self, progress: bool, before_start: dict) -> SeamResult:
+        """Every exchange of the schedule until the scenario ends (``before_start``:
+        channel -> its message stamped ``BEFORE_START_UTIME``, sent first in lockstep)."""
+        next_progress = 1.0
+        stopped = ""
+        exchanges = 0
+        for ex in self.schedule:
+            stopped = advance_to(self.simulator, ex.time)
+            if stopped:  # the scenario's own end (the battery at its cut-off)
+                break
+            exchanges += 1
+            self._exchange(ex, before_start)
+            if progress and ex.time >= next_progress:
+                warn(f"station: t = {ex.time:.1f} s")
+                next_progress += 1.0
+        return self._finish(stopped, exchanges)
+
+    def _exchange(self, ex, before_start: dict) -> None:
+        """One exchange time: the sensors due published, the state logged, the commands due
+        taken (lockstep) or the newest ones (wall clock), paced to the wall clock."""
+        if not self.wall_clock:
+            self.link.advance_floor(ex.utime)
+        if self.wall_start is None:  # before t = 0's samples, in stamp order
+            for name, msg in before_start.items():
+                self.link.publish(name, msg, BEFORE_START_UTIME)
+        self._publish_sensors(ex)
+        if CLOCK.name in ex.channels:
+            self._record(ex.time)
+        wanted = {name: ex.utime for name in ex.channels if name in self.reading}
+        if wanted and not self.wall_clock:
+            self._take_commands(ex, wanted)
+        elif wanted:  # wall clock: the newest command, whatever its stamp
+            self._take_newest_commands(ex, wanted)
+        if self.wall_start is None:
+            self.wall_start = time.monotonic() - (ex.time if self.wall_clock else 0.0)
+        if self.wall_clock:  # paced: sleep while ahead of the wall clock
+            ahead = self.wall_start + ex.time - time.monotonic()
+            if ahead > 1e-3:
+                time.sleep(ahead)
+
+    def _publish_sensors(self, ex) -> None:
+        """Publishes the sensors due at ``ex`` (and logs the logged ones as sent)."""
+        for name in ex.channels:
+            if name in self.sending:
+                channel = CHANNEL_BY_NAME[name]
+                value = self.station.GetOutputPort(channel.port).Eval(self.context)
+                self.link.publish(name, self.link.message(channel, ex.time, value), ex.utime)
+                if name in self.logged:
+                    self.log[f"t_{channel.port}"].append(ex.time)
+                    self.log[channel.port].append(np.array(value, dtype=float))
+
+    def _record(self, t: float) -> None:
+        """Logs the joints' true state and the body's pose at ``t``."""
+        x = self.selector.get_output_port().Eval(self.selector_context)
+        self.log["t"].append(t)
+        self.log["joint_angles"].append(x[:NUM_JOINTS].copy())
+        self.log["joint_velocities"].append(x[NUM_JOINTS:].copy())
+        if self.body is not None:
+            s = self.state_port.Eval(self.context)
+            self.log["body_quat_wxyz"].append(s[self.body[0] : self.body[1]].copy())
+            self.log["body_xyz"].append(s[self.body[1] : self.body[1] + 3].copy())
+
+    def _take_commands(self, ex, wanted: dict) -> None:
+        """Lockstep: waits for the commands stamped ``ex``'s time and fixes them."""
+        started = self.wall_start is not None  # else the controller may still be building
+        got = self.link.wait_for(
+            lambda: self.link.take(wanted),
+            self.timeout if started else self.startup_timeout,
+            self._on_stale if started else (lambda waited: None),
+            self._on_timeout,
+        )
+        fix_inputs(self.station, self.context, self.guard.screen(got, ex.time))
+
+    def _take_newest_commands(self, ex, wanted: dict) -> None:
+        """Wall clock: fixes the newest commands (t = 0 waits for a first one); says once
+        when the controller has been silent for ``STALE_AFTER_S``."""
+        link = self.link
+        if self.wall_start is None:  # hold t = 0 until a controller is there
+            link.wait_for(
+                lambda: any(link.inbox[n] for n in wanted) or None,
+                self.startup_timeout,
+                lambda waited: None,
+                self._on_timeout,
+            )
+        link.drain()
+        link.acknowledge_all()  # nothing is re-sent on the wall clock
+        got = {name: msg for name in wanted if (msg := link.latest(name)) is not None}
+        fix_inputs(self.station, self.context, self.guard.screen(got, ex.time))
+        if got:
+            self.last_command, self.silent_warned = time.monotonic(), False
+        elif time.monotonic() - self.last_command > STALE_AFTER_S and not self.silent_warned:
+            self.silent_warned = True
+            warn(
+                f"station: no command from the controller for {STALE_AFTER_S:g} s at "
+                f"t = {ex.time:.3f} s; holding the last one"
+            )
+
+    def _on_stale(self, waited) -> None:
         warn(
             f"station: no command from the controller for {waited:.1f} s at "
-            f"t = {context.get_time():.3f} s; waiting (gives up after {timeout:g} s)"
+            f"t = {self.context.get_time():.3f} s; waiting (gives up after {self.timeout:g} s)"
         )
 
-    def on_timeout(waited):
-        skipped = link.incidents.count(kind="malformed")
+    def _on_timeout(self, waited) -> SeamError:
+        skipped = self.link.incidents.count(kind="malformed")
         return SeamError(
-            f"station: no command for t = {context.get_time():.3f} s within {waited:.1f} s; "
-            f"is `manta-drake controller` running with the same scenario, "
-            f"{link.transport.medium.option} and --wall-clock setting?"
+            f"station: no command for t = {self.context.get_time():.3f} s within "
+            f"{waited:.1f} s; is `manta-drake controller` running with the same scenario, "
+            f"{self.link.transport.medium.option} and --wall-clock setting?"
             + (f" ({skipped} malformed messages skipped)" if skipped else "")
         )
 
-    mode = "wall-clock" if wall_clock else "lockstep"
-    wall_start = None
-    last_command = time.monotonic()
-    silent_warned = False
-    next_progress = 1.0
-    stopped = ""
-    exchanges = 0
-    for ex in schedule:
-        stopped = advance_to(simulator, ex.time)
-        if stopped:  # the scenario's own end (the battery at its cut-off)
-            break
-        exchanges += 1
-        if not wall_clock:
-            link.advance_floor(ex.utime)
-        if wall_start is None:  # before t = 0's samples, in stamp order
-            for name, msg in before_start.items():
-                link.publish(name, msg, BEFORE_START_UTIME)
-        for name in ex.channels:
-            if name in sending:
-                channel = CHANNEL_BY_NAME[name]
-                value = station.GetOutputPort(channel.port).Eval(context)
-                link.publish(name, link.message(channel, ex.time, value), ex.utime)
-                if name in logged:
-                    log[f"t_{channel.port}"].append(ex.time)
-                    log[channel.port].append(np.array(value, dtype=float))
-        if CLOCK.name in ex.channels:
-            record(ex.time)
-        wanted = {name: ex.utime for name in ex.channels if name in reading}
-        if wanted and not wall_clock:
-            started = wall_start is not None  # else the controller may still be building
-            got = link.wait_for(
-                lambda wanted=wanted: link.take(wanted),
-                timeout if started else startup_timeout,
-                on_stale if started else (lambda waited: None),
-                on_timeout,
-            )
-            fix_inputs(station, context, guard.screen(got, ex.time))
-        elif wanted:  # wall clock: the newest command, whatever its stamp
-            if wall_start is None:  # hold t = 0 until a controller is there
-                link.wait_for(
-                    lambda wanted=wanted: any(link.inbox[n] for n in wanted) or None,
-                    startup_timeout,
-                    lambda waited: None,
-                    on_timeout,
-                )
-            link.drain()
-            link.acknowledge_all()  # nothing is re-sent on the wall clock
-            got = {name: msg for name in wanted if (msg := link.latest(name)) is not None}
-            fix_inputs(station, context, guard.screen(got, ex.time))
-            if got:
-                last_command, silent_warned = time.monotonic(), False
-            elif time.monotonic() - last_command > STALE_AFTER_S and not silent_warned:
-                silent_warned = True
-                warn(
-                    f"station: no command from the controller for {STALE_AFTER_S:g} s at "
-                    f"t = {ex.time:.3f} s; holding the last one"
-                )
-        if wall_start is None:
-            wall_start = time.monotonic() - (ex.time if wall_clock else 0.0)
-        if wall_clock:  # paced: sleep while ahead of the wall clock
-            ahead = wall_start + ex.time - time.monotonic()
-            if ahead > 1e-3:
-                time.sleep(ahead)
-        if progress and ex.time >= next_progress:
-            warn(f"station: t = {ex.time:.1f} s")
-            next_progress += 1.0
-    if not stopped:
-        stopped = advance_to(simulator, scenario.duration)
-    t_end = float(context.get_time())
-    if stopped:
-        stopped = f"at t = {t_end:.3f} s: {stopped}"
-        warn(f"station: stopped {stopped}")
-    record(t_end)
-    wall = time.monotonic() - wall_start if wall_start is not None else 0.0
-    arrays = {k: np.array(v) for k, v in log.items() if len(v)}
-    for c in sends:  # one value a sample: a 1-D array, as log.npz has the depth
-        if c.size == 1 and c.port in arrays:
-            arrays[c.port] = arrays[c.port].reshape(-1)
-    return SeamResult(
-        "station", mode, link.url, t_end, wall, exchanges, link.resends, arrays, stopped=stopped
-    )
+    def _finish(self, stopped: str, exchanges: int) -> SeamResult:
+        """Advances to the end (unless the scenario stopped it), logs the last state and
+        returns the result."""
+        if not stopped:
+            stopped = advance_to(self.simulator, self.scenario.duration)
+        t_end = float(self.context.get_time())
+        if stopped:
+            stopped = f"at t = {t_end:.3f} s: {stopped}"
+            warn(f"station: stopped {stopped}")
+        self._record(t_end)
+        wall = time.monotonic() - self.wall_start if self.wall_start is not None else 0.0
+        arrays = {k: np.array(v) for k, v in self.log.items() if len(v)}
+        for c in self.sends:  # one value a sample: a 1-D array, as log.npz has the depth
+            if c.size == 1 and c.port in arrays:
+                arrays[c.port] = arrays[c.port].reshape(-1)
+        return SeamResult(
+            "station",
+            _mode(self.wall_clock),
+            self.link.url,
+            t_end,
+            wall,
+            exchanges,
+            self.link.resends,
+            arrays,
+            stopped=stopped,
+        )

@@ -230,108 +230,56 @@ class HydrodynamicForces(LeafSystem):
         fin_model: str = "cross_flow",
     ):
         super().__init__()
-        if not (_is_real(time_step) and math.isfinite(time_step) and time_step > 0):
-            raise ValueError(
-                f"HydrodynamicForces.time_step: {time_step!r} must be a finite number > 0 [s]"
-            )
-        if not (_is_real(update_period) and math.isfinite(update_period) and update_period >= 0):
-            raise ValueError(
-                f"HydrodynamicForces.update_period: {update_period!r} must be a "
-                "finite number >= 0 [s] (0: forces at every step)"
-            )
-        if not (isinstance(inputs, str) and inputs in INPUTS):
-            raise ValueError(
-                f"HydrodynamicForces.inputs: {inputs!r} must be one of "
-                f"{', '.join(map(repr, INPUTS))}"
-            )
-        if not (isinstance(backend, str) and backend in BACKENDS):
-            raise ValueError(
-                f"HydrodynamicForces.backend: {backend!r} must be one of "
-                f"{', '.join(map(repr, BACKENDS))}"
-            )
-        if not (isinstance(fin_model, str) and fin_model in FIN_MODELS):
-            raise ValueError(
-                f"HydrodynamicForces.fin_model: {fin_model!r} must be one of "
-                f"{', '.join(map(repr, FIN_MODELS))}"
-            )
+        _check_choices(plant, time_step, update_period, inputs, backend, fin_model)
         self._foil = fin_model == "foil"
-        if self._foil and not plant.HasModelInstanceNamed(FIN_ADDED_MASS_INSTANCE):
-            raise ValueError(
-                "HydrodynamicForces.fin_model: 'foil' needs the fins' added-mass "
-                "bodies in the plant (add_plant(..., fin_added_mass='bodies'))"
-            )
-        try:
-            current_array = np.asarray(current, dtype=float)
-        except (TypeError, ValueError):
-            current_array = None
-        if (
-            current_array is None
-            or current_array.shape != (3,)
-            or not np.all(np.isfinite(current_array))
-        ):
-            raise ValueError(
-                f"HydrodynamicForces.current: {current!r} must be 3 finite "
-                "numbers (the water's velocity in the world, m/s)"
-            )
-        if np.linalg.norm(current_array) > self.MAX_CURRENT:
-            raise ValueError(
-                f"HydrodynamicForces.current: |{current!r}| = "
-                f"{np.linalg.norm(current_array):.3g} m/s is outside the allowed "
-                f"range [0, {self.MAX_CURRENT}] m/s"
-            )
-        if current_schedule is not None:
-            if not isinstance(current_schedule, CurrentSchedule):
-                raise ValueError(
-                    f"HydrodynamicForces.current_schedule: {current_schedule!r} "
-                    "must be None or a CurrentSchedule"
-                )
-            if np.any(current_array != 0.0) and not np.array_equal(
-                current_array, current_schedule.constant
-            ):
-                raise ValueError(
-                    f"HydrodynamicForces.current: {current!r} differs from the "
-                    "current_schedule's constant "
-                    f"{current_schedule.constant.tolist()}: give one of the two"
-                )
-            current_array = current_schedule.at(0.0)
+        current_array = _checked_current(current, current_schedule, self.MAX_CURRENT)
         # A time-varying schedule: the current is written, per evaluation, into a copy of
         # the kernels' parameter vector (see ``_current_now``).
         self._varying = current_schedule is not None and not current_schedule.is_constant
         self._plant_state = inputs == "plant_state"
         self._compiled = backend == "compiled"
         self._nq, self._nv = plant.num_positions(), plant.num_velocities()
-        names = hydro_body_names()
-        body_index = [plant.GetBodyByName(n, robot).index() for n in names]
-        added = _added_mass_bodies(plant, body_index) if self._foil else None
-        if added is not None:
-            body_index += added["index"]
+        body_index, added, el = self._fix_parameters(
+            plant,
+            robot,
+            coeffs,
+            params,
+            added_mass_iso,
+            fin_model,
+            current=_frozen(current_array),
+            current_schedule=current_schedule,
+            time_step=float(time_step),
+            update_period=float(update_period),
+            inputs=inputs,
+            backend=backend,
+        )
+        self._pack_kernels(coeffs, el, added, len(body_index))
+        self._make_scratch_forces(body_index)
+        self._declare_state()
+        self._declare_kinematics_inputs(plant, body_index)
+        self._balloon = self.DeclareVectorInputPort("balloon_volume", 1)
+        if self.update_period == 0.0:
+            self._declare_force_outputs()
+        else:
+            self._declare_held_force_outputs(len(body_index))
+
+    # -- construction ---------------------------------------------------------------------------
+
+    def _fix_parameters(
+        self, plant, robot, coeffs, params, added_mass_iso, fin_model, **choices
+    ) -> tuple:
+        """Fixes every read-only parameter (``_fixed``): the checked ``choices`` and the
+        water's, from the coefficients and the plant. Returns (the bodies' BodyIndex
+        values, the fins' added-mass bodies or None, the elements as built)."""
+        body_index, added = _force_bodies(plant, robot, self._foil)
         nb = len(body_index)  # the hydro bodies, then the fins' added-mass bodies
         el = build_elements(coeffs, params)
         # Sums of element rows into body rows as matrix products (faster than np.add.at).
         el["elem_to_body"] = np.eye(nb)[:, el["body"]]
-        b, links = coeffs.body, coeffs.links
-        d_lin = np.zeros((nb, 6))
-        d_quad = np.zeros((nb, 6))
-        d_lin[: len(names)] = links.linear_damping.value
-        d_quad[: len(names)] = links.quadratic_damping.value
-        d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
-        d_lift = np.zeros((nb, 4))
-        d_lift[0] = b.body_lift.value
-        carried = (0.0, 0.0, 0.0)
-        if self._foil:  # the hull's heave rides its added-mass body (model.plant)
-            iso, residual_added_mass, heave = split_hull_added_mass(
-                b.added_mass.value, coeffs.fins.hull_interaction_added_mass.value
-            )
-            carried = heave_body_inertia(heave)
-            added_mass_iso = iso if added_mass_iso is None else added_mass_iso
-            residual_added_mass[:2] += iso - added_mass_iso
-        elif added_mass_iso is None:
-            added_mass_iso, residual_added_mass = split_added_mass(
-                b.added_mass.value, plant.GetBodyByName("body", robot).default_mass()
-            )
-        else:
-            residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
-        _, residual_added_inertia = split_added_inertia(b.added_inertia.value, carried)
+        d_lin, d_quad, d_lift = _damping(coeffs, nb)
+        added_mass_iso, residual_added_mass, residual_added_inertia = _split_hull_added_mass(
+            plant, robot, coeffs, added_mass_iso, self._foil
+        )
         # The explicit residual acts on the hull's acceleration, which every body held by
         # the servos shares: compare it, axis by axis, with the whole robot's effective
         # mass and inertia (implicit added mass included) along that axis.
@@ -340,24 +288,20 @@ class HydrodynamicForces(LeafSystem):
         check_explicit_added_mass(
             residual_added_inertia, inertia, ("roll", "pitch", "yaw"), "kg m^2"
         )
+        fins = coeffs.fins
         self._fixed_values = {
             "rho": float(coeffs.water_density.value),
             "g": float(coeffs.gravity.value),
-            "current": _frozen(current_array),
-            "current_schedule": current_schedule,
-            "time_step": float(time_step),
-            "update_period": float(update_period),
-            "inputs": inputs,
-            "backend": backend,
+            **choices,  # current, current_schedule, time_step, update_period, inputs, backend
             "body_indices": tuple(int(i) for i in body_index),
             "el": types.MappingProxyType({k: _frozen(v) for k, v in el.items()}),
             "d_lin": _frozen(d_lin),
             "d_quad": _frozen(d_quad),
             "d_lift": _frozen(d_lift),
-            "c_normal": float(coeffs.fins.normal_force_coefficient.value),
-            "c_friction": float(coeffs.fins.skin_friction_coefficient.value),
-            "pitch_max": float(np.radians(coeffs.fins.passive_pitch_max_deg.value)),
-            "pitch_pressure": float(coeffs.fins.passive_pitch_reference_pressure.value),
+            "c_normal": float(fins.normal_force_coefficient.value),
+            "c_friction": float(fins.skin_friction_coefficient.value),
+            "pitch_max": float(np.radians(fins.passive_pitch_max_deg.value)),
+            "pitch_pressure": float(fins.passive_pitch_reference_pressure.value),
             "balloon_mount": _frozen(np.asarray(coeffs.balloon.mount_point.value, dtype=float)),
             "added_mass_iso": float(added_mass_iso),
             "residual_added_mass": _frozen(residual_added_mass),
@@ -366,8 +310,12 @@ class HydrodynamicForces(LeafSystem):
             "effective_inertia": _frozen(inertia),
             "fin_model": fin_model,
         }
+        return body_index, added, el
+
+    def _pack_kernels(self, coeffs: HydroCoefficients, el: dict, added, nb: int) -> None:
+        """The kernels' arrays, once: (elements, strips, damping, parameters), the foil
+        model's, and the per-evaluation parameter vector of a time-varying current."""
         self._strip_to_body = _frozen(np.eye(nb)[:, el["strip_body"]])
-        # The kernels' arrays, once: (elements, strips, damping, parameters).
         elements, strips = K.pack_elements(el)
         if self._foil:  # the strips are the foil model's: none for the cross-flow terms
             assert added is not None  # read above for the foil model
@@ -376,7 +324,7 @@ class HydrodynamicForces(LeafSystem):
         self._packed = (
             elements,
             strips,
-            np.ascontiguousarray(np.hstack([d_lin, d_quad, d_lift]), dtype=float),
+            np.ascontiguousarray(np.hstack([self.d_lin, self.d_quad, self.d_lift]), dtype=float),
             K.pack_params(
                 self.rho,
                 self.g,
@@ -395,14 +343,19 @@ class HydrodynamicForces(LeafSystem):
         # current's slot: ``current_at`` writes three floats into it, nothing is allocated.
         self._prm_now = self._packed[3].copy()
         self._current_slot = self._prm_now[K.P_CURRENT : K.P_CURRENT + 3]
-        # Scratch force objects for the outputs (body and point fixed here): each output
-        # calculation overwrites every force and set_value copies the list into the output
-        # (a C++ vector), so nothing of one evaluation outlives it. Reusing them halves the
-        # output's cost (measured: 19 against 38 us for 17 new objects per call).
+
+    def _make_scratch_forces(self, body_index) -> None:
+        """Scratch force objects for the outputs (body and point fixed here): each output
+        calculation overwrites every force and set_value copies the list into the output
+        (a C++ vector), so nothing of one evaluation outlives it. Reusing them halves the
+        output's cost (measured: 19 against 38 us for 17 new objects per call)."""
         self._forces = [ExternallyAppliedSpatialForce() for _ in body_index]
         for force, index in zip(self._forces, body_index):
             force.body_index = index
             force.p_BoBq_B = np.zeros(3)
+
+    def _declare_state(self) -> None:
+        """The hull's velocity samples and, for the foil model, the fins' states."""
         # The hull's (v_W, w_W, t) at the last two updates; t = -1 marks "none yet".
         self._v_prev = self.DeclareDiscreteState(np.tile(np.r_[np.zeros(6), -1.0], 2))
         if self._foil:  # the strips' Wagner lag and attached share; the bodies' [v . n, t]
@@ -410,6 +363,10 @@ class HydrodynamicForces(LeafSystem):
             self._am_prev = self.DeclareDiscreteState(self._foil_packed["prev0"])
             self._attached = self.DeclareDiscreteState(self._foil_packed["attached0"])
         self._fin_period = self.time_step if self.update_period == 0.0 else self.update_period
+
+    def _declare_kinematics_inputs(self, plant, body_index) -> None:
+        """``plant_state`` (with the kernels' tree of the bodies), or ``body_poses`` and
+        ``body_spatial_velocities``, as ``inputs`` says."""
         if self._plant_state:
             self._tree_i, self._tree_f = K.pack_tree(plant, body_index)
             # Where the hull's [w_W, v_W] sit in the state (a floating hull), else None.
@@ -427,34 +384,41 @@ class HydrodynamicForces(LeafSystem):
                 "body_spatial_velocities",
                 plant.get_body_spatial_velocities_output_port().Allocate(),
             )
-        self._balloon = self.DeclareVectorInputPort("balloon_volume", 1)
-        forces_model = lambda: AbstractValue.Make(list(self._forces))  # noqa: E731
-        if self.update_period == 0.0:
-            self.DeclareAbstractOutputPort("spatial_forces", forces_model, self._calc_forces)
-            if self._plant_state:
-                self.DeclareVectorOutputPort("generalized_forces", self._nv, self._calc_generalized)
-            self.DeclarePeriodicDiscreteUpdateEvent(self.time_step, 0.0, self._store_velocity)
-        else:
-            self._held = self.DeclareDiscreteState(6 * nb)  # held [tau_W, f_W] per body
-            self.DeclareAbstractOutputPort(
-                "spatial_forces",
-                forces_model,
-                self._output_held,
-                prerequisites_of_calc={self.xd_ticket()},
+
+    def _forces_model(self) -> AbstractValue:
+        return AbstractValue.Make(list(self._forces))
+
+    def _declare_force_outputs(self) -> None:
+        """The forces computed whenever the plant asks, and the hull's velocity sampled
+        every ``time_step`` (for the residual added mass)."""
+        self.DeclareAbstractOutputPort("spatial_forces", self._forces_model, self._calc_forces)
+        if self._plant_state:
+            self.DeclareVectorOutputPort("generalized_forces", self._nv, self._calc_generalized)
+        self.DeclarePeriodicDiscreteUpdateEvent(self.time_step, 0.0, self._store_velocity)
+
+    def _declare_held_force_outputs(self, nb: int) -> None:
+        """The forces computed every ``update_period`` and held (a discrete state), from
+        the initial state on."""
+        self._held = self.DeclareDiscreteState(6 * nb)  # held [tau_W, f_W] per body
+        self.DeclareAbstractOutputPort(
+            "spatial_forces",
+            self._forces_model,
+            self._output_held,
+            prerequisites_of_calc={self.xd_ticket()},
+        )
+        if self._plant_state:
+            self.DeclareVectorOutputPort(
+                "generalized_forces",
+                self._nv,
+                self._output_held_generalized,
+                prerequisites_of_calc={
+                    self.xd_ticket(),
+                    self.input_port_ticket(self._state.get_index()),
+                },
             )
-            if self._plant_state:
-                self.DeclareVectorOutputPort(
-                    "generalized_forces",
-                    self._nv,
-                    self._output_held_generalized,
-                    prerequisites_of_calc={
-                        self.xd_ticket(),
-                        self.input_port_ticket(self._state.get_index()),
-                    },
-                )
-            self.DeclarePeriodicDiscreteUpdateEvent(self.update_period, 0.0, self._update_held)
-            # Held forces start from the initial state, not from zero.
-            self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
+        self.DeclarePeriodicDiscreteUpdateEvent(self.update_period, 0.0, self._update_held)
+        # Held forces start from the initial state, not from zero.
+        self.DeclareInitializationDiscreteUpdateEvent(self._update_held)
 
     def _pack_foil(self, coeffs: HydroCoefficients, el: dict, added: dict) -> tuple:
         """The foil model's arrays, once: (the numpy reference's strips, parameters and
@@ -584,23 +548,7 @@ class HydrodynamicForces(LeafSystem):
                 if inputs == "plant_state" and update_period == 0
                 else "spatial_forces"
             )
-        if inputs == "plant_state":
-            builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
-        else:
-            builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
-            builder.Connect(
-                plant.get_body_spatial_velocities_output_port(),
-                hydro.GetInputPort("body_spatial_velocities"),
-            )
-        if apply_as == "generalized_forces":
-            builder.Connect(
-                hydro.GetOutputPort("generalized_forces"),
-                plant.get_applied_generalized_force_input_port(),
-            )
-        else:
-            builder.Connect(
-                hydro.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port()
-            )
+        _connect_to_plant(builder, plant, hydro, apply_as)
         return hydro
 
     # -- the maths ------------------------------------------------------------------------------
@@ -1059,6 +1007,28 @@ class HydrodynamicForces(LeafSystem):
         self._step_fin_state(context, discrete_state, self._fin_period)
 
 
+def _connect_to_plant(builder, plant, hydro: HydrodynamicForces, apply_as: str) -> None:
+    """Connects ``hydro``'s kinematics inputs from ``plant``'s outputs and its forces, as
+    ``apply_as`` says, into the plant's applied-force input."""
+    if hydro.inputs == "plant_state":
+        builder.Connect(plant.get_state_output_port(), hydro.GetInputPort("plant_state"))
+    else:
+        builder.Connect(plant.get_body_poses_output_port(), hydro.GetInputPort("body_poses"))
+        builder.Connect(
+            plant.get_body_spatial_velocities_output_port(),
+            hydro.GetInputPort("body_spatial_velocities"),
+        )
+    if apply_as == "generalized_forces":
+        builder.Connect(
+            hydro.GetOutputPort("generalized_forces"),
+            plant.get_applied_generalized_force_input_port(),
+        )
+    else:
+        builder.Connect(
+            hydro.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port()
+        )
+
+
 def _hull_acceleration(v_hull, w_hull, t: float, v_prev):
     """Finite-difference hull accelerations (a_W, alpha_W) against the newest velocity
     sample taken strictly before ``t`` (whether this step's update has run yet depends on
@@ -1082,6 +1052,128 @@ def _is_real(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
         value, (bool, np.bool_)
     )
+
+
+def _check_choices(
+    plant, time_step: float, update_period: float, inputs: str, backend: str, fin_model: str
+) -> None:
+    """Raises ValueError naming the first of the constructor's choices outside its range
+    (or the foil model without its bodies in ``plant``)."""
+    if not (_is_real(time_step) and math.isfinite(time_step) and time_step > 0):
+        raise ValueError(
+            f"HydrodynamicForces.time_step: {time_step!r} must be a finite number > 0 [s]"
+        )
+    if not (_is_real(update_period) and math.isfinite(update_period) and update_period >= 0):
+        raise ValueError(
+            f"HydrodynamicForces.update_period: {update_period!r} must be a "
+            "finite number >= 0 [s] (0: forces at every step)"
+        )
+    for name, value, allowed in (
+        ("inputs", inputs, INPUTS),
+        ("backend", backend, BACKENDS),
+        ("fin_model", fin_model, FIN_MODELS),
+    ):
+        if not (isinstance(value, str) and value in allowed):
+            raise ValueError(
+                f"HydrodynamicForces.{name}: {value!r} must be one of "
+                f"{', '.join(map(repr, allowed))}"
+            )
+    if fin_model == "foil" and not plant.HasModelInstanceNamed(FIN_ADDED_MASS_INSTANCE):
+        raise ValueError(
+            "HydrodynamicForces.fin_model: 'foil' needs the fins' added-mass "
+            "bodies in the plant (add_plant(..., fin_added_mass='bodies'))"
+        )
+
+
+def _checked_current(current, current_schedule, max_current: float) -> np.ndarray:
+    """The current at t = 0 [m/s] (3,): ``current``, checked, or the schedule's (which
+    ``current`` must then leave at zero or equal)."""
+    try:
+        current_array = np.asarray(current, dtype=float)
+    except (TypeError, ValueError):
+        current_array = None
+    if (
+        current_array is None
+        or current_array.shape != (3,)
+        or not np.all(np.isfinite(current_array))
+    ):
+        raise ValueError(
+            f"HydrodynamicForces.current: {current!r} must be 3 finite "
+            "numbers (the water's velocity in the world, m/s)"
+        )
+    if np.linalg.norm(current_array) > max_current:
+        raise ValueError(
+            f"HydrodynamicForces.current: |{current!r}| = "
+            f"{np.linalg.norm(current_array):.3g} m/s is outside the allowed "
+            f"range [0, {max_current}] m/s"
+        )
+    if current_schedule is None:
+        return current_array
+    if not isinstance(current_schedule, CurrentSchedule):
+        raise ValueError(
+            f"HydrodynamicForces.current_schedule: {current_schedule!r} "
+            "must be None or a CurrentSchedule"
+        )
+    if np.any(current_array != 0.0) and not np.array_equal(
+        current_array, current_schedule.constant
+    ):
+        raise ValueError(
+            f"HydrodynamicForces.current: {current!r} differs from the "
+            "current_schedule's constant "
+            f"{current_schedule.constant.tolist()}: give one of the two"
+        )
+    return current_schedule.at(0.0)
+
+
+def _force_bodies(plant, robot, foil: bool) -> tuple[list, dict | None]:
+    """The BodyIndex values the forces act on (the hydro bodies, then for the foil model
+    the fins' added-mass bodies) and those added-mass bodies (``_added_mass_bodies``, or
+    None)."""
+    body_index = [plant.GetBodyByName(n, robot).index() for n in hydro_body_names()]
+    added = _added_mass_bodies(plant, body_index) if foil else None
+    if added is not None:
+        body_index += added["index"]
+    return body_index, added
+
+
+def _damping(coeffs: HydroCoefficients, nb: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear and quadratic damping (nb, 6) and body lift (nb, 4) per body: the hull's,
+    the links' for the other hydro bodies, none for the added-mass bodies."""
+    b, links = coeffs.body, coeffs.links
+    n_hydro = len(hydro_body_names())
+    d_lin = np.zeros((nb, 6))
+    d_quad = np.zeros((nb, 6))
+    d_lin[:n_hydro] = links.linear_damping.value
+    d_quad[:n_hydro] = links.quadratic_damping.value
+    d_lin[0], d_quad[0] = b.linear_damping.value, b.quadratic_damping.value
+    d_lift = np.zeros((nb, 4))
+    d_lift[0] = b.body_lift.value
+    return d_lin, d_quad, d_lift
+
+
+def _split_hull_added_mass(
+    plant, robot, coeffs: HydroCoefficients, added_mass_iso: float | None, foil: bool
+) -> tuple:
+    """The hull's added mass split into (the isotropic added mass in the mass matrix [kg],
+    the explicit residual added mass (3,) [kg] and added inertia (3,) [kg m^2]); with the
+    foil model the heave rides the hull's added-mass body (``model.plant``)."""
+    b = coeffs.body
+    carried = (0.0, 0.0, 0.0)
+    if foil:
+        iso, residual_added_mass, heave = split_hull_added_mass(
+            b.added_mass.value, coeffs.fins.hull_interaction_added_mass.value
+        )
+        carried = heave_body_inertia(heave)
+        added_mass_iso = iso if added_mass_iso is None else added_mass_iso
+        residual_added_mass[:2] += iso - added_mass_iso
+    elif added_mass_iso is None:
+        added_mass_iso, residual_added_mass = split_added_mass(
+            b.added_mass.value, plant.GetBodyByName("body", robot).default_mass()
+        )
+    else:
+        residual_added_mass = np.asarray(b.added_mass.value) - added_mass_iso
+    _, residual_added_inertia = split_added_inertia(b.added_inertia.value, carried)
+    return added_mass_iso, residual_added_mass, residual_added_inertia
 
 
 def _added_mass_bodies(plant, hydro_bodies) -> dict:

@@ -753,160 +753,15 @@ def summarize(
     started = time.time()
     parts = cases(quick)
     roll, gait = roll_stroke(), gait_stroke()
-
-    def cached(c):
-        path = pathlib.Path(out) / "cases" / f"{c.key}.json"
-        return json.loads(path.read_text()) if path.is_file() else None
-
-    # run=False: the summary of the cases already in the cache (an interrupted run's).
-    uv = {
-        k: [
-            r
-            for r in (cached_uvlm(c, out, params, log) if run else cached(c) for c in v)
-            if r is not None
-        ]
-        for k, v in parts.items()
-    }
-    if not uv["a"]:
-        raise ValidationError(f"{out}: no pure-roll case in the cache")
-    dims = fin_dimensions(params)
+    uv = _case_results(parts, out, run, params, log)
+    a = _pure_roll_summary(uv, parts["a"][0].cycles, roll, params)
+    b = _gait_summary(uv, gait, params)
+    plates = _plates_summary(uv, roll, gait, params)
     slopes = lift_slopes(params)
-
-    for rows in uv.values():  # periodicity by this module's rule, whatever the cache holds
-        for r in rows:
-            r["cycles_to_periodic"] = cycles_to_periodic(r["per_cycle"])
-
-    def slim(r):
-        return {
-            k: r[k]
-            for k in (
-                "nc",
-                "panels",
-                "thrust",
-                "per_cycle",
-                "cycles_to_periodic",
-                "side_outward",
-                "lift",
-                "peak_thrust",
-                "seconds_solve",
-                "num_steps",
-                "finite",
-            )
-        }
-
-    a_rows = [slim(r) for r in uv["a"]]
-    a_conv = _converged(a_rows)
-    a_strip = strip_table(roll, ROLL_SPEED, params)
-    reference = a_conv["thrust"]
-    a = {
-        "speed": ROLL_SPEED,
-        "strouhal": strouhal(roll, ROLL_SPEED, params),
-        "reduced_frequency_root": math.pi * roll.frequency_hz * dims["proximal_chord"] / ROLL_SPEED,
-        "tip_heave_speed": 2.0
-        * math.pi
-        * roll.frequency_hz
-        * dims["span"]
-        * math.radians(ROLL_ONLY_DEG),
-        "stalled_area_fraction": stalled_area_fraction(roll, ROLL_SPEED, params),
-        "cycles": parts["a"][0].cycles,
-        "uvlm": a_rows,
-        "converged": a_conv,
-        "garrick_2d": garrick_strip_thrust(roll, ROLL_SPEED, params),
-        "strip": {
-            k: {
-                "thrust": v["thrust"],
-                "ratio": v["thrust"] / reference,
-                "cycles_to_periodic": v["cycles_to_periodic"],
-                "side_outward": v["side_outward"],
-                "peak_thrust": v["peak_thrust"],
-                "within_acceptance": bool(abs(v["thrust"] / reference - 1) <= ACCEPT),
-            }
-            for k, v in a_strip.items()
-        },
-    }
-    a["garrick_ratio"] = a["garrick_2d"] / reference
-    a["checks"] = _checks(uv["a"], uv.get("a_checks", []))
-    b = {}
-    for u in SPEEDS:
-        rows = sorted((slim(r) for r in uv["b"] if r["speed"] == u), key=lambda r: r["nc"])
-        if not rows:
-            continue
-        conv = _converged(rows)
-        st = strip_table(gait, u, params)
-        b[f"{u:.1f}"] = {
-            "speed": u,
-            "strouhal": strouhal(gait, u, params),
-            "stalled_area_fraction": stalled_area_fraction(gait, u, params),
-            "cycles": rows[0]["num_steps"] // STEPS_PER_CYCLE,
-            "uvlm": rows,
-            "converged": conv,
-            "strip": {
-                k: {
-                    "thrust": v["thrust"],
-                    "ratio": v["thrust"] / conv["thrust"],
-                    "cycles_to_periodic": v["cycles_to_periodic"],
-                    "side_outward": v["side_outward"],
-                    "peak_thrust": v["peak_thrust"],
-                }
-                for k, v in st.items()
-            },
-            "checks": _checks(
-                [r for r in uv["b"] if r["speed"] == u],
-                [r for r in uv.get("b_checks", []) if r["speed"] == u],
-            ),
-        }
-    plates = []
-    for r in uv.get("plates", []):
-        stroke = roll if r["stroke"] == roll.name else gait
-        strip = {
-            k: strip_thrust(stroke, r["speed"], a, False, params)["plates"]
-            for k, a in slopes.items()
-        }
-        plates.append(
-            {
-                "stroke": r["stroke"],
-                "speed": r["speed"],
-                "nc": r["nc"],
-                "cycles": r["cycles"],
-                "uvlm": r["plates"],
-                "uvlm_thrust": r["thrust"],
-                "strip_2d": strip["2d"],
-                "strip_helmbold": strip["helmbold"],
-            }
-        )
-    from manta_drake.studies.stamp import commit
-
     summary = {
-        "provenance": {
-            "generator": "manta_drake.studies.validation.vortex_lattice",
-            "command": command + (" --quick" if quick else ""),
-            "pterasoftware": pterasoftware_version(),
-            "date": datetime.date.today().isoformat(),
-            "commit": commit(),
-            "quick": quick,
-            "seconds_total_uvlm": round(
-                sum(r["seconds_solve"] + r.get("seconds_build", 0) for v in uv.values() for r in v),
-                1,
-            ),
-            "seconds_this_run": round(time.time() - started, 1),
-            "solver": "UnsteadyRingVortexLatticeMethodSolver.run(prescribed_wake=True)",
-            "rho": RHO,
-            "nu": NU,
-            "leg": LEG,
-            "fin_sweep_deg": 0.0,
-            "steps_per_cycle": STEPS_PER_CYCLE,
-            "dt": roll.period / STEPS_PER_CYCLE,
-            "spanwise_panels": list(SPANWISE_PANELS),
-            "step_gap": STEP_GAP,
-            "chordwise_spacing": "uniform",
-            "strips_per_plate": STRIPS_PER_PLATE,
-            "strip_steps_per_cycle": STRIP_STEPS_PER_CYCLE,
-            "strip_cycles": STRIP_CYCLES,
-            "acceptance": ACCEPT,
-            "periodic_tol": PERIODIC_TOL,
-        },
+        "provenance": _provenance(uv, quick, command, roll, started),
         "fin": {
-            **dims,
+            **fin_dimensions(params),
             "lift_slope_2d": slopes["2d"],
             "lift_slope_helmbold": slopes["helmbold"],
             "stall": {k: float(v) for k, v in STALL.items()},
@@ -925,6 +780,178 @@ def summarize(
         "plates": plates,
     }
     return round_floats(summary, 5)
+
+
+def _case_results(parts: dict, out, run: bool, params: RobotParams, log) -> dict:
+    """Each part's UVLM results, run or cached (``run`` False: only the cases already in
+    the cache, an interrupted run's), each with its periodicity by this module's rule."""
+
+    def cached(c):
+        path = pathlib.Path(out) / "cases" / f"{c.key}.json"
+        return json.loads(path.read_text()) if path.is_file() else None
+
+    uv = {
+        k: [
+            r
+            for r in (cached_uvlm(c, out, params, log) if run else cached(c) for c in v)
+            if r is not None
+        ]
+        for k, v in parts.items()
+    }
+    if not uv["a"]:
+        raise ValidationError(f"{out}: no pure-roll case in the cache")
+    for rows in uv.values():  # periodicity by this module's rule, whatever the cache holds
+        for r in rows:
+            r["cycles_to_periodic"] = cycles_to_periodic(r["per_cycle"])
+    return uv
+
+
+# What the summary keeps of each UVLM result.
+_SLIM_KEYS = (
+    "nc",
+    "panels",
+    "thrust",
+    "per_cycle",
+    "cycles_to_periodic",
+    "side_outward",
+    "lift",
+    "peak_thrust",
+    "seconds_solve",
+    "num_steps",
+    "finite",
+)
+
+
+def _slim(r: dict) -> dict:
+    return {k: r[k] for k in _SLIM_KEYS}
+
+
+def _strip_entry(v: dict, reference: float) -> dict:
+    """A strip model's result against the converged UVLM thrust ``reference``."""
+    return {
+        "thrust": v["thrust"],
+        "ratio": v["thrust"] / reference,
+        "cycles_to_periodic": v["cycles_to_periodic"],
+        "side_outward": v["side_outward"],
+        "peak_thrust": v["peak_thrust"],
+    }
+
+
+def _pure_roll_summary(uv: dict, cycles: int, roll: Stroke, params: RobotParams) -> dict:
+    """Part (a): the pure roll's UVLM convergence against the strip model and Garrick."""
+    dims = fin_dimensions(params)
+    a_rows = [_slim(r) for r in uv["a"]]
+    a_conv = _converged(a_rows)
+    reference = a_conv["thrust"]
+    a = {
+        "speed": ROLL_SPEED,
+        "strouhal": strouhal(roll, ROLL_SPEED, params),
+        "reduced_frequency_root": math.pi * roll.frequency_hz * dims["proximal_chord"] / ROLL_SPEED,
+        "tip_heave_speed": 2.0
+        * math.pi
+        * roll.frequency_hz
+        * dims["span"]
+        * math.radians(ROLL_ONLY_DEG),
+        "stalled_area_fraction": stalled_area_fraction(roll, ROLL_SPEED, params),
+        "cycles": cycles,
+        "uvlm": a_rows,
+        "converged": a_conv,
+        "garrick_2d": garrick_strip_thrust(roll, ROLL_SPEED, params),
+        "strip": {
+            k: {
+                **_strip_entry(v, reference),
+                "within_acceptance": bool(abs(v["thrust"] / reference - 1) <= ACCEPT),
+            }
+            for k, v in strip_table(roll, ROLL_SPEED, params).items()
+        },
+    }
+    a["garrick_ratio"] = a["garrick_2d"] / reference
+    a["checks"] = _checks(uv["a"], uv.get("a_checks", []))
+    return a
+
+
+def _gait_summary(uv: dict, gait: Stroke, params: RobotParams) -> dict:
+    """Part (b): the gait's stroke at each speed with UVLM results, by ``f"{speed:.1f}"``."""
+    b = {}
+    for u in SPEEDS:
+        rows = sorted((_slim(r) for r in uv["b"] if r["speed"] == u), key=lambda r: r["nc"])
+        if not rows:
+            continue
+        conv = _converged(rows)
+        b[f"{u:.1f}"] = {
+            "speed": u,
+            "strouhal": strouhal(gait, u, params),
+            "stalled_area_fraction": stalled_area_fraction(gait, u, params),
+            "cycles": rows[0]["num_steps"] // STEPS_PER_CYCLE,
+            "uvlm": rows,
+            "converged": conv,
+            "strip": {
+                k: _strip_entry(v, conv["thrust"]) for k, v in strip_table(gait, u, params).items()
+            },
+            "checks": _checks(
+                [r for r in uv["b"] if r["speed"] == u],
+                [r for r in uv.get("b_checks", []) if r["speed"] == u],
+            ),
+        }
+    return b
+
+
+def _plates_summary(uv: dict, roll: Stroke, gait: Stroke, params: RobotParams) -> list:
+    """Each plate's UVLM thrust against the strip model's, per ``plates`` case."""
+    plates = []
+    for r in uv.get("plates", []):
+        stroke = roll if r["stroke"] == roll.name else gait
+        strip = {
+            k: strip_thrust(stroke, r["speed"], a, False, params)["plates"]
+            for k, a in lift_slopes(params).items()
+        }
+        plates.append(
+            {
+                "stroke": r["stroke"],
+                "speed": r["speed"],
+                "nc": r["nc"],
+                "cycles": r["cycles"],
+                "uvlm": r["plates"],
+                "uvlm_thrust": r["thrust"],
+                "strip_2d": strip["2d"],
+                "strip_helmbold": strip["helmbold"],
+            }
+        )
+    return plates
+
+
+def _provenance(uv: dict, quick: bool, command: str, roll: Stroke, started: float) -> dict:
+    """How the summary was made: the command, the versions, the date, the settings."""
+    from manta_drake.studies.stamp import commit
+
+    return {
+        "generator": "manta_drake.studies.validation.vortex_lattice",
+        "command": command + (" --quick" if quick else ""),
+        "pterasoftware": pterasoftware_version(),
+        "date": datetime.date.today().isoformat(),
+        "commit": commit(),
+        "quick": quick,
+        "seconds_total_uvlm": round(
+            sum(r["seconds_solve"] + r.get("seconds_build", 0) for v in uv.values() for r in v),
+            1,
+        ),
+        "seconds_this_run": round(time.time() - started, 1),
+        "solver": "UnsteadyRingVortexLatticeMethodSolver.run(prescribed_wake=True)",
+        "rho": RHO,
+        "nu": NU,
+        "leg": LEG,
+        "fin_sweep_deg": 0.0,
+        "steps_per_cycle": STEPS_PER_CYCLE,
+        "dt": roll.period / STEPS_PER_CYCLE,
+        "spanwise_panels": list(SPANWISE_PANELS),
+        "step_gap": STEP_GAP,
+        "chordwise_spacing": "uniform",
+        "strips_per_plate": STRIPS_PER_PLATE,
+        "strip_steps_per_cycle": STRIP_STEPS_PER_CYCLE,
+        "strip_cycles": STRIP_CYCLES,
+        "acceptance": ACCEPT,
+        "periodic_tol": PERIODIC_TOL,
+    }
 
 
 # --- files --------------------------------------------------------------------------------------

@@ -98,6 +98,22 @@ def test_net_weight_parameter_refuses_a_conflicting_scale():
         S.apply_net_weight(scenario, 0.7)
 
 
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("heavy", "net_weight_kg: 'heavy' is not a number"),
+        (True, "net_weight_kg: True is not a number"),
+        (float("nan"), "net_weight_kg: nan is not finite"),
+    ],
+)
+def test_net_weight_parameter_is_a_finite_number(value, message):
+    scenario = load_scenario("locomotion_swim")
+    with pytest.raises(ScenarioError) as info:
+        S.apply_net_weight(scenario, value)
+    assert str(info.value) == message
+    assert scenario.water.coefficient_scales == {}  # nothing set
+
+
 # --- keys, ids, parameter sets ---------------------------------------------------------------
 
 

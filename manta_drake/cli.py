@@ -15,7 +15,8 @@ Each of the last five lives in its own package, which provides ``add_<command>_p
 
 Errors are printed as one line (no traceback) and exit with status 2. Ctrl-C, SIGTERM and
 SIGHUP are turned into exceptions before anything slow is imported: one line, exit status
-128 + the signal, and for ``run`` a metrics.json that says so (``manta_drake.run_folder``).
+128 + the signal (``manta_drake.interrupts``), and for ``run`` a metrics.json that says so
+(``manta_drake.run_folder``).
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ import contextlib
 import os
 import pathlib
 import shutil
-import signal
 import sys
 import tempfile
 
@@ -103,7 +103,7 @@ def _stderr_held(received):
     (``received`` is the list of ``interrupts_as_exceptions``): a library's report of the
     import a signal broke into (pydrake's "Could not initialize pydrake" and a traceback)
     would only bury the one line that says the run was interrupted."""
-    from manta_drake.run_folder import (
+    from manta_drake.interrupts import (
         interruption,
         signals_deferred,
         signals_flagged,
@@ -165,7 +165,8 @@ def _load_and_run(
     (``run_folder.starting_run``): an interrupt from then on leaves a metrics.json that
     says so; ``received`` is the list of ``interrupts_as_exceptions`` (a signal's exception
     that an import turned into another error is still the interruption)."""
-    from manta_drake.run_folder import starting_run, stop_if_signalled
+    from manta_drake.interrupts import stop_if_signalled
+    from manta_drake.run_folder import starting_run
 
     given = pathlib.Path(scenario_path)  # a shipped scenario's name is never in the folder
     with starting_run(out, given.stem, [given] if given.is_file() else [], received) as out_dir:
@@ -270,7 +271,7 @@ def run_experiment(doc: str, scenario_path, default_out: str, after_run=None) ->
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=_SET_HELP)
     parser.add_argument("--debug", action="store_true", help="show full tracebacks")
     args = parser.parse_args()
-    from manta_drake.run_folder import interruption, interrupts_as_exceptions
+    from manta_drake.interrupts import interruption, interrupts_as_exceptions
 
     with interrupts_as_exceptions() as received:
         try:
@@ -461,21 +462,22 @@ def _add_bag_options(parser, with_flag: bool) -> None:
     )
 
 
-def _interrupted(e: KeyboardInterrupt) -> int:
-    """One line for Ctrl-C (or SIGTERM/SIGHUP during a run); the exit status 128 + signal."""
-    name = getattr(e, "signal_name", "SIGINT")
+def _interrupted(stop) -> int:
+    """One line for Ctrl-C (or SIGTERM/SIGHUP during a run, an ``interrupts.RunInterrupted``);
+    the exit status 128 + signal."""
+    name = stop.signal_name
     print(
         f"manta-drake: {'interrupted' if name == 'SIGINT' else 'terminated'} ({name})",
         file=sys.stderr,
     )
-    return 128 + int(getattr(signal.Signals, name, signal.SIGINT))
+    return stop.exit_status
 
 
 def main(argv=None) -> int:
     # First, before any slow import (a command's module, pydrake): Ctrl-C, SIGTERM and
     # SIGHUP from here on end the command with one line and, for `run`, the output
-    # folder's story (run_folder.interrupts_as_exceptions).
-    from manta_drake.run_folder import interruption, interrupts_as_exceptions
+    # folder's story (interrupts.interrupts_as_exceptions).
+    from manta_drake.interrupts import interruption, interrupts_as_exceptions
 
     argv = sys.argv[1:] if argv is None else list(argv)
     with interrupts_as_exceptions() as received:

@@ -8,7 +8,7 @@ import dataclasses as dc
 import os
 import re
 
-from manta_drake.config_io import ScenarioError
+from manta_drake.config_io import ScenarioError, check_integer
 
 
 class ClusterError(ScenarioError):
@@ -42,6 +42,9 @@ def _stop_worker_profiler(dask_worker) -> int:
             stopped += 1
     return stopped
 
+
+# The most worker processes of a local cluster (--workers): more than any one machine's cores.
+MAX_WORKERS = 256
 
 # A local cluster listens on the loopback interface only: its scheduler, workers and
 # dashboard have no authentication, so nothing beyond this machine may reach them unless
@@ -111,7 +114,9 @@ def check_workers(client) -> None:
 
 
 def add_cluster_arguments(parser) -> None:
-    """``--scheduler`` and ``--workers`` (shared with ``manta-drake calibrate``)."""
+    """``--scheduler``, ``--workers`` and ``--dashboard``, added to ``parser`` (a parser or an
+    argument group): the many-run commands add them with their other shared options
+    (``manta_drake.sweep.options``), the studies that run on Dask with theirs."""
     parser.add_argument(
         "--scheduler",
         metavar="ADDRESS",
@@ -123,9 +128,9 @@ def add_cluster_arguments(parser) -> None:
         type=int,
         default=default_workers(),
         metavar="N",
-        help="worker processes of the local cluster (default: the CPU count, "
-        f"{default_workers()} here); 0: one run after another in this "
-        "process, without Dask",
+        help="worker processes of the local cluster, 0 to "
+        f"{MAX_WORKERS} (default: the CPU count, {default_workers()} here); 0: one run "
+        "after another in this process, without Dask",
     )
     parser.add_argument(
         "--dashboard",
@@ -141,10 +146,7 @@ def add_cluster_arguments(parser) -> None:
 def check_cluster_arguments(args) -> None:
     """Raises ClusterError for cluster arguments that cannot work (before any cluster or run
     starts)."""
-    if args.workers < 0:
-        raise ClusterError(f"--workers: {args.workers} must be >= 0")
-    if args.workers > 256:
-        raise ClusterError(f"--workers: {args.workers} is outside the allowed range [0, 256]")
+    check_integer("--workers", args.workers, 0, MAX_WORKERS, error=ClusterError)
     scheduler = getattr(args, "scheduler", None)
     if scheduler is not None and not re.fullmatch(
         r"(tcp|tls|inproc|ucx|ws|wss)://\S+:\d+", scheduler

@@ -421,23 +421,30 @@ def check_keys(data, schema, path: str = "scenario") -> None:
 
 
 # --- value checks --------------------------------------------------------------------------
+#
+# The one set of value checks of the package: scenarios, data files, Systems' constructors,
+# sweep, calibration and optimisation specs and the commands' options. Each raises ``error``
+# (a ScenarioError by default; a file kind's own subclass, e.g. ``SweepError``), one line
+# naming the field or option, the value and the allowed range.
 
 
-def check_number(field: str, value) -> None:
+def check_number(field: str, value, error=ScenarioError) -> None:
     """A finite real number (int, float or a numpy scalar; not a bool)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ScenarioError(f"{field}: {short_repr(value)} is not a number")
+        raise error(f"{field}: {short_repr(value)} is not a number")
     if not math.isfinite(value):
-        raise ScenarioError(f"{field}: {short_repr(value)} is not finite")
+        raise error(f"{field}: {short_repr(value)} is not finite")
 
 
-def check_in_range(field, value, lo, hi, text, open_low=False, open_high=False) -> None:
+def check_in_range(
+    field, value, lo, hi, text, open_low=False, open_high=False, error=ScenarioError
+) -> None:
     """A finite number in [lo, hi] (or open at either end); ``text`` states the range."""
-    check_number(field, value)
+    check_number(field, value, error)
     above = value > lo if open_low else value >= lo
     below = value < hi if open_high else value <= hi
     if not (above and below):
-        raise ScenarioError(f"{field}: {short_repr(value)} is outside the allowed range {text}")
+        raise error(f"{field}: {short_repr(value)} is outside the allowed range {text}")
 
 
 def field_name(where: str, name: str) -> str:
@@ -476,50 +483,44 @@ class Range:
         )
 
 
-def check_integer(field: str, value, lo: int, hi: int) -> None:
+def check_integer(field: str, value, lo: int, hi: int, error=ScenarioError) -> None:
     """An int (or a numpy integer; not a bool, not 1.7) in [lo, hi]."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ScenarioError(
-            f"{field}: {short_repr(value)} is not an integer (allowed: {lo} to {hi})"
-        )
+        raise error(f"{field}: {short_repr(value)} is not an integer (allowed: {lo} to {hi})")
     if not lo <= int(value) <= hi:
-        raise ScenarioError(
-            f"{field}: {short_repr(value)} is outside the allowed range [{lo}, {hi}]"
-        )
+        raise error(f"{field}: {short_repr(value)} is outside the allowed range [{lo}, {hi}]")
 
 
-def check_boolean(field: str, value) -> None:
+def check_boolean(field: str, value, error=ScenarioError) -> None:
     if not isinstance(value, bool):
-        raise ScenarioError(f"{field}: {short_repr(value)} is not true or false")
+        raise error(f"{field}: {short_repr(value)} is not true or false")
 
 
-def check_text(field: str, value, allow_empty: bool = False) -> None:
+def check_text(field: str, value, allow_empty: bool = False, error=ScenarioError) -> None:
     if not isinstance(value, str) or (not allow_empty and not value.strip()):
-        raise ScenarioError(
+        raise error(
             f"{field}: {short_repr(value)} is not a {'' if allow_empty else 'non-empty '}string"
         )
 
 
-def check_one_of(field: str, value, allowed) -> None:
+def check_one_of(field: str, value, allowed, error=ScenarioError) -> None:
     if not isinstance(value, str) or value not in allowed:
-        raise ScenarioError(
-            f"{field}: {short_repr(value)} is not one of {', '.join(map(str, allowed))}"
-        )
+        raise error(f"{field}: {short_repr(value)} is not one of {', '.join(map(str, allowed))}")
 
 
-def check_vector(field: str, value, n: int, bound: float = math.inf, unit: str = "") -> None:
+def check_vector(
+    field: str, value, n: int, bound: float = math.inf, unit: str = "", error=ScenarioError
+) -> None:
     """``n`` finite numbers whose Euclidean norm is at most ``bound`` (a list, a tuple or a
     numpy array, which a caller's dataclass may hold after ``dc.replace``)."""
     if hasattr(value, "tolist"):
         value = value.tolist()
     if not isinstance(value, (list, tuple)) or len(value) != n:
-        raise ScenarioError(f"{field}: expected {n} finite numbers, got {short_repr(value)}")
+        raise error(f"{field}: expected {n} finite numbers, got {short_repr(value)}")
     for i, v in enumerate(value):
-        check_number(f"{field}[{i}]", v)
+        check_number(f"{field}[{i}]", v, error)
     if math.isfinite(bound) and math.sqrt(sum(v * v for v in value)) > bound:
-        raise ScenarioError(
-            f"{field}: {short_repr(value)} has magnitude above the allowed {bound}{unit}"
-        )
+        raise error(f"{field}: {short_repr(value)} has magnitude above the allowed {bound}{unit}")
 
 
 # --- output folders --------------------------------------------------------------------------

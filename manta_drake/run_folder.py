@@ -1,7 +1,7 @@
 """A run's output folder and the story its ``metrics.json`` tells, whatever ends the run.
 
 This module is light (the standard library; ``config_io`` for the folder check; the bag's
-file names from ``manta_drake.ros2``), so
+file names from ``manta_drake.ros2``; the signal handling of ``manta_drake.interrupts``), so
 ``manta-drake run`` turns signals into exceptions, checks the folder and marks it
 ``running`` before the slow imports (pydrake) start: an interrupt at any moment after that
 leaves a metrics.json that says why.
@@ -10,9 +10,8 @@ leaves a metrics.json that says why.
 * ``starting_run``: while the scenario is imported and loaded the folder's metrics.json says
   ``running``; an interrupt there leaves ``status: interrupted`` with the signal (and removes
   the earlier run's files), a bad input leaves the folder as it was.
-* ``interrupts_as_exceptions``: Ctrl-C (SIGINT), SIGTERM and SIGHUP raise ``RunInterrupted``
-  and are noted; an exception that comes out of code a signal broke into (pydrake's import
-  turns the interruption into an ImportError) is that interruption (``interruption``).
+* ``interrupted_failure``, ``write_interrupted_start``: the story of a run a signal stopped
+  (``manta_drake.interrupts.RunInterrupted``).
 
 ``manta_drake.simulate.run`` writes the story of the run itself (``status`` ``ok``,
 ``failed`` or ``interrupted``) through the same functions.
@@ -24,10 +23,9 @@ import contextlib
 import json
 import os
 import pathlib
-import signal
-import threading
 import time
 
+from manta_drake.interrupts import RunInterrupted, interruption, signals_deferred
 from manta_drake.ros2 import BAG_FILES
 
 # The files a run writes (and the only ones it removes from an old output folder): the bag's
@@ -46,9 +44,6 @@ SCENARIO_HEADER = (
     "# The resolved scenario of this run (every field, overrides applied); run it "
     "again\n# with: manta-drake run scenario.yaml --out DIR\n"
 )
-# The signals that stop a run with its story written: Ctrl-C, kill / a service manager, a
-# closed terminal.
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 class SimulationError(RuntimeError):
@@ -129,44 +124,6 @@ def running_metrics(name: str, stage: str) -> dict:
     }
 
 
-class RunInterrupted(KeyboardInterrupt):
-    """The run was interrupted by a signal: Ctrl-C (SIGINT), SIGTERM or SIGHUP."""
-
-    def __init__(self, signal_name: str = "SIGINT"):
-        super().__init__(signal_name)
-        self.signal_name = signal_name
-
-    @property
-    def reason(self) -> str:
-        return (
-            "interrupted (Ctrl-C)"
-            if self.signal_name == "SIGINT"
-            else f"terminated ({self.signal_name})"
-        )
-
-
-def interruption(error: BaseException, received=()) -> RunInterrupted | None:
-    """The interruption behind ``error``, or None if it is none.
-
-    ``error`` itself if a ``RunInterrupted``; Ctrl-C for a bare KeyboardInterrupt; for any
-    other exception the first signal in ``received`` (the list ``interrupts_as_exceptions``
-    fills): a signal's exception raised inside compiled code comes out as that code's error
-    (pydrake's import raises ImportError "initialization failed", a pybind11 call a
-    TypeError), and the run was interrupted all the same."""
-    if isinstance(error, RunInterrupted):
-        return error
-    if isinstance(error, KeyboardInterrupt):
-        return RunInterrupted("SIGINT")
-    return RunInterrupted(received[0]) if received else None
-
-
-def stop_if_signalled(received) -> None:
-    """Raises the first signal in ``received`` as ``RunInterrupted``: one whose exception
-    some code swallowed (an exception in a ``__del__`` is only printed) still stops the run."""
-    if received:
-        raise RunInterrupted(received[0])
-
-
 def interrupted_failure(stage: str, time_s: float, stop: RunInterrupted) -> dict:
     """The failure block of a run a signal stopped at ``stage`` and sim time ``time_s``."""
     return {
@@ -191,74 +148,6 @@ def write_interrupted_start(out_dir: pathlib.Path, name: str, error: BaseExcepti
             "failure": interrupted_failure("load", 0.0, stop),
         },
     )
-
-
-def _install(handler) -> dict:
-    """Installs ``handler`` for each of ``STOP_SIGNALS`` the process has not chosen to
-    ignore (``nohup`` ignores SIGHUP, a background job SIGINT: they stay ignored) and whose
-    handler Python can restore; returns the previous handlers."""
-    previous = {}
-    for sig in STOP_SIGNALS:
-        old = signal.getsignal(sig)
-        if old is signal.SIG_IGN or old is None:
-            continue
-        previous[sig] = signal.signal(sig, handler)
-    return previous
-
-
-def _restore(previous: dict) -> None:
-    for sig, old in previous.items():
-        signal.signal(sig, old)
-
-
-@contextlib.contextmanager
-def interrupts_as_exceptions():
-    """While inside: Ctrl-C, SIGTERM and SIGHUP raise ``RunInterrupted`` (a
-    KeyboardInterrupt naming the signal), so a run stopped by a service manager, ``kill`` or
-    a closed terminal still writes its story, and each signal's name is appended to the
-    yielded list (``interruption`` reads it). Only in the main thread (signals go there);
-    restored on exit."""
-    received: list = []
-    if threading.current_thread() is not threading.main_thread():
-        yield received
-        return
-
-    def handler(signum, frame):
-        received.append(signal.Signals(signum).name)
-        raise RunInterrupted(signal.Signals(signum).name)
-
-    previous = _install(handler)
-    try:
-        yield received
-    finally:
-        _restore(previous)
-
-
-@contextlib.contextmanager
-def signals_flagged():
-    """While inside, Ctrl-C, SIGTERM and SIGHUP only append their name to the yielded list.
-    An exception raised by a handler in the middle of a pybind11 call (converting an argument,
-    say) comes out as that call's TypeError, not as the interruption, so while the Simulator
-    steps Python systems the signal is noted and acted on between steps (a monitor ends the
-    step loop, the caller raises ``RunInterrupted``)."""
-    pending: list = []
-    if threading.current_thread() is not threading.main_thread():
-        yield pending
-        return
-    previous = _install(lambda signum, frame: pending.append(signal.Signals(signum).name))
-    try:
-        yield pending
-    finally:
-        _restore(previous)
-
-
-@contextlib.contextmanager
-def signals_deferred():
-    """While inside, Ctrl-C, SIGTERM and SIGHUP are held; the first one is raised on exit as
-    ``RunInterrupted`` (a story being written is written whole)."""
-    with signals_flagged() as pending:
-        yield
-    stop_if_signalled(pending)
 
 
 def _read(path: pathlib.Path) -> str | None:

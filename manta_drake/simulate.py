@@ -34,22 +34,24 @@ from pydrake.systems.primitives import RandomSource
 from manta_drake import metrics as M
 from manta_drake import plots
 from manta_drake.config_io import check_integer
+from manta_drake.interrupts import (
+    RunInterrupted,
+    interruption,
+    interrupts_as_exceptions,
+    signals_deferred,
+    signals_flagged,
+    stop_if_signalled,
+)
 from manta_drake.model.robot_params import DEFAULT_POOL, DEFAULT_ROBOT, NUM_JOINTS
 from manta_drake.run_folder import (  # noqa: F401 (also the names callers import from here)
     OUTPUT_FILES,
     SCENARIO_HEADER,
     OutputFolderError,
-    RunInterrupted,
     SimulationError,
     check_output_folder,
     interrupted_failure,
-    interruption,
-    interrupts_as_exceptions,
     remove_outputs,
     running_metrics,
-    signals_deferred,
-    signals_flagged,
-    stop_if_signalled,
     write_atomic,
     write_interrupted_start,
     write_metrics,

@@ -54,6 +54,49 @@ def servo(params):
 # --- the file -------------------------------------------------------------------------------
 
 
+def _sourced_paths(data, prefix: str = "") -> list[str]:
+    """The dotted paths of a YAML mapping's ``{value, source}`` leaves, read from the file
+    itself (not through the package's dataclasses)."""
+    paths = []
+    for key, item in data.items():
+        if isinstance(item, dict) and set(item) == {"value", "source"}:
+            paths.append(f"{prefix}{key}")
+        elif isinstance(item, dict):
+            paths += _sourced_paths(item, f"{prefix}{key}.")
+    return paths
+
+
+def test_the_data_files_entries_are_one_value_with_source_type(params):
+    """hydrodynamics.yaml, actuators.yaml and bill_of_materials.yaml hold their values as
+    ``{value, source}`` and load into the same types: every such leaf of each file, found by
+    reading the YAML directly, is an entry of the loaded file under its dotted name, of one
+    of the shared types (a number, a list, a name, a flag, a table)."""
+    import yaml
+
+    from manta_drake.model import bill_of_materials as bom
+    from manta_drake.model.coefficients import DEFAULT_COEFFICIENTS_FILE, load_coefficients
+    from manta_drake.model.sourced import SOURCED, Number, Numbers, sourced_entries
+
+    loaded = {
+        DEFAULT_COEFFICIENTS_FILE: load_coefficients(),
+        DEFAULT_ACTUATORS_FILE: params,
+        bom.DEFAULT_BILL_OF_MATERIALS_FILE: bom.load_bill_of_materials(),
+    }
+    for path, value in loaded.items():
+        entries = dict(sourced_entries(value))
+        raw = yaml.safe_load(path.read_text())
+        raw.pop("hull_parts", None)  # the bill's parts carry their own source, not entries
+        assert sorted(entries) == sorted(_sourced_paths(raw)), path.name
+        assert all(isinstance(e, SOURCED) for e in entries.values())
+    coefficients, bill = (
+        loaded[DEFAULT_COEFFICIENTS_FILE],
+        loaded[bom.DEFAULT_BILL_OF_MATERIALS_FILE],
+    )
+    assert type(coefficients.water_density) is type(params.servo.gear_ratio) is Number
+    assert type(coefficients.body.linear_damping) is type(params.battery.ocv_soc) is Numbers
+    assert type(bill.total_mass) is Number and bill.total_mass.value == 8.4
+
+
 def test_every_entry_has_a_source_and_the_servo_is_said_to_be_chosen(params):
     for name, entry in params.entries():
         assert entry.source.strip(), name

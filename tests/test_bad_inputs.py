@@ -262,7 +262,7 @@ def _table(path, text: str):
             "--inject-crash (a run index of --runs 3): 3 is outside the allowed range [0, 2]",
         ),
         (["--runs", "abc"], "argument --runs: invalid int value: 'abc'"),
-        (["--workers", "-1"], "--workers: -1 must be >= 0"),
+        (["--workers", "-1"], "--workers: -1 is outside the allowed range [0, 256]"),
     ],
 )
 def test_study_faults_option_out_of_range_is_one_line(tmp_path, capsys, argv, needle):

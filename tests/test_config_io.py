@@ -102,3 +102,28 @@ def test_optional_fields_take_none_or_their_type_and_a_true_union_is_not_narrowe
     check_keys({"sweep": 12.5, "either": 3}, Schema)
     with pytest.raises(ScenarioError, match=r"scenario\.sweep: expected a float, got 'ten'"):
         check_keys({"sweep": "ten"}, Schema)
+
+
+class _FileKindError(ScenarioError):
+    """A file kind's own error type (as sweep's SweepError is)."""
+
+
+@pytest.mark.parametrize(
+    "check, words",
+    [
+        (lambda e: check_number("f", "x", error=e), "f: 'x' is not a number"),
+        (
+            lambda e: check_in_range("f", 2.0, 0.0, 1.0, "[0, 1]", error=e),
+            "f: 2.0 is outside the allowed range [0, 1]",
+        ),
+        (lambda e: check_in_range("f", math.nan, 0, 1, "[0, 1]", error=e), "f: nan is not finite"),
+        (lambda e: check_integer("n", True, 0, 5, error=e), "n: True is not an integer"),
+        (lambda e: check_vector("v", [1.0, "a"], 2, error=e), "v[1]: 'a' is not a number"),
+    ],
+)
+def test_value_checks_raise_the_callers_error_type(check, words):
+    """A sweep, calibration or optimisation spec checks its values with these same functions
+    and gets its own error type (a subclass of ScenarioError), with the same message."""
+    with pytest.raises(_FileKindError) as info:
+        check(_FileKindError)
+    assert str(info.value).startswith(words)

@@ -28,6 +28,7 @@ LAYERS = [
             "manta_drake.plots",
             "manta_drake.simulate",
             "manta_drake.run_folder",
+            "manta_drake.interrupts",
         ],
         True,
     ),

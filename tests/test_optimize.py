@@ -215,7 +215,7 @@ objective:
         ),
         (
             lambda s: s + "budget: {population: 1}\n",
-            "optimize.budget.population: 1 is not an integer in the allowed range [2, 10000]",
+            "optimize.budget.population: 1 is outside the allowed range [2, 10000]",
         ),
         (lambda s: s + "name: walk\n", "optimize.name: 'walk' is already a gait of the scenario"),
     ],
@@ -250,7 +250,7 @@ def test_cli_refuses_a_bad_spec_in_one_line_before_any_run(tmp_path, capsys):
         )
         == 2
     )
-    assert "--population: 1 is not an integer" in capsys.readouterr().err
+    assert "--population: 1 is outside the allowed range [2, 10000]" in capsys.readouterr().err
 
 
 @pytest.mark.slow

@@ -2,6 +2,7 @@
 mass at the zero pose (computed here from the plant's geometry), the scenario block's values
 (the dataclass defaults), the layout block's paths (the tree), and the report pages' stamps."""
 
+import ast
 import dataclasses as dc
 import datetime
 import pathlib
@@ -281,6 +282,68 @@ def test_every_path_of_the_readme_layout_exists():
     assert "manta_drake/model/kinematics.py" in paths and "models/manta.sdf" in paths
     missing = [p for p in paths if not list(ROOT.glob(p.rstrip("/")))]
     assert not missing, f"README's layout names paths that do not exist: {missing}"
+
+
+# --- the paths the scripts' docstrings name -----------------------------------------------------
+
+# Folders of scripts run from the repository's root (`python diagrams/stand.py`), whose
+# docstrings name the files they read and write by their paths from the root.
+SCRIPT_FOLDERS = ("diagrams", "examples", "scripts")
+DOCSTRING_PATH = re.compile(
+    r"(?<![\w/.:<>-])((?:[\w.<>-]+/)+[\w.<>-]+\."
+    r"(?:yaml|yml|py|csv|md|png|json|npz|sdf|txt|mcap|ipynb))\b"
+)
+
+
+def docstring_paths(text: str) -> list[str]:
+    """The repository paths a docstring names (a folder and a file with its ending), as glob
+    patterns: a placeholder (``locomotion_<gait>.yaml``) is any name; a path under a
+    placeholder folder (``<out>/fig.png``) or under ``out/`` is what the script writes and
+    is left out, as are URLs (``package://...``)."""
+    paths = []
+    for token in DOCSTRING_PATH.findall(text):
+        if token.startswith(("<", "out/")):
+            continue
+        paths.append(re.sub(r"<[^<>/]*>", "*", token))
+    return paths
+
+
+def test_docstring_path_parser_on_a_small_docstring():
+    text = (
+        "Runs models/scenarios/locomotion_<gait>.yaml (each into <out>/<gait>/), writes\n"
+        "<out>/fig7.png and out/run/log.npz; Usage: python diagrams/stand.py [--scenario\n"
+        "models/scenarios/stand.yaml]; reads package://manta_drake/hydrodynamics.yaml and\n"
+        "float_sink.png."
+    )
+    assert docstring_paths(text) == [
+        "models/scenarios/locomotion_*.yaml",
+        "diagrams/stand.py",
+        "models/scenarios/stand.yaml",
+    ]
+
+
+def _docstrings(path: pathlib.Path):
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            text = ast.get_docstring(node)
+            if text:
+                yield text
+
+
+def test_every_path_a_scripts_docstring_names_exists():
+    """The scripts' docstrings name the scenario files they run and the pages they feed; a
+    file moved without its docstring is found here."""
+    named, missing = 0, []
+    for folder in SCRIPT_FOLDERS:
+        for script in sorted((ROOT / folder).rglob("*.py")):
+            for text in _docstrings(script):
+                for pattern in docstring_paths(text):
+                    named += 1
+                    if not list(ROOT.glob(pattern)):
+                        missing.append(f"{script.relative_to(ROOT)}: {pattern}")
+    assert named >= 10  # the diagrams name their scenarios: the parser finds paths
+    assert not missing, f"docstrings name paths that do not exist: {missing}"
 
 
 # --- the report pages' stamps -----------------------------------------------------------------

@@ -11,10 +11,10 @@ import time
 
 import pytest
 
+from manta_drake.interrupts import RunInterrupted
 from manta_drake.scenario import load_scenario
 from manta_drake.simulate import (
     OutputFolderError,
-    RunInterrupted,
     check_output_folder,
     run,
     write_interrupted_start,
@@ -286,7 +286,7 @@ def test_ignored_signals_stay_ignored():
     still raise."""
     import os
 
-    from manta_drake.simulate import interrupts_as_exceptions
+    from manta_drake.interrupts import interrupts_as_exceptions
 
     previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
     try:
@@ -301,6 +301,24 @@ def test_ignored_signals_stay_ignored():
         assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
     finally:
         signal.signal(signal.SIGHUP, previous)
+
+
+@pytest.mark.parametrize(
+    "name, reason, status",
+    [
+        ("SIGINT", "interrupted (Ctrl-C)", 130),  # POSIX: SIGINT is 2, SIGHUP 1, SIGTERM 15
+        ("SIGHUP", "terminated (SIGHUP)", 129),
+        ("SIGTERM", "terminated (SIGTERM)", 143),
+    ],
+)
+def test_an_interruption_names_its_signal_and_the_shells_exit_status(name, reason, status):
+    from manta_drake.interrupts import interruption
+
+    stop = RunInterrupted(name)
+    assert (stop.reason, stop.exit_status) == (reason, status)
+    assert interruption(KeyboardInterrupt()).signal_name == "SIGINT"  # a bare Ctrl-C
+    assert interruption(ImportError("initialization failed"), [name]).signal_name == name
+    assert interruption(ValueError("a bad input")) is None
 
 
 def test_metrics_that_cannot_be_computed_leave_a_failed_story_not_running(tmp_path, monkeypatch):
@@ -328,7 +346,6 @@ def test_a_signal_between_the_build_and_the_run_is_told(tmp_path, monkeypatch):
     import contextlib
 
     from manta_drake import simulate
-    from manta_drake.run_folder import RunInterrupted
     from manta_drake.scenario import load_scenario
 
     @contextlib.contextmanager

@@ -98,6 +98,22 @@ def test_net_weight_parameter_refuses_a_conflicting_scale():
         S.apply_net_weight(scenario, 0.7)
 
 
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("heavy", "net_weight_kg: 'heavy' is not a number"),
+        (True, "net_weight_kg: True is not a number"),
+        (float("nan"), "net_weight_kg: nan is not finite"),
+    ],
+)
+def test_net_weight_parameter_is_a_finite_number(value, message):
+    scenario = load_scenario("locomotion_swim")
+    with pytest.raises(ScenarioError) as info:
+        S.apply_net_weight(scenario, value)
+    assert str(info.value) == message
+    assert scenario.water.coefficient_scales == {}  # nothing set
+
+
 # --- keys, ids, parameter sets ---------------------------------------------------------------
 
 
@@ -1103,3 +1119,69 @@ def test_the_summary_figure_labels_categories_and_says_what_was_swept():
         assert axes[2, 2].get_xlabel() == "cpg.frequency_hz"
     finally:
         plt.close(fig)
+
+
+# --- the options every many-run command shares ---------------------------------------------
+
+MANY_RUN_COMMANDS = ("sweep", "calibrate", "optimize")
+
+
+@pytest.mark.parametrize("command", MANY_RUN_COMMANDS)
+def test_the_many_run_commands_share_their_options_and_defaults(command):
+    """sweep, calibrate and optimize take --out, the cluster's options and --quiet with the
+    same defaults; --set where a command layers scenario overrides (sweep, optimize), --seed
+    where it replaces the file's seed (optimize)."""
+    from manta_drake.cli import _parser
+    from manta_drake.cluster import DEFAULT_DASHBOARD, default_workers
+
+    argv = [command, "file.yaml", "--out", "o"]
+    args = _parser(argv).parse_args(argv)
+    assert (args.out, args.scheduler, args.workers, args.dashboard, args.quiet) == (
+        "o",
+        None,
+        default_workers(),
+        DEFAULT_DASHBOARD,
+        False,
+    )
+    assert getattr(args, "set", None) == ([] if command != "calibrate" else None)
+    assert hasattr(args, "seed") == (command == "optimize")
+    argv += ["--workers", "3", "--quiet"] + (
+        ["--set", "duration=2"] if command != "calibrate" else []
+    )
+    args = _parser(argv).parse_args(argv)
+    assert args.workers == 3 and args.quiet
+    with pytest.raises(SystemExit):  # --out is required
+        _parser([command, "file.yaml"]).parse_args([command, "file.yaml"])
+
+
+@pytest.mark.parametrize(
+    "command, argv, message",
+    [
+        ("sweep", ["--workers", "300"], "--workers: 300 is outside the allowed range [0, 256]"),
+        ("calibrate", ["--workers", "-1"], "--workers: -1 is outside the allowed range [0, 256]"),
+        (
+            "optimize",
+            ["--seed", "-1"],
+            "--seed: -1 is outside the allowed range [0, 4294967295]",
+        ),
+        (
+            "optimize",
+            ["--dashboard", "8787"],
+            "--dashboard '8787': expected HOST:PORT (e.g. 127.0.0.1:0) or '' for none",
+        ),
+        ("sweep", ["--set", "duration"], "--set duration: expected KEY=VALUE, e.g. duration=2"),
+        ("sweep", ["--limit", "0"], "--limit: 0 is outside the allowed range [1, 100000]"),
+    ],
+)
+def test_a_bad_shared_option_is_one_line_before_the_file_is_read(
+    tmp_path, capsys, command, argv, message
+):
+    """The shared options are checked before the file is read (here it does not exist) and
+    before the output folder is made."""
+    from manta_drake.cli import main
+
+    out = tmp_path / "o"
+    assert main([command, str(tmp_path / "missing.yaml"), "--out", str(out), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"manta-drake: error: {message} (--debug shows the traceback)"]
+    assert not out.exists()

@@ -12,8 +12,8 @@ import sys
 
 from manta_drake.calibrate.fit import OUTPUTS, calibrate, check_calibration_out
 from manta_drake.calibrate.loading import load_calibration
-from manta_drake.cluster import add_cluster_arguments, check_cluster_arguments, cluster_client
-from manta_drake.sweep.config import check_out_folder
+from manta_drake.cluster import cluster_client
+from manta_drake.sweep.options import add_many_run_options, check_many_run_options
 
 # Exit status of a fit that gives no coefficients.
 NOT_CALIBRATED = 1
@@ -31,17 +31,14 @@ def add_calibrate_parser(subparsers) -> None:
         "their end (no coefficients), 2 when the input is refused.",
     )
     p.add_argument("calibration", help="calibration YAML file (docs/sweeps.md)")
-    p.add_argument("--out", required=True, help="output folder")
-    add_cluster_arguments(p)
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_many_run_options(p)
 
 
 def calibrate_main(args) -> int:
     """``manta-drake calibrate``: check the options, load (errors are one line), fit, print
     the result; the exit status as the module says."""
-    check_cluster_arguments(args)
     # Before the load and the fit: a fit never ends by finding it cannot write.
-    check_out_folder(args.out, OUTPUTS, [args.calibration])
+    check_many_run_options(args, OUTPUTS, [args.calibration])
     config = load_calibration(args.calibration)
     check_calibration_out(config, args.out, [args.calibration])
     with cluster_client(args) as client:

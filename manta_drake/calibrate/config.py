@@ -53,6 +53,12 @@ class Sigma:
     yaw_rate_deg_s: float = 0.2
 
 
+# The most points (``optimizer.max_evaluations``) a fit may ask for: each point simulates every
+# experiment (and, for the Jacobian, its n neighbours too), so a thousand is far beyond any
+# fit's budget (the shipped one asks 12); the bound refuses a typo (1e9) before anything runs.
+MAX_EVALUATIONS = 1000
+
+
 @dc.dataclass
 class OptimizerConfig:
     """scipy.optimize.least_squares settings."""

@@ -8,6 +8,7 @@ import math
 import pathlib
 
 from manta_drake.calibrate.config import (
+    MAX_EVALUATIONS,
     TARGET_KEYS,
     CalibrationConfig,
     CalibrationParameter,
@@ -22,6 +23,7 @@ from manta_drake.calibrate.measured import (
     load_measured_bag,
 )
 from manta_drake.calibrate.scenarios import base_scenario, experiment_scenario
+from manta_drake.config_io import check_in_range, check_integer, check_number
 from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients
 from manta_drake.scenario import ScenarioError, coefficient_names
@@ -110,8 +112,7 @@ def experiment_measured(
 
 
 def _positive(where: str, value) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise SweepError(f"{where}: {value!r} must be a finite number > 0")
+    check_in_range(where, value, 0.0, math.inf, "(0, inf)", open_low=True, error=SweepError)
 
 
 def validate_calibration(config: CalibrationConfig, require_data: bool = True) -> None:
@@ -120,8 +121,7 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
         load_coefficients(resolve_path(config.coefficients_path()))
     except ScenarioError as e:
         raise SweepError(f"calibration.coefficients: {e}") from None
-    if not 0 <= config.seed < 2**32:
-        raise SweepError(f"calibration.seed: {config.seed} is outside [0, 2^32)")
+    check_integer("calibration.seed", config.seed, 0, 2**32 - 1, error=SweepError)
     if not config.parameters:
         raise SweepError("calibration.parameters: name at least one parameter")
     seen_params, seen_coeffs = set(), {}
@@ -189,20 +189,29 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
         for key, value in e.target.items():
             if key not in TARGET_KEYS:
                 raise SweepError(f"{where}.target.{key}: not one of {', '.join(TARGET_KEYS)}")
-            if not math.isfinite(value):
-                raise SweepError(
-                    f"{where}.target.{key}: {value!r} is not a finite number "
-                    "(a measured mean velocity)"
-                )
+            check_number(f"{where}.target.{key}", value, error=SweepError)
         _positive(f"{where}.weight", e.weight)
     for f in dc.fields(Sigma):
         _positive(f"calibration.sigma.{f.name}", getattr(config.sigma, f.name))
     o = config.optimizer
     if o.method not in ("trf", "dogbox"):
         raise SweepError(f"calibration.optimizer.method: {o.method!r} is not one of trf, dogbox")
-    if o.max_evaluations < 1:
-        raise SweepError(f"calibration.optimizer.max_evaluations: {o.max_evaluations} must be >= 1")
-    if not 0 < o.diff_step < 0.5:
-        raise SweepError(f"calibration.optimizer.diff_step: {o.diff_step} must be in (0, 0.5)")
+    check_integer(
+        "calibration.optimizer.max_evaluations",
+        o.max_evaluations,
+        1,
+        MAX_EVALUATIONS,
+        error=SweepError,
+    )
+    check_in_range(
+        "calibration.optimizer.diff_step",
+        o.diff_step,
+        0.0,
+        0.5,
+        "(0, 0.5)",
+        open_low=True,
+        open_high=True,
+        error=SweepError,
+    )
     for name in ("xtol", "ftol", "gtol"):
         _positive(f"calibration.optimizer.{name}", getattr(o, name))

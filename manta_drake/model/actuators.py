@@ -25,52 +25,10 @@ from pydrake.common.yaml import yaml_load_typed
 
 from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping, short_repr
 from manta_drake.model import MODELS_DIR, resolve_path
+from manta_drake.model.sourced import Flag, Number, Numbers, Table, Text, sourced_entries
 
 DEFAULT_ACTUATORS_FILE = MODELS_DIR / "actuators.yaml"
 CONNECTIONS = ("series", "parallel")
-
-
-# --- the file's entries: a value and where it comes from ---------------------------------
-
-
-@dc.dataclass
-class Number:
-    """A number and where it comes from."""
-
-    value: float = 0.0
-    source: str = ""
-
-
-@dc.dataclass
-class Numbers:
-    """A list of numbers and where they come from."""
-
-    value: list[float] = dc.field(default_factory=list)
-    source: str = ""
-
-
-@dc.dataclass
-class Text:
-    """A name or a choice and where it comes from."""
-
-    value: str = ""
-    source: str = ""
-
-
-@dc.dataclass
-class Flag:
-    """A yes/no choice and where it comes from."""
-
-    value: bool = False
-    source: str = ""
-
-
-@dc.dataclass
-class Table:
-    """Named numbers (e.g. a power per operating mode) and where they come from."""
-
-    value: dict[str, float] = dc.field(default_factory=dict)
-    source: str = ""
 
 
 @dc.dataclass
@@ -126,11 +84,7 @@ class ActuatorParams:
 
     def entries(self) -> list:
         """(dotted name, entry) for every entry of the file."""
-        return [
-            (f"{section.name}.{f.name}", getattr(getattr(self, section.name), f.name))
-            for section in dc.fields(self)
-            for f in dc.fields(getattr(self, section.name))
-        ]
+        return list(sourced_entries(self))
 
 
 # Numeric entries no factor may scale: cell and pack counts are whole numbers, the

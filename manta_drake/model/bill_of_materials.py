@@ -33,7 +33,7 @@ from scipy.special import ellipeinc, ellipkinc
 
 from manta_drake.config_io import ScenarioError, check_keys, load_yaml_mapping
 from manta_drake.model import MODELS_DIR
-from manta_drake.model.actuators import Number, Numbers
+from manta_drake.model.sourced import Number, Numbers, sourced_entries
 
 DEFAULT_BILL_OF_MATERIALS_FILE = MODELS_DIR / "bill_of_materials.yaml"
 
@@ -145,13 +145,6 @@ def ellipsoid_surface_area(a: float, b: float, c: float) -> float:
 # --- loading and checks ----------------------------------------------------------------------
 
 
-def _entries(bom: BillOfMaterials):
-    """(dotted name, Number | Numbers) of every sourced entry."""
-    for section in ("servo", "fin_plates", "hull_shell"):
-        for f in dc.fields(getattr(bom, section)):
-            yield f"{section}.{f.name}", getattr(getattr(bom, section), f.name)
-
-
 def check_bill_of_materials(bom: BillOfMaterials, where: str) -> None:
     """Raises ScenarioError naming the first entry with no source or a value out of range."""
     position = bom.residual_position
@@ -166,7 +159,9 @@ def check_bill_of_materials(bom: BillOfMaterials, where: str) -> None:
             f"{where}: residual_position = {position.value!r} needs 3 finite "
             "coordinates within 0.05 m of the body origin"
         )
-    for name, entry in (("total_mass", bom.total_mass), *_entries(bom)):
+    for name, entry in sourced_entries(bom):
+        if name == "residual_position":  # signed, checked above
+            continue
         if not entry.source.strip():
             raise ScenarioError(f"{where}: {name} has no source")
         values = np.atleast_1d(np.asarray(entry.value, dtype=float))

@@ -34,6 +34,7 @@ from pydrake.common.yaml import yaml_load_typed
 from manta_drake.config_io import ScenarioError, check_keys, parse_yaml, read_text_file
 from manta_drake.model import MODELS_DIR
 from manta_drake.model.robot_params import RobotParams
+from manta_drake.model.sourced import Number, Numbers, sourced_entries
 
 DEFAULT_COEFFICIENTS_FILE = MODELS_DIR / "hydrodynamics.yaml"
 AXES = ("surge", "sway", "heave", "roll", "pitch", "yaw")
@@ -113,88 +114,62 @@ def fit_damping(velocity, force, relative: bool = False) -> tuple[np.ndarray, np
 
 
 @dc.dataclass
-class Scalar:
-    """A coefficient and where it comes from."""
-
-    value: float = 0.0
-    source: str = ""
-
-
-@dc.dataclass
-class Vector:
-    """A coefficient vector and where it comes from."""
-
-    value: list[float] = dc.field(default_factory=list)
-    source: str = ""
-
-
-@dc.dataclass
 class BodyHydro:
-    sealed_volume: Scalar = dc.field(default_factory=Scalar)  # m^3, displaced when submerged
-    sealed_semi_axes: Vector = dc.field(default_factory=Vector)  # m
-    center_of_buoyancy: Vector = dc.field(default_factory=Vector)  # m, in the body frame
-    added_mass: Vector = dc.field(default_factory=Vector)  # kg (surge, sway, heave)
-    added_inertia: Vector = dc.field(default_factory=Vector)  # kg m^2 (roll, pitch, yaw)
-    linear_damping: Vector = dc.field(default_factory=Vector)  # 6, N s/m | N m s
-    quadratic_damping: Vector = dc.field(default_factory=Vector)  # 6, N s^2/m^2 | N m s^2
+    sealed_volume: Number = dc.field(default_factory=Number)  # m^3, displaced when submerged
+    sealed_semi_axes: Numbers = dc.field(default_factory=Numbers)  # m
+    center_of_buoyancy: Numbers = dc.field(default_factory=Numbers)  # m, in the body frame
+    added_mass: Numbers = dc.field(default_factory=Numbers)  # kg (surge, sway, heave)
+    added_inertia: Numbers = dc.field(default_factory=Numbers)  # kg m^2 (roll, pitch, yaw)
+    linear_damping: Numbers = dc.field(default_factory=Numbers)  # 6, N s/m | N m s
+    quadratic_damping: Numbers = dc.field(default_factory=Numbers)  # 6, N s^2/m^2 | N m s^2
     # 4, body lift Y_uv, Z_uw (N s^2/m^2), M_uw, N_uv (N s^2/m): water.body_lift
-    body_lift: Vector = dc.field(default_factory=Vector)
+    body_lift: Numbers = dc.field(default_factory=Numbers)
 
 
 @dc.dataclass
 class LinkHydro:
-    linear_damping: Vector = dc.field(default_factory=Vector)  # 6, per link
-    quadratic_damping: Vector = dc.field(default_factory=Vector)  # 6, per link
+    linear_damping: Numbers = dc.field(default_factory=Numbers)  # 6, per link
+    quadratic_damping: Numbers = dc.field(default_factory=Numbers)  # 6, per link
 
 
 @dc.dataclass
 class FinHydro:
-    normal_force_coefficient: Scalar = dc.field(default_factory=Scalar)
-    skin_friction_coefficient: Scalar = dc.field(default_factory=Scalar)
-    strips_per_plate: Scalar = dc.field(default_factory=Scalar)
-    passive_pitch_max_deg: Scalar = dc.field(default_factory=Scalar)
-    passive_pitch_reference_pressure: Scalar = dc.field(default_factory=Scalar)  # Pa
-    hinge_added_inertia: Vector = dc.field(default_factory=Vector)  # (yaw, roll1, pitch, roll2)
-    added_mass_factor: Vector = dc.field(default_factory=Vector)  # 3-D K (proximal, distal)
-    hull_interaction_added_mass: Scalar = dc.field(default_factory=Scalar)  # kg, heave
-    lift_slope: Scalar = dc.field(default_factory=Scalar)  # 1/rad, attached flow
-    suction_efficiency: Scalar = dc.field(default_factory=Scalar)  # leading-edge suction share
-    stall_angle_deg: Scalar = dc.field(default_factory=Scalar)  # attached -> separated
-    stall_width_deg: Scalar = dc.field(default_factory=Scalar)  # width of that blend
-    separation_lag: Scalar = dc.field(default_factory=Scalar)  # T_f, semichords
+    normal_force_coefficient: Number = dc.field(default_factory=Number)
+    skin_friction_coefficient: Number = dc.field(default_factory=Number)
+    strips_per_plate: Number = dc.field(default_factory=Number)
+    passive_pitch_max_deg: Number = dc.field(default_factory=Number)
+    passive_pitch_reference_pressure: Number = dc.field(default_factory=Number)  # Pa
+    hinge_added_inertia: Numbers = dc.field(default_factory=Numbers)  # (yaw, roll1, pitch, roll2)
+    added_mass_factor: Numbers = dc.field(default_factory=Numbers)  # 3-D K (proximal, distal)
+    hull_interaction_added_mass: Number = dc.field(default_factory=Number)  # kg, heave
+    lift_slope: Number = dc.field(default_factory=Number)  # 1/rad, attached flow
+    suction_efficiency: Number = dc.field(default_factory=Number)  # leading-edge suction share
+    stall_angle_deg: Number = dc.field(default_factory=Number)  # attached -> separated
+    stall_width_deg: Number = dc.field(default_factory=Number)  # width of that blend
+    separation_lag: Number = dc.field(default_factory=Number)  # T_f, semichords
 
 
 @dc.dataclass
 class BalloonHydro:
-    max_volume: Scalar = dc.field(default_factory=Scalar)  # m^3
-    mount_point: Vector = dc.field(default_factory=Vector)  # m, body frame
-    pump_rate: Scalar = dc.field(default_factory=Scalar)  # m^3/s
+    max_volume: Number = dc.field(default_factory=Number)  # m^3
+    mount_point: Numbers = dc.field(default_factory=Numbers)  # m, body frame
+    pump_rate: Number = dc.field(default_factory=Number)  # m^3/s
 
 
 @dc.dataclass
 class HydroCoefficients:
     """Contents of ``models/hydrodynamics.yaml``: every number with its source."""
 
-    water_density: Scalar = dc.field(default_factory=Scalar)
-    gravity: Scalar = dc.field(default_factory=Scalar)
+    water_density: Number = dc.field(default_factory=Number)
+    gravity: Number = dc.field(default_factory=Number)
     body: BodyHydro = dc.field(default_factory=BodyHydro)
     links: LinkHydro = dc.field(default_factory=LinkHydro)
     fins: FinHydro = dc.field(default_factory=FinHydro)
     balloon: BalloonHydro = dc.field(default_factory=BalloonHydro)
 
     def entries(self) -> list:
-        """(dotted name, Scalar|Vector) for every coefficient."""
-        return list(_walk(self, ""))
-
-
-def _walk(node, prefix):
-    for f in dc.fields(node):
-        value = getattr(node, f.name)
-        name = f"{prefix}{f.name}"
-        if isinstance(value, (Scalar, Vector)):
-            yield name, value
-        else:
-            yield from _walk(value, name + ".")
+        """(dotted name, Number | Numbers) for every coefficient."""
+        return list(sourced_entries(self))
 
 
 def scale_coefficients(coeffs: HydroCoefficients, scales: dict) -> HydroCoefficients:
@@ -266,7 +241,7 @@ SIZES = {
 def check_coefficients(coeffs: HydroCoefficients, where: str = "coefficients") -> None:
     """Raises ScenarioError naming the first entry with a missing source, a wrong size, a
     non-finite, negative (or zero where it must be positive) or non-integer value."""
-    for name, entry in _walk(coeffs, ""):
+    for name, entry in coeffs.entries():
         if not entry.source.strip():
             raise ScenarioError(f"{where}: {name} has no source")
         values = np.atleast_1d(np.asarray(entry.value, dtype=float))

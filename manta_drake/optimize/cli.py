@@ -12,15 +12,10 @@ from __future__ import annotations
 
 import sys
 
-from manta_drake.cluster import (
-    add_cluster_arguments,
-    check_cluster_arguments,
-    cluster_client,
-)
+from manta_drake.cluster import cluster_client
 from manta_drake.optimize.loading import load_problem
 from manta_drake.optimize.run import FOLDERS, OUTPUTS, run_optimization
-from manta_drake.scenario import parse_set
-from manta_drake.sweep.config import check_out_folder
+from manta_drake.sweep.options import add_many_run_options, check_many_run_options
 
 # Exit status of a search that gives no gait, and of one whose gait breaks a constraint.
 NO_GAIT = 1
@@ -43,8 +38,12 @@ def add_optimize_parser(subparsers) -> None:
         "front.json.",
     )
     p.add_argument("spec", help="optimisation spec YAML file (docs/optimize.md)")
-    p.add_argument("--out", required=True, help="output folder (a restart continues there)")
-    add_cluster_arguments(p)
+    add_many_run_options(
+        p,
+        out_help="output folder (the same command again continues there)",
+        set_help="layered on the spec's scenario and its overrides",
+        seed_help="CMA-ES's seed (replaces the spec's seed)",
+    )
     p.add_argument(
         "--generations",
         type=int,
@@ -70,27 +69,16 @@ def add_optimize_parser(subparsers) -> None:
         help="where the metrics' steady window starts [s] (replaces "
         "budget.steady_after; at most half of the duration)",
     )
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a field of the spec's scenario, e.g. --set "
-        "contact.friction=0.7 (repeatable)",
-    )
-    p.add_argument("--seed", type=int, metavar="N", help="CMA-ES's seed (replaces seed)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def optimize_main(args) -> int:
     """``manta-drake optimize``: check the options, load (errors are one line), search,
     print the result; the exit status as the module says."""
-    check_cluster_arguments(args)
     # Before the load and the search: a search never ends by finding it cannot write.
-    check_out_folder(args.out, OUTPUTS, [args.spec], folders=FOLDERS)
+    sets = check_many_run_options(args, OUTPUTS, [args.spec], folders=FOLDERS)
     problem = load_problem(
         args.spec,
-        parse_set(args.set),
+        sets,
         generations=args.generations,
         population=args.population,
         duration=args.duration,

@@ -9,12 +9,17 @@ from __future__ import annotations
 import dataclasses as dc
 import hashlib
 import json
-import math
 import pathlib
 import re
 import tempfile
 
-from manta_drake.config_io import ScenarioError, load_yaml_mapping, short_repr
+from manta_drake.config_io import (
+    ScenarioError,
+    check_in_range,
+    check_integer,
+    load_yaml_mapping,
+    short_repr,
+)
 from manta_drake.control.gait_files import RESERVED_NAMES
 from manta_drake.optimize.evaluate import candidate_overrides
 from manta_drake.optimize.objective import METRICS, STEADY_METRICS, needed_metrics
@@ -188,38 +193,33 @@ def _load(
             _check_budget_value(option, field, value)
             setattr(budget, field, value)
     if seed is not None:
-        _integer("--seed", seed, 0, 2**32 - 1)
+        check_integer("--seed", seed, 0, 2**32 - 1, error=OptimizeError)
         spec.seed = seed
     return validate(spec, dict(sets or {}))
 
 
-def _integer(where: str, value, lo: int, hi: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise OptimizeError(
-            f"{where}: {value!r} is not an integer in the allowed range [{lo}, {hi}]"
-        )
-
-
-def _number(where: str, value, lo: float, hi: float, text: str, open_low: bool = False) -> None:
-    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
-    if ok:
-        ok = (value > lo if open_low else value >= lo) and value <= hi
-    if not ok:
-        raise OptimizeError(f"{where}: {value!r} is outside the allowed range {text}")
-
-
 def _check_budget_value(where: str, field: str, value) -> None:
     if field == "generations":
-        _integer(where, value, 1, MAX_GENERATIONS)
+        check_integer(where, value, 1, MAX_GENERATIONS, error=OptimizeError)
     elif field == "population":
-        _integer(where, value, 2, MAX_POPULATION)
+        check_integer(where, value, 2, MAX_POPULATION, error=OptimizeError)
     elif field == "sigma0":
-        _number(where, value, 0.0, 1.0, "(0, 1] (a fraction of each bound's width)", open_low=True)
+        check_in_range(
+            where,
+            value,
+            0.0,
+            1.0,
+            "(0, 1] (a fraction of each bound's width)",
+            open_low=True,
+            error=OptimizeError,
+        )
     elif field == "duration":
         if value is not None:
-            _number(where, value, 0.0, 3600.0, "(0, 3600] s", open_low=True)
+            check_in_range(
+                where, value, 0.0, 3600.0, "(0, 3600] s", open_low=True, error=OptimizeError
+            )
     elif field == "steady_after" and value is not None:
-        _number(where, value, 0.0, 3600.0, "[0, 3600] s")
+        check_in_range(where, value, 0.0, 3600.0, "[0, 3600] s", error=OptimizeError)
 
 
 def _check_keys_of(point, where: str, setup: bool = False) -> None:
@@ -242,7 +242,7 @@ def _seeds(seeds, where: str) -> None:
     if not isinstance(seeds, list) or not seeds:
         raise OptimizeError(f"{where}: expected a list of one or more seeds")
     for i, s in enumerate(seeds):
-        _integer(f"{where}[{i}]", s, 0, 2**32 - 1)
+        check_integer(f"{where}[{i}]", s, 0, 2**32 - 1, error=OptimizeError)
     if len(set(seeds)) != len(seeds):
         raise OptimizeError(f"{where}: {seeds} names a seed twice")
 
@@ -350,7 +350,7 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     _check_keys_of(sets, "--set", setup=True)
     for field in ("generations", "population", "sigma0", "duration", "steady_after"):
         _check_budget_value(f"{ROOT}.budget.{field}", field, getattr(spec.budget, field))
-    _integer(f"{ROOT}.seed", spec.seed, 0, 2**32 - 1)
+    check_integer(f"{ROOT}.seed", spec.seed, 0, 2**32 - 1, error=OptimizeError)
     # The base scenario: the file, the spec's overrides, --set, the budget's times.
     extra = {**spec.overrides, **sets}
     if spec.budget.duration is not None:
@@ -456,7 +456,7 @@ def _validate_front(spec: OptimizeSpec) -> None:
     _metric(f.maximise, f"{where}.maximise")
     _metric(f.minimise, f"{where}.minimise")
     for i, level in enumerate(f.levels):
-        _number(f"{where}.levels[{i}]", level, -1e9, 1e9, "[-1e9, 1e9]")
+        check_in_range(f"{where}.levels[{i}]", level, -1e9, 1e9, "[-1e9, 1e9]", error=OptimizeError)
         if i and not level > f.levels[i - 1]:
             raise OptimizeError(
                 f"{where}.levels[{i}]: {level!r} is not above the level "
@@ -477,7 +477,9 @@ def _validate_objective(o: Objective, front: bool = False) -> None:
         )
     for i, t in enumerate(o.terms):
         _metric(t.metric, f"{where}.terms[{i}].metric")
-        _number(f"{where}.terms[{i}].weight", t.weight, -1e9, 1e9, "[-1e9, 1e9]")
+        check_in_range(
+            f"{where}.terms[{i}].weight", t.weight, -1e9, 1e9, "[-1e9, 1e9]", error=OptimizeError
+        )
         if t.weight == 0:
             raise OptimizeError(f"{where}.terms[{i}].weight: 0 makes the term do nothing")
     for i, c in enumerate(o.constraints):
@@ -488,7 +490,7 @@ def _validate_objective(o: Objective, front: bool = False) -> None:
         for key in ("min", "max"):
             value = getattr(c, key)
             if value is not None:
-                _number(f"{w}.{key}", value, -1e9, 1e9, "[-1e9, 1e9]")
+                check_in_range(f"{w}.{key}", value, -1e9, 1e9, "[-1e9, 1e9]", error=OptimizeError)
         if c.min is not None and c.max is not None and c.min > c.max:
             raise OptimizeError(f"{w}.min: {c.min!r} is above max ({c.max!r})")
         if c.relative_to:
@@ -496,7 +498,25 @@ def _validate_objective(o: Objective, front: bool = False) -> None:
             if c.relative_to == c.metric:
                 raise OptimizeError(f"{w}.relative_to: {c.relative_to!r} is the metric itself")
         if c.scale is not None:
-            _number(f"{w}.scale", c.scale, 0.0, 1e9, "(0, 1e9]", open_low=True)
-    _number(f"{where}.penalty_weight", o.penalty_weight, 0.0, 1e12, "(0, 1e12]", open_low=True)
-    _number(f"{where}.wall_cost", o.wall_cost, 0.0, 1e12, "[0, 1e12]")
-    _number(f"{where}.failed_cost", o.failed_cost, 0.0, 1e15, "(0, 1e15]", open_low=True)
+            check_in_range(
+                f"{w}.scale", c.scale, 0.0, 1e9, "(0, 1e9]", open_low=True, error=OptimizeError
+            )
+    check_in_range(
+        f"{where}.penalty_weight",
+        o.penalty_weight,
+        0.0,
+        1e12,
+        "(0, 1e12]",
+        open_low=True,
+        error=OptimizeError,
+    )
+    check_in_range(f"{where}.wall_cost", o.wall_cost, 0.0, 1e12, "[0, 1e12]", error=OptimizeError)
+    check_in_range(
+        f"{where}.failed_cost",
+        o.failed_cost,
+        0.0,
+        1e15,
+        "(0, 1e15]",
+        open_low=True,
+        error=OptimizeError,
+    )

@@ -14,6 +14,7 @@ import re
 
 import numpy as np
 
+from manta_drake.config_io import check_in_range
 from manta_drake.control.gait_files import (
     FIELD_OF_MATRIX,
     JOINT_COLUMNS,
@@ -103,12 +104,6 @@ def parse_entry(text, where: str) -> tuple[str, int, int]:
     return matrix, r, c
 
 
-def _number(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise OptimizeError(f"{where}: {value!r} is not a finite number (degrees)")
-    return float(value)
-
-
 def default_name(matrix: str, row: int, col: int) -> str:
     cols = LEG_ROWS if matrix == "Phi_prime_deg" else JOINT_COLUMNS
     return f"{matrix}.{LEG_ROWS[row]}.{cols[col]}"
@@ -135,14 +130,16 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
     for i, f in enumerate(free):
         where = f"{root}[{i}]"
         matrix, r, c = parse_entry(f.entry, f"{where}.entry")
-        low = _number(f.low, f"{where}.low")
-        high = _number(f.high, f"{where}.high")
-        for key, v in (("low", low), ("high", high)):
-            if abs(v) > MAX_DEGREES:
-                raise OptimizeError(
-                    f"{where}.{key}: {v!r} is outside the allowed range "
-                    f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg"
-                )
+        for key in ("low", "high"):
+            check_in_range(
+                f"{where}.{key}",
+                getattr(f, key),
+                -MAX_DEGREES,
+                MAX_DEGREES,
+                f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg",
+                error=OptimizeError,
+            )
+        low, high = float(f.low), float(f.high)
         if not low < high:
             raise OptimizeError(f"{where}.low: {low!r} must be below high ({high!r})")
         if not isinstance(f.tie, list):

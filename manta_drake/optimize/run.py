@@ -38,6 +38,7 @@ import uuid
 import numpy as np
 
 from manta_drake.cluster import TaskFailure, completed_resubmitting_lost
+from manta_drake.interrupts import interrupts_as_exceptions
 from manta_drake.optimize.evaluate import simulate_candidate
 from manta_drake.optimize.history import (
     HISTORY,
@@ -66,7 +67,6 @@ from manta_drake.optimize.state import (
     new_search,
     save_state,
 )
-from manta_drake.simulate import interrupts_as_exceptions
 from manta_drake.sweep.config import check_out_folder
 
 # What run_optimization writes in its output folder (files, then folders).

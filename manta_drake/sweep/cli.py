@@ -13,10 +13,11 @@ import pathlib
 import sys
 import time
 
-from manta_drake.cluster import add_cluster_arguments, check_cluster_arguments, cluster_client
-from manta_drake.scenario import parse_set
-from manta_drake.sweep.config import MAX_RUNS, SweepError, check_out_folder
+from manta_drake.cluster import cluster_client
+from manta_drake.config_io import check_integer
+from manta_drake.sweep.config import MAX_RUNS, SweepError
 from manta_drake.sweep.loading import load_sweep
+from manta_drake.sweep.options import add_many_run_options, check_many_run_options
 from manta_drake.sweep.plan import plan_runs
 from manta_drake.sweep.results import LOST
 from manta_drake.sweep.runner import OUTPUTS, run_sweep
@@ -37,15 +38,10 @@ def add_sweep_parser(subparsers) -> None:
         "the input is refused.",
     )
     p.add_argument("sweep", help="sweep YAML file (docs/sweeps.md)")
-    p.add_argument("--out", required=True, help="output folder")
-    add_cluster_arguments(p)
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="add to the file's `fixed` overrides, e.g. --set duration=2 (changes "
-        "the run ids); repeatable",
+    add_many_run_options(
+        p,
+        out_help="output folder (the same command again skips the runs done there)",
+        set_help="added to the file's `fixed` overrides (changes the run ids)",
     )
     p.add_argument(
         "--limit",
@@ -59,19 +55,17 @@ def add_sweep_parser(subparsers) -> None:
     p.add_argument(
         "--dry-run", action="store_true", help="check the file and list the runs; simulate nothing"
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def sweep_main(args) -> int:
     """``manta-drake sweep``: check the options, load (errors are one line), run, print a
     summary; the exit status as the module says."""
-    if args.limit is not None and not 1 <= args.limit <= MAX_RUNS:
-        raise SweepError(f"--limit: {args.limit} is outside the allowed range [1, {MAX_RUNS}]")
-    check_cluster_arguments(args)
+    if args.limit is not None:
+        check_integer("--limit", args.limit, 1, MAX_RUNS, error=SweepError)
     # Before the load and any run: a sweep never ends by finding it cannot write.
-    check_out_folder(args.out, OUTPUTS, [args.sweep], folders=("runs",))
+    sets = check_many_run_options(args, OUTPUTS, [args.sweep], folders=("runs",))
     try:
-        return _sweep(args)
+        return _sweep(args, sets)
     except MemoryError:  # its message is empty: say what ran out
         raise SweepError(
             f"{args.sweep}: out of memory while planning or running the sweep; "
@@ -79,8 +73,8 @@ def sweep_main(args) -> int:
         ) from None
 
 
-def _sweep(args) -> int:
-    config = load_sweep(args.sweep, parse_set(args.set))
+def _sweep(args, sets: dict) -> int:
+    config = load_sweep(args.sweep, sets)
     if args.dry_run:
         specs = plan_runs(config, args.limit)
         for spec in specs:

@@ -54,7 +54,13 @@ def load_sweep(path, extra_fixed: dict | None = None) -> SweepConfig:
     if isinstance(data.get("random"), dict):  # before the type check: name the range too
         for key, hi in (("n", MAX_RUNS), ("seed", 2**32 - 1)):
             if key in data["random"]:
-                _integer(f"sweep.random.{key}", data["random"][key], 1 if key == "n" else 0, hi)
+                check_integer(
+                    f"sweep.random.{key}",
+                    data["random"][key],
+                    1 if key == "n" else 0,
+                    hi,
+                    error=SweepError,
+                )
     check_config_keys(data, SweepConfig, "sweep")
     random = data.pop("random", None)
     config = SweepConfig(**data, folder=path.resolve().parent)
@@ -75,13 +81,6 @@ def load_sweep(path, extra_fixed: dict | None = None) -> SweepConfig:
         validate_sweep(config)
     check_fixed_values(config, file_fixed)
     return config
-
-
-def _integer(field: str, value, lo: int, hi: int) -> None:
-    try:
-        check_integer(field, value, lo, hi)
-    except ScenarioError as e:
-        raise SweepError(str(e)) from None
 
 
 def validate_sweep(config: SweepConfig) -> None:
@@ -106,8 +105,7 @@ def validate_sweep(config: SweepConfig) -> None:
     if not config.seeds:
         raise SweepError("sweep.seeds: name at least one seed")
     for i, seed in enumerate(config.seeds):
-        if not 0 <= seed < 2**32:
-            raise SweepError(f"sweep.seeds[{i}]: {short_repr(seed)} is outside [0, 2^32)")
+        check_integer(f"sweep.seeds[{i}]", seed, 0, 2**32 - 1, error=SweepError)
     if len(set(config.seeds)) != len(config.seeds):
         raise SweepError(f"sweep.seeds: duplicate seeds in {short_repr(config.seeds)}")
     for name, keys in config.links.items():
@@ -134,8 +132,8 @@ def validate_sweep(config: SweepConfig) -> None:
             raise SweepError(f"sweep.grid.{name}: give at least one value")
     if config.random is not None:
         r = config.random
-        _integer("sweep.random.n", r.n, 1, MAX_RUNS)
-        _integer("sweep.random.seed", r.seed, 0, 2**32 - 1)
+        check_integer("sweep.random.n", r.n, 1, MAX_RUNS, error=SweepError)
+        check_integer("sweep.random.seed", r.seed, 0, 2**32 - 1, error=SweepError)
     _check_size(config)
     for name, values in config.grid.items():
         _check_distinct_values(name, values, config.links)

@@ -7,7 +7,7 @@ import functools
 import math
 import pathlib
 
-from manta_drake.config_io import ScenarioError
+from manta_drake.config_io import ScenarioError, check_number
 from manta_drake.model import resolve_path
 from manta_drake.model.coefficients import load_coefficients, scale_coefficients
 from manta_drake.model.robot_params import DEFAULT_ROBOT
@@ -86,8 +86,7 @@ def _load_coefficients_once(path: str, mtime_ns: int):
 def apply_net_weight(scenario: Scenario, net_weight_kg) -> None:
     """Adds the hull scales for ``net_weight_kg`` to the scenario's coefficient scales
     (after its other scales, e.g. of the servo volume). Raises ScenarioError."""
-    if isinstance(net_weight_kg, bool) or not isinstance(net_weight_kg, (int, float)):
-        raise ScenarioError(f"net_weight_kg: expected a number, got {net_weight_kg!r}")
+    check_number("net_weight_kg", net_weight_kg)
     if not scenario.water.enabled:
         raise ScenarioError("net_weight_kg: needs water.enabled: true")
     scales = dict(scenario.water.coefficient_scales)

@@ -9,9 +9,13 @@ kernels then cache in a per-user folder under the system's temporary directory, 
 that is not writable either, compile in each process without a cache (a few seconds).
 """
 
+from __future__ import annotations
+
 import os
 import pathlib
 import tempfile
+from collections.abc import Callable
+from typing import Any
 
 import numba
 
@@ -28,13 +32,15 @@ def _temporary_cache_dir() -> str | None:
     return str(folder)
 
 
-def njit(*args, cache: bool = False, **options):
+def njit(
+    function: Callable[..., Any] | None = None, /, *, cache: bool = False, **options: Any
+) -> Callable[..., Any]:
     """``numba.njit`` (used as ``@njit(cache=True)``) that falls back from an unavailable
     cache to a temporary one, then to none, instead of failing."""
-    if args:  # bare @njit
-        return numba.njit(*args, cache=cache, **options)
+    if function is not None:  # bare @njit
+        return numba.njit(function, cache=cache, **options)
 
-    def decorate(function):
+    def decorate(function: Callable[..., Any]) -> Callable[..., Any]:
         if not cache:
             return numba.njit(**options)(function)
         try:
@@ -43,11 +49,12 @@ def njit(*args, cache: bool = False, **options):
             if "no locator available" not in str(e):
                 raise
         # numba reads its user-provided cache folder at decoration time; set it only when
-        # the user has not chosen one (then numba had no folder at all).
-        if not numba.config.CACHE_DIR:
+        # the user has not chosen one (then numba had no folder at all). numba.config sets
+        # its options as module globals at run time, which its typing does not declare.
+        if not numba.config.CACHE_DIR:  # type: ignore[attr-defined]
             folder = _temporary_cache_dir()
             if folder is not None:
-                numba.config.CACHE_DIR = folder
+                numba.config.CACHE_DIR = folder  # type: ignore[attr-defined]
                 try:
                     return numba.njit(cache=True, **options)(function)
                 except RuntimeError:

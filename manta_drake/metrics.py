@@ -315,13 +315,14 @@ def costs_of_transport(
         "mechanical": mechanical_w,
     }
     weights = {"dry_weight": dry_weight_n, "weight_in_water": weight_in_water_n}
-    return {
-        f"cot_{p}_{w}": (
-            powers[p] / (weights[w] * speed) if weights[w] is not None and weights[w] > 0 else None
-        )
-        for p in COT_POWERS
-        for w in COT_WEIGHTS
-    }
+    out: dict[str, float | None] = {}
+    for p in COT_POWERS:
+        for w in COT_WEIGHTS:
+            weight = weights[w]
+            out[f"cot_{p}_{w}"] = (
+                powers[p] / (weight * speed) if weight is not None and weight > 0 else None
+            )
+    return out
 
 
 def energy_metrics(
@@ -410,7 +411,7 @@ def _run_energy(
         "battery_cutoff_at_s": None,
         "cost_of_transport_note": None,
     }
-    empty = np.flatnonzero(battery[:, 0] <= cutoff_soc) if len(battery) else []
+    empty = np.flatnonzero(battery[:, 0] <= cutoff_soc) if len(battery) else np.empty(0, dtype=int)
     if len(empty):
         out["battery_cutoff_at_s"] = float(t_b[empty[0]])
     return out
@@ -473,9 +474,10 @@ def power_breakdown(t, terms: dict, window=None) -> dict:
     summed over joints) over ``window`` [start, end] (None: the whole run), as
     ``<name>_w``, with ``total_w`` their sum and ``window_s`` the window used."""
     start, end = (-np.inf, np.inf) if window is None else window
-    out = {f"{name}_w": step_mean(t, values, start, end) for name, values in terms.items()}
-    means = list(out.values())
-    out["total_w"] = None if None in means else float(sum(means))
+    means = {f"{name}_w": step_mean(t, values, start, end) for name, values in terms.items()}
+    out: dict[str, float | list[float] | None] = dict(means)
+    present = [m for m in means.values() if m is not None]
+    out["total_w"] = float(sum(present)) if len(present) == len(means) else None
     if window is not None:
         out["window_s"] = [float(start), float(end)]
     else:
@@ -538,7 +540,7 @@ def foot_summary(t, loads, yaw, carriers, window=None, loaded: float = LOADED_N)
     heading = np.stack([np.cos(yaw), np.sin(yaw)], axis=-1)[inside]
     fn, slip = L[:, :, 0], L[:, :, 1:]
     total = fn.sum()
-    out = {}
+    out: dict[str, dict[str, float | None] | float | list[float] | None] = {}
     for k, name in enumerate(carriers):
         down = fn[:, k] > loaded
         weight = fn[:, k].sum()

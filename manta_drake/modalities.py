@@ -341,6 +341,8 @@ def estimator_outputs() -> tuple[str, ...]:
 
 
 def _note(m: Modality) -> str:
+    """The switch note of a modality that has an estimator."""
+    assert m.estimation is not None
     return f"{m.needs}, estimate read" if m.estimation.when_read else m.needs
 
 

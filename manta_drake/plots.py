@@ -65,7 +65,8 @@ def plot_states(log: dict, path, title="", leaves=None):
     t = log["t"]
     rpy = log["body_rpy"].copy()
     rpy[:, 2] = np.unwrap(rpy[:, 2])
-    panels = [
+    # Each panel: its label and its series, (values, name) over t or (values, name, times).
+    panels: list[tuple[str, list[tuple[np.ndarray, str] | tuple[np.ndarray, str, np.ndarray]]]] = [
         (
             "Euler angles [deg]\n(yaw unwrapped)",
             [(np.degrees(rpy[:, i]), n) for i, n in enumerate(("roll", "pitch", "yaw"))],

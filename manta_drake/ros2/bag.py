@@ -72,7 +72,7 @@ def decimate(times, rate_hz: float) -> np.ndarray:
     return np.unique(index[index < len(times)])
 
 
-def camera_intrinsics(camera) -> tuple:
+def camera_intrinsics(camera) -> tuple[int, int, float, float, float, float]:
     """(width, height, fx, fy, cx, cy) [px] of the scenario's ``camera`` section, as the
     station's camera has them (``model.camera.camera_info``)."""
     from manta_drake.model.camera import camera_info
@@ -126,6 +126,7 @@ def bag_messages(log: dict, topic_map: TopicMap, constants: Constants) -> dict:
         if not signal.present(log):
             continue
         convert, times = signal.types[entry.type], log[signal.times]
+        assert convert is not None  # present(): a signal with log arrays has conversions
         out[name] = [
             (
                 m.to_nanoseconds(times[i]),

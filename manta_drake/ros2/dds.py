@@ -32,10 +32,18 @@ from __future__ import annotations
 import functools
 import pathlib
 import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from manta_drake.model import MODELS_DIR
 from manta_drake.ros2 import messages as m
 from manta_drake.ros2.topic_map import QOS_PROFILES
+
+if TYPE_CHECKING:  # the ros2 extra's (x86_64 only); imported where a participant starts
+    from cyclonedds.domain import DomainParticipant
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
 
 LOOPBACK_CONFIG = MODELS_DIR / "cyclonedds_loopback.xml"
 # DDS domain ids: RTPS ports are 7400 + 250 x domain + offsets, below 65536.
@@ -97,6 +105,7 @@ def read_config(path) -> str:
         root = xml.dom.minidom.parseString(text).documentElement
     except Exception as e:  # noqa: BLE001 (expat's errors: one line, whatever their class)
         raise DdsError(f"--dds-config {path}: not XML ({e})") from None
+    assert root is not None  # a parsed document has its root element
     if root.tagName != "CycloneDDS":
         raise DdsError(
             f"--dds-config {path}: the root element is <{root.tagName}>; a Cyclone "
@@ -134,6 +143,8 @@ def idl_type(typename: str):
 
 
 def _idl_field(node):
+    # cyclonedds' IDL types are indexed through their __class_getitem__ (types.array[T, n]),
+    # which its typing does not declare: mypy reads the classes as not indexable.
     from cyclonedds.idl import types
 
     kind, detail = node
@@ -141,7 +152,7 @@ def _idl_field(node):
     if kind == 1:  # a base type (rosbags' names)
         name, bound = detail
         if name == "string":
-            return types.bounded_str[bound] if bound else str
+            return types.bounded_str[bound] if bound else str  # type: ignore[misc]
         if name == "bool":
             return bool
         if name in ("byte", "char", "octet"):
@@ -153,8 +164,10 @@ def _idl_field(node):
         return idl_type(detail)
     inner, size = detail
     if kind == 3:  # a fixed array
-        return types.array[_idl_field(inner), size]
-    return types.sequence[_idl_field(inner), size] if size else types.sequence[_idl_field(inner)]
+        return types.array[_idl_field(inner), size]  # type: ignore[misc]
+    if size:
+        return types.sequence[_idl_field(inner), size]  # type: ignore[misc]
+    return types.sequence[_idl_field(inner)]  # type: ignore[misc]
 
 
 def qos(profile: str, typename: str):
@@ -217,43 +230,51 @@ class Participant:
         self.domain = check_domain(domain)
         self.config = pathlib.Path(config or LOOPBACK_CONFIG)
         self._domain = _domain(self.domain, read_config(self.config))
-        self.participant = DomainParticipant(self.domain)
-        self._topics: dict[str, object] = {}
-        self._writers: dict[str, object] = {}
-        self._readers: list[tuple[object, object]] = []
+        self.participant: DomainParticipant | None = DomainParticipant(self.domain)
+        self._topics: dict[str, Topic] = {}
+        self._writers: dict[str, DataWriter] = {}
+        # Each reader and its deliver(data, source_timestamp_ns).
+        self._readers: list[tuple[DataReader, Callable[[bytes, int], object]]] = []
         self._waitset = WaitSet(self.participant)
 
-    def _topic(self, topic: str, typename: str):
+    def _open(self) -> DomainParticipant:
+        """The participant, until ``close``."""
+        assert self.participant is not None, "the DDS participant is closed"
+        return self.participant
+
+    def _topic(self, topic: str, typename: str) -> Topic:
         from cyclonedds.topic import Topic
 
         if topic not in self._topics:
-            self._topics[topic] = Topic(self.participant, dds_topic_name(topic), idl_type(typename))
+            self._topics[topic] = Topic(self._open(), dds_topic_name(topic), idl_type(typename))
         return self._topics[topic]
 
-    def writer(self, topic: str, typename: str, profile: str):
+    def writer(self, topic: str, typename: str, profile: str) -> DataWriter:
         """The writer of ``topic`` (one per topic)."""
         from cyclonedds.pub import DataWriter
 
         if topic not in self._writers:
             self._writers[topic] = DataWriter(
-                self.participant, self._topic(topic, typename), qos(profile, typename)
+                self._open(), self._topic(topic, typename), qos(profile, typename)
             )
         return self._writers[topic]
 
-    def reader(self, topic: str, typename: str, profile: str, deliver):
+    def reader(
+        self, topic: str, typename: str, profile: str, deliver: Callable[[bytes, int], object]
+    ) -> DataReader:
         """A reader of ``topic``: ``handle`` calls ``deliver(data, source_timestamp_ns)``
         for each sample it takes."""
         from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
         from cyclonedds.sub import DataReader
 
-        reader = DataReader(self.participant, self._topic(topic, typename), qos(profile, typename))
+        reader = DataReader(self._open(), self._topic(topic, typename), qos(profile, typename))
         self._waitset.attach(
             ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
         )
         self._readers.append((reader, deliver))
         return reader
 
-    def write(self, writer, data: bytes, source_timestamp_ns: int) -> None:
+    def write(self, writer: DataWriter, data: bytes, source_timestamp_ns: int) -> None:
         """Writes CDR bytes (with their encapsulation header) as one sample, with the given
         DDS source timestamp (>= 0), padded to a multiple of 4 bytes as the binding's
         ``DataWriter.write`` pads (CDR's padding: no reader sees it)."""

@@ -16,11 +16,15 @@ given. Port 0 takes any free port (``LiveView.port`` says which).
 from __future__ import annotations
 
 import dataclasses as dc
+from typing import TYPE_CHECKING
 
 from manta_drake.ros2 import messages as m
 from manta_drake.ros2.bag import bag_constants, decimate
 from manta_drake.ros2.signals import SIGNALS
 from manta_drake.ros2.topic_map import TopicMap
+
+if TYPE_CHECKING:  # the ros2 extra's; imported where a live view starts
+    import foxglove
 
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8765
 SUBPROTOCOL = "foxglove.sdk.v1"  # what foxglove-sdk 0.30 speaks (docs/ros2.md)
@@ -48,7 +52,7 @@ def parse_address(text: str) -> tuple[str, int]:
 @dc.dataclass
 class _Stream:
     signal: str
-    channel: object
+    channel: foxglove.Channel
     rate_hz: float
     sent: int = -1  # the last log row published
 
@@ -83,7 +87,7 @@ class LiveView:
     def url(self) -> str:
         return f"ws://{self.host}:{self.port}"
 
-    def _stream(self, name: str):
+    def _stream(self, name: str) -> _Stream:
         import foxglove
 
         if name not in self._streams:
@@ -107,6 +111,7 @@ class LiveView:
                 continue
             stream = self._stream(name)
             convert, times = signal.types[entry.type], log[signal.times]
+            assert convert is not None  # present(): a signal with log arrays has conversions
             for i in decimate(times, stream.rate_hz):
                 if i <= stream.sent:
                     continue

@@ -122,6 +122,7 @@ def camera_pose_from(msg, c: Constants):
 
 def camera_info_to(t_ns, _image, c: Constants):
     """The depth camera's ``sensor_msgs/CameraInfo`` (published with each image)."""
+    assert c.camera_intrinsics is not None  # sent only with the intrinsics (ros2_link)
     return m.camera_info_msg(t_ns, c.camera, *c.camera_intrinsics)
 
 

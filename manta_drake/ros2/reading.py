@@ -63,11 +63,12 @@ def read_topics(path, topics: dict[str, tuple]) -> dict[str, Topic]:
             found = {c.topic: c for c in reader.connections}
             for topic, types in topics.items():
                 _check_topic(path, topic, types, found)
-            out = {topic: Topic(found[topic].msgtype, [], []) for topic in topics}
+            out = {topic: Topic(found[topic].msgtype, np.empty(0), []) for topic in topics}
+            times: dict[str, list[float]] = {topic: [] for topic in topics}
             for conn, log_ns, raw in reader.messages([found[t] for t in topics]):
                 msg = reader.deserialize(raw, conn.msgtype)
                 stamp = _stamp_ns(msg, log_ns)
-                out[conn.topic].t.append((stamp - reader.start_time) / 1e9)
+                times[conn.topic].append((stamp - reader.start_time) / 1e9)
                 out[conn.topic].messages.append(msg)
     except (AnyReaderError, ReaderError, OSError) as e:
         raise BagReadError(
@@ -76,7 +77,7 @@ def read_topics(path, topics: dict[str, tuple]) -> dict[str, Topic]:
     for topic, read in out.items():
         if not read.messages:
             raise BagReadError(f"{path}: topic {topic} holds no messages")
-        read.t = np.asarray(read.t, dtype=float)
+        read.t = np.asarray(times[topic], dtype=float)
     return out
 
 

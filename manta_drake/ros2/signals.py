@@ -50,7 +50,8 @@ class Constants:
     capacity_ah: float = 1.0
     cells: int = 1
     fin_links: Callable | None = None
-    camera_intrinsics: tuple | None = None  # (width, height, fx, fy, cx, cy) [px]
+    # (width, height, fx, fy, cx, cy) [px]
+    camera_intrinsics: tuple[int, int, float, float, float, float] | None = None
 
 
 # A conversion: (log, sample index, stamp [ns], constants) -> message.
@@ -65,14 +66,15 @@ class Signal:
         name: its key in the topic map.
         times: the log array of its sample times.
         arrays: the log arrays it is made of (all present, or the signal is not written).
-        types: ROS 2 type -> conversion; the first is the default.
+        types: ROS 2 type -> conversion from a log (None: the live seam only); the first is
+            the default.
         what: one line for the docs.
     """
 
     name: str
     times: str
     arrays: tuple[str, ...]
-    types: dict[str, Convert]
+    types: dict[str, Convert | None]
     what: str
 
     @property

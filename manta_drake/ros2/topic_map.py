@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses as dc
 import pathlib
 import re
+from typing import TypedDict
 
 from manta_drake.config_io import (
     ScenarioError,
@@ -27,7 +28,23 @@ DEFAULT_TOPIC_MAP = MODELS_DIR / "ros2_topics.yaml"
 # history 1 keep last, reliability 1 reliable / 2 best effort, durability 2 volatile,
 # liveliness 1 automatic; durations 0 (unspecified).
 _UNSPECIFIED = {"sec": 0, "nsec": 0}
-QOS_PROFILES = {
+
+
+class QosProfile(TypedDict):
+    """One QoS profile, as a bag's ``offered_qos_profiles`` records it."""
+
+    history: int
+    depth: int
+    reliability: int
+    durability: int
+    deadline: dict[str, int]
+    lifespan: dict[str, int]
+    liveliness: int
+    liveliness_lease_duration: dict[str, int]
+    avoid_ros_namespace_conventions: bool
+
+
+QOS_PROFILES: dict[str, QosProfile] = {
     name: {
         "history": 1,
         "depth": depth,
@@ -158,7 +175,7 @@ def check_topic_map(topic_map: TopicMap) -> None:
     missing = [name for name in SIGNALS if name not in topic_map.topics]
     if missing:
         raise TopicMapError(f"topic_map.topics: no entry for {', '.join(missing)}")
-    seen = {}
+    seen: dict[str, str] = {}  # topic -> signal
     for name, entry in topic_map.topics.items():
         _check_entry(f"topic_map.topics.{name}", name, entry)
         if entry.enabled and entry.topic in seen:

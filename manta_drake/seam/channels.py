@@ -10,12 +10,14 @@ from collections.abc import Callable
 from pydrake.systems.framework import Diagram
 
 from manta_drake.modalities import MODALITY_BY_ESTIMATE, READINGS
-from manta_drake.seam.messages import CODECS
+from manta_drake.seam.messages import CODECS, LcmMessage
 from manta_drake.seam.schedule import sample_times
 
 # The period of the controller's EnergyEstimator, the battery's only reader (a test reads
 # the built controller's and compares).
-ENERGY_ESTIMATOR_PERIOD_S = MODALITY_BY_ESTIMATE["energy_hat"].estimation.period
+_ENERGY_ESTIMATION = MODALITY_BY_ESTIMATE["energy_hat"].estimation
+assert _ENERGY_ESTIMATION is not None  # the energy modality is an estimator's
+ENERGY_ESTIMATOR_PERIOD_S = _ENERGY_ESTIMATION.period
 
 
 @dc.dataclass(frozen=True)
@@ -50,7 +52,7 @@ class Channel:
     size: int | None = None
 
     @property
-    def lcm_type(self) -> type:
+    def lcm_type(self) -> type[LcmMessage]:
         return CODECS[self.codec].lcm_type
 
 

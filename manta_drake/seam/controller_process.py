@@ -4,6 +4,7 @@ this machine's clock."""
 
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -76,7 +77,9 @@ class StationLog:
         }
         self._stamps = {name: sorted(times) for name, times in self.expected.items()}
         self._next = {c.name: 0 for c in self.channels}
-        self.log = {c.name: ([], []) for c in self.channels}
+        self.log: dict[str, tuple[list[float], list[np.ndarray]]] = {
+            c.name: ([], []) for c in self.channels
+        }
 
     def _take(self, channel, stamp) -> None:
         value = self.link.monitored[channel.name].pop(stamp)
@@ -116,14 +119,14 @@ class StationLog:
         times = self.log[channel.name][0]
         return to_utime(times[-1]) if times else None
 
-    def arrays(self) -> dict:
-        out = {}
+    def arrays(self) -> dict[str, np.ndarray]:
+        out: dict[str, np.ndarray] = {}
         for c in self.channels:
             times, values = self.log[c.name]
             if times:
                 out[f"t_{c.port}"] = np.array(times)
-                values = np.array(values)
-                out[c.port] = values.reshape(-1) if c.size == 1 else values
+                samples = np.array(values)
+                out[c.port] = samples.reshape(-1) if c.size == 1 else samples
         return out
 
 
@@ -301,8 +304,8 @@ class _ControllerRun:
 
     def on_timeout(self, waited) -> SeamError:
         self.failsafe.release("gave up")
-        skipped = self.incidents.count(kind="malformed")
-        skipped = f" ({skipped} malformed messages skipped)" if skipped else ""
+        malformed = self.incidents.count(kind="malformed")
+        skipped = f" ({malformed} malformed messages skipped)" if malformed else ""
         if self.link.last_arrival is None:
             return SeamError(
                 f"controller: nothing from the station within {waited:.1f} s; is "
@@ -362,7 +365,7 @@ class _ControllerRun:
                 wanted[CLOCK.name] = ex.utime
             if wanted:
                 got = self.link.wait_for(
-                    lambda wanted=wanted: self.link.take(wanted),
+                    functools.partial(self.link.take, wanted),
                     startup_timeout if first else self.timeout,
                     (lambda waited: None) if first else self.on_stale,
                     self.on_timeout,
@@ -438,6 +441,7 @@ class _ControllerRun:
         holding_since = None
         last_resend = 0.0
         n_steps = round(self.scenario.duration / h)
+        assert link.handshake is not None  # the Link is made with this side's hello
         while k < n_steps:
             link.poll(1)
             if link.handshake.peer_status == "finished":  # nothing more to command
@@ -448,6 +452,7 @@ class _ControllerRun:
             )
             self.station_log.take_arrived()
             now = time.monotonic()
+            assert link.last_arrival is not None  # every input has arrived once (above)
             silent = now - link.last_arrival
             if silent > failsafe_after:  # the clock stops; the safe state instead of the gait
                 holding_since, last_resend = self._hold_safe_state(

@@ -116,10 +116,11 @@ class Failsafe:
 
     def release(self, ended: str) -> None:
         """Leaves the failsafe (``ended``: "resumed" or "gave up"), saying so on resuming."""
-        if not self.active:
+        since = self._since
+        if since is None:  # not active
             return
         event = self.events[-1]
-        event.lasted_s, event.ended = time.monotonic() - self._since, ended
+        event.lasted_s, event.ended = time.monotonic() - since, ended
         self._since = None
         if ended == "resumed":
             warn(

@@ -213,6 +213,7 @@ def screen_joint_reading(x, last, ranges: SensorRanges):
     """A measured joint state: a joint whose angle or rate is non-finite or outside its
     physical range keeps its last good reading."""
     limits = ranges.joints
+    assert limits is not None, "screening joint readings needs the ranges' joint limits"
     x = np.asarray(x, dtype=float)
     n = len(limits.names)
     q, v = x[:n], x[n:]
@@ -318,6 +319,7 @@ def screen_reading(value, port: str, ranges: SensorRanges):
     channel."""
     m = _MODALITY_OF_PORT[port]
     r = m.reading
+    assert r is not None  # _MODALITY_OF_PORT holds the modalities with a sensor
     return _screen_components(
         value,
         ranges.readings[port],

@@ -280,7 +280,7 @@ class Link:
         self.monitored: dict[str, dict[int, object]] = {}
         self.newest: dict[str, int] = {}
         self.floor_utime = -1
-        self.last_arrival = None  # monotonic time of the last message received
+        self.last_arrival: float | None = None  # monotonic time of the last message received
         self.resends = 0
         self._acked_below = -1  # the peer has what we sent stamped before this
         self._error: Exception | None = None
@@ -292,7 +292,7 @@ class Link:
         self.holding: Callable[[], bool] | None = None
         for channel in subscribe:
             self._subscribe(channel, channel.name in set(monitor))
-        self.handshake = None
+        self.handshake: Handshake | None = None
         if hello is not None:
             self.handshake = Handshake(hello, transport.send_greeting, self.url, transport.medium)
             transport.listen_handshake(self._receive_hello)
@@ -346,6 +346,7 @@ class Link:
                 self.transport.why_malformed(None, data, reason),
             )
             return
+        assert self.handshake is not None  # listened to only with a hello
         self.handshake.receive(greeting)
         if self.handshake.error is not None and self._error is None:
             self._error = self.handshake.error
@@ -363,6 +364,7 @@ class Link:
                 one line, or nobody answered within ``timeout`` s.
         """
         hs = self.handshake
+        assert hs is not None, "shake_hands needs a Link made with a hello"
         start, last_send = time.monotonic(), -math.inf
         while not hs.done:
             now = time.monotonic()
@@ -377,6 +379,7 @@ class Link:
                 hs.send()
                 last_send = now
             self.poll(20)
+        assert hs.peer is not None  # done: paired
         return hs.peer
 
     def say_goodbye(self, status: str) -> None:

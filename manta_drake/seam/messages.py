@@ -8,6 +8,7 @@ import dataclasses as dc
 import sys
 import zlib
 from collections.abc import Callable
+from typing import Any, Protocol
 
 import numpy as np
 from drake import lcmt_image, lcmt_image_array, lcmt_scope
@@ -156,11 +157,23 @@ def pose_from_message(msg: lcmt_manta_pose) -> RigidTransform:
     )
 
 
+class LcmMessage(Protocol):
+    """A message of an lcm-gen class (``lcm-gen --python``): what the seam uses of it."""
+
+    def encode(self) -> bytes: ...
+
+    @staticmethod
+    def decode(data: bytes) -> Any: ...
+
+    @staticmethod
+    def _get_packed_fingerprint() -> bytes: ...
+
+
 @dc.dataclass(frozen=True)
 class Codec:
     """How one kind of port value crosses the seam."""
 
-    lcm_type: type
+    lcm_type: type[LcmMessage]
     encode: Callable  # (t, value) -> message
     decode: Callable  # message -> value
     stamp: Callable  # message -> utime

@@ -66,8 +66,11 @@ class SeamResult:
         """Writes ``<who>_log.npz`` and ``<who>_metrics.json`` into ``out_dir``."""
         out = pathlib.Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
+        # numpy's stub gives savez_compressed a keyword allow_pickle: bool beside **kwds, and
+        # mypy matches a ** of arrays against that bool too (the arrays go to **kwds).
         np.savez_compressed(
-            out / f"{self.who}_log.npz", **{k: np.asarray(v) for k, v in self.log.items()}
+            out / f"{self.who}_log.npz",
+            **{k: np.asarray(v) for k, v in self.log.items()},  # type: ignore[arg-type]
         )
         (out / f"{self.who}_metrics.json").write_text(json.dumps(self.metrics(), indent=2) + "\n")
         return out

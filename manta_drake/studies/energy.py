@@ -79,7 +79,7 @@ PARAMS = (
 )
 SHIPPED_NET_WEIGHT_KG = 0.845  # the shipped coefficients' deflated net weight, 3 decimals
 STALL_ANGLE_DEG = 15.0  # models/hydrodynamics.yaml fins.stall_angle_deg
-SHIPPED = {
+SHIPPED: dict[str, float | str] = {
     "contact.friction": 0.8,
     "hull_damping": 1.0,
     "net_weight_kg": SHIPPED_NET_WEIGHT_KG,
@@ -181,7 +181,7 @@ def band_sample(n: int = SAMPLE_POINTS, seed: int = SAMPLE_SEED) -> list[dict]:
     lend one parameter another's effect; so the values are then swapped between points
     within each column (``decorrelate``)."""
     rng = np.random.default_rng(seed)
-    columns = []
+    columns: list[list[float | str]] = []
     for lo, hi in CONTINUOUS.values():
         strata = (rng.permutation(n) + rng.uniform(size=n)) / n
         columns.append([round(float(lo + (hi - lo) * x), 3) for x in strata])
@@ -408,8 +408,9 @@ def power_budget(shipped: GaitEnergy, oat: dict) -> dict | None:
     winding resistance move the battery's terminal voltage, and with it the servos and the
     motion. Returns None without the breakdown or the 5W run."""
     mode5 = oat.get(("actuators.electronics_mode", "5W"), UNDETERMINED)
-    parts = {name: shipped.breakdown.get(column) for name, column in BUDGET_PARTS.items()}
-    if shipped.power_w is None or mode5.power_w is None or None in parts.values():
+    found = {name: shipped.breakdown.get(column) for name, column in BUDGET_PARTS.items()}
+    parts = {name: w for name, w in found.items() if w is not None}
+    if shipped.power_w is None or mode5.power_w is None or len(parts) < len(found):
         return None
     from manta_drake.model.actuators import (
         DEFAULT_ACTUATORS_FILE,
@@ -684,7 +685,7 @@ def band_stats(points) -> dict:
     for gait in GAITS:
         runs = [_get(p, gait) for p in points]
         det = [r for r in runs if r.power_w is not None]
-        entry = {
+        entry: dict[str, int | tuple | None] = {
             "n": len(runs),
             "undetermined": len(runs) - len(det),
             "no_travel": sum(1 for r in det if r.cot == math.inf),
@@ -837,7 +838,7 @@ def hours_against_table1(table: Table) -> dict:
 def driver_rows(table: Table, drv: dict) -> list[dict]:
     """The rows of the drivers' table: per parameter, its one-at-a-time ends (``end`` as
     shown, ``changes`` the change per gait) and then its rho over the band (``end`` None)."""
-    rows = []
+    rows: list[dict] = []
     for name in PARAMS:
         ends = sorted(
             {v for (n, v) in table.oat if n == name},
@@ -861,7 +862,7 @@ def stall_rows(table: Table) -> list[dict]:
     cost (quantiles), the tallies of every finding and variant, and the verdicts at the
     shipped point with that stall angle (``marks``, None without that run)."""
     at_stall = {stall_of(float(v)): p for (n, v), p in table.oat.items() if n == "stall_angle"}
-    at_stall[stall_of(SHIPPED["stall_angle"])] = table.shipped
+    at_stall[stall_of(float(SHIPPED["stall_angle"]))] = table.shipped
     everything = FINDINGS + VARIANTS
     rows = []
     for deg, points in by_stall(table.band).items():
@@ -885,14 +886,15 @@ def free_water(table: Table) -> dict | None:
     longest window, how many are short of MIN_WINDOW_S, came near a wall or touched one;
     None if no run has a window."""
     runs = _all_runs(table)
-    det = [r for r in runs if r.power_w is not None]
+    det = [r for r in runs if r.power_w is not None]  # a window's power: a window
+    spans = [r.window_s for r in det if r.window_s is not None]
     if not det:
         return None
-    windows = [r.window_s[1] - r.window_s[0] for r in det]
+    windows = [end - start for start, end in spans]
     return {
         "windowed": len(det),
         "runs": len(runs),
-        "start": min(r.window_s[0] for r in det),
+        "start": min(start for start, _ in spans),
         "shortest": min(windows),
         "longest": max(windows),
         "short": sum(1 for r in det if steady_free_water(r) is False),
@@ -1021,7 +1023,9 @@ def plot_speed_cot(table: Table, path: pathlib.Path) -> None:
         runs = [(stall_deg(k), k[mode_i], _get(p, gait)) for k, p in table.band.items()]
         runs = [(d, m, r) for d, m, r in runs if r.power_w is not None]
         ship = _get(table.shipped, gait)
-        speeds = [r.speed for _, _, r in runs] + ([ship.speed] if ship.speed else [])
+        # A run with a window's power has a speed (energy_of).
+        speeds = [r.speed for _, _, r in runs if r.speed is not None]
+        speeds += [ship.speed] if ship.speed else []
         smax = max(speeds) * 1.15 if speeds else 0.1
         for row, (field, power) in enumerate((("cot", "power_w"), ("cot_mech", "mech_w"))):
             ax = axes[row, c]

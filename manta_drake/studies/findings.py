@@ -135,12 +135,18 @@ def every_gait_forward(point: dict, gaits=FORWARD_GAITS) -> bool | None:
     return _and(moves_forward(point, g) for g in gaits)
 
 
-def walk_fastest(point: dict, others=tuple(g for g in GAITS if g != "walk")) -> bool | None:
+# The gaits walk and turning are compared with (by default).
+_NOT_WALK = tuple(g for g in GAITS if g != "walk")
+_NOT_TURNING = tuple(g for g in GAITS if g != "turning")
+
+
+def walk_fastest(point: dict, others: tuple[str, ...] = _NOT_WALK) -> bool | None:
     """Finding 2: u_walk strictly greater than u of every gait in ``others``."""
     u_walk = _get(point, "walk").u
     if u_walk is None:
         return None
-    return _and(None if _get(point, g).u is None else u_walk > _get(point, g).u for g in others)
+    us = (_get(point, g).u for g in others)
+    return _and(None if u is None else u_walk > u for u in us)
 
 
 def swim_slower_than_walk(point: dict) -> bool | None:
@@ -159,7 +165,7 @@ def crab_sideways(point: dict) -> bool | None:
     return abs(m.v) > SIDEWAYS_RATIO * abs(m.u) and abs(m.v) > V_SIDEWAYS
 
 
-def turning_turns(point: dict, others=tuple(g for g in GAITS if g != "turning")) -> bool | None:
+def turning_turns(point: dict, others: tuple[str, ...] = _NOT_TURNING) -> bool | None:
     """Finding 5: |yaw rate| of turning >= YAW_TURN and > |yaw rate| of every gait in ``others``.
 
     A turning gait that turns less than YAW_TURN fails whatever the others do."""
@@ -168,9 +174,8 @@ def turning_turns(point: dict, others=tuple(g for g in GAITS if g != "turning"))
         return None
     if abs(y) < YAW_TURN:
         return False
-    return _and(
-        None if _get(point, g).yaw is None else abs(y) > abs(_get(point, g).yaw) for g in others
-    )
+    yaws = (_get(point, g).yaw for g in others)
+    return _and(None if yaw is None else abs(y) > abs(yaw) for yaw in yaws)
 
 
 # (key, label, criterion text, function); the first five are the paper's findings.
@@ -331,7 +336,7 @@ class Tally:
 def evaluate(points: dict, findings=FINDINGS) -> tuple[list[Tally], dict]:
     """Tallies per finding and the verdicts {point: {key: True/False/None}}."""
     tallies = [Tally(key, label, text) for key, label, text, _ in findings]
-    verdicts = {}
+    verdicts: dict[object, dict[str, bool | None]] = {}
     for pt, motions in points.items():
         verdicts[pt] = {}
         for tally, (key, _, _, fn) in zip(tallies, findings):
@@ -352,7 +357,10 @@ def gait_stats(points: dict) -> dict:
     for gait in GAITS:
         ms = [p.get(gait, UNDETERMINED) for p in points.values()]
         det = [m for m in ms if m.u is not None]
-        entry = {"n": len(ms), "undetermined": len(ms) - len(det)}
+        entry: dict[str, int | tuple[float, float, float] | None] = {
+            "n": len(ms),
+            "undetermined": len(ms) - len(det),
+        }
         for field in ("u", "v", "yaw", "window_s"):
             xs = [getattr(m, field) for m in det if getattr(m, field) is not None]
             entry[field] = (statistics.median(xs), min(xs), max(xs)) if xs else None
@@ -1016,7 +1024,7 @@ class _ContactSums:
 
 
 # name: (gait, friction, damping x, net weight kg, duration s, extra overrides, gait override)
-DIAGNOSTIC_RUNS = {
+DIAGNOSTIC_RUNS: dict[str, tuple[str, float, float, float, float, dict, str | None]] = {
     # What sets the swim's speed and yaw (one band point, 10 s: steady from ~4 s).
     "swim": ("swim", 0.65, 1.0, 0.85, 10.0, {}, None),
     "swim_stall_10deg": (
@@ -1156,7 +1164,7 @@ def diagnostic_entry(name: str) -> dict:
     samples = sample_run(scenario.validate(), gait=explicit)
     window = metric_window(samples, scenario)
     entry = {
-        "run": list(DIAGNOSTIC_RUNS.get(name, SHIPPED_RUNS.get(name))),
+        "run": list(DIAGNOSTIC_RUNS[name] if name in DIAGNOSTIC_RUNS else SHIPPED_RUNS[name]),
         "wall_s": time.perf_counter() - start,
     }
     if window is not None:

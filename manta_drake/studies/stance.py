@@ -178,7 +178,8 @@ PAGE_TITLE = "The stance behind each reading of the gait matrices"
 def page_context(kin: list[dict], dyn: list[dict], table_path: str) -> dict:
     """What the block shows: per sweep (sweep, the paper row, the mirrored row) of ``kin``;
     the rows of ``dyn`` in CONFIGS' then GAITS' order (the first of each, those present)."""
-    kin_first, dyn_first = {}, {}
+    kin_first: dict[tuple[float, str], dict] = {}  # (sweep, reading) -> row
+    dyn_first: dict[tuple[str, float, str], dict] = {}  # (reading, sweep, gait) -> row
     for r in kin:
         kin_first.setdefault((r["sweep"], r["reading"]), r)
     for r in dyn:

@@ -150,31 +150,36 @@ def target_outside(blend: str, z_t: float = 1.0, z=None, s=None) -> dict:
     z = np.linspace(0.0, 1.0, 401) if z is None else np.asarray(z, dtype=float)
     s = np.linspace(0.0, 1.0, 21) if s is None else np.asarray(s, dtype=float)
     gaits = np.array([GAITS[b].to_vector() for b in BEHAVIOURS])
+    swim, trot, turning = gaits
     p_lo, p_hi = gaits.min(axis=0), gaits.max(axis=0)
     envelopes = [gait_envelope(g) for g in gaits]
     j_lo = np.min([lo for lo, _ in envelopes], axis=0)
     j_hi = np.max([hi for _, hi in envelopes], axis=0)
-    best = {
-        "params_rad": 0.0,
-        "params_at": None,
-        "param": None,
-        "joints_rad": 0.0,
-        "joints_at": None,
-        "joint": None,
-    }
+    params_rad, joints_rad = 0.0, 0.0
+    params_at: tuple[float, float] | None = None
+    joints_at: tuple[float, float] | None = None
+    param: int | None = None
+    joint: int | None = None
     for zi in z:
         for si in s:
-            psi_d = target_params(zi, si, *gaits, z_t, blend)
+            psi_d = target_params(zi, si, swim, trot, turning, z_t, blend)
             ex = np.maximum(np.maximum(p_lo - psi_d, psi_d - p_hi), 0.0)
             k = int(ex.argmax())
-            if ex[k] > best["params_rad"]:
-                best.update(params_rad=float(ex[k]), params_at=(float(zi), float(si)), param=k)
+            if ex[k] > params_rad:
+                params_rad, params_at, param = float(ex[k]), (float(zi), float(si)), k
             lo, hi = gait_envelope(psi_d)
             ex = np.maximum(np.maximum(j_lo - lo, hi - j_hi), 0.0)
             k = int(ex.argmax())
-            if ex[k] > best["joints_rad"]:
-                best.update(joints_rad=float(ex[k]), joints_at=(float(zi), float(si)), joint=k)
-    return best
+            if ex[k] > joints_rad:
+                joints_rad, joints_at, joint = float(ex[k]), (float(zi), float(si)), k
+    return {
+        "params_rad": params_rad,
+        "params_at": params_at,
+        "param": param,
+        "joints_rad": joints_rad,
+        "joints_at": joints_at,
+        "joint": joint,
+    }
 
 
 def settle_time(t, x, target, tol: float, start: float, end: float, angles: bool = True):
@@ -309,8 +314,10 @@ def target_series(z_hat, blend: str, z_t: float) -> np.ndarray:
     from manta_drake.control.gaits import GAITS
     from manta_drake.control.transition import BEHAVIOURS, target_params
 
-    gaits = [GAITS[b].to_vector() for b in BEHAVIOURS]
-    return np.array([target_params(z, 0.0, *gaits, z_t, blend) for z in np.ravel(z_hat)])
+    swim, trot, turning = (GAITS[b].to_vector() for b in BEHAVIOURS)
+    return np.array(
+        [target_params(z, 0.0, swim, trot, turning, z_t, blend) for z in np.ravel(z_hat)]
+    )
 
 
 def joint_limits(params=None) -> tuple[np.ndarray, np.ndarray]:
@@ -634,7 +641,10 @@ def with_references(rows: list[dict]) -> list[dict]:
         out += group
         steady = [r["steady"] for r in group if "steady" in r]
         if steady:
-            ref = {"method": f"*steady {src} and {dst} (ref.)*", "transition": name}
+            ref: dict[str, str | float] = {
+                "method": f"*steady {src} and {dst} (ref.)*",
+                "transition": name,
+            }
             for key in steady[0]:
                 values = [x[key] for x in steady if np.isfinite(x[key])]
                 ref[key] = max(values) if values else float("nan")
@@ -755,12 +765,14 @@ def surface_targets(rows: list[dict]) -> dict | None:
         return None
     z_hi = max(x[1] for x in surface)
     z_lo = min(x[0] for x in surface)
-    gaits = [GAITS[b].to_vector() for b in BEHAVIOURS]
+    swim, trot, turning = (GAITS[b].to_vector() for b in BEHAVIOURS)
     dev = {
-        blend: float(np.abs(wrap(target_params(z_hi, 0.0, *gaits, 1.0, blend) - gaits[0])).max())
+        blend: float(
+            np.abs(wrap(target_params(z_hi, 0.0, swim, trot, turning, 1.0, blend) - swim)).max()
+        )
         for blend in ("potential", "normalised", "linear", "switch")
     }
-    tol = SETTLE_FRACTION * np.abs(wrap(gaits[1] - gaits[0])).max()
+    tol = SETTLE_FRACTION * np.abs(wrap(trot - swim)).max()
     return {
         "z_lo": z_lo,
         "z_hi": z_hi,
@@ -827,7 +839,9 @@ def compare(n: dict, p: dict, transition: str) -> tuple[list[dict], list[dict], 
     """The normalised blend's row ``n`` against Eq. (12)'s ``p`` of one transition, on each
     of ``COMPARED`` to the digits shown: the values side by side, and its costs and gains
     (for the template's ``change``: a difference, or a time one of them does not reach)."""
-    parts, costs, gains = [], [], []
+    parts: list[dict] = []
+    costs: list[dict] = []
+    gains: list[dict] = []
     for key, what, unit, spec in COMPARED:
         a, b = _shown(n, key, spec), _shown(p, key, spec)
         shown = {"normalised": fmt(n, key, spec), "paper": fmt(p, key, spec)}

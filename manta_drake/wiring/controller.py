@@ -121,7 +121,8 @@ def balloon_schedule(scenario: Scenario) -> TrajectorySource:
     times = [0.0] + [c.time for c in scenario.balloon.schedule]
     fills = [scenario.balloon.initial_fill] + [c.fill for c in scenario.balloon.schedule]
     # Zero-order hold needs increasing breaks: keep the last command given at a time.
-    breaks, values = [], []
+    breaks: list[float] = []
+    values: list[float] = []
     for t, fill in zip(times, fills):
         if breaks and t <= breaks[-1] + 1e-9:
             values[-1] = fill

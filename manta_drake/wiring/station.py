@@ -272,6 +272,7 @@ def _add_water(
 ) -> None:
     """Balloon, hydrodynamic forces and the pressure sensor with its noise sources."""
     plant, ph, coeffs = handles.plant, handles.plant_handles, handles.coefficients
+    assert coeffs is not None  # the water is added only with its coefficients
     b = coeffs.balloon
     # The pump moves ~3 mL per 10 ms: a 10 ms update is exact enough and 10x cheaper.
     balloon = builder.AddNamedSystem(

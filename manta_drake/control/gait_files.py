@@ -139,6 +139,15 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
     Raises:
         ScenarioError: one line naming the file, the gait, the field and the problem.
     """
+    gaits = _file_gaits(data, source)
+    out: dict[str, GaitEntry] = {}
+    for name, spec in gaits.items():
+        out[name] = _parse_gait(name, spec, source, known, out)
+    return out
+
+
+def _file_gaits(data, source: str) -> dict:
+    """The ``gaits`` mapping of one file's data, the file's keys checked."""
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: expected a mapping with a 'gaits' key")
     for key in data:
@@ -151,61 +160,71 @@ def parse_gait_file(data, source: str, known: Mapping[str, GaitEntry]) -> dict[s
         raise ScenarioError(f"{source}: gaits: expected a mapping of gait names to gaits")
     if "provenance" in data and not isinstance(data["provenance"], dict):
         raise ScenarioError(f"{source}: provenance: expected a mapping")
-    out: dict[str, GaitEntry] = {}
-    for name, spec in gaits.items():
-        if not isinstance(name, str) or not _NAME.match(name) or name in RESERVED_NAMES:
+    return gaits
+
+
+def _parse_gait(
+    name, spec, source: str, known: Mapping[str, GaitEntry], earlier: Mapping[str, GaitEntry]
+) -> GaitEntry:
+    """One gait of a file, checked; ``earlier``: the gaits before it in the same file."""
+    if not isinstance(name, str) or not _NAME.match(name) or name in RESERVED_NAMES:
+        raise ScenarioError(
+            f"{source}: gaits: {short_repr(name)} is not a gait name "
+            "(letters, digits and _, not starting with a digit; not "
+            "'zero')"
+        )
+    where = f"{source}: gaits.{name}"
+    if name in known:
+        raise ScenarioError(
+            f"{where}: the name is already defined in "
+            f"{known[name].source}; gait names must be unique"
+        )
+    if not isinstance(spec, dict):
+        raise ScenarioError(f"{where}: expected a mapping with {', '.join(MATRICES)}")
+    for key in spec:
+        if key not in GAIT_KEYS:
             raise ScenarioError(
-                f"{source}: gaits: {short_repr(name)} is not a gait name "
-                "(letters, digits and _, not starting with a digit; not "
-                "'zero')"
+                f"{where}: unknown key {short_repr(key)}; allowed: {', '.join(GAIT_KEYS)}"
             )
-        where = f"{source}: gaits.{name}"
-        if name in known:
+    matrices = _gait_matrices(spec, where, known, earlier)
+    keep = spec.get("mirror_keep", [])
+    if not isinstance(keep, list) or any(k not in MIRROR_KEEPS for k in keep):
+        raise ScenarioError(
+            f"{where}.mirror_keep: {short_repr(keep)}: expected a list of "
+            f"{', '.join(MIRRORED_MATRICES)} or MATRIX.COLUMN with a "
+            f"column of {', '.join(JOINT_COLUMNS)}"
+        )
+    description = spec.get("description", "")
+    if not isinstance(description, str):
+        raise ScenarioError(f"{where}.description: expected text")
+    return GaitEntry(name, matrices, tuple(keep), source, description)
+
+
+def _gait_matrices(
+    spec: dict, where: str, known: Mapping[str, GaitEntry], earlier: Mapping[str, GaitEntry]
+) -> dict:
+    """A gait's matrices by field (radians): its own, the rest from its ``base`` (a gait of
+    ``earlier`` or ``known``)."""
+    base = spec.get("base")
+    matrices = {}
+    if base is not None:
+        if not isinstance(base, str):
             raise ScenarioError(
-                f"{where}: the name is already defined in "
-                f"{known[name].source}; gait names must be unique"
+                f"{where}.base: {short_repr(base)}: expected the name of a gait defined before it"
             )
-        if not isinstance(spec, dict):
-            raise ScenarioError(f"{where}: expected a mapping with {', '.join(MATRICES)}")
-        for key in spec:
-            if key not in GAIT_KEYS:
-                raise ScenarioError(
-                    f"{where}: unknown key {short_repr(key)}; allowed: {', '.join(GAIT_KEYS)}"
-                )
-        base = spec.get("base")
-        matrices = {}
-        if base is not None:
-            if not isinstance(base, str):
-                raise ScenarioError(
-                    f"{where}.base: {short_repr(base)}: expected the name of a "
-                    "gait defined before it"
-                )
-            parent = out.get(base) or known.get(base)
-            if parent is None:
-                raise ScenarioError(
-                    f"{where}.base: {short_repr(base)} is not a gait defined before it"
-                )
-            matrices.update(parent.matrices)
-        for m in MATRICES:
-            if m in spec:
-                matrices[FIELD_OF_MATRIX[m]] = _matrix(spec[m], f"{where}.{m}")
-            elif base is None:
-                raise ScenarioError(
-                    f"{where}: {m} missing (give all four matrices, or a "
-                    "base gait to take the missing ones from)"
-                )
-        keep = spec.get("mirror_keep", [])
-        if not isinstance(keep, list) or any(k not in MIRROR_KEEPS for k in keep):
+        parent = earlier.get(base) or known.get(base)
+        if parent is None:
+            raise ScenarioError(f"{where}.base: {short_repr(base)} is not a gait defined before it")
+        matrices.update(parent.matrices)
+    for m in MATRICES:
+        if m in spec:
+            matrices[FIELD_OF_MATRIX[m]] = _matrix(spec[m], f"{where}.{m}")
+        elif base is None:
             raise ScenarioError(
-                f"{where}.mirror_keep: {short_repr(keep)}: expected a list of "
-                f"{', '.join(MIRRORED_MATRICES)} or MATRIX.COLUMN with a "
-                f"column of {', '.join(JOINT_COLUMNS)}"
+                f"{where}: {m} missing (give all four matrices, or a "
+                "base gait to take the missing ones from)"
             )
-        description = spec.get("description", "")
-        if not isinstance(description, str):
-            raise ScenarioError(f"{where}.description: expected text")
-        out[name] = GaitEntry(name, matrices, tuple(keep), source, description)
-    return out
+    return matrices
 
 
 def load_gait_file(path, known: Mapping[str, GaitEntry] | None = None) -> dict[str, GaitEntry]:

@@ -178,6 +178,61 @@ def descent_step(psi, psi_d, g: float, T: float, alpha: float) -> np.ndarray:
     return psi - alpha * g * T * tie_broken_sine(e) * np.exp(-T * (1.0 - np.cos(e)))
 
 
+def _transition_tree(
+    tree: BehaviourTree | None, blend: str, z_t: float, behaviours, gait_reading: str
+) -> BehaviourTree:
+    """``tree`` checked, or without one the default tree of ``blend`` and ``z_t`` over the
+    three gaits ``behaviours`` of the ``gait_reading`` library."""
+    if tree is None:
+        behaviours = tuple(behaviours)
+        if len(behaviours) != 3:
+            raise ValueError(
+                f"PotentialTransition.behaviours: expected 3 gait names "
+                f"(surface, floor, wall), got {len(behaviours)}"
+            )
+        gaits = {b: get_gait(b, gait_reading).to_vector() for b in behaviours}
+        try:
+            return compile_tree(default_tree(blend, z_t, behaviours=behaviours), gaits)
+        except ValueError as e:
+            raise ValueError(f"PotentialTransition.behaviours: {e}") from None
+    if not isinstance(tree, BehaviourTree):
+        raise ValueError(
+            f"PotentialTransition.tree: expected a BehaviourTree "
+            f"(behaviour_tree.compile_tree), got {type(tree).__name__}"
+        )
+    return tree
+
+
+def _check_time_constants(taus: dict, tree: BehaviourTree) -> None:
+    """Each key of ``taus`` a modality ``tree`` reads (or s_hat), each value >= 0."""
+    for m, tau in taus.items():
+        if m != "s_hat" and m not in tree.modalities:
+            raise ValueError(
+                f"PotentialTransition.time_constants: {m!r} is not a "
+                f"modality the tree reads ({', '.join(tree.modalities)})"
+            )
+        if not (isinstance(tau, (int, float)) and np.isfinite(tau) and tau >= 0):
+            raise ValueError(
+                f"PotentialTransition.time_constants.{m}: {tau!r} must be a "
+                "finite number >= 0 (0: no filter)"
+            )
+
+
+def _initial_params(tree: BehaviourTree, initial_params) -> np.ndarray:
+    """psi at t = 0: ``initial_params`` checked, or None: the tree's first leaf gait."""
+    initial = (
+        tree.gait_vectors[tree.leaves[0]]
+        if initial_params is None
+        else np.asarray(initial_params, dtype=float)
+    )
+    if initial.shape != (NUM_CPG_PARAMS,) or not np.all(np.isfinite(initial)):
+        raise ValueError(
+            f"PotentialTransition.initial_params: expected {NUM_CPG_PARAMS} "
+            f"finite values (R, X, Phi, Phi'), got shape {initial.shape}"
+        )
+    return initial
+
+
 class PotentialTransition(LeafSystem):
     """Behaviour transition system: CPG parameters from the estimates (Eqs. 11-15).
 
@@ -250,36 +305,9 @@ class PotentialTransition(LeafSystem):
         check_parameters(
             period, g, T, alpha, z_t, blend, s_hat_time_constant, follow, "PotentialTransition"
         )
-        if tree is None:
-            behaviours = tuple(behaviours)
-            if len(behaviours) != 3:
-                raise ValueError(
-                    f"PotentialTransition.behaviours: expected 3 gait names "
-                    f"(surface, floor, wall), got {len(behaviours)}"
-                )
-            gaits = {b: get_gait(b, gait_reading).to_vector() for b in behaviours}
-            try:
-                tree = compile_tree(default_tree(blend, z_t, behaviours=behaviours), gaits)
-            except ValueError as e:
-                raise ValueError(f"PotentialTransition.behaviours: {e}") from None
-        elif not isinstance(tree, BehaviourTree):
-            raise ValueError(
-                f"PotentialTransition.tree: expected a BehaviourTree "
-                f"(behaviour_tree.compile_tree), got {type(tree).__name__}"
-            )
-        self.tree = tree
+        self.tree = tree = _transition_tree(tree, blend, z_t, behaviours, gait_reading)
         taus = {"s_hat": s_hat_time_constant, **(time_constants or {})}
-        for m, tau in taus.items():
-            if m != "s_hat" and m not in tree.modalities:
-                raise ValueError(
-                    f"PotentialTransition.time_constants: {m!r} is not a "
-                    f"modality the tree reads ({', '.join(tree.modalities)})"
-                )
-            if not (isinstance(tau, (int, float)) and np.isfinite(tau) and tau >= 0):
-                raise ValueError(
-                    f"PotentialTransition.time_constants.{m}: {tau!r} must be a "
-                    "finite number >= 0 (0: no filter)"
-                )
+        _check_time_constants(taus, tree)
         # Exact discretisation of dx/dt = (input - x) / tau over one period.
         self.time_constants = {m: float(taus.get(m, 0.0)) for m in tree.modalities}
         gains = {
@@ -290,30 +318,31 @@ class PotentialTransition(LeafSystem):
         self.alpha, self.z_t, self.blend = alpha, z_t, blend
         self.follow = follow
         self.max_step = alpha * g * T
-        initial = (
-            tree.gait_vectors[tree.leaves[0]]
-            if initial_params is None
-            else np.asarray(initial_params, dtype=float)
-        )
-        if initial.shape != (NUM_CPG_PARAMS,) or not np.all(np.isfinite(initial)):
-            raise ValueError(
-                f"PotentialTransition.initial_params: expected {NUM_CPG_PARAMS} "
-                f"finite values (R, X, Phi, Phi'), got shape {initial.shape}"
-            )
-        self._psi = self.DeclareDiscreteState(initial)
+        initial = _initial_params(tree, initial_params)
         start = {m: float((initial_values or {}).get(m, 0.0)) for m in tree.modalities}
-        # One filter state per filtered modality, from its estimate at the start.
+        self._declare_state(initial, gains, start)
+        self._declare_ports()
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+
+    def _declare_state(self, initial: np.ndarray, gains: dict[str, float], start: dict) -> None:
+        """The discrete states, in this order: psi (from ``initial``), one filter per
+        filtered modality (``gains``: modality -> gain per update; from its estimate at the
+        start), the switches' and the leaf weights (from the estimates ``start``)."""
+        self._psi = self.DeclareDiscreteState(initial)
         self._filters = {
             m: (self.DeclareDiscreteState([start[m]]), gain) for m, gain in gains.items()
         }
         self.filter_state_indices = {m: index for m, (index, _) in self._filters.items()}
-        switches = tree.initial_switch_state(start)
+        switches = self.tree.initial_switch_state(start)
         self._switches = self.DeclareDiscreteState(switches)
-        self._weights = self.DeclareDiscreteState(tree.leaf_weights(start, switches)[0])
-        self._inputs = {m: self.DeclareVectorInputPort(m, 1) for m in tree.modalities}
+        self._weights = self.DeclareDiscreteState(self.tree.leaf_weights(start, switches)[0])
+
+    def _declare_ports(self) -> None:
+        """One input per modality the tree reads (its order), then the outputs
+        ``cpg_params`` and ``behaviour_weights``."""
+        self._inputs = {m: self.DeclareVectorInputPort(m, 1) for m in self.tree.modalities}
         self.DeclareStateOutputPort("cpg_params", self._psi)
         self.DeclareStateOutputPort("behaviour_weights", self._weights)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
     def target(self, z_hat: float = 0.0, s_hat: float = 0.0, **values: float) -> np.ndarray:
         """psi_d for these estimates (switches by the threshold rule, without memory);

@@ -130,57 +130,9 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
     for i, f in enumerate(free):
         where = f"{root}[{i}]"
         matrix, r, c = parse_entry(f.entry, f"{where}.entry")
-        for key in ("low", "high"):
-            check_in_range(
-                f"{where}.{key}",
-                getattr(f, key),
-                -MAX_DEGREES,
-                MAX_DEGREES,
-                f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg",
-                error=OptimizeError,
-            )
-        low, high = float(f.low), float(f.high)
-        if not low < high:
-            raise OptimizeError(f"{where}.low: {low!r} must be below high ({high!r})")
-        if not isinstance(f.tie, list):
-            raise OptimizeError(f"{where}.tie: expected a list of entries")
-        signs = list(f.tie_signs) if f.tie_signs else [1.0] * len(f.tie)
-        if len(signs) != len(f.tie):
-            raise OptimizeError(
-                f"{where}.tie_signs: {len(signs)} signs for {len(f.tie)} tied "
-                "entries; give one sign (+1 or -1) per entry of tie, or none"
-            )
-        targets = [Target(matrix, r, c, 1.0)]
-        for j, (text, sign) in enumerate(zip(f.tie, signs)):
-            if isinstance(sign, bool) or sign not in (1, -1):
-                raise OptimizeError(f"{where}.tie_signs[{j}]: {sign!r} is not +1 or -1")
-            tm, tr, tc = parse_entry(text, f"{where}.tie[{j}]")
-            if (tm, tr, tc) == (matrix, r, c):
-                raise OptimizeError(
-                    f"{where}.tie[{j}]: {text!r} is the entry itself; a tie names another entry"
-                )
-            targets.append(Target(tm, tr, tc, float(sign), f"tie[{j}]"))
-        for t in list(targets):  # Phi' antisymmetry: [l, k] = -[k, l]
-            if t.matrix == "Phi_prime_deg":
-                partner = Target(t.matrix, t.col, t.row, -t.sign, t.field)
-                if any(
-                    (p.matrix, p.row, p.col) == (partner.matrix, partner.row, partner.col)
-                    for p in targets
-                ):
-                    raise OptimizeError(
-                        f"{where}.tie: {partner.label()} follows {t.label()} as "
-                        "its negative automatically; do not name both"
-                    )
-                targets.append(partner)
-        for j, t in enumerate(targets):
-            spot = (t.matrix, t.row, t.col)
-            field = f"{where}.entry" if j == 0 else f"{where}.tie"
-            if spot in owner:
-                raise OptimizeError(
-                    f"{field}: {t.label()} is already set by {owner[spot]}; "
-                    "each entry may follow one parameter"
-                )
-            owner[spot] = f"{where}"
+        low, high = _bounds(f, where)
+        targets = _with_partners(_entry_and_ties(f, where, matrix, r, c), where)
+        _claim(targets, owner, where)
         name = f.name or default_name(matrix, r, c)
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.]*", name) or name in names:
             raise OptimizeError(
@@ -189,6 +141,78 @@ def build_parameters(free: list[FreeEntry], root: str = "optimize.free") -> list
         names.add(name)
         out.append(Parameter(name, low, high, tuple(targets)))
     return out
+
+
+def _bounds(f: FreeEntry, where: str) -> tuple[float, float]:
+    """(low, high) of a free entry, checked: finite, within +-MAX_DEGREES, low < high."""
+    for key in ("low", "high"):
+        check_in_range(
+            f"{where}.{key}",
+            getattr(f, key),
+            -MAX_DEGREES,
+            MAX_DEGREES,
+            f"[-{MAX_DEGREES:g}, {MAX_DEGREES:g}] deg",
+            error=OptimizeError,
+        )
+    low, high = float(f.low), float(f.high)
+    if not low < high:
+        raise OptimizeError(f"{where}.low: {low!r} must be below high ({high!r})")
+    return low, high
+
+
+def _entry_and_ties(f: FreeEntry, where: str, matrix: str, r: int, c: int) -> list[Target]:
+    """The entry (sign +1) and each entry of its ``tie`` with its sign, checked."""
+    if not isinstance(f.tie, list):
+        raise OptimizeError(f"{where}.tie: expected a list of entries")
+    signs = list(f.tie_signs) if f.tie_signs else [1.0] * len(f.tie)
+    if len(signs) != len(f.tie):
+        raise OptimizeError(
+            f"{where}.tie_signs: {len(signs)} signs for {len(f.tie)} tied "
+            "entries; give one sign (+1 or -1) per entry of tie, or none"
+        )
+    targets = [Target(matrix, r, c, 1.0)]
+    for j, (text, sign) in enumerate(zip(f.tie, signs)):
+        if isinstance(sign, bool) or sign not in (1, -1):
+            raise OptimizeError(f"{where}.tie_signs[{j}]: {sign!r} is not +1 or -1")
+        tm, tr, tc = parse_entry(text, f"{where}.tie[{j}]")
+        if (tm, tr, tc) == (matrix, r, c):
+            raise OptimizeError(
+                f"{where}.tie[{j}]: {text!r} is the entry itself; a tie names another entry"
+            )
+        targets.append(Target(tm, tr, tc, float(sign), f"tie[{j}]"))
+    return targets
+
+
+def _with_partners(targets: list[Target], where: str) -> list[Target]:
+    """``targets`` and, after them, the antisymmetric partner of each Phi_prime_deg one
+    ([l, k] = -[k, l]); naming both of a pair is an error."""
+    for t in list(targets):
+        if t.matrix == "Phi_prime_deg":
+            partner = Target(t.matrix, t.col, t.row, -t.sign, t.field)
+            if any(
+                (p.matrix, p.row, p.col) == (partner.matrix, partner.row, partner.col)
+                for p in targets
+            ):
+                raise OptimizeError(
+                    f"{where}.tie: {partner.label()} follows {t.label()} as "
+                    "its negative automatically; do not name both"
+                )
+            targets.append(partner)
+    return targets
+
+
+def _claim(targets: list[Target], owner: dict[tuple, str], where: str) -> None:
+    """Records ``where`` as the setter of each target's entry in ``owner``; an entry
+    already there is an error."""
+    for j, t in enumerate(targets):
+        spot = (t.matrix, t.row, t.col)
+        field = f"{where}.entry" if j == 0 else f"{where}.tie"
+        if spot in owner:
+            raise OptimizeError(
+                f"{field}: {t.label()} is already set by {owner[spot]}; "
+                "each entry may follow one parameter"
+            )
+        owner[spot] = f"{where}"
 
 
 class ParameterSpace:

@@ -515,16 +515,7 @@ class HydrodynamicForces(LeafSystem):
         Raises:
             ValueError: naming the argument and its allowed values.
         """
-        if apply_as is not None and apply_as not in APPLY_AS:
-            raise ValueError(
-                f"HydrodynamicForces.AddToBuilder.apply_as: {apply_as!r} must be "
-                f"None or one of {', '.join(map(repr, APPLY_AS))}"
-            )
-        if apply_as == "generalized_forces" and inputs != "plant_state":
-            raise ValueError(
-                "HydrodynamicForces.AddToBuilder.apply_as: 'generalized_forces' "
-                f"needs inputs='plant_state', got inputs={inputs!r}"
-            )
+        _check_apply_as(apply_as, inputs)
         hydro = builder.AddNamedSystem(
             name,
             HydrodynamicForces(
@@ -543,11 +534,7 @@ class HydrodynamicForces(LeafSystem):
             ),
         )
         if apply_as is None:
-            apply_as = (
-                "generalized_forces"
-                if inputs == "plant_state" and update_period == 0
-                else "spatial_forces"
-            )
+            apply_as = _default_apply_as(inputs, update_period)
         _connect_to_plant(builder, plant, hydro, apply_as)
         return hydro
 
@@ -1005,6 +992,29 @@ class HydrodynamicForces(LeafSystem):
             samples[:3], samples[3:6] = V.translational(), V.rotational()
         samples[6] = context.get_time()
         self._step_fin_state(context, discrete_state, self._fin_period)
+
+
+def _check_apply_as(apply_as: str | None, inputs: str) -> None:
+    """Raises ValueError unless ``apply_as`` is None or one of APPLY_AS, and
+    ``generalized_forces`` comes with ``inputs="plant_state"``."""
+    if apply_as is not None and apply_as not in APPLY_AS:
+        raise ValueError(
+            f"HydrodynamicForces.AddToBuilder.apply_as: {apply_as!r} must be "
+            f"None or one of {', '.join(map(repr, APPLY_AS))}"
+        )
+    if apply_as == "generalized_forces" and inputs != "plant_state":
+        raise ValueError(
+            "HydrodynamicForces.AddToBuilder.apply_as: 'generalized_forces' "
+            f"needs inputs='plant_state', got inputs={inputs!r}"
+        )
+
+
+def _default_apply_as(inputs: str, update_period: float) -> str:
+    """AddToBuilder's ``apply_as=None``: generalized forces with the state input and forces
+    at every step, spatial forces otherwise (AddToBuilder says why)."""
+    return (
+        "generalized_forces" if inputs == "plant_state" and update_period == 0 else "spatial_forces"
+    )
 
 
 def _connect_to_plant(builder, plant, hydro: HydrodynamicForces, apply_as: str) -> None:

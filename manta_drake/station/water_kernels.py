@@ -111,48 +111,23 @@ def pack_tree(plant, body_indices) -> tuple[np.ndarray, np.ndarray]:
     """
     rows = {int(b): k for k, b in enumerate(body_indices)}
     world = int(plant.world_body().index())
-    inboard = {}
-    for j in plant.GetJointIndices():
-        joint = plant.get_joint(j)
-        inboard[int(joint.child_body().index())] = joint
+    inboard = _inboard_joints(plant)
     nb = len(body_indices)
     tree_i = np.zeros((nb, 4), dtype=np.int64)
     tree_f = np.zeros((nb, 27))
     for k, b in enumerate(body_indices):
         joint = inboard.get(int(b))
-        body = plant.get_body(b)
+        name = plant.get_body(b).name()
         if joint is None:
-            raise ValueError(f"hydro body {body.name()} has no inboard joint")
+            raise ValueError(f"hydro body {name} has no inboard joint")
         parent = int(joint.parent_body().index())
         if parent != world and rows.get(parent, nb) >= k:
             raise ValueError(
-                f"hydro body {body.name()}: its parent {joint.parent_body().name()} "
+                f"hydro body {name}: its parent {joint.parent_body().name()} "
                 "is not an earlier hydro body (the compiled path needs the tree)"
             )
-        kind = {
-            "weld": WELD,
-            "revolute": REVOLUTE,
-            "planar": PLANAR,
-            "quaternion_floating": QUATERNION_FLOATING,
-        }.get(joint.type_name())
-        if kind is None:
-            raise ValueError(
-                f"hydro body {body.name()}: joint type {joint.type_name()!r} is not "
-                "supported by the compiled path (weld, revolute, planar, "
-                "quaternion_floating)"
-            )
-        X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
-        X_MC = joint.frame_on_child().GetFixedPoseInBodyFrame().inverse()
-        if kind == WELD:  # a weld's own fixed X_FM folds into the parent's offset
-            X_PF = X_PF @ joint.X_FM()
-        if kind == QUATERNION_FLOATING and not (
-            np.array_equal(X_PF.GetAsMatrix4(), np.eye(4))
-            and np.array_equal(X_MC.GetAsMatrix4(), np.eye(4))
-        ):
-            raise ValueError(
-                f"hydro body {body.name()}: a floating joint with offset frames "
-                "is not supported by the compiled path"
-            )
+        kind = _joint_kind(joint, name)
+        X_PF, X_MC = _joint_frames(joint, kind, name)
         axis = joint.revolute_axis() if kind == REVOLUTE else np.zeros(3)
         tree_i[k] = (
             -1 if parent == world else rows[parent],
@@ -161,15 +136,56 @@ def pack_tree(plant, body_indices) -> tuple[np.ndarray, np.ndarray]:
             joint.velocity_start(),
         )
         tree_f[k] = np.concatenate(
-            [
-                X_PF.rotation().matrix().ravel(),
-                X_PF.translation(),
-                X_MC.rotation().matrix().ravel(),
-                X_MC.translation(),
-                axis,
-            ]
+            [X_PF.rotation().matrix().ravel(), X_PF.translation()]
+            + [X_MC.rotation().matrix().ravel(), X_MC.translation(), axis]
         )
     return tree_i, tree_f
+
+
+def _inboard_joints(plant) -> dict:
+    """Each child body's index -> the joint whose child it is."""
+    inboard = {}
+    for j in plant.GetJointIndices():
+        joint = plant.get_joint(j)
+        inboard[int(joint.child_body().index())] = joint
+    return inboard
+
+
+def _joint_kind(joint, name: str) -> int:
+    """The packed joint type (WELD, REVOLUTE, PLANAR, QUATERNION_FLOATING) of the inboard
+    joint of hydro body ``name``; ValueError for any other joint."""
+    kind = {
+        "weld": WELD,
+        "revolute": REVOLUTE,
+        "planar": PLANAR,
+        "quaternion_floating": QUATERNION_FLOATING,
+    }.get(joint.type_name())
+    if kind is None:
+        raise ValueError(
+            f"hydro body {name}: joint type {joint.type_name()!r} is not "
+            "supported by the compiled path (weld, revolute, planar, "
+            "quaternion_floating)"
+        )
+    return kind
+
+
+def _joint_frames(joint, kind: int, name: str):
+    """(X_PF, X_MC) of the inboard joint of hydro body ``name``: its frame on the parent,
+    with a weld's own fixed X_FM folded in, and the child body in its frame on the child;
+    ValueError for a floating joint with offset frames."""
+    X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
+    X_MC = joint.frame_on_child().GetFixedPoseInBodyFrame().inverse()
+    if kind == WELD:  # a weld's own fixed X_FM folds into the parent's offset
+        X_PF = X_PF @ joint.X_FM()
+    if kind == QUATERNION_FLOATING and not (
+        np.array_equal(X_PF.GetAsMatrix4(), np.eye(4))
+        and np.array_equal(X_MC.GetAsMatrix4(), np.eye(4))
+    ):
+        raise ValueError(
+            f"hydro body {name}: a floating joint with offset frames "
+            "is not supported by the compiled path"
+        )
+    return X_PF, X_MC
 
 
 # --- kernels ---------------------------------------------------------------------------------

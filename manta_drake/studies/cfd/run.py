@@ -346,10 +346,8 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False, command: 
     folder = pathlib.Path(root) / spec.name
     done = folder / RESULT
     if done.exists():
-        result = json.loads(done.read_text())
-        same = result.get("spec") == spec.to_json()  # else: a case of another definition
-        if same and (result.get("status") == "ok" or not retry_failed):
-            result["skipped"] = True
+        result = _earlier_result(done, spec, retry_failed)
+        if result is not None:
             return result
     if not openfoam_available():
         raise OpenFoamMissing(
@@ -358,8 +356,42 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False, command: 
     if folder.exists():
         shutil.rmtree(folder)  # a half-run case starts again from nothing
     folder.mkdir(parents=True)
+    result = _new_result(spec, command)
+    try:
+        cfdcase.write_case(spec, folder)
+        _run_steps(folder, result)
+        log = read_solver_log(folder / "log.simpleFoam")
+        yplus = _yplus(folder)
+        areas = json.loads((folder / "case.json").read_text())["part_areas"]
+        yavg, ymax = _area_weighted_yplus(yplus, areas)
+        result.update(summarise(folder, spec))
+        result.update(_solver_fields(result, log))
+        result.update({"yplus": yplus, "yplus_avg": yavg, "yplus_max": ymax})
+        result["status"] = "ok"
+    except (CaseFailed, subprocess.TimeoutExpired, OSError, ValueError, KeyError, IndexError) as e:
+        result["status"] = "failed"
+        result["reason"] = f"{type(e).__name__}: {' '.join(str(e).split())}"[:2000]
+    _write_result(result, done)
+    # The fields of the last iteration are kept (the result's numbers come from the
+    # function objects); the mesh's polyMesh stays for inspection.
+    return result
+
+
+def _earlier_result(done: pathlib.Path, spec: cfdcase.CaseSpec, retry_failed: bool) -> dict | None:
+    """The result at ``done``, marked ``skipped``, if it is of this ``spec`` and ok (or failed,
+    without ``retry_failed``); else None: the case runs again."""
+    result = json.loads(done.read_text())
+    same = result.get("spec") == spec.to_json()  # else: a case of another definition
+    if same and (result.get("status") == "ok" or not retry_failed):
+        result["skipped"] = True
+        return result
+    return None
+
+
+def _new_result(spec: cfdcase.CaseSpec, command: str) -> dict:
+    """A case's result as it starts: ``running``, no steps yet."""
     started = datetime.datetime.now(datetime.UTC)
-    result = {
+    return {
         "case": spec.name,
         "spec": spec.to_json(),
         "status": "running",
@@ -370,70 +402,73 @@ def run_case(spec: cfdcase.CaseSpec, root, retry_failed: bool = False, command: 
         "mesh_spec": cfdcase.dc.asdict(spec.mesh_spec),
         "steps": {},
     }
-    try:
-        cfdcase.write_case(spec, folder)
-        for step, args in (
-            ("blockMesh", ["blockMesh"]),
-            ("snappyHexMesh", ["snappyHexMesh", "-overwrite"]),
-            ("checkMesh", ["checkMesh"]),
-            ("simpleFoam", ["simpleFoam"]),
-        ):
-            info = _run_step(folder, args, f"log.{step}", watch_forces=step == "simpleFoam")
-            result["steps"][step] = info
-            if info["returncode"] != 0:
-                raise CaseFailed(
-                    f"{step} exited with {info['returncode']}: {_tail(folder / info['log'])}"
-                )
-            if step == "checkMesh":
-                result["check_mesh"] = read_check_mesh(folder / "log.checkMesh")
-                if result["check_mesh"]["cells"] == 0:
-                    raise CaseFailed("checkMesh reports no cells")
-        log = read_solver_log(folder / "log.simpleFoam")
-        if not (folder / "postProcessing/yPlus/0/yPlus.dat").exists():
-            _run_step(
-                folder, ["simpleFoam", "-postProcess", "-func", "yPlus", "-latestTime"], "log.yPlus"
+
+
+def _run_steps(folder: pathlib.Path, result: dict) -> None:
+    """Runs the meshing and the solver (STEPS) in ``folder``, each step's record into
+    ``result["steps"]`` and checkMesh's report into ``result["check_mesh"]``; CaseFailed on
+    a step that exits with an error or a mesh without cells."""
+    for step, args in (
+        ("blockMesh", ["blockMesh"]),
+        ("snappyHexMesh", ["snappyHexMesh", "-overwrite"]),
+        ("checkMesh", ["checkMesh"]),
+        ("simpleFoam", ["simpleFoam"]),
+    ):
+        info = _run_step(folder, args, f"log.{step}", watch_forces=step == "simpleFoam")
+        result["steps"][step] = info
+        if info["returncode"] != 0:
+            raise CaseFailed(
+                f"{step} exited with {info['returncode']}: {_tail(folder / info['log'])}"
             )
-        yplus_file = folder / "postProcessing/yPlus/0/yPlus.dat"
-        if not yplus_file.exists():
-            yplus_file = next(folder.glob("postProcessing/yPlus/*/yPlus.dat"), yplus_file)
-        yplus = read_yplus(yplus_file) if yplus_file.exists() else {}
-        areas = json.loads((folder / "case.json").read_text())["part_areas"]
-        yavg, ymax = _area_weighted_yplus(yplus, areas)
-        result.update(summarise(folder, spec))
-        result.update(
-            {
-                "cells": result["check_mesh"]["cells"],
-                "residuals": log["residuals"],
-                "iterations": log["iterations"],
-                "converged": log["converged"],
-                "openfoam_build": log["build"],
-                "forces_settled": result["steps"]["simpleFoam"]["stopped_forces_settled"],
-                "stopped_by": (
-                    "residuals"
-                    if log["converged"]
-                    else "forces settled"
-                    if result["steps"]["simpleFoam"]["stopped_forces_settled"]
-                    else "iteration cap"
-                ),
-                "solver_cpu_s": log["solver_cpu_s"],
-                "yplus": yplus,
-                "yplus_avg": yavg,
-                "yplus_max": ymax,
-            }
+        if step == "checkMesh":
+            result["check_mesh"] = read_check_mesh(folder / "log.checkMesh")
+            if result["check_mesh"]["cells"] == 0:
+                raise CaseFailed("checkMesh reports no cells")
+
+
+def _yplus(folder: pathlib.Path) -> dict:
+    """y+ per patch of the solution's last iteration (``read_yplus``), computed by
+    simpleFoam's yPlus function when the run did not write it; {} if there is none."""
+    if not (folder / "postProcessing/yPlus/0/yPlus.dat").exists():
+        _run_step(
+            folder, ["simpleFoam", "-postProcess", "-func", "yPlus", "-latestTime"], "log.yPlus"
         )
-        result["status"] = "ok"
-    except (CaseFailed, subprocess.TimeoutExpired, OSError, ValueError, KeyError, IndexError) as e:
-        result["status"] = "failed"
-        result["reason"] = f"{type(e).__name__}: {' '.join(str(e).split())}"[:2000]
+    yplus_file = folder / "postProcessing/yPlus/0/yPlus.dat"
+    if not yplus_file.exists():
+        yplus_file = next(folder.glob("postProcessing/yPlus/*/yPlus.dat"), yplus_file)
+    return read_yplus(yplus_file) if yplus_file.exists() else {}
+
+
+def _solver_fields(result: dict, log: dict) -> dict:
+    """The result's fields from the solver's log (``read_solver_log``) and its run: the
+    cells, residuals, iterations, whether and why it stopped, the solver's CPU time."""
+    return {
+        "cells": result["check_mesh"]["cells"],
+        "residuals": log["residuals"],
+        "iterations": log["iterations"],
+        "converged": log["converged"],
+        "openfoam_build": log["build"],
+        "forces_settled": result["steps"]["simpleFoam"]["stopped_forces_settled"],
+        "stopped_by": (
+            "residuals"
+            if log["converged"]
+            else "forces settled"
+            if result["steps"]["simpleFoam"]["stopped_forces_settled"]
+            else "iteration cap"
+        ),
+        "solver_cpu_s": log["solver_cpu_s"],
+    }
+
+
+def _write_result(result: dict, done: pathlib.Path) -> None:
+    """Adds the steps' total wall and CPU time and the finish time to ``result`` and writes
+    it to ``done`` (atomically: a kill leaves no half-written result)."""
     result["wall_s"] = round(sum(s["wall_s"] for s in result["steps"].values()), 1)
     result["cpu_s"] = round(sum(s["cpu_s"] for s in result["steps"].values()), 1)
     result["finished"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-    tmp = folder / (RESULT + ".tmp")
+    tmp = done.parent / (RESULT + ".tmp")
     tmp.write_text(json.dumps(result, indent=1))
     tmp.replace(done)
-    # The fields of the last iteration are kept (the result's numbers come from the
-    # function objects); the mesh's polyMesh stays for inspection.
-    return result
 
 
 def run_case_job(job: tuple) -> dict:

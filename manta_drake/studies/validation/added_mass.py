@@ -591,66 +591,79 @@ def plate_case(
     for which in ("proximal", "distal"):
         _, info = plate_box(which, params)
         c, s = info["chord"], info["span"]
-        ca, dnv = dnv_plate_heave(c, s, rho)
-        entry = {
-            "chord": c,
-            "span": s,
-            "aspect": max(c, s) / min(c, s),
-            "dnv_ca": ca,
-            "dnv_heave": dnv,
-            "strip_heave": strip_plate_heave(c, s, rho),
-            "strip_hinge_roll": strip_plate_hinge_roll(c, s, rho),
-            "strip_feather": strip_plate_feather(c, s, rho),
-            "dnv_hinge_roll": ca * strip_plate_hinge_roll(c, s, rho),
-            "runs": [],
-        }
+        entry = _plate_theory(c, s, rho)
         runs = [(h, params.fin_thickness) for h in sizes]
         runs += [(sizes[-1], t) for t in thicknesses if not math.isclose(t, params.fin_thickness)]
         for h, t in runs:
-            box, info = plate_box(which, params, thickness=t)
-            r = solve_added_mass(
-                box.quads(h),
-                rho,
-                label=f"{which} t={t * 1e3:.0f} mm h={h * 1e3:.0f} mm",
-                verbose=verbose,
-            )
-            A = r["matrix"]  # about the joint, link axes
-            ax = info["axes"]
-            centre = np.asarray(info["centre"])
-            entry["runs"].append(
-                {
-                    "thickness": t,
-                    "h": h,
-                    "panels": r["panels"],
-                    "seconds": r["seconds"],
-                    "heave": float(
-                        rigid_mode_translation(ax["normal"])
-                        @ A
-                        @ rigid_mode_translation(ax["normal"])
-                    ),
-                    "hinge_roll": float(
-                        rigid_mode((ax["hinge"]), (0, 0, 0))
-                        @ A
-                        @ rigid_mode(ax["hinge"], (0, 0, 0))
-                    ),
-                    "feather": float(
-                        rigid_mode(ax["span"], centre) @ A @ rigid_mode(ax["span"], centre)
-                    ),
-                    "matrix_about_joint": A.tolist(),
-                }
-            )
+            entry["runs"].append(_plate_run(which, params, h, t, rho, verbose))
         entry["elliptic"] = elliptic_plate_case(c, s, params.fin_thickness, rho, verbose)
-        fine = [r for r in entry["runs"] if math.isclose(r["h"], sizes[-1])]
-        fine.sort(key=lambda r: -r["thickness"])
-        if len(fine) >= 2:  # linear in the thickness through the two thinnest
-            a, b = fine[-2], fine[-1]
-            k = {
-                q: (a[q] - b[q]) / (a["thickness"] - b["thickness"])
-                for q in ("heave", "hinge_roll", "feather")
-            }
-            entry["thin_limit"] = {q: b[q] - k[q] * b["thickness"] for q in k}
+        thin_limit = _thin_limit(entry["runs"], sizes[-1])
+        if thin_limit is not None:
+            entry["thin_limit"] = thin_limit
         out[which] = entry
     return out
+
+
+def _plate_theory(chord: float, span: float, rho: float) -> dict:
+    """A plate's added masses by DNV-RP-H103 and by strip theory (heave, roll about its
+    hinge, feathering), and an empty list of ``runs`` for the BEM's."""
+    ca, dnv = dnv_plate_heave(chord, span, rho)
+    return {
+        "chord": chord,
+        "span": span,
+        "aspect": max(chord, span) / min(chord, span),
+        "dnv_ca": ca,
+        "dnv_heave": dnv,
+        "strip_heave": strip_plate_heave(chord, span, rho),
+        "strip_hinge_roll": strip_plate_hinge_roll(chord, span, rho),
+        "strip_feather": strip_plate_feather(chord, span, rho),
+        "dnv_hinge_roll": ca * strip_plate_hinge_roll(chord, span, rho),
+        "runs": [],
+    }
+
+
+def _plate_run(which: str, params: RobotParams, h: float, t: float, rho: float, verbose: bool):
+    """The BEM on plate ``which`` of thickness ``t`` with panels of size ``h``: its matrix
+    about the joint in the link's axes, and from it the heave, hinge roll and feathering
+    added masses."""
+    box, info = plate_box(which, params, thickness=t)
+    r = solve_added_mass(
+        box.quads(h),
+        rho,
+        label=f"{which} t={t * 1e3:.0f} mm h={h * 1e3:.0f} mm",
+        verbose=verbose,
+    )
+    A = r["matrix"]  # about the joint, link axes
+    ax = info["axes"]
+    centre = np.asarray(info["centre"])
+    heave = rigid_mode_translation(ax["normal"])
+    hinge_roll = rigid_mode(ax["hinge"], (0, 0, 0))
+    feather = rigid_mode(ax["span"], centre)
+    return {
+        "thickness": t,
+        "h": h,
+        "panels": r["panels"],
+        "seconds": r["seconds"],
+        "heave": float(heave @ A @ heave),
+        "hinge_roll": float(hinge_roll @ A @ hinge_roll),
+        "feather": float(feather @ A @ feather),
+        "matrix_about_joint": A.tolist(),
+    }
+
+
+def _thin_limit(runs: list[dict], h_fine: float) -> dict | None:
+    """The added masses at zero thickness, linear in the thickness through the two thinnest
+    runs at the panel size ``h_fine``; None with fewer than two."""
+    fine = [r for r in runs if math.isclose(r["h"], h_fine)]
+    fine.sort(key=lambda r: -r["thickness"])
+    if len(fine) < 2:
+        return None
+    a, b = fine[-2], fine[-1]
+    k = {
+        q: (a[q] - b[q]) / (a["thickness"] - b["thickness"])
+        for q in ("heave", "hinge_roll", "feather")
+    }
+    return {q: b[q] - k[q] * b["thickness"] for q in k}
 
 
 ELLIPTIC_N = (24, 32)  # 1152, 2048 panels

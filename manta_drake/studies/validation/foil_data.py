@@ -278,39 +278,8 @@ def run_case(
     dt = 1.0 / (f * steps_per_cycle)
     t = np.arange(cycles * steps_per_cycle + 1) * dt
     m = motion(strouhal, h0_over_c, theta0, psi, pivot, chord, speed, t)
-    area, c = np.array([chord]), np.array([chord])
     q = 0.5 * RHO * speed * speed * chord  # per unit span
-
-    def forces(pp):
-        return foil.prescribed_motion_forces(
-            dt,
-            m["v_mid"],
-            m["omega"],
-            m["normal"],
-            m["chord_dir"],
-            m["span_dir"],
-            area,
-            c,
-            foil_params(pp),
-        )[:, 0, :]
-
-    F = forces(p)
-    thrust = -F[:, 0]
-    power = -(F * m["v_tunnel"]).sum(axis=1)
-    ct = [x / q for x in cycle_means(thrust, steps_per_cycle)]
-    cp = cycle_means(power, steps_per_cycle)[-1] / (q * speed)
-    last = slice((cycles - 1) * steps_per_cycle, cycles * steps_per_cycle + 1)
-    kin = foil.strip_kinematics(
-        m["v_mid"][last, 0],
-        m["omega"][last, 0],
-        m["normal"][last, 0],
-        m["chord_dir"][last, 0],
-        m["span_dir"][last, 0],
-        np.full(len(t[last]), chord),
-    )
-    attached = foil.attached_fraction(
-        kin["alpha"], math.radians(p["stall_angle_deg"]), math.radians(p["stall_width_deg"])
-    )
+    F = _strip_forces(m, dt, chord, p)
     out = {
         "strouhal": strouhal,
         "h0_over_c": h0_over_c,
@@ -322,26 +291,83 @@ def run_case(
         "reduced_frequency": math.pi * f * chord / speed,
         "cycles": cycles,
         "steps_per_cycle": steps_per_cycle,
+        **_thrust_and_power(F, m["v_tunnel"], q, speed, steps_per_cycle),
+        **_last_cycle_flow(m, cycles, steps_per_cycle, chord, p),
+    }
+    if terms:
+        out["terms"] = _thrust_terms(m, dt, chord, p, F, out["ct"], q, steps_per_cycle)
+    return out
+
+
+def _strip_forces(m: dict, dt: float, chord: float, p: dict) -> np.ndarray:
+    """The strip's force (n, 3) along the motion ``m`` (``motion``) with parameters ``p``."""
+    return foil.prescribed_motion_forces(
+        dt,
+        m["v_mid"],
+        m["omega"],
+        m["normal"],
+        m["chord_dir"],
+        m["span_dir"],
+        np.array([chord]),
+        np.array([chord]),
+        foil_params(p),
+    )[:, 0, :]
+
+
+def _thrust_and_power(F, v_tunnel, q: float, speed: float, steps_per_cycle: int) -> dict:
+    """C_T, C_P and eta of the last whole cycle, and C_T's change over that cycle, from the
+    force ``F`` and the mid-chord point's velocity in the tunnel ``v_tunnel``."""
+    thrust = -F[:, 0]
+    power = -(F * v_tunnel).sum(axis=1)
+    ct = [x / q for x in cycle_means(thrust, steps_per_cycle)]
+    cp = cycle_means(power, steps_per_cycle)[-1] / (q * speed)
+    return {
         "ct": ct[-1],
         "cp": cp,
         "eta": ct[-1] / cp if cp else None,
         "ct_change_last_cycle": ct[-1] - ct[-2],
+    }
+
+
+def _last_cycle_flow(m: dict, cycles: int, steps_per_cycle: int, chord: float, p: dict) -> dict:
+    """The last cycle's peak angle of attack of the three-quarter-chord flow and its
+    cycle-mean attached share."""
+    last = slice((cycles - 1) * steps_per_cycle, cycles * steps_per_cycle + 1)
+    kin = foil.strip_kinematics(
+        m["v_mid"][last, 0],
+        m["omega"][last, 0],
+        m["normal"][last, 0],
+        m["chord_dir"][last, 0],
+        m["span_dir"][last, 0],
+        np.full(len(m["v_mid"][last]), chord),
+    )
+    attached = foil.attached_fraction(
+        kin["alpha"], math.radians(p["stall_angle_deg"]), math.radians(p["stall_width_deg"])
+    )
+    return {
         "alpha34_max_deg": math.degrees(float(np.max(kin["alpha"]))),
         "attached_mean": float(np.trapezoid(attached) / steps_per_cycle),
     }
-    if terms:
-        # Each term is linear in its coefficient with the kinematics and lag fixed.
-        share = {}
-        for name, key in (
-            ("suction", "suction_efficiency"),
-            ("separated", "cross_flow_coefficient"),
-            ("friction", "friction_coefficient"),
-        ):
-            without = -forces({**p, key: 0.0})[:, 0]
-            share[name] = cycle_means(thrust - without, steps_per_cycle)[-1] / q
-        share["circulatory"] = ct[-1] - sum(share.values())
-        out["terms"] = {k: share[k] for k in TERMS}
-    return out
+
+
+def _thrust_terms(
+    m: dict, dt: float, chord: float, p: dict, F, ct: float, q: float, steps_per_cycle: int
+) -> dict:
+    """Each term's share in the last cycle's C_T ``ct`` (TERMS order): the suction,
+    separated and friction terms by setting their coefficient to 0, the circulatory the
+    rest."""
+    # Each term is linear in its coefficient with the kinematics and lag fixed.
+    thrust = -F[:, 0]
+    share = {}
+    for name, key in (
+        ("suction", "suction_efficiency"),
+        ("separated", "cross_flow_coefficient"),
+        ("friction", "friction_coefficient"),
+    ):
+        without = -_strip_forces(m, dt, chord, {**p, key: 0.0})[:, 0]
+        share[name] = cycle_means(thrust - without, steps_per_cycle)[-1] / q
+    share["circulatory"] = ct - sum(share.values())
+    return {k: share[k] for k in TERMS}
 
 
 def garrick_rows(ks=GARRICK_K) -> list[dict]:

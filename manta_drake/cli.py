@@ -248,8 +248,9 @@ _SET_HELP = (
 )
 
 
-def _error(e: Exception) -> int:
-    """Prints an error as one line and returns the exit status 2."""
+def _error(e: BaseException) -> int:
+    """Prints an error as one line and returns the exit status 2 (the callers pass
+    exceptions, never an interruption: they report those as one)."""
     message = " ".join(str(e).split())
     if isinstance(e, MemoryError):
         message = f"out of memory{': ' + message if message else ''} (a sweep or grid too large?)"

@@ -555,6 +555,7 @@ def _run(
                     break
         except KeyboardInterrupt as e:
             interrupted = interruption(e)
+            assert interrupted is not None  # a KeyboardInterrupt is always an interruption
             failure = interrupted_failure("simulation", root_context.get_time(), interrupted)
         except (Exception, SystemExit) as e:  # noqa: BLE001 - keep the log up to the failure
             # SystemExit: a Drake abort surfacing in Python; it must not end the process
@@ -679,6 +680,7 @@ def _write_outputs(
         if handles.visualizer is not None:
             handles.visualizer.StopRecording()
             handles.visualizer.PublishRecording()
+            assert handles.meshcat is not None  # the visualizer draws in it
             write_atomic(out_dir / "recording.html", handles.meshcat.StaticHtml())
     summary = None
     if bag is not None and len(log["t"]):

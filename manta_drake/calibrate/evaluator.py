@@ -70,7 +70,7 @@ class Evaluator:
             kinds: per point, what it is for the history (``point``: one least_squares
                 evaluates; ``difference``: a finite-difference neighbour).
         """
-        kind_of = {}
+        kind_of: dict[tuple, str] = {}
         for p, kind in zip(points, kinds):
             kind_of.setdefault(self.key(p), kind)
         new = [x for x in kind_of if x not in self.cache]

@@ -119,12 +119,13 @@ def validate_calibration(config: CalibrationConfig, require_data: bool = True) -
     """Checks names, ranges and files of a calibration (values of overrides per scenario)."""
     try:
         load_coefficients(resolve_path(config.coefficients_path()))
-    except ScenarioError as e:
-        raise SweepError(f"calibration.coefficients: {e}") from None
+    except ScenarioError as err:
+        raise SweepError(f"calibration.coefficients: {err}") from None
     check_integer("calibration.seed", config.seed, 0, 2**32 - 1, error=SweepError)
     if not config.parameters:
         raise SweepError("calibration.parameters: name at least one parameter")
-    seen_params, seen_coeffs = set(), {}
+    seen_params: set[str] = set()
+    seen_coeffs: dict[str, str] = {}
     for i, p in enumerate(config.parameters):
         where = f"calibration.parameters[{i}]"
         if not p.name or p.name in seen_params:

@@ -22,7 +22,7 @@ def simulate_trajectory(scenario_yaml: str, period: float = 0.01) -> dict:
         every ``period`` s (yaw unwrapped, rad) and the mean velocities; a failed run keeps
         its trajectory up to the failure.
     """
-    out = {"status": "ok", "reason": ""}
+    out: dict[str, object] = {"status": "ok", "reason": ""}
     log, metrics = None, {}
     with tempfile.TemporaryDirectory(prefix="manta_cal_") as tmp:
         folder = pathlib.Path(tmp) / "run"  # run() stages its files beside it: inside tmp

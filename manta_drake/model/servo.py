@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+from typing import overload
 
 import numpy as np
 
@@ -44,8 +45,13 @@ from manta_drake.model.actuators import ServoConstants
 SERVO_MODELS = ("ideal", "datasheet")
 
 
-def stall_torque(servo: ServoConstants, voltage: float) -> float:
-    """tau_s = k_t N eta V / R [N m] at the bus voltage ``voltage`` [V]."""
+@overload
+def stall_torque(servo: ServoConstants, voltage: float) -> float: ...
+@overload
+def stall_torque(servo: ServoConstants, voltage: np.ndarray) -> np.ndarray: ...
+def stall_torque(servo: ServoConstants, voltage: float | np.ndarray) -> float | np.ndarray:
+    """tau_s = k_t N eta V / R [N m] at the bus voltage ``voltage`` [V] (an array of
+    voltages: element-wise)."""
     return (
         servo.torque_constant
         * servo.gear_ratio
@@ -157,11 +163,13 @@ def servo_torque(q_goal, q, qdot, servo: ServoConstants, voltage: float) -> np.n
     return np.clip(kp * error, -limit, limit) - b * np.asarray(qdot, dtype=float)
 
 
-def envelope_ratio(tau, qdot, servo: ServoConstants, voltage: float) -> np.ndarray:
+def envelope_ratio(tau, qdot, servo: ServoConstants, voltage: float | np.ndarray) -> np.ndarray:
     """|tau + b qdot| / (tau_s d_max): the duty a torque ``tau`` at joint rate ``qdot``
     needs, over the most the servo has; above 1 it is outside the torque-speed envelope
-    (element-wise)."""
-    _, limit, b = joint_gains(servo, voltage)
+    (element-wise; ``voltage`` an array broadcasts against ``tau``: a bus voltage per
+    sample). ``joint_gains``' effort limit and damping."""
+    limit = stall_torque(servo, voltage) * max_duty(servo)
+    b = back_emf_damping(servo)
     return np.abs(np.asarray(tau, dtype=float) + b * np.asarray(qdot, dtype=float)) / limit
 
 

@@ -33,6 +33,7 @@ import pathlib
 import socket
 import tempfile
 import time
+from typing import Any
 
 import numpy as np
 
@@ -54,7 +55,7 @@ def worker_name() -> str:
         return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def candidate_overrides(task: dict, gait_path: str, gait_files) -> dict:
+def candidate_overrides(task: dict, gait_path: str | os.PathLike[str], gait_files) -> dict:
     """The overrides that make the base scenario run the candidate at the task's point."""
     overrides = dict(task.get("overrides") or {})
     overrides.update(
@@ -84,7 +85,7 @@ def simulate_candidate(task: dict) -> dict:
         the log's bytes (if ``keep_log`` and the run wrote one).
     """
     start = time.perf_counter()
-    out = {
+    out: dict[str, Any] = {
         "status": "ok",
         "reason": "",
         "metrics": {},
@@ -92,8 +93,8 @@ def simulate_candidate(task: dict) -> dict:
         "log_npz": None,
         "worker": worker_name(),
     }
-    with tempfile.TemporaryDirectory(prefix="manta_opt_") as tmp:
-        tmp = pathlib.Path(tmp)
+    with tempfile.TemporaryDirectory(prefix="manta_opt_") as tmp_name:
+        tmp = pathlib.Path(tmp_name)
         gait_path = tmp / "gait.yaml"
         gait_path.write_text(task["gait_text"])
         folder = tmp / "run"  # run() stages its files beside it: inside tmp too
@@ -112,7 +113,7 @@ def simulate_candidate(task: dict) -> dict:
                 out["run"] = result.metrics
                 out["metrics"] = run_metrics(result.metrics, result.log, joint_limits(scenario))
             except SimulationError as e:
-                metrics = (
+                metrics: dict = (
                     json.loads((folder / "metrics.json").read_text())
                     if (folder / "metrics.json").is_file()
                     else {"status": "failed"}

@@ -152,6 +152,7 @@ def constraint_scale(c: Constraint) -> float:
     bound = c.min if c.min is not None else c.max
     if c.min is not None and c.max is not None:
         bound = max(abs(c.min), abs(c.max))
+    assert bound is not None  # the loader requires min or max
     return abs(bound) or 1.0
 
 

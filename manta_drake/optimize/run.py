@@ -295,6 +295,7 @@ def run_optimization(
     try:
         with interrupts_as_exceptions():
             stop = search.run_generations(runner, bar)
+            assert search.state.best is not None  # a generation was told
             search.final_rows = _final_stage(
                 problem, out_dir, search.state.best, runner, search.scenario_sha
             )
@@ -451,6 +452,7 @@ class _Search:
         )
         runner.run(todo, self.record)
         costs = self._tell(generation, jobs)
+        assert self.state.best is not None  # told: _tell set it
         _say(
             bar,
             generation_line(
@@ -472,6 +474,7 @@ class _Search:
         """Each candidate's aggregated cost (also written into its rows), told to CMA-ES;
         the best candidate updated."""
         costs = []
+        assert self.state.pending is not None  # the generation this tells
         for c in range(len(self.state.pending)):
             mine = [self.rows[j["key"]] for j in jobs if j["candidate"] == c]
             costs.append(
@@ -542,7 +545,7 @@ def violations(rows: list[dict]) -> list[str]:
     return out
 
 
-def _better(best: dict | None, generation: int, costs: list, jobs: list[dict]) -> dict | None:
+def _better(best: dict | None, generation: int, costs: list, jobs: list[dict]) -> dict:
     """The best candidate after a told generation: its best candidate if it costs less than
     ``best`` (the earlier one on a tie), else ``best``."""
     c_best = int(np.argmin(costs))
@@ -847,6 +850,7 @@ def _result(
     """The search's result from its state and the history's rows (files not yet written)."""
     spec, space = problem.spec, problem.space
     best = state.best
+    assert best is not None  # a generation was told
     start_rows = _candidate_rows(rows, 1, 0)
     start_cost = start_rows[0]["candidate_cost"] if start_rows else math.nan
     best_rows = _candidate_rows(rows, best["generation"], best["candidate"])

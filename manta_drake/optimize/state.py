@@ -24,6 +24,7 @@ import json
 import math
 import os
 import pathlib
+from typing import Any
 
 import numpy as np
 
@@ -79,7 +80,7 @@ class SearchState:
     """CMA-ES and what it was told. ``generation``: the generations asked (the last one
     pending until it is told)."""
 
-    es: object
+    es: Any  # a cma.CMAEvolutionStrategy (cma ships no type information)
     normal: Normal
     told: list = dc.field(default_factory=list)  # (candidates, costs) per generation
     pending: list | None = None  # the asked candidates (float arrays), not yet told
@@ -341,6 +342,7 @@ def _replay(path, data: dict, problem) -> SearchState:
     for generation, candidates, costs in asks:
         state.stop()  # as the search does before each ask
         state.ask()
+        assert state.pending is not None  # just asked
         if len(state.pending) != len(candidates) or any(
             np.asarray(saved, dtype=float).tobytes() != x.tobytes()
             for saved, x in zip(candidates, state.pending)
@@ -370,7 +372,9 @@ def _plain(value, limit: int) -> str:
 
 
 def _no_replay(path, data: dict, what: str) -> str:
-    theirs = data.get("versions") if isinstance(data.get("versions"), dict) else {}
+    theirs = data.get("versions")
+    if not isinstance(theirs, dict):
+        theirs = {}
     here = _versions()
     made = ", ".join(f"{k} {_plain(theirs.get(k), 24)}" for k in here)
     now = ", ".join(f"{k} {v}" for k, v in here.items())

@@ -82,7 +82,9 @@ def read_done(run_dir: pathlib.Path) -> dict | None:
         return None
     if record["status"] == "error" and is_infrastructure_error(str(record.get("reason", ""))):
         return None
-    run = record.get("run") if isinstance(record.get("run"), dict) else {}
+    run = record.get("run")
+    if not isinstance(run, dict):
+        run = {}
     if run.get("log_npz", record["status"] == "ok") and not (run_dir / "log.npz").is_file():
         return None
     return record
@@ -145,7 +147,7 @@ def flatten_metrics(metrics: dict) -> dict:
     (``energy.cot_electrical_dry_weight``); ``scenario``, ``status``, ``reason`` and ``run`` are
     left out (the table has them elsewhere).
     """
-    out = {}
+    out: dict[str, object] = {}
     for key, value in metrics.items():
         if key in ("scenario", "status", "reason", "run"):
             continue

@@ -153,7 +153,9 @@ def run_sweep(
     finally:
         if bar is not None:
             bar.close()
-    columns, rows = table.update(force=True)
+    table_now = table.update(force=True)
+    assert table_now is not None  # forced: always written
+    columns, rows = table_now
     figure = (
         write_summary_figure(out_dir / "summary.png", rows, parameter_names(config), config.name)
         if rows

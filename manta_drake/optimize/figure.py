@@ -74,7 +74,7 @@ def _generation_series(table: list[dict], space) -> dict:
     best_so_far, gen_best, gen_median, failed = [], [], [], []
     running = np.inf
     best_x = []
-    best_entry = None
+    best_entry: dict | None = None
     for g in gens:
         mine = [e for e in table if e["generation"] == g]
         good = [e["cost"] for e in mine if not e["failed"]]
@@ -82,7 +82,7 @@ def _generation_series(table: list[dict], space) -> dict:
         gen_best.append(min(good) if good else np.nan)
         gen_median.append(float(np.median(good)) if good else np.nan)
         top = min(mine, key=lambda e: e["cost"])
-        if top["cost"] < running:
+        if best_entry is None or top["cost"] < running:  # a nan cost still names a best
             running, best_entry = top["cost"], top
         best_so_far.append(running)
         best_x.append(space.to_unit(best_entry["degrees"]))

@@ -320,29 +320,32 @@ class PotentialTransition(LeafSystem):
         self.max_step = alpha * g * T
         initial = _initial_params(tree, initial_params)
         start = {m: float((initial_values or {}).get(m, 0.0)) for m in tree.modalities}
-        self._declare_state(initial, gains, start)
-        self._declare_ports()
+        self._psi, self._filters, self._switches, self._weights = self._declare_state(
+            initial, gains, start
+        )
+        self.filter_state_indices = {m: index for m, (index, _) in self._filters.items()}
+        self._inputs = self._declare_ports()
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
-    def _declare_state(self, initial: np.ndarray, gains: dict[str, float], start: dict) -> None:
-        """The discrete states, in this order: psi (from ``initial``), one filter per
+    def _declare_state(self, initial: np.ndarray, gains: dict[str, float], start: dict):
+        """Declares the discrete states, in this order: psi (from ``initial``), one filter per
         filtered modality (``gains``: modality -> gain per update; from its estimate at the
-        start), the switches' and the leaf weights (from the estimates ``start``)."""
-        self._psi = self.DeclareDiscreteState(initial)
-        self._filters = {
-            m: (self.DeclareDiscreteState([start[m]]), gain) for m, gain in gains.items()
-        }
-        self.filter_state_indices = {m: index for m, (index, _) in self._filters.items()}
+        start), the switches' and the leaf weights (from the estimates ``start``); returns
+        (psi, {modality: (filter state, gain)}, switches, weights), the state indices."""
+        psi = self.DeclareDiscreteState(initial)
+        filters = {m: (self.DeclareDiscreteState([start[m]]), gain) for m, gain in gains.items()}
         switches = self.tree.initial_switch_state(start)
-        self._switches = self.DeclareDiscreteState(switches)
-        self._weights = self.DeclareDiscreteState(self.tree.leaf_weights(start, switches)[0])
+        switch_state = self.DeclareDiscreteState(switches)
+        weights = self.DeclareDiscreteState(self.tree.leaf_weights(start, switches)[0])
+        return psi, filters, switch_state, weights
 
-    def _declare_ports(self) -> None:
-        """One input per modality the tree reads (its order), then the outputs
-        ``cpg_params`` and ``behaviour_weights``."""
-        self._inputs = {m: self.DeclareVectorInputPort(m, 1) for m in self.tree.modalities}
+    def _declare_ports(self) -> dict:
+        """Declares one input per modality the tree reads (its order), then the outputs
+        ``cpg_params`` and ``behaviour_weights``; returns the inputs by modality."""
+        inputs = {m: self.DeclareVectorInputPort(m, 1) for m in self.tree.modalities}
         self.DeclareStateOutputPort("cpg_params", self._psi)
         self.DeclareStateOutputPort("behaviour_weights", self._weights)
+        return inputs
 
     def target(self, z_hat: float = 0.0, s_hat: float = 0.0, **values: float) -> np.ndarray:
         """psi_d for these estimates (switches by the threshold rule, without memory);

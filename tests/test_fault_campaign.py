@@ -27,7 +27,8 @@ def test_draws_are_seeded_and_well_formed(fc):
             assert 0.5e-3 <= o["time_step"] <= 2e-3
             assert o["simulator.max_step_size"] == o["time_step"]
         if "current" in spec["faults"] and "current_over" not in spec["faults"]:
-            assert math.hypot(*o["water.current"]) <= 0.3 + 1e-9
+            (key,) = o["water.current_schedule"]  # a constant: the schedule's one key
+            assert key["time"] == 0.0 and math.hypot(*key["velocity"]) <= 0.3 + 1e-9
 
 
 @pytest.mark.slow
@@ -36,10 +37,16 @@ def test_rows_in_process(fc, tmp_path):
         fc.make_spec(
             0,
             "locomotion_swim",
-            {"water.current": [0.1, -0.05, 0.0], "pressure_sensor.dropout_rate": 0.3},
+            {
+                "water.current_schedule": [{"time": 0.0, "velocity": [0.1, -0.05, 0.0]}],
+                "pressure_sensor.dropout_rate": 0.3,
+            },
         ),
         fc.make_spec(
-            1, "locomotion_trot", {"water.current": [1.2, 0.3, 0.0]}, expect=["water.current"]
+            1,
+            "locomotion_trot",
+            {"water.current_schedule": [{"time": 0.0, "velocity": [1.2, 0.3, 0.0]}]},
+            expect=["water.current_schedule"],
         ),
         fc.make_spec(
             2, "float_sink", {"camera.depth_noise_std": 0.05}, expect=["camera.depth_noise_std"]
@@ -63,7 +70,7 @@ def test_rows_in_process(fc, tmp_path):
         assert math.isfinite(ok[key]), key
     assert ok["sim_time_reached_s"] == pytest.approx(0.3)
     for row, field in (
-        (current, "water.current"),
+        (current, "water.current_schedule[0].velocity"),
         (depth, "camera.depth_noise_std"),
         (wall, "initial_pose"),
     ):

@@ -4,7 +4,7 @@ Every run starts from a shipped scenario chosen at random (camera runs are slowe
 kept to a small share) and draws faults from a seeded numpy Generator:
 
 * water currents up to 0.3 m/s in random 3-D directions, and a few above the 1 m/s the
-  scenario allows (they must be refused, naming ``water.current``);
+  scenario allows (they must be refused, naming ``water.current_schedule``);
 * hydrodynamic coefficient scales x0.5-1.5 on random subsets of the coefficient file's
   entries (``water.coefficient_scales``), and a few bad ones (a negative factor, an
   unknown name: must be refused); a scale that leaves ``fins.strips_per_plate`` a
@@ -243,15 +243,22 @@ def draw_spec(rng, run: int, duration: float | None, coeff_names, bases: dict) -
     }
 
 
+def _constant_current(velocity) -> list[dict]:
+    """A constant current as the schedule's one key (``water.current_schedule``)."""
+    return [{"time": 0.0, "velocity": [_r(c) for c in velocity]}]
+
+
 def _draw_current(rng, d: _Drawn, water: bool) -> None:
     """A current up to 0.3 m/s (with water), and sometimes one beyond the allowed 1 m/s."""
     if water and rng.random() < P["current"]:
-        d.o["water.current"] = [_r(c) for c in rng.uniform(0.0, 0.3) * np.array(_unit_vector(rng))]
+        velocity = rng.uniform(0.0, 0.3) * np.array(_unit_vector(rng))
+        d.o["water.current_schedule"] = _constant_current(velocity)
         d.faults.append("current")
     if rng.random() < P["current_over"]:
-        d.o["water.current"] = [_r(c) for c in rng.uniform(1.05, 3.0) * np.array(_unit_vector(rng))]
+        velocity = rng.uniform(1.05, 3.0) * np.array(_unit_vector(rng))
+        d.o["water.current_schedule"] = _constant_current(velocity)
         d.faults.append("current_over")
-        d.expect.append("water.current")
+        d.expect.append("water.current_schedule")
 
 
 def _draw_scales(rng, d: _Drawn, coeff_names) -> None:
@@ -784,7 +791,8 @@ def _read_json(path) -> dict:
 def spec_columns(spec: dict) -> dict:
     """The drawn faults as flat CSV columns."""
     o = spec["overrides"]
-    cur = o.get("water.current")
+    schedule = o.get("water.current_schedule")
+    cur = schedule[0]["velocity"] if schedule else None
     return {
         "run": spec["run"],
         "base": spec["base"],

@@ -365,3 +365,33 @@ def test_runs_dir_holds_the_campaign_and_runs_is_the_count(tmp_path, capsys):
     with pytest.raises(ScenarioError, match=r"unrecognized arguments: --out .* \(see --help\)$"):
         main([*argv, "--out", str(tmp_path / "x")], prog="manta-drake study faults")
     assert not (tmp_path / "x").exists()
+
+
+def test_a_second_call_keeps_the_finished_runs_and_runs_the_rest(fc, tmp_path):
+    """A restart reuses each run whose folder holds its row and the spec's own scenario
+    file, and runs again one whose spec changed or whose row is missing."""
+    over = {"water.current_schedule": [{"time": 0.0, "velocity": [1.2, 0.0, 0.0]}]}
+    specs = [
+        fc.make_spec(i, "locomotion_swim", over, expect=["water.current_schedule"])
+        for i in range(3)
+    ]
+    lines: list[str] = []
+    first = fc.run_campaign(specs, tmp_path, workers=0, echo=lines.append)
+    assert [r["outcome"] for r in first] == ["refused"] * 3
+    marker = tmp_path / "runs" / "run_0000" / "started.json"
+    started = marker.read_text()
+    (tmp_path / "runs" / "run_0001" / "row.json").unlink()  # ended without its row
+    changed = dict(specs[2], overrides={**over, "duration": 0.5})  # another draw
+    lines.clear()
+    second = fc.run_campaign([specs[0], specs[1], changed], tmp_path, workers=0, echo=lines.append)
+    assert marker.read_text() == started  # run 0 did not run again
+    assert [("(earlier)" in line) for line in lines[:3]] == [True, False, False]
+    assert second[0]["from_earlier_call"] is True and "from_earlier_call" not in second[1]
+    assert second[0]["message"] == first[0]["message"]
+    assert "duration: 0.5" in (tmp_path / "runs" / "run_0002" / "scenario.yaml").read_text()
+    summary = fc.summarise(second, wall_time=12.0)
+    assert summary["outcomes"]["refused"] == 3
+    summary["runs_from_earlier_call"] = 1
+    assert "campaign 12 s (this call; runs from an earlier call: 1)," in fc.format_summary(summary)
+    fresh = fc.run_campaign(specs, tmp_path, workers=0, echo=lines.append, resume=False)
+    assert marker.read_text() != started and not any("from_earlier_call" in r for r in fresh)

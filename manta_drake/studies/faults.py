@@ -682,7 +682,7 @@ def _worker_address() -> str | None:
 def run_one(spec: dict, out_root: str) -> dict:
     """Runs one spec and returns its row. Never raises for a run's own failure: every
     exception is classified into the row (so only a dying process escapes)."""
-    run_dir = pathlib.Path(out_root) / "runs" / f"run_{spec['run']:04d}"
+    run_dir = _run_dir(pathlib.Path(out_root), spec["run"])
     _mark_started(spec, run_dir)
     if spec.get("inject_crash"):  # harness self-test: a segfault in this process
         import ctypes
@@ -905,7 +905,7 @@ def finish_row(spec: dict, row: dict) -> dict:
 
 
 def _marker(out_dir: pathlib.Path, run: int) -> dict | None:
-    return _read_json(out_dir / "runs" / f"run_{run:04d}" / "started.json") or None
+    return _read_json(_run_dir(out_dir, run) / "started.json") or None
 
 
 def _end_worker(client, marker: dict) -> None:
@@ -925,6 +925,7 @@ def run_campaign(
     run_timeout: float = 600.0,
     echo=print,
     scheduler: str | None = None,
+    resume: bool = True,
 ) -> list[dict]:
     """Runs every spec and returns the rows in run order.
 
@@ -936,30 +937,62 @@ def run_campaign(
         run_timeout: wall seconds after which a run's worker is ended (a timeout).
         echo: prints one line per finished run.
         scheduler: a running Dask scheduler's address instead of a local cluster.
+        resume: keep the rows of the runs an earlier call finished in ``out_dir``
+            (``finished_rows``) and run the rest; False: run every spec again.
     """
     out_dir = pathlib.Path(out_dir)
+    finished = finished_rows(specs, out_dir) if resume else {}
     for spec in specs:
-        shutil.rmtree(out_dir / "runs" / f"run_{spec['run']:04d}", ignore_errors=True)
+        if spec["run"] not in finished:
+            shutil.rmtree(_run_dir(out_dir, spec["run"]), ignore_errors=True)
     rows: dict[int, dict] = {}
     t_start = time.perf_counter()
 
-    def done(spec, row):
+    def done(spec, row, how=""):
         rows[spec["run"]] = r = finish_row(spec, row)
         echo(
             f"[{len(rows):4d}/{len(specs)}] run {spec['run']:4d} {spec['base']:<18} "
-            f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s  {r['cause'][:70]}"
+            f"{r['outcome']:<12} {r['wall_time_s']:6.1f} s{how}  {r['cause'][:70]}"
         )
 
+    for spec in specs:
+        if spec["run"] in finished:
+            done(spec, {**finished[spec["run"]], "from_earlier_call": True}, " (earlier)")
+    specs_left = [s for s in specs if s["run"] not in finished]
     if workers == 0 and not scheduler:
-        for spec in specs:
+        for spec in specs_left:
             try:
                 done(spec, run_one(spec, str(out_dir)))
             except Exception as e:  # noqa: BLE001 - the harness itself
                 done(spec, _harness_row("exception", type(e).__name__, str(e)))
         return [rows[s["run"]] for s in specs]
-    _run_on_cluster(specs, out_dir, workers, run_timeout, scheduler, done)
+    if specs_left:
+        _run_on_cluster(specs_left, out_dir, workers, run_timeout, scheduler, done)
     echo(f"campaign wall time {time.perf_counter() - t_start:.0f} s")
     return [rows[s["run"]] for s in specs]
+
+
+def _run_dir(out_dir: pathlib.Path, run: int) -> pathlib.Path:
+    return out_dir / "runs" / f"run_{run:04d}"
+
+
+def finished_rows(specs: list[dict], out_dir) -> dict[int, dict]:
+    """The rows of the runs an earlier call of the same campaign finished in ``out_dir``:
+    each run folder holding a ``row.json`` (the run's worker wrote it as the run ended)
+    beside the ``scenario.yaml`` this spec writes, byte for byte (so another seed, count,
+    duration or version of the draws runs again). Rows the harness made (a crash, a timeout)
+    are not in a ``row.json``: those runs run again."""
+    found: dict[int, dict] = {}
+    for spec in specs:
+        run_dir = _run_dir(pathlib.Path(out_dir), spec["run"])
+        try:
+            same = (run_dir / "scenario.yaml").read_text() == scenario_yaml(spec)
+            row = json.loads((run_dir / "row.json").read_text()) if same else None
+        except (OSError, ValueError):
+            continue
+        if isinstance(row, dict) and row.get("outcome") in OUTCOMES:
+            found[spec["run"]] = row
+    return found
 
 
 def _harness_row(outcome: str, cause: str, message: str, wall: float = 0.0, **extra) -> dict:
@@ -1085,7 +1118,7 @@ class _Tasks:
                 run not in self.killed
                 and marker
                 and now - marker["time"] > self.run_timeout
-                and not (self.out_dir / "runs" / f"run_{run:04d}" / "row.json").exists()
+                and not (_run_dir(self.out_dir, run) / "row.json").exists()
             ):
                 self.killed[run] = f"no result after {self.run_timeout:.0f} s; worker killed"
                 _end_worker(self.client, marker)
@@ -1361,6 +1394,12 @@ def _parser(prog):
         f"{RUN_TIMEOUT_RANGE_S[0]:g} to {RUN_TIMEOUT_RANGE_S[1]:g})",
     )
     ap.add_argument(
+        "--fresh",
+        action="store_true",
+        help="run every run again (default: keep the runs an earlier call of the same "
+        "campaign finished in --runs-dir)",
+    )
+    ap.add_argument(
         "--check",
         action="store_true",
         help="exit 1 on a crash, timeout, silent NaN or unexpected exception type",
@@ -1410,9 +1449,11 @@ def main(argv=None, prog=None) -> int:
         workers=args.workers,
         run_timeout=args.run_timeout,
         scheduler=args.scheduler,
+        resume=not args.fresh,
     )
     summary = summarise(rows, time.perf_counter() - t0)
     summary["seed"], summary["workers"] = args.seed, args.workers
+    summary["runs_from_earlier_call"] = sum(bool(r.get("from_earlier_call")) for r in rows)
     if args.scheduler:
         summary["scheduler"] = args.scheduler
     write_outputs(rows, summary, runs_dir)

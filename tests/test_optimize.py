@@ -9,6 +9,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import subprocess
 import sys
 import time
@@ -1184,3 +1185,58 @@ def test_provenance_names_the_spec_inside_the_checkout_relatively(tmp_path):
     )
     outside = tmp_path / "spec.yaml"
     assert spec_path_text(outside) == str(outside.resolve())
+
+
+def test_a_window_a_wall_cuts_under_min_window_is_unscored(tmp_path):
+    """budget.min_window: a run whose steady window ends near a wall before it (3 s of the
+    scenario's window) is unscored, with where its window ended; a full window is scored."""
+    spec = write(
+        tmp_path / "q.yaml",
+        QUADRATIC_SPEC.replace(
+            "budget: {generations: 3, population: 6, sigma0: 0.3}",
+            "budget: {generations: 1, population: 6, sigma0: 0.3, duration: 20, "
+            "steady_after: 6, min_window: 10}",
+        ),
+    )
+
+    def evaluate(task):
+        out = quadratic(task)
+        near = 9.0 if task["parameters"]["Phi_prime_deg.fl.fr"] < 270.0 else None
+        out["run"] = {"steady_window_s": [6.0, near or 20.0], "near_wall_at_s": near}
+        return out
+
+    run_optimization(load_problem(spec), tmp_path / "out", evaluate=evaluate, progress=False)
+    rows = read_history(tmp_path / "out" / "history.csv")
+    short = [r for r in rows if r["Phi_prime_deg.fl.fr"] < 270.0]
+    full = [r for r in rows if r["Phi_prime_deg.fl.fr"] >= 270.0]
+    assert short and full
+    for r in short:
+        assert r["status"] == "unscored" and r["cost"] == 1e6 and r["u"] is None
+        assert r["reason"] == (
+            "no value of u (steady window 6-9 s (3 s, ending near a wall at 9 s) is under "
+            "budget.min_window 10 s)"
+        )
+    assert all(r["status"] == "ok" and r["u"] is not None for r in full)
+
+
+@pytest.mark.parametrize(
+    "budget, message",
+    [
+        (
+            "{duration: 20, steady_after: 6, min_window: 15}",
+            "optimize.budget.min_window: 15 is outside the allowed range [1, 14] s (at most "
+            "the runs' steady window, duration 20 s from steady_after 6 s)",
+        ),
+        ("{duration: 20, steady_after: 6, min_window: 0.5}", "min_window: 0.5 is outside"),
+        ("{min_window: -1}", "optimize.budget.min_window: -1 is outside the allowed range"),
+    ],
+)
+def test_a_min_window_no_run_can_give_is_refused(tmp_path, budget, message):
+    spec = write(
+        tmp_path / "q.yaml",
+        QUADRATIC_SPEC.replace(
+            "budget: {generations: 3, population: 6, sigma0: 0.3}", f"budget: {budget}"
+        ),
+    )
+    with pytest.raises(OptimizeError, match=re.escape(message)):
+        load_problem(spec)

@@ -218,7 +218,7 @@ def _check_budget_value(where: str, field: str, value) -> None:
             check_in_range(
                 where, value, 0.0, 3600.0, "(0, 3600] s", open_low=True, error=OptimizeError
             )
-    elif field == "steady_after" and value is not None:
+    elif field in ("steady_after", "min_window") and value is not None:
         check_in_range(where, value, 0.0, 3600.0, "[0, 3600] s", error=OptimizeError)
 
 
@@ -337,6 +337,24 @@ def _check_steady_window(spec: OptimizeSpec, base: Scenario) -> None:
     )
 
 
+def _check_min_window(spec: OptimizeSpec, base: Scenario) -> None:
+    """``budget.min_window`` within what a run that meets no wall gives: from the shortest
+    window a mean is reported over to the whole window, duration - steady_after."""
+    wanted = spec.budget.min_window
+    if wanted is None:
+        return
+    window = base.duration - min(base.steady_after, 0.5 * base.duration)
+    check_in_range(
+        f"{ROOT}.budget.min_window",
+        wanted,
+        MIN_STEADY_WINDOW,
+        window,
+        f"[{MIN_STEADY_WINDOW:g}, {window:g}] s (at most the runs' steady window, duration "
+        f"{base.duration:g} s from steady_after {min(base.steady_after, 0.5 * base.duration):g} s)",
+        error=OptimizeError,
+    )
+
+
 def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     """Checks a spec (every field, in file order) and resolves its scenario and points."""
     sets = dict(sets or {})
@@ -348,7 +366,7 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     scenario_path = _scenario_path(spec)
     _check_keys_of(spec.overrides, f"{ROOT}.overrides", setup=True)
     _check_keys_of(sets, "--set", setup=True)
-    for field in ("generations", "population", "sigma0", "duration", "steady_after"):
+    for field in ("generations", "population", "sigma0", "duration", "steady_after", "min_window"):
         _check_budget_value(f"{ROOT}.budget.{field}", field, getattr(spec.budget, field))
     check_integer(f"{ROOT}.seed", spec.seed, 0, 2**32 - 1, error=OptimizeError)
     # The base scenario: the file, the spec's overrides, --set, the budget's times.
@@ -395,6 +413,7 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
     _validate_front(spec)
     _validate_objective(spec.objective, front=bool(spec.front))
     _check_steady_window(spec, base)
+    _check_min_window(spec, base)
     r = spec.robustness
     if not isinstance(r.points, list):
         raise OptimizeError(f"{ROOT}.robustness.points: expected a list of mappings")

@@ -55,6 +55,7 @@ from manta_drake.optimize.history import (
 from manta_drake.optimize.loading import Problem, load_problem
 from manta_drake.optimize.objective import (
     METRICS,
+    STEADY_METRICS,
     aggregate,
     constraint_violation,
     score,
@@ -628,6 +629,10 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     status = short_reason(outcome.get("status", "error"))[:80]
     reason = short_reason(outcome.get("reason", ""))
     touched = bool(outcome.get("touched_wall", False))
+    short = short_window(outcome.get("run") or {}, spec.budget.min_window)
+    if status == "ok" and short:
+        values.update(dict.fromkeys(STEADY_METRICS))
+        reason = short
     s = score(spec.objective, status, values, touched, reason)
     if s.failed and status == "ok":
         # The run ran, but without a metric the objective needs: no score, no gait.
@@ -651,6 +656,25 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
         ),
     )
     return row
+
+
+def short_window(run: dict, min_window: float | None) -> str:
+    """Why a run's steady window is too short to score (``budget.min_window``), or ''.
+
+    ``run`` is the run's metrics.json: its ``steady_window_s`` ends where the hull first
+    came near a wall (``near_wall_at_s``) or at the run's end."""
+    window = run.get("steady_window_s")
+    if min_window is None or not window:
+        return ""
+    length = float(window[1]) - float(window[0])
+    if length >= min_window:
+        return ""
+    near = run.get("near_wall_at_s")
+    where = f"near a wall at {near:.3g} s" if near is not None else "at the run's end"
+    return (
+        f"steady window {window[0]:.3g}-{window[1]:.3g} s ({length:.3g} s, ending {where}) is "
+        f"under budget.min_window {min_window:g} s"
+    )
 
 
 def _record(row: dict, outcome: dict, space) -> dict:

@@ -92,13 +92,16 @@ class HeldOut:
 @dc.dataclass
 class Budget:
     """How much to search. ``sigma0``: CMA-ES's initial step, a fraction of each bound's
-    width; ``duration``/``steady_after`` [s]: of every simulation (None: the scenario's)."""
+    width; ``duration``/``steady_after`` [s]: of every simulation (None: the scenario's);
+    ``min_window`` [s]: the shortest steady window a simulation is scored on (a window a wall
+    cuts shorter leaves it unscored; None: ``simulate.MIN_STEADY_WINDOW``)."""
 
     generations: int = 10
     population: int = 8
     sigma0: float = 0.2
     duration: float | None = None
     steady_after: float | None = None
+    min_window: float | None = None
 
 
 @dc.dataclass

@@ -239,7 +239,7 @@ class HydrodynamicForces(LeafSystem):
         self._plant_state = inputs == "plant_state"
         self._compiled = backend == "compiled"
         self._nq, self._nv = plant.num_positions(), plant.num_velocities()
-        body_index, added, el = self._fix_parameters(
+        self._fixed_values, body_index, added, el = self._fix_parameters(
             plant,
             robot,
             coeffs,
@@ -253,7 +253,15 @@ class HydrodynamicForces(LeafSystem):
             inputs=inputs,
             backend=backend,
         )
-        self._pack_kernels(coeffs, el, added, len(body_index))
+        self._strip_to_body = _frozen(np.eye(len(body_index))[:, el["strip_body"]])
+        self._foil_reference_args, self._foil_packed = (
+            self._pack_foil(coeffs, el, added) if self._foil else (None, None)
+        )
+        self._packed = self._pack_kernels(el)
+        # The per-evaluation parameter vector of a time-varying current, and a view of its
+        # current's slot: ``current_at`` writes three floats into it, nothing is allocated.
+        self._prm_now = self._packed[3].copy()
+        self._current_slot = self._prm_now[K.P_CURRENT : K.P_CURRENT + 3]
         self._make_scratch_forces(body_index)
         self._declare_state()
         self._declare_kinematics_inputs(plant, body_index)
@@ -268,9 +276,9 @@ class HydrodynamicForces(LeafSystem):
     def _fix_parameters(
         self, plant, robot, coeffs, params, added_mass_iso, fin_model, **choices
     ) -> tuple:
-        """Fixes every read-only parameter (``_fixed``): the checked ``choices`` and the
-        water's, from the coefficients and the plant. Returns (the bodies' BodyIndex
-        values, the fins' added-mass bodies or None, the elements as built)."""
+        """Every read-only parameter (``_fixed``): the checked ``choices`` and the water's,
+        from the coefficients and the plant. Returns (those parameters, the bodies'
+        BodyIndex values, the fins' added-mass bodies or None, the elements as built)."""
         body_index, added = _force_bodies(plant, robot, self._foil)
         nb = len(body_index)  # the hydro bodies, then the fins' added-mass bodies
         el = build_elements(coeffs, params)
@@ -289,7 +297,7 @@ class HydrodynamicForces(LeafSystem):
             residual_added_inertia, inertia, ("roll", "pitch", "yaw"), "kg m^2"
         )
         fins = coeffs.fins
-        self._fixed_values = {
+        fixed = {
             "rho": float(coeffs.water_density.value),
             "g": float(coeffs.gravity.value),
             **choices,  # current, current_schedule, time_step, update_period, inputs, backend
@@ -310,18 +318,14 @@ class HydrodynamicForces(LeafSystem):
             "effective_inertia": _frozen(inertia),
             "fin_model": fin_model,
         }
-        return body_index, added, el
+        return fixed, body_index, added, el
 
-    def _pack_kernels(self, coeffs: HydroCoefficients, el: dict, added, nb: int) -> None:
-        """The kernels' arrays, once: (elements, strips, damping, parameters), the foil
-        model's, and the per-evaluation parameter vector of a time-varying current."""
-        self._strip_to_body = _frozen(np.eye(nb)[:, el["strip_body"]])
+    def _pack_kernels(self, el: dict) -> tuple:
+        """The kernels' arrays, once: (elements, strips, damping, parameters)."""
         elements, strips = K.pack_elements(el)
         if self._foil:  # the strips are the foil model's: none for the cross-flow terms
-            assert added is not None  # read above for the foil model
             strips = np.zeros((0, strips.shape[1]))
-            self._foil_reference_args, self._foil_packed = self._pack_foil(coeffs, el, added)
-        self._packed = (
+        return (
             elements,
             strips,
             np.ascontiguousarray(np.hstack([self.d_lin, self.d_quad, self.d_lift]), dtype=float),
@@ -339,10 +343,6 @@ class HydrodynamicForces(LeafSystem):
                 self.residual_added_inertia,
             ),
         )
-        # The per-evaluation parameter vector of a time-varying current, and a view of its
-        # current's slot: ``current_at`` writes three floats into it, nothing is allocated.
-        self._prm_now = self._packed[3].copy()
-        self._current_slot = self._prm_now[K.P_CURRENT : K.P_CURRENT + 3]
 
     def _make_scratch_forces(self, body_index) -> None:
         """Scratch force objects for the outputs (body and point fixed here): each output

@@ -306,18 +306,7 @@ def run_optimization(
         if bar is not None:
             bar.close()
     search.save()
-    return _finish(
-        problem,
-        out_dir,
-        search.state,
-        search.rows,
-        search.final_rows,
-        runner.simulated,
-        search.reused,
-        stop,
-        time.perf_counter() - started,
-        source=source,
-    )
+    return _finish(search, runner.simulated, stop, time.perf_counter() - started, source)
 
 
 class _Search:
@@ -826,24 +815,15 @@ def term_values(problem: Problem, rows: list[dict]) -> dict:
 
 
 def _finish(
-    problem: Problem,
-    out_dir: pathlib.Path,
-    state: SearchState,
-    rows: dict,
-    final_rows: list[dict],
-    simulated: int,
-    reused: int,
-    stop: str,
-    wall_time: float,
-    source: str = "",
+    search: _Search, simulated: int, stop: str, wall_time: float, source: str
 ) -> OptimizationResult:
-    """The result, with best_gait.yaml (when the best candidate's simulations all ran),
-    convergence.png and summary.json written."""
+    """The result of ``search`` (``simulated`` simulations run by this call, which took
+    ``wall_time`` s with the code ``source``), with best_gait.yaml (when the best candidate's
+    simulations all ran), convergence.png and summary.json written."""
     from manta_drake.optimize.figure import write_convergence_figure
 
-    result = _result(
-        problem, out_dir, state, rows, final_rows, simulated, reused, stop, wall_time, source
-    )
+    problem, out_dir, state, rows = search.problem, search.out_dir, search.state, search.rows
+    result = _result(search, simulated, stop, wall_time, source)
     (out_dir / "best_gait.yaml").unlink(missing_ok=True)  # never an earlier run's
     if result.best_ok:
         result.best_gait_file = write_best_gait(out_dir / "best_gait.yaml", problem, result)
@@ -860,18 +840,10 @@ def _finish(
 
 
 def _result(
-    problem: Problem,
-    out_dir: pathlib.Path,
-    state: SearchState,
-    rows: dict,
-    final_rows: list[dict],
-    simulated: int,
-    reused: int,
-    stop: str,
-    wall_time: float,
-    source: str,
+    search: _Search, simulated: int, stop: str, wall_time: float, source: str
 ) -> OptimizationResult:
     """The search's result from its state and the history's rows (files not yet written)."""
+    problem, state, rows, final_rows = search.problem, search.state, search.rows, search.final_rows
     spec, space = problem.spec, problem.space
     best = state.best
     assert best is not None  # a generation was told
@@ -891,10 +863,10 @@ def _result(
         generations=len(state.told),
         evaluations=len(rows),
         simulated=simulated,
-        reused=reused,
+        reused=search.reused,
         stop=stop or "done",
         wall_time_s=wall_time,
-        out_dir=out_dir,
+        out_dir=search.out_dir,
         held_out=[r for r in final_rows if r["kind"] == "held_out"],
         best_run=next((r for r in final_rows if r["kind"] == "best"), None),
         timings=list(state.timings),

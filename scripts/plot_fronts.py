@@ -2,8 +2,9 @@
 
     .venv/bin/python scripts/plot_fronts.py [--fronts DIR] [--figure PNG]
 
-``--fronts DIR`` holds one ``manta-drake optimize diagrams/optimize/fronts/NAME.yaml --out
-DIR/NAME`` per family (default ``out/fronts``); each family found there is a panel: every
+``--fronts DIR`` holds one front per family, as ``manta-drake optimize`` writes it for each
+spec of diagrams/optimize/fronts/ with ``--out DIR/<family>`` (default ``out/fronts``, e.g.
+``out/fronts/swim``); each family found there is a panel: every
 candidate (grey: breaks a constraint; blue: meets them), the front (red) and the family's
 paper gait (the search's start, generation 1's candidate 0) as a star. The start is read
 from its own run's ``metrics.json``, so it is drawn even where its window is shorter than

@@ -26,7 +26,11 @@ FAMILIES = ("swim", "walk", "trot", "crab")
 
 def start_point(folder: pathlib.Path, front: dict) -> dict | None:
     """The start gait's metrics at the scenario: its run of level 0, generation 1."""
-    path = folder / "level_00" / "evaluations" / "g0001" / "c000-p0-s0" / "metrics.json"
+    from manta_drake.optimize.front import level_folder
+    from manta_drake.optimize.history import evaluation_folder
+
+    run = evaluation_folder("search", generation=1, candidate=0, point=0, seed=0)
+    path = level_folder(folder, 0) / run / "metrics.json"
     if not path.is_file():
         return None
     m = json.loads(path.read_text())

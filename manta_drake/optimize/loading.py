@@ -343,14 +343,15 @@ def _check_min_window(spec: OptimizeSpec, base: Scenario) -> None:
     wanted = spec.budget.min_window
     if wanted is None:
         return
-    window = base.duration - min(base.steady_after, 0.5 * base.duration)
+    after = min(base.steady_after, 0.5 * base.duration)  # where simulate.run starts it
+    window = base.duration - after
     check_in_range(
         f"{ROOT}.budget.min_window",
         wanted,
         MIN_STEADY_WINDOW,
         window,
         f"[{MIN_STEADY_WINDOW:g}, {window:g}] s (at most the runs' steady window, duration "
-        f"{base.duration:g} s from steady_after {min(base.steady_after, 0.5 * base.duration):g} s)",
+        f"{base.duration:g} s from steady_after {after:g} s)",
         error=OptimizeError,
     )
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from manta_drake.cli import main
+from manta_drake.control.gait_files import load_gait_file
 from manta_drake.optimize import OptimizeError, load_problem, read_history, run_optimization
 
 FRONT_SPEC = """\
@@ -139,6 +140,17 @@ def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, c
     assert all(f["cot_net_of_hotel"] - (1 + 2 * f["u"]) < 0.1 for f in front)  # near the line
     assert summary["start"]["generation"] == 1 and summary["start"]["candidate"] == 0
     assert (out / "front.png").read_bytes()[:4] == b"\x89PNG"
+    # the front's points as gaits, and a spec elsewhere starting from one of them
+    gaits = load_gait_file(out / "front_gaits.yaml")
+    assert list(gaits) == [f"quadratic_{i}" for i in range(len(front))]
+    later = tmp_path / "later"
+    later.mkdir()
+    start = FRONT_SPEC.replace("gait: walk", "gait: quadratic_1").replace(
+        "objective:", "overrides: {controller.gait_files: [../out/front_gaits.yaml]}\nobjective:"
+    )
+    space = load_problem(write(later / "from_front.yaml", start)).space
+    wanted = [front[1]["R_deg.fl.yaw"], front[1]["Phi_prime_deg.fl.fr"]]
+    np.testing.assert_allclose(space.start_vector(), wanted, atol=1e-9)
 
 
 @pytest.mark.parametrize(

@@ -10,6 +10,7 @@ import math
 import os
 import pathlib
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -1240,3 +1241,35 @@ def test_a_min_window_no_run_can_give_is_refused(tmp_path, budget, message):
     )
     with pytest.raises(OptimizeError, match=re.escape(message)):
         load_problem(spec)
+
+
+def test_a_spec_starts_from_a_gait_in_a_file_beside_it(tmp_path, monkeypatch):
+    """`overrides: {controller.gait_files: [...]}` is relative to the spec's folder, not the
+    working directory, and its gaits may be the start: the search starts at their values."""
+    import dataclasses
+
+    from manta_drake.control.gait_files import write_gait_file
+    from manta_drake.model.robot_params import JOINTS, LEGS
+
+    walk = load_scenario("locomotion_walk").gait("walk")
+    R = np.array(walk.R)
+    R[LEGS.index("fl"), JOINTS.index("pitch")] = np.radians(22.0)  # 15 deg in the walk
+    (tmp_path / "specs" / "gaits").mkdir(parents=True)
+    gait_file = tmp_path / "specs" / "gaits" / "start.yaml"
+    write_gait_file(gait_file, {"steeper": dataclasses.replace(walk, R=R)})
+    steeper = BASE.replace("gait: walk", "gait: steeper")
+    files = "overrides: {controller.gait_files: [gaits/start.yaml]}\n"
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    spec = write(tmp_path / "specs" / "from_file.yaml", steeper + files)
+    problem = load_problem(spec)
+    np.testing.assert_allclose(problem.space.start_vector(), [22.0], atol=1e-9)
+    # a restart's identity follows the gait file's content, not where the checkout is
+    identity = problem.identity()
+    shutil.copytree(tmp_path / "specs", tmp_path / "moved")
+    assert load_problem(tmp_path / "moved" / "from_file.yaml").identity() == identity
+    assert "22" in gait_file.read_text()
+    gait_file.write_text(gait_file.read_text().replace("22", "23"))
+    assert load_problem(spec).identity()["scenario"] != identity["scenario"]
+    with pytest.raises(OptimizeError, match="'steeper' is not a gait of the scenario's library"):
+        load_problem(write(tmp_path / "specs" / "without.yaml", steeper))

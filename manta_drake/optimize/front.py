@@ -13,7 +13,9 @@ robustness point, whatever level they were searched at.
 Outputs in ``<out>``: ``front.csv`` (every candidate: its level, generation and number, the
 parameters, the two metrics' means over its points, whether it meets the constraints and
 whether it is on the front), ``front.json`` (the front's points with their parameters, the
-start gait's point, each level's result) and ``front.png``.
+start gait's point, each level's result), ``front.png`` and ``front_gaits.yaml`` (the
+front's points as a gait file, slowest first, named ``<name>_0``, ``<name>_1``...: usable with
+``controller.gait_files``, and as another spec's start gait through its ``overrides``).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from manta_drake.optimize.loading import Problem, validate
 from manta_drake.optimize.objective import constraint_violation
 from manta_drake.optimize.spec import Constraint, Term
 
-FRONT_OUTPUTS = ("front.csv", "front.json", "front.png")
+FRONT_OUTPUTS = ("front.csv", "front.json", "front.png", "front_gaits.yaml")
 
 
 def pareto_mask(maximise, minimise) -> np.ndarray:
@@ -164,7 +166,47 @@ def write_front(
     tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
     os.replace(tmp, out_dir / "front.json")
     _figure(problem, out_dir / "front.png", points, start)
+    write_front_gaits(problem, out_dir / "front_gaits.yaml", front)
     return summary
+
+
+def write_front_gaits(problem: Problem, path: pathlib.Path, front: list[dict]) -> pathlib.Path:
+    """front_gaits.yaml: the front's points (``front``, slowest first) as gaits named
+    ``<name>_<i>``, each described by its two metrics, with the spec in the provenance."""
+    from manta_drake.control.gait_files import gait_file_data, gait_file_text
+    from manta_drake.optimize.run import source_version, spec_path_text
+
+    spec, space, f = problem.spec, problem.space, problem.spec.front
+    names = [f"{spec.name}_{i}" for i in range(len(front))]
+    gaits = {n: space.gait([p[k] for k in space.names]) for n, p in zip(names, front)}
+    descriptions = {
+        n: f"{f.maximise} {p[f.maximise]:.4g}, {f.minimise} {p[f.minimise]:.4g} (level "
+        f"{p['level']}, generation {p['generation']}, candidate {p['candidate']})"
+        for n, p in zip(names, front)
+    }
+    provenance = {
+        "made_by": "manta-drake optimize (front)",
+        "spec": spec_path_text(spec.path) if spec.path else "",
+        "spec_sha256": spec.text_sha256,
+        "source": source_version(),
+        "scenario": spec.scenario,
+        "start_gait": spec.gait,
+    }
+    data = gait_file_data(
+        gaits,
+        f"The {spec.name} front's points, slowest first",
+        provenance,
+        mirror_keep={n: ["R_deg", "X_deg"] for n in names},
+        descriptions=descriptions,
+    )
+    header = (
+        f"The front of {spec.name} found by `manta-drake optimize`: each gait is a point of "
+        f"it; use them with controller.gait_files: [this file]."
+    )
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(gait_file_text(data, header))
+    os.replace(tmp, path)
+    return path
 
 
 def _figure(problem: Problem, path: pathlib.Path, points: list[dict], start) -> None:

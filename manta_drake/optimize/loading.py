@@ -6,6 +6,7 @@ refusal is one line naming the spec file and the field (``spec.yaml: optimize.fr
 
 from __future__ import annotations
 
+import copy
 import dataclasses as dc
 import hashlib
 import json
@@ -92,11 +93,25 @@ class Problem:
         content.pop("seed")
         return {
             "spec": _sha(json.dumps(content, sort_keys=True, default=str)),
-            "scenario": _sha(self.base_yaml),
+            "scenario": _sha(self._portable_yaml()),
             "population": self.spec.budget.population,
             "seed": self.spec.seed,
             "parameters": self.space.names,
         }
+
+    def _portable_yaml(self) -> str:
+        """``base_yaml`` with each gait file named by its content's SHA-256 instead of its
+        absolute path: a checkout moved elsewhere restarts its searches, an edited gait file
+        does not."""
+        files = self.base.controller.gait_files
+        if not any(pathlib.Path(f).is_absolute() for f in files):
+            return self.base_yaml
+        base = copy.deepcopy(self.base)
+        base.controller.gait_files = [
+            f"sha256:{_sha(pathlib.Path(f).read_text())}" if pathlib.Path(f).is_absolute() else f
+            for f in files
+        ]
+        return scenario_yaml(base)
 
 
 def _sha(text: str) -> str:
@@ -287,6 +302,21 @@ def _after_path(message: str, path) -> str:
     return message
 
 
+def _anchored(overrides: dict, folder: pathlib.Path) -> dict:
+    """``overrides`` with the gait files it names relative to ``folder`` (the spec's), as a
+    scenario file's are relative to its own folder."""
+    files = overrides.get("controller.gait_files")
+    if not isinstance(files, list):
+        return dict(overrides)
+    return {
+        **overrides,
+        "controller.gait_files": [
+            str((folder / f).resolve()) if isinstance(f, str) and f and "://" not in f else f
+            for f in files
+        ],
+    }
+
+
 def _load_scenario_file(spec: OptimizeSpec, path: pathlib.Path) -> Scenario:
     """The scenario the spec names, alone; the file and then its content checked, each
     refusal naming ``scenario``, what the spec says and the file it resolved to."""
@@ -371,7 +401,7 @@ def validate(spec: OptimizeSpec, sets: dict | None = None) -> Problem:
         _check_budget_value(f"{ROOT}.budget.{field}", field, getattr(spec.budget, field))
     check_integer(f"{ROOT}.seed", spec.seed, 0, 2**32 - 1, error=OptimizeError)
     # The base scenario: the file, the spec's overrides, --set, the budget's times.
-    extra = {**spec.overrides, **sets}
+    extra = {**_anchored(spec.overrides, spec.folder), **sets}
     if spec.budget.duration is not None:
         extra["duration"] = spec.budget.duration
     if spec.budget.steady_after is not None:

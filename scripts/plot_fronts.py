@@ -2,14 +2,15 @@
 
     .venv/bin/python scripts/plot_fronts.py [--fronts DIR] [--figure PNG]
 
-``--fronts DIR`` holds one front per family, as ``manta-drake optimize`` writes it for each
-spec of diagrams/optimize/fronts/ with ``--out DIR/<family>`` (default ``out/fronts``, e.g.
-``out/fronts/swim``); each family found there is a panel: every
+``--fronts DIR`` holds one front per family (its front.csv and front.json), as ``manta-drake
+optimize`` writes it for each spec of diagrams/optimize/fronts/ with ``--out DIR/<family>``
+(e.g. ``out/fronts``), or as they are kept with their provenance (the default,
+diagrams/optimize/fronts/results); each family found there is a panel: every
 candidate (grey: breaks a constraint; blue: meets them), the front (red) and the family's
-paper gait (the search's start, generation 1's candidate 0) as a star. The start is read
-from its own run's ``metrics.json``, so it is drawn even where its window is shorter than
-the spec's ``min_window`` (a swim that reaches a side wall early): its window is printed
-beside it. Prints each front's points and the start's.
+paper gait (the search's start, generation 1's candidate 0) as a star. The start is its own
+run (front.json's ``start_run``), so it is drawn even where its window is shorter than the
+spec's ``min_window`` (a swim that reaches a side wall early), with its window beside it;
+else the search's score of it. Prints each front's points and the start's.
 """
 
 from __future__ import annotations
@@ -24,56 +25,36 @@ import numpy as np
 FAMILIES = ("swim", "walk", "trot", "crab")
 
 
-def start_point(folder: pathlib.Path, front: dict) -> dict | None:
-    """The start gait's metrics at the scenario: its run of level 0, generation 1."""
-    from manta_drake.optimize.front import level_folder
-    from manta_drake.optimize.history import evaluation_folder
-
-    run = evaluation_folder("search", generation=1, candidate=0, point=0, seed=0)
-    path = level_folder(folder, 0) / run / "metrics.json"
-    if not path.is_file():
-        return None
-    m = json.loads(path.read_text())
-    u, v = m.get("mean_velocity_body") or (np.nan, np.nan)
-    speed = {"u": u, "abs_v": abs(v)}[front["maximise"]]
-    cot = (m.get("energy") or {}).get("cot_net_of_hotel_dry_weight", np.nan)
-    return {
-        "speed": speed,
-        "cot": cot,
-        "yaw": m.get("yaw_rate_deg_s"),
-        "window": m.get("steady_window_s"),
-    }
+def read_points(folder: pathlib.Path, x: str, y: str) -> list[dict]:
+    """front.csv's rows with the two metrics as numbers and the flags as booleans."""
+    with open(folder / "front.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    return [
+        {
+            **r,
+            x: float(r[x] or "nan"),
+            y: float(r[y] or "nan"),
+            "meets_constraints": r["meets_constraints"] == "True",
+            "on_front": r["on_front"] == "True",
+        }
+        for r in rows
+    ]
 
 
 def panel(ax, name: str, folder: pathlib.Path) -> None:
+    from manta_drake.optimize.front import draw_front, start_label
+
     front = json.loads((folder / "front.json").read_text())
     x, y = front["maximise"], front["minimise"]
-    with open(folder / "front.csv", newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r[x] not in ("", "nan")]
-    ok = [r for r in rows if r["meets_constraints"] == "True"]
-    bad = [r for r in rows if r["meets_constraints"] != "True"]
-    ax.scatter([float(r[x]) for r in bad], [float(r[y]) for r in bad], s=6, color="0.8")
-    ax.scatter([float(r[x]) for r in ok], [float(r[y]) for r in ok], s=9, color="tab:blue")
-    on = sorted(front["front"], key=lambda p: p[x])
-    ax.plot([p[x] for p in on], [p[y] for p in on], "o-", color="tab:red", label="front")
-    print(f"{name}: {len(rows)} points, {len(ok)} meet the constraints; front:")
-    for p in on:
+    points = read_points(folder, x, y)
+    start, label = start_label(front)
+    draw_front(ax, x, y, points, start, label)
+    ok = sum(p["meets_constraints"] for p in points)
+    print(f"{name}: {len(points)} points, {ok} meet the constraints; front:")
+    for p in sorted(front["front"], key=lambda p: p[x]):
         print(f"  {x} {p[x]:.4f}  {y} {p[y]:.4f}  (level {p['level']}, g{p['generation']})")
-    start = start_point(folder, front)
-    if start and np.isfinite(start["speed"]):
-        w = start["window"]
-        ax.scatter([start["speed"]], [start["cot"]], marker="*", s=200, color="k", zorder=5)
-        ax.annotate(
-            f"{front['start_gait']} (window {w[0]:g}-{w[1]:.1f} s)",
-            (start["speed"], start["cot"]),
-            textcoords="offset points",
-            xytext=(6, 6),
-            fontsize=8,
-        )
-        print(
-            f"  {front['start_gait']}: {x} {start['speed']:.4f} {y} {start['cot']:.4f} "
-            f"yaw {start['yaw']:+.2f} deg/s, window {w[0]:g}-{w[1]:.2f} s"
-        )
+    if start is not None and np.isfinite(start[x]):
+        print(f"  {label}: {x} {start[x]:.4f} {y} {start[y]:.4f}")
     ax.set_title(f"{name} family")
     ax.set_xlabel(f"{x} [m/s]")
     ax.set_ylabel("electrical CoT net of hotel")
@@ -83,7 +64,7 @@ def panel(ax, name: str, folder: pathlib.Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--fronts", default="out/fronts", type=pathlib.Path)
+    ap.add_argument("--fronts", default="diagrams/optimize/fronts/results", type=pathlib.Path)
     ap.add_argument("--figure", default="docs/figures/optimize_fronts.png", type=pathlib.Path)
     args = ap.parse_args()
     found = [f for f in FAMILIES if (args.fronts / f / "front.json").is_file()]

@@ -67,6 +67,12 @@ def cost_speed(task):
     return {
         "status": "ok",
         "metrics": {"u": u, "v": v, "abs_u": u, "abs_v": v, "cot_net_of_hotel": cot},
+        "run": {  # the run's metrics.json, as far as the front reads it
+            "mean_velocity_body": [u, v],
+            "yaw_rate_deg_s": 0.5,
+            "energy": {"cot_net_of_hotel_dry_weight": cot},
+            "steady_window_s": [6.0, 20.0],
+        },
     }
 
 
@@ -139,6 +145,10 @@ def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, c
     assert len(front) == on.sum() >= 3
     assert all(f["cot_net_of_hotel"] - (1 + 2 * f["u"]) < 0.1 for f in front)  # near the line
     assert summary["start"]["generation"] == 1 and summary["start"]["candidate"] == 0
+    run = summary["start_run"]  # the start's own run, read back from its metrics.json
+    assert run["u"] == pytest.approx(0.1 * 20.0 / 30.0)  # the walk's 20 deg yaw amplitude
+    assert run["u"] == pytest.approx(summary["start"]["u"])
+    assert run["steady_window_s"] == [6.0, 20.0] and run["status"] == "ok"
     assert (out / "front.png").read_bytes()[:4] == b"\x89PNG"
     # the front's points as gaits, and a spec elsewhere starting from one of them
     gaits = load_gait_file(out / "front_gaits.yaml")
@@ -176,3 +186,30 @@ def test_a_bad_front_is_refused_in_one_line(tmp_path, edit, message):
     spec = write(tmp_path / "front.yaml", edit(FRONT_SPEC))
     with pytest.raises(OptimizeError, match=re.escape(message)):
         load_problem(spec)
+
+
+def test_the_start_is_drawn_from_its_own_run_even_when_unscored():
+    """A swim whose window a wall cut is unscored (no u in the search's point), but its own
+    run has a speed and a window: that is what is drawn, labelled with the window."""
+    from manta_drake.optimize.front import start_label
+
+    summary = {
+        "start_gait": "swim_printed",
+        "maximise": "u",
+        "minimise": "cot_net_of_hotel",
+        "start": {"u": float("nan"), "cot_net_of_hotel": float("nan")},
+        "start_run": {
+            "u": 0.114,
+            "cot_net_of_hotel": 0.716,
+            "yaw_rate": None,
+            "status": "unscored",
+            "steady_window_s": [6.0, 8.43],
+        },
+    }
+    point, label = start_label(summary)
+    assert (point["u"], point["cot_net_of_hotel"]) == (0.114, 0.716)
+    assert np.isnan(point["yaw_rate"])
+    assert label == "swim_printed (the start, window 6-8.4 s)"
+    summary["start_run"] = None  # a level continued from its state alone
+    point, label = start_label(summary)
+    assert np.isnan(point["u"]) and label == "swim_printed (the start)"

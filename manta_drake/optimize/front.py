@@ -13,7 +13,8 @@ robustness point, whatever level they were searched at.
 Outputs in ``<out>``: ``front.csv`` (every candidate: its level, generation and number, the
 parameters, the two metrics' means over its points, whether it meets the constraints and
 whether it is on the front), ``front.json`` (the front's points with their parameters, the
-start gait's point, each level's result), ``front.png`` and ``front_gaits.yaml`` (the
+start gait's point as the search scored it and its own run's metrics, each level's
+result), ``front.png`` and ``front_gaits.yaml`` (the
 front's points as a gait file, slowest first, named ``<name>_0``, ``<name>_1``...: usable with
 ``controller.gait_files``, and as another spec's start gait through its ``overrides``).
 """
@@ -158,6 +159,7 @@ def write_front(
         "minimise": f.minimise,
         "levels": levels,
         "start": start,
+        "start_run": start_run(problem, out_dir),
         "front": front,
         "candidates": len(points),
         "meeting_constraints": sum(p["meets_constraints"] for p in points),
@@ -165,7 +167,7 @@ def write_front(
     tmp = out_dir / ".front.json.tmp"
     tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
     os.replace(tmp, out_dir / "front.json")
-    _figure(problem, out_dir / "front.png", points, start)
+    _figure(problem, out_dir / "front.png", summary, points)
     write_front_gaits(problem, out_dir / "front_gaits.yaml", front)
     return summary
 
@@ -209,47 +211,80 @@ def write_front_gaits(problem: Problem, path: pathlib.Path, front: list[dict]) -
     return path
 
 
-def _figure(problem: Problem, path: pathlib.Path, points: list[dict], start) -> None:
+def start_run(problem: Problem, out_dir: pathlib.Path) -> dict | None:
+    """The start gait's own run at the scenario as it is (level 0, generation 1, candidate 0,
+    its first point and seed), from its metrics.json: the two metrics, the yaw rate, the
+    status and the steady window. Read from the run itself, so it is there also when a wall
+    cut the window under ``min_window`` and the search left it unscored (the paper's swim).
+    None when the run's folder is gone (a level continued from its state alone)."""
+    from manta_drake.optimize.history import evaluation_folder
+    from manta_drake.optimize.objective import run_metrics
+
+    seed = problem.spec.robustness.seeds[0] if problem.spec.robustness.seeds else 0
+    folder = evaluation_folder("search", 1, 0, 0, seed)
+    path = level_folder(out_dir, 0) / folder / "metrics.json"
+    if not path.is_file():
+        return None
+    run = json.loads(path.read_text())
+    f, metrics = problem.spec.front, run_metrics(run)
+    return {
+        f.maximise: metrics[f.maximise],
+        f.minimise: metrics[f.minimise],
+        "yaw_rate": metrics["yaw_rate"],
+        "status": run.get("status"),
+        "reason": run.get("reason", ""),
+        "steady_window_s": run.get("steady_window_s"),
+    }
+
+
+def draw_front(ax, maximise: str, minimise: str, points: list[dict], start, label: str) -> None:
+    """Draws on ``ax`` every point (grey: breaks a constraint; blue: meets them), the front
+    (red, the points ``on_front``) and ``start`` (a star labelled ``label``; None: none)."""
+    finite = [p for p in points if np.isfinite(p[maximise]) and np.isfinite(p[minimise])]
+    for meets, style in (
+        (False, dict(s=8, color="0.8", label="breaks a constraint")),
+        (True, dict(s=10, color="tab:blue", alpha=0.5, label="meets the constraints")),
+    ):
+        mine = [p for p in finite if p["meets_constraints"] == meets]
+        ax.scatter([p[maximise] for p in mine], [p[minimise] for p in mine], **style)
+    front = sorted((p for p in points if p["on_front"]), key=lambda p: p[maximise])
+    ax.plot(
+        [p[maximise] for p in front],
+        [p[minimise] for p in front],
+        "o-",
+        color="tab:red",
+        label="front",
+    )
+    if start is not None and np.isfinite(start[maximise]) and np.isfinite(start[minimise]):
+        ax.scatter([start[maximise]], [start[minimise]], marker="*", s=180, color="k", zorder=5)
+        ax.annotate(
+            label,
+            (start[maximise], start[minimise]),
+            textcoords="offset points",
+            xytext=(6, 6),
+            fontsize=8,
+        )
+
+
+def start_label(summary: dict) -> tuple[dict | None, str]:
+    """The start's point to draw from front.json's content, and its label: its own run
+    (with its steady window) when the summary has it, else the search's score of it."""
+    run, name = summary.get("start_run"), summary["start_gait"]
+    if run is None or run.get(summary["maximise"]) is None:
+        return summary.get("start"), f"{name} (the start)"
+    window = run.get("steady_window_s")
+    span = f", window {window[0]:g}-{window[1]:.1f} s" if window else ""
+    point = {k: (np.nan if v is None else v) for k, v in run.items()}
+    return point, f"{name} (the start{span})"
+
+
+def _figure(problem: Problem, path: pathlib.Path, summary: dict, points: list[dict]) -> None:
     from matplotlib.figure import Figure
 
     f = problem.spec.front
     fig = Figure(figsize=(7, 5))
     ax = fig.subplots()
-    ok = [p for p in points if p["meets_constraints"]]
-    bad = [p for p in points if not p["meets_constraints"] and np.isfinite(p[f.maximise])]
-    ax.scatter(
-        [p[f.maximise] for p in bad],
-        [p[f.minimise] for p in bad],
-        s=8,
-        color="0.8",
-        label="breaks a constraint",
-    )
-    ax.scatter(
-        [p[f.maximise] for p in ok],
-        [p[f.minimise] for p in ok],
-        s=10,
-        color="tab:blue",
-        alpha=0.5,
-        label="meets the constraints",
-    )
-    front = sorted((p for p in points if p["on_front"]), key=lambda p: p[f.maximise])
-    ax.plot(
-        [p[f.maximise] for p in front],
-        [p[f.minimise] for p in front],
-        "o-",
-        color="tab:red",
-        label="front",
-    )
-    if start is not None and np.isfinite(start[f.maximise]):
-        ax.scatter(
-            [start[f.maximise]],
-            [start[f.minimise]],
-            marker="*",
-            s=180,
-            color="k",
-            zorder=5,
-            label=f"{problem.spec.gait} (the start)",
-        )
+    draw_front(ax, f.maximise, f.minimise, points, *start_label(summary))
     for level in f.levels:
         ax.axvline(level, color="0.6", lw=0.6, ls=":")
     ax.set_xlabel(f.maximise)

@@ -1189,8 +1189,10 @@ def test_provenance_names_the_spec_inside_the_checkout_relatively(tmp_path):
 
 
 def test_a_window_a_wall_cuts_under_min_window_is_unscored(tmp_path):
-    """budget.min_window: a run whose steady window ends near a wall before it (3 s of the
-    scenario's window) is unscored, with where its window ended; a full window is scored."""
+    """budget.min_window: a run whose steady window ends near a wall before it is unscored,
+    with where its window ended, and costs between failed_cost (no window) and half of it (a
+    window just short), so the search ranks such runs by how long they kept off the walls;
+    a full window is scored."""
     spec = write(
         tmp_path / "q.yaml",
         QUADRATIC_SPEC.replace(
@@ -1200,9 +1202,13 @@ def test_a_window_a_wall_cuts_under_min_window_is_unscored(tmp_path):
         ),
     )
 
+    def near_wall(x: dict) -> float | None:  # 6-9 s below a lag of 270 deg, none above
+        lag = x["Phi_prime_deg.fl.fr"]
+        return 6.0 + 3.0 * (lag - 180.0) / 90.0 if lag < 270.0 else None
+
     def evaluate(task):
         out = quadratic(task)
-        near = 9.0 if task["parameters"]["Phi_prime_deg.fl.fr"] < 270.0 else None
+        near = near_wall(task["parameters"])
         out["run"] = {"steady_window_s": [6.0, near or 20.0], "near_wall_at_s": near}
         return out
 
@@ -1212,12 +1218,23 @@ def test_a_window_a_wall_cuts_under_min_window_is_unscored(tmp_path):
     full = [r for r in rows if r["Phi_prime_deg.fl.fr"] >= 270.0]
     assert short and full
     for r in short:
-        assert r["status"] == "unscored" and r["cost"] == 1e6 and r["u"] is None
+        near = near_wall(r)
+        assert r["status"] == "unscored" and r["u"] is None
+        assert r["cost"] == pytest.approx(1e6 * (1.0 - 0.5 * (near - 6.0) / 10.0))
         assert r["reason"] == (
-            "no value of u (steady window 6-9 s (3 s, ending near a wall at 9 s) is under "
-            "budget.min_window 10 s)"
+            f"no value of u (steady window 6-{near:.3g} s ({near - 6:.3g} s, ending near a "
+            f"wall at {near:.3g} s) is under budget.min_window 10 s)"
         )
-    assert all(r["status"] == "ok" and r["u"] is not None for r in full)
+    assert all(r["status"] == "ok" and r["u"] is not None and r["cost"] < 5e5 for r in full)
+
+
+def test_a_short_window_costs_less_the_longer_it_is():
+    from manta_drake.optimize.objective import short_window_cost
+
+    assert short_window_cost(1e6, 0.0, 20.0) == 1e6
+    assert short_window_cost(1e6, 10.0, 20.0) == 7.5e5
+    assert short_window_cost(1e6, 19.999, 20.0) == pytest.approx(5e5, rel=1e-4)
+    assert short_window_cost(1e6, 25.0, 20.0) == 5e5 and short_window_cost(1e6, -1, 20) == 1e6
 
 
 @pytest.mark.parametrize(

@@ -13,8 +13,8 @@ from matplotlib.ticker import MaxNLocator
 
 def candidate_table(problem, rows: list[dict]) -> list[dict]:
     """One entry per told candidate: generation, candidate, cost, parameters [deg], failed
-    (its cost includes a failed simulation's ``failed_cost``)."""
-    failed_cost = problem.spec.objective.failed_cost
+    (a simulation of it did not score: its cost includes ``failed_cost`` or, for a window a
+    wall cut short, ``objective.short_window_cost``)."""
     seen: dict[tuple, dict] = {}
     for r in rows:
         if r.get("kind") != "search" or r.get("candidate_cost") is None:
@@ -30,7 +30,7 @@ def candidate_table(problem, rows: list[dict]) -> list[dict]:
                 "degrees": [r[n] for n in problem.space.names],
             },
         )
-        entry["failed"] |= r["cost"] >= failed_cost
+        entry["failed"] |= r["status"] != "ok"
     return sorted(seen.values(), key=lambda e: (e["generation"], e["candidate"]))
 
 

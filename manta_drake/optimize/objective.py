@@ -193,6 +193,16 @@ def score(
     return Score(total + penalty, total, penalty, "; ".join(notes), False)
 
 
+def short_window_cost(failed_cost: float, length: float, min_window: float) -> float:
+    """The cost of a run left unscored because a wall cut its steady window to ``length`` s,
+    under ``budget.min_window``: from ``failed_cost`` (no window) down to half of it (a
+    window just short). Above any scored run's cost, but graded, so CMA-ES (which ranks) still
+    learns from a generation whose runs all meet a wall early: on the floor a gait that keeps
+    off the side walls longer is one that turns and slips less."""
+    fraction = min(max(length / min_window, 0.0), 1.0)
+    return failed_cost * (1.0 - 0.5 * fraction)
+
+
 def aggregate(costs, how: str) -> float:
     """A candidate's cost from its simulations' costs: ``mean`` or ``worst`` (largest)."""
     costs = np.asarray(list(costs), dtype=float)

@@ -59,6 +59,7 @@ from manta_drake.optimize.objective import (
     aggregate,
     constraint_violation,
     score,
+    short_window_cost,
 )
 from manta_drake.optimize.parameters import candidate_gait_text
 from manta_drake.optimize.state import (
@@ -618,7 +619,8 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     status = short_reason(outcome.get("status", "error"))[:80]
     reason = short_reason(outcome.get("reason", ""))
     touched = bool(outcome.get("touched_wall", False))
-    short = short_window(outcome.get("run") or {}, spec.budget.min_window)
+    run = outcome.get("run") or {}
+    short = short_window(run, spec.budget.min_window)
     if status == "ok" and short:
         values.update(dict.fromkeys(STEADY_METRICS))
         reason = short
@@ -626,6 +628,12 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     if s.failed and status == "ok":
         # The run ran, but without a metric the objective needs: no score, no gait.
         status, reason = UNSCORED, s.reason
+        if short:  # ranked by how long it kept off the walls
+            start, end = run["steady_window_s"]
+            cost = short_window_cost(
+                spec.objective.failed_cost, end - start, spec.budget.min_window
+            )
+            s = dc.replace(s, cost=cost)
     row = {k: job[k] for k in ("key", "kind", "generation", "candidate", "point", "seed")}
     row.update(zip(space.names, job["degrees"]))
     row.update(values)

@@ -628,7 +628,7 @@ def _row(problem: Problem, job: dict, outcome: dict) -> dict:
     if s.failed and status == "ok":
         # The run ran, but without a metric the objective needs: no score, no gait.
         status, reason = UNSCORED, s.reason
-        if short:  # ranked by how long it kept off the walls
+        if short and spec.budget.min_window:  # ranked by how long it kept off the walls
             start, end = run["steady_window_s"]
             cost = short_window_cost(
                 spec.objective.failed_cost, end - start, spec.budget.min_window

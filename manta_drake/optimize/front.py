@@ -33,6 +33,7 @@ import numpy as np
 from manta_drake.optimize.loading import Problem, validate
 from manta_drake.optimize.objective import constraint_violation
 from manta_drake.optimize.spec import Constraint, Term
+from manta_drake.run_folder import write_atomic
 
 FRONT_OUTPUTS = ("front.csv", "front.json", "front.png", "front_gaits.yaml")
 
@@ -164,9 +165,7 @@ def write_front(
         "candidates": len(points),
         "meeting_constraints": sum(p["meets_constraints"] for p in points),
     }
-    tmp = out_dir / ".front.json.tmp"
-    tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
-    os.replace(tmp, out_dir / "front.json")
+    write_atomic(out_dir / "front.json", json.dumps(summary, indent=2, default=str) + "\n")
     _figure(problem, out_dir / "front.png", summary, points)
     write_front_gaits(problem, out_dir / "front_gaits.yaml", front)
     return summary
@@ -205,9 +204,7 @@ def write_front_gaits(problem: Problem, path: pathlib.Path, front: list[dict]) -
         f"The front of {spec.name} found by `manta-drake optimize`: each gait is a point of "
         f"it; use them with controller.gait_files: [this file]."
     )
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(gait_file_text(data, header))
-    os.replace(tmp, path)
+    write_atomic(path, gait_file_text(data, header))
     return path
 
 

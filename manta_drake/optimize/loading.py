@@ -41,7 +41,13 @@ from manta_drake.optimize.spec import (
     Robustness,
     Term,
 )
-from manta_drake.scenario import Scenario, find_scenario, load_scenario, scenario_yaml
+from manta_drake.scenario import (
+    Scenario,
+    anchored_gait_files,
+    find_scenario,
+    load_scenario,
+    scenario_yaml,
+)
 from manta_drake.simulate import MIN_STEADY_WINDOW
 from manta_drake.sweep.config import check_config_keys, check_parameter_name
 from manta_drake.sweep.plan import apply_overrides
@@ -308,13 +314,7 @@ def _anchored(overrides: dict, folder: pathlib.Path) -> dict:
     files = overrides.get("controller.gait_files")
     if not isinstance(files, list):
         return dict(overrides)
-    return {
-        **overrides,
-        "controller.gait_files": [
-            str((folder / f).resolve()) if isinstance(f, str) and f and "://" not in f else f
-            for f in files
-        ],
-    }
+    return {**overrides, "controller.gait_files": anchored_gait_files(files, folder)}
 
 
 def _load_scenario_file(spec: OptimizeSpec, path: pathlib.Path) -> Scenario:

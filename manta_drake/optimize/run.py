@@ -28,7 +28,6 @@ import datetime
 import io
 import json
 import math
-import os
 import pathlib
 import subprocess
 import sys
@@ -69,6 +68,7 @@ from manta_drake.optimize.state import (
     new_search,
     save_state,
 )
+from manta_drake.run_folder import write_atomic
 from manta_drake.sweep.config import check_out_folder
 
 # What run_optimization writes in its output folder (files, then folders).
@@ -841,9 +841,7 @@ def _finish(
     )
     summary = _summary(problem, result, state, rows)
     result.summary_file = out_dir / "summary.json"
-    tmp = out_dir / ".summary.json.tmp"
-    tmp.write_text(json.dumps(summary, indent=2, default=str) + "\n")
-    os.replace(tmp, result.summary_file)
+    write_atomic(result.summary_file, json.dumps(summary, indent=2, default=str) + "\n")
     return result
 
 
@@ -1004,7 +1002,5 @@ def write_best_gait(
         provenance=provenance,
         header=header,
     )
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    write_atomic(path, text)
     return path

@@ -48,6 +48,7 @@ from manta_drake.scenario.devices import (
 )
 from manta_drake.scenario.loading import (
     SCENARIOS_DIR,
+    anchored_gait_files,
     check_override_key,
     coefficient_names,
     find_scenario,
@@ -84,6 +85,7 @@ __all__ = [
     "with_overrides",
     "parse_set",
     "overrides_data",
+    "anchored_gait_files",
     "coefficient_names",
     "SCENARIOS_DIR",
     "MAX_DURATION_S",

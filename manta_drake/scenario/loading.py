@@ -210,6 +210,20 @@ def _layer(base: Scenario, data, where: str) -> Scenario:
     return layered
 
 
+def anchored_gait_files(files: list, base_dir: pathlib.Path) -> list:
+    """``files`` (gait files as a layer names them) with each relative path made absolute
+    from ``base_dir``; package URLs, absolute paths and non-strings are kept as they are."""
+    return [
+        f
+        if not isinstance(f, str)
+        or not f
+        or f.startswith(PACKAGE_URL)
+        or pathlib.Path(f).is_absolute()
+        else str((base_dir / f).resolve())
+        for f in files
+    ]
+
+
 def _anchor_gait_files(scenario: Scenario, data: dict, base_dir: pathlib.Path) -> None:
     """Makes the gait files a layer named absolute: relative to ``base_dir`` (the scenario
     file's folder, or the working directory), so the scenario means the same files wherever
@@ -219,15 +233,7 @@ def _anchor_gait_files(scenario: Scenario, data: dict, base_dir: pathlib.Path) -
         return
     files = scenario.controller.gait_files
     if isinstance(files, list):
-        scenario.controller.gait_files = [
-            f
-            if not isinstance(f, str)
-            or not f
-            or f.startswith(PACKAGE_URL)
-            or pathlib.Path(f).is_absolute()
-            else str((base_dir / f).resolve())
-            for f in files
-        ]
+        scenario.controller.gait_files = anchored_gait_files(files, base_dir)
 
 
 def load_scenario(

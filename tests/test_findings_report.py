@@ -389,6 +389,20 @@ def test_contact_summary_without_contacts_is_nan_not_zero(fr):
     assert c["load"] == 0.0 and c["legs"] == {} and math.isnan(c["all"]["noslip_u"])
 
 
+def test_shipped_diagnostics_set_the_fins_and_the_servo_they_name(fr):
+    """Each shipped run's scenario, read back: its own gait, the fin model and the servo model
+    its name says (no suffix: the datasheet servo, the scenarios' default)."""
+    names = [n for n in fr.DIAGNOSTIC_NAMES if n.startswith("shipped_")]
+    assert len(names) == 5 * 2 * 2
+    for name in ("shipped_swim_foil", "shipped_trot_cross_flow_ideal", "shipped_crab_foil_ideal"):
+        scenario, explicit = fr.diagnostic_scenario(name)
+        gait = name.split("_")[1]
+        assert explicit is None and scenario.controller.gait == gait
+        assert scenario.water.fin_model == ("cross_flow" if "cross_flow" in name else "foil")
+        servo = "ideal" if name.endswith("_ideal") else "datasheet"
+        assert scenario.actuators.servo_model == servo
+
+
 # The command line, and the diagnostics' gaits given as data (manta_drake.studies.explicit_gait).
 
 

@@ -47,8 +47,9 @@ Usage (either the table of a fresh sweep or the copy shipped in the repository):
 
 ``--diagnose DIR`` instead runs the targeted simulations behind the explanations in
 docs/findings.md (``DIAGNOSTIC_RUNS``: contacts, slip and the water's forces of single gaits at
-single band points; ``SHIPPED_RUNS``: the shipped locomotion scenarios with either fin model,
-with the servos' power; one at a time, about 10 min) and writes ``DIR/diagnostics.json``.
+single band points; ``SHIPPED_RUNS``: the shipped locomotion scenarios with either fin model
+and either servo model, with the servos' power; one at a time, about 20 min) and writes
+``DIR/diagnostics.json``.
 """
 
 from __future__ import annotations
@@ -1104,11 +1105,13 @@ DIAGNOSTIC_RUNS: dict[str, tuple[str, float, float, float, float, dict, str | No
 
 
 # The shipped locomotion scenarios as they are (20 s, their own friction and weight), with
-# either fin model: the README's table, with the water's forward forces and the power.
+# either fin model and either servo model (``_ideal``: the plant's PD instead of the
+# datasheet servo): the README's table, with the water's forward forces and the power.
 SHIPPED_RUNS = {
-    f"shipped_{gait}_{fins}": (gait, fins)
+    f"shipped_{gait}_{fins}{'' if servo == 'datasheet' else '_' + servo}": (gait, fins, servo)
     for gait in ("swim", "trot", "walk", "crab", "turning")
     for fins in ("foil", "cross_flow")
+    for servo in ("datasheet", "ideal")
 }
 
 DIAGNOSTIC_NAMES = (*DIAGNOSTIC_RUNS, *SHIPPED_RUNS)
@@ -1119,9 +1122,10 @@ def diagnostic_scenario(name: str):
     from manta_drake.scenario import load_scenario
 
     if name in SHIPPED_RUNS:
-        gait, fins = SHIPPED_RUNS[name]
+        gait, fins, servo = SHIPPED_RUNS[name]
         scenario = load_scenario(f"locomotion_{gait}")
         scenario.water.fin_model = fins
+        scenario.actuators.servo_model = servo
         scenario.visualization.meshcat = False
         return scenario, None
     gait, fr, dmp, w, dur, extra, gait_override = DIAGNOSTIC_RUNS[name]

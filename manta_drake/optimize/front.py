@@ -27,6 +27,7 @@ import dataclasses as dc
 import json
 import os
 import pathlib
+import sys
 
 import numpy as np
 
@@ -307,10 +308,19 @@ def run_front(
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     points, levels = [], []
-    for k, level in enumerate(problem.spec.front.levels):
+    f = problem.spec.front
+    for k, level in enumerate(f.levels):
         folder = level_folder(out_dir, k)
+        where = f"{problem.spec.name}: level {k + 1}/{len(f.levels)} ({f.maximise} >= {level:g})"
+        print(f"{where}, in {folder}", file=sys.stderr, flush=True)
         result = run(
             level_problem(problem, level, k), folder, client, evaluate=evaluate, progress=progress
+        )
+        print(
+            f"{where}: {result.status}, lowest {f.minimise} cost {result.best_cost:.4g}; "
+            f"{result.stop}",
+            file=sys.stderr,
+            flush=True,
         )
         levels.append(
             {

@@ -217,3 +217,34 @@ def test_the_start_is_drawn_from_its_own_run_even_when_unscored():
     summary["start_run"] = None  # a level continued from its state alone
     point, label = start_label(summary)
     assert np.isnan(point["u"]) and label == "swim_printed (the start)"
+
+
+@pytest.mark.slow
+def test_a_front_kept_without_its_folders_runs_its_start_again(tmp_path):
+    """A front continued from its levels' state and history alone (no evaluation folders,
+    as diagrams/optimize/searches/ keeps them) simulates the start gait once more, so its
+    own run is in front.json again; nothing else is simulated."""
+    import shutil
+
+    from manta_drake.optimize.front import run_front
+
+    calls = []
+
+    def counted(task):
+        calls.append(task["parameters"])
+        return cost_speed(task)
+
+    problem = load_problem(write(tmp_path / "front.yaml", FRONT_SPEC), generations=2)
+    out = tmp_path / "out"
+    first = run_front(problem, out, evaluate=counted, progress=False)
+    assert first["start_run"]["u"] == pytest.approx(0.1 * 20.0 / 30.0)  # the walk's yaw 20 deg
+    for k in range(3):
+        shutil.rmtree(out / f"level_{k:02d}" / "evaluations")
+        shutil.rmtree(out / f"level_{k:02d}" / "best_run", ignore_errors=True)
+    calls.clear()
+    again = run_front(problem, out, evaluate=counted, progress=False)
+    assert again["start_run"] == first["start_run"]
+    assert again["front"] == first["front"]
+    # each level re-runs its best gait (and its held-out points: none here); the start once
+    start = {"R_deg.fl.yaw": 20.0, "Phi_prime_deg.fl.fr": first["start"]["Phi_prime_deg.fl.fr"]}
+    assert calls.count(start) == 1 and len(calls) == 3 + 1, calls

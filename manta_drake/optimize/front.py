@@ -214,7 +214,8 @@ def start_run(problem: Problem, out_dir: pathlib.Path) -> dict | None:
     its first point and seed), from its metrics.json: the two metrics, the yaw rate, the
     status and the steady window. Read from the run itself, so it is there also when a wall
     cut the window under ``min_window`` and the search left it unscored (the paper's swim).
-    None when the run's folder is gone (a level continued from its state alone)."""
+    None when the run's folder is gone (a level continued from its state alone: ``run_front``
+    then simulates it again)."""
     from manta_drake.optimize.history import evaluation_folder
     from manta_drake.optimize.objective import run_metrics
 
@@ -302,7 +303,7 @@ def run_front(
     ``run`` is ``run_optimization`` (its ``evaluate``, ``client`` and ``progress`` as
     there). Returns front.json's content."""
     from manta_drake.optimize.history import read_history
-    from manta_drake.optimize.run import run_optimization
+    from manta_drake.optimize.run import rerun_start, run_optimization
 
     run = run or run_optimization
     out_dir = pathlib.Path(out_dir)
@@ -333,6 +334,11 @@ def run_front(
         )
         rows = read_history(folder / "history.csv", problem.space.names)
         points += candidate_points(problem, rows, k)
+    if start_run(problem, out_dir) is None and f.levels:  # a level 0 kept without its folders
+        print(f"{problem.spec.name}: the start gait's own run again", file=sys.stderr)
+        rerun_start(
+            level_problem(problem, f.levels[0], 0), level_folder(out_dir, 0), client, evaluate
+        )
     return write_front(problem, out_dir, front_of(problem, distinct(problem, points)), levels)
 
 

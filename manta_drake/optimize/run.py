@@ -310,6 +310,19 @@ def run_optimization(
     return _finish(search, runner.simulated, stop, time.perf_counter() - started, source)
 
 
+def rerun_start(problem: Problem, out_dir, client=None, evaluate=None) -> None:
+    """Simulates the search's start gait (generation 1, candidate 0) again at its first point
+    and seed and writes its evaluation folder as the search wrote it (its metrics.json, no
+    log): for a search continued from its state and history alone (as kept in
+    ``diagrams/optimize/searches/``), whose evaluation folders are gone. Its history row is
+    rewritten (the same simulation: the same key and metrics)."""
+    search = _Search(problem, check_optimize_out(problem, out_dir), time.perf_counter())
+    job = search.jobs_of(1, [None])[0]  # the start's degrees are its own, not a unit vector's
+    job["task"]["keep_log"] = False
+    _Runner(client, evaluate or simulate_candidate, None).run([job], search.record)
+    search.write_table(force=True)
+
+
 class _Search:
     """The CMA-ES search of one ``run_optimization`` call: its state (loaded or new, its
     told generations replayed), the history's rows, the table and the saved wall time."""

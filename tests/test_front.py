@@ -110,8 +110,10 @@ def test_a_front_spec_runs_one_search_per_level_and_writes_the_front(tmp_path, c
     printed = captured.out
     assert "level u >= 0.05" in printed and "on the front: u" in printed
     # A line as each level starts and ends (live, on stderr; a front runs for hours)
-    assert "level 2/3 (u >= 0.05), in " + str(out / "level_01") in captured.err
-    assert re.search(r"level 3/3 \(u >= 0\.08\): ok, lowest cot_net_of_hotel cost", captured.err)
+    assert "quadratic: level_01 (u >= 0.05; 2 of 3) in " + str(out / "level_01") in captured.err
+    assert re.search(
+        r"level_02 \(u >= 0\.08; 3 of 3\): ok, lowest cot_net_of_hotel cost", captured.err
+    )
     summary = json.loads((out / "front.json").read_text())
     assert [x["folder"] for x in summary["levels"]] == ["level_00", "level_01", "level_02"]
     for k, level in enumerate((0.02, 0.05, 0.08)):  # each level searched under its bound

@@ -312,8 +312,11 @@ def run_front(
     f = problem.spec.front
     for k, level in enumerate(f.levels):
         folder = level_folder(out_dir, k)
-        where = f"{problem.spec.name}: level {k + 1}/{len(f.levels)} ({f.maximise} >= {level:g})"
-        print(f"{where}, in {folder}", file=sys.stderr, flush=True)
+        where = (
+            f"{problem.spec.name}: {folder.name} ({f.maximise} >= {level:g}; "
+            f"{k + 1} of {len(f.levels)})"
+        )
+        print(f"{where} in {folder}", file=sys.stderr, flush=True)
         result = run(
             level_problem(problem, level, k), folder, client, evaluate=evaluate, progress=progress
         )

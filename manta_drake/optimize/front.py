@@ -337,7 +337,7 @@ def run_front(
         )
         rows = read_history(folder / "history.csv", problem.space.names)
         points += candidate_points(problem, rows, k)
-    if start_run(problem, out_dir) is None and f.levels:  # a level 0 kept without its folders
+    if start_run(problem, out_dir) is None:  # level 0 kept without its folders
         print(f"{problem.spec.name}: the start gait's own run again", file=sys.stderr)
         rerun_start(
             level_problem(problem, f.levels[0], 0), level_folder(out_dir, 0), client, evaluate
